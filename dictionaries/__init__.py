@@ -1,0 +1,1 @@
+"""Dictionaries shipped with sparseedm (see README.md here)."""

@@ -1,0 +1,37 @@
+"""Errors and warnings sparseedm raises.
+
+All errors derive from :class:`ValueError` so that callers that already catch
+bad-input errors keep working; each message names the file, row or array and
+what is wrong with it.
+"""
+
+__all__ = [
+    "SparseEDMError",
+    "PoseError",
+    "FileFormatError",
+    "DictionaryError",
+    "ConvergenceWarning",
+]
+
+
+class SparseEDMError(ValueError):
+    """Base class of every error sparseedm raises on bad input."""
+
+
+class PoseError(SparseEDMError):
+    """Pose arrays of the wrong shape, with NaN/inf, or too few joints."""
+
+
+class FileFormatError(SparseEDMError):
+    """A malformed, truncated or unsupported input file.
+
+    The message names the file and, where known, the line or row.
+    """
+
+
+class DictionaryError(SparseEDMError):
+    """A dictionary file that is corrupt, unsafe, or does not fit the data."""
+
+
+class ConvergenceWarning(UserWarning):
+    """A solver stopped before it could prove optimality."""

@@ -1,0 +1,223 @@
+"""Normalisation of 2D poses into [-1, 1] and the paper's occlusion representations.
+
+Normalisation (one scale for both axes)
+---------------------------------------
+For the joints used, take the bounding box; its centre goes to the origin and
+its longer side is scaled to length 2::
+
+    center = (min + max) / 2           (per axis)
+    scale  = max(max - min) / 2        (one number for both axes)
+    p_norm = (p - center) / scale
+
+so the longer axis spans exactly [-1, 1] and the other lies inside it, and
+the aspect ratio of the pose is kept. A pose whose used joints all coincide
+(scale 0) cannot be normalised and is refused.
+
+Occlusion representations (Guo & Dai)
+-------------------------------------
+``"zero"``
+    Normalise using the observed joints only; the EDM rows and columns of the
+    occluded joints are 0 (their coordinates are set to the origin only as a
+    placeholder, and their distances are then zeroed).
+``"average"``
+    Set each occluded joint to the mean of the observed joints, then normalise
+    all joints. The mean lies inside the observed bounding box, so the
+    normalisation is the same as in ``"zero"``; only the occluded EDM entries
+    differ (distances to that mean point instead of 0).
+
+Both keep the observed EDM entries identical, which is all the sparse-coding
+recovery uses; they differ in what a model that reads the whole EDM sees.
+
+Occlusion may be given as a boolean mask, as NaN coordinates, or as detector
+confidences below a threshold: :func:`missing_mask` turns each into a mask.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .edm import pose_to_vector, observed_entries
+from .exceptions import PoseError
+
+__all__ = [
+    "REPRESENTATIONS",
+    "MIN_OBSERVED_JOINTS",
+    "missing_mask",
+    "normalize",
+    "denormalize",
+    "represent",
+]
+
+REPRESENTATIONS = ("average", "zero")
+#: Fewer observed joints than this leave too little of the EDM to code.
+MIN_OBSERVED_JOINTS = 3
+
+
+def missing_mask(poses, missing=None, *, confidence=None, threshold=0.0):
+    """Boolean (..., N) mask of missing joints from any of the accepted forms.
+
+    A joint is missing when `missing` says so, when any of its coordinates is
+    NaN, or when its `confidence` is below `threshold`. The three sources are
+    combined with "or".
+
+    Parameters
+    ----------
+    poses : array_like, shape (..., N, 2)
+    missing : array_like of bool, shape (..., N), optional
+    confidence : array_like, shape (..., N), optional
+        Detector scores; joints with ``confidence < threshold`` are missing.
+    threshold : float, default 0.0
+
+    Returns
+    -------
+    missing : ndarray of bool, shape (..., N)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> poses = np.array([[[0., 0.], [np.nan, np.nan], [1., 2.]]])
+    >>> missing_mask(poses).tolist()
+    [[False, True, False]]
+    >>> missing_mask(poses[:, [0, 2, 2]], confidence=[[0.9, 0.1, 0.8]],
+    ...              threshold=0.3).tolist()
+    [[False, True, False]]
+    """
+    poses = np.asarray(poses, dtype=float)
+    if poses.ndim < 2:
+        raise PoseError(f"poses must have shape (..., N, 2), got {poses.shape}")
+    mask = np.isnan(poses).any(axis=-1)
+    for name, extra in (("missing", missing), ("confidence", confidence)):
+        if extra is None:
+            continue
+        extra = np.asarray(extra)
+        if extra.shape != mask.shape:
+            raise PoseError(
+                f"{name} must have shape {mask.shape} (one entry per joint), "
+                f"got {extra.shape}"
+            )
+        if name == "missing":
+            mask = mask | extra.astype(bool)
+        else:
+            mask = mask | ~(extra.astype(float) >= threshold)
+    return mask
+
+
+def _check_observed(poses, missing):
+    """Validate observed coordinates; return the per-pose count of observed."""
+    n_obs = (~missing).sum(axis=-1)
+    bad_values = (~np.isfinite(poses)).any(axis=-1) & ~missing
+    if bad_values.any():
+        idx = np.argwhere(bad_values)[0]
+        raise PoseError(
+            f"observed joint {int(idx[-1])} of pose {tuple(int(i) for i in idx[:-1])} "
+            "has a NaN or infinite coordinate; mark it missing or fix it"
+        )
+    too_few = n_obs < MIN_OBSERVED_JOINTS
+    if too_few.any():
+        idx = tuple(int(i) for i in np.argwhere(too_few)[0])
+        raise PoseError(
+            f"pose {idx} has {int(n_obs[idx])} observed joints; at least "
+            f"{MIN_OBSERVED_JOINTS} are needed"
+        )
+    return n_obs
+
+
+def normalize(poses, missing=None):
+    """Map each pose's used joints into [-1, 1] with one scale for both axes.
+
+    Parameters
+    ----------
+    poses : array_like, shape (..., N, 2)
+    missing : array_like of bool, shape (..., N), optional
+        Joints left out of the bounding box (they are normalised with the
+        same transform; NaN stays NaN).
+
+    Returns
+    -------
+    normalized : ndarray, shape (..., N, 2)
+    center : ndarray, shape (..., 2)
+    scale : ndarray, shape (...)
+        ``poses == normalized * scale[..., None, None] + center[..., None, :]``.
+
+    Examples
+    --------
+    >>> out, center, scale = normalize([[0., 0.], [4., 0.], [4., 2.]])
+    >>> out.tolist(), center.tolist(), float(scale)
+    ([[-1.0, -0.5], [1.0, -0.5], [1.0, 0.5]], [2.0, 1.0], 2.0)
+    """
+    poses = np.asarray(poses, dtype=float)
+    if poses.ndim < 2 or poses.shape[-1] != 2:
+        raise PoseError(f"poses must have shape (..., N, 2), got {poses.shape}")
+    if missing is None:
+        missing = np.zeros(poses.shape[:-1], dtype=bool)
+    missing = np.asarray(missing, dtype=bool)
+    _check_observed(poses, missing)
+    used = np.where(missing[..., None], np.nan, poses)
+    lo = np.nanmin(used, axis=-2)
+    hi = np.nanmax(used, axis=-2)
+    center = (lo + hi) / 2
+    scale = (hi - lo).max(axis=-1) / 2
+    if (scale <= 0).any():
+        idx = tuple(int(i) for i in np.argwhere(scale <= 0)[0])
+        raise PoseError(f"pose {idx}: all observed joints coincide (zero extent)")
+    normalized = (poses - center[..., None, :]) / scale[..., None, None]
+    return normalized, center, scale
+
+
+def denormalize(normalized, center, scale):
+    """Undo :func:`normalize`: back to the caller's own frame."""
+    normalized = np.asarray(normalized, dtype=float)
+    return normalized * np.asarray(scale)[..., None, None] + np.asarray(center)[
+        ..., None, :
+    ]
+
+
+def represent(poses, missing=None, representation="average"):
+    """Normalised EDM vector of each pose under one occlusion representation.
+
+    Parameters
+    ----------
+    poses : array_like, shape (..., N, 2)
+        Coordinates of occluded joints are ignored (may be NaN).
+    missing : array_like of bool, shape (..., N), optional
+        Default: NaN coordinates mark missing joints.
+    representation : {"average", "zero"}
+
+    Returns
+    -------
+    vectors : ndarray, shape (..., N(N-1)/2)
+        Upper-triangle EDM vectors of the normalised poses (the paper's T).
+    center, scale : ndarray
+        The normalisation, as returned by :func:`normalize`.
+
+    Examples
+    --------
+    A right triangle with its third joint occluded:
+
+    >>> import numpy as np
+    >>> pose = np.array([[0., 0.], [4., 0.], [0., 2.], [4., 2.]])
+    >>> T, c, s = represent(pose, [False, False, False, True], "zero")
+    >>> T.round(4).tolist()
+    [2.0, 1.0, 0.0, 2.2361, 0.0, 0.0]
+    >>> T, c, s = represent(pose, [False, False, False, True], "average")
+    >>> T.round(4).tolist()
+    [2.0, 1.0, 0.7454, 2.2361, 1.3744, 0.9428]
+    """
+    if representation not in REPRESENTATIONS:
+        raise ValueError(
+            f"unknown representation {representation!r}; use one of {REPRESENTATIONS}"
+        )
+    poses = np.asarray(poses, dtype=float)
+    mask = missing_mask(poses, missing)
+    if representation == "average":
+        _check_observed(poses, mask)
+        n_obs = (~mask).sum(axis=-1)
+        filled = np.where(mask[..., None], 0.0, poses)
+        mean = filled.sum(axis=-2) / n_obs[..., None]
+        poses = np.where(mask[..., None], mean[..., None, :], poses)
+        normalized, center, scale = normalize(poses)
+        return pose_to_vector(normalized), center, scale
+    normalized, center, scale = normalize(poses, mask)
+    normalized = np.where(mask[..., None], 0.0, normalized)
+    vectors = pose_to_vector(normalized)
+    return np.where(observed_entries(mask), vectors, 0.0), center, scale
