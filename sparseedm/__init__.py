@@ -6,6 +6,14 @@ See README.md for the tour; the modules, one per idea:
 - :mod:`sparseedm.edm`        poses <-> EDMs <-> 91-dim upper-triangle vectors
 - :mod:`sparseedm.normalize`  [-1, 1] normalisation, 'zero'/'average' representations
 - :mod:`sparseedm.metrics`    the paper's occlusion protocol and Err_ave
+- :mod:`sparseedm.learning`   online dictionary learning
+- :mod:`sparseedm.dictionary` the dictionary file format and the shipped default
+- :mod:`sparseedm.recovery`   recover(): lasso on the observed sub-dictionary, Eq. 10
 """
 
 __version__ = "0.1.0"
+
+from .dictionary import Dictionary, load_dictionary  # noqa: E402
+from .recovery import RecoveryResult, recover  # noqa: E402
+
+__all__ = ["recover", "RecoveryResult", "load_dictionary", "Dictionary", "__version__"]

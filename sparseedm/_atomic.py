@@ -32,6 +32,9 @@ def atomic_path(path, suffix=None):
         dir=path.parent,
     )
     os.close(fd)
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600: give the usual mode
     try:
         yield tmp
         os.replace(tmp, path)

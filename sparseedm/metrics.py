@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .edm import triu_indices, num_joints_from_dim
+from .edm import num_joints_from_dim
 from .exceptions import PoseError
 
 __all__ = ["OCCLUSION_COUNTS", "random_occlusion", "err_ave", "err_entries", "joint_error"]
@@ -48,6 +48,8 @@ def random_occlusion(n_poses, n_joints=14, n_occluded=1, random_state=None):
     """
     rng = np.random.default_rng(random_state)
     if n_occluded == "mix":
+        if n_joints < 6:
+            raise ValueError(f"'mix' occludes up to 3 joints: needs n_joints >= 6, got {n_joints}")
         counts = rng.integers(1, 4, size=n_poses)
     else:
         k = int(n_occluded)
@@ -63,21 +65,21 @@ def random_occlusion(n_poses, n_joints=14, n_occluded=1, random_state=None):
     return ranks < counts[:, None]
 
 
-def _as_vectors(edm):
-    edm = np.asarray(edm, dtype=float)
-    if edm.ndim >= 2 and edm.shape[-1] == edm.shape[-2]:
-        rows, cols = triu_indices(edm.shape[-1])
-        return edm[..., rows, cols]
-    num_joints_from_dim(edm.shape[-1])
-    return edm
+def _as_vectors(vectors):
+    vectors = np.asarray(vectors, dtype=float)
+    if vectors.ndim < 1:
+        raise PoseError("EDM vectors need at least one axis")
+    num_joints_from_dim(vectors.shape[-1])
+    return vectors
 
 
 def err_entries(edm_f, edm_gt):
     """Per-entry relative error ``|E_f - E_gt| / E_gt * 100``.
 
-    Accepts EDMs (..., N, N) or their upper-triangle vectors (..., N(N-1)/2)
-    and returns the upper-triangle errors; entries whose ground truth is 0
-    (coincident joints) are NaN, as the ratio is undefined there.
+    Takes upper-triangle EDM vectors (..., N(N-1)/2) (pass full EDMs through
+    :func:`sparseedm.edm.edm_to_vector` first: a square array is never
+    guessed to be a matrix) and returns the per-entry errors; entries whose
+    ground truth is 0 (coincident joints) are NaN, as the ratio is undefined.
     """
     f = _as_vectors(edm_f)
     gt = _as_vectors(edm_gt)

@@ -204,7 +204,7 @@ def represent(poses, missing=None, representation="average"):
     [2.0, 1.0, 0.7454, 2.2361, 1.3744, 0.9428]
     """
     if representation not in REPRESENTATIONS:
-        raise ValueError(
+        raise PoseError(
             f"unknown representation {representation!r}; use one of {REPRESENTATIONS}"
         )
     poses = np.asarray(poses, dtype=float)

@@ -1,0 +1,58 @@
+"""Motion-capture loaders: BVH and CMU ASF/AMC -> (frames, 14, 3) joints in metres.
+
+The 14 joints follow :data:`sparseedm.skeleton.SKELETON_14`; every loader runs
+forward kinematics over all frames at once and returns positions in metres
+in the file's world frame (Y-up for BVH and ASF/AMC). See
+:mod:`sparseedm.mocap.bvh` and :mod:`sparseedm.mocap.asf_amc` for the rigs,
+units and head-top conventions.
+
+:func:`load_mocap` dispatches on the file extension.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..exceptions import FileFormatError
+from .asf_amc import find_asf, load_asf_amc, parse_amc, parse_asf, write_cmu_bvh
+from .bvh import detect_rig, load_bvh, parse_bvh, rotation_matrices
+
+__all__ = [
+    "load_mocap",
+    "load_bvh",
+    "load_asf_amc",
+    "parse_bvh",
+    "parse_asf",
+    "parse_amc",
+    "find_asf",
+    "detect_rig",
+    "write_cmu_bvh",
+    "rotation_matrices",
+    "MOCAP_SUFFIXES",
+]
+
+#: file suffixes :func:`load_mocap` reads
+MOCAP_SUFFIXES = (".bvh", ".amc")
+
+
+def load_mocap(path, *, scale=None, return_info=False):
+    """14-joint 3D poses (n_frames, 14, 3) in metres from a .bvh or .amc file.
+
+    For ``NN_MM.amc`` the skeleton ``NN.asf`` in the same folder is used.
+    With ``return_info`` a dict (``frame_rate``, ``scale``, ...) comes too.
+
+    Examples
+    --------
+    >>> load_mocap("walk.c3d")
+    Traceback (most recent call last):
+    ...
+    sparseedm.exceptions.FileFormatError: walk.c3d: unsupported motion-capture file type '.c3d' (expected .bvh or .amc)
+    """
+    suffix = Path(path).suffix.lower()
+    if suffix == ".bvh":
+        return load_bvh(path, scale=scale, return_info=return_info)
+    if suffix == ".amc":
+        return load_asf_amc(None, path, scale=scale, return_info=return_info)
+    raise FileFormatError(
+        f"{path}: unsupported motion-capture file type {suffix!r} (expected .bvh or .amc)"
+    )

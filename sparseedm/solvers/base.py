@@ -50,6 +50,8 @@ class LassoResult:
         ``"inaccurate"`` otherwise, ``"failed"`` if the backend gave up.
     n_iter : ndarray of int, shape (n_samples,)
         Backend-specific iteration count (interior-point iterations, LARS steps).
+    fallback : ndarray of bool, shape (n_samples,)
+        True where the backend handed the row to its fallback solver.
     """
 
     coef: np.ndarray
@@ -57,6 +59,11 @@ class LassoResult:
     gap: np.ndarray
     status: np.ndarray
     n_iter: np.ndarray
+    fallback: np.ndarray = None
+
+    def __post_init__(self):
+        if self.fallback is None:
+            self.fallback = np.zeros(len(self.objective), dtype=bool)
 
 
 def lasso_objective(D, X, coef, alpha):
@@ -134,15 +141,17 @@ class BaseSolver:
             raise SparseEDMError("D and X must be finite (no NaN or inf)")
         if not np.isscalar(alpha) or not alpha > 0:
             raise SparseEDMError(f"alpha must be a number > 0, got {alpha!r}")
-        coef, status, n_iter = self._solve(D, X, float(alpha), bool(positive), key)
+        out = self._solve(D, X, float(alpha), bool(positive), key)
+        coef, status, n_iter = out[:3]
+        fallback = out[3] if len(out) > 3 else None
         objective, gap = duality_gap(D, X, coef, alpha, positive)
         status = np.asarray(status, dtype=object)
         certified = gap <= self.tol * np.maximum(objective, np.finfo(float).tiny)
         status = np.where(
             status == FAILED, FAILED, np.where(certified, OPTIMAL, INACCURATE)
         ).astype(object)
-        return LassoResult(coef, objective, gap, status, np.asarray(n_iter))
+        return LassoResult(coef, objective, gap, status, np.asarray(n_iter), fallback)
 
     def _solve(self, D, X, alpha, positive, key):  # pragma: no cover - abstract
-        """Return (coef, status, n_iter) for validated inputs."""
+        """Return (coef, status, n_iter[, fallback]) for validated inputs."""
         raise NotImplementedError

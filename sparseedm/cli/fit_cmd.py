@@ -1,0 +1,52 @@
+"""``sparseedm fit TRAIN.npz -o DICT.npz``: learn a dictionary from complete poses."""
+
+from __future__ import annotations
+
+import sys
+import time
+
+from ._common import add_quiet, show_progress
+
+
+def add_parser(sub):
+    p = sub.add_parser(
+        "fit",
+        help="learn a dictionary from a training .npz (see `sparseedm dataset build`)",
+        description="Online dictionary learning (Mairal et al. 2009) over the normalised "
+        "EDM vectors of the complete 2D poses in TRAIN (key poses2d).",
+    )
+    p.add_argument("train", help="training .npz with poses2d (n, N, 2)")
+    p.add_argument("-o", "--output", required=True, help="dictionary file to write (.npz)")
+    p.add_argument("--atoms", type=int, default=2000, help="number of atoms k (default 2000)")
+    p.add_argument("--alpha", type=float, default=0.05,
+                   help="lasso penalty while learning (default 0.05)")
+    p.add_argument("--alpha-recover", type=float, default=None,
+                   help="recommended recovery alpha to store (default alpha/5)")
+    p.add_argument("--passes", type=float, default=1.0, help="passes over the data (default 1)")
+    p.add_argument("--batch-size", type=int, default=512, help="mini-batch size (default 512)")
+    p.add_argument("--positive-code", action="store_true", help="non-negative codes")
+    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--jobs", type=int, default=None, help="threads for the coding step")
+    p.add_argument("--checkpoint", default=None,
+                   help="checkpoint file (default OUTPUT with .ckpt.npz)")
+    p.add_argument("--resume", action="store_true",
+                   help="continue from the checkpoint of an interrupted run")
+    add_quiet(p)
+    p.set_defaults(func=run)
+
+
+def run(args):
+    from ..learning import fit_dictionary_file
+
+    t0 = time.perf_counter()
+    d = fit_dictionary_file(
+        args.train, args.output, n_components=args.atoms, alpha=args.alpha,
+        batch_size=args.batch_size, n_passes=args.passes,
+        positive_code=args.positive_code, random_state=args.seed, n_jobs=args.jobs,
+        alpha_recover=args.alpha_recover, checkpoint=args.checkpoint,
+        resume=args.resume, progress=show_progress(args),
+    )
+    print(f"wrote {args.output}: {d.n_components} atoms from "
+          f"{d.provenance['n_poses']} poses in {time.perf_counter() - t0:.1f} s",
+          file=sys.stderr if args.quiet else sys.stdout)
+    return 0

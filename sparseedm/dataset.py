@@ -1,0 +1,348 @@
+"""Training sets from motion capture: 3D poses, their 2D views, labels, cameras.
+
+:func:`build_dataset` reads .bvh and CMU .amc files (files or folders,
+recursively), keeps every ``frame_step``-th frame, views each kept pose
+through ``cameras_per_pose`` seeded virtual cameras
+(:func:`sparseedm.cameras.sample_cameras`, looking at the pose's mean joint)
+and returns -- or writes, atomically -- an .npz with this schema (``n`` poses):
+
+================ ============= ===============================================
+key              shape / dtype meaning
+================ ============= ===============================================
+poses2d          (n, 14, 2) f8 pixel coordinates (u right, v down)
+poses3d          (n, 14, 3) f8 world coordinates, metres, Y-up
+labels           (n,) str      action: Bandai content label (``"walk"``);
+                               CMU clip name (``"02_01"``); else file stem
+clips            (n,) str      clip id: the file's stem
+styles           (n,) str      Bandai style label (``"happy"``), ``""`` else
+subjects         (n,) str      CMU subject (``"02"``); ``""`` when unknown
+                               (Bandai does not say which actor)
+frames           (n,) i8       frame index in the clip
+camera_R         (n, 3, 3) f8  world -> camera rotation
+camera_t         (n, 3) f8     world -> camera translation
+camera_f         (n,) f8       focal length, pixels
+camera_c         (n, 2) f8     principal point, pixels
+joint_names      (14,) str     :data:`sparseedm.skeleton.JOINT_NAMES`
+================ ============= ===============================================
+
+Strings are numpy unicode arrays, so ``numpy.load(path, allow_pickle=False)``
+reads the file. Joint order is :data:`sparseedm.skeleton.SKELETON_14`.
+
+Frame subsampling: ``frame_step=None`` keeps about 40 frames per second of
+motion (``round(frame_rate / 40)``, at least 1): every 3rd frame of CMU's
+120 fps, every frame of Bandai-Namco's 30 fps. With the shared data this
+gives 25,926 CMU poses and 31,914 Bandai-Namco poses per camera.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+import warnings
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+from ._atomic import atomic_path
+from .cameras import project, sample_cameras
+from .exceptions import FileFormatError, SparseEDMError
+from .mocap import MOCAP_SUFFIXES, load_mocap
+from .skeleton import JOINT_NAMES
+
+__all__ = ["build_dataset", "load_dataset", "find_mocap_files", "clip_metadata",
+           "SCHEMA", "TARGET_FPS"]
+
+#: frame_step=None keeps about this many frames per second
+TARGET_FPS = 40.0
+
+#: key -> (dtype kind, shape with "n" for the pose axis)
+SCHEMA = {
+    "poses2d": ("f", ("n", 14, 2)),
+    "poses3d": ("f", ("n", 14, 3)),
+    "labels": ("U", ("n",)),
+    "clips": ("U", ("n",)),
+    "styles": ("U", ("n",)),
+    "subjects": ("U", ("n",)),
+    "frames": ("i", ("n",)),
+    "camera_R": ("f", ("n", 3, 3)),
+    "camera_t": ("f", ("n", 3)),
+    "camera_f": ("f", ("n",)),
+    "camera_c": ("f", ("n", 2)),
+    "joint_names": ("U", (14,)),
+}
+
+
+def find_mocap_files(paths) -> list[Path]:
+    """The .bvh and .amc files among `paths`, folders searched recursively.
+
+    Files are returned sorted within each folder; a path that does not exist
+    raises :class:`FileNotFoundError`.
+    """
+    if isinstance(paths, (str, os.PathLike)):
+        paths = [paths]
+    found = []
+    for p in paths:
+        p = Path(p)
+        if p.is_dir():
+            found.extend(sorted(q for q in p.rglob("*")
+                                if q.is_file() and q.suffix.lower() in MOCAP_SUFFIXES))
+        elif p.is_file():
+            found.append(p)
+        else:
+            raise FileNotFoundError(f"no such file or folder: {p}")
+    seen, out = set(), []
+    for f in found:
+        key = f.resolve()
+        if key not in seen:
+            seen.add(key)
+            out.append(f)
+    return out
+
+
+def _bandai_labels(path: Path):
+    """(content, style) of a Bandai-Namco clip from its JSON and cfg/ files."""
+    meta = path.with_suffix(".json")
+    if not meta.is_file():
+        return None
+    cfg = None
+    for parent in path.parents:
+        if (parent / "cfg" / "content_label.txt").is_file():
+            cfg = parent / "cfg"
+            break
+    if cfg is None:
+        return None
+    try:
+        info = json.loads(meta.read_text(encoding="utf-8"))
+        contents = (cfg / "content_label.txt").read_text(encoding="utf-8").split()
+        styles_path = cfg / "style_label.txt"
+        styles = styles_path.read_text(encoding="utf-8").split() if styles_path.is_file() else []
+        content = contents[int(info["content"])]
+        style = styles[int(info["style"])] if "style" in info and styles else ""
+    except (ValueError, KeyError, IndexError, TypeError) as exc:
+        raise FileFormatError(f"{meta}: cannot read its content/style labels ({exc})") from None
+
+    def strip(label):  # "dataset-1_walk" -> "walk"
+        return label.split("_", 1)[1] if "_" in label else label
+
+    return strip(content), strip(style)
+
+
+def clip_metadata(path) -> dict:
+    """``label``, ``clip``, ``style``, ``subject`` of a motion file.
+
+    Examples
+    --------
+    >>> clip_metadata("subjects/02/02_01.amc")
+    {'label': '02_01', 'clip': '02_01', 'style': '', 'subject': '02'}
+    """
+    path = Path(path)
+    stem = path.stem
+    if path.suffix.lower() == ".amc":
+        return {"label": stem, "clip": stem, "style": "", "subject": stem.split("_")[0]}
+    bandai = _bandai_labels(path)
+    if bandai is not None:
+        return {"label": bandai[0], "clip": stem, "style": bandai[1], "subject": ""}
+    return {"label": stem, "clip": stem, "style": "", "subject": ""}
+
+
+def _progress(iterable, total, enabled, desc):
+    if not enabled or not sys.stderr.isatty():
+        return iterable
+    from tqdm.auto import tqdm
+
+    return tqdm(iterable, total=total, desc=desc, unit="file")
+
+
+def build_dataset(
+    paths,
+    output=None,
+    *,
+    cameras_per_pose=1,
+    frame_step=None,
+    random_state=0,
+    progress=True,
+    camera_options=None,
+    return_report=False,
+):
+    """Build a training set of 2D/3D poses from motion-capture files.
+
+    Parameters
+    ----------
+    paths : path or list of paths
+        .bvh and .amc files, or folders searched recursively (an
+        ``NN_MM.amc`` uses the ``NN.asf`` beside it).
+    output : path, optional
+        Where to write the .npz (atomically); nothing is written if None.
+    cameras_per_pose : int
+        Virtual cameras (2D views) per kept 3D pose.
+    frame_step : int, optional
+        Keep every `frame_step`-th frame; ``None`` keeps about 40 frames per
+        second of motion (3 for CMU's 120 fps, 1 for Bandai's 30 fps).
+    random_state : int or numpy.random.Generator
+        Seed of the cameras.
+    progress : bool
+        Show a tqdm bar (only when stderr is a terminal).
+    camera_options : dict, optional
+        Extra arguments for :func:`sparseedm.cameras.sample_cameras`
+        (``distance``, ``height``, ``focal``, ``principal_point``, ``up``).
+    return_report : bool
+        Also return a dict: ``files`` read, ``skipped`` [(path, reason)],
+        ``poses``.
+
+    Returns
+    -------
+    data : dict
+        The arrays of the schema in the module docstring.
+
+    Warns
+    -----
+    UserWarning
+        For each file that cannot be read (named with the reason); it is
+        skipped and the rest are built.
+
+    Raises
+    ------
+    SparseEDMError
+        If no file gives any pose.
+    """
+    if int(cameras_per_pose) < 1:
+        raise ValueError(f"cameras_per_pose must be >= 1, got {cameras_per_pose}")
+    cameras_per_pose = int(cameras_per_pose)
+    if frame_step is not None and int(frame_step) < 1:
+        raise ValueError(f"frame_step must be >= 1, got {frame_step}")
+    files = find_mocap_files(paths)
+    rng = np.random.default_rng(random_state)
+    cam_opts = dict(camera_options or {})
+    parts, skipped, read = [], [], 0
+    for path in _progress(files, len(files), progress, "dataset"):
+        try:
+            poses, info = load_mocap(path, return_info=True)
+            meta = clip_metadata(path)
+        except (SparseEDMError, OSError, UnicodeDecodeError) as exc:
+            warnings.warn(f"skipping {path}: {exc}", stacklevel=2)
+            skipped.append((str(path), str(exc)))
+            continue
+        step = int(frame_step) if frame_step is not None else _auto_step(info.get("frame_rate"))
+        idx = np.arange(0, poses.shape[0], step)
+        read += 1
+        if idx.size == 0:
+            continue
+        kept = np.repeat(poses[idx], cameras_per_pose, axis=0)
+        frames = np.repeat(idx, cameras_per_pose)
+        cams = sample_cameras(targets=kept.mean(axis=1), random_state=rng, **cam_opts)
+        try:
+            p2d = project(kept, cams)
+        except SparseEDMError as exc:
+            warnings.warn(f"skipping {path}: {exc}", stacklevel=2)
+            skipped.append((str(path), str(exc)))
+            read -= 1
+            continue
+        parts.append((kept, p2d, frames, cams, meta))
+    if not parts:
+        raise SparseEDMError(
+            f"no poses built: {len(files)} motion file(s) found, {len(skipped)} skipped"
+        )
+    n_each = [p[0].shape[0] for p in parts]
+
+    def strings(key):
+        return np.repeat(np.array([p[4][key] for p in parts], dtype=str), n_each)
+
+    data = {
+        "poses2d": np.concatenate([p[1] for p in parts]),
+        "poses3d": np.concatenate([p[0] for p in parts]),
+        "labels": strings("label"),
+        "clips": strings("clip"),
+        "styles": strings("style"),
+        "subjects": strings("subject"),
+        "frames": np.concatenate([p[2] for p in parts]).astype(np.int64),
+        "camera_R": np.concatenate([p[3].R for p in parts]),
+        "camera_t": np.concatenate([p[3].t for p in parts]),
+        "camera_f": np.concatenate([p[3].f for p in parts]),
+        "camera_c": np.concatenate([p[3].c for p in parts]),
+        "joint_names": np.array(JOINT_NAMES, dtype=str),
+    }
+    if output is not None:
+        save_dataset(output, data)
+    if return_report:
+        report = {"files": read, "skipped": skipped, "poses": int(data["poses3d"].shape[0])}
+        return data, report
+    return data
+
+
+def _auto_step(frame_rate):
+    if frame_rate is None or not np.isfinite(frame_rate) or frame_rate <= 0:
+        return 1
+    return max(1, int(round(frame_rate / TARGET_FPS)))
+
+
+def save_dataset(path, data) -> None:
+    """Validate `data` against the schema and write it as an .npz, atomically."""
+    _validate(data, str(path))
+    with atomic_path(path) as tmp:
+        np.savez_compressed(tmp, **{k: np.asarray(data[k]) for k in SCHEMA})
+
+
+def _validate(data, name):
+    missing = [k for k in SCHEMA if k not in data]
+    if missing:
+        raise FileFormatError(f"{name}: not a sparseedm dataset, missing {', '.join(missing)}")
+    n = None
+    for key, (kind, shape) in SCHEMA.items():
+        arr = np.asarray(data[key])
+        if arr.dtype.kind != kind and not (kind == "i" and arr.dtype.kind == "u"):
+            raise FileFormatError(f"{name}: {key} has dtype {arr.dtype}, expected kind {kind!r}")
+        if arr.ndim != len(shape):
+            raise FileFormatError(f"{name}: {key} has shape {arr.shape}, expected {shape}")
+        for dim, want in zip(arr.shape, shape):
+            if want == "n":
+                if n is None:
+                    n = dim
+                elif dim != n:
+                    raise FileFormatError(
+                        f"{name}: {key} has {dim} rows, but poses2d has {n}"
+                    )
+            elif dim != want:
+                raise FileFormatError(f"{name}: {key} has shape {arr.shape}, expected {shape}")
+        if kind == "f" and not np.all(np.isfinite(arr)):
+            raise FileFormatError(f"{name}: {key} has NaN or infinite values")
+    if tuple(np.asarray(data["joint_names"]).tolist()) != JOINT_NAMES:
+        raise FileFormatError(f"{name}: joint_names are not the SKELETON_14 order")
+
+
+def load_dataset(path) -> dict:
+    """Load and validate a dataset .npz written by :func:`build_dataset`.
+
+    Returns
+    -------
+    dict
+        Every key of the schema (see the module docstring).
+
+    Raises
+    ------
+    FileFormatError
+        A missing key, a wrong shape or dtype, NaN values, object arrays
+        (pickles are refused) or a file that is not an .npz, named.
+
+    Examples
+    --------
+    >>> load_dataset("/nonexistent.npz")
+    Traceback (most recent call last):
+    ...
+    FileNotFoundError: no such dataset file: /nonexistent.npz
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"no such dataset file: {path}")
+    try:
+        with np.load(path, allow_pickle=False) as npz:
+            data = {k: npz[k] for k in npz.files}
+    except ValueError as exc:
+        raise FileFormatError(
+            f"{path}: not a valid dataset .npz, or one holding pickled objects ({exc})"
+        ) from None
+    except (OSError, EOFError, zipfile.BadZipFile) as exc:
+        raise FileFormatError(f"{path}: not an .npz file ({exc})") from None
+    _validate(data, str(path))
+    return data

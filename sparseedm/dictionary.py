@@ -1,0 +1,282 @@
+"""The dictionary file format: a safe .npz with atoms and everything needed to use them.
+
+A dictionary file is a NumPy ``.npz`` archive, read with ``allow_pickle=False``
+(a pickle is refused, never executed), holding:
+
+``components``  float64 (k, N(N-1)/2): unit-norm atoms as rows (the paper's D is
+                its transpose)
+``joint_names`` unicode (N,): the joint layout the atoms describe
+``meta``        a 0-d unicode array holding JSON: ``format_version``,
+                ``representation`` and ``normalization`` of the training vectors,
+                ``alpha_train``, ``alpha_recover`` (recommended recovery alpha),
+                ``alpha_scaling``, ``positive_code``, ``provenance`` (training
+                files, pose count, sha256 of the training file, seed, passes,
+                batch size) and ``library_version``.
+
+:func:`load_dictionary` checks shape, dtype, finiteness and unit norm and
+refuses anything else with a :class:`~sparseedm.exceptions.DictionaryError`.
+Shipped dictionaries load by name (``"default"``) from the installed package.
+"""
+
+from __future__ import annotations
+
+import json
+import zipfile
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from . import __version__
+from ._atomic import atomic_path
+from .edm import num_joints_from_dim
+from .exceptions import DictionaryError, PoseError
+from .skeleton import JOINT_NAMES
+
+__all__ = ["Dictionary", "load_dictionary", "available_dictionaries", "DEFAULT_DICTIONARY"]
+
+FORMAT_VERSION = 1
+#: the file the name "default" resolves to, in the sparseedm.dictionaries package
+DEFAULT_DICTIONARY = "cmu-k2000"
+_UNIT_NORM_TOL = 1e-6
+
+
+@dataclass
+class Dictionary:
+    """Learned atoms plus what is needed to use them correctly.
+
+    Parameters
+    ----------
+    components : ndarray, shape (n_components, n_features)
+        Unit-norm atoms as rows.
+    joint_names : tuple of str
+    alpha_recover : float
+        Recommended lasso penalty for recovery (before `alpha_scaling`).
+    alpha_train : float
+    alpha_scaling : {"entries", "none"}
+        How recovery scales alpha with the number of observed entries.
+    positive_code : bool
+    representation, normalization : str
+        How the training vectors were made.
+    provenance : dict
+    library_version : str
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> comp = np.eye(3)
+    >>> d = Dictionary(comp, ("a", "b", "c"), alpha_recover=0.1)
+    >>> d.n_components, d.n_joints, d.n_features
+    (3, 3, 3)
+    """
+
+    components: np.ndarray
+    joint_names: tuple = JOINT_NAMES
+    alpha_recover: float = 0.01
+    alpha_train: float = 0.05
+    alpha_scaling: str = "entries"
+    positive_code: bool = False
+    representation: str = "complete"
+    normalization: str = "bbox: center (min+max)/2, scale max(max-min)/2, one scale for x and y"
+    provenance: dict = field(default_factory=dict)
+    library_version: str = __version__
+
+    def __post_init__(self):
+        self.components = np.asarray(self.components, dtype=np.float64)
+        self.joint_names = tuple(str(n) for n in self.joint_names)
+        _check_components(self.components, self.joint_names, "components")
+        if not np.isfinite(self.alpha_recover) or self.alpha_recover <= 0:
+            raise DictionaryError(f"alpha_recover must be > 0, got {self.alpha_recover!r}")
+        if self.alpha_scaling not in ("entries", "none"):
+            raise DictionaryError(
+                f"alpha_scaling must be 'entries' or 'none', got {self.alpha_scaling!r}"
+            )
+
+    @property
+    def n_components(self) -> int:
+        return self.components.shape[0]
+
+    @property
+    def n_features(self) -> int:
+        return self.components.shape[1]
+
+    @property
+    def n_joints(self) -> int:
+        return len(self.joint_names)
+
+    def meta(self) -> dict:
+        """The JSON-able metadata stored beside the arrays."""
+        return {
+            "format_version": FORMAT_VERSION,
+            "alpha_recover": float(self.alpha_recover),
+            "alpha_train": float(self.alpha_train),
+            "alpha_scaling": self.alpha_scaling,
+            "positive_code": bool(self.positive_code),
+            "representation": self.representation,
+            "normalization": self.normalization,
+            "provenance": self.provenance,
+            "library_version": self.library_version,
+        }
+
+    def save(self, path):
+        """Write the dictionary atomically to `path` (.npz)."""
+        path = Path(path)
+        if path.suffix != ".npz":
+            raise DictionaryError(f"{path}: a dictionary file must end in .npz")
+        with atomic_path(path) as tmp:
+            np.savez_compressed(
+                tmp,
+                components=self.components,
+                joint_names=np.array(self.joint_names, dtype=np.str_),
+                meta=np.array(json.dumps(self.meta(), sort_keys=True), dtype=np.str_),
+            )
+        return path
+
+    def describe(self) -> str:
+        """A few lines a person reads (what ``sparseedm info`` prints)."""
+        p = self.provenance or {}
+        lines = [
+            f"{self.n_components} atoms over {self.n_features} distances "
+            f"({self.n_joints} joints: {', '.join(self.joint_names)})",
+            f"recovery alpha {self.alpha_recover:g} (scaled by: {self.alpha_scaling}); "
+            f"training alpha {self.alpha_train:g}; "
+            f"{'non-negative' if self.positive_code else 'signed'} codes",
+            f"training vectors: {self.representation} poses, normalised by {self.normalization}",
+        ]
+        if p:
+            files = p.get("files", [])
+            shown = ", ".join(files[:3]) + (f" and {len(files) - 3} more" if len(files) > 3 else "")
+            lines.append(
+                f"learned from {p.get('n_poses', '?')} poses in {shown or '?'}"
+                + (f" (sha256 {p['sha256'][:12]}...)" if p.get("sha256") else "")
+            )
+            extras = {k: v for k, v in p.items() if k not in ("files", "n_poses", "sha256")}
+            if extras:
+                lines.append("settings: " + ", ".join(f"{k}={v}" for k, v in sorted(extras.items())))
+        lines.append(f"written by sparseedm {self.library_version}")
+        return "\n".join(lines)
+
+
+def _check_components(components, joint_names, where):
+    if components.ndim != 2:
+        raise DictionaryError(f"{where}: atoms must be 2-D (k, n_features), got {components.shape}")
+    k, m = components.shape
+    if k < 1:
+        raise DictionaryError(f"{where}: the dictionary has no atoms")
+    try:
+        n = num_joints_from_dim(m)
+    except PoseError as exc:
+        raise DictionaryError(f"{where}: {exc}") from None
+    if n != len(joint_names):
+        raise DictionaryError(
+            f"{where}: atoms have {m} entries (N={n} joints) but {len(joint_names)} "
+            "joint names are given"
+        )
+    if not np.isfinite(components).all():
+        raise DictionaryError(f"{where}: atoms contain NaN or inf")
+    norms = np.linalg.norm(components, axis=1)
+    if np.abs(norms - 1).max() > _UNIT_NORM_TOL:
+        worst = int(np.abs(norms - 1).argmax())
+        raise DictionaryError(
+            f"{where}: atom {worst} has norm {norms[worst]:.6g}; atoms must have unit norm"
+        )
+
+
+def available_dictionaries() -> list[str]:
+    """Names of the dictionaries shipped with the package ("default" included)."""
+    names = sorted(
+        p.name[:-4] for p in resources.files("sparseedm.dictionaries").iterdir()
+        if p.name.endswith(".npz")
+    )
+    return ["default"] + names if DEFAULT_DICTIONARY in names else names
+
+
+def _resolve(name_or_path):
+    if name_or_path is None or name_or_path == "default":
+        name_or_path = DEFAULT_DICTIONARY
+    path = Path(name_or_path)
+    if path.suffix == ".npz" or path.exists() or "/" in str(name_or_path):
+        return path
+    res = resources.files("sparseedm.dictionaries") / f"{name_or_path}.npz"
+    if not res.is_file():
+        raise DictionaryError(
+            f"no dictionary called {name_or_path!r}; shipped ones: "
+            f"{', '.join(available_dictionaries()) or 'none'}; or give a path to an .npz"
+        )
+    return Path(str(res))
+
+
+def load_dictionary(name_or_path=None, *, n_joints=None) -> Dictionary:
+    """Load and validate a dictionary by shipped name or path.
+
+    Parameters
+    ----------
+    name_or_path : str or path-like, optional
+        ``None`` or ``"default"`` for the shipped default, another shipped
+        name, or a path to an .npz file.
+    n_joints : int, optional
+        Refuse a dictionary for another joint count.
+
+    Raises
+    ------
+    DictionaryError
+        Missing, truncated, pickled or malformed file; non-finite or
+        non-unit atoms; wrong joint count.
+    """
+    path = _resolve(name_or_path)
+    if not path.is_file():
+        raise DictionaryError(f"{path}: no such dictionary file")
+    try:
+        with np.load(path, allow_pickle=False) as npz:
+            missing = {"components", "joint_names", "meta"} - set(npz.files)
+            if missing:
+                raise DictionaryError(
+                    f"{path}: not a sparseedm dictionary (missing {', '.join(sorted(missing))})"
+                )
+            components = npz["components"]
+            joint_names = npz["joint_names"]
+            meta_text = npz["meta"]
+    except DictionaryError:
+        raise
+    except ValueError as exc:
+        if "pickle" in str(exc):
+            raise DictionaryError(
+                f"{path}: holds pickled data, which is refused (never executed)"
+            ) from None
+        raise DictionaryError(f"{path}: unreadable dictionary file ({exc})") from None
+    except (zipfile.BadZipFile, OSError, EOFError, KeyError) as exc:
+        raise DictionaryError(f"{path}: corrupt or truncated dictionary file ({exc})") from None
+    if components.dtype.kind != "f":
+        raise DictionaryError(f"{path}: atoms must be floating point, got {components.dtype}")
+    if joint_names.dtype.kind != "U" or joint_names.ndim != 1:
+        raise DictionaryError(f"{path}: joint_names must be a 1-D string array")
+    try:
+        meta = json.loads(str(meta_text))
+    except json.JSONDecodeError as exc:
+        raise DictionaryError(f"{path}: metadata is not valid JSON ({exc})") from None
+    if meta.get("format_version") != FORMAT_VERSION:
+        raise DictionaryError(
+            f"{path}: dictionary format {meta.get('format_version')!r}, this sparseedm "
+            f"reads format {FORMAT_VERSION}"
+        )
+    _check_components(components, tuple(joint_names), str(path))
+    if n_joints is not None and len(joint_names) != n_joints:
+        raise DictionaryError(
+            f"{path}: dictionary is for {len(joint_names)} joints, the data has {n_joints}"
+        )
+    try:
+        return Dictionary(
+            components=components.astype(np.float64),
+            joint_names=tuple(str(n) for n in joint_names),
+            alpha_recover=float(meta["alpha_recover"]),
+            alpha_train=float(meta["alpha_train"]),
+            alpha_scaling=meta.get("alpha_scaling", "entries"),
+            positive_code=bool(meta.get("positive_code", False)),
+            representation=meta.get("representation", "complete"),
+            normalization=meta.get("normalization", ""),
+            provenance=meta.get("provenance", {}),
+            library_version=meta.get("library_version", "?"),
+        )
+    except (KeyError, TypeError, ValueError) as exc:
+        raise DictionaryError(f"{path}: metadata incomplete or invalid ({exc})") from None

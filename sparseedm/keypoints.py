@@ -1,0 +1,823 @@
+"""Read and write users' 2D keypoints: ``.npz``/``.npy``, CSV and COCO-style JSON.
+
+Every reader returns one in-memory form, a :class:`KeypointSet`:
+
+``poses``       (n, 14, 2) float, joints in :data:`~sparseedm.skeleton.SKELETON_14`
+                order, **NaN for every missing joint**;
+``missing``     (n, 14) bool, True = missing;
+``confidence``  (n, 14) float or None;
+``ids``         (n,) str or None (image / frame ids);
+``meta``        dict of format details needed to write the same file back
+                (extra CSV columns, the original COCO document, ...).
+
+:func:`write_keypoints` writes poses (e.g. recovered ones) in any of the formats,
+atomically (:func:`sparseedm._atomic.atomic_path`). The format comes from the
+extension (``.npz``, ``.npy``, ``.csv``, ``.json``) unless ``format=`` says
+``"npz"``, ``"npy"``, ``"csv"`` or ``"coco"``.
+
+When is a joint missing?
+------------------------
+In every format a joint is missing when any of its coordinates is NaN (or an
+empty CSV cell), when the file marks it missing (the ``missing`` array of an
+``.npz``, COCO visibility ``v = 0``), when its confidence is not positive
+(0, negative or NaN: "not detected" in COCO and OpenPose alike), or when its
+confidence is below ``confidence_threshold`` (default 0: no extra threshold).
+Missing joints are read as NaN; their coordinates are not kept in ``poses``.
+
+Array files
+-----------
+``.npz``: key ``poses`` (n, 14, 2) float; optional ``missing`` (n, 14) bool,
+``confidence`` (n, 14) float, ``ids`` (n,) str. Other keys are kept in
+``meta["npz_extra"]`` and written back. ``.npy``: one (n, 14, 2) array with
+NaN for missing joints, or (n, 14, 3) whose third column is a confidence;
+ids cannot be stored in ``.npy`` (a warning says they were dropped). A single
+pose (14, 2) / (14, 3) is read as n = 1. Both are loaded with
+``allow_pickle=False``: a file holding pickled objects is refused, never
+unpickled.
+
+CSV columns
+-----------
+One pose per row after a header row::
+
+    id,head_top_x,head_top_y,neck_x,neck_y,...,left_ankle_x,left_ankle_y[,<joint>_conf ...][,extra ...]
+
+* ``id`` (optional): the image / frame id, read as text;
+* ``<joint>_x``, ``<joint>_y`` for each of the 14 joints of
+  :data:`~sparseedm.skeleton.JOINT_NAMES` (all 28 required; any order on read,
+  SKELETON_14 order on write);
+* ``<joint>_conf`` (optional, for all 14 joints or for none);
+* any other column (no ``_x``/``_y``/``_conf`` suffix, e.g. ``status``) is
+  kept as text in ``meta["extra_columns"]`` and written back. A column with
+  such a suffix but an unknown joint name (``lefty_wrist_x``) is an error.
+
+An empty cell or ``nan`` marks a missing coordinate. Rows with the wrong
+number of fields or non-numeric text raise :class:`FileFormatError` naming
+the file, line and column. Floats are written with ``repr`` (exact round trip).
+
+COCO-style keypoint JSON
+------------------------
+Either a list of annotations (a COCO *results* file) or a dict with an
+``"annotations"`` list (a COCO *ground-truth* file). Each annotation has
+``keypoints`` = [x1, y1, v1, ..., x17, y17, v17] in COCO-17 order (nose,
+left_eye, right_eye, left_ear, right_ear, left_shoulder, right_shoulder,
+left_elbow, right_elbow, left_wrist, right_wrist, left_hip, right_hip,
+left_knee, right_knee, left_ankle, right_ankle). ``v`` is the COCO visibility
+(0 = not labelled, 1 = labelled but occluded, 2 = visible) in ground truth,
+or a per-keypoint detector score in results files (next to the annotation's
+``score``); either way it is the joint's ``confidence``, and ``v <= 0`` (or
+``v < confidence_threshold``) is missing. ``ids`` are ``str(image_id)``
+(``""`` when absent).
+
+Mapping COCO-17 onto the 14 joints:
+
+* shoulders, elbows, wrists, hips, knees, ankles: copied directly;
+* ``neck`` = midpoint of left and right shoulder; missing if either is
+  missing; confidence = the smaller of the two;
+* ``head_top`` = ``H + HEAD_TOP_FACTOR * (H - neck)`` with ``H`` the mean of
+  the present head keypoints (nose, eyes, ears) and ``HEAD_TOP_FACTOR`` =
+  0.8 (the top of the head lies about 0.8 times the neck-to-face distance
+  beyond the face centre in adult proportions); missing if no head keypoint
+  is present or the neck is missing; confidence = the smallest used;
+* nose, eyes and ears are not part of the 14-joint layout.
+
+If an annotation carries a ``"sparseedm"`` field (written by this module),
+its ``neck`` and ``head_top`` are used instead of the derived ones, so a file
+written here reads back to the same poses.
+
+Writing COCO JSON with the ``meta`` of a COCO read writes the original
+document back with, per annotation, the limb keypoints that were missing and
+are now recovered filled in as ``[x, y, 1]``; all other keypoints and all
+other fields (``image_id``, ``score``, ``num_keypoints``, ...) are untouched.
+Neck and head top are not COCO keypoints, so they go into an extra field::
+
+    "sparseedm": {"neck": [x, y] or null, "head_top": [x, y] or null,
+                  "filled": ["left_wrist", ...]}
+
+Without COCO ``meta`` a results-style list is written: one annotation per
+pose with ``image_id`` (the id, as int when it is one), ``category_id`` 1,
+the limb keypoints (``v = 2`` when present, ``[0, 0, 0]`` when missing),
+head keypoints ``[0, 0, 0]``, and the ``"sparseedm"`` field.
+
+Examples
+--------
+>>> import os, tempfile
+>>> import numpy as np
+>>> from sparseedm.keypoints import read_keypoints, write_keypoints
+>>> poses = np.arange(2 * 14 * 2, dtype=float).reshape(2, 14, 2)
+>>> poses[0, 7] = np.nan                       # left wrist of pose 0 missing
+>>> path = os.path.join(tempfile.mkdtemp(), "poses.csv")
+>>> _ = write_keypoints(path, poses, ids=["frame0", "frame1"])
+>>> kps = read_keypoints(path)
+>>> kps.poses.shape, int(kps.missing.sum()), kps.ids.tolist()
+((2, 14, 2), 1, ['frame0', 'frame1'])
+"""
+
+from __future__ import annotations
+
+import copy
+import csv
+import json
+import math
+import warnings
+import zipfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ._atomic import atomic_path
+from .exceptions import FileFormatError, PoseError
+from .skeleton import JOINT_NAMES, SKELETON_14
+
+__all__ = [
+    "KeypointSet",
+    "read_keypoints",
+    "write_keypoints",
+    "FORMATS",
+    "COCO_KEYPOINTS",
+    "COCO_TO_14",
+    "HEAD_TOP_FACTOR",
+]
+
+#: Formats, by the name ``format=`` accepts.
+FORMATS = ("npz", "npy", "csv", "coco")
+_EXTENSIONS = {".npz": "npz", ".npy": "npy", ".csv": "csv", ".json": "coco"}
+
+N_JOINTS = SKELETON_14.num_joints
+
+#: The 17 COCO keypoints, in COCO order.
+COCO_KEYPOINTS = (
+    "nose", "left_eye", "right_eye", "left_ear", "right_ear",
+    "left_shoulder", "right_shoulder", "left_elbow", "right_elbow",
+    "left_wrist", "right_wrist", "left_hip", "right_hip",
+    "left_knee", "right_knee", "left_ankle", "right_ankle",
+)
+_COCO_HEAD = (0, 1, 2, 3, 4)
+_COCO_LS, _COCO_RS = 5, 6
+#: 14-joint index -> COCO-17 index, for the joints copied directly.
+COCO_TO_14 = {
+    SKELETON_14.index(name): COCO_KEYPOINTS.index(name)
+    for name in JOINT_NAMES
+    if name in COCO_KEYPOINTS
+}
+_NECK = SKELETON_14.index("neck")
+_HEAD_TOP = SKELETON_14.index("head_top")
+#: head_top = H + HEAD_TOP_FACTOR * (H - neck), H = mean of present head keypoints.
+HEAD_TOP_FACTOR = 0.8
+
+
+@dataclass
+class KeypointSet:
+    """Keypoints of n poses in the 14-joint layout.
+
+    Parameters
+    ----------
+    poses : ndarray, shape (n, 14, 2)
+        Coordinates; NaN for every missing joint.
+    missing : ndarray of bool, shape (n, 14)
+        True where a joint is missing.
+    confidence : ndarray, shape (n, 14), optional
+        Per-joint detector confidence / COCO visibility.
+    ids : ndarray of str, shape (n,), optional
+        Image or frame id of each pose.
+    meta : dict
+        Format details for writing the file back (see the module docstring).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> kps = KeypointSet(np.zeros((3, 14, 2)), np.zeros((3, 14), bool))
+    >>> len(kps)
+    3
+    """
+
+    poses: np.ndarray
+    missing: np.ndarray
+    confidence: np.ndarray | None = None
+    ids: np.ndarray | None = None
+    meta: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        self.poses = np.asarray(self.poses, dtype=float)
+        self.missing = np.asarray(self.missing, dtype=bool)
+        n = len(self.poses)
+        if self.poses.shape != (n, N_JOINTS, 2):
+            raise PoseError(f"poses must have shape (n, 14, 2), got {self.poses.shape}")
+        if self.missing.shape != (n, N_JOINTS):
+            raise PoseError(f"missing must have shape ({n}, 14), got {self.missing.shape}")
+        if self.confidence is not None:
+            self.confidence = np.asarray(self.confidence, dtype=float)
+            if self.confidence.shape != (n, N_JOINTS):
+                raise PoseError(
+                    f"confidence must have shape ({n}, 14), got {self.confidence.shape}"
+                )
+        if self.ids is not None:
+            self.ids = np.asarray(self.ids, dtype=str)
+            if self.ids.shape != (n,):
+                raise PoseError(f"ids must have shape ({n},), got {self.ids.shape}")
+
+    def __len__(self) -> int:
+        return len(self.poses)
+
+
+# --------------------------------------------------------------------------
+# shared helpers
+
+
+def _format_of(path: Path, format):
+    if format is not None:
+        fmt = "coco" if format == "json" else format
+        if fmt not in FORMATS:
+            raise FileFormatError(
+                f"{path}: unknown keypoint format {format!r}; use one of {FORMATS}"
+            )
+        return fmt
+    ext = path.suffix.lower()
+    if ext not in _EXTENSIONS:
+        raise FileFormatError(
+            f"{path}: cannot tell the keypoint format from the extension {ext!r}; "
+            f"use {', '.join(_EXTENSIONS)} or pass format= (one of {FORMATS})"
+        )
+    return _EXTENSIONS[ext]
+
+
+def _joint_count_error(where, n_joints):
+    return FileFormatError(
+        f"{where} has {n_joints} joints; sparseedm uses the 14-joint layout "
+        f"({', '.join(JOINT_NAMES)})"
+        + ("; COCO-17 keypoints are read from COCO JSON files" if n_joints == 17 else "")
+    )
+
+
+def _finish(poses, missing, confidence, threshold):
+    """Combine every missing source, blank the missing joints."""
+    missing = missing | np.isnan(poses).any(axis=-1)
+    if confidence is not None:
+        with np.errstate(invalid="ignore"):
+            missing = missing | ~(confidence > 0)
+            if threshold is not None:
+                missing = missing | (confidence < threshold)
+    poses = np.where(missing[..., None], np.nan, poses)
+    return poses, missing
+
+
+def _check_pose_array(poses, where):
+    poses = np.asarray(poses, dtype=float)
+    if poses.ndim == 2:
+        poses = poses[None]
+    if poses.ndim != 3 or poses.shape[-1] not in (2, 3):
+        raise FileFormatError(
+            f"{where}: poses must have shape (n, 14, 2), got {poses.shape}"
+        )
+    if poses.shape[1] != N_JOINTS:
+        raise _joint_count_error(where, poses.shape[1])
+    if np.isinf(poses).any():
+        r, j = (int(i) for i in np.argwhere(np.isinf(poses))[0][:2])
+        raise FileFormatError(
+            f"{where}: pose {r}, joint {JOINT_NAMES[j]!r} has an infinite value"
+        )
+    return poses
+
+
+def _optional(arr, n, name, where, dtype):
+    if arr is None:
+        return None
+    arr = np.asarray(arr, dtype=dtype)
+    expected = (n,) if name == "ids" else (n, N_JOINTS)
+    if arr.shape != expected:
+        raise FileFormatError(
+            f"{where}: {name} must have shape {expected}, got {arr.shape}"
+        )
+    return arr
+
+
+# --------------------------------------------------------------------------
+# reading
+
+
+def read_keypoints(path, *, format=None, confidence_threshold=0.0):
+    """Read 2D keypoints into a :class:`KeypointSet`.
+
+    Parameters
+    ----------
+    path : str or path-like
+    format : {"npz", "npy", "csv", "coco"}, optional
+        Default: from the extension (``.json`` is COCO).
+    confidence_threshold : float, default 0.0
+        Joints whose confidence is below it are missing (joints with a
+        confidence <= 0 are always missing).
+
+    Returns
+    -------
+    KeypointSet
+
+    Raises
+    ------
+    FileFormatError
+        Malformed, truncated or unsafe file; the message names the file and
+        the row or annotation.
+
+    Examples
+    --------
+    >>> import json, os, tempfile
+    >>> kp = [0.0] * 51
+    >>> for k, (x, y) in enumerate([(10, 10), (9, 9), (11, 9), (8, 10), (12, 10),
+    ...                             (6, 20), (14, 20)]):
+    ...     kp[3 * k: 3 * k + 3] = [x, y, 2]
+    >>> path = os.path.join(tempfile.mkdtemp(), "ann.json")
+    >>> with open(path, "w") as f:
+    ...     json.dump([{"image_id": 7, "keypoints": kp, "score": 0.9}], f)
+    >>> kps = read_keypoints(path)
+    >>> kps.ids.tolist(), kps.poses[0, 1].tolist()       # neck: shoulder midpoint
+    (['7'], [10.0, 20.0])
+    >>> kps.poses[0, 0].round(2).tolist()                # head_top: above the face
+    [10.0, 1.28]
+    >>> int(kps.missing[0].sum())                        # no arms or legs labelled
+    10
+    """
+    path = Path(path)
+    fmt = _format_of(path, format)
+    reader = {"npz": _read_npz, "npy": _read_npy, "csv": _read_csv, "coco": _read_coco}
+    kps = reader[fmt](path, confidence_threshold)
+    kps.meta["format"] = fmt
+    return kps
+
+
+def _np_load(path):
+    try:
+        return np.load(path, allow_pickle=False)
+    except ValueError as exc:
+        if "pickle" in str(exc).lower():
+            raise FileFormatError(
+                f"{path}: holds pickled Python objects, which sparseedm refuses "
+                "to load (they can run code); save plain numeric/string arrays"
+            ) from None
+        raise FileFormatError(f"{path}: not a readable numpy file ({exc})") from None
+    except (OSError, EOFError, zipfile.BadZipFile) as exc:
+        if isinstance(exc, FileNotFoundError):
+            raise
+        raise FileFormatError(f"{path}: not a readable numpy file ({exc})") from None
+
+
+def _npz_array(data, key, path):
+    try:
+        return data[key]
+    except ValueError as exc:
+        if "pickle" in str(exc).lower():
+            raise FileFormatError(
+                f"{path}: array {key!r} holds pickled Python objects, which "
+                "sparseedm refuses to load (they can run code)"
+            ) from None
+        raise FileFormatError(f"{path}: array {key!r} is unreadable ({exc})") from None
+    except (OSError, EOFError, zipfile.BadZipFile) as exc:
+        raise FileFormatError(f"{path}: array {key!r} is unreadable ({exc})") from None
+
+
+def _read_npz(path, threshold):
+    data = _np_load(path)
+    if not isinstance(data, np.lib.npyio.NpzFile):
+        raise FileFormatError(f"{path}: expected an .npz archive, found a single array")
+    with data:
+        if "poses" not in data.files:
+            raise FileFormatError(
+                f"{path}: no 'poses' array (found {sorted(data.files)}); a "
+                "keypoint .npz needs 'poses' (n, 14, 2)"
+            )
+        arrays = {key: _npz_array(data, key, path) for key in data.files}
+    poses = arrays.pop("poses")
+    if poses.dtype.kind not in "fiu":
+        raise FileFormatError(f"{path}: 'poses' must be numeric, got dtype {poses.dtype}")
+    poses = _check_pose_array(poses, f"{path}: 'poses'")
+    if poses.shape[-1] != 2:
+        raise FileFormatError(
+            f"{path}: 'poses' must have shape (n, 14, 2), got {poses.shape}; "
+            "put confidences in a separate 'confidence' array"
+        )
+    n = len(poses)
+    missing = _optional(arrays.pop("missing", None), n, "missing", path, bool)
+    confidence = _optional(arrays.pop("confidence", None), n, "confidence", path, float)
+    ids = arrays.pop("ids", None)
+    if ids is not None:
+        ids = _optional(ids.astype(str), n, "ids", path, str)
+    if missing is None:
+        missing = np.zeros((n, N_JOINTS), dtype=bool)
+    poses, missing = _finish(poses, missing, confidence, threshold)
+    return KeypointSet(poses, missing, confidence, ids, {"npz_extra": arrays})
+
+
+def _read_npy(path, threshold):
+    arr = _np_load(path)
+    if isinstance(arr, np.lib.npyio.NpzFile):
+        arr.close()
+        raise FileFormatError(f"{path}: expected a single .npy array, found an .npz archive")
+    if arr.dtype.kind not in "fiu":
+        raise FileFormatError(f"{path}: the array must be numeric, got dtype {arr.dtype}")
+    arr = _check_pose_array(arr, str(path))
+    poses = arr[..., :2]
+    confidence = arr[..., 2].copy() if arr.shape[-1] == 3 else None
+    missing = np.zeros(poses.shape[:2], dtype=bool)
+    poses, missing = _finish(poses, missing, confidence, threshold)
+    return KeypointSet(poses, missing, confidence, None, {})
+
+
+def _parse_float(text, path, line, column):
+    text = text.strip()
+    if text == "":
+        return math.nan
+    try:
+        value = float(text)
+    except ValueError:
+        raise FileFormatError(
+            f"{path}, line {line}, column {column!r}: {text!r} is not a number"
+        ) from None
+    if math.isinf(value):
+        raise FileFormatError(
+            f"{path}, line {line}, column {column!r}: infinite coordinate {text!r}"
+        )
+    return value
+
+
+def _read_csv(path, threshold):
+    with open(path, newline="", encoding="utf-8") as f:
+        reader = csv.reader(f)
+        try:
+            header = next(reader)
+        except StopIteration:
+            raise FileFormatError(f"{path}: empty file; expected a header row") from None
+        except csv.Error as exc:
+            raise FileFormatError(f"{path}, line 1: {exc}") from None
+        header = [h.strip() for h in header]
+        columns = _csv_columns(header, path)
+        rows = []
+        try:
+            for fields in reader:
+                if not fields or all(not x.strip() for x in fields) and len(fields) <= 1:
+                    continue  # blank line
+                if len(fields) != len(header):
+                    raise FileFormatError(
+                        f"{path}, line {reader.line_num}: {len(fields)} fields, "
+                        f"the header has {len(header)}"
+                    )
+                rows.append((reader.line_num, fields))
+        except csv.Error as exc:
+            raise FileFormatError(f"{path}, line {reader.line_num}: {exc}") from None
+
+    n = len(rows)
+    poses = np.full((n, N_JOINTS, 2), np.nan)
+    conf = np.full((n, N_JOINTS), np.nan) if columns["conf"] else None
+    ids = [] if "id" in columns else None
+    extra = {name: [] for name in columns["extra"]}
+    for r, (line, fields) in enumerate(rows):
+        for (j, axis), c in columns["xy"].items():
+            poses[r, j, axis] = _parse_float(fields[c], path, line, header[c])
+        for j, c in columns["conf"].items():
+            conf[r, j] = _parse_float(fields[c], path, line, header[c])
+        if ids is not None:
+            ids.append(fields[columns["id"]].strip())
+        for name, c in columns["extra"].items():
+            extra[name].append(fields[c])
+    missing = np.zeros((n, N_JOINTS), dtype=bool)
+    poses, missing = _finish(poses, missing, conf, threshold)
+    ids = None if ids is None else np.asarray(ids, dtype=str).reshape(n)
+    return KeypointSet(poses, missing, conf, ids, {"extra_columns": extra})
+
+
+def _csv_columns(header, path):
+    """Map header names to column indices, with clear errors."""
+    xy, conf, extra = {}, {}, {}
+    out = {"xy": xy, "conf": conf, "extra": extra}
+    seen = set()
+    for c, name in enumerate(header):
+        if name in seen:
+            raise FileFormatError(f"{path}, line 1: column {name!r} appears twice")
+        seen.add(name)
+        if name == "id":
+            out["id"] = c
+            continue
+        stem, _, suffix = name.rpartition("_")
+        if stem and suffix in ("x", "y", "conf"):
+            if stem not in JOINT_NAMES:
+                raise FileFormatError(
+                    f"{path}, line 1: column {name!r} names an unknown joint "
+                    f"{stem!r}; joints: {', '.join(JOINT_NAMES)}"
+                )
+            j = JOINT_NAMES.index(stem)
+            if suffix == "conf":
+                conf[j] = c
+            else:
+                xy[(j, "xy".index(suffix))] = c
+        else:
+            extra[name] = c
+    absent = [
+        f"{JOINT_NAMES[j]}_{'xy'[a]}"
+        for j in range(N_JOINTS) for a in (0, 1) if (j, a) not in xy
+    ]
+    if absent:
+        raise FileFormatError(
+            f"{path}, line 1: missing column(s) {', '.join(absent)}; a keypoint CSV "
+            "needs <joint>_x and <joint>_y for all 14 joints"
+        )
+    if conf and len(conf) != N_JOINTS:
+        absent = [f"{JOINT_NAMES[j]}_conf" for j in range(N_JOINTS) if j not in conf]
+        raise FileFormatError(
+            f"{path}, line 1: <joint>_conf columns must be given for all 14 joints "
+            f"or none; missing {', '.join(absent)}"
+        )
+    return out
+
+
+def _read_coco(path, threshold):
+    try:
+        with open(path, encoding="utf-8") as f:
+            doc = json.load(f)
+    except json.JSONDecodeError as exc:
+        raise FileFormatError(
+            f"{path}: invalid or truncated JSON at line {exc.lineno}, column "
+            f"{exc.colno}: {exc.msg}"
+        ) from None
+    except UnicodeDecodeError as exc:
+        raise FileFormatError(f"{path}: not UTF-8 text ({exc})") from None
+    if isinstance(doc, dict):
+        if not isinstance(doc.get("annotations"), list):
+            raise FileFormatError(
+                f"{path}: a COCO JSON object needs an 'annotations' list"
+            )
+        anns = doc["annotations"]
+    elif isinstance(doc, list):
+        anns = doc
+    else:
+        raise FileFormatError(
+            f"{path}: expected a list of annotations or an object with "
+            f"'annotations', got {type(doc).__name__}"
+        )
+    n = len(anns)
+    coco = np.zeros((n, 17, 3))
+    stored = {}  # annotation index -> its "sparseedm" neck / head_top
+    ids = []
+    for a, ann in enumerate(anns):
+        where = f"{path}: annotation {a}"
+        if not isinstance(ann, dict) or "keypoints" not in ann:
+            raise FileFormatError(f"{where} has no 'keypoints'")
+        kp = ann["keypoints"]
+        if not isinstance(kp, list) or len(kp) != 51:
+            count = len(kp) if isinstance(kp, list) else type(kp).__name__
+            raise FileFormatError(
+                f"{where}: 'keypoints' has {count} values; COCO-17 needs 51 "
+                "(x, y, v for each of 17 keypoints)"
+            )
+        try:
+            coco[a] = np.asarray(kp, dtype=float).reshape(17, 3)
+        except (TypeError, ValueError):
+            raise FileFormatError(f"{where}: 'keypoints' holds non-numeric values") from None
+        image_id = ann.get("image_id")
+        ids.append("" if image_id is None else str(image_id))
+        extra = ann.get("sparseedm")
+        if isinstance(extra, dict):
+            stored[a] = extra
+    if not np.isfinite(coco).all():
+        a = int(np.argwhere(~np.isfinite(coco))[0][0])
+        raise FileFormatError(f"{path}: annotation {a}: non-finite keypoint value")
+
+    xy, v = coco[..., :2], coco[..., 2]
+    coco_missing = ~(v > 0)
+    if threshold is not None:
+        coco_missing |= v < threshold
+    poses, missing, conf = _coco_to_14(xy, v, coco_missing)
+    for a, extra in stored.items():
+        for j, key in ((_NECK, "neck"), (_HEAD_TOP, "head_top")):
+            value = extra.get(key)
+            if value is None:
+                continue
+            try:
+                poses[a, j] = np.asarray(value, dtype=float).reshape(2)
+            except (TypeError, ValueError):
+                raise FileFormatError(
+                    f"{path}: annotation {a}: 'sparseedm.{key}' must be [x, y]"
+                ) from None
+            missing[a, j] = False
+    meta = {"coco_document": doc, "coco_missing": coco_missing}
+    return KeypointSet(poses, missing, conf, np.asarray(ids, dtype=str).reshape(n), meta)
+
+
+def _coco_to_14(xy, v, coco_missing):
+    n = len(xy)
+    poses = np.full((n, N_JOINTS, 2), np.nan)
+    conf = np.zeros((n, N_JOINTS))
+    for j, c in COCO_TO_14.items():
+        poses[:, j] = xy[:, c]
+        conf[:, j] = v[:, c]
+    neck_ok = ~(coco_missing[:, _COCO_LS] | coco_missing[:, _COCO_RS])
+    neck = (xy[:, _COCO_LS] + xy[:, _COCO_RS]) / 2
+    poses[:, _NECK] = neck
+    conf[:, _NECK] = np.minimum(v[:, _COCO_LS], v[:, _COCO_RS])
+    head_present = ~coco_missing[:, _COCO_HEAD]                  # (n, 5)
+    n_head = head_present.sum(axis=1)
+    head_sum = np.where(head_present[..., None], xy[:, _COCO_HEAD], 0.0).sum(axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        head_centre = head_sum / n_head[:, None]
+    poses[:, _HEAD_TOP] = head_centre + HEAD_TOP_FACTOR * (head_centre - neck)
+    head_v = np.where(head_present, v[:, _COCO_HEAD], np.inf).min(axis=1)
+    conf[:, _HEAD_TOP] = np.where(n_head > 0, np.minimum(head_v, conf[:, _NECK]), 0.0)
+    missing = np.zeros((n, N_JOINTS), dtype=bool)
+    for j, c in COCO_TO_14.items():
+        missing[:, j] = coco_missing[:, c]
+    missing[:, _NECK] = ~neck_ok
+    missing[:, _HEAD_TOP] = ~neck_ok | (n_head == 0)
+    poses = np.where(missing[..., None], np.nan, poses)
+    return poses, missing, conf
+
+
+# --------------------------------------------------------------------------
+# writing
+
+
+def write_keypoints(
+    path,
+    poses,
+    missing=None,
+    *,
+    format=None,
+    confidence=None,
+    ids=None,
+    extra_columns=None,
+    meta=None,
+):
+    """Write 2D keypoints atomically; the format comes from the extension.
+
+    Parameters
+    ----------
+    path : str or path-like
+    poses : array_like, shape (n, 14, 2), or KeypointSet
+        Coordinates; NaN marks a missing joint. A :class:`KeypointSet` supplies
+        the defaults of `missing`, `confidence`, `ids` and `meta`.
+    missing : array_like of bool, shape (n, 14), optional
+        Joints to write as missing whatever their coordinates.
+    format : {"npz", "npy", "csv", "coco"}, optional
+    confidence : array_like, shape (n, 14), optional
+        Written to npz (``confidence``), npy (third column) and CSV
+        (``<joint>_conf``); COCO keeps the original file's values.
+    ids : sequence of str, shape (n,), optional
+        Image / frame ids (npz ``ids``, CSV ``id``, COCO ``image_id`` when
+        writing without COCO meta).
+    extra_columns : dict of str -> sequence, optional
+        CSV only: more per-row columns (e.g. ``{"status": [...]}``), written
+        after the joint columns. Default: those kept in ``meta``.
+    meta : dict, optional
+        The ``meta`` of a :func:`read_keypoints` result: COCO output writes
+        the original document back (see the module docstring).
+
+    Returns
+    -------
+    pathlib.Path
+        The written path.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> import numpy as np
+    >>> poses = np.ones((1, 14, 2))
+    >>> path = os.path.join(tempfile.mkdtemp(), "out.npz")
+    >>> write_keypoints(path, poses, ids=["a"]).name
+    'out.npz'
+    >>> sorted(np.load(path).files)
+    ['ids', 'missing', 'poses']
+    """
+    path = Path(path)
+    fmt = _format_of(path, format)
+    if isinstance(poses, KeypointSet):
+        kps = poses
+        poses = kps.poses
+        missing = kps.missing if missing is None else missing
+        confidence = kps.confidence if confidence is None else confidence
+        ids = kps.ids if ids is None else ids
+        meta = kps.meta if meta is None else meta
+    meta = meta or {}
+    where = f"writing {path}"
+    poses = np.asarray(poses, dtype=float)
+    if poses.ndim != 3 or poses.shape[-1] != 2:
+        raise FileFormatError(f"{where}: poses must have shape (n, 14, 2), got {poses.shape}")
+    if poses.shape[1] != N_JOINTS:
+        raise _joint_count_error(f"{where}: poses", poses.shape[1])
+    n = len(poses)
+    mask = np.zeros((n, N_JOINTS), dtype=bool)
+    if missing is not None:
+        mask = _optional(missing, n, "missing", where, bool).copy()
+    mask |= ~np.isfinite(poses).all(axis=-1)
+    poses = np.where(mask[..., None], np.nan, poses)
+    confidence = _optional(confidence, n, "confidence", where, float)
+    if ids is not None:
+        ids = _optional(np.asarray(ids).astype(str), n, "ids", where, str)
+
+    if fmt == "npz":
+        arrays = dict(meta.get("npz_extra") or {})
+        arrays.update(poses=poses, missing=mask)
+        if confidence is not None:
+            arrays["confidence"] = confidence
+        if ids is not None:
+            arrays["ids"] = ids
+        with atomic_path(path) as tmp:
+            np.savez(tmp, **arrays)
+    elif fmt == "npy":
+        arr = poses if confidence is None else np.concatenate(
+            [poses, confidence[..., None]], axis=-1
+        )
+        if ids is not None:
+            warnings.warn(f"{path}: .npy files cannot hold ids; they were not written",
+                          stacklevel=2)
+        with atomic_path(path) as tmp:
+            np.save(tmp, arr)
+    elif fmt == "csv":
+        if extra_columns is None:
+            extra_columns = meta.get("extra_columns") or {}
+        _write_csv(path, poses, confidence, ids, extra_columns, where)
+    else:
+        _write_coco(path, poses, mask, ids, meta, where)
+    return path
+
+
+def _cell(value):
+    return "" if math.isnan(value) else repr(float(value))
+
+
+def _write_csv(path, poses, confidence, ids, extra_columns, where):
+    n = len(poses)
+    header = [] if ids is None else ["id"]
+    header += [f"{name}_{a}" for name in JOINT_NAMES for a in "xy"]
+    if confidence is not None:
+        header += [f"{name}_conf" for name in JOINT_NAMES]
+    extras = []
+    for name, values in extra_columns.items():
+        name = str(name)
+        stem, _, suffix = name.rpartition("_")
+        if name in header or name == "id" or (stem and suffix in ("x", "y", "conf")):
+            raise FileFormatError(
+                f"{where}: extra column {name!r} clashes with the keypoint columns"
+            )
+        values = list(values)
+        if len(values) != n:
+            raise FileFormatError(
+                f"{where}: extra column {name!r} has {len(values)} values for {n} poses"
+            )
+        header.append(name)
+        extras.append(values)
+    with atomic_path(path) as tmp:
+        with open(tmp, "w", newline="", encoding="utf-8") as f:
+            writer = csv.writer(f)
+            writer.writerow(header)
+            for r in range(n):
+                row = [] if ids is None else [ids[r]]
+                row += [_cell(v) for v in poses[r].ravel()]
+                if confidence is not None:
+                    row += [_cell(v) for v in confidence[r]]
+                row += ["" if col[r] is None else str(col[r]) for col in extras]
+                writer.writerow(row)
+
+
+def _xy_or_none(p):
+    return None if np.isnan(p).any() else [float(p[0]), float(p[1])]
+
+
+def _write_coco(path, poses, mask, ids, meta, where):
+    n = len(poses)
+    fresh = meta.get("coco_document") is None
+    if not fresh:
+        doc = copy.deepcopy(meta["coco_document"])
+        anns = doc["annotations"] if isinstance(doc, dict) else doc
+        if len(anns) != n:
+            raise FileFormatError(
+                f"{where}: {n} poses for {len(anns)} annotations in the COCO document"
+            )
+        coco_missing = meta.get("coco_missing")
+        if coco_missing is None or np.shape(coco_missing) != (n, 17):
+            coco_missing = [[not (ann["keypoints"][3 * k + 2] > 0) for k in range(17)]
+                            for ann in anns]
+        coco_missing = np.asarray(coco_missing, dtype=bool).reshape(n, 17)
+        v_new = 1  # recovered, not labelled
+    else:
+        anns = []
+        for r in range(n):
+            image_id = ids[r] if ids is not None else str(r)
+            anns.append({
+                "image_id": int(image_id) if image_id.lstrip("-").isdigit() else image_id,
+                "category_id": 1,
+                "keypoints": [0.0] * 51,
+            })
+        doc = anns
+        coco_missing = np.ones((n, 17), dtype=bool)
+        v_new = 2  # nothing known about these joints: plain keypoints
+    for r, ann in enumerate(anns):
+        kp = list(ann["keypoints"])
+        filled = []
+        for j, c in sorted(COCO_TO_14.items(), key=lambda item: item[1]):
+            if coco_missing[r, c] and not mask[r, j]:
+                kp[3 * c: 3 * c + 3] = [float(poses[r, j, 0]), float(poses[r, j, 1]), v_new]
+                filled.append(COCO_KEYPOINTS[c])
+        ann["keypoints"] = kp
+        ann["sparseedm"] = {
+            "neck": _xy_or_none(poses[r, _NECK]),
+            "head_top": _xy_or_none(poses[r, _HEAD_TOP]),
+            "filled": [] if fresh else filled,
+        }
+    with atomic_path(path) as tmp:
+        with open(tmp, "w", encoding="utf-8") as f:
+            json.dump(doc, f)

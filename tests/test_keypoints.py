@@ -1,0 +1,494 @@
+"""Keypoint I/O: .npz/.npy, CSV and COCO-style JSON."""
+
+import csv
+import json
+import os
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, HealthCheck
+from hypothesis import strategies as st
+from hypothesis.extra import numpy as hnp
+
+from sparseedm.exceptions import FileFormatError, SparseEDMError
+from sparseedm.keypoints import (
+    COCO_KEYPOINTS,
+    HEAD_TOP_FACTOR,
+    KeypointSet,
+    read_keypoints,
+    write_keypoints,
+)
+from sparseedm.skeleton import JOINT_NAMES, SKELETON_14
+
+J = SKELETON_14.index
+
+
+def _poses(n=3, seed=0):
+    rng = np.random.default_rng(seed)
+    return rng.uniform(-50, 500, size=(n, 14, 2))
+
+
+def _assert_same(a, b):
+    np.testing.assert_array_equal(a, b)  # NaN == NaN for this helper
+
+
+# ---------------------------------------------------------------- npz / npy
+
+
+def test_npz_round_trip(tmp_path):
+    poses = _poses()
+    missing = np.zeros((3, 14), bool)
+    missing[0, J("left_wrist")] = missing[2, [0, 13]] = True
+    conf = np.full((3, 14), 0.9)
+    path = tmp_path / "k.npz"
+    write_keypoints(path, poses, missing, confidence=conf, ids=["a", "b", "c"])
+    kps = read_keypoints(path)
+    assert isinstance(kps, KeypointSet) and len(kps) == 3
+    _assert_same(kps.missing, missing)
+    assert np.isnan(kps.poses[missing]).all()
+    _assert_same(kps.poses[~missing], poses[~missing])
+    _assert_same(kps.confidence, conf)
+    assert kps.ids.tolist() == ["a", "b", "c"]
+    assert kps.meta["format"] == "npz"
+    # a KeypointSet writes itself back unchanged
+    write_keypoints(tmp_path / "k2.npz", kps)
+    again = read_keypoints(tmp_path / "k2.npz")
+    _assert_same(again.poses, kps.poses)
+    _assert_same(again.missing, kps.missing)
+
+
+def test_npz_missing_from_mask_nan_and_confidence(tmp_path):
+    poses = _poses(2)
+    poses[0, 3] = np.nan
+    missing = np.zeros((2, 14), bool)
+    missing[1, 5] = True
+    conf = np.ones((2, 14))
+    conf[1, 8] = 0.2
+    conf[0, 9] = 0.0  # zero confidence: always missing
+    np.savez(tmp_path / "k.npz", poses=poses, missing=missing, confidence=conf)
+    kps = read_keypoints(tmp_path / "k.npz", confidence_threshold=0.5)
+    expected = np.zeros((2, 14), bool)
+    expected[0, 3] = expected[1, 5] = expected[1, 8] = expected[0, 9] = True
+    _assert_same(kps.missing, expected)
+    assert np.isnan(kps.poses[expected]).all()
+    assert not np.isnan(kps.poses[~expected]).any()
+
+
+def test_npz_extra_arrays_round_trip(tmp_path):
+    np.savez(tmp_path / "k.npz", poses=_poses(2), frame_rate=np.array(30.0))
+    kps = read_keypoints(tmp_path / "k.npz")
+    write_keypoints(tmp_path / "out.npz", kps)
+    with np.load(tmp_path / "out.npz") as data:
+        assert float(data["frame_rate"]) == 30.0
+
+
+class _Boom:
+    """Unpickling this would create a file: the readers must never do it."""
+
+    def __init__(self, target):
+        self.target = target
+
+    def __reduce__(self):
+        return (open, (self.target, "w"))
+
+
+def test_npz_with_pickle_is_refused_not_executed(tmp_path):
+    target = tmp_path / "pwned"
+    ids = np.empty(2, dtype=object)
+    ids[:] = [_Boom(str(target)), "x"]
+    np.savez(tmp_path / "k.npz", poses=_poses(2), ids=ids)
+    with pytest.raises(FileFormatError, match="pickle"):
+        read_keypoints(tmp_path / "k.npz")
+    assert not target.exists()
+
+
+def test_npy_with_pickle_is_refused_not_executed(tmp_path):
+    target = tmp_path / "pwned"
+    arr = np.empty((1, 14, 2), dtype=object)
+    arr[0, 0, 0] = _Boom(str(target))
+    np.save(tmp_path / "k.npy", arr, allow_pickle=True)
+    with pytest.raises(FileFormatError, match="pickle"):
+        read_keypoints(tmp_path / "k.npy")
+    assert not target.exists()
+
+
+def test_npy_plain_and_with_confidence(tmp_path):
+    poses = _poses(2)
+    poses[1, 4] = np.nan
+    np.save(tmp_path / "p.npy", poses)
+    kps = read_keypoints(tmp_path / "p.npy")
+    assert kps.missing.sum() == 1 and kps.missing[1, 4]
+    assert kps.confidence is None
+
+    conf = np.ones((2, 14))
+    conf[0, 2] = 0.1
+    np.save(tmp_path / "c.npy", np.concatenate([_poses(2), conf[..., None]], -1))
+    kps = read_keypoints(tmp_path / "c.npy", confidence_threshold=0.3)
+    assert kps.missing.sum() == 1 and kps.missing[0, 2]
+    _assert_same(kps.confidence, conf)
+
+    write_keypoints(tmp_path / "w.npy", kps)
+    back = np.load(tmp_path / "w.npy")
+    assert back.shape == (2, 14, 3)
+    assert np.isnan(back[0, 2, :2]).all()
+
+
+def test_single_pose_array_is_one_pose(tmp_path):
+    np.save(tmp_path / "p.npy", _poses(1)[0])
+    assert read_keypoints(tmp_path / "p.npy").poses.shape == (1, 14, 2)
+
+
+def test_npy_ids_dropped_with_warning(tmp_path):
+    with pytest.warns(UserWarning, match="ids"):
+        write_keypoints(tmp_path / "p.npy", _poses(1), ids=["a"])
+
+
+@pytest.mark.parametrize("shape", [(2, 17, 2), (2, 13, 2)])
+def test_joint_count_mismatch(tmp_path, shape):
+    np.save(tmp_path / "p.npy", np.zeros(shape))
+    with pytest.raises(FileFormatError, match=f"{shape[1]} joints"):
+        read_keypoints(tmp_path / "p.npy")
+    np.savez(tmp_path / "p.npz", poses=np.zeros(shape))
+    with pytest.raises(FileFormatError, match=f"{shape[1]} joints"):
+        read_keypoints(tmp_path / "p.npz")
+    with pytest.raises(FileFormatError, match=f"{shape[1]} joints"):
+        write_keypoints(tmp_path / "out.csv", np.zeros(shape))
+
+
+@pytest.mark.parametrize("shape", [(2, 14, 4), (2, 14), (14,), (2, 3, 14, 2)])
+def test_wrong_array_shape(tmp_path, shape):
+    arr = np.zeros(shape)
+    np.save(tmp_path / "p.npy", arr)
+    with pytest.raises(FileFormatError, match="shape|joints"):
+        read_keypoints(tmp_path / "p.npy")
+
+
+def test_npz_errors(tmp_path):
+    np.savez(tmp_path / "a.npz", joints=_poses(1))
+    with pytest.raises(FileFormatError, match="'poses'"):
+        read_keypoints(tmp_path / "a.npz")
+    np.savez(tmp_path / "b.npz", poses=_poses(2), missing=np.zeros((2, 13), bool))
+    with pytest.raises(FileFormatError, match="missing must have shape"):
+        read_keypoints(tmp_path / "b.npz")
+    (tmp_path / "c.npz").write_bytes(b"PK\x03\x04 truncated")
+    with pytest.raises(FileFormatError, match="c.npz"):
+        read_keypoints(tmp_path / "c.npz")
+
+
+# ---------------------------------------------------------------------- CSV
+
+
+def test_csv_round_trip_with_ids_conf_and_extra_columns(tmp_path):
+    poses = _poses()
+    poses[1, 7] = np.nan
+    conf = np.random.default_rng(1).uniform(0.5, 1, (3, 14))
+    path = tmp_path / "k.csv"
+    write_keypoints(path, poses, confidence=conf, ids=["img1", "img2", "img3"],
+                    extra_columns={"status": ["ok", "recovered", "failed"]})
+    with open(path, newline="") as f:
+        header = next(csv.reader(f))
+    assert header[0] == "id"
+    assert header[1:29] == [f"{n}_{a}" for n in JOINT_NAMES for a in "xy"]
+    assert header[29:43] == [f"{n}_conf" for n in JOINT_NAMES]
+    assert header[43:] == ["status"]
+
+    kps = read_keypoints(path)
+    _assert_same(kps.poses, poses)  # repr() floats: exact
+    _assert_same(kps.confidence, conf)
+    assert kps.missing.sum() == 1 and kps.missing[1, 7]
+    assert kps.ids.tolist() == ["img1", "img2", "img3"]
+    assert kps.meta["extra_columns"] == {"status": ["ok", "recovered", "failed"]}
+
+    write_keypoints(tmp_path / "again.csv", kps)
+    assert (tmp_path / "again.csv").read_text() == path.read_text()
+
+
+def _header(id_col=True):
+    return (["id"] if id_col else []) + [f"{n}_{a}" for n in JOINT_NAMES for a in "xy"]
+
+
+def _write_rows(path, header, rows):
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(header)
+        w.writerows(rows)
+
+
+def test_csv_reads_any_column_order_blank_lines_and_nan(tmp_path):
+    header = _header(id_col=False)[::-1]
+    row = [str(float(i)) for i in range(28)]
+    row[0] = ""       # left_ankle_y empty -> left_ankle missing
+    row[3] = "NaN"    # left_knee_x -> left_knee missing
+    path = tmp_path / "k.csv"
+    _write_rows(path, header, [row, [], row])
+    kps = read_keypoints(path)
+    assert len(kps) == 2 and kps.ids is None
+    assert kps.missing[0].tolist() == [False] * 12 + [True, True]
+    assert kps.poses[0, J("head_top")].tolist() == [27.0, 26.0]
+
+
+def test_csv_wrong_field_count_names_line(tmp_path):
+    good = ["a"] + ["1"] * 28
+    path = tmp_path / "k.csv"
+    _write_rows(path, _header(), [good, good[:-3]])
+    with pytest.raises(FileFormatError, match=r"k\.csv, line 3: 26 fields"):
+        read_keypoints(path)
+
+
+def test_csv_non_numeric_names_line_and_column(tmp_path):
+    bad = ["a"] + ["1"] * 28
+    bad[3] = "abc"  # neck_x (after id, head_top_x, head_top_y)
+    path = tmp_path / "k.csv"
+    _write_rows(path, _header(), [["a"] + ["1"] * 28, bad])
+    with pytest.raises(FileFormatError, match=r"line 3, column 'neck_x': 'abc'"):
+        read_keypoints(path)
+
+
+def test_csv_header_errors(tmp_path):
+    path = tmp_path / "k.csv"
+    _write_rows(path, _header() + ["lefty_wrist_x"], [])
+    with pytest.raises(FileFormatError, match="unknown joint 'lefty_wrist'"):
+        read_keypoints(path)
+    _write_rows(path, _header()[:-1], [])
+    with pytest.raises(FileFormatError, match="missing column.*left_ankle_y"):
+        read_keypoints(path)
+    _write_rows(path, _header() + ["neck_conf"], [])
+    with pytest.raises(FileFormatError, match="all 14 joints or none"):
+        read_keypoints(path)
+    _write_rows(path, _header() + ["id"], [])
+    with pytest.raises(FileFormatError, match="twice"):
+        read_keypoints(path)
+    path.write_text("")
+    with pytest.raises(FileFormatError, match="empty"):
+        read_keypoints(path)
+
+
+def test_csv_extra_column_validation(tmp_path):
+    with pytest.raises(FileFormatError, match="2 values for 3 poses"):
+        write_keypoints(tmp_path / "k.csv", _poses(), extra_columns={"s": [1, 2]})
+    with pytest.raises(FileFormatError, match="clashes"):
+        write_keypoints(tmp_path / "k.csv", _poses(), extra_columns={"neck_x": [1, 2, 3]})
+
+
+# --------------------------------------------------------------------- COCO
+
+
+def _coco_kp(points):
+    """51 values from {coco_name: (x, y, v)}; others [0, 0, 0]."""
+    kp = [0.0] * 51
+    for name, xyv in points.items():
+        c = COCO_KEYPOINTS.index(name)
+        kp[3 * c: 3 * c + 3] = list(xyv)
+    return kp
+
+
+FULL = {
+    "nose": (100, 50, 2), "left_eye": (105, 45, 2), "right_eye": (95, 45, 2),
+    "left_ear": (110, 50, 1), "right_ear": (90, 50, 2),
+    "left_shoulder": (130, 100, 2), "right_shoulder": (70, 100, 2),
+    "left_elbow": (140, 150, 2), "right_elbow": (60, 150, 2),
+    "left_wrist": (145, 200, 2), "right_wrist": (55, 200, 2),
+    "left_hip": (120, 200, 2), "right_hip": (80, 200, 2),
+    "left_knee": (120, 280, 2), "right_knee": (80, 280, 2),
+    "left_ankle": (120, 360, 2), "right_ankle": (80, 360, 2),
+}
+
+
+def test_coco_mapping(tmp_path):
+    # head centre H = mean of the five head points = (100, 48); neck = (100, 100)
+    # head_top = H + 0.8 (H - neck) = (100, 48 - 0.8 * 52) = (100, 6.4)
+    ann = {"image_id": 42, "id": 5, "keypoints": _coco_kp(FULL), "num_keypoints": 17}
+    path = tmp_path / "a.json"
+    path.write_text(json.dumps({"images": [{"id": 42}], "annotations": [ann]}))
+    kps = read_keypoints(path)
+    assert HEAD_TOP_FACTOR == 0.8
+    assert kps.ids.tolist() == ["42"]
+    assert not kps.missing.any()
+    np.testing.assert_allclose(kps.poses[0, J("neck")], [100, 100])
+    np.testing.assert_allclose(kps.poses[0, J("head_top")], [100, 6.4])
+    for name in JOINT_NAMES[2:]:
+        assert kps.poses[0, J(name)].tolist() == list(FULL[name][:2])
+    assert kps.confidence[0, J("head_top")] == 1  # smallest used (left ear v=1)
+
+
+def test_coco_missing_rules(tmp_path):
+    no_head = {k: v for k, v in FULL.items() if k not in COCO_KEYPOINTS[:5]}
+    one_shoulder = dict(FULL, left_shoulder=(0, 0, 0))
+    only_nose = {k: v for k, v in FULL.items() if k not in COCO_KEYPOINTS[1:5]}
+    anns = [{"keypoints": _coco_kp(p)} for p in (no_head, one_shoulder, only_nose)]
+    path = tmp_path / "a.json"
+    path.write_text(json.dumps(anns))
+    kps = read_keypoints(path)
+    assert kps.ids.tolist() == ["", "", ""]
+    assert kps.missing[0].tolist() == [True] + [False] * 13
+    m1 = kps.missing[1]
+    assert m1[J("neck")] and m1[J("head_top")] and m1[J("left_shoulder")]
+    assert m1.sum() == 3
+    # nose only: H = nose (100, 50); head_top = (100, 50 - 0.8 * 50) = (100, 10)
+    np.testing.assert_allclose(kps.poses[2, J("head_top")], [100, 10])
+
+
+def test_coco_results_scores_and_threshold(tmp_path):
+    points = {k: (x, y, 0.9) for k, (x, y, _) in FULL.items()}
+    points["right_knee"] = (80, 280, 0.2)
+    path = tmp_path / "res.json"
+    path.write_text(json.dumps([{"image_id": 1, "category_id": 1,
+                                 "keypoints": _coco_kp(points), "score": 0.8}]))
+    assert not read_keypoints(path).missing.any()
+    kps = read_keypoints(path, confidence_threshold=0.5)
+    assert kps.missing[0].tolist() == [j == J("right_knee") for j in range(14)]
+    assert kps.confidence[0, J("right_knee")] == pytest.approx(0.2)
+
+
+def test_coco_write_back_fills_missing_limbs(tmp_path):
+    points = dict(FULL, left_wrist=(0, 0, 0), right_ankle=(0, 0, 0))
+    anns = [{"image_id": 7, "id": 3, "category_id": 1, "area": 12.5,
+             "keypoints": _coco_kp(points), "num_keypoints": 15}]
+    doc = {"info": {"v": 1}, "annotations": anns}
+    src = tmp_path / "gt.json"
+    src.write_text(json.dumps(doc))
+    kps = read_keypoints(src)
+    assert kps.missing[0, J("left_wrist")] and kps.missing[0, J("right_ankle")]
+
+    recovered = kps.poses.copy()
+    recovered[0, J("left_wrist")] = [146.5, 201.25]   # recovered by someone
+    out = tmp_path / "out.json"
+    write_keypoints(out, recovered, meta=kps.meta)
+    res = json.loads(out.read_text())
+    assert res["info"] == {"v": 1}
+    ann = res["annotations"][0]
+    for key in ("image_id", "id", "category_id", "area", "num_keypoints"):
+        assert ann[key] == anns[0][key]
+    c = COCO_KEYPOINTS.index("left_wrist")
+    assert ann["keypoints"][3 * c: 3 * c + 3] == [146.5, 201.25, 1]
+    c = COCO_KEYPOINTS.index("right_ankle")
+    assert ann["keypoints"][3 * c: 3 * c + 3] == [0, 0, 0]   # still missing
+    # untouched keypoints: exactly the originals
+    for c in range(17):
+        if COCO_KEYPOINTS[c] != "left_wrist":
+            assert ann["keypoints"][3 * c: 3 * c + 3] == anns[0]["keypoints"][3 * c: 3 * c + 3]
+    extra = ann["sparseedm"]
+    assert extra["filled"] == ["left_wrist"]
+    assert extra["neck"] == [100.0, 100.0]
+    assert extra["head_top"] == pytest.approx([100, 6.4])
+    # the original document in meta was not modified
+    assert "sparseedm" not in kps.meta["coco_document"]["annotations"][0]
+
+    back = read_keypoints(out)
+    _assert_same(back.poses, np.where(np.isnan(recovered), np.nan, recovered))
+
+
+def test_coco_sparseedm_field_overrides_derived_joints(tmp_path):
+    ann = {"keypoints": _coco_kp(FULL), "sparseedm": {"neck": [1, 2], "head_top": None}}
+    path = tmp_path / "a.json"
+    path.write_text(json.dumps([ann]))
+    kps = read_keypoints(path)
+    assert kps.poses[0, J("neck")].tolist() == [1, 2]
+    np.testing.assert_allclose(kps.poses[0, J("head_top")][1], 48 + 0.8 * (48 - 100))
+
+
+def test_coco_write_without_meta(tmp_path):
+    poses = _poses(2)
+    poses[1, J("left_knee")] = np.nan
+    out = tmp_path / "new.json"
+    write_keypoints(out, poses, ids=["12", "img_b"])
+    anns = json.loads(out.read_text())
+    assert [a["image_id"] for a in anns] == [12, "img_b"]
+    c = COCO_KEYPOINTS.index("left_knee")
+    assert anns[1]["keypoints"][3 * c: 3 * c + 3] == [0, 0, 0]
+    assert anns[0]["keypoints"][3 * c + 2] == 2
+    assert anns[0]["keypoints"][:15] == [0] * 15  # head keypoints unknown
+    back = read_keypoints(out)
+    _assert_same(back.poses, poses)
+
+
+@pytest.mark.parametrize(
+    "text, match",
+    [
+        ('[{"keypoints": [1, 2', "truncated JSON at line 1"),
+        ('[{"keypoints": [1, 2, 3]}]', "annotation 0: 'keypoints' has 3 values"),
+        ('[{"keypoints": %s}, {"bbox": []}]' % json.dumps([0] * 51),
+         "annotation 1 has no 'keypoints'"),
+        ('[{"keypoints": %s}]' % json.dumps(["a"] * 51), "annotation 0: .*non-numeric"),
+        ('{"images": []}', "'annotations' list"),
+        ('42', "list of annotations"),
+    ],
+)
+def test_coco_errors(tmp_path, text, match):
+    path = tmp_path / "bad.json"
+    path.write_text(text)
+    with pytest.raises(FileFormatError, match=match) as info:
+        read_keypoints(path)
+    assert "bad.json" in str(info.value)
+
+
+def test_coco_write_back_count_mismatch(tmp_path):
+    path = tmp_path / "a.json"
+    path.write_text(json.dumps([{"keypoints": _coco_kp(FULL)}]))
+    kps = read_keypoints(path)
+    with pytest.raises(FileFormatError, match="2 poses for 1 annotations"):
+        write_keypoints(tmp_path / "o.json", _poses(2), meta=kps.meta)
+
+
+# ---------------------------------------------------------- formats, atomic
+
+
+def test_format_selection(tmp_path):
+    with pytest.raises(FileFormatError, match=r"\.txt"):
+        read_keypoints(tmp_path / "k.txt")
+    with pytest.raises(FileFormatError, match="unknown keypoint format"):
+        write_keypoints(tmp_path / "k.csv", _poses(1), format="xml")
+    write_keypoints(tmp_path / "k.txt", _poses(1), format="csv")
+    assert read_keypoints(tmp_path / "k.txt", format="csv").meta["format"] == "csv"
+    write_keypoints(tmp_path / "k.dat", _poses(1), format="json")
+    assert len(read_keypoints(tmp_path / "k.dat", format="coco")) == 1
+    assert issubclass(FileFormatError, SparseEDMError)
+
+
+def test_failed_write_leaves_target_untouched(tmp_path, monkeypatch):
+    path = tmp_path / "k.csv"
+    write_keypoints(path, _poses(1))
+    before = path.read_text()
+
+    import sparseedm.keypoints as mod
+
+    def boom(value):
+        raise RuntimeError("disk on fire")
+
+    monkeypatch.setattr(mod, "_cell", boom)
+    with pytest.raises(RuntimeError):
+        write_keypoints(path, _poses(2))
+    assert path.read_text() == before
+    assert os.listdir(tmp_path) == ["k.csv"]
+
+
+# ------------------------------------------------------------- round trips
+
+finite = st.floats(-1e6, 1e6, allow_nan=False)
+
+
+@settings(max_examples=25, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(
+    poses=hnp.arrays(float, st.tuples(st.integers(0, 4), st.just(14), st.just(2)),
+                     elements=finite),
+    data=st.data(),
+    fmt=st.sampled_from(["npz", "csv", "npy"]),
+)
+def test_round_trip_property(tmp_path, poses, data, fmt):
+    missing = data.draw(hnp.arrays(bool, poses.shape[:2]))
+    path = tmp_path / f"rt.{fmt}"
+    write_keypoints(path, poses, missing)
+    kps = read_keypoints(path)
+    _assert_same(kps.missing, missing)
+    _assert_same(kps.poses, np.where(missing[..., None], np.nan, poses))
+
+
+def test_infinite_values_and_bad_keypointset(tmp_path):
+    poses = _poses(2)
+    poses[1, 3, 0] = np.inf
+    np.save(tmp_path / "p.npy", poses)
+    with pytest.raises(FileFormatError, match="pose 1, joint 'right_elbow'.*infinite"):
+        read_keypoints(tmp_path / "p.npy")
+    with pytest.raises(SparseEDMError, match="missing must have shape"):
+        KeypointSet(np.zeros((2, 14, 2)), np.zeros((2, 13), bool))
