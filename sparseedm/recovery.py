@@ -32,7 +32,7 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-from joblib import Parallel, delayed
+from joblib import Parallel, delayed, parallel_config
 from threadpoolctl import threadpool_limits
 
 from .dictionary import Dictionary, load_dictionary
@@ -170,7 +170,7 @@ def _validate(poses, missing, n_joints):
 
 def recover(poses, missing=None, *, dictionary=None, alpha=None,
             representation="average", solver="fast", n_jobs=1, chunk_size=2048,
-            positive=None, progress=False):
+            positive=None, progress=False, backend=None, scheduler=None):
     """Recover the occluded joints of 2D poses.
 
     Parameters
@@ -196,6 +196,13 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         Non-negative codes; default the dictionary's ``positive_code``.
     progress : bool, default False
         Show a progress bar over chunks.
+    backend : {None, "loky", "threading", "dask"}, optional
+        joblib backend for the chunks; None is joblib's default (loky
+        processes) when ``n_jobs != 1``. ``"dask"`` sends the chunks to a Dask
+        cluster (``pip install sparseedm[dask]``), all its workers being used.
+    scheduler : str, optional
+        With ``backend="dask"``: the scheduler address (``tcp://host:8786``);
+        None uses the Dask client already created in this process.
 
     Returns
     -------
@@ -220,12 +227,13 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
     with threadpool_limits(1, user_api="blas"):
         return _recover(poses, missing, dictionary=dictionary, alpha=alpha,
                         representation=representation, solver=solver, n_jobs=n_jobs,
-                        chunk_size=chunk_size, positive=positive, progress=progress)
+                        chunk_size=chunk_size, positive=positive, progress=progress,
+                        backend=backend, scheduler=scheduler)
 
 
 def _recover(poses, missing=None, *, dictionary=None, alpha=None,
              representation="average", solver="fast", n_jobs=1, chunk_size=2048,
-             positive=None, progress=False):
+             positive=None, progress=False, backend=None, scheduler=None):
     t0 = time.perf_counter()
     if not isinstance(dictionary, Dictionary):
         dictionary = load_dictionary(dictionary)
@@ -256,7 +264,8 @@ def _recover(poses, missing=None, *, dictionary=None, alpha=None,
     extent = np.where(mask[..., None], np.nan, clean)
     with np.errstate(invalid="ignore"), _quiet_nan():
         span = np.nanmax(extent, axis=1) - np.nanmin(extent, axis=1)
-    degenerate = (status == "recovered") & ~(np.nanmax(span, axis=1) > 0)
+        widest = np.nanmax(span, axis=1)  # all-NaN for a pose with no observed joint
+    degenerate = (status == "recovered") & ~(widest > 0)
     status[degenerate] = "degenerate"
     reason[degenerate] = "all observed joints coincide"
     complete = (status == "recovered") & (n_obs == N)
@@ -292,7 +301,8 @@ def _recover(poses, missing=None, *, dictionary=None, alpha=None,
         for start in range(0, len(rows), chunk_size):
             chunk = rows[start:start + chunk_size]
             tasks.append((chunk, obs_idx, key, alpha * scale_factor))
-    results = _run_tasks(solver, components, vectors, tasks, positive, n_jobs, progress)
+    results = _run_tasks(solver, components, vectors, tasks, positive, n_jobs, progress,
+                         backend, scheduler)
     for (chunk, obs_idx, _, _), (T_re, obj, g, st, act, fb) in zip(tasks, results):
         merged = T_re.copy()
         merged[:, obs_idx] = vectors[chunk][:, obs_idx]  # Eq. 10
@@ -334,20 +344,61 @@ class _quiet_nan:
         self._w.__exit__(*exc)
 
 
-def _run_tasks(solver, components, vectors, tasks, positive, n_jobs, progress):
+def _run_tasks(solver, components, vectors, tasks, positive, n_jobs, progress,
+               backend=None, scheduler=None):
     if not tasks:
         return []
     from tqdm.auto import tqdm
 
-    threads = None if n_jobs in (None, 1) else 1
+    distributed = backend == "dask"
+    threads = None if (n_jobs in (None, 1) and not distributed) else 1
     calls = (
         delayed(_solve_chunk)(solver, components, obs_idx, key, vectors[chunk][:, obs_idx],
                               a, positive, threads)
         for chunk, obs_idx, key, a in tasks
     )
-    if n_jobs in (None, 1):
-        return [f(*args, **kw) for f, args, kw in tqdm(
-            calls, total=len(tasks), disable=not progress, unit="chunk", desc="recover")]
-    parallel = Parallel(n_jobs=n_jobs, return_as="generator")
-    return list(tqdm(parallel(calls), total=len(tasks), disable=not progress,
-                     unit="chunk", desc="recover"))
+    bar = dict(total=len(tasks), disable=not progress, unit="chunk", desc="recover")
+    if distributed:
+        with _dask_client(scheduler):
+            with parallel_config(backend="dask"):
+                return list(tqdm(Parallel(n_jobs=-1, return_as="generator")(calls), **bar))
+    if n_jobs in (None, 1) and backend is None:
+        return [f(*args, **kw) for f, args, kw in tqdm(calls, **bar)]
+    with parallel_config(backend=backend):
+        return list(tqdm(Parallel(n_jobs=n_jobs, return_as="generator")(calls), **bar))
+
+
+class _dask_client:
+    """Connect to `scheduler` (closed afterwards), or use this process's client."""
+
+    def __init__(self, scheduler):
+        self.scheduler = scheduler
+        self.client = None
+
+    def __enter__(self):
+        try:
+            from distributed import Client, get_client
+        except ImportError:
+            raise SparseEDMError(
+                "backend='dask' needs dask.distributed: pip install 'sparseedm[dask]'"
+            ) from None
+        if self.scheduler:
+            try:
+                self.client = Client(self.scheduler, timeout="10s")
+            except OSError as exc:
+                raise SparseEDMError(
+                    f"cannot reach the Dask scheduler at {self.scheduler}: {exc}"
+                ) from None
+        else:
+            try:
+                get_client()
+            except ValueError:
+                raise SparseEDMError(
+                    "backend='dask' needs a scheduler address or a Client created "
+                    "in this process"
+                ) from None
+        return self
+
+    def __exit__(self, *exc):
+        if self.client is not None:
+            self.client.close()

@@ -20,3 +20,41 @@ def shared_data():
     if not SHARED_DATA.is_dir():
         pytest.skip(f"needs the real motion capture in {SHARED_DATA} (not present)")
     return SHARED_DATA
+
+
+# --------------------------------------------------------------------------
+# Recovery: real poses and a small dictionary learned from them (no ../shared)
+
+CMU_POSES = FIXTURES / "cmu_poses.npz"
+
+
+@pytest.fixture(scope="session")
+def cmu_poses():
+    """The 334 real CMU 2D poses of tests/fixtures/cmu_poses.npz, (n, 14, 2)."""
+    import numpy as np
+
+    with np.load(CMU_POSES, allow_pickle=False) as data:
+        return data["poses2d"].astype(float)
+
+
+@pytest.fixture(scope="session")
+def small_dictionary(cmu_poses):
+    """k=200 atoms learned in 2 passes over the fixture poses (a few seconds).
+
+    Stands in for the shipped dictionary, which tests must not depend on.
+    """
+    from sparseedm.dictionary import Dictionary
+    from sparseedm.learning import OnlineDictionaryLearning, complete_pose_vectors
+
+    X, _ = complete_pose_vectors(cmu_poses)
+    odl = OnlineDictionaryLearning(200, alpha=0.05, batch_size=64, n_passes=2,
+                                   random_state=0).fit(X)
+    return Dictionary(odl.components_, alpha_recover=0.002,
+                      provenance={"files": ["tests/fixtures/cmu_poses.npz"],
+                                  "n_poses": len(X)})
+
+
+@pytest.fixture(scope="session")
+def small_dictionary_path(small_dictionary, tmp_path_factory):
+    """`small_dictionary` saved with Dictionary.save (for --dictionary PATH)."""
+    return small_dictionary.save(tmp_path_factory.mktemp("dictionary") / "small.npz")

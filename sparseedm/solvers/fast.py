@@ -326,7 +326,8 @@ class FastSolver(BaseSolver):
             if bad.any():
                 from . import get_solver
 
-                backup = get_solver(self.fallback, tol=self.tol)
+                backup = (get_solver(self.fallback, tol=self.tol)
+                          if isinstance(self.fallback, str) else get_solver(self.fallback))
                 res = backup.solve(D, X[bad], alpha, positive=positive, key=key)
                 coef[bad] = res.coef
                 status[bad] = np.where(res.status == FAILED, FAILED, OPTIMAL)

@@ -1,0 +1,152 @@
+"""Speed and accuracy of sparseedm against its peers, measured in one run.
+
+``python -m benchmarks [--quick]`` runs :mod:`benchmarks.fit` (dictionary
+learning: ours vs SPAMS ``trainDL`` vs scikit-learn) and
+:mod:`benchmarks.recovery` (lasso recovery: our fast and Clarabel paths vs
+SPAMS ``lasso``, scikit-learn ``sparse_encode``, naive cvxpy), and rewrites the
+tables in ``benchmarks/README.md``.
+
+This module holds what both share: the CMU data and its by-clip split, the
+alphas, machine and version facts, and table formatting.
+"""
+
+from __future__ import annotations
+
+import os
+
+# OpenMP threads that spin-wait collapse when the 2 cores are shared with other
+# work (measured: SPAMS trainDL with numThreads=2 ran 40x slower than with 1
+# under a load average of 4); passive waiting removes that for every OpenMP
+# user here (SPAMS' libgomp and numba's omp layer alike). Set before either loads.
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+
+import json
+import platform
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+CMU_RAW = Path("/work/shared/data/cmu-mocap")
+#: where a prebuilt CMU training set may already be (same command, same seed)
+CMU_CANDIDATES = (Path("/tmp/work/cmu_train.npz"), Path("/tmp/bench/cmu.npz"))
+SELECTION = ROOT / "dictionaries" / "selection.json"
+SHIPPED_K2000 = ROOT / "dictionaries" / "cmu-k2000.npz"
+DEFAULT_ALPHA_TRAIN = 0.2
+DEFAULT_ALPHA_RECOVER = 0.0005
+
+
+def log(*args):
+    print(f"[{time.strftime('%H:%M:%S')}]", *args, file=sys.stderr, flush=True)
+
+
+def load_cmu():
+    """(poses2d, clips, path) of the CMU training set; built once if absent.
+
+    The set is ``sparseedm dataset build /work/shared/data/cmu-mocap --seed 0``.
+    """
+    for p in CMU_CANDIDATES:
+        if p.is_file():
+            break
+    else:
+        p = CMU_CANDIDATES[-1]
+        p.parent.mkdir(parents=True, exist_ok=True)
+        log(f"building the CMU training set into {p} (about 20 s)")
+        subprocess.run([sys.executable, "-m", "sparseedm", "dataset", "build", str(CMU_RAW),
+                        "-o", str(p), "--seed", "0", "-q"], check=True)
+    with np.load(p, allow_pickle=False) as npz:
+        return npz["poses2d"], npz["clips"], p
+
+
+def split_clips(clips):
+    """Held-out mask: every 5th clip in sorted order, starting at the 3rd.
+
+    The same split as ``dictionaries/select_alpha.py`` (by clip, never by frame).
+    """
+    names = sorted(set(clips.tolist()))
+    held = sorted(c for i, c in enumerate(names) if i % 5 == 2)
+    return np.isin(clips, held), held
+
+
+def held_out_sample(poses, n, seed=0):
+    """n held-out poses drawn as select_alpha.py draws its validation poses."""
+    rng = np.random.default_rng(seed)
+    return poses[np.sort(rng.choice(len(poses), min(n, len(poses)), replace=False))]
+
+
+def alphas():
+    """(alpha_train, alpha_recover, source) from dictionaries/selection.json 'best'."""
+    if SELECTION.is_file():
+        try:
+            best = json.loads(SELECTION.read_text())["best"]
+            return float(best["alpha_train"]), float(best["alpha_recover"]), str(SELECTION.relative_to(ROOT))
+        except (KeyError, ValueError, TypeError):
+            pass
+    return DEFAULT_ALPHA_TRAIN, DEFAULT_ALPHA_RECOVER, "defaults (dictionaries/selection.json absent)"
+
+
+def machine():
+    cpu = "unknown"
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    ram = "unknown"
+    try:
+        for line in Path("/proc/meminfo").read_text().splitlines():
+            if line.startswith("MemTotal"):
+                ram = f"{int(line.split()[1]) / 1024 ** 2:.1f} GiB"
+    except OSError:
+        pass
+    return {"cpu": cpu, "cores": os.cpu_count(), "ram": ram,
+            "python": platform.python_version(), "platform": platform.platform()}
+
+
+def versions():
+    out = {}
+    for mod in ("numpy", "scipy", "sklearn", "cvxpy", "clarabel", "numba", "joblib", "sparseedm"):
+        try:
+            out[mod] = __import__(mod).__version__
+        except Exception as exc:  # pragma: no cover - report, do not fail
+            out[mod] = f"unavailable ({exc.__class__.__name__})"
+    try:
+        from importlib.metadata import version
+
+        out["spams"] = version("spams-bin")
+    except Exception:
+        try:
+            out["spams"] = version("spams")
+        except Exception:
+            out["spams"] = "unavailable"
+    return out
+
+
+def loadavg():
+    try:
+        return tuple(round(x, 2) for x in os.getloadavg())
+    except OSError:  # pragma: no cover
+        return None
+
+
+def table(headers, rows):
+    """A GitHub markdown table."""
+    def fmt(v):
+        if isinstance(v, float):
+            if v != v:
+                return "n/a"
+            if abs(v) >= 100:
+                return f"{v:,.0f}"
+            if abs(v) >= 1:
+                return f"{v:.2f}"
+            return f"{v:.3g}"
+        return str(v)
+
+    lines = ["| " + " | ".join(headers) + " |", "|" + "|".join("---" for _ in headers) + "|"]
+    lines += ["| " + " | ".join(fmt(v) for v in r) + " |" for r in rows]
+    return "\n".join(lines)

@@ -1,0 +1,439 @@
+"""Recover the occluded joints of a whole keypoint file: chunked, atomic, with an errors file.
+
+:func:`recover_file` is what ``sparseedm recover`` runs. It
+
+1. reads the keypoints with :mod:`sparseedm.keypoints` (a ``.npy`` input is
+   memory-mapped and streamed chunk by chunk, never loaded whole);
+2. runs :func:`sparseedm.recovery.recover` on chunks of ``chunk_size`` poses,
+   keeping only the filled poses and the per-row status, so memory stays
+   bounded for millions of poses (the completed EDM vectors are kept only with
+   ``save_edm=True``);
+3. writes the filled poses in the input's format (or the one asked for) with
+   the per-row status, through :func:`sparseedm._atomic.atomic_path`: a crash,
+   Ctrl-C or bad input never leaves a half-written output;
+4. writes an errors file listing the refused rows, if any.
+
+Output per format
+-----------------
+Every output holds, per row, ``status`` (one of
+:data:`sparseedm.recovery.STATUSES`), ``reason``, ``objective`` and ``gap``
+(of the lasso; empty/NaN where none was solved) and ``n_active`` (atoms used):
+
+``.csv``   the joint columns plus the columns ``status, reason, objective, gap,
+           n_active`` (after any extra columns the input had);
+``.npz``   ``poses``, ``missing``, ``ids`` plus arrays ``status``, ``reason``,
+           ``objective``, ``gap``, ``n_active`` (and any extra arrays the input had);
+``.json``  COCO: the input document (or a results list) with the recovered
+           keypoints filled in (see :mod:`sparseedm.keypoints`) and the status
+           fields added to each annotation's ``"sparseedm"`` object;
+``.npy``   a plain (n, 14, 2) array cannot hold them: they go to a sidecar
+           ``<output stem>.status.npz`` (with ``ids`` when the input had them).
+
+Refused rows are written back as they were read (observed joints kept, the
+missing ones NaN / missing), so row i of the output is always row i of the
+input. Detector confidences are not written to csv/npz/npy outputs: a
+recovered joint has no detector confidence, and one of 0 would make readers
+treat it as missing again (COCO output keeps the original document, with
+``v = 1`` for recovered keypoints).
+
+``save_edm=True`` also stores the completed EDM vectors (normalised units,
+``edm_vectors`` (n, 91)) with their normalisation ``center`` (n, 2) and
+``scale`` (n,): inside an ``.npz`` output, else in a sidecar
+``<output stem>.edm.npz`` (for ``.npy`` output, in the ``.status.npz`` sidecar).
+
+Errors file
+-----------
+A CSV with header ``row,id,status,reason``: ``row`` is the 0-based pose
+index in the input (for a CSV input, line ``row + 2`` of the file), ``id``
+the pose's id ("" when the input has none). It is written only when some rows
+were refused; a stale errors file of an earlier run at the same path is
+removed otherwise.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import csv
+import json
+import math
+import time
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+from ._atomic import atomic_path
+from .dictionary import Dictionary, load_dictionary
+from .exceptions import FileFormatError, SparseEDMError
+from .keypoints import N_JOINTS, _EXTENSIONS, _finish, _format_of, read_keypoints, write_keypoints
+from .normalize import REPRESENTATIONS
+from .recovery import STATUSES, _OK, recover
+from .skeleton import JOINT_NAMES
+from .solvers import get_solver
+
+__all__ = ["recover_file", "default_errors_path", "STATUS_FIELDS"]
+
+#: Per-row fields every output carries (see the module docstring).
+STATUS_FIELDS = ("status", "reason", "objective", "gap", "n_active")
+_ERRORS_HEADER = ["row", "id", "status", "reason"]
+_SUFFIX = {"npz": ".npz", "npy": ".npy", "csv": ".csv", "coco": ".json"}
+
+
+def default_errors_path(output) -> Path:
+    """``<output stem>.errors.csv`` beside `output`."""
+    output = Path(output)
+    return output.with_name(output.stem + ".errors.csv")
+
+
+def _sidecar(output, what) -> Path:
+    output = Path(output)
+    return output.with_name(f"{output.stem}.{what}.npz")
+
+
+# --------------------------------------------------------------------------
+# input: one chunk iterator per source
+
+
+class _MemorySource:
+    """Keypoints read whole by :func:`read_keypoints` (csv, npz, COCO json)."""
+
+    def __init__(self, path, fmt, threshold):
+        self.kps = read_keypoints(path, format=fmt, confidence_threshold=threshold)
+        self.n = len(self.kps)
+        self.ids = self.kps.ids
+        self.meta = self.kps.meta
+
+    def chunk(self, start, stop):
+        return self.kps.poses[start:stop], self.kps.missing[start:stop]
+
+    def close(self):
+        pass
+
+
+class _NpySource:
+    """A ``.npy`` file memory-mapped and read chunk by chunk.
+
+    The same rules as :func:`read_keypoints` apply (shape (n, 14, 2) or
+    (n, 14, 3) with a confidence column; an infinite value is a file error).
+    """
+
+    def __init__(self, path, threshold, scan_chunk=200_000):
+        self.path = path
+        self.threshold = threshold
+        try:
+            arr = np.load(path, mmap_mode="r", allow_pickle=False)
+        except FileNotFoundError:
+            raise
+        except ValueError as exc:
+            if "pickle" in str(exc).lower():
+                raise FileFormatError(
+                    f"{path}: holds pickled Python objects, which sparseedm refuses "
+                    "to load (they can run code); save plain numeric arrays"
+                ) from None
+            raise FileFormatError(f"{path}: not a readable .npy file ({exc})") from None
+        except (OSError, EOFError, zipfile.BadZipFile) as exc:
+            raise FileFormatError(f"{path}: not a readable .npy file ({exc})") from None
+        if isinstance(arr, np.lib.npyio.NpzFile):
+            arr.close()
+            raise FileFormatError(f"{path}: expected a single .npy array, found an .npz archive")
+        if arr.dtype.kind not in "fiu":
+            raise FileFormatError(f"{path}: the array must be numeric, got dtype {arr.dtype}")
+        if arr.ndim == 2:
+            arr = arr[None]
+        if arr.ndim != 3 or arr.shape[-1] not in (2, 3):
+            raise FileFormatError(f"{path}: poses must have shape (n, 14, 2), got {arr.shape}")
+        if arr.shape[1] != N_JOINTS:
+            raise FileFormatError(
+                f"{path} has {arr.shape[1]} joints; sparseedm uses the 14-joint layout "
+                f"({', '.join(JOINT_NAMES)})"
+            )
+        # one cheap streaming pass first: a bad value found after an hour of
+        # recovery would waste the hour (the output would still be left untouched)
+        for start in range(0, len(arr), scan_chunk):
+            block = np.asarray(arr[start:start + scan_chunk])
+            if np.isinf(block).any():
+                r, j = (int(i) for i in np.argwhere(np.isinf(block))[0][:2])
+                raise FileFormatError(
+                    f"{path}: pose {start + r}, joint {JOINT_NAMES[j]!r} has an infinite value"
+                )
+        self.arr = arr
+        self.n = len(arr)
+        self.ids = None
+        self.meta = {}
+
+    def chunk(self, start, stop):
+        block = np.asarray(self.arr[start:stop], dtype=float)
+        poses = block[..., :2]
+        conf = block[..., 2] if block.shape[-1] == 3 else None
+        missing = np.zeros(poses.shape[:2], dtype=bool)
+        return _finish(poses, missing, conf, self.threshold)
+
+    def close(self):
+        mm = getattr(self.arr, "base", None)
+        with contextlib.suppress(Exception):
+            if hasattr(mm, "close"):
+                mm.close()
+        self.arr = None
+
+
+def _output_format(out_path, in_fmt, output_format):
+    if output_format is not None:
+        return _format_of(out_path, output_format)
+    ext = out_path.suffix.lower()
+    return _EXTENSIONS.get(ext, in_fmt)
+
+
+# --------------------------------------------------------------------------
+# the batch
+
+
+def recover_file(input, output, *, dictionary=None, alpha=None, representation="average",
+                 solver="fast", n_jobs=1, chunk_size=50_000, output_format=None,
+                 errors_path=None, progress=False, save_edm=False,
+                 confidence_threshold=0.0, backend=None, scheduler=None):
+    """Recover every pose of a keypoint file and write the filled poses.
+
+    Parameters
+    ----------
+    input : str or path-like
+        Keypoints in any format :func:`sparseedm.keypoints.read_keypoints`
+        reads (``.csv``, ``.npz``, ``.npy``, COCO ``.json``).
+    output : str or path-like
+        Where to write the filled poses; written atomically.
+    dictionary : Dictionary, str or path, optional
+        Default: the shipped default dictionary.
+    alpha : float, optional
+        Lasso penalty; default the dictionary's ``alpha_recover``.
+    representation : {"average", "zero"}
+    solver : {"fast", "clarabel", "cvxpy-naive"} or a BaseSolver
+    n_jobs : int, default 1
+        joblib workers (see :func:`sparseedm.recover`).
+    chunk_size : int, default 50_000
+        Poses recovered per call of :func:`sparseedm.recover`; bounds memory.
+    output_format : {"csv", "npz", "npy", "coco"}, optional
+        Default: from the output's extension, else the input's format.
+    errors_path : str or path-like, optional
+        Default ``<output stem>.errors.csv`` beside the output.
+    progress : bool, default False
+        A tqdm progress bar over poses.
+    save_edm : bool, default False
+        Also store the completed EDM vectors (see the module docstring).
+    confidence_threshold : float, default 0.0
+        Joints whose confidence is below it count as missing.
+
+    Returns
+    -------
+    dict
+        ``poses``, ``recovered_joints``, ``refused``, ``fallbacks``,
+        ``seconds``, ``poses_per_second``, ``status`` (counts per status),
+        ``output``, ``format``, ``errors`` (the errors file, or None),
+        ``sidecars`` (other files written).
+
+    Raises
+    ------
+    SparseEDMError
+        Whole-file problems (unreadable or malformed input, a dictionary that
+        does not fit, alpha <= 0, unknown representation); nothing is written.
+    """
+    t0 = time.perf_counter()
+    in_path, out_path = Path(input), Path(output)
+    errors_path = default_errors_path(out_path) if errors_path is None else Path(errors_path)
+    chunk_size = int(chunk_size)
+    if chunk_size < 1:
+        raise SparseEDMError(f"chunk_size must be >= 1, got {chunk_size}")
+    if representation not in REPRESENTATIONS:
+        raise SparseEDMError(
+            f"unknown representation {representation!r}; use one of {REPRESENTATIONS}"
+        )
+    if not isinstance(dictionary, Dictionary):
+        dictionary = load_dictionary(dictionary)
+    if alpha is not None and (not np.isscalar(alpha) or not np.isfinite(alpha) or not alpha > 0):
+        raise SparseEDMError(f"alpha must be a number > 0, got {alpha!r}")
+    try:
+        solver = get_solver(solver)  # one instance: its per-pattern caches serve every chunk
+    except ImportError as exc:
+        raise SparseEDMError(f"solver {solver!r} is not available ({exc})") from None
+    except ValueError as exc:
+        raise SparseEDMError(str(exc)) from None
+    if not in_path.exists():
+        raise FileNotFoundError(f"{in_path}: no such file")
+    in_fmt = _format_of(in_path, None)
+    out_fmt = _output_format(out_path, in_fmt, output_format)
+
+    source = _NpySource(in_path, confidence_threshold) if in_fmt == "npy" else \
+        _MemorySource(in_path, in_fmt, confidence_threshold)
+    try:
+        return _run(source, in_fmt, out_path, out_fmt, errors_path, dictionary, alpha,
+                    representation, solver, n_jobs, chunk_size, progress, save_edm, t0)
+    finally:
+        source.close()
+
+
+def _run(source, in_fmt, out_path, out_fmt, errors_path, dictionary, alpha,
+         representation, solver, n_jobs, chunk_size, progress, save_edm, t0):
+    from tqdm.auto import tqdm
+
+    n = source.n
+    status = np.empty(n, dtype=f"<U{max(map(len, STATUSES))}")
+    reason = np.empty(n, dtype=object)
+    objective = np.full(n, np.nan)
+    gap = np.full(n, np.nan)
+    n_active = np.zeros(n, dtype=np.int64)
+    fallback = np.zeros(n, dtype=bool)
+    recovered_joints = 0
+    edm = None
+    if save_edm:
+        m = dictionary.n_features
+        edm = {"edm_vectors": np.full((n, m), np.nan), "center": np.full((n, 2), np.nan),
+               "scale": np.full(n, np.nan)}
+
+    with contextlib.ExitStack() as stack:
+        # the temporary file gets the format's extension whatever the output's
+        # name: numpy would otherwise append ".npz" / ".npy" to it
+        out_tmp = stack.enter_context(atomic_path(out_path, suffix=_SUFFIX[out_fmt]))
+        sidecars = {}
+        if out_fmt == "npy":
+            sidecars["status"] = _sidecar(out_path, "status")
+        elif save_edm and out_fmt != "npz":
+            sidecars["edm"] = _sidecar(out_path, "edm")
+        side_tmp = {k: stack.enter_context(atomic_path(p, suffix=".npz"))
+                    for k, p in sidecars.items()}
+
+        if out_fmt == "npy" and n > 0:  # streamed straight to disk
+            filled = np.lib.format.open_memmap(out_tmp, mode="w+", dtype=np.float64,
+                                               shape=(n, N_JOINTS, 2))
+        else:
+            filled = np.empty((n, N_JOINTS, 2))
+
+        bar = tqdm(total=n, disable=not progress, unit="pose", desc="recover",
+                   dynamic_ncols=True)
+        with bar:
+            for start in range(0, n, chunk_size):
+                stop = min(start + chunk_size, n)
+                poses, missing = source.chunk(start, stop)
+                res = recover(poses, missing, dictionary=dictionary, alpha=alpha,
+                              representation=representation, solver=solver, n_jobs=n_jobs,
+                              backend=backend, scheduler=scheduler)
+                ok = res.ok
+                # refused rows are written back as read
+                filled[start:stop] = np.where(ok[:, None, None], res.poses, poses)
+                status[start:stop] = res.status
+                reason[start:stop] = res.reason
+                objective[start:stop] = res.objective
+                gap[start:stop] = res.gap
+                n_active[start:stop] = res.n_active
+                fallback[start:stop] = res.fallback
+                recovered_joints += int(res.missing[np.isin(res.status, ("recovered", "inaccurate"))].sum())
+                if edm is not None:
+                    edm["edm_vectors"][start:stop] = res.vectors
+                    edm["center"][start:stop] = res.center
+                    edm["scale"][start:stop] = res.scale
+                del res
+                bar.update(stop - start)
+
+        reason = reason.astype(str) if n else np.zeros(0, dtype="<U1")
+        fields = {"status": status, "reason": reason, "objective": objective, "gap": gap,
+                  "n_active": n_active}
+        ids = source.ids
+        _write_output(out_tmp, out_fmt, filled, ids, source.meta, in_fmt, fields, edm)
+        if "status" in sidecars:
+            extra = dict(fields)
+            if ids is not None:
+                extra["ids"] = ids
+            if edm is not None:
+                extra.update(edm)
+            np.savez(side_tmp["status"], **extra)
+        if "edm" in sidecars:
+            np.savez(side_tmp["edm"], **edm)
+        if isinstance(filled, np.memmap):
+            filled.flush()
+            del filled
+
+        refused = ~np.isin(status, _OK)
+        _write_errors(errors_path, refused, ids, status, reason)
+    seconds = time.perf_counter() - t0
+    counts = {s: int((status == s).sum()) for s in STATUSES}
+    return {
+        "poses": int(n),
+        "recovered_joints": recovered_joints,
+        "refused": int(refused.sum()),
+        "fallbacks": int(fallback.sum()),
+        "seconds": round(seconds, 3),
+        "poses_per_second": round(n / seconds, 1) if seconds > 0 else None,
+        "status": {k: v for k, v in counts.items() if v},
+        "output": str(out_path),
+        "format": out_fmt,
+        "errors": str(errors_path) if refused.any() else None,
+        "sidecars": [str(p) for p in sidecars.values()],
+    }
+
+
+def _write_output(tmp, fmt, filled, ids, meta, in_fmt, fields, edm):
+    if fmt == "npy":
+        if len(filled) == 0:
+            np.save(tmp, np.zeros((0, N_JOINTS, 2)))
+        return  # already streamed into the memmap
+    if fmt == "npz":
+        extra = dict(meta.get("npz_extra") or {}) if in_fmt == "npz" else {}
+        extra.update(fields)
+        if edm is not None:
+            extra.update(edm)
+        write_keypoints(tmp, filled, format="npz", ids=ids, meta={"npz_extra": extra})
+    elif fmt == "csv":
+        extra = dict(meta.get("extra_columns") or {}) if in_fmt == "csv" else {}
+        extra.update({
+            "status": fields["status"],
+            "reason": fields["reason"],
+            "objective": [_num(v) for v in fields["objective"]],
+            "gap": [_num(v) for v in fields["gap"]],
+            "n_active": fields["n_active"],
+        })
+        write_keypoints(tmp, filled, format="csv", ids=ids, extra_columns=extra)
+    else:  # coco: the original document (or a results list), status in "sparseedm"
+        write_keypoints(tmp, filled, format="coco", ids=ids,
+                        meta=meta if in_fmt == "coco" else None)
+        with open(tmp, encoding="utf-8") as f:
+            doc = json.load(f)
+        anns = doc["annotations"] if isinstance(doc, dict) else doc
+        for r, ann in enumerate(anns):
+            ann.setdefault("sparseedm", {}).update({
+                "status": str(fields["status"][r]),
+                "reason": str(fields["reason"][r]),
+                "objective": _json_num(fields["objective"][r]),
+                "gap": _json_num(fields["gap"][r]),
+                "n_active": int(fields["n_active"][r]),
+            })
+        with open(tmp, "w", encoding="utf-8") as f:
+            json.dump(doc, f)
+
+
+def _num(v):
+    return "" if math.isnan(v) else repr(float(v))
+
+
+def _json_num(v):
+    return None if math.isnan(v) else float(v)
+
+
+def _write_errors(path, refused, ids, status, reason):
+    if not refused.any():
+        _remove_stale_errors(path)
+        return
+    with atomic_path(path) as tmp:
+        with open(tmp, "w", newline="", encoding="utf-8") as f:
+            w = csv.writer(f)
+            w.writerow(_ERRORS_HEADER)
+            for r in np.flatnonzero(refused):
+                w.writerow([int(r), "" if ids is None else ids[r], status[r], reason[r]])
+
+
+def _remove_stale_errors(path):
+    """Remove an errors file an earlier run left at `path` (only if it is one)."""
+    path = Path(path)
+    if not path.is_file():
+        return
+    with contextlib.suppress(OSError, UnicodeDecodeError):
+        with open(path, encoding="utf-8") as f:
+            first = f.readline().strip()
+        if first == ",".join(_ERRORS_HEADER):
+            path.unlink()

@@ -1,0 +1,580 @@
+"""The paper's evaluation protocol (Table 2, Fig. 5) against baselines.
+
+Protocol (:func:`evaluate`)
+---------------------------
+1. The test poses (complete 2D poses, pixels) are the ground truth; at most
+   ``max_poses`` of them, a seeded subsample.
+2. For each occlusion count (1, 2, 3 joints or the Mix, where each pose draws
+   1-3) a seeded mask is drawn with :func:`sparseedm.metrics.random_occlusion`;
+   the seed depends on ``random_state`` and the count only, so every method and
+   representation sees the same masks, and so does :func:`sweep_atoms`.
+3. Each method completes the occluded poses; its completed EDM vector
+   (normalised units) times the pose's scale is compared with the ground-truth
+   pixel EDM by the paper's Err_ave (mean relative error over the N^2 - N
+   off-diagonal entries, in per cent; observed entries count with their
+   error, 0 for every method here). Err_ave is relative, so the unit cancels:
+   the same number results in normalised units of the ground truth.
+4. The filled poses give the 2D error of the occluded joints: pixels, and as
+   a fraction of the torso (ground-truth distance neck to mid-hip, the mid-hip
+   being the mean of the two hips).
+5. "Where it fails": poses whose highest or lowest joint in image y (y down)
+   is occluded -- the normalisation box of the observed joints is then
+   smaller than the pose's, the paper's main error source -- are reported
+   apart from the others.
+
+For the sparse method ``"zero"`` and ``"average"`` give the same observed
+sub-vector (both normalise by the observed bounding box), hence the same
+recovery; :func:`evaluate` runs both and records the largest difference
+(``report.sparse_representation_max_diff``). Among the baselines only
+``mean-fill`` reads the occluded entries; ``knn``, ``iterative`` and
+``nearest`` read the observed joints only, are run once per count and listed
+under both representations.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import time
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ._atomic import atomic_path
+from .baselines import BASELINES, fit_baseline, mean_fill
+from .dictionary import Dictionary, load_dictionary
+from .edm import pose_to_vector
+from .exceptions import DictionaryError, PoseError, SparseEDMError
+from .metrics import err_ave, joint_error, random_occlusion
+from .normalize import REPRESENTATIONS
+from .recovery import recover
+
+__all__ = ["evaluate", "sweep_atoms", "occlusion_masks", "torso_size",
+           "EvaluationReport", "METHODS", "RESULT_COLUMNS"]
+
+#: every method evaluate knows, in table order
+METHODS = ("sparse",) + tuple(BASELINES)
+#: methods whose output does not depend on the occlusion representation
+_REP_INDEPENDENT = ("knn", "iterative", "nearest")
+_COUNT_KEYS = {1: 1, 2: 2, 3: 3, "mix": 0}
+
+RESULT_COLUMNS = (
+    "method", "representation", "count", "n_poses", "n_failed",
+    "err_ave_mean", "err_ave_var", "err_ave_p95",
+    "joint_err_px", "joint_err_torso", "poses_per_s",
+    "n_extreme", "err_ave_extreme", "err_ave_other", "note",
+)
+
+
+def _check_counts(counts):
+    out = []
+    for c in counts:
+        c = str(c).lower()
+        if c == "mix":
+            out.append("mix")
+        elif c in ("1", "2", "3"):
+            out.append(int(c))
+        else:
+            raise SparseEDMError(f"unknown occlusion count {c!r}; use 1, 2, 3 or mix")
+    return tuple(out)
+
+
+def _check_methods(methods):
+    methods = tuple(methods)
+    unknown = [m for m in methods if m not in METHODS]
+    if unknown:
+        raise SparseEDMError(
+            f"unknown method(s) {', '.join(map(repr, unknown))}; known: {', '.join(METHODS)}"
+        )
+    return methods
+
+
+def occlusion_masks(n_poses, n_joints, counts=(1, 2, 3, "mix"), random_state=0):
+    """The protocol's seeded masks, one (n_poses, n_joints) array per count.
+
+    Each count's seed is ``(random_state, count)``: the same masks whatever
+    other counts or methods are run.
+
+    Examples
+    --------
+    >>> m = occlusion_masks(5, 14, (2, "mix"), random_state=0)
+    >>> m[2].sum(axis=1).tolist()
+    [2, 2, 2, 2, 2]
+    >>> bool((m["mix"] == occlusion_masks(5, 14, ("mix",), 0)["mix"]).all())
+    True
+    """
+    out = {}
+    for c in _check_counts(counts):
+        seed = None if random_state is None else np.random.SeedSequence(
+            [int(random_state), _COUNT_KEYS[c]])
+        out[c] = random_occlusion(n_poses, n_joints, c, random_state=np.random.default_rng(seed))
+    return out
+
+
+def torso_size(poses, joint_names):
+    """Ground-truth distance neck to mid-hip per pose (NaN if the joints are unnamed).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sparseedm.skeleton import JOINT_NAMES
+    >>> p = np.zeros((1, 14, 2)); p[0, 8] = [-1, 10]; p[0, 11] = [1, 10]
+    >>> torso_size(p, JOINT_NAMES).tolist()
+    [10.0]
+    """
+    names = list(joint_names)
+    try:
+        neck, rh, lh = (names.index(k) for k in ("neck", "right_hip", "left_hip"))
+    except ValueError:
+        return np.full(len(poses), np.nan)
+    mid = (poses[:, rh] + poses[:, lh]) / 2
+    return np.linalg.norm(poses[:, neck] - mid, axis=-1)
+
+
+def extreme_occluded(poses, missing):
+    """True where the highest or lowest joint in image y (y down) is occluded."""
+    rows = np.arange(len(poses))
+    top = poses[..., 1].argmin(axis=1)
+    bottom = poses[..., 1].argmax(axis=1)
+    return missing[rows, top] | missing[rows, bottom]
+
+
+@dataclass
+class EvaluationReport:
+    """What :func:`evaluate` returns.
+
+    Attributes
+    ----------
+    rows : list of dict
+        One per method x representation x count, keys :data:`RESULT_COLUMNS`.
+    per_action : list of dict
+        Mean Err_ave per label for the Mix (label, method, representation,
+        n_poses, err_ave_mean); empty without labels.
+    per_pose : dict
+        ``(method, representation, count) -> per-pose Err_ave array``.
+    masks : dict
+        ``count -> (n, N) mask`` used for every method.
+    examples : dict
+        A few Mix poses for figures: ``gt``, ``missing``, ``recovered``
+        (sparse, "average").
+    sparse_representation_max_diff : float or None
+        Largest |difference| between the sparse method's completed vectors
+        under "zero" and "average" (0 when they agree exactly).
+    notes : list of str
+        What was skipped and why.
+    settings : dict
+    sweep : list of dict
+        Filled by :func:`sweep_atoms` when attached.
+    """
+
+    rows: list
+    per_action: list
+    per_pose: dict
+    masks: dict
+    examples: dict
+    sparse_representation_max_diff: float | None
+    notes: list
+    settings: dict
+    sweep: list = field(default_factory=list)
+
+    def table(self, method=None, representation=None, count=None):
+        """Rows filtered by any of method / representation / count."""
+        return [r for r in self.rows
+                if (method is None or r["method"] == method)
+                and (representation is None or r["representation"] == representation)
+                and (count is None or str(r["count"]) == str(count))]
+
+    # ---------------------------------------------------------------- output
+    def to_csv(self) -> str:
+        return _csv(self.rows, RESULT_COLUMNS)
+
+    def per_action_csv(self) -> str:
+        return _csv(self.per_action,
+                    ("label", "method", "representation", "n_poses", "err_ave_mean"))
+
+    def to_markdown(self, figures=()) -> str:
+        s = self.settings
+        out = [
+            "# sparseedm evaluation",
+            "",
+            "## Protocol",
+            "",
+            f"- Test poses: {s['n_poses']} complete 2D poses (pixels), "
+            f"{s['n_joints']} joints; seed {s['random_state']}.",
+            f"- Dictionary: {s['dictionary']}",
+            "- Occlusion: for each count (1, 2, 3 joints, or Mix = 1-3 drawn per pose) a seeded "
+            "random mask (`sparseedm.metrics.random_occlusion`); the same masks for every "
+            "method and representation.",
+            "- **Err_ave** (the paper's metric, per cent): mean over the N^2-N off-diagonal "
+            "entries of |E_f - E_gt| / E_gt x 100, with E_f the completed EDM in pixels "
+            "(completed normalised vector x the pose's scale) and E_gt the ground-truth "
+            "pixel EDM. It is a relative error, so the unit cancels. Mean, variance and "
+            "95th percentile are over poses.",
+            "- **joint px**: mean Euclidean error of the occluded joints, pixels (mean over "
+            "poses of each pose's mean); **joint/torso**: the same as a fraction of the "
+            "ground-truth torso (neck to mid-hip).",
+            "- **poses/s**: completion throughput (baseline fitting excluded).",
+            "- Representations: `average` puts occluded joints at the mean of the observed, "
+            "`zero` zeroes their EDM entries. The sparse method reads only observed "
+            "entries, which are identical under both (same normalisation by the observed "
+            "bounding box)" + (
+                f": measured max |difference| of the completed vectors = "
+                f"{self.sparse_representation_max_diff:.3g}."
+                if self.sparse_representation_max_diff is not None else "."),
+            "  knn, iterative and nearest also read only the observed joints: computed once, "
+            "listed under both. Only mean-fill differs between them.",
+            "",
+        ]
+        if self.notes:
+            out += ["## Skipped / notes", ""] + [f"- {n}" for n in self.notes] + [""]
+        out += ["## Results", ""]
+        cols = ("method", "representation", "count", "n_poses", "n_failed", "err_ave_mean",
+                "err_ave_var", "err_ave_p95", "joint_err_px", "joint_err_torso", "poses_per_s")
+        heads = ("method", "repr.", "occluded", "poses", "failed", "Err_ave %", "var",
+                 "p95 %", "joint px", "joint/torso", "poses/s")
+        out += _md_table(self.rows, cols, heads) + [""]
+        out += [
+            "## Where it fails",
+            "",
+            "Poses whose highest or lowest joint in image y is occluded (the observed "
+            "bounding box, and so the normalisation, shifts) vs the others; Err_ave %.",
+            "",
+        ]
+        cols = ("method", "representation", "count", "n_extreme", "err_ave_extreme",
+                "err_ave_other")
+        heads = ("method", "repr.", "occluded", "poses with extreme occluded",
+                 "Err_ave extreme %", "Err_ave others %")
+        first = self.settings["representations"][0]
+        # one representation, plus mean-fill's other one (the only method it changes)
+        fail_rows = [r for r in self.rows
+                     if r["representation"] == first or r["method"] == "mean-fill"]
+        out += _md_table(fail_rows, cols, heads) + [""]
+        if self.per_action:
+            out += ["## Per action (Mix, representation average)", "",
+                    "Mean Err_ave % per label."]
+            methods = list(dict.fromkeys(r["method"] for r in self.per_action))
+            labels = list(dict.fromkeys(r["label"] for r in self.per_action))
+            wide = []
+            for lab in labels:
+                row = {"label": lab}
+                for r in self.per_action:
+                    if r["label"] == lab and r["representation"] == "average":
+                        row[r["method"]] = r["err_ave_mean"]
+                        row["n_poses"] = r["n_poses"]
+                wide.append(row)
+            out += [""] + _md_table(wide, ["label", "n_poses"] + methods,
+                                    ["label", "poses"] + methods) + [""]
+        if self.sweep:
+            out += ["## Error and time vs number of atoms (Fig. 5)", ""]
+            out += _md_table(self.sweep, ("atoms", "err_ave_mix", "ms_per_pose", "fit_seconds",
+                                          "note"),
+                             ("atoms", "Mix Err_ave %", "ms / pose", "fit s", "note")) + [""]
+        if figures:
+            out += ["## Figures", ""] + [f"![{Path(f).stem}]({Path(f).name})" for f in figures]
+            out += [""]
+        return "\n".join(out)
+
+    def write(self, directory, *, figures=True):
+        """Write report.md, results.csv, per_action.csv (and PNGs) into `directory`.
+
+        Returns the list of files written and a message when figures were not
+        made (matplotlib missing).
+        """
+        directory = Path(directory)
+        directory.mkdir(parents=True, exist_ok=True)
+        written, figs, message = [], [], None
+        if figures:
+            try:
+                from . import plotting
+            except ImportError:  # pragma: no cover - plotting itself has no hard deps
+                plotting = None
+            if plotting is not None and plotting.have_matplotlib():
+                figs = plotting.report_figures(self, directory)
+            else:
+                message = ("figures skipped: matplotlib is not installed "
+                           "(pip install sparseedm[plot])")
+                self.notes.append(message)
+        for name, text in (("results.csv", self.to_csv()),
+                           ("per_action.csv", self.per_action_csv()),
+                           ("report.md", self.to_markdown(figs))):
+            path = directory / name
+            with atomic_path(path) as tmp:
+                Path(tmp).write_text(text)
+            written.append(path)
+        return written + list(figs), message
+
+
+def _fmt(v):
+    if isinstance(v, float):
+        if not np.isfinite(v):
+            return "-"
+        if abs(v) < 1e-9:
+            return "0"
+        return f"{v:.4g}" if abs(v) < 1000 else f"{v:.0f}"
+    return str(v)
+
+
+def _md_table(rows, cols, heads):
+    lines = ["| " + " | ".join(heads) + " |", "|" + "---|" * len(heads)]
+    for r in rows:
+        lines.append("| " + " | ".join(_fmt(r.get(c, "")) for c in cols) + " |")
+    return lines
+
+
+def _csv(rows, cols):
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=list(cols), extrasaction="ignore", lineterminator="\n")
+    w.writeheader()
+    for r in rows:
+        w.writerow({k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in r.items()})
+    return buf.getvalue()
+
+
+def _stat(x, fn):
+    x = x[np.isfinite(x)]
+    return float(fn(x)) if len(x) else float("nan")
+
+
+def _check_poses(poses, name, n_joints):
+    poses = np.asarray(poses, dtype=float)
+    if poses.ndim != 3 or poses.shape[-1] != 2:
+        raise PoseError(f"{name} must have shape (n, N, 2), got {poses.shape}")
+    if poses.shape[1] != n_joints:
+        raise DictionaryError(
+            f"the dictionary is for {n_joints} joints ({n_joints * (n_joints - 1) // 2} "
+            f"distances) but {name} have {poses.shape[1]} joints"
+        )
+    return poses
+
+
+def _complete_rows(poses):
+    ok = np.isfinite(poses).all(axis=(1, 2))
+    span = np.ptp(np.where(np.isfinite(poses), poses, 0), axis=1).max(axis=1)
+    return ok & (span > 0)
+
+
+def evaluate(dictionary, test_poses2d, *, train_poses2d=None, labels=None,
+             methods=("sparse", "mean-fill", "knn", "iterative", "nearest"),
+             counts=(1, 2, 3, "mix"), representations=("average", "zero"),
+             random_state=0, n_jobs=1, max_poses=None, max_train=20000,
+             alpha=None, solver="fast", n_examples=4):
+    """Run the paper's protocol for each method x count x representation.
+
+    Parameters
+    ----------
+    dictionary : Dictionary, str or path
+    test_poses2d : array_like (n, N, 2)
+        Complete ground-truth poses in pixels; incomplete rows are dropped (noted).
+    train_poses2d : array_like (n_train, N, 2), optional
+        Needed by knn, iterative and nearest; without it they are skipped (noted).
+    labels : array_like of str (n,), optional
+        Action labels for the per-action table (Mix).
+    methods : sequence of str
+        Any of :data:`METHODS`.
+    counts : sequence of {1, 2, 3, "mix"}
+    representations : sequence of {"average", "zero"}
+    random_state : int
+    n_jobs : int
+        joblib workers for the sparse recovery.
+    max_poses : int, optional
+        Evaluate a seeded subsample of this many test poses.
+    max_train : int, default 20000
+        Training poses kept for the baselines.
+    alpha, solver
+        Passed to :func:`sparseedm.recover`.
+    n_examples : int
+        Mix poses kept in ``report.examples`` for figures.
+
+    Returns
+    -------
+    EvaluationReport
+    """
+    methods = _check_methods(methods)
+    counts = _check_counts(counts)
+    for r in representations:
+        if r not in REPRESENTATIONS:
+            raise SparseEDMError(f"unknown representation {r!r}; use one of {REPRESENTATIONS}")
+    if not isinstance(dictionary, Dictionary):
+        dictionary = load_dictionary(dictionary)
+    N = dictionary.n_joints
+    gt = _check_poses(test_poses2d, "test poses", N)
+    notes = []
+    if labels is not None:
+        labels = np.asarray(labels).astype(str)
+        if labels.shape != (len(gt),):
+            raise PoseError(f"labels must have shape ({len(gt)},), got {labels.shape}")
+    ok = _complete_rows(gt)
+    if not ok.all():
+        notes.append(f"{int((~ok).sum())} of {len(gt)} test poses are incomplete or "
+                     "degenerate and were left out (the ground truth must be complete)")
+    index = np.flatnonzero(ok)
+    if max_poses is not None and len(index) > max_poses:
+        rng = np.random.default_rng([int(random_state or 0), 5])
+        index = np.sort(rng.choice(index, int(max_poses), replace=False))
+        notes.append(f"evaluated a seeded subsample of {len(index)} test poses")
+    if len(index) == 0:
+        raise PoseError("no complete test poses to evaluate")
+    gt = gt[index]
+    labels = labels[index] if labels is not None else None
+    if labels is None:
+        notes.append("no labels: per-action table skipped")
+
+    if train_poses2d is None:
+        need = [m for m in methods if BASELINES.get(m)]
+        if need:
+            notes.append(f"no training poses: skipped {', '.join(need)} (they need --train)")
+            methods = tuple(m for m in methods if m not in need)
+    fitted = {}
+    for m in methods:
+        if BASELINES.get(m):
+            train = _check_poses(train_poses2d, "training poses", N)
+            fitted[m] = fit_baseline(m, train, max_train=max_train,
+                                     random_state=random_state)
+            notes.append(f"{m}: fitted on {fitted[m].n_train_} complete training poses "
+                         f"in {fitted[m].fit_seconds_:.2f} s")
+
+    n = len(gt)
+    masks = occlusion_masks(n, N, counts, random_state)
+    gt_vec = pose_to_vector(gt)
+    torso = torso_size(gt, dictionary.joint_names)
+    if not np.isfinite(torso).any():
+        notes.append("joint names lack neck/hips: joint/torso column is empty")
+
+    if "sparse" in methods:  # one-time compilation and set-up out of the timings
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            warm = np.where(masks[counts[0]][:1, :, None], np.nan, gt[:1])
+            recover(warm, masks[counts[0]][:1], dictionary=dictionary, alpha=alpha,
+                    solver=solver)
+
+    rows, per_pose, per_action, examples = [], {}, [], {}
+    sparse_vectors = {}
+    for c in counts:
+        mask = masks[c]
+        extreme = extreme_occluded(gt, mask)
+        inputs = np.where(mask[..., None], np.nan, gt)
+        cache = {}
+        for m in methods:
+            for rep in representations:
+                note = ""
+                if m in _REP_INDEPENDENT and m in cache:
+                    res = cache[m]
+                    note = "reads observed joints only: same as the other representation"
+                elif m == "sparse":
+                    with warnings.catch_warnings():
+                        warnings.simplefilter("ignore")
+                        res = recover(inputs, mask, dictionary=dictionary, alpha=alpha,
+                                      representation=rep, solver=solver, n_jobs=n_jobs)
+                    sparse_vectors[(c, rep)] = res.vectors
+                elif m == "mean-fill":
+                    res = mean_fill(inputs, mask, rep)
+                else:
+                    res = fitted[m].complete(inputs, mask)
+                    cache[m] = res
+                good = res.ok
+                with np.errstate(invalid="ignore"):
+                    e = err_ave(res.vectors * res.scale[:, None], gt_vec)
+                e = np.where(good, e, np.nan)
+                je = joint_error(res.poses, gt, mask)
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore", RuntimeWarning)
+                    je_pose = np.nanmean(je, axis=1)
+                je_pose = np.where(good, je_pose, np.nan)
+                per_pose[(m, rep, c)] = e
+                rows.append({
+                    "method": m, "representation": rep, "count": c, "n_poses": n,
+                    "n_failed": int((~good).sum()),
+                    "err_ave_mean": _stat(e, np.mean),
+                    "err_ave_var": _stat(e, np.var),
+                    "err_ave_p95": _stat(e, lambda x: np.percentile(x, 95)),
+                    "joint_err_px": _stat(je_pose, np.mean),
+                    "joint_err_torso": _stat(je_pose / torso, np.mean),
+                    "poses_per_s": n / res.seconds if res.seconds > 0 else float("nan"),
+                    "n_extreme": int(extreme.sum()),
+                    "err_ave_extreme": _stat(e[extreme], np.mean),
+                    "err_ave_other": _stat(e[~extreme], np.mean),
+                    "note": note,
+                })
+                if c == "mix" and labels is not None:
+                    for lab in dict.fromkeys(labels):
+                        sel = labels == lab
+                        per_action.append({"label": lab, "method": m, "representation": rep,
+                                           "n_poses": int(sel.sum()),
+                                           "err_ave_mean": _stat(e[sel], np.mean)})
+                if m == "sparse" and rep == representations[0] and (
+                        c == "mix" or not examples):
+                    k = min(n_examples, n)
+                    examples = {"gt": gt[:k], "missing": mask[:k], "recovered": res.poses[:k],
+                                "err_ave": e[:k], "count": c}
+    max_diff = None
+    if "sparse" in methods and set(representations) >= {"average", "zero"}:
+        diffs = [np.nanmax(np.abs(sparse_vectors[(c, "average")] - sparse_vectors[(c, "zero")]))
+                 for c in counts]
+        max_diff = float(max(diffs))
+    settings = {
+        "n_poses": n, "n_joints": N, "random_state": random_state,
+        "methods": list(methods), "counts": list(counts),
+        "representations": list(representations),
+        "dictionary": f"{dictionary.n_components} atoms, recovery alpha "
+                      f"{dictionary.alpha_recover if alpha is None else alpha:g}, solver {solver}",
+    }
+    return EvaluationReport(rows=rows, per_action=per_action, per_pose=per_pose,
+                            masks=masks, examples=examples,
+                            sparse_representation_max_diff=max_diff,
+                            notes=notes, settings=settings)
+
+
+def sweep_atoms(train_poses2d, test_poses2d, atoms=(100, 250, 500, 1000, 2000), *,
+                alpha=0.05, alpha_recover=None, n_passes=1, batch_size=512,
+                random_state=0, max_poses=None, representation="average", n_jobs=1,
+                solver="fast"):
+    """Fig. 5: Mix Err_ave and recovery time per pose vs the number of atoms.
+
+    Each dictionary is learned with :class:`sparseedm.learning.OnlineDictionaryLearning`
+    (the same alpha for all) on the training poses' complete normalised EDM
+    vectors; the Mix masks are those of :func:`evaluate` with the same seed.
+    A size larger than the number of training poses is skipped (noted).
+
+    Returns
+    -------
+    list of dict
+        ``atoms, err_ave_mix, ms_per_pose, fit_seconds, note`` per size.
+    """
+    from .learning import OnlineDictionaryLearning, complete_pose_vectors
+
+    X, _ = complete_pose_vectors(np.asarray(train_poses2d, dtype=float))
+    test = np.asarray(test_poses2d, dtype=float)
+    test = test[_complete_rows(test)]
+    if max_poses is not None and len(test) > max_poses:
+        rng = np.random.default_rng([int(random_state or 0), 5])
+        test = test[np.sort(rng.choice(len(test), int(max_poses), replace=False))]
+    N = test.shape[1]
+    mask = occlusion_masks(len(test), N, ("mix",), random_state)["mix"]
+    gt_vec = pose_to_vector(test)
+    inputs = np.where(mask[..., None], np.nan, test)
+    out = []
+    for k in atoms:
+        k = int(k)
+        if k > len(X):
+            out.append({"atoms": k, "err_ave_mix": float("nan"), "ms_per_pose": float("nan"),
+                        "fit_seconds": float("nan"),
+                        "note": f"skipped: {len(X)} training poses < {k} atoms"})
+            continue
+        t0 = time.perf_counter()
+        odl = OnlineDictionaryLearning(k, alpha=alpha, batch_size=batch_size,
+                                       n_passes=n_passes, random_state=random_state).fit(X)
+        fit_s = time.perf_counter() - t0
+        d = Dictionary(odl.components_ / np.linalg.norm(odl.components_, axis=1, keepdims=True),
+                       alpha_recover=alpha / 5 if alpha_recover is None else alpha_recover,
+                       alpha_train=alpha)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            res = recover(inputs, mask, dictionary=d, representation=representation,
+                          n_jobs=n_jobs, solver=solver)
+        e = np.where(res.ok, err_ave(res.vectors * res.scale[:, None], gt_vec), np.nan)
+        out.append({"atoms": k, "err_ave_mix": _stat(e, np.mean),
+                    "ms_per_pose": 1000 * res.seconds / len(test), "fit_seconds": fit_s,
+                    "note": ""})
+    return out

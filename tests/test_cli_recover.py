@@ -1,0 +1,244 @@
+"""`sparseedm recover` and sparseedm.batch.recover_file: round trips per format,
+errors file, exit codes, atomic output."""
+
+import csv
+import json
+import os
+
+import numpy as np
+import pytest
+
+from sparseedm.batch import default_errors_path, recover_file
+from sparseedm.cli import main
+from sparseedm.exceptions import FileFormatError, SparseEDMError
+from sparseedm.keypoints import read_keypoints, write_keypoints
+from sparseedm.metrics import random_occlusion
+
+N = 30
+BAD_ROW = 4   # two observed joints only: too_few_observed
+
+
+@pytest.fixture(scope="module")
+def occluded(cmu_poses):
+    """30 real poses, Mix occlusion, one row with only 2 observed joints."""
+    poses = cmu_poses[::11][:N].copy()
+    missing = random_occlusion(N, 14, "mix", random_state=3)
+    missing[BAD_ROW] = True
+    missing[BAD_ROW, :2] = False
+    poses[missing] = np.nan
+    return poses, missing
+
+
+def _ids():
+    return [f"img{i:03d}" for i in range(N)]
+
+
+def _write_input(path, poses, fmt):
+    if fmt == "npy":
+        np.save(path, poses)
+    else:
+        write_keypoints(path, poses, ids=_ids())
+
+
+def _recover(inp, out, dict_path, *extra):
+    return main(["recover", str(inp), "-o", str(out), "--dictionary", str(dict_path),
+                 "--quiet", *extra])
+
+
+@pytest.mark.parametrize("ext", ["csv", "npz", "npy", "json"])
+def test_round_trip_each_format(tmp_path, occluded, small_dictionary_path, ext, capsys):
+    poses, missing = occluded
+    inp, out = tmp_path / f"in.{ext}", tmp_path / f"out.{ext}"
+    _write_input(inp, poses, ext)
+    before = read_keypoints(inp)
+
+    assert _recover(inp, out, small_dictionary_path) == 1       # one row refused
+    err = capsys.readouterr().err
+    assert "rows refused: 1" in err and "poses: 30" in err
+
+    back = read_keypoints(out)
+    assert len(back) == N
+    ok = np.arange(N) != BAD_ROW
+    assert not back.missing[ok].any()                            # every joint filled
+    assert np.isfinite(back.poses[ok]).all()
+    observed = ~before.missing
+    np.testing.assert_array_equal(back.poses[observed], before.poses[observed])
+    # the refused row comes back as it was read
+    np.testing.assert_array_equal(back.missing[BAD_ROW], before.missing[BAD_ROW])
+    if ext != "npy":
+        assert back.ids.tolist() == before.ids.tolist()
+
+    # per-row status travels with the output
+    if ext == "csv":
+        status = back.meta["extra_columns"]["status"]
+        n_active = back.meta["extra_columns"]["n_active"]
+        objective = back.meta["extra_columns"]["objective"]
+        assert objective[BAD_ROW] == "" and float(objective[0]) > 0
+        assert int(n_active[0]) > 0
+    elif ext == "npz":
+        status = back.meta["npz_extra"]["status"]
+        assert back.meta["npz_extra"]["gap"].shape == (N,)
+    elif ext == "npy":
+        with np.load(tmp_path / "out.status.npz") as side:
+            status = side["status"]
+            assert {"reason", "objective", "gap", "n_active"} <= set(side.files)
+    else:
+        anns = json.loads(out.read_text())
+        status = [a["sparseedm"]["status"] for a in anns]
+        assert anns[BAD_ROW]["sparseedm"]["objective"] is None
+    status = list(status)
+    assert status[BAD_ROW] == "too_few_observed"
+    assert all(s in ("recovered", "complete") for i, s in enumerate(status) if i != BAD_ROW)
+
+    # errors file: the refused row
+    with open(tmp_path / "out.errors.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert rows == [{"row": str(BAD_ROW), "id": "" if ext == "npy" else _ids()[BAD_ROW],
+                     "status": "too_few_observed", "reason": rows[0]["reason"]}]
+    assert "2 observed joints" in rows[0]["reason"]
+    assert not [p for p in os.listdir(tmp_path) if p.startswith(".")]  # no temp files
+
+
+def test_coco_document_kept(tmp_path, occluded, small_dictionary_path):
+    """A COCO ground-truth document comes back with its other fields untouched."""
+    poses, _ = occluded
+    fresh = tmp_path / "fresh.json"
+    write_keypoints(fresh, poses, ids=[str(i) for i in range(N)])
+    doc = {"info": {"year": 2024}, "annotations": json.loads(fresh.read_text())}
+    for i, ann in enumerate(doc["annotations"]):
+        ann["id"] = 100 + i
+        del ann["sparseedm"]
+    inp = tmp_path / "gt.json"
+    inp.write_text(json.dumps(doc))
+    out = tmp_path / "gt_out.json"
+    main(["recover", str(inp), "-o", str(out), "--dictionary", str(small_dictionary_path), "-q"])
+    back = json.loads(out.read_text())
+    assert back["info"] == {"year": 2024}
+    assert [a["id"] for a in back["annotations"]] == list(range(100, 100 + N))
+    filled = [a for a in back["annotations"] if a["sparseedm"]["filled"]]
+    assert filled and all(a["sparseedm"]["status"] == "recovered" for a in filled)
+
+
+def test_all_rows_ok_exit_0_and_no_errors_file(tmp_path, occluded, small_dictionary_path,
+                                               capsys):
+    poses, _ = occluded
+    good = np.delete(poses, BAD_ROW, axis=0)
+    inp, out = tmp_path / "good.csv", tmp_path / "good_out.csv"
+    write_keypoints(inp, good)
+    stale = default_errors_path(out)
+    stale.write_text("row,id,status,reason\n0,,too_few_observed,old\n")
+    assert main(["recover", str(inp), "-o", str(out), "--dictionary",
+                 str(small_dictionary_path)]) == 0
+    printed = capsys.readouterr().out
+    assert "rows refused: 0" in printed and "poses/s" in printed
+    assert out.exists() and not stale.exists()   # an earlier run's errors file is removed
+
+
+def test_format_conversion_and_errors_path(tmp_path, occluded, small_dictionary_path):
+    poses, _ = occluded
+    inp = tmp_path / "in.csv"
+    write_keypoints(inp, poses, ids=_ids())
+    out, errs = tmp_path / "out.data", tmp_path / "refused.csv"
+    code = _recover(inp, out, small_dictionary_path, "--format", "npz", "--errors", str(errs),
+                    "--save-edm")
+    assert code == 1 and errs.exists() and not default_errors_path(out).exists()
+    back = read_keypoints(out, format="npz")
+    assert back.ids.tolist() == _ids()
+    edm = back.meta["npz_extra"]["edm_vectors"]
+    assert edm.shape == (N, 91) and np.isnan(edm[BAD_ROW]).all()
+    assert np.isfinite(np.delete(edm, BAD_ROW, axis=0)).all()
+
+
+@pytest.mark.parametrize("ext,content", [
+    ("csv", "id,head_top_x\nfoo,1\n"),                          # missing columns
+    ("json", '[{"image_id": 1, "keypoints": [1, 2'),           # truncated
+    ("npz", "not a zip file"),
+    ("npy", "\x93NUMPY garbage"),
+])
+def test_corrupt_input_exit_2_nothing_written(tmp_path, small_dictionary_path, ext, content,
+                                              capsys):
+    inp, out = tmp_path / f"bad.{ext}", tmp_path / f"out.{ext}"
+    inp.write_text(content)
+    assert _recover(inp, out, small_dictionary_path) == 2
+    assert "error" in capsys.readouterr().err
+    assert sorted(os.listdir(tmp_path)) == [f"bad.{ext}"]
+
+
+def test_csv_with_a_bad_row_halfway_leaves_no_output(tmp_path, occluded, small_dictionary_path):
+    poses, _ = occluded
+    inp, out = tmp_path / "in.csv", tmp_path / "out.csv"
+    write_keypoints(inp, poses)
+    lines = inp.read_text().splitlines()
+    lines[10] = lines[10].replace(",", ",abc", 1)
+    inp.write_text("\n".join(lines) + "\n")
+    assert _recover(inp, out, small_dictionary_path) == 2
+    assert sorted(os.listdir(tmp_path)) == ["in.csv"]
+
+
+def test_whole_file_errors(tmp_path, occluded, small_dictionary_path, capsys):
+    poses, _ = occluded
+    inp = tmp_path / "in.npy"
+    np.save(inp, poses)
+    out = tmp_path / "out.npy"
+    assert _recover(inp, out, small_dictionary_path, "--alpha", "0") == 2
+    assert _recover(inp, out, tmp_path / "nope.npz") == 2
+    assert _recover(tmp_path / "missing.npy", out, small_dictionary_path) == 2
+    wrong = tmp_path / "wrong.npy"
+    np.save(wrong, np.ones((3, 17, 2)))
+    assert _recover(wrong, out, small_dictionary_path) == 2
+    inf = poses.copy()
+    inf[20, 3, 0] = np.inf
+    np.save(inp, inf)
+    assert _recover(inp, out, small_dictionary_path) == 2
+    assert "pose 20" in capsys.readouterr().err
+    assert sorted(os.listdir(tmp_path)) == ["in.npy", "wrong.npy"]
+
+
+def test_recover_file_chunks_and_confidence(tmp_path, occluded, small_dictionary):
+    """Small chunks give the same output as one chunk; a confidence threshold
+    turns low-confidence joints into recovered ones."""
+    poses, missing = occluded
+    conf = np.where(missing, 0.0, 0.9)
+    j = int(np.flatnonzero(~missing[0])[0])
+    conf[0, j] = 0.2                       # observed, but below the threshold
+    arr = np.concatenate([np.nan_to_num(poses), conf[..., None]], axis=-1)
+    inp = tmp_path / "in.npy"
+    np.save(inp, arr)
+    one = recover_file(inp, tmp_path / "one.npy", dictionary=small_dictionary,
+                       confidence_threshold=0.5)
+    many = recover_file(inp, tmp_path / "many.npy", dictionary=small_dictionary,
+                        chunk_size=7, confidence_threshold=0.5)
+    a, b = np.load(tmp_path / "one.npy"), np.load(tmp_path / "many.npy")
+    # chunks regroup poses by missing pattern: equal up to BLAS round-off
+    np.testing.assert_allclose(a, b, rtol=1e-10)
+    np.testing.assert_array_equal(np.isnan(a), np.isnan(b))
+    assert one["poses"] == many["poses"] == N and one["refused"] == 1
+    assert one["recovered_joints"] == int(np.delete(missing, BAD_ROW, axis=0).sum()) + 1
+    assert a.shape == (N, 14, 2) and a[0, j].tolist() != poses[0, j].tolist()
+    assert set(one) >= {"poses", "recovered_joints", "refused", "seconds", "poses_per_second"}
+
+
+def test_recover_file_rejects_bad_options(tmp_path, occluded, small_dictionary):
+    poses, _ = occluded
+    inp = tmp_path / "in.csv"
+    write_keypoints(inp, poses)
+    with pytest.raises(SparseEDMError, match="alpha"):
+        recover_file(inp, tmp_path / "o.csv", dictionary=small_dictionary, alpha=-1)
+    with pytest.raises(SparseEDMError, match="representation"):
+        recover_file(inp, tmp_path / "o.csv", dictionary=small_dictionary,
+                     representation="mean")
+    with pytest.raises(FileFormatError):
+        recover_file(inp, tmp_path / "o.csv", dictionary=small_dictionary,
+                     output_format="xml")
+    assert sorted(os.listdir(tmp_path)) == ["in.csv"]
+
+
+def test_example_file_recovers(tmp_path, small_dictionary_path):
+    """The README's job on the shipped example (with the small test dictionary)."""
+    from pathlib import Path
+
+    example = Path(__file__).resolve().parents[1] / "examples" / "occluded_poses.csv"
+    out = tmp_path / "recovered.csv"
+    assert _recover(example, out, small_dictionary_path) == 0
+    kps = read_keypoints(out)
+    assert len(kps) == 50 and not kps.missing.any()

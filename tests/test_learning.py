@@ -1,0 +1,212 @@
+"""Online dictionary learning and the dictionary file format."""
+
+import json
+import pickle
+import zipfile
+
+import numpy as np
+import pytest
+
+from sparseedm.cli import main
+from sparseedm.dictionary import Dictionary, load_dictionary
+from sparseedm.exceptions import DictionaryError, SparseEDMError
+from sparseedm.learning import (
+    OnlineDictionaryLearning,
+    complete_pose_vectors,
+    fit_dictionary_file,
+    sparse_code,
+)
+
+
+@pytest.fixture(scope="module")
+def vectors(request):
+    from pathlib import Path
+
+    path = Path(__file__).parent / "fixtures" / "cmu_poses.npz"
+    with np.load(path, allow_pickle=False) as npz:
+        poses = npz["poses2d"]
+    X, ok = complete_pose_vectors(poses)
+    assert ok.all()
+    return X
+
+
+def _fit(X, **kw):
+    params = dict(n_components=40, alpha=0.05, batch_size=64, n_passes=2, random_state=3)
+    params.update(kw)
+    return OnlineDictionaryLearning(**params).fit(X)
+
+
+def test_same_seed_identical_atoms(vectors):
+    a = _fit(vectors).components_
+    b = _fit(vectors).components_
+    np.testing.assert_array_equal(a, b)
+    c = _fit(vectors, random_state=4).components_
+    assert not np.array_equal(a, c)
+
+
+def test_atoms_unit_norm_and_better_than_random(vectors):
+    train, held_out = vectors[:250], vectors[250:]
+    odl = _fit(train, n_passes=3)
+    np.testing.assert_allclose(np.linalg.norm(odl.components_, axis=1), 1, atol=1e-12)
+    rng = np.random.default_rng(0)
+    random_atoms = np.abs(rng.standard_normal(odl.components_.shape))
+    random_atoms /= np.linalg.norm(random_atoms, axis=1, keepdims=True)
+
+    def err(atoms):
+        code = sparse_code(held_out, atoms, 0.05)
+        return np.linalg.norm(held_out - code @ atoms) / np.linalg.norm(held_out)
+
+    assert err(odl.components_) < 0.5 * err(random_atoms)
+
+
+def test_partial_fit_over_chunks_matches_fit(vectors):
+    X = vectors[:256]
+    full = OnlineDictionaryLearning(30, alpha=0.05, batch_size=64, n_passes=1,
+                                    random_state=0)
+    full.fit(X)
+    # the same schedule through partial_fit: one call per mini-batch
+    from sparseedm.learning import iter_batches
+
+    part = OnlineDictionaryLearning(30, alpha=0.05, batch_size=64, random_state=0)
+    part._init_state(X)
+    for batch in iter_batches(len(X), 64, 1, 0):
+        part.partial_fit(X[batch])
+    np.testing.assert_allclose(part.components_, full.components_, atol=1e-10)
+
+
+def test_bad_parameters_refused_up_front(vectors):
+    with pytest.raises(SparseEDMError, match="n_components"):
+        OnlineDictionaryLearning(0).fit(vectors)
+    with pytest.raises(SparseEDMError, match="alpha"):
+        OnlineDictionaryLearning(10, alpha=0).fit(vectors)
+    with pytest.raises(SparseEDMError, match="too few"):
+        OnlineDictionaryLearning(1000).fit(vectors)
+    with pytest.raises(SparseEDMError, match="NaN"):
+        OnlineDictionaryLearning(10).fit(np.full((20, 91), np.nan))
+
+
+# ---------------------------------------------------------------- file format
+
+def _dictionary(k=12, seed=0):
+    rng = np.random.default_rng(seed)
+    comp = np.abs(rng.standard_normal((k, 91)))
+    comp /= np.linalg.norm(comp, axis=1, keepdims=True)
+    return Dictionary(comp, alpha_recover=0.01, provenance={"files": ["x.npz"], "n_poses": 5})
+
+
+def test_save_load_round_trip(tmp_path):
+    d = _dictionary()
+    path = d.save(tmp_path / "d.npz")
+    e = load_dictionary(path)
+    np.testing.assert_array_equal(d.components, e.components)
+    assert e.joint_names == d.joint_names and e.alpha_recover == 0.01
+    assert "12 atoms" in e.describe()
+
+
+def test_loader_refuses_pickle(tmp_path):
+    path = tmp_path / "evil.npz"
+    with zipfile.ZipFile(path, "w") as z:
+        with z.open("components.npy", "w") as f:
+            np.save(f, np.array([object()], dtype=object), allow_pickle=True)
+        for name in ("joint_names", "meta"):
+            with z.open(f"{name}.npy", "w") as f:
+                np.save(f, np.array("x"))
+    with pytest.raises(DictionaryError, match="pickle"):
+        load_dictionary(path)
+    raw = tmp_path / "raw.npz"
+    raw.write_bytes(pickle.dumps({"components": 1}))
+    with pytest.raises(DictionaryError):
+        load_dictionary(raw)
+
+
+def test_loader_refuses_truncated_wrong_shape_nan(tmp_path):
+    good = _dictionary().save(tmp_path / "good.npz")
+    data = good.read_bytes()
+    trunc = tmp_path / "trunc.npz"
+    trunc.write_bytes(data[: len(data) // 2])
+    with pytest.raises(DictionaryError, match="corrupt or truncated"):
+        load_dictionary(trunc)
+
+    def write(name, comp, names=None):
+        p = tmp_path / name
+        meta = json.dumps(_dictionary().meta())
+        np.savez(p, components=comp, joint_names=np.array(names or _dictionary().joint_names),
+                 meta=np.array(meta))
+        return p
+
+    comp = _dictionary().components
+    with pytest.raises(DictionaryError, match="N\\(N-1\\)/2|joint"):
+        load_dictionary(write("shape.npz", comp[:, :90]))
+    bad = comp.copy()
+    bad[3, 5] = np.nan
+    with pytest.raises(DictionaryError, match="NaN"):
+        load_dictionary(write("nan.npz", bad))
+    with pytest.raises(DictionaryError, match="unit norm"):
+        load_dictionary(write("norm.npz", comp * 2))
+    with pytest.raises(DictionaryError, match="15 joint names|joints"):
+        load_dictionary(write("names.npz", comp, list(_dictionary().joint_names) + ["tail"]))
+    with pytest.raises(DictionaryError, match="for 14 joints"):
+        load_dictionary(good, n_joints=17)
+    with pytest.raises(DictionaryError, match="no dictionary called"):
+        load_dictionary("no-such-name")
+
+
+# ----------------------------------------------------------- streaming + CLI
+
+@pytest.fixture
+def train_file(tmp_path, vectors):
+    from pathlib import Path
+
+    src = Path(__file__).parent / "fixtures" / "cmu_poses.npz"
+    with np.load(src, allow_pickle=False) as npz:
+        poses = npz["poses2d"].copy()
+    poses[5, 3] = np.nan  # one incomplete pose: skipped with a warning
+    path = tmp_path / "train.npz"
+    np.savez(path, poses2d=poses)
+    return path
+
+
+def test_fit_file_skips_incomplete_and_resume_equals_uninterrupted(train_file, tmp_path,
+                                                                    monkeypatch):
+    kw = dict(n_components=30, alpha=0.05, batch_size=32, n_passes=2, random_state=1,
+              progress=False, checkpoint_every=3)
+    with pytest.warns(UserWarning, match="skipped 1 of 334"):
+        ref = fit_dictionary_file(train_file, tmp_path / "ref.npz", **kw)
+
+    # interrupt the second run after 7 batches, then resume it
+    import sparseedm.learning as learning
+
+    calls = {"n": 0}
+    real_step = learning.OnlineDictionaryLearning._step
+
+    def flaky(self, X):
+        calls["n"] += 1
+        if calls["n"] == 8:
+            raise KeyboardInterrupt
+        return real_step(self, X)
+
+    monkeypatch.setattr(learning.OnlineDictionaryLearning, "_step", flaky)
+    out = tmp_path / "resumed.npz"
+    with pytest.warns(UserWarning), pytest.raises(KeyboardInterrupt):
+        fit_dictionary_file(train_file, out, **kw)
+    assert not out.exists()
+    assert out.with_suffix(".ckpt.npz").is_file()
+    monkeypatch.setattr(learning.OnlineDictionaryLearning, "_step", real_step)
+    with pytest.warns(UserWarning):
+        resumed = fit_dictionary_file(train_file, out, resume=True, **kw)
+    np.testing.assert_array_equal(resumed.components, ref.components)
+    assert not out.with_suffix(".ckpt.npz").exists()
+
+
+def test_fit_and_info_cli(train_file, tmp_path, capsys):
+    out = tmp_path / "cli.npz"
+    with pytest.warns(UserWarning):
+        code = main(["fit", str(train_file), "-o", str(out), "--atoms", "25",
+                     "--alpha", "0.05", "--batch-size", "64", "--seed", "2", "--quiet"])
+    assert code == 0 and out.is_file()
+    assert main(["info", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "25 atoms over 91 distances" in text and "333 poses" in text
+    assert main(["fit", str(train_file), "-o", str(out), "--atoms", "0", "-q"]) == 2
+    assert main(["fit", str(train_file), "-o", str(out), "--alpha", "-1", "-q"]) == 2
+    assert main(["info", str(train_file)]) == 2

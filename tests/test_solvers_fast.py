@@ -1,0 +1,139 @@
+"""The certified fast path against Clarabel, its certificate and its fallback."""
+
+import numpy as np
+import pytest
+
+from sparseedm.edm import observed_entries
+from sparseedm.metrics import random_occlusion
+from sparseedm.normalize import represent
+from sparseedm.solvers import get_solver
+from sparseedm.solvers.base import BaseSolver, duality_gap
+from sparseedm.solvers.fast import FastSolver, lars_lasso_gram
+
+
+def _subproblems(poses, components, alpha, n_occluded, seed):
+    """(D_sub, X_sub, alpha_eff, key) per missing pattern, as recovery builds them."""
+    mask = random_occlusion(len(poses), 14, n_occluded, random_state=seed)
+    T, _, _ = represent(np.where(mask[..., None], np.nan, poses), mask)
+    out = []
+    for pattern in np.unique(mask, axis=0):
+        rows = (mask == pattern).all(axis=1)
+        obs = np.flatnonzero(observed_entries(pattern))
+        out.append((components[:, obs].T, T[rows][:, obs], alpha * len(obs) / 91,
+                    pattern.tobytes()))
+    return out
+
+
+@pytest.fixture(scope="module")
+def problems(cmu_poses, small_dictionary):
+    # 510 poses: the fixture's 334 and 176 of them stretched (another camera aspect)
+    poses = np.concatenate([cmu_poses, cmu_poses[::2, :, :][:176] * [1.1, 0.9]])
+    comps = small_dictionary.components
+    probs = []
+    for i, count in enumerate((1, 2, 3)):
+        probs += _subproblems(poses[i::3], comps, 0.002, count, seed=i)
+    return probs
+
+
+def test_fast_equals_clarabel_on_500_real_poses(problems):
+    """>= 500 real poses, patterns with 1-3 missing joints: objectives within 1e-6."""
+    fast, clarabel = FastSolver(fallback=None), get_solver("clarabel")
+    n = 0
+    worst = 0.0
+    for D, X, alpha, key in problems:
+        a = fast.solve(D, X, alpha, key=key)
+        b = clarabel.solve(D, X, alpha, key=key)
+        assert (a.status == "optimal").all()
+        worst = max(worst, np.max(np.abs(a.objective - b.objective) / b.objective))
+        n += len(X)
+    assert n >= 500
+    assert worst <= 1e-6
+
+
+def test_gap_is_a_true_upper_bound(problems):
+    """gap >= objective - optimum, the optimum taken as the best of two backends."""
+    fast, clarabel = FastSolver(fallback=None), get_solver("clarabel")
+    for D, X, alpha, key in problems[:: max(1, len(problems) // 8)]:
+        # a deliberately stopped path: not optimal, so the bound is tested where it matters
+        early = FastSolver(fallback=None, max_steps=3).solve(D, X, alpha)
+        best = np.minimum(fast.solve(D, X, alpha).objective,
+                          clarabel.solve(D, X, alpha).objective)
+        assert (early.gap >= early.objective - best - 1e-12).all()
+        assert (early.objective >= best - 1e-12).all()
+
+
+def test_positive_codes(problems):
+    D, X, alpha, key = problems[0]
+    res = FastSolver(fallback=None).solve(D, X, alpha, positive=True)
+    assert (res.coef >= 0).all() and (res.status == "optimal").all()
+    ref = get_solver("clarabel").solve(D, X, alpha, positive=True)
+    np.testing.assert_allclose(res.objective, ref.objective, rtol=1e-6)
+
+
+class _CountingClarabel(BaseSolver):
+    name = "counting"
+
+    def __init__(self):
+        super().__init__()
+        self.calls = 0
+        self.inner = get_solver("clarabel")
+
+    def _solve(self, D, X, alpha, positive, key):
+        self.calls += len(X)
+        res = self.inner.solve(D, X, alpha, positive=positive)
+        return res.coef, res.status, res.n_iter
+
+
+def test_fallback_answers_what_the_fast_path_cannot_certify():
+    """Duplicate atoms and a path cut short: the certificate catches it, Clarabel answers."""
+    rng = np.random.default_rng(0)
+    D = np.abs(rng.standard_normal((30, 60)))
+    D[:, 30:] = D[:, :30]  # every atom twice
+    D /= np.linalg.norm(D, axis=0)
+    X = D[:, :5] @ rng.uniform(0.5, 1, (5, 4)) + 0.01 * rng.standard_normal((30, 4))
+    X = np.vstack([X.T, np.zeros(30)])  # and one all-zero observed vector
+    backup = _CountingClarabel()
+    res = FastSolver(max_steps=2, fallback=backup).solve(D, X, 0.01)
+    assert res.fallback[:4].all() and backup.calls >= 4
+    assert (res.status == "optimal").all()
+    ref = get_solver("clarabel").solve(D, X, 0.01)
+    np.testing.assert_allclose(res.objective, ref.objective, rtol=1e-6)
+    assert res.objective[4] == 0 and not res.fallback[4]  # zero vector: c = 0 is optimal
+    # with enough steps the duplicates are handled by the path itself
+    ok = FastSolver(fallback=None).solve(D, X, 0.01)
+    assert (ok.status == "optimal").all()
+
+
+def test_ill_conditioned_pattern_one_arm_missing(small_dictionary, cmu_poses):
+    """All joints of one arm missing (shoulder, elbow, wrist): certified or fallen back."""
+    mask = np.zeros((60, 14), bool)
+    mask[:, [2, 3, 4]] = True
+    T, _, _ = represent(np.where(mask[..., None], np.nan, cmu_poses[:60]), mask)
+    obs = np.flatnonzero(observed_entries(mask[0]))
+    D = small_dictionary.components[:, obs].T
+    res = FastSolver().solve(D, T[:, obs], 1e-5)
+    assert (res.status == "optimal").all()
+    primal, gap = duality_gap(D, T[:, obs], res.coef, 1e-5)
+    assert (gap <= 1e-6 * primal).all()
+
+
+def test_lars_matches_soft_threshold_and_is_exact_on_orthonormal():
+    rng = np.random.default_rng(1)
+    Q, _ = np.linalg.qr(rng.standard_normal((8, 8)))
+    x = rng.standard_normal((5, 8))
+    coef, steps = lars_lasso_gram(Q.T @ Q, x @ Q, 0.3)
+    z = x @ Q
+    np.testing.assert_allclose(coef, np.sign(z) * np.maximum(np.abs(z) - 0.3, 0), atol=1e-12)
+    assert (steps >= 0).all()
+
+
+def test_solver_pickles_without_its_cache(problems):
+    import pickle
+
+    D, X, alpha, key = problems[0]
+    s = FastSolver()
+    s.solve(D, X, alpha, key=key)
+    t = pickle.loads(pickle.dumps(s))
+    assert len(t._grams) == 0
+    np.testing.assert_array_equal(t.solve(D, X, alpha, key=key).coef,
+                                  s.solve(D, X, alpha, key=key).coef)
