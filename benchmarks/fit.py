@@ -30,8 +30,8 @@ from sparseedm.recovery import recover
 
 from . import alphas, held_out_sample, load_cmu, log, split_clips
 
-FULL = dict(k=2000, n_heldout=2000, sklearn_budget_s=60.0, spams_cap_s=300.0)
-QUICK = dict(k=200, n_heldout=300, sklearn_budget_s=4.0, spams_cap_s=30.0)
+FULL = dict(k=2000, n_heldout=2000, sklearn_budget_s=45.0, spams_cap_s=240.0)
+QUICK = dict(k=200, n_heldout=200, sklearn_budget_s=1.5, spams_cap_s=20.0)
 
 
 def _unit_rows(components):

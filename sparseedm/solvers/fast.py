@@ -51,11 +51,11 @@ def _chol_solve(L, n, b, out):
 
 
 @numba.njit(cache=True)
-def _chol_rebuild(G, active, n, L):
-    """Cholesky factor of G[active[:n]][:, active[:n]]; False if not positive."""
+def _chol_rebuild(R, active, n, L):
+    """Cholesky factor of G[active][:, active] from the rows R; False if not PD."""
     for i in range(n):
         for j in range(i + 1):
-            s = G[active[i], active[j]]
+            s = R[i, active[j]]
             for t in range(j):
                 s -= L[i, t] * L[j, t]
             if i == j:
@@ -67,18 +67,37 @@ def _chol_rebuild(G, active, n, L):
     return True
 
 
+@numba.njit(cache=True, inline="always")
+def _gram_row(G, DW, use_gram, j, out):
+    """Row j of the Gram matrix: copied from G, or computed from the atoms DW."""
+    if use_gram:
+        for t in range(out.shape[0]):
+            out[t] = G[j, t]
+    else:
+        m = DW.shape[1]
+        for t in range(DW.shape[0]):
+            s = 0.0
+            for i in range(m):
+                s += DW[t, i] * DW[j, i]
+            out[t] = s
+
+
 @numba.njit(cache=True)
-def _lars_one(G, dtx, alpha, positive, max_steps, coef):
-    """LARS-lasso homotopy for one signal; writes `coef`, returns the step count
-    (negative if it had to stop early: the certificate then decides)."""
+def _lars_core(G, DW, use_gram, dtx, alpha, positive, max_steps, coef):
+    """LARS-lasso homotopy for one signal over k atoms; writes `coef`.
+
+    Gram rows come from G (k x k) when `use_gram`, else are computed from the
+    atoms DW (k x m) as atoms enter. Returns the step count, negative if the
+    path stopped early (the certificate then decides).
+    """
     k = dtx.shape[0]
     c = dtx.copy()  # correlations D^T r at the current point
-    max_active = min(k, max_steps + 1)
-    max_active = min(max_active, 256)
+    max_active = min(k, max_steps + 1, 256)
     active = np.empty(max_active, np.int64)
     sign = np.empty(max_active)
     beta = np.zeros(max_active)
     L = np.zeros((max_active, max_active))
+    R = np.empty((max_active + 1, k))  # Gram rows of the active atoms (+1 spare)
     w = np.empty(max_active)
     rhs = np.empty(max_active)
     a = np.empty(k)
@@ -104,18 +123,19 @@ def _lars_one(G, dtx, alpha, positive, max_steps, coef):
     while steps < max_steps:
         steps += 1
         if entering >= 0:
-            # append `entering` to the Cholesky factor of G_AA
             if n >= max_active:
                 return -steps
+            _gram_row(G, DW, use_gram, entering, R[n])
+            # append `entering` to the Cholesky factor of G_AA
             for i in range(n):
-                s = G[active[i], entering]
+                s = R[i, entering]
                 for t in range(i):
                     s -= L[i, t] * L[n, t]
                 L[n, i] = s / L[i, i]
-            d = G[entering, entering]
+            d = R[n, entering]
             for t in range(n):
                 d -= L[n, t] * L[n, t]
-            if d <= 1e-10 * G[entering, entering]:
+            if d <= 1e-10 * R[n, entering]:
                 state[entering] = 2  # linearly dependent on the active set
             else:
                 L[n, n] = np.sqrt(d)
@@ -132,10 +152,9 @@ def _lars_one(G, dtx, alpha, positive, max_steps, coef):
         for j in range(k):
             a[j] = 0.0
         for i in range(n):
-            col = active[i]
             wi = w[i]
             for j in range(k):
-                a[j] += wi * G[col, j]
+                a[j] += wi * R[i, j]
         # next event
         gamma = lam - alpha
         event = 0
@@ -143,21 +162,21 @@ def _lars_one(G, dtx, alpha, positive, max_steps, coef):
         for j in range(k):
             if state[j] != 0 or j == dropped:
                 continue
+            # g = (lam -/+ c_j) / (1 -/+ a_j), compared by multiplication: a
+            # division only when a new minimum is found
             d1 = 1.0 - a[j]
-            if d1 > 1e-12:
-                g = (lam - c[j]) / d1
-                if g > tiny and g < gamma:
-                    gamma = g
-                    event = 1
-                    best = j
+            num = lam - c[j]
+            if d1 > 1e-12 and num < gamma * d1 and num > tiny * d1:
+                gamma = num / d1
+                event = 1
+                best = j
             if not positive:
                 d2 = 1.0 + a[j]
-                if d2 > 1e-12:
-                    g = (lam + c[j]) / d2
-                    if g > tiny and g < gamma:
-                        gamma = g
-                        event = 2
-                        best = j
+                num = lam + c[j]
+                if d2 > 1e-12 and num < gamma * d2 and num > tiny * d2:
+                    gamma = num / d2
+                    event = 2
+                    best = j
         for i in range(n):
             if w[i] * sign[i] < 0.0:  # coefficient heading to zero
                 g = -beta[i] / w[i]
@@ -181,8 +200,10 @@ def _lars_one(G, dtx, alpha, positive, max_steps, coef):
                 active[i] = active[i + 1]
                 sign[i] = sign[i + 1]
                 beta[i] = beta[i + 1]
+                for j in range(k):
+                    R[i, j] = R[i + 1, j]
             n -= 1
-            if not _chol_rebuild(G, active, n, L):
+            if not _chol_rebuild(R, active, n, L):
                 return -steps
         else:
             entering = best
@@ -202,6 +223,50 @@ def _lars_one(G, dtx, alpha, positive, max_steps, coef):
     for i in range(n):
         coef[active[i]] = w[i] if consistent else beta[i]
     return steps
+
+
+@numba.njit(cache=True)
+def _lars_one(G, dtx, alpha, positive, max_steps, coef):
+    return _lars_core(G, np.empty((0, 0)), True, dtx, alpha, positive, max_steps, coef)
+
+
+@numba.njit(cache=True, parallel=True)
+def _lars_rows_batch(Dt, X, alpha, positive, max_steps, coef, steps):
+    k, m = Dt.shape
+    for i in numba.prange(X.shape[0]):
+        dtx = np.empty(k)
+        for j in range(k):
+            s = 0.0
+            for t in range(m):
+                s += Dt[j, t] * X[i, t]
+            dtx[j] = s
+        steps[i] = _lars_core(np.empty((0, 0)), Dt, False, dtx, alpha, positive,
+                              max_steps, coef[i])
+
+
+def lars_lasso_rows(D, X, alpha, *, positive=False, max_steps=500):
+    """As :func:`lars_lasso_gram`, without a Gram matrix: its rows are computed
+    from the atoms as they enter (cheaper for a handful of signals).
+
+    Parameters
+    ----------
+    D : ndarray, shape (n_features, k)
+        Atoms as columns.
+    X : ndarray, shape (n_samples, n_features)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> coef, steps = lars_lasso_rows(np.eye(3), np.array([[3.0, -0.5, -2.0]]), 1.0)
+    >>> coef.tolist()
+    [[2.0, 0.0, -1.0]]
+    """
+    Dt = np.ascontiguousarray(np.asarray(D, dtype=np.float64).T)
+    X = np.ascontiguousarray(np.atleast_2d(X), dtype=np.float64)
+    coef = np.zeros((X.shape[0], Dt.shape[0]))
+    steps = np.zeros(X.shape[0], dtype=np.int64)
+    _lars_rows_batch(Dt, X, float(alpha), bool(positive), int(max_steps), coef, steps)
+    return coef, steps
 
 
 @numba.njit(cache=True, parallel=True)
@@ -274,6 +339,9 @@ class FastSolver(BaseSolver):
     fallback : str or BaseSolver or None, default "clarabel"
         Backend for the rows that fail the certificate; None keeps them
         as they are (status "inaccurate").
+    gram_min : int, default 12
+        Fewer signals than this share no Gram matrix (k x k, about 15 ms to
+        form at k = 2000): its rows are computed as atoms enter instead.
 
     Examples
     --------
@@ -288,8 +356,10 @@ class FastSolver(BaseSolver):
 
     name = "fast"
 
-    def __init__(self, tol=1e-6, max_steps=500, cache_size=8, fallback="clarabel"):
+    def __init__(self, tol=1e-6, max_steps=500, cache_size=8, fallback="clarabel",
+                 gram_min=12):
         super().__init__(tol=tol)
+        self.gram_min = gram_min
         self.max_steps = max_steps
         self.cache_size = cache_size
         self.fallback = fallback
@@ -314,10 +384,13 @@ class FastSolver(BaseSolver):
         return G
 
     def _solve(self, D, X, alpha, positive, key):
-        G = self._gram(D, key)
-        coef, steps = lars_lasso_gram(
-            G, X @ D, alpha, positive=positive, max_steps=self.max_steps
-        )
+        if len(X) < self.gram_min:  # (by size only: results must not depend on cache state)
+            coef, steps = lars_lasso_rows(
+                D, X, alpha, positive=positive, max_steps=self.max_steps)
+        else:
+            coef, steps = lars_lasso_gram(
+                self._gram(D, key), X @ D, alpha, positive=positive,
+                max_steps=self.max_steps)
         status = np.full(X.shape[0], OPTIMAL, dtype=object)
         fallback = np.zeros(X.shape[0], dtype=bool)
         if self.fallback is not None:

@@ -1,0 +1,137 @@
+"""``python -m benchmarks [--quick]``: run the fit and recovery benchmarks in one
+process and rewrite their tables in benchmarks/README.md between the markers.
+
+The full run writes the RESULTS block; ``--quick`` (k = 200, a few hundred
+poses, under a minute: a smoke test, not a measurement) writes the QUICK block.
+Raw numbers go to benchmarks/results[-quick].json.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import time
+from pathlib import Path
+
+from . import alphas, log, loadavg, machine, versions
+
+HERE = Path(__file__).resolve().parent
+README = HERE / "README.md"
+
+
+def goals(fit_res, rec_res):
+    """Each goal: (text, met?, evidence)."""
+    out = []
+    rows = {r["name"]: r for r in fit_res["rows"]}
+    ours = fit_res["rows"][0]
+    spams = next((r for n, r in rows.items() if n.startswith("SPAMS")), None)
+    if spams is None or "error" in spams:
+        out.append(("fit: time <= SPAMS trainDL at equal or better held-out error", None,
+                    f"SPAMS not measured ({spams and spams.get('error')})"))
+    else:
+        met = ours["seconds"] <= spams["seconds"] and ours["err_ave"] <= spams["err_ave"]
+        out.append(("fit: time <= SPAMS trainDL at equal or better held-out error", met,
+                    f"{ours['seconds']:.1f} s vs {spams['seconds']:.1f} s; Err_ave "
+                    f"{ours['err_ave']:.3f}% vs {spams['err_ave']:.3f}%"))
+    mix = rec_res["protocols"]["Mix (1-3 missing)"]["rows"]
+    clar = mix["recover(solver='clarabel', n_jobs=2)"]
+    out.append(("recovery: Clarabel path >= 300 poses/s (Mix)", clar["pps"] >= 300,
+                f"{clar['pps']:.0f} poses/s"))
+    f1 = mix["recover(solver='fast', n_jobs=1)"]
+    f2 = mix["recover(solver='fast', n_jobs=2)"]
+    best = max(f1["pps"], f2["pps"])
+    sp = [r["pps"] for n, r in mix.items() if n.startswith("lasso only: SPAMS") and "pps" in r]
+    cert = min(f1["certified"], f2["certified"])
+    if sp:
+        met = best >= max(sp) and cert == 1.0
+        out.append(("recovery: fast path >= SPAMS lasso (2 threads), all certified (Mix)", met,
+                    f"fast recover {best:.0f} poses/s end to end (lasso only "
+                    f"{mix['lasso only: sparseedm FastSolver (numba, 2 threads)']['pps']:.0f}) vs "
+                    f"SPAMS lasso-only {max(sp):.0f} poses/s; certified {100 * cert:.2f}%, "
+                    f"fallbacks {f1['fallbacks']} / {f2['fallbacks']}"))
+    return out
+
+
+def render(fit_res, rec_res, meta, quick):
+    from . import fit, recovery
+
+    lines = []
+    lines.append(f"Run: {meta['date']}, `python -m benchmarks{' --quick' if quick else ''}`, "
+                 f"{meta['minutes']:.1f} min in all.")
+    m = meta["machine"]
+    lines.append(f"Machine: {m['cpu']}, {m['cores']} cores, {m['ram']} RAM, Python "
+                 f"{m['python']} ({m['platform']}).")
+    lines.append("Versions: " + ", ".join(f"{k} {v}" for k, v in meta["versions"].items()) + ".")
+    la0, la1 = meta["loadavg_start"], meta["loadavg_end"]
+    lines.append(f"Load average (1/5/15 min) at start {la0}, at end {la1}"
+                 + (" -- the machine was shared with other jobs during the run, so all "
+                    "times are pessimistic and noisy (2 cores)." if la0 and max(la0[0], la1[0]) > 1.5
+                    else "."))
+    lines.append(f"OMP_WAIT_POLICY={meta['omp_wait_policy']} (set by the benchmark; see below).")
+    lines.append("")
+    lines.append("### Goals")
+    lines.append("")
+    for text, met, ev in goals(fit_res, rec_res):
+        mark = "not measured" if met is None else ("**met**" if met else "**NOT met**")
+        lines.append(f"- {text}: {mark} ({ev})")
+    lines.append("")
+    lines.append("### Dictionary learning (benchmarks/fit.py)")
+    lines.append("")
+    lines.append(fit.render(fit_res))
+    lines.append("")
+    lines.append("### Recovery speed (benchmarks/recovery.py)")
+    lines.append("")
+    lines.append(recovery.render(rec_res))
+    return "\n".join(lines)
+
+
+def write_block(text, quick):
+    tag = "QUICK" if quick else "RESULTS"
+    begin, end = f"<!-- BEGIN {tag} -->", f"<!-- END {tag} -->"
+    doc = README.read_text() if README.is_file() else ""
+    block = f"{begin}\n{text}\n{end}"
+    if begin in doc and end in doc:
+        doc = re.sub(re.escape(begin) + ".*?" + re.escape(end), lambda _: block, doc,
+                     flags=re.S)
+    else:
+        doc = doc.rstrip("\n") + f"\n\n## {'Quick smoke test' if quick else 'Results'}\n\n{block}\n"
+    tmp = README.with_suffix(".md.tmp")
+    tmp.write_text(doc)
+    tmp.replace(README)
+
+
+def main(argv=None):
+    import os
+
+    import numpy as np
+
+    from . import fit, recovery
+
+    ap = argparse.ArgumentParser(prog="python -m benchmarks", description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="tiny settings (< 1 min): smoke test")
+    ap.add_argument("--no-write", action="store_true", help="print only; leave README.md alone")
+    args = ap.parse_args(argv)
+    t0 = time.time()
+    meta = dict(date=time.strftime("%Y-%m-%d %H:%M %Z"), machine=machine(), versions=versions(),
+                loadavg_start=loadavg(), omp_wait_policy=os.environ.get("OMP_WAIT_POLICY"),
+                alphas=alphas())
+    log(f"benchmarks: start, load average {meta['loadavg_start']}")
+    fit_res = fit.run(args.quick)
+    comps = fit_res.pop("components")
+    rec_res = recovery.run(args.quick, components=comps)
+    meta["loadavg_end"] = loadavg()
+    meta["minutes"] = (time.time() - t0) / 60
+    text = render(fit_res, rec_res, meta, args.quick)
+    print(text)
+    if not args.no_write:
+        write_block(text, args.quick)
+        raw = HERE / ("results-quick.json" if args.quick else "results.json")
+        raw.write_text(json.dumps(dict(meta=meta, fit=fit_res, recovery=rec_res), indent=1,
+                                  default=lambda o: o.tolist() if isinstance(o, np.ndarray)
+                                  else str(o)))
+        log(f"benchmarks: wrote {README} and {raw.name}")
+
+
+if __name__ == "__main__":
+    main()
