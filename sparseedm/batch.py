@@ -264,13 +264,15 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
         _MemorySource(in_path, in_fmt, confidence_threshold)
     try:
         return _run(source, in_fmt, out_path, out_fmt, errors_path, dictionary, alpha,
-                    representation, solver, n_jobs, chunk_size, progress, save_edm, t0)
+                    representation, solver, n_jobs, chunk_size, progress, save_edm, t0,
+                    backend, scheduler)
     finally:
         source.close()
 
 
 def _run(source, in_fmt, out_path, out_fmt, errors_path, dictionary, alpha,
-         representation, solver, n_jobs, chunk_size, progress, save_edm, t0):
+         representation, solver, n_jobs, chunk_size, progress, save_edm, t0,
+         backend=None, scheduler=None):
     from tqdm.auto import tqdm
 
     n = source.n

@@ -10,7 +10,7 @@ A dictionary file is a NumPy ``.npz`` archive, read with ``allow_pickle=False``
                 ``representation`` and ``normalization`` of the training vectors,
                 ``alpha_train``, ``alpha_recover`` (recommended recovery alpha),
                 ``alpha_scaling``, ``positive_code``, ``provenance`` (training
-                files, pose count, sha256 of the training file, seed, passes,
+                files, pose count, sha256 of the training poses, seed, passes,
                 batch size) and ``library_version``.
 
 :func:`load_dictionary` checks shape, dtype, finiteness and unit norm and
@@ -151,7 +151,8 @@ class Dictionary:
                 f"learned from {p.get('n_poses', '?')} poses in {shown or '?'}"
                 + (f" (sha256 {p['sha256'][:12]}...)" if p.get("sha256") else "")
             )
-            extras = {k: v for k, v in p.items() if k not in ("files", "n_poses", "sha256")}
+            extras = {k: v for k, v in p.items()
+                      if k not in ("files", "n_poses", "sha256", "sha256_of")}
             if extras:
                 lines.append("settings: " + ", ".join(f"{k}={v}" for k, v in sorted(extras.items())))
         lines.append(f"written by sparseedm {self.library_version}")

@@ -65,7 +65,8 @@ def sparse_code(X, components, alpha, *, positive=False, gram=None):
     """
     if gram is None:
         gram = components @ components.T
-    code, _ = lars_lasso_gram(gram, X @ components.T, alpha, positive=positive)
+    code, _ = lars_lasso_gram(gram, X @ components.T, alpha, positive=positive,
+                              rank=components.shape[1])
     return code
 
 
@@ -357,14 +358,12 @@ def complete_pose_vectors(poses2d):
     return pose_to_vector(normed), ok
 
 
-def _sha256(path, chunk=1 << 20):
+def _sha256(poses):
+    """sha256 of the training poses' float64 values (C order): the same poses
+    give the same hash however the file was zipped (zip headers hold times)."""
     import hashlib
 
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(chunk), b""):
-            h.update(block)
-    return h.hexdigest()
+    return hashlib.sha256(np.ascontiguousarray(poses, dtype=np.float64).tobytes()).hexdigest()
 
 
 def _load_training_poses(path):
@@ -468,7 +467,8 @@ def fit_dictionary_file(train_path, output, *, n_components=2000, alpha=0.05,
     provenance = {
         "files": [Path(train_path).name],
         "n_poses": int(len(index)),
-        "sha256": _sha256(train_path),
+        "sha256": _sha256(poses),
+        "sha256_of": "poses2d float64 values",
         "seed": random_state,
         "passes": n_passes,
         "batch_size": batch_size,

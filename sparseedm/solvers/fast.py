@@ -74,16 +74,11 @@ def _gram_row(G, DW, use_gram, j, out):
         for t in range(out.shape[0]):
             out[t] = G[j, t]
     else:
-        m = DW.shape[1]
-        for t in range(DW.shape[0]):
-            s = 0.0
-            for i in range(m):
-                s += DW[t, i] * DW[j, i]
-            out[t] = s
+        out[:] = np.dot(DW, DW[j])  # BLAS gemv
 
 
 @numba.njit(cache=True)
-def _lars_core(G, DW, use_gram, dtx, alpha, positive, max_steps, coef):
+def _lars_core(G, DW, use_gram, dtx, alpha, positive, max_steps, rank, coef):
     """LARS-lasso homotopy for one signal over k atoms; writes `coef`.
 
     Gram rows come from G (k x k) when `use_gram`, else are computed from the
@@ -92,7 +87,8 @@ def _lars_core(G, DW, use_gram, dtx, alpha, positive, max_steps, coef):
     """
     k = dtx.shape[0]
     c = dtx.copy()  # correlations D^T r at the current point
-    max_active = min(k, max_steps + 1, 256)
+    # the active set never exceeds the rank (<= n_features): G_AA must be PD
+    max_active = min(k, max_steps + 1, rank + 1)
     active = np.empty(max_active, np.int64)
     sign = np.empty(max_active)
     beta = np.zeros(max_active)
@@ -226,22 +222,18 @@ def _lars_core(G, DW, use_gram, dtx, alpha, positive, max_steps, coef):
 
 
 @numba.njit(cache=True)
-def _lars_one(G, dtx, alpha, positive, max_steps, coef):
-    return _lars_core(G, np.empty((0, 0)), True, dtx, alpha, positive, max_steps, coef)
+def _lars_one(G, dtx, alpha, positive, max_steps, rank, coef):
+    return _lars_core(G, np.empty((0, 0)), True, dtx, alpha, positive, max_steps, rank,
+                      coef)
 
 
 @numba.njit(cache=True, parallel=True)
 def _lars_rows_batch(Dt, X, alpha, positive, max_steps, coef, steps):
     k, m = Dt.shape
     for i in numba.prange(X.shape[0]):
-        dtx = np.empty(k)
-        for j in range(k):
-            s = 0.0
-            for t in range(m):
-                s += Dt[j, t] * X[i, t]
-            dtx[j] = s
+        dtx = np.dot(Dt, X[i])
         steps[i] = _lars_core(np.empty((0, 0)), Dt, False, dtx, alpha, positive,
-                              max_steps, coef[i])
+                              max_steps, m, coef[i])
 
 
 def lars_lasso_rows(D, X, alpha, *, positive=False, max_steps=500):
@@ -270,22 +262,22 @@ def lars_lasso_rows(D, X, alpha, *, positive=False, max_steps=500):
 
 
 @numba.njit(cache=True, parallel=True)
-def _lars_batch(G, DtX, alpha, positive, max_steps, coef, steps):
+def _lars_batch(G, DtX, alpha, positive, max_steps, rank, coef, steps):
     for i in numba.prange(DtX.shape[0]):
-        steps[i] = _lars_one(G, DtX[i], alpha, positive, max_steps, coef[i])
+        steps[i] = _lars_one(G, DtX[i], alpha, positive, max_steps, rank, coef[i])
 
 
 @numba.njit(cache=True)
-def _lars_batch_serial(G, DtX, alpha, positive, max_steps, coef, steps):
+def _lars_batch_serial(G, DtX, alpha, positive, max_steps, rank, coef, steps):
     for i in range(DtX.shape[0]):
-        steps[i] = _lars_one(G, DtX[i], alpha, positive, max_steps, coef[i])
+        steps[i] = _lars_one(G, DtX[i], alpha, positive, max_steps, rank, coef[i])
 
 
 #: below this many signals, threads cost more than they give
 _PARALLEL_MIN = 64
 
 
-def lars_lasso_gram(G, DtX, alpha, *, positive=False, max_steps=500):
+def lars_lasso_gram(G, DtX, alpha, *, positive=False, max_steps=500, rank=None):
     """Solve ``min 0.5||x - D c||^2 + alpha ||c||_1`` for a batch from Gram data.
 
     Parameters
@@ -298,6 +290,9 @@ def lars_lasso_gram(G, DtX, alpha, *, positive=False, max_steps=500):
     positive : bool, default False
     max_steps : int, default 500
         Homotopy steps (atoms entering or leaving) before giving up.
+    rank : int, optional
+        An upper bound on the rank of G (the number of features): sizes the
+        per-signal buffers. Default k.
 
     Returns
     -------
@@ -319,7 +314,8 @@ def lars_lasso_gram(G, DtX, alpha, *, positive=False, max_steps=500):
     coef = np.zeros_like(DtX)
     steps = np.zeros(DtX.shape[0], dtype=np.int64)
     kernel = _lars_batch if len(DtX) >= _PARALLEL_MIN else _lars_batch_serial
-    kernel(G, DtX, float(alpha), bool(positive), int(max_steps), coef, steps)
+    rank = G.shape[0] if rank is None else min(int(rank), G.shape[0])
+    kernel(G, DtX, float(alpha), bool(positive), int(max_steps), rank, coef, steps)
     return coef, steps
 
 
@@ -390,7 +386,7 @@ class FastSolver(BaseSolver):
         else:
             coef, steps = lars_lasso_gram(
                 self._gram(D, key), X @ D, alpha, positive=positive,
-                max_steps=self.max_steps)
+                max_steps=self.max_steps, rank=D.shape[0])
         status = np.full(X.shape[0], OPTIMAL, dtype=object)
         fallback = np.zeros(X.shape[0], dtype=bool)
         if self.fallback is not None:
