@@ -82,32 +82,26 @@ def update_inner_stats(A, B, X, code, beta=1.0):
 
 
 @numba.njit(cache=True)
-def _bcd_pass(D, A, B, used):
-    # D (n_features, k) atoms as columns; one block-coordinate pass.
-    m, k = D.shape
-    Da = np.empty(m)
+def _bcd_pass(C, A, B, used):
+    # C (k, n_features): atoms as contiguous rows; one block-coordinate pass.
+    # B is (n_features, k) as Mairal's; A symmetric, so A[:, j] == A[j].
+    k, m = C.shape
     for j in range(k):
         ajj = A[j, j]
         if ajj < 1e-12:
             used[j] = False
             continue
-        for i in range(m):
-            Da[i] = 0.0
-        for t in range(k):
-            at = A[t, j]
-            if at != 0.0:
-                for i in range(m):
-                    Da[i] += D[i, t] * at
+        Da = np.dot(A[j], C)  # D a_j, BLAS gemv over contiguous rows
         norm = 0.0
         for i in range(m):
-            D[i, j] += (B[i, j] - Da[i]) / ajj
-            norm += D[i, j] * D[i, j]
+            C[j, i] += (B[i, j] - Da[i]) / ajj
+            norm += C[j, i] * C[j, i]
         norm = np.sqrt(norm)
         if norm < 1e-12:
             used[j] = False
             continue
         for i in range(m):
-            D[i, j] /= norm
+            C[j, i] /= norm
         used[j] = True
 
 
@@ -120,10 +114,10 @@ def update_dictionary(components, A, B, X=None, random_state=None):
 
     Returns the number of re-drawn atoms.
     """
-    D = np.ascontiguousarray(components.T)
-    used = np.ones(D.shape[1], dtype=np.bool_)
-    _bcd_pass(D, np.ascontiguousarray(A), np.ascontiguousarray(B), used)
-    components[:] = D.T
+    C = np.ascontiguousarray(components)
+    used = np.ones(C.shape[0], dtype=np.bool_)
+    _bcd_pass(C, np.ascontiguousarray(A), np.ascontiguousarray(B), used)
+    components[:] = C
     n_unused = int((~used).sum())
     if n_unused and X is not None and len(X):
         rng = np.random.default_rng(random_state)

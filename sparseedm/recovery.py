@@ -364,8 +364,8 @@ def _run_tasks(solver, components, vectors, tasks, positive, n_jobs, progress,
                 return list(tqdm(Parallel(n_jobs=-1, return_as="generator")(calls), **bar))
     if n_jobs in (None, 1) and backend is None:
         return [f(*args, **kw) for f, args, kw in tqdm(calls, **bar)]
-    with parallel_config(backend=backend):
-        return list(tqdm(Parallel(n_jobs=n_jobs, return_as="generator")(calls), **bar))
+    parallel = Parallel(n_jobs=n_jobs, return_as="generator", backend=backend)
+    return list(tqdm(parallel(calls), **bar))
 
 
 class _dask_client:

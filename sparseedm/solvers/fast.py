@@ -145,12 +145,10 @@ def _lars_core(G, DW, use_gram, dtx, alpha, positive, max_steps, rank, coef):
         for i in range(n):
             rhs[i] = sign[i]
         _chol_solve(L, n, rhs, w)
-        for j in range(k):
-            a[j] = 0.0
-        for i in range(n):
-            wi = w[i]
-            for j in range(k):
-                a[j] += wi * R[i, j]
+        if n > 0:
+            a[:] = np.dot(w[:n], R[:n])  # BLAS gemv: G_{:,A} w
+        else:
+            a[:] = 0.0
         # next event
         gamma = lam - alpha
         event = 0
