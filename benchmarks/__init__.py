@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
-CMU_RAW = Path("/work/shared/data/cmu-mocap")
+CMU_RAW = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "cmu-mocap"
 #: where a prebuilt CMU training set may already be (same command, same seed)
 CMU_CANDIDATES = (Path("/tmp/work/cmu_train.npz"), Path("/tmp/bench/cmu.npz"))
 SELECTION = ROOT / "dictionaries" / "selection.json"

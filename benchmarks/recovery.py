@@ -40,8 +40,8 @@ from sparseedm.solvers import duality_gap, get_solver
 
 from . import SHIPPED_K2000, alphas, held_out_sample, load_cmu, log, split_clips
 
-FULL = dict(k=2000, n=2000, n_clarabel=300, n_naive=30, n_cd=200, n_lars=2000,
-            n_objcheck=100, budget_s=30.0)
+FULL = dict(k=2000, n=2000, n_clarabel=100, n_naive=30, n_cd=200, n_lars=2000,
+            n_objcheck=100, budget_s=20.0)
 QUICK = dict(k=200, n=200, n_clarabel=40, n_naive=4, n_cd=30, n_lars=200, n_objcheck=20,
              budget_s=1.5)
 TOL = 1e-6

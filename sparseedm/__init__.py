@@ -14,6 +14,6 @@ See README.md for the tour; the modules, one per idea:
 __version__ = "0.1.0"
 
 from .dictionary import Dictionary, load_dictionary  # noqa: E402
-from .recovery import RecoveryResult, recover  # noqa: E402
+from .recovery import OcclusionRecoverer, RecoveryResult, recover  # noqa: E402
 
-__all__ = ["recover", "RecoveryResult", "load_dictionary", "Dictionary", "__version__"]
+__all__ = ["recover", "RecoveryResult", "OcclusionRecoverer", "load_dictionary", "Dictionary", "__version__"]

@@ -57,7 +57,6 @@ import csv
 import json
 import math
 import time
-import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -65,7 +64,8 @@ import numpy as np
 from ._atomic import atomic_path
 from .dictionary import Dictionary, load_dictionary
 from .exceptions import FileFormatError, SparseEDMError
-from .keypoints import N_JOINTS, _EXTENSIONS, _finish, _format_of, read_keypoints, write_keypoints
+from .keypoints import (N_JOINTS, _EXTENSIONS, _finish, _format_of, _np_load, read_keypoints,
+                        write_keypoints)
 from .normalize import REPRESENTATIONS
 from .recovery import STATUSES, _OK, recover
 from .skeleton import JOINT_NAMES
@@ -120,19 +120,7 @@ class _NpySource:
     def __init__(self, path, threshold, scan_chunk=200_000):
         self.path = path
         self.threshold = threshold
-        try:
-            arr = np.load(path, mmap_mode="r", allow_pickle=False)
-        except FileNotFoundError:
-            raise
-        except ValueError as exc:
-            if "pickle" in str(exc).lower():
-                raise FileFormatError(
-                    f"{path}: holds pickled Python objects, which sparseedm refuses "
-                    "to load (they can run code); save plain numeric arrays"
-                ) from None
-            raise FileFormatError(f"{path}: not a readable .npy file ({exc})") from None
-        except (OSError, EOFError, zipfile.BadZipFile) as exc:
-            raise FileFormatError(f"{path}: not a readable .npy file ({exc})") from None
+        arr = _np_load(path, mmap_mode="r")
         if isinstance(arr, np.lib.npyio.NpzFile):
             arr.close()
             raise FileFormatError(f"{path}: expected a single .npy array, found an .npz archive")

@@ -343,9 +343,10 @@ def read_keypoints(path, *, format=None, confidence_threshold=0.0):
     return kps
 
 
-def _np_load(path):
+def _np_load(path, mmap_mode=None):
+    """``np.load`` with pickles refused and every failure a FileFormatError."""
     try:
-        return np.load(path, allow_pickle=False)
+        return np.load(path, mmap_mode=mmap_mode, allow_pickle=False)
     except ValueError as exc:
         if "pickle" in str(exc).lower():
             raise FileFormatError(

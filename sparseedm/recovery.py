@@ -36,13 +36,13 @@ from joblib import Parallel, delayed, parallel_config
 from threadpoolctl import threadpool_limits
 
 from .dictionary import Dictionary, load_dictionary
-from .edm import observed_entries, triu_indices, vector_to_edm
+from .edm import observed_entries, vector_to_edm
 from .exceptions import PoseError, SparseEDMError
 from .normalize import MIN_OBSERVED_JOINTS, REPRESENTATIONS, represent
 from .placement import place_missing_joints
 from .solvers import get_solver
 
-__all__ = ["recover", "RecoveryResult", "STATUSES"]
+__all__ = ["recover", "RecoveryResult", "OcclusionRecoverer", "STATUSES"]
 
 #: Per-pose statuses and what they mean.
 STATUSES = {
@@ -402,3 +402,46 @@ class _dask_client:
     def __exit__(self, *exc):
         if self.client is not None:
             self.client.close()
+
+
+class OcclusionRecoverer:
+    """scikit-learn-style shell around :func:`recover`.
+
+    ``__init__`` only stores the arguments; :meth:`fit` loads the dictionary
+    (``dictionary_``); :meth:`transform` returns filled poses and keeps the
+    last :class:`RecoveryResult` in ``result_``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> pose = np.array([[50, 10], [50, 30], [35, 32], [30, 55], [28, 78],
+    ...                  [65, 32], [70, 55], [72, 78], [40, 80], [40, 115],
+    ...                  [40, 150], [60, 80], [60, 115], [60, 150]], float)[None]
+    >>> pose[0, 12] = np.nan                   # left knee occluded
+    >>> filled = OcclusionRecoverer().fit().transform(pose)
+    >>> filled.shape, bool(np.isfinite(filled).all())
+    ((1, 14, 2), True)
+    """
+
+    def __init__(self, dictionary=None, *, alpha=None, representation="average",
+                 solver="fast", n_jobs=1):
+        self.dictionary = dictionary
+        self.alpha = alpha
+        self.representation = representation
+        self.solver = solver
+        self.n_jobs = n_jobs
+
+    def fit(self, X=None, y=None):
+        """Load the dictionary (nothing is learned from X)."""
+        d = self.dictionary
+        self.dictionary_ = d if isinstance(d, Dictionary) else load_dictionary(d)
+        return self
+
+    def transform(self, X, missing=None):
+        """Filled poses (n, N, 2); NaN coordinates (or `missing`) mark occlusions."""
+        if not hasattr(self, "dictionary_"):
+            self.fit()
+        self.result_ = recover(X, missing, dictionary=self.dictionary_, alpha=self.alpha,
+                               representation=self.representation, solver=self.solver,
+                               n_jobs=self.n_jobs)
+        return self.result_.poses
