@@ -31,9 +31,14 @@ from sparseedm.metrics import err_ave, random_occlusion
 from sparseedm.recovery import recover
 
 
-def split_clips(clips):
+def split_clips(clips, by="clip"):
+    """Validation rows: every 5th clip from the 3rd ("clip"), or all clips of
+    CMU subject 02 ("subject": a new person doing actions the others do not)."""
     names = sorted(set(clips.tolist()))
-    val = {c for i, c in enumerate(names) if i % 5 == 2}
+    if by == "subject":
+        val = {c for c in names if c.startswith("02_")}
+    else:
+        val = {c for i, c in enumerate(names) if i % 5 == 2}
     return np.isin(clips, sorted(val)), sorted(val)
 
 
@@ -56,6 +61,8 @@ def main(argv=None):
     ap.add_argument("--train-alphas", default="0.1,0.2,0.4,0.8,1.6,3.2")
     ap.add_argument("--recover-alphas", default="0.0002,0.0005,0.002,0.005,0.01")
     ap.add_argument("--max-val", type=int, default=2000)
+    ap.add_argument("--split", choices=("clip", "subject"), default="clip",
+                    help="validation by held-out clips, or by held-out subject 02")
     ap.add_argument("--positive-code", action="store_true",
                     help="non-negative codes in training and recovery")
     ap.add_argument("--out", default="selection.json")
@@ -63,7 +70,7 @@ def main(argv=None):
 
     with np.load(args.train, allow_pickle=False) as npz:
         poses, clips = npz["poses2d"], npz["clips"]
-    is_val, val_clips = split_clips(clips)
+    is_val, val_clips = split_clips(clips, args.split)
     X, _ = complete_pose_vectors(poses[~is_val])
     rng = np.random.default_rng(0)
     val = poses[is_val]

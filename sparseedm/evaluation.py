@@ -527,7 +527,7 @@ def evaluate(dictionary, test_poses2d, *, train_poses2d=None, labels=None,
 
 
 def sweep_atoms(train_poses2d, test_poses2d, atoms=(100, 250, 500, 1000, 2000), *,
-                alpha=0.05, alpha_recover=None, n_passes=1, batch_size=512,
+                alpha=1.6, alpha_recover=0.002, n_passes=1, batch_size=512,
                 random_state=0, max_poses=None, representation="average", n_jobs=1,
                 solver="fast"):
     """Fig. 5: Mix Err_ave and recovery time per pose vs the number of atoms.
@@ -567,7 +567,7 @@ def sweep_atoms(train_poses2d, test_poses2d, atoms=(100, 250, 500, 1000, 2000), 
                                        n_passes=n_passes, random_state=random_state).fit(X)
         fit_s = time.perf_counter() - t0
         d = Dictionary(odl.components_ / np.linalg.norm(odl.components_, axis=1, keepdims=True),
-                       alpha_recover=alpha / 5 if alpha_recover is None else alpha_recover,
+                       alpha_recover=alpha_recover,
                        alpha_train=alpha)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")

@@ -181,8 +181,10 @@ class OnlineDictionaryLearning:
     ----------
     n_components : int, default 2000
         Number of atoms k (the paper's 2000; 100-4000 are supported).
-    alpha : float, default 0.05
-        Lasso penalty of the coding step (``0.5||x - Dc||^2 + alpha||c||_1``).
+    alpha : float, default 1.6
+        Lasso penalty of the coding step (``0.5||x - Dc||^2 + alpha||c||_1``);
+        the default was chosen on a validation split of CMU clips
+        (``dictionaries/README.md``): very sparse training codes recover best.
     batch_size : int, default 512
     n_passes : float, default 1
         Passes over the training data in :meth:`fit`.
@@ -217,7 +219,7 @@ class OnlineDictionaryLearning:
     True
     """
 
-    def __init__(self, n_components=2000, *, alpha=0.05, batch_size=512, n_passes=1,
+    def __init__(self, n_components=2000, *, alpha=1.6, batch_size=512, n_passes=1,
                  positive_code=False, random_state=None, n_jobs=None):
         self.n_components = n_components
         self.alpha = alpha
@@ -380,9 +382,9 @@ def _load_training_poses(path):
     return poses
 
 
-def fit_dictionary_file(train_path, output, *, n_components=2000, alpha=0.05,
+def fit_dictionary_file(train_path, output, *, n_components=2000, alpha=1.6,
                         batch_size=512, n_passes=1, positive_code=False,
-                        random_state=0, n_jobs=None, alpha_recover=None,
+                        random_state=0, n_jobs=None, alpha_recover=0.002,
                         alpha_scaling="entries", checkpoint=None,
                         checkpoint_every=20, resume=False, progress=True,
                         joint_names=None):
@@ -471,7 +473,7 @@ def fit_dictionary_file(train_path, output, *, n_components=2000, alpha=0.05,
     dictionary = Dictionary(
         components=est.components_,
         joint_names=tuple(joint_names or JOINT_NAMES),
-        alpha_recover=alpha_recover if alpha_recover is not None else alpha / 5,
+        alpha_recover=alpha_recover,
         alpha_train=alpha,
         alpha_scaling=alpha_scaling,
         positive_code=positive_code,

@@ -42,8 +42,9 @@ def add_parser(sub):
     p.add_argument("--sweep-atoms", default=None,
                    help="comma-separated atom counts: learn a dictionary of each size on "
                    "--train and plot Mix Err_ave and time per pose (Fig. 5)")
-    p.add_argument("--sweep-alpha", type=float, default=0.05,
-                   help="training alpha of the sweep dictionaries (default 0.05)")
+    p.add_argument("--sweep-alpha", type=float, default=None,
+                   help="training alpha of the sweep dictionaries (default: the "
+                   "evaluated dictionary's; their recovery alpha is --alpha or its)")
     p.add_argument("--jobs", type=int, default=1, help="joblib workers for the recovery")
     p.add_argument("-o", "--output", required=True, help="report directory")
     p.set_defaults(func=run)
@@ -111,9 +112,12 @@ def run(args):
             print(f"sparseedm evaluate: {msg}", file=sys.stderr)
         else:
             atoms = tuple(int(a) for a in _split(args.sweep_atoms))
-            report.sweep = sweep_atoms(train, test, atoms, alpha=args.sweep_alpha,
-                                       random_state=args.seed, max_poses=args.max_poses,
-                                       n_jobs=args.jobs)
+            # the sweep's dictionaries are used as the evaluated one is
+            report.sweep = sweep_atoms(
+                train, test, atoms,
+                alpha=args.sweep_alpha if args.sweep_alpha is not None else dictionary.alpha_train,
+                alpha_recover=args.alpha if args.alpha is not None else dictionary.alpha_recover,
+                random_state=args.seed, max_poses=args.max_poses, n_jobs=args.jobs)
     for note in report.notes:
         if note.startswith("no training poses"):
             print(f"sparseedm evaluate: {note}", file=sys.stderr)

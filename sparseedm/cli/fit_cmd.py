@@ -18,10 +18,12 @@ def add_parser(sub):
     p.add_argument("train", help="training .npz with poses2d (n, N, 2)")
     p.add_argument("-o", "--output", required=True, help="dictionary file to write (.npz)")
     p.add_argument("--atoms", type=int, default=2000, help="number of atoms k (default 2000)")
-    p.add_argument("--alpha", type=float, default=0.05,
-                   help="lasso penalty while learning (default 0.05)")
-    p.add_argument("--alpha-recover", type=float, default=None,
-                   help="recommended recovery alpha to store (default alpha/5)")
+    p.add_argument("--alpha", type=float, default=1.6,
+                   help="lasso penalty while learning (default 1.6, chosen on a "
+                   "validation split: dictionaries/README.md)")
+    p.add_argument("--alpha-recover", type=float, default=0.002,
+                   help="recommended recovery alpha to store (default 0.002, chosen "
+                   "likewise)")
     p.add_argument("--passes", type=float, default=1.0, help="passes over the data (default 1)")
     p.add_argument("--batch-size", type=int, default=512, help="mini-batch size (default 512)")
     p.add_argument("--positive-code", action="store_true", help="non-negative codes")
