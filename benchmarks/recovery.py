@@ -163,13 +163,9 @@ def run_lasso(method, groups, components, budget=None):
 
 
 def _recover(poses, mask, dictionary, solver, n_jobs):
-    import inspect
-
-    kw = {}
-    if n_jobs not in (None, 1) and "backend" in inspect.signature(recover).parameters:
-        kw["backend"] = "loky"  # joblib's default, named (backend=None breaks some joblibs)
+    # recover's default backend: threads for the fast solver, loky processes else
     return recover(np.where(mask[..., None], np.nan, poses), mask, dictionary=dictionary,
-                   solver=solver, n_jobs=n_jobs, **kw)
+                   solver=solver, n_jobs=n_jobs)
 
 
 def run_recover(poses, mask, dictionary, solver, n_jobs):

@@ -24,6 +24,7 @@ flagged in ``LassoResult.fallback``.
 
 from __future__ import annotations
 
+import threading
 from collections import OrderedDict
 
 import numba
@@ -225,10 +226,19 @@ def _lars_one(G, dtx, alpha, positive, max_steps, rank, coef):
                       coef)
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True, parallel=True, nogil=True)
 def _lars_rows_batch(Dt, X, alpha, positive, max_steps, coef, steps):
     k, m = Dt.shape
     for i in numba.prange(X.shape[0]):
+        dtx = np.dot(Dt, X[i])
+        steps[i] = _lars_core(np.empty((0, 0)), Dt, False, dtx, alpha, positive,
+                              max_steps, m, coef[i])
+
+
+@numba.njit(cache=True, nogil=True)
+def _lars_rows_batch_serial(Dt, X, alpha, positive, max_steps, coef, steps):
+    k, m = Dt.shape
+    for i in range(X.shape[0]):
         dtx = np.dot(Dt, X[i])
         steps[i] = _lars_core(np.empty((0, 0)), Dt, False, dtx, alpha, positive,
                               max_steps, m, coef[i])
@@ -255,23 +265,24 @@ def lars_lasso_rows(D, X, alpha, *, positive=False, max_steps=500):
     X = np.ascontiguousarray(np.atleast_2d(X), dtype=np.float64)
     coef = np.zeros((X.shape[0], Dt.shape[0]))
     steps = np.zeros(X.shape[0], dtype=np.int64)
-    _lars_rows_batch(Dt, X, float(alpha), bool(positive), int(max_steps), coef, steps)
+    kernel = _lars_rows_batch if len(X) >= 4 else _lars_rows_batch_serial
+    kernel(Dt, X, float(alpha), bool(positive), int(max_steps), coef, steps)
     return coef, steps
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True, parallel=True, nogil=True)
 def _lars_batch(G, DtX, alpha, positive, max_steps, rank, coef, steps):
     for i in numba.prange(DtX.shape[0]):
         steps[i] = _lars_one(G, DtX[i], alpha, positive, max_steps, rank, coef[i])
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _lars_batch_serial(G, DtX, alpha, positive, max_steps, rank, coef, steps):
     for i in range(DtX.shape[0]):
         steps[i] = _lars_one(G, DtX[i], alpha, positive, max_steps, rank, coef[i])
 
 
-#: below this many signals, threads cost more than they give
+#: below this many signals, a parallel region costs more than it gives
 _PARALLEL_MIN = 64
 
 
@@ -358,23 +369,31 @@ class FastSolver(BaseSolver):
         self.cache_size = cache_size
         self.fallback = fallback
         self._grams = OrderedDict()
+        self._lock = threading.Lock()
 
     def __getstate__(self):
         state = self.__dict__.copy()
         state["_grams"] = OrderedDict()
+        del state["_lock"]
         return state
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+        self._lock = threading.Lock()
 
     def _gram(self, D, key):
         if key is None:
             return D.T @ D
-        G = self._grams.get(key)
-        if G is None:
-            G = D.T @ D
+        with self._lock:  # threads of one process share the cache
+            G = self._grams.get(key)
+            if G is not None:
+                self._grams.move_to_end(key)
+                return G
+        G = D.T @ D
+        with self._lock:
             self._grams[key] = G
             while len(self._grams) > self.cache_size:
                 self._grams.popitem(last=False)
-        else:
-            self._grams.move_to_end(key)
         return G
 
     def _solve(self, D, X, alpha, positive, key):
