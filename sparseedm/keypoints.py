@@ -343,35 +343,32 @@ def read_keypoints(path, *, format=None, confidence_threshold=0.0):
     return kps
 
 
-def _np_load(path, mmap_mode=None):
-    """``np.load`` with pickles refused and every failure a FileFormatError."""
+def _guarded_numpy_read(read, what):
+    """Run ``read()``; a pickle is refused and any failure is a FileFormatError
+    naming `what` (a missing file stays FileNotFoundError)."""
     try:
-        return np.load(path, mmap_mode=mmap_mode, allow_pickle=False)
+        return read()
+    except FileNotFoundError:
+        raise
     except ValueError as exc:
         if "pickle" in str(exc).lower():
             raise FileFormatError(
-                f"{path}: holds pickled Python objects, which sparseedm refuses "
-                "to load (they can run code); save plain numeric/string arrays"
+                f"{what} holds pickled Python objects, which sparseedm refuses to "
+                "load (they can run code); save plain numeric/string arrays"
             ) from None
-        raise FileFormatError(f"{path}: not a readable numpy file ({exc})") from None
+        raise FileFormatError(f"{what} is not readable ({exc})") from None
     except (OSError, EOFError, zipfile.BadZipFile) as exc:
-        if isinstance(exc, FileNotFoundError):
-            raise
-        raise FileFormatError(f"{path}: not a readable numpy file ({exc})") from None
+        raise FileFormatError(f"{what} is not readable ({exc})") from None
+
+
+def _np_load(path, mmap_mode=None):
+    """``np.load`` with pickles refused and every failure a FileFormatError."""
+    return _guarded_numpy_read(
+        lambda: np.load(path, mmap_mode=mmap_mode, allow_pickle=False), f"{path}:")
 
 
 def _npz_array(data, key, path):
-    try:
-        return data[key]
-    except ValueError as exc:
-        if "pickle" in str(exc).lower():
-            raise FileFormatError(
-                f"{path}: array {key!r} holds pickled Python objects, which "
-                "sparseedm refuses to load (they can run code)"
-            ) from None
-        raise FileFormatError(f"{path}: array {key!r} is unreadable ({exc})") from None
-    except (OSError, EOFError, zipfile.BadZipFile) as exc:
-        raise FileFormatError(f"{path}: array {key!r} is unreadable ({exc})") from None
+    return _guarded_numpy_read(lambda: data[key], f"{path}: array {key!r}")
 
 
 def _read_npz(path, threshold):
