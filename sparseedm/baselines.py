@@ -90,8 +90,12 @@ def _status(missing):
 
 
 def _observed_frame(poses, missing):
+    """Poses and mask as arrays, and the poses normalised by their observed joints."""
+    poses = np.asarray(poses, dtype=float)
+    missing = np.asarray(missing, dtype=bool)
     clean = np.where(missing[..., None], np.nan, poses)
-    return normalize(clean, missing)
+    normed, center, scale = normalize(clean, missing)
+    return poses, missing, normed, center, scale
 
 
 def mean_fill(poses, missing, representation="average"):
@@ -189,9 +193,7 @@ class ImputerBaseline:
 
     def complete(self, poses, missing):
         t0 = time.perf_counter()
-        poses = np.asarray(poses, dtype=float)
-        missing = np.asarray(missing, dtype=bool)
-        normed, center, scale = _observed_frame(poses, missing)
+        poses, missing, normed, center, scale = _observed_frame(poses, missing)
         X = np.where(missing[..., None], np.nan, normed).reshape(len(poses), -1)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -230,9 +232,7 @@ class NearestNeighbourBaseline:
 
     def complete(self, poses, missing):
         t0 = time.perf_counter()
-        poses = np.asarray(poses, dtype=float)
-        missing = np.asarray(missing, dtype=bool)
-        normed, center, scale = _observed_frame(poses, missing)
+        poses, missing, normed, center, scale = _observed_frame(poses, missing)
         T = pose_to_vector(np.where(missing[..., None], 0.0, normed))
         vectors = T.copy()
         todo = np.flatnonzero(missing.any(axis=1))

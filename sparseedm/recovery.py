@@ -263,10 +263,10 @@ def _recover(poses, missing=None, *, dictionary=None, alpha=None,
     status[few] = "too_few_observed"
     reason[few] = [f"{k} observed joints, at least {MIN_OBSERVED_JOINTS} needed" for k in n_obs[few]]
     clean = np.where(mask[..., None], 0.0, poses)
-    extent = np.where(mask[..., None], np.nan, clean)
-    with np.errstate(invalid="ignore"), _quiet_nan():
-        span = np.nanmax(extent, axis=1) - np.nanmin(extent, axis=1)
-        widest = np.nanmax(span, axis=1)  # all-NaN for a pose with no observed joint
+    with np.errstate(invalid="ignore"):  # inf - inf on refused rows
+        lo = np.where(mask[..., None], np.inf, poses).min(axis=1)
+        hi = np.where(mask[..., None], -np.inf, poses).max(axis=1)
+        widest = (hi - lo).max(axis=1)  # -inf for a pose with no observed joint
     degenerate = (status == "recovered") & ~(widest > 0)
     status[degenerate] = "degenerate"
     reason[degenerate] = "all observed joints coincide"
@@ -332,18 +332,6 @@ def _recover(poses, missing=None, *, dictionary=None, alpha=None,
         status=status.astype(str), reason=reason.astype(str), fallback=fallback,
         alpha=float(alpha), seconds=time.perf_counter() - t0,
     )
-
-
-class _quiet_nan:
-    def __enter__(self):
-        import warnings
-
-        self._w = warnings.catch_warnings()
-        self._w.__enter__()
-        warnings.simplefilter("ignore", RuntimeWarning)
-
-    def __exit__(self, *exc):
-        self._w.__exit__(*exc)
 
 
 def _run_tasks(solver, components, vectors, tasks, positive, n_jobs, progress,

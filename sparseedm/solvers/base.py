@@ -103,9 +103,14 @@ class BaseSolver:
     tol : float, default 1e-6
         Relative duality-gap tolerance: a row is "optimal" when
         ``gap <= tol * objective``.
+
+    A backend with a ``fallback`` attribute (a solver name or instance) has
+    every row the certificate rejects re-solved by that solver; those rows
+    are flagged in ``LassoResult.fallback``.
     """
 
     name = "base"
+    fallback = None
 
     def __init__(self, tol=1e-6):
         self.tol = tol
@@ -141,17 +146,30 @@ class BaseSolver:
             raise SparseEDMError("D and X must be finite (no NaN or inf)")
         if not np.isscalar(alpha) or not alpha > 0:
             raise SparseEDMError(f"alpha must be a number > 0, got {alpha!r}")
-        out = self._solve(D, X, float(alpha), bool(positive), key)
-        coef, status, n_iter = out[:3]
-        fallback = out[3] if len(out) > 3 else None
+        coef, status, n_iter = self._solve(D, X, float(alpha), bool(positive), key)
         objective, gap = duality_gap(D, X, coef, alpha, positive)
         status = np.asarray(status, dtype=object)
         certified = gap <= self.tol * np.maximum(objective, np.finfo(float).tiny)
         status = np.where(
             status == FAILED, FAILED, np.where(certified, OPTIMAL, INACCURATE)
         ).astype(object)
-        return LassoResult(coef, objective, gap, status, np.asarray(n_iter), fallback)
+        result = LassoResult(coef, objective, gap, status, np.asarray(n_iter))
+        bad = result.status != OPTIMAL
+        if self.fallback is not None and bad.any():
+            self._fall_back(result, bad, D, X, alpha, positive, key)
+        return result
+
+    def _fall_back(self, result, bad, D, X, alpha, positive, key):
+        """Re-solve the uncertified rows with the fallback solver, in place."""
+        from . import get_solver
+
+        backup = (get_solver(self.fallback, tol=self.tol) if isinstance(self.fallback, str)
+                  else get_solver(self.fallback))
+        res = backup.solve(D, X[bad], alpha, positive=positive, key=key)
+        for name in ("coef", "objective", "gap", "status", "n_iter"):
+            getattr(result, name)[bad] = getattr(res, name)
+        result.fallback[bad] = True
 
     def _solve(self, D, X, alpha, positive, key):  # pragma: no cover - abstract
-        """Return (coef, status, n_iter[, fallback]) for validated inputs."""
+        """Return (coef, status, n_iter) for validated inputs."""
         raise NotImplementedError
