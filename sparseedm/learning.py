@@ -248,9 +248,12 @@ class OnlineDictionaryLearning:
         theta = (t + 1) * b if t < b - 1 else b**2 + t + 1 - b
         return (theta + 1 - b) / (theta + 1)
 
-    def _init_state(self, X):
+    def _init_state(self, X=None, components=None):
+        """Fresh learner state; initial atoms drawn from X unless given."""
         check_params(self.n_components, self.alpha, self.batch_size, self.n_passes)
-        self.components_ = init_dictionary(X, self.n_components, self._seed(0))
+        if components is None:
+            components = init_dictionary(X, self.n_components, self._seed(0))
+        self.components_ = components
         k, m = self.components_.shape
         self.inner_stats_ = (np.zeros((k, k)), np.zeros((m, k)))
         self.n_steps_ = 0
@@ -440,11 +443,7 @@ def fit_dictionary_file(train_path, output, *, n_components=2000, alpha=1.6,
         rng = np.random.default_rng([0 if random_state is None else random_state, 7])
         pick = np.sort(rng.choice(index, n_components, replace=False))
         X0, _ = complete_pose_vectors(poses[pick])
-        est.components_ = X0 / np.linalg.norm(X0, axis=1, keepdims=True)
-        k, m = est.components_.shape
-        est.inner_stats_ = (np.zeros((k, k)), np.zeros((m, k)))
-        est.n_steps_ = 0
-        est.objective_ = []
+        est._init_state(components=X0 / np.linalg.norm(X0, axis=1, keepdims=True))
     per_pass = -(-len(index) // batch_size)
     total = int(np.ceil(n_passes * per_pass))
     bar = tqdm(total=total, initial=start, disable=not progress, unit="batch",
