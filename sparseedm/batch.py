@@ -61,8 +61,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ._atomic import atomic_path
-from .dictionary import Dictionary, load_dictionary
+from numbers import Real
+
+from ._atomic import atomic_path, check_paths
+from ._validation import (ALPHA, BOOLEAN, CHUNK_SIZE, N_JOBS, PATH, Interval, Options,
+                          validate_params)
+from .dictionary import Dictionary, _resolve, load_dictionary
 from .exceptions import FileFormatError, SparseEDMError
 from .keypoints import (N_JOINTS, _EXTENSIONS, _finish, _format_of, _np_load, read_keypoints,
                         write_keypoints)
@@ -224,29 +228,37 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
         does not fit, alpha <= 0, unknown representation); nothing is written.
     """
     t0 = time.perf_counter()
+    validate_params("recover_file", dict(
+        input=input, output=output, dictionary=dictionary, alpha=alpha,
+        representation=representation, n_jobs=n_jobs, chunk_size=chunk_size,
+        errors_path=errors_path, progress=progress,
+        save_edm=save_edm, confidence_threshold=confidence_threshold, backend=backend,
+        scheduler=scheduler), _PARAMS)
     in_path, out_path = Path(input), Path(output)
     errors_path = default_errors_path(out_path) if errors_path is None else Path(errors_path)
-    chunk_size = int(chunk_size)
-    if chunk_size < 1:
-        raise SparseEDMError(f"chunk_size must be >= 1, got {chunk_size}")
-    if representation not in REPRESENTATIONS:
-        raise SparseEDMError(
-            f"unknown representation {representation!r}; use one of {REPRESENTATIONS}"
-        )
+    if not in_path.exists():
+        raise FileNotFoundError(f"{in_path}: no such file")
+    in_fmt = _format_of(in_path, None)
+    out_fmt = _output_format(out_path, in_fmt, output_format)
+    # nothing the run reads is ever written, and no output overwrites another
+    inputs = [("input", in_path)]
+    if not isinstance(dictionary, Dictionary):
+        with contextlib.suppress(SparseEDMError):
+            inputs.append(("dictionary", _resolve(dictionary)))
+    outputs = [("output", out_path), ("errors file", errors_path)]
+    if out_fmt == "npy":
+        outputs.append(("status sidecar", _sidecar(out_path, "status")))
+    elif save_edm and out_fmt != "npz":
+        outputs.append(("edm sidecar", _sidecar(out_path, "edm")))
+    check_paths(inputs, outputs)
     if not isinstance(dictionary, Dictionary):
         dictionary = load_dictionary(dictionary)
-    if alpha is not None and (not np.isscalar(alpha) or not np.isfinite(alpha) or not alpha > 0):
-        raise SparseEDMError(f"alpha must be a number > 0, got {alpha!r}")
     try:
         solver = get_solver(solver)  # one instance: its per-pattern caches serve every chunk
     except ImportError as exc:
         raise SparseEDMError(f"solver {solver!r} is not available ({exc})") from None
     except ValueError as exc:
         raise SparseEDMError(str(exc)) from None
-    if not in_path.exists():
-        raise FileNotFoundError(f"{in_path}: no such file")
-    in_fmt = _format_of(in_path, None)
-    out_fmt = _output_format(out_path, in_fmt, output_format)
 
     source = _NpySource(in_path, confidence_threshold) if in_fmt == "npy" else \
         _MemorySource(in_path, in_fmt, confidence_threshold)
@@ -256,6 +268,18 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
                     backend, scheduler)
     finally:
         source.close()
+
+
+#: constraints of recover_file()'s arguments (see sparseedm._validation)
+_PARAMS = {
+    "input": PATH, "output": PATH, "dictionary": [Dictionary, "path", None],
+    "alpha": ALPHA + [None], "representation": [Options(REPRESENTATIONS)],
+    "n_jobs": N_JOBS, "chunk_size": CHUNK_SIZE,
+    "errors_path": PATH + [None], "progress": BOOLEAN, "save_edm": BOOLEAN,
+    "confidence_threshold": [Interval(Real, None, None)],
+    "backend": [Options(("loky", "threading", "multiprocessing", "dask")), None],
+    "scheduler": PATH + [None],
+}
 
 
 def _run(source, in_fmt, out_path, out_fmt, errors_path, dictionary, alpha,
@@ -332,9 +356,11 @@ def _run(source, in_fmt, out_path, out_fmt, errors_path, dictionary, alpha,
                 extra["ids"] = ids
             if edm is not None:
                 extra.update(edm)
-            np.savez(side_tmp["status"], **extra)
+            with open(side_tmp["status"], "wb") as f:
+                np.savez(f, **extra)
         if "edm" in sidecars:
-            np.savez(side_tmp["edm"], **edm)
+            with open(side_tmp["edm"], "wb") as f:
+                np.savez(f, **edm)
         if isinstance(filled, np.memmap):
             filled.flush()
             del filled
@@ -361,7 +387,8 @@ def _run(source, in_fmt, out_path, out_fmt, errors_path, dictionary, alpha,
 def _write_output(tmp, fmt, filled, ids, meta, in_fmt, fields, edm):
     if fmt == "npy":
         if len(filled) == 0:
-            np.save(tmp, np.zeros((0, N_JOINTS, 2)))
+            with open(tmp, "wb") as f:
+                np.save(f, np.zeros((0, N_JOINTS, 2)))
         return  # already streamed into the memmap
     if fmt == "npz":
         extra = dict(meta.get("npz_extra") or {}) if in_fmt == "npz" else {}

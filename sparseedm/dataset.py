@@ -40,14 +40,14 @@ import json
 import os
 import sys
 import warnings
-import zipfile
 from pathlib import Path
 
 import numpy as np
 
-from ._atomic import atomic_path
+from ._atomic import check_paths, save_npz
+from ._safeio import load_npz
 from .cameras import project, sample_cameras
-from .exceptions import FileFormatError, SparseEDMError
+from .exceptions import FileFormatError, OutputPathError, SparseEDMError
 from .mocap import MOCAP_SUFFIXES, load_mocap
 from .skeleton import JOINT_NAMES
 
@@ -212,6 +212,9 @@ def build_dataset(
     cameras_per_pose = int(cameras_per_pose)
     if frame_step is not None and int(frame_step) < 1:
         raise ValueError(f"frame_step must be >= 1, got {frame_step}")
+    if output is not None:
+        _check_output(output)
+        check_paths([], [("output", output)])
     files = find_mocap_files(paths)
     rng = np.random.default_rng(random_state)
     cam_opts = dict(camera_options or {})
@@ -277,11 +280,19 @@ def _auto_step(frame_rate):
     return max(1, int(round(frame_rate / TARGET_FPS)))
 
 
+def _check_output(path):
+    """A dataset is an .npz: refuse other names (numpy would add ".npz" to them)."""
+    if Path(path).suffix.lower() != ".npz":
+        raise OutputPathError(
+            f"{path}: a dataset is written as an .npz archive; give an output name "
+            "ending in .npz")
+
+
 def save_dataset(path, data) -> None:
     """Validate `data` against the schema and write it as an .npz, atomically."""
+    _check_output(path)
     _validate(data, str(path))
-    with atomic_path(path) as tmp:
-        np.savez_compressed(tmp, **{k: np.asarray(data[k]) for k in SCHEMA})
+    save_npz(path, {k: np.asarray(data[k]) for k in SCHEMA}, compressed=True)
 
 
 def _validate(data, name):
@@ -335,14 +346,6 @@ def load_dataset(path) -> dict:
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"no such dataset file: {path}")
-    try:
-        with np.load(path, allow_pickle=False) as npz:
-            data = {k: npz[k] for k in npz.files}
-    except ValueError as exc:
-        raise FileFormatError(
-            f"{path}: not a valid dataset .npz, or one holding pickled objects ({exc})"
-        ) from None
-    except (OSError, EOFError, zipfile.BadZipFile) as exc:
-        raise FileFormatError(f"{path}: not an .npz file ({exc})") from None
+    data, _ = load_npz(path, SCHEMA, what=f"{path}: not a valid dataset .npz:")
     _validate(data, str(path))
     return data

@@ -21,20 +21,23 @@ Shipped dictionaries load by name (``"default"``) from the installed package.
 from __future__ import annotations
 
 import json
-import zipfile
 from dataclasses import dataclass, field
+from numbers import Integral, Real
 from importlib import resources
 from pathlib import Path
 
 import numpy as np
 
 from . import __version__
-from ._atomic import atomic_path
+from ._atomic import save_npz
+from ._safeio import load_npz
+from ._validation import Interval, validate_params
 from .edm import num_joints_from_dim
-from .exceptions import DictionaryError, PoseError
+from .exceptions import DictionaryError, FileFormatError, PoseError
 from .skeleton import JOINT_NAMES
 
-__all__ = ["Dictionary", "load_dictionary", "available_dictionaries", "DEFAULT_DICTIONARY"]
+__all__ = ["Dictionary", "load_dictionary", "available_dictionaries", "check_layout",
+           "DEFAULT_DICTIONARY"]
 
 FORMAT_VERSION = 1
 #: the file the name "default" resolves to, in the sparseedm.dictionaries package
@@ -86,8 +89,14 @@ class Dictionary:
         self.components = np.asarray(self.components, dtype=np.float64)
         self.joint_names = tuple(str(n) for n in self.joint_names)
         _check_components(self.components, self.joint_names, "components")
-        if not np.isfinite(self.alpha_recover) or self.alpha_recover <= 0:
-            raise DictionaryError(f"alpha_recover must be > 0, got {self.alpha_recover!r}")
+        if isinstance(self.positive_code, np.bool_):
+            self.positive_code = bool(self.positive_code)
+        _check_meta({"format_version": FORMAT_VERSION, "alpha_recover": self.alpha_recover,
+                     "alpha_train": self.alpha_train, "alpha_scaling": self.alpha_scaling,
+                     "positive_code": self.positive_code,
+                     "representation": self.representation,
+                     "normalization": self.normalization, "provenance": self.provenance,
+                     "library_version": self.library_version}, "Dictionary")
         if self.alpha_scaling not in ("entries", "none"):
             raise DictionaryError(
                 f"alpha_scaling must be 'entries' or 'none', got {self.alpha_scaling!r}"
@@ -124,14 +133,11 @@ class Dictionary:
         path = Path(path)
         if path.suffix != ".npz":
             raise DictionaryError(f"{path}: a dictionary file must end in .npz")
-        with atomic_path(path) as tmp:
-            np.savez_compressed(
-                tmp,
-                components=self.components,
-                joint_names=np.array(self.joint_names, dtype=np.str_),
-                meta=np.array(json.dumps(self.meta(), sort_keys=True), dtype=np.str_),
-            )
-        return path
+        return save_npz(path, dict(
+            components=self.components,
+            joint_names=np.array(self.joint_names, dtype=np.str_),
+            meta=np.array(json.dumps(self.meta(), sort_keys=True), dtype=np.str_),
+        ), compressed=True)
 
     def describe(self) -> str:
         """A few lines a person reads (what ``sparseedm info`` prints)."""
@@ -184,6 +190,80 @@ def _check_components(components, joint_names, where):
         )
 
 
+def check_layout(dictionary, joint_names=JOINT_NAMES, where="poses"):
+    """Refuse a dictionary whose joints are not `joint_names`, in that order.
+
+    Poses are arrays whose joint axis follows a layout (SKELETON_14 for every
+    file sparseedm reads): atoms of another order or naming would be used
+    silently wrong.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> d = Dictionary(np.eye(91)[:2], JOINT_NAMES[::-1])
+    >>> check_layout(d)
+    Traceback (most recent call last):
+    ...
+    sparseedm.exceptions.DictionaryError: the dictionary's joints are not the layout the poses use (SKELETON_14): position 0 is 'left_ankle', the poses have 'head_top'
+    """
+    names = tuple(dictionary.joint_names)
+    want = tuple(joint_names)
+    if names == want:
+        return
+    if len(names) != len(want):
+        raise DictionaryError(
+            f"the dictionary is for {len(names)} joints, the {where} have {len(want)}")
+    k = next(i for i, (a, b) in enumerate(zip(names, want)) if a != b)
+    layout = " (SKELETON_14)" if want == JOINT_NAMES else ""
+    raise DictionaryError(
+        f"the dictionary's joints are not the layout the {where} use{layout}: position "
+        f"{k} is {names[k]!r}, the {where} have {want[k]!r}")
+
+
+_META_TYPES = {  # field -> (kind, required)
+    "format_version": (Integral, True),
+    "alpha_recover": (Real, True),
+    "alpha_train": (Real, True),
+    "alpha_scaling": (str, False),
+    "positive_code": (bool, False),
+    "representation": (str, False),
+    "normalization": (str, False),
+    "provenance": (dict, False),
+    "library_version": (str, False),
+}
+_PROVENANCE_TYPES = {"files": list, "n_poses": Integral, "sha256": str, "sha256_of": str}
+
+
+def _check_meta(meta, where):
+    """Every metadata field of the right type (a clear error, not an AttributeError)."""
+    if not isinstance(meta, dict):
+        raise DictionaryError(
+            f"{where}: metadata must be a JSON object, got {type(meta).__name__}")
+    for key, (kind, required) in _META_TYPES.items():
+        if key not in meta:
+            if required:
+                raise DictionaryError(f"{where}: metadata has no {key!r}")
+            continue
+        value = meta[key]
+        ok = isinstance(value, kind) and (kind is bool or not isinstance(value, bool))
+        if not ok:
+            raise DictionaryError(
+                f"{where}: metadata {key!r} must be {kind.__name__.lower()}, got "
+                f"{type(value).__name__} {str(value)[:40]!r}")
+    for key in ("alpha_recover", "alpha_train"):
+        if not (np.isfinite(meta[key]) and meta[key] > 0):
+            raise DictionaryError(f"{where}: metadata {key!r} must be > 0, got {meta[key]!r}")
+    for key, kind in _PROVENANCE_TYPES.items():
+        value = meta.get("provenance", {}).get(key)
+        if value is not None and (not isinstance(value, kind) or isinstance(value, bool)):
+            raise DictionaryError(
+                f"{where}: metadata provenance {key!r} must be {kind.__name__.lower()}, "
+                f"got {type(value).__name__}")
+    files = meta.get("provenance", {}).get("files") or []
+    if not all(isinstance(f, str) for f in files):
+        raise DictionaryError(f"{where}: metadata provenance 'files' must be strings")
+
+
 def available_dictionaries() -> list[str]:
     """Names of the dictionaries shipped with the package ("default" included)."""
     names = sorted(
@@ -225,42 +305,45 @@ def load_dictionary(name_or_path=None, *, n_joints=None) -> Dictionary:
         Missing, truncated, pickled or malformed file; non-finite or
         non-unit atoms; wrong joint count.
     """
+    validate_params("load_dictionary", dict(name_or_path=name_or_path, n_joints=n_joints),
+                    {"name_or_path": ["path", None],
+                     "n_joints": [Interval(Integral, 1, None), None]})
     path = _resolve(name_or_path)
     if not path.is_file():
         raise DictionaryError(f"{path}: no such dictionary file")
     try:
-        with np.load(path, allow_pickle=False) as npz:
-            missing = {"components", "joint_names", "meta"} - set(npz.files)
-            if missing:
-                raise DictionaryError(
-                    f"{path}: not a sparseedm dictionary (missing {', '.join(sorted(missing))})"
-                )
-            components = npz["components"]
-            joint_names = npz["joint_names"]
-            meta_text = npz["meta"]
-    except DictionaryError:
-        raise
-    except ValueError as exc:
-        if "pickle" in str(exc):
+        arrays, names = load_npz(path, ("components", "joint_names", "meta"),
+                                 max_bytes=_MAX_BYTES)
+    except FileFormatError as exc:
+        text = str(exc)
+        if "pickle" in text:
             raise DictionaryError(
-                f"{path}: holds pickled data, which is refused (never executed)"
-            ) from None
-        raise DictionaryError(f"{path}: unreadable dictionary file ({exc})") from None
-    except (zipfile.BadZipFile, OSError, EOFError, KeyError) as exc:
-        raise DictionaryError(f"{path}: corrupt or truncated dictionary file ({exc})") from None
+                f"{path}: holds pickled data, which is refused (never executed)") from None
+        raise DictionaryError(f"corrupt or truncated dictionary file: {text}") from None
+    missing = {"components", "joint_names", "meta"} - set(arrays)
+    if missing:
+        raise DictionaryError(
+            f"{path}: not a sparseedm dictionary (missing {', '.join(sorted(missing))})")
+    components, joint_names, meta_text = (
+        arrays["components"], arrays["joint_names"], arrays["meta"])
     if components.dtype.kind != "f":
         raise DictionaryError(f"{path}: atoms must be floating point, got {components.dtype}")
     if joint_names.dtype.kind != "U" or joint_names.ndim != 1:
         raise DictionaryError(f"{path}: joint_names must be a 1-D string array")
+    if len(set(joint_names.tolist())) != len(joint_names) or not all(joint_names.tolist()):
+        raise DictionaryError(f"{path}: joint_names must be distinct, non-empty names")
+    if meta_text.dtype.kind != "U" or meta_text.ndim != 0:
+        raise DictionaryError(f"{path}: meta must be a 0-d string array holding JSON")
     try:
-        meta = json.loads(str(meta_text))
-    except json.JSONDecodeError as exc:
+        meta = json.loads(str(meta_text), parse_int=_parse_int)
+    except (json.JSONDecodeError, RecursionError, ValueError) as exc:
         raise DictionaryError(f"{path}: metadata is not valid JSON ({exc})") from None
-    if meta.get("format_version") != FORMAT_VERSION:
+    if isinstance(meta, dict) and meta.get("format_version") != FORMAT_VERSION:
         raise DictionaryError(
             f"{path}: dictionary format {meta.get('format_version')!r}, this sparseedm "
             f"reads format {FORMAT_VERSION}"
         )
+    _check_meta(meta, str(path))
     _check_components(components, tuple(joint_names), str(path))
     if n_joints is not None and len(joint_names) != n_joints:
         raise DictionaryError(
@@ -281,3 +364,13 @@ def load_dictionary(name_or_path=None, *, n_joints=None) -> Dictionary:
         )
     except (KeyError, TypeError, ValueError) as exc:
         raise DictionaryError(f"{path}: metadata incomplete or invalid ({exc})") from None
+
+
+#: caps on a dictionary file's arrays (the shipped one holds 1.5 MB of atoms)
+_MAX_BYTES = {"components": 1 << 30, "joint_names": 1 << 20, "meta": 1 << 22}
+
+
+def _parse_int(text):
+    if len(text) > 40:
+        raise ValueError(f"an integer of {len(text)} digits")
+    return int(text)

@@ -10,6 +10,8 @@ __all__ = [
     "PoseError",
     "FileFormatError",
     "DictionaryError",
+    "ParameterError",
+    "OutputPathError",
     "ConvergenceWarning",
 ]
 
@@ -31,6 +33,19 @@ class FileFormatError(SparseEDMError):
 
 class DictionaryError(SparseEDMError):
     """A dictionary file that is corrupt, unsafe, or does not fit the data."""
+
+
+class ParameterError(SparseEDMError, TypeError):
+    """An argument of a public function or a CLI option of the wrong type or
+    out of range; the message names the argument (see
+    :mod:`sparseedm._validation`). Also a :class:`TypeError`, as in
+    scikit-learn's ``InvalidParameterError``."""
+
+
+class OutputPathError(SparseEDMError):
+    """An output path that would overwrite an input or another output, or
+    that cannot be created (its parent is a file, it is a directory, the
+    format cannot be written under that name)."""
 
 
 class ConvergenceWarning(UserWarning):

@@ -26,9 +26,13 @@ Missing joints are read as NaN; their coordinates are not kept in ``poses``.
 
 Array files
 -----------
-``.npz``: key ``poses`` (n, 14, 2) float; optional ``missing`` (n, 14) bool,
-``confidence`` (n, 14) float, ``ids`` (n,) str. Other keys are kept in
-``meta["npz_extra"]`` and written back. ``.npy``: one (n, 14, 2) array with
+``.npz``: key ``poses`` (n, 14, 2) float; optional ``missing`` (n, 14) bool
+(or 0/1), ``confidence`` (n, 14) float, ``ids`` (n,) str (or integers, or
+UTF-8 bytes). The per-row result arrays :func:`sparseedm.batch.recover_file`
+writes (:data:`RESULT_FIELDS`) are kept in ``meta["npz_extra"]`` and written
+back; any other member is ignored, never decompressed or copied (its name is
+listed in ``meta["npz_ignored"]``). Each member's declared size is checked
+against the archive before it is read (:mod:`sparseedm._safeio`). ``.npy``: one (n, 14, 2) array with
 NaN for missing joints, or (n, 14, 3) whose third column is a confidence;
 ids cannot be stored in ``.npy`` (a warning says they were dropped). A single
 pose (14, 2) / (14, 3) is read as n = 1. Both are loaded with
@@ -119,13 +123,15 @@ import csv
 import json
 import math
 import warnings
-import zipfile
 from dataclasses import dataclass, field
+from numbers import Real
 from pathlib import Path
 
 import numpy as np
 
-from ._atomic import atomic_path
+from ._atomic import atomic_path, save_npy, save_npz
+from ._safeio import load_json, load_npy, load_npz, text_lines
+from ._validation import Interval, check_poses, validate_params
 from .exceptions import FileFormatError, PoseError
 from .skeleton import JOINT_NAMES, SKELETON_14
 
@@ -141,6 +147,9 @@ __all__ = [
 
 #: Formats, by the name ``format=`` accepts.
 FORMATS = ("npz", "npy", "csv", "coco")
+#: Per-row result arrays of :func:`sparseedm.batch.recover_file` an ``.npz`` keeps.
+RESULT_FIELDS = ("status", "reason", "objective", "gap", "n_active", "edm_vectors",
+                 "center", "scale")
 _EXTENSIONS = {".npz": "npz", ".npy": "npy", ".csv": "csv", ".json": "coco"}
 
 N_JOINTS = SKELETON_14.num_joints
@@ -335,6 +344,8 @@ def read_keypoints(path, *, format=None, confidence_threshold=0.0):
     >>> int(kps.missing[0].sum())                        # no arms or legs labelled
     10
     """
+    validate_params("read_keypoints", dict(
+        path=path, confidence_threshold=confidence_threshold), _READ_PARAMS)
     path = Path(path)
     fmt = _format_of(path, format)
     reader = {"npz": _read_npz, "npy": _read_npy, "csv": _read_csv, "coco": _read_coco}
@@ -343,48 +354,41 @@ def read_keypoints(path, *, format=None, confidence_threshold=0.0):
     return kps
 
 
-def _guarded_numpy_read(read, what):
-    """Run ``read()``; a pickle is refused and any failure is a FileFormatError
-    naming `what` (a missing file stays FileNotFoundError)."""
-    try:
-        return read()
-    except FileNotFoundError:
-        raise
-    except ValueError as exc:
-        if "pickle" in str(exc).lower():
-            raise FileFormatError(
-                f"{what} holds pickled Python objects, which sparseedm refuses to "
-                "load (they can run code); save plain numeric/string arrays"
-            ) from None
-        raise FileFormatError(f"{what} is not readable ({exc})") from None
-    except (OSError, EOFError, zipfile.BadZipFile) as exc:
-        raise FileFormatError(f"{what} is not readable ({exc})") from None
+_READ_PARAMS = {
+    "path": ["path"],
+    "confidence_threshold": [Interval(Real, None, None), None],
+}
+_ZIP_MAGIC = b"PK\x03\x04"
 
 
 def _np_load(path, mmap_mode=None):
-    """``np.load`` with pickles refused and every failure a FileFormatError."""
-    return _guarded_numpy_read(
-        lambda: np.load(path, mmap_mode=mmap_mode, allow_pickle=False), f"{path}:")
+    """One ``.npy`` array, bounded (:func:`sparseedm._safeio.load_npy`): pickles
+    refused, every failure a FileFormatError."""
+    with open(path, "rb") as f:
+        if f.read(4) == _ZIP_MAGIC:
+            raise FileFormatError(f"{path}: expected a single .npy array, found an .npz archive")
+    return load_npy(path, mmap_mode=mmap_mode)
 
 
-def _npz_array(data, key, path):
-    return _guarded_numpy_read(lambda: data[key], f"{path}: array {key!r}")
+def _kind(arr, kinds, path, name, what):
+    if arr.dtype.kind not in kinds:
+        raise FileFormatError(f"{path}: {name!r} must hold {what}, got dtype {arr.dtype}")
 
 
 def _read_npz(path, threshold):
-    data = _np_load(path)
-    if not isinstance(data, np.lib.npyio.NpzFile):
-        raise FileFormatError(f"{path}: expected an .npz archive, found a single array")
-    with data:
-        if "poses" not in data.files:
-            raise FileFormatError(
-                f"{path}: no 'poses' array (found {sorted(data.files)}); a "
-                "keypoint .npz needs 'poses' (n, 14, 2)"
-            )
-        arrays = {key: _npz_array(data, key, path) for key in data.files}
+    with open(path, "rb") as f:
+        if f.read(4) != _ZIP_MAGIC:
+            raise FileFormatError(f"{path}: expected an .npz archive, found no zip archive "
+                                  "(a single .npy array?)")
+    known = ("poses", "missing", "confidence", "ids") + RESULT_FIELDS
+    arrays, names = load_npz(path, known)
+    if "poses" not in arrays:
+        raise FileFormatError(
+            f"{path}: no 'poses' array (found {sorted(names)}); a "
+            "keypoint .npz needs 'poses' (n, 14, 2)"
+        )
     poses = arrays.pop("poses")
-    if poses.dtype.kind not in "fiu":
-        raise FileFormatError(f"{path}: 'poses' must be numeric, got dtype {poses.dtype}")
+    _kind(poses, "fiu", path, "poses", "real numbers")
     poses = _check_pose_array(poses, f"{path}: 'poses'")
     if poses.shape[-1] != 2:
         raise FileFormatError(
@@ -392,24 +396,47 @@ def _read_npz(path, threshold):
             "put confidences in a separate 'confidence' array"
         )
     n = len(poses)
-    missing = _optional(arrays.pop("missing", None), n, "missing", path, bool)
-    confidence = _optional(arrays.pop("confidence", None), n, "confidence", path, float)
+    missing = arrays.pop("missing", None)
+    if missing is not None:
+        _kind(missing, "biu", path, "missing", "booleans (or 0/1)")
+        if missing.dtype.kind != "b" and not np.isin(missing, (0, 1)).all():
+            raise FileFormatError(f"{path}: 'missing' must hold booleans (or 0/1)")
+        missing = _optional(missing, n, "missing", path, bool)
+    confidence = arrays.pop("confidence", None)
+    if confidence is not None:
+        _kind(confidence, "fiu", path, "confidence", "real numbers")
+        confidence = _optional(confidence, n, "confidence", path, float)
     ids = arrays.pop("ids", None)
     if ids is not None:
-        ids = _optional(ids.astype(str), n, "ids", path, str)
+        ids = _optional(_ids_text(ids, path), n, "ids", path, str)
+    # result fields are kept only as what they claim to be: plain values, one per row
+    odd = [k for k, a in arrays.items()
+           if a.dtype.kind not in "fiuU" or a.ndim < 1 or len(a) != n]
+    for key in odd:
+        del arrays[key]
     if missing is None:
         missing = np.zeros((n, N_JOINTS), dtype=bool)
     poses, missing = _finish(poses, missing, confidence, threshold)
-    return KeypointSet(poses, missing, confidence, ids, {"npz_extra": arrays})
+    ignored = sorted(set(names) - set(arrays) - {"poses", "missing", "confidence", "ids"})
+    return KeypointSet(poses, missing, confidence, ids,
+                       {"npz_extra": arrays, "npz_ignored": ignored})
+
+
+def _ids_text(ids, path):
+    """ids as str: text as is, integers formatted, bytes decoded as UTF-8."""
+    if ids.dtype.kind == "S":
+        try:
+            return np.array([b.decode("utf-8") for b in ids.ravel()], dtype=str).reshape(ids.shape)
+        except UnicodeDecodeError as exc:
+            raise FileFormatError(f"{path}: 'ids' holds bytes that are not UTF-8 text "
+                                  f"({exc.reason}); store ids as str") from None
+    _kind(ids, "Uiu", path, "ids", "text or integers")
+    return ids.astype(str)
 
 
 def _read_npy(path, threshold):
     arr = _np_load(path)
-    if isinstance(arr, np.lib.npyio.NpzFile):
-        arr.close()
-        raise FileFormatError(f"{path}: expected a single .npy array, found an .npz archive")
-    if arr.dtype.kind not in "fiu":
-        raise FileFormatError(f"{path}: the array must be numeric, got dtype {arr.dtype}")
+    _kind(arr, "fiu", path, "the array", "real numbers")
     arr = _check_pose_array(arr, str(path))
     poses = arr[..., :2]
     confidence = arr[..., 2].copy() if arr.shape[-1] == 3 else None
@@ -436,8 +463,9 @@ def _parse_float(text, path, line, column):
 
 
 def _read_csv(path, threshold):
-    with open(path, newline="", encoding="utf-8") as f:
-        reader = csv.reader(f)
+    lines = (text for _, text in text_lines(path))
+    if True:  # keeps the reader's indentation: lines are bounded while read
+        reader = csv.reader(lines)
         try:
             header = next(reader)
         except StopIteration:
@@ -525,16 +553,7 @@ def _csv_columns(header, path):
 
 
 def _read_coco(path, threshold):
-    try:
-        with open(path, encoding="utf-8") as f:
-            doc = json.load(f)
-    except json.JSONDecodeError as exc:
-        raise FileFormatError(
-            f"{path}: invalid or truncated JSON at line {exc.lineno}, column "
-            f"{exc.colno}: {exc.msg}"
-        ) from None
-    except UnicodeDecodeError as exc:
-        raise FileFormatError(f"{path}: not UTF-8 text ({exc})") from None
+    doc = load_json(path)
     if isinstance(doc, dict):
         if not isinstance(doc.get("annotations"), list):
             raise FileFormatError(
@@ -563,11 +582,22 @@ def _read_coco(path, threshold):
                 f"{where}: 'keypoints' has {count} values; COCO-17 needs 51 "
                 "(x, y, v for each of 17 keypoints)"
             )
+        bad = next((k for k, x in enumerate(kp)
+                    if isinstance(x, bool) or not isinstance(x, (int, float))), None)
+        if bad is not None:
+            raise FileFormatError(
+                f"{where}: 'keypoints' value {bad} is {type(kp[bad]).__name__} "
+                f"{str(kp[bad])[:20]!r}; keypoints must be numbers (non-numeric value)")
         try:
             coco[a] = np.asarray(kp, dtype=float).reshape(17, 3)
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             raise FileFormatError(f"{where}: 'keypoints' holds non-numeric values") from None
         image_id = ann.get("image_id")
+        if image_id is not None and (isinstance(image_id, bool)
+                                     or not isinstance(image_id, (int, str))):
+            raise FileFormatError(
+                f"{where}: 'image_id' must be an integer or a string, got "
+                f"{type(image_id).__name__}")
         ids.append("" if image_id is None else str(image_id))
         extra = ann.get("sparseedm")
         if isinstance(extra, dict):
@@ -586,12 +616,14 @@ def _read_coco(path, threshold):
             value = extra.get(key)
             if value is None:
                 continue
-            try:
-                poses[a, j] = np.asarray(value, dtype=float).reshape(2)
-            except (TypeError, ValueError):
+            if (not isinstance(value, list) or len(value) != 2
+                    or not all(isinstance(x, (int, float)) and not isinstance(x, bool)
+                               and math.isfinite(x) for x in value)):
                 raise FileFormatError(
-                    f"{path}: annotation {a}: 'sparseedm.{key}' must be [x, y]"
-                ) from None
+                    f"{path}: annotation {a}: 'sparseedm.{key}' must be [x, y] "
+                    "(two finite numbers) or null"
+                )
+            poses[a, j] = value
             missing[a, j] = False
     meta = {"coco_document": doc, "coco_missing": coco_missing}
     return KeypointSet(poses, missing, conf, np.asarray(ids, dtype=str).reshape(n), meta)
@@ -680,6 +712,7 @@ def write_keypoints(
     >>> sorted(np.load(path).files)
     ['ids', 'missing', 'poses']
     """
+    validate_params("write_keypoints", dict(path=path), {"path": _READ_PARAMS["path"]})
     path = Path(path)
     fmt = _format_of(path, format)
     if isinstance(poses, KeypointSet):
@@ -691,7 +724,7 @@ def write_keypoints(
         meta = kps.meta if meta is None else meta
     meta = meta or {}
     where = f"writing {path}"
-    poses = np.asarray(poses, dtype=float)
+    poses = check_poses(poses, "write_keypoints")
     if poses.ndim != 3 or poses.shape[-1] != 2:
         raise FileFormatError(f"{where}: poses must have shape (n, 14, 2), got {poses.shape}")
     if poses.shape[1] != N_JOINTS:
@@ -713,8 +746,7 @@ def write_keypoints(
             arrays["confidence"] = confidence
         if ids is not None:
             arrays["ids"] = ids
-        with atomic_path(path) as tmp:
-            np.savez(tmp, **arrays)
+        save_npz(path, arrays)
     elif fmt == "npy":
         arr = poses if confidence is None else np.concatenate(
             [poses, confidence[..., None]], axis=-1
@@ -722,8 +754,7 @@ def write_keypoints(
         if ids is not None:
             warnings.warn(f"{path}: .npy files cannot hold ids; they were not written",
                           stacklevel=2)
-        with atomic_path(path) as tmp:
-            np.save(tmp, arr)
+        save_npy(path, arr)
     elif fmt == "csv":
         if extra_columns is None:
             extra_columns = meta.get("extra_columns") or {}

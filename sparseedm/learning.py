@@ -34,7 +34,7 @@ import numbers
 import numba
 import numpy as np
 
-from .exceptions import SparseEDMError
+from .exceptions import DictionaryError, SparseEDMError
 from .solvers.fast import lars_lasso_gram
 
 __all__ = [
@@ -162,16 +162,17 @@ def init_dictionary(X, n_components, random_state=None):
     return rows / norms
 
 
-def check_params(n_components, alpha, batch_size=1, n_passes=1):
+def check_params(n_components, alpha, batch_size=1, n_passes=1, caller="fit"):
     """Refuse bad hyper-parameters up front, not after an hour."""
-    if not isinstance(n_components, numbers.Integral) or n_components < 1:
-        raise SparseEDMError(f"n_components must be an integer >= 1, got {n_components!r}")
-    if not isinstance(alpha, numbers.Real) or not alpha > 0:
-        raise SparseEDMError(f"alpha must be a number > 0, got {alpha!r}")
-    if not isinstance(batch_size, numbers.Integral) or batch_size < 1:
-        raise SparseEDMError(f"batch_size must be an integer >= 1, got {batch_size!r}")
-    if not isinstance(n_passes, numbers.Real) or not n_passes > 0:
-        raise SparseEDMError(f"n_passes must be > 0, got {n_passes!r}")
+    from ._validation import ALPHA, Interval, validate_params
+
+    validate_params(caller, dict(n_components=n_components, alpha=alpha,
+                                 batch_size=batch_size, n_passes=n_passes), {
+        "n_components": [Interval(numbers.Integral, 1, None)],
+        "alpha": ALPHA,
+        "batch_size": [Interval(numbers.Integral, 1, None)],
+        "n_passes": [Interval(numbers.Real, 0, None, closed="neither")],
+    })
 
 
 class OnlineDictionaryLearning:
@@ -368,18 +369,17 @@ def _sha256(poses):
 def _load_training_poses(path):
     from .exceptions import FileFormatError
 
-    try:
-        with np.load(path, allow_pickle=False) as npz:
-            if "poses2d" not in npz.files:
-                raise FileFormatError(
-                    f"{path}: no 'poses2d' array (has: {', '.join(npz.files)}); "
-                    "build one with `sparseedm dataset build`"
-                )
-            poses = npz["poses2d"]
-    except FileFormatError:
-        raise
-    except (ValueError, OSError, EOFError) as exc:
-        raise FileFormatError(f"{path}: cannot read training file ({exc})") from None
+    from ._safeio import load_npz
+
+    arrays, names = load_npz(path, ("poses2d",), what=f"{path}: cannot read training file:")
+    if "poses2d" not in arrays:
+        raise FileFormatError(
+            f"{path}: no 'poses2d' array (has: {', '.join(names)}); "
+            "build one with `sparseedm dataset build`"
+        )
+    poses = arrays["poses2d"]
+    if poses.dtype.kind not in "fiu":
+        raise FileFormatError(f"{path}: poses2d must hold real numbers, got {poses.dtype}")
     if poses.ndim != 3 or poses.shape[-1] != 2:
         raise FileFormatError(f"{path}: poses2d must be (n, N, 2), got {poses.shape}")
     return poses
@@ -411,9 +411,21 @@ def fit_dictionary_file(train_path, output, *, n_components=2000, alpha=1.6,
     from .dictionary import Dictionary
     from .skeleton import JOINT_NAMES
 
-    check_params(n_components, alpha, batch_size, n_passes)
+    from ._atomic import check_paths
+    from ._validation import ALPHA, validate_params
+
+    check_params(n_components, alpha, batch_size, n_passes, caller="fit_dictionary_file")
+    validate_params("fit_dictionary_file", dict(train_path=train_path, output=output,
+                                                checkpoint=checkpoint,
+                                                alpha_recover=alpha_recover),
+                    {"train_path": ["path"], "output": ["path"],
+                     "checkpoint": ["path", None], "alpha_recover": ALPHA})
     output = Path(output)
+    if output.suffix != ".npz":
+        raise DictionaryError(f"{output}: a dictionary file must end in .npz")
     checkpoint = Path(checkpoint) if checkpoint else output.with_suffix(".ckpt.npz")
+    check_paths([("training file", train_path)],
+                [("output", output), ("checkpoint", checkpoint)])
     poses = _load_training_poses(train_path)
     ok = np.isfinite(poses).all(axis=(-1, -2))
     ok &= np.ptp(np.nan_to_num(poses, posinf=0, neginf=0), axis=1).max(axis=1) > 0
@@ -487,20 +499,22 @@ def fit_dictionary_file(train_path, output, *, n_components=2000, alpha=1.6,
 def _save_checkpoint(path, est, params):
     import json
 
-    from ._atomic import atomic_path
+    from ._atomic import save_npz
 
     A, B = est.inner_stats_
-    with atomic_path(path) as tmp:
-        np.savez(tmp, components=est.components_, A=A, B=B,
-                 n_steps=np.array(est.n_steps_), objective=np.array(est.objective_),
-                 params=np.array(json.dumps(params, sort_keys=True)))
+    save_npz(path, dict(components=est.components_, A=A, B=B,
+                        n_steps=np.array(est.n_steps_), objective=np.array(est.objective_),
+                        params=np.array(json.dumps(params, sort_keys=True))))
 
 
 def _load_checkpoint(path, est, params):
     import json
 
+    from ._safeio import load_npz
+
     try:
-        with np.load(path, allow_pickle=False) as ck:
+        ck, _ = load_npz(path, ("components", "A", "B", "n_steps", "objective", "params"))
+        if True:
             saved = json.loads(str(ck["params"]))
             if saved != json.loads(json.dumps(params)):
                 raise SparseEDMError(

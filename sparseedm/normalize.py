@@ -155,11 +155,17 @@ def normalize(poses, missing=None):
     used = np.where(missing[..., None], np.nan, poses)
     lo = np.nanmin(used, axis=-2)
     hi = np.nanmax(used, axis=-2)
-    center = (lo + hi) / 2
-    scale = (hi - lo).max(axis=-1) / 2
+    with np.errstate(over="ignore", invalid="ignore"):
+        center = lo / 2 + hi / 2
+        scale = (hi - lo).max(axis=-1) / 2
     if (scale <= 0).any():
         idx = tuple(int(i) for i in np.argwhere(scale <= 0)[0])
         raise PoseError(f"pose {idx}: all observed joints coincide (zero extent)")
+    bad = ~np.isfinite(scale) | (scale < np.finfo(float).tiny)
+    if bad.any():
+        idx = tuple(int(i) for i in np.argwhere(bad)[0])
+        raise PoseError(f"pose {idx}: the extent of its observed joints ({2 * scale[idx]:.3g}) "
+                        "overflows float64 or is subnormal; rescale the coordinates")
     normalized = (poses - center[..., None, :]) / scale[..., None, None]
     return normalized, center, scale
 
@@ -213,7 +219,14 @@ def represent(poses, missing=None, representation="average"):
         _check_observed(poses, mask)
         n_obs = (~mask).sum(axis=-1)
         filled = np.where(mask[..., None], 0.0, poses)
-        mean = filled.sum(axis=-2) / n_obs[..., None]
+        with np.errstate(over="ignore", invalid="ignore"):
+            mean = filled.sum(axis=-2) / n_obs[..., None]
+        if not np.isfinite(mean).all():
+            idx = tuple(int(i) for i in np.argwhere(~np.isfinite(mean).all(axis=-1))[0])
+            raise PoseError(
+                f"pose {idx}: the mean of its observed joints overflows float64; "
+                "rescale the coordinates"
+            )
         poses = np.where(mask[..., None], mean[..., None, :], poses)
         normalized, center, scale = normalize(poses)
         return pose_to_vector(normalized), center, scale

@@ -35,12 +35,15 @@ import numpy as np
 from joblib import Parallel, delayed, parallel_config
 from threadpoolctl import threadpool_limits
 
-from .dictionary import Dictionary, load_dictionary
+from ._validation import (ALPHA, BOOLEAN, CHUNK_SIZE, N_JOBS, Options, check_mask,
+                          check_poses, validate_params)
+from .dictionary import Dictionary, check_layout, load_dictionary
 from .edm import observed_entries, vector_to_edm
 from .exceptions import PoseError, SparseEDMError
 from .normalize import MIN_OBSERVED_JOINTS, REPRESENTATIONS, represent
 from .placement import place_missing_joints
-from .solvers import get_solver
+from .skeleton import SKELETON_14
+from .solvers import SOLVERS, BaseSolver, get_solver
 from .solvers.fast import FastSolver
 
 __all__ = ["recover", "RecoveryResult", "OcclusionRecoverer", "STATUSES"]
@@ -54,6 +57,7 @@ STATUSES = {
     "too_few_observed": f"fewer than {MIN_OBSERVED_JOINTS} observed joints",
     "invalid_coordinates": "an observed coordinate is infinite, or NaN where the mask says observed",
     "degenerate": "all observed joints coincide: the pose cannot be normalised",
+    "out_of_range": "the observed joints' extent overflows float64 or is subnormal: rescale them",
 }
 _OK = ("recovered", "inaccurate", "complete")
 
@@ -145,8 +149,25 @@ def _solve_chunk(solver, components, obs_idx, pattern_key, X_sub, alpha_eff, pos
     return T_re, res.objective, res.gap, res.status, n_active, res.fallback
 
 
+#: constraints of recover()'s arguments (see sparseedm._validation)
+_PARAMS = {
+    "dictionary": [Dictionary, "path", None],
+    "alpha": ALPHA + [None],
+    "representation": [Options(REPRESENTATIONS)],
+    "solver": [Options(SOLVERS), BaseSolver],
+    "n_jobs": N_JOBS,
+    "chunk_size": CHUNK_SIZE,
+    "positive": ["boolean", None],
+    "progress": BOOLEAN,
+    "backend": [Options(("loky", "threading", "multiprocessing", "dask")), None],
+    "scheduler": ["path", None],
+}
+#: the smallest extent a pose may have: below it 1/extent overflows or loses bits
+_TINY = np.finfo(float).tiny
+
+
 def _validate(poses, missing, n_joints):
-    poses = np.asarray(poses, dtype=float)
+    poses = check_poses(poses, "recover")
     if poses.ndim == 2:
         poses = poses[None]
     if poses.ndim != 3 or poses.shape[-1] != 2:
@@ -160,7 +181,7 @@ def _validate(poses, missing, n_joints):
         mask = nan
         bad_coord = np.isinf(poses).any(axis=-1).any(axis=-1)
     else:
-        mask = np.asarray(missing, dtype=bool)
+        mask = check_mask(missing, "recover")
         if mask.ndim == 1:
             mask = mask[None]
         if mask.shape != poses.shape[:2]:
@@ -237,15 +258,15 @@ def _recover(poses, missing=None, *, dictionary=None, alpha=None,
              representation="average", solver="fast", n_jobs=1, chunk_size=2048,
              positive=None, progress=False, backend=None, scheduler=None):
     t0 = time.perf_counter()
+    validate_params("recover", dict(
+        dictionary=dictionary, alpha=alpha, representation=representation, solver=solver,
+        n_jobs=n_jobs, chunk_size=chunk_size, positive=positive, progress=progress,
+        backend=backend, scheduler=scheduler), _PARAMS)
     if not isinstance(dictionary, Dictionary):
         dictionary = load_dictionary(dictionary)
-    if representation not in REPRESENTATIONS:
-        raise SparseEDMError(
-            f"unknown representation {representation!r}; use one of {REPRESENTATIONS}"
-        )
+    if dictionary.n_joints == SKELETON_14.num_joints:  # 14-joint poses come in SKELETON_14 order
+        check_layout(dictionary)
     alpha = dictionary.alpha_recover if alpha is None else alpha
-    if not np.isscalar(alpha) or not np.isfinite(alpha) or not alpha > 0:
-        raise SparseEDMError(f"alpha must be a number > 0, got {alpha!r}")
     positive = dictionary.positive_code if positive is None else bool(positive)
     solver = get_solver(solver)
     N = dictionary.n_joints
@@ -263,13 +284,23 @@ def _recover(poses, missing=None, *, dictionary=None, alpha=None,
     status[few] = "too_few_observed"
     reason[few] = [f"{k} observed joints, at least {MIN_OBSERVED_JOINTS} needed" for k in n_obs[few]]
     clean = np.where(mask[..., None], 0.0, poses)
-    with np.errstate(invalid="ignore"):  # inf - inf on refused rows
+    with np.errstate(invalid="ignore", over="ignore"):  # inf - inf on refused rows
         lo = np.where(mask[..., None], np.inf, poses).min(axis=1)
         hi = np.where(mask[..., None], -np.inf, poses).max(axis=1)
         widest = (hi - lo).max(axis=1)  # -inf for a pose with no observed joint
+        # the 'average' fill sums the observed coordinates: that must not overflow
+        total = np.abs(clean).sum(axis=1).max(axis=1)
     degenerate = (status == "recovered") & ~(widest > 0)
     status[degenerate] = "degenerate"
     reason[degenerate] = "all observed joints coincide"
+    huge = (status == "recovered") & ~(np.isfinite(widest) & np.isfinite(total))
+    status[huge] = "out_of_range"
+    reason[huge] = ("the observed joints span more than float64 can hold (extent or sum "
+                    "overflows); rescale the coordinates")
+    tiny = (status == "recovered") & (widest / 2 < _TINY)
+    status[tiny] = "out_of_range"
+    reason[tiny] = [f"the observed joints span only {w:.3g} (a subnormal extent); rescale "
+                    "the coordinates" for w in widest[tiny]]
     complete = (status == "recovered") & (n_obs == N)
     status[complete] = "complete"
     reason[complete] = "no joint missing"
@@ -324,8 +355,19 @@ def _recover(poses, missing=None, *, dictionary=None, alpha=None,
         normed = (clean[rows] - center[rows, None, :]) / scale[rows, None, None]
         P = place_missing_joints(normed, vector_to_edm(vectors[rows]), mask[rows])
         out = poses[rows].copy()
-        out[mask[rows]] = (P * scale[rows, None, None] + center[rows, None, :]).reshape(-1, 2)
+        with np.errstate(over="ignore", invalid="ignore"):
+            out[mask[rows]] = (P * scale[rows, None, None]
+                               + center[rows, None, :]).reshape(-1, 2)
         filled[rows] = out
+    # no row is reported recovered unless what it returns is finite
+    placed = np.isin(status, ("recovered", "inaccurate"))
+    broken = placed & ~(np.isfinite(filled).all(axis=(1, 2))
+                        & np.isfinite(vectors).all(axis=1)
+                        & np.isfinite(objective) & np.isfinite(gap))
+    status[broken] = "solver_failed"
+    reason[broken] = "the recovered distances or joints are not finite"
+    filled[broken] = np.nan
+    vectors[broken] = np.nan
     return RecoveryResult(
         poses=filled, vectors=vectors, missing=mask, center=center, scale=scale,
         objective=objective, gap=gap, n_active=n_active,
@@ -427,6 +469,11 @@ class OcclusionRecoverer:
 
     def fit(self, X=None, y=None):
         """Load the dictionary (nothing is learned from X)."""
+        validate_params("OcclusionRecoverer", dict(
+            dictionary=self.dictionary, alpha=self.alpha, representation=self.representation,
+            solver=self.solver, n_jobs=self.n_jobs),
+            {k: _PARAMS[k] for k in ("dictionary", "alpha", "representation", "solver",
+                                     "n_jobs")})
         d = self.dictionary
         self.dictionary_ = d if isinstance(d, Dictionary) else load_dictionary(d)
         return self

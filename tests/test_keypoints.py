@@ -74,12 +74,17 @@ def test_npz_missing_from_mask_nan_and_confidence(tmp_path):
     assert not np.isnan(kps.poses[~expected]).any()
 
 
-def test_npz_extra_arrays_round_trip(tmp_path):
-    np.savez(tmp_path / "k.npz", poses=_poses(2), frame_rate=np.array(30.0))
+def test_npz_result_fields_round_trip_and_unknown_members_are_ignored(tmp_path):
+    """Per-row result arrays are kept; any other member is never read nor copied
+    (a small zipped member can decompress to gigabytes)."""
+    np.savez(tmp_path / "k.npz", poses=_poses(2), frame_rate=np.array(30.0),
+             status=np.array(["recovered", "complete"]))
     kps = read_keypoints(tmp_path / "k.npz")
+    assert kps.meta["npz_ignored"] == ["frame_rate"]
     write_keypoints(tmp_path / "out.npz", kps)
     with np.load(tmp_path / "out.npz") as data:
-        assert float(data["frame_rate"]) == 30.0
+        assert "frame_rate" not in data.files
+        assert data["status"].tolist() == ["recovered", "complete"]
 
 
 class _Boom:

@@ -45,7 +45,7 @@ def main(argv=None) -> int:
         return 2
     try:
         return int(args.func(args) or 0)
-    except (SparseEDMError, FileNotFoundError, IsADirectoryError) as exc:
+    except (SparseEDMError, OSError) as exc:  # bad input, or a file that cannot be made
         print(f"sparseedm {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import sys
-import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -56,23 +55,18 @@ def _split(text):
 
 def _load(path, what):
     """poses2d and, if present, labels from an .npz (not every dataset key is needed)."""
+    from .._safeio import load_npz
+
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"no such {what} file: {path}")
-    try:
-        with np.load(path, allow_pickle=False) as npz:
-            files = set(npz.files)
-            if "poses2d" not in files:
-                raise FileFormatError(
-                    f"{path}: no 'poses2d' array (has: {', '.join(sorted(files)) or 'nothing'})")
-            poses = npz["poses2d"]
-            labels = npz["labels"] if "labels" in files else None
-    except FileFormatError:
-        raise
-    except ValueError as exc:
-        raise FileFormatError(f"{path}: unreadable .npz or one holding pickles ({exc})") from None
-    except (OSError, EOFError, zipfile.BadZipFile) as exc:
-        raise FileFormatError(f"{path}: not an .npz file ({exc})") from None
+    arrays, names = load_npz(path, ("poses2d", "labels"), what=f"{path}: not a readable .npz:")
+    files = set(names)
+    if "poses2d" not in arrays:
+        raise FileFormatError(
+            f"{path}: no 'poses2d' array (has: {', '.join(sorted(files)) or 'nothing'})")
+    poses = arrays["poses2d"]
+    labels = arrays.get("labels")
     if poses.dtype.kind not in "fiu" or poses.ndim != 3 or poses.shape[-1] != 2:
         raise FileFormatError(f"{path}: poses2d must be numeric (n, N, 2), got "
                               f"{poses.dtype} {poses.shape}")

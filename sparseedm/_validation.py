@@ -1,0 +1,223 @@
+"""Argument validation in one place, in the spirit of scikit-learn's ``_param_validation``.
+
+Every public function states the constraints of its arguments once, as a dict
+``name -> list of constraints`` (an argument is valid when it satisfies ANY of
+them), and calls :func:`validate_params`; a violation raises
+:class:`~sparseedm.exceptions.ParameterError` (a ``SparseEDMError`` and a
+``TypeError``) naming the function, the argument, what it must be and what it
+got. Constraints:
+
+``Interval(Real | Integral, left, right, closed=...)``
+    a number (never a bool, a string or a complex) in a range; NaN never fits;
+``Options(values)``
+    one of a few values (compared with ``==`` on hashable values only);
+``None``
+    the value None;
+``"boolean"``
+    a Python or NumPy bool;
+``"path"``
+    a str or an ``os.PathLike``;
+``type objects``
+    ``isinstance`` (e.g. ``Dictionary`` or ``BaseSolver``).
+
+Arrays have their own checks: :func:`check_poses` (a numeric, real,
+rectangular (n, N, 2) array: ragged lists, strings, booleans, complex or
+object arrays are refused) and :func:`check_mask` (booleans, or integers 0/1).
+
+Examples
+--------
+>>> from numbers import Real
+>>> validate_params("f", {"alpha": 0.5}, {"alpha": [Interval(Real, 0, None, closed="neither")]})
+>>> validate_params("f", {"alpha": "0.5"}, {"alpha": [Interval(Real, 0, None, closed="neither")]})
+Traceback (most recent call last):
+...
+sparseedm.exceptions.ParameterError: f: alpha must be a real number in (0, inf), got '0.5' (str)
+"""
+
+from __future__ import annotations
+
+import os
+from numbers import Integral, Real
+
+import numpy as np
+
+from .exceptions import ParameterError
+
+__all__ = ["Interval", "Options", "validate_params", "check_poses", "check_mask",
+           "ALPHA", "N_JOBS", "CHUNK_SIZE", "PATH", "BOOLEAN", "THRESHOLD"]
+
+
+class Interval:
+    """Numbers of one kind (``Real`` or ``Integral``) between `left` and `right`.
+
+    `closed` is ``"both"``, ``"left"``, ``"right"`` or ``"neither"``; a bound of
+    None is unbounded. Booleans are never numbers here, and a Real interval
+    refuses NaN and (unless a bound is None and closed there) infinities.
+    """
+
+    def __init__(self, kind, left, right, *, closed="both"):
+        self.kind, self.left, self.right, self.closed = kind, left, right, closed
+
+    def is_satisfied_by(self, value) -> bool:
+        if isinstance(value, (bool, np.bool_)) or not isinstance(value, self.kind):
+            return False
+        if isinstance(value, Real) and not np.isfinite(float(value)):
+            return False
+        left_ok = self.left is None or (
+            value >= self.left if self.closed in ("both", "left") else value > self.left)
+        right_ok = self.right is None or (
+            value <= self.right if self.closed in ("both", "right") else value < self.right)
+        return bool(left_ok and right_ok)
+
+    def __str__(self):
+        what = "an integer" if self.kind is Integral else "a real number"
+        lo = "-inf" if self.left is None else self.left
+        hi = "inf" if self.right is None else self.right
+        lb = "[" if self.closed in ("both", "left") and self.left is not None else "("
+        rb = "]" if self.closed in ("both", "right") and self.right is not None else ")"
+        return f"{what} in {lb}{lo}, {hi}{rb}"
+
+
+class Options:
+    """One of a fixed set of (hashable) values."""
+
+    def __init__(self, values):
+        self.values = tuple(values)
+
+    def is_satisfied_by(self, value) -> bool:
+        try:
+            hash(value)
+        except TypeError:
+            return False
+        return any(type(value) is type(v) and value == v for v in self.values)
+
+    def __str__(self):
+        return "one of " + ", ".join(repr(v) for v in self.values)
+
+
+def _satisfied(constraint, value) -> bool:
+    if constraint is None:
+        return value is None
+    if constraint == "boolean":
+        return isinstance(value, (bool, np.bool_))
+    if constraint == "path":
+        return isinstance(value, (str, os.PathLike)) and str(value) != ""
+    if isinstance(constraint, type):
+        return isinstance(value, constraint)
+    return constraint.is_satisfied_by(value)
+
+
+def _describe(constraint) -> str:
+    if constraint is None:
+        return "None"
+    if constraint == "boolean":
+        return "a bool"
+    if constraint == "path":
+        return "a non-empty path (str or os.PathLike)"
+    if isinstance(constraint, type):
+        return f"a {constraint.__name__}"
+    return str(constraint)
+
+
+def _show(value) -> str:
+    text = repr(value)
+    if len(text) > 60:
+        text = text[:57] + "..."
+    return f"{text} ({type(value).__name__})"
+
+
+def validate_params(caller, params, constraints):
+    """Check each ``params[name]`` against ``constraints[name]`` (any may fit).
+
+    Raises
+    ------
+    ParameterError
+        Naming `caller`, the argument, what it must be and what it got.
+    """
+    for name, allowed in constraints.items():
+        value = params[name]
+        if any(_satisfied(c, value) for c in allowed):
+            continue
+        options = [_describe(c) for c in allowed]
+        must = options[0] if len(options) == 1 else ", ".join(options[:-1]) + " or " + options[-1]
+        raise ParameterError(f"{caller}: {name} must be {must}, got {_show(value)}")
+
+
+#: constraints shared by several functions
+ALPHA = [Interval(Real, 0, None, closed="neither")]
+N_JOBS = [Interval(Integral, None, -1), Interval(Integral, 1, None), None]
+CHUNK_SIZE = [Interval(Integral, 1, None)]
+PATH = ["path"]
+BOOLEAN = ["boolean"]
+THRESHOLD = [Interval(Real, None, None)]
+
+
+def check_poses(poses, caller, name="poses"):
+    """`poses` as a float64 array, refusing anything that is not plain real numbers.
+
+    Ragged nested lists, strings, booleans, complex numbers and object arrays
+    raise :class:`ParameterError` naming `caller` and `name`; shapes are the
+    caller's business.
+
+    Examples
+    --------
+    >>> check_poses([[0, 1], [2, 3]], "f").dtype
+    dtype('float64')
+    >>> check_poses([[0, 1], [2]], "f")
+    Traceback (most recent call last):
+    ...
+    sparseedm.exceptions.ParameterError: f: poses must be a rectangular array of real numbers; got a ragged sequence (lengths differ)
+    """
+    try:
+        arr = np.asarray(poses)
+    except ValueError:
+        raise ParameterError(
+            f"{caller}: {name} must be a rectangular array of real numbers; got a "
+            "ragged sequence (lengths differ)") from None
+    except (TypeError, OverflowError) as exc:
+        raise ParameterError(f"{caller}: {name} is not an array of numbers ({exc})") from None
+    if arr.dtype.kind == "O":
+        try:  # a list mixing floats and Python ints too big for int64, etc.
+            arr = arr.astype(np.float64)
+        except (TypeError, ValueError, OverflowError):
+            raise ParameterError(
+                f"{caller}: {name} must hold real numbers only; got objects "
+                f"({', '.join(sorted({type(v).__name__ for v in arr.flat}))[:80]})") from None
+    if arr.dtype.kind not in "fiu":
+        kind = {"b": "booleans", "c": "complex numbers", "U": "strings", "S": "bytes",
+                "M": "dates", "m": "time deltas", "V": "raw records"}.get(arr.dtype.kind,
+                                                                          str(arr.dtype))
+        raise ParameterError(f"{caller}: {name} must hold real numbers; got {kind} "
+                             f"(dtype {arr.dtype})")
+    with np.errstate(over="ignore"):
+        return arr.astype(np.float64, copy=False)
+
+
+def check_mask(missing, caller, name="missing"):
+    """A boolean mask from booleans or integers 0/1; anything else is refused.
+
+    Examples
+    --------
+    >>> check_mask([[0, 1]], "f").tolist()
+    [[False, True]]
+    >>> check_mask([["yes", "no"]], "f")
+    Traceback (most recent call last):
+    ...
+    sparseedm.exceptions.ParameterError: f: missing must hold booleans (or 0/1); got strings (dtype <U3)
+    """
+    try:
+        arr = np.asarray(missing)
+    except ValueError:
+        raise ParameterError(f"{caller}: {name} must be a rectangular boolean array; "
+                             "got a ragged sequence") from None
+    if arr.dtype.kind == "b":
+        return arr
+    if arr.dtype.kind in "iu" or (arr.dtype.kind == "f" and np.isfinite(arr).all()):
+        if np.isin(arr, (0, 1)).all():
+            return arr.astype(bool)
+        raise ParameterError(f"{caller}: {name} must hold booleans (or 0/1); got other "
+                             "numbers")
+    kind = {"U": "strings", "S": "bytes", "O": "objects", "c": "complex numbers",
+            "f": "NaN or infinite values"}.get(arr.dtype.kind, str(arr.dtype))
+    raise ParameterError(f"{caller}: {name} must hold booleans (or 0/1); got {kind} "
+                         f"(dtype {arr.dtype})")
