@@ -90,10 +90,14 @@ def _read_header(f, what):
             header = np.lib.format.read_array_header_1_0(f, max_header_size=_MAX_HEADER)
         elif version == (2, 0):
             header = np.lib.format.read_array_header_2_0(f, max_header_size=_MAX_HEADER)
+        elif version == (3, 0):  # utf-8 field names; numpy keeps its reader private
+            from numpy.lib import _format_impl
+            header = _format_impl._read_array_header(f, version, max_header_size=_MAX_HEADER)
         else:
-            header = np.lib.format._read_array_header(f, version, max_header_size=_MAX_HEADER)
-    except (ValueError, OSError, EOFError, zipfile.BadZipFile, SyntaxError, TypeError) as exc:
-        raise FileFormatError(f"{what} is not a valid .npy array ({exc})") from None
+            raise ValueError(f"unsupported .npy format version {version[0]}.{version[1]}")
+    except Exception as exc:  # noqa: BLE001 - numpy parses the header with ast/tokenize
+        raise FileFormatError(
+            f"{what} is not a valid .npy array ({type(exc).__name__}: {exc})") from None
     shape, fortran, dtype = header
     if dtype.hasobject:
         raise FileFormatError(

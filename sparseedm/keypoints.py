@@ -122,6 +122,7 @@ import copy
 import csv
 import json
 import math
+import re
 import warnings
 from dataclasses import dataclass, field
 from numbers import Real
@@ -445,11 +446,18 @@ def _read_npy(path, threshold):
     return KeypointSet(poses, missing, confidence, None, {})
 
 
+#: a plain decimal number (or nan/inf): not Python's extras ("1_0", full-width digits)
+_NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?|[+-]?(?:nan|inf|infinity)",
+                     re.IGNORECASE | re.ASCII)
+
+
 def _parse_float(text, path, line, column):
     text = text.strip()
     if text == "":
         return math.nan
     try:
+        if not _NUMBER.fullmatch(text):
+            raise ValueError(text)
         value = float(text)
     except ValueError:
         raise FileFormatError(
