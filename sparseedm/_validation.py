@@ -134,8 +134,8 @@ def validate_params(caller, params, constraints):
     ParameterError
         Naming `caller`, the argument, what it must be and what it got.
     """
-    for name, allowed in constraints.items():
-        value = params[name]
+    for name, value in params.items():
+        allowed = constraints[name]
         if any(_satisfied(c, value) for c in allowed):
             continue
         options = [_describe(c) for c in allowed]

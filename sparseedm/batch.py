@@ -13,6 +13,14 @@
    Ctrl-C or bad input never leaves a half-written output;
 4. writes an errors file listing the refused rows, if any.
 
+Paths
+-----
+The output is written at exactly the path given: its format is
+``output_format`` if given, else its extension's (``.csv``, ``.npz``, ``.npy``,
+``.json``), else the input's, whatever the name. Before any work,
+:func:`sparseedm._atomic.check_paths` refuses an output, errors file or sidecar
+that is the input, the dictionary file or another output.
+
 Output per format
 -----------------
 Every output holds, per row, ``status`` (one of

@@ -40,12 +40,14 @@ import json
 import os
 import sys
 import warnings
+from numbers import Integral
 from pathlib import Path
 
 import numpy as np
 
 from ._atomic import check_paths, save_npz
 from ._safeio import load_npz
+from ._validation import Interval, validate_params
 from .cameras import project, sample_cameras
 from .exceptions import FileFormatError, OutputPathError, SparseEDMError
 from .mocap import MOCAP_SUFFIXES, load_mocap
@@ -207,11 +209,15 @@ def build_dataset(
     SparseEDMError
         If no file gives any pose.
     """
-    if int(cameras_per_pose) < 1:
-        raise ValueError(f"cameras_per_pose must be >= 1, got {cameras_per_pose}")
+    validate_params("build_dataset", dict(
+        output=output, cameras_per_pose=cameras_per_pose, frame_step=frame_step,
+        progress=progress, return_report=return_report, camera_options=camera_options), {
+        "output": ["path", None],
+        "cameras_per_pose": [Interval(Integral, 1, None)],
+        "frame_step": [Interval(Integral, 1, None), None],
+        "progress": ["boolean"], "return_report": ["boolean"],
+        "camera_options": [dict, None]})
     cameras_per_pose = int(cameras_per_pose)
-    if frame_step is not None and int(frame_step) < 1:
-        raise ValueError(f"frame_step must be >= 1, got {frame_step}")
     if output is not None:
         _check_output(output)
         check_paths([], [("output", output)])

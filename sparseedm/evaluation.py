@@ -38,15 +38,17 @@ import io
 import time
 import warnings
 from dataclasses import dataclass, field
+from numbers import Integral
 from pathlib import Path
 
 import numpy as np
 
 from ._atomic import atomic_path
+from ._validation import ALPHA, N_JOBS, Interval, check_poses, validate_params
 from .baselines import BASELINES, fit_baseline, mean_fill
 from .dictionary import Dictionary, load_dictionary
 from .edm import pose_to_vector
-from .exceptions import DictionaryError, PoseError, SparseEDMError
+from .exceptions import DictionaryError, ParameterError, PoseError, SparseEDMError
 from .metrics import err_ave, joint_error, random_occlusion
 from .normalize import REPRESENTATIONS
 from .recovery import recover
@@ -66,6 +68,19 @@ RESULT_COLUMNS = (
     "joint_err_px", "joint_err_torso", "poses_per_s",
     "n_extreme", "err_ave_extreme", "err_ave_other", "note",
 )
+
+
+#: constraints of evaluate()'s and sweep_atoms()'s arguments (see sparseedm._validation)
+_PARAMS = {
+    "dictionary": [Dictionary, "path", None],
+    "random_state": [Interval(Integral, 0, None), None],
+    "n_jobs": N_JOBS,
+    "max_poses": [Interval(Integral, 1, None), None],
+    "max_train": [Interval(Integral, 1, None)],
+    "alpha": ALPHA + [None],
+    "alpha_recover": ALPHA,
+    "n_examples": [Interval(Integral, 0, None)],
+}
 
 
 def _check_counts(counts):
@@ -391,6 +406,10 @@ def evaluate(dictionary, test_poses2d, *, train_poses2d=None, labels=None,
     -------
     EvaluationReport
     """
+    validate_params("evaluate", dict(
+        dictionary=dictionary, random_state=random_state, n_jobs=n_jobs,
+        max_poses=max_poses, max_train=max_train, alpha=alpha, n_examples=n_examples),
+        _PARAMS)
     methods = _check_methods(methods)
     counts = _check_counts(counts)
     for r in representations:
@@ -544,8 +563,13 @@ def sweep_atoms(train_poses2d, test_poses2d, atoms=(100, 250, 500, 1000, 2000), 
     """
     from .learning import OnlineDictionaryLearning, complete_pose_vectors
 
-    X, _ = complete_pose_vectors(np.asarray(train_poses2d, dtype=float))
-    test = np.asarray(test_poses2d, dtype=float)
+    validate_params("sweep_atoms", dict(
+        random_state=random_state, n_jobs=n_jobs, max_poses=max_poses, alpha=alpha,
+        alpha_recover=alpha_recover), _PARAMS)
+    if not all(isinstance(k, Integral) and not isinstance(k, bool) and k >= 1 for k in atoms):
+        raise ParameterError(f"sweep_atoms: atoms must be integers >= 1, got {atoms!r}")
+    X, _ = complete_pose_vectors(check_poses(train_poses2d, "sweep_atoms", "train_poses2d"))
+    test = check_poses(test_poses2d, "sweep_atoms", "test_poses2d")
     test = test[_complete_rows(test)]
     if max_poses is not None and len(test) > max_poses:
         rng = np.random.default_rng([int(random_state or 0), 5])

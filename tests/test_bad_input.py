@@ -36,6 +36,7 @@ from sparseedm._atomic import TEMP_MARK, atomic_path, remove_leftovers
 from sparseedm.batch import recover_file
 from sparseedm.cli import main
 from sparseedm.dataset import build_dataset
+from sparseedm.evaluation import evaluate, sweep_atoms
 from sparseedm.dictionary import Dictionary
 from sparseedm.exceptions import (DictionaryError, FileFormatError, OutputPathError,
                                   ParameterError, SparseEDMError)
@@ -636,6 +637,25 @@ def test_recover_file_rejects_bad_arguments(name, value, tmp_path, csv_input,
     lambda: fit_dictionary_file("t.npz", "o.npz", batch_size=0),
     lambda: fit_dictionary_file("t.npz", "o.npz", n_passes=-1),
     lambda: fit_dictionary_file(None, "o.npz"),
+    lambda: build_dataset([FIXTURES / "cmu_02_01_short.bvh"], cameras_per_pose=0),
+    lambda: build_dataset([FIXTURES / "cmu_02_01_short.bvh"], cameras_per_pose="2"),
+    lambda: build_dataset([FIXTURES / "cmu_02_01_short.bvh"], frame_step=0),
+    lambda: build_dataset([FIXTURES / "cmu_02_01_short.bvh"], output=5),
+    lambda: build_dataset([FIXTURES / "cmu_02_01_short.bvh"], camera_options=[1]),
+    lambda: evaluate("default", np.zeros((2, 14, 2)), n_jobs=0),
+    lambda: evaluate("default", np.zeros((2, 14, 2)), max_poses=0),
+    lambda: evaluate("default", np.zeros((2, 14, 2)), max_train=-5),
+    lambda: evaluate("default", np.zeros((2, 14, 2)), alpha="0.1"),
+    lambda: evaluate(7, np.zeros((2, 14, 2))),
+    lambda: evaluate("default", np.zeros((2, 14, 2)), methods=("magic",)),
+    lambda: evaluate("default", np.zeros((2, 14, 2)), counts=(4,)),
+    lambda: sweep_atoms(np.zeros((5, 14, 2)), np.zeros((5, 14, 2)), atoms=(0,)),
+    lambda: sweep_atoms(np.zeros((5, 14, 2)), np.zeros((5, 14, 2)), atoms=("10",)),
+    lambda: sweep_atoms(np.zeros((5, 14, 2)).astype(str), np.zeros((5, 14, 2))),
+    lambda: load_mocap(123),
+    lambda: load_mocap(FIXTURES / "cmu_02_01_short.bvh", scale=0),
+    lambda: load_mocap(FIXTURES / "cmu_02_01_short.bvh", scale="1"),
+    lambda: load_mocap("walk.c3d"),
 ])
 def test_public_functions_reject_bad_arguments(call):
     with pytest.raises(SparseEDMError):

@@ -23,8 +23,9 @@ def add_parser(sub):
     )
     p.add_argument("input", help="keypoints: .csv, .npz, .npy or COCO-style .json")
     p.add_argument("-o", "--output", required=True,
-                   help="file to write; same format as INPUT unless its extension "
-                   "or --format says otherwise")
+                   help="file to write, at exactly this path: the format comes from "
+                   "its extension (.csv .npz .npy .json), else --format, else INPUT's; "
+                   "never the input, the dictionary or the errors file")
     p.add_argument("--dictionary", default=None, metavar="NAME|PATH",
                    help="shipped dictionary name or path to a dictionary .npz "
                    "(default: the shipped default)")

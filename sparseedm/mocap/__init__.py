@@ -48,6 +48,13 @@ def load_mocap(path, *, scale=None, return_info=False):
     ...
     sparseedm.exceptions.FileFormatError: walk.c3d: unsupported motion-capture file type '.c3d' (expected .bvh or .amc)
     """
+    from numbers import Real
+
+    from .._validation import Interval, validate_params
+
+    validate_params("load_mocap", dict(path=path, scale=scale, return_info=return_info),
+                    {"path": ["path"], "scale": [Interval(Real, 0, None, closed="neither"), None],
+                     "return_info": ["boolean"]})
     suffix = Path(path).suffix.lower()
     if suffix == ".bvh":
         return load_bvh(path, scale=scale, return_info=return_info)
