@@ -44,6 +44,7 @@ import math
 import os
 import re
 import stat
+import warnings
 import zipfile
 from pathlib import Path
 
@@ -85,19 +86,27 @@ def _regular_file(path, what):
 def _read_header(f, what):
     """(shape, fortran_order, dtype) of the .npy stream `f`, positioned after it."""
     try:
-        version = np.lib.format.read_magic(f)
-        if version == (1, 0):
-            header = np.lib.format.read_array_header_1_0(f, max_header_size=_MAX_HEADER)
-        elif version == (2, 0):
-            header = np.lib.format.read_array_header_2_0(f, max_header_size=_MAX_HEADER)
-        elif version == (3, 0):  # utf-8 field names; numpy keeps its reader private
-            from numpy.lib import _format_impl
-            header = _format_impl._read_array_header(f, version, max_header_size=_MAX_HEADER)
-        else:
-            raise ValueError(f"unsupported .npy format version {version[0]}.{version[1]}")
+        with warnings.catch_warnings():  # numpy re-parses Python 2 headers, with a warning
+            warnings.simplefilter("ignore", UserWarning)
+            return _parse_header(f, what)
+    except FileFormatError:
+        raise
     except Exception as exc:  # noqa: BLE001 - numpy parses the header with ast/tokenize
         raise FileFormatError(
             f"{what} is not a valid .npy array ({type(exc).__name__}: {exc})") from None
+
+
+def _parse_header(f, what):
+    version = np.lib.format.read_magic(f)
+    if version == (1, 0):
+        header = np.lib.format.read_array_header_1_0(f, max_header_size=_MAX_HEADER)
+    elif version == (2, 0):
+        header = np.lib.format.read_array_header_2_0(f, max_header_size=_MAX_HEADER)
+    elif version == (3, 0):  # utf-8 field names; numpy keeps its reader private
+        from numpy.lib import _format_impl
+        header = _format_impl._read_array_header(f, version, max_header_size=_MAX_HEADER)
+    else:
+        raise ValueError(f"unsupported .npy format version {version[0]}.{version[1]}")
     shape, fortran, dtype = header
     if dtype.hasobject:
         raise FileFormatError(

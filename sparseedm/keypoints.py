@@ -472,29 +472,28 @@ def _parse_float(text, path, line, column):
 
 def _read_csv(path, threshold):
     lines = (text for _, text in text_lines(path))
-    if True:  # keeps the reader's indentation: lines are bounded while read
-        reader = csv.reader(lines)
-        try:
-            header = next(reader)
-        except StopIteration:
-            raise FileFormatError(f"{path}: empty file; expected a header row") from None
-        except csv.Error as exc:
-            raise FileFormatError(f"{path}, line 1: {exc}") from None
-        header = [h.strip() for h in header]
-        columns = _csv_columns(header, path)
-        rows = []
-        try:
-            for fields in reader:
-                if not fields or all(not x.strip() for x in fields) and len(fields) <= 1:
-                    continue  # blank line
-                if len(fields) != len(header):
-                    raise FileFormatError(
-                        f"{path}, line {reader.line_num}: {len(fields)} fields, "
-                        f"the header has {len(header)}"
-                    )
-                rows.append((reader.line_num, fields))
-        except csv.Error as exc:
-            raise FileFormatError(f"{path}, line {reader.line_num}: {exc}") from None
+    reader = csv.reader(lines)
+    try:
+        header = next(reader)
+    except StopIteration:
+        raise FileFormatError(f"{path}: empty file; expected a header row") from None
+    except csv.Error as exc:
+        raise FileFormatError(f"{path}, line 1: {exc}") from None
+    header = [h.strip() for h in header]
+    columns = _csv_columns(header, path)
+    rows = []
+    try:
+        for fields in reader:
+            if not fields or all(not x.strip() for x in fields) and len(fields) <= 1:
+                continue  # blank line
+            if len(fields) != len(header):
+                raise FileFormatError(
+                    f"{path}, line {reader.line_num}: {len(fields)} fields, "
+                    f"the header has {len(header)}"
+                )
+            rows.append((reader.line_num, fields))
+    except csv.Error as exc:
+        raise FileFormatError(f"{path}, line {reader.line_num}: {exc}") from None
 
     n = len(rows)
     poses = np.full((n, N_JOINTS, 2), np.nan)

@@ -514,17 +514,16 @@ def _load_checkpoint(path, est, params):
 
     try:
         ck, _ = load_npz(path, ("components", "A", "B", "n_steps", "objective", "params"))
-        if True:
-            saved = json.loads(str(ck["params"]))
-            if saved != json.loads(json.dumps(params)):
-                raise SparseEDMError(
-                    f"{path}: checkpoint was made with other settings {saved}; "
-                    "rerun without --resume or with the same settings"
-                )
-            est.components_ = ck["components"].copy()
-            est.inner_stats_ = (ck["A"].copy(), ck["B"].copy())
-            est.n_steps_ = int(ck["n_steps"])
-            est.objective_ = ck["objective"].tolist()
+        saved = json.loads(str(ck["params"]))
+        if saved != json.loads(json.dumps(params)):
+            raise SparseEDMError(
+                f"{path}: checkpoint was made with other settings {saved}; "
+                "rerun without --resume or with the same settings"
+            )
+        est.components_ = ck["components"].copy()
+        est.inner_stats_ = (ck["A"].copy(), ck["B"].copy())
+        est.n_steps_ = int(ck["n_steps"])
+        est.objective_ = ck["objective"].tolist()
     except SparseEDMError:
         raise
     except Exception as exc:  # corrupt checkpoint: say so, do not guess

@@ -85,6 +85,12 @@ def memory_cap():
         resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
 
 
+def test_the_memory_cap_bites():
+    """The cap is real: 3 GiB more than is mapped cannot be had under it."""
+    with pytest.raises(MemoryError):
+        np.ones(3 << 30, dtype=np.uint8)
+
+
 def _digest(path):
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
@@ -741,13 +747,16 @@ def test_mutated_files_never_escape(kind, tmp_path_factory):
     run()
 
 
+def _containers(children):
+    keys = st.sampled_from(["keypoints", "annotations", "image_id", "sparseedm", "neck",
+                            "head_top", "score", "x"])
+    return st.lists(children, max_size=60) | st.dictionaries(keys, children, max_size=5)
+
+
 _json = st.recursive(
     st.none() | st.booleans() | st.integers() | st.floats(allow_nan=True)
     | st.text(max_size=5),
-    lambda children: st.lists(children, max_size=60) | st.dictionaries(
-        st.sampled_from(["keypoints", "annotations", "image_id", "sparseedm", "neck",
-                         "head_top", "score", "x"]), children, max_size=5),
-    max_leaves=120,
+    _containers, max_leaves=120,
 )
 
 
