@@ -8,8 +8,8 @@ goes through these:
     The ``.npy`` header (or each wanted ``.npz`` member's header) is parsed
     first; its declared size (shape x itemsize) must fit in the bytes that
     follow it (the file size, or the member's decompressed size that the zip
-    directory declares and zipfile enforces) and under an optional cap, before
-    anything is allocated. Object dtypes (pickles) are refused, never loaded.
+    directory declares and zipfile enforces), under an optional cap and under
+    the memory available, before anything is allocated. Object dtypes (pickles) are refused, never loaded.
     Only the members asked for are read: others are never decompressed.
 :func:`text_lines`
     Lines of a UTF-8 text file (a leading BOM dropped), each capped at
@@ -120,12 +120,30 @@ def _declared(shape, dtype):
     return math.prod(int(d) for d in shape) * dtype.itemsize
 
 
-def _check_size(shape, dtype, available, what, max_bytes):
+def _free_memory():
+    """MemAvailable in bytes (Linux), else None."""
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return None
+
+
+def _check_size(shape, dtype, available, what, max_bytes, in_memory=True):
     nbytes = _declared(shape, dtype)
     if nbytes > available:
         raise FileFormatError(
             f"{what}: the header declares shape {tuple(shape)} of {dtype} ({nbytes} bytes) "
             f"but only {available} bytes follow it: truncated or corrupt file"
+        )
+    free = _free_memory() if in_memory else None
+    if free is not None and nbytes > free:  # an honest zip bomb, or simply too big
+        raise FileFormatError(
+            f"{what}: shape {tuple(shape)} of {dtype} needs {nbytes} bytes of memory; "
+            f"only {free} are available"
         )
     if max_bytes is not None and nbytes > max_bytes:
         raise FileFormatError(
@@ -155,7 +173,7 @@ def load_npy(path, *, mmap_mode=None, max_bytes=None, what=None):
             return shape, dtype, size - f.tell()
 
     shape, dtype, available = _guard(header, what)
-    _check_size(shape, dtype, available, str(path), max_bytes)
+    _check_size(shape, dtype, available, str(path), max_bytes, in_memory=mmap_mode is None)
     if mmap_mode is not None and _declared(shape, dtype) == 0:
         mmap_mode = None  # numpy cannot map an empty array
     return _guard(lambda: np.load(path, mmap_mode=mmap_mode, allow_pickle=False), what)

@@ -217,6 +217,8 @@ def build_dataset(
         "frame_step": [Interval(Integral, 1, None), None],
         "progress": ["boolean"], "return_report": ["boolean"],
         "camera_options": [dict, None]})
+    validate_params("build_dataset", dict(random_state=random_state), {
+        "random_state": [Interval(Integral, 0, None), np.random.Generator, None]})
     cameras_per_pose = int(cameras_per_pose)
     if output is not None:
         _check_output(output)

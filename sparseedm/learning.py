@@ -162,16 +162,20 @@ def init_dictionary(X, n_components, random_state=None):
     return rows / norms
 
 
-def check_params(n_components, alpha, batch_size=1, n_passes=1, caller="fit"):
+def check_params(n_components, alpha, batch_size=1, n_passes=1, caller="fit", *,
+                 random_state=None, n_jobs=None):
     """Refuse bad hyper-parameters up front, not after an hour."""
-    from ._validation import ALPHA, Interval, validate_params
+    from ._validation import ALPHA, N_JOBS, Interval, validate_params
 
     validate_params(caller, dict(n_components=n_components, alpha=alpha,
-                                 batch_size=batch_size, n_passes=n_passes), {
+                                 batch_size=batch_size, n_passes=n_passes,
+                                 random_state=random_state, n_jobs=n_jobs), {
         "n_components": [Interval(numbers.Integral, 1, None)],
         "alpha": ALPHA,
         "batch_size": [Interval(numbers.Integral, 1, None)],
         "n_passes": [Interval(numbers.Real, 0, None, closed="neither")],
+        "random_state": [Interval(numbers.Integral, 0, None), None],
+        "n_jobs": N_JOBS,
     })
 
 
@@ -251,7 +255,8 @@ class OnlineDictionaryLearning:
 
     def _init_state(self, X=None, components=None):
         """Fresh learner state; initial atoms drawn from X unless given."""
-        check_params(self.n_components, self.alpha, self.batch_size, self.n_passes)
+        check_params(self.n_components, self.alpha, self.batch_size, self.n_passes,
+                     random_state=self.random_state, n_jobs=self.n_jobs)
         if components is None:
             components = init_dictionary(X, self.n_components, self._seed(0))
         self.components_ = components
@@ -414,7 +419,8 @@ def fit_dictionary_file(train_path, output, *, n_components=2000, alpha=1.6,
     from ._atomic import check_paths
     from ._validation import ALPHA, validate_params
 
-    check_params(n_components, alpha, batch_size, n_passes, caller="fit_dictionary_file")
+    check_params(n_components, alpha, batch_size, n_passes, caller="fit_dictionary_file",
+                 random_state=random_state, n_jobs=n_jobs)
     validate_params("fit_dictionary_file", dict(train_path=train_path, output=output,
                                                 checkpoint=checkpoint,
                                                 alpha_recover=alpha_recover),

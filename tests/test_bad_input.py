@@ -306,6 +306,38 @@ def test_header_claiming_terabytes_in_a_compressed_member(tmp_path):
         load_dictionary(dpath)
 
 
+def test_honest_zip_bomb_in_a_wanted_member_is_refused_before_decompressing(
+        tmp_path, monkeypatch):
+    """A member whose true size exceeds the free memory is refused from its header."""
+    from sparseedm import _safeio
+
+    path = tmp_path / "bomb.npz"
+    np.savez_compressed(path, poses=np.zeros((20_000, 14, 2)))   # 4.5 MB in ~5 kB
+    monkeypatch.setattr(_safeio, "_free_memory", lambda: 1 << 20)
+    with pytest.raises(FileFormatError, match="needs 4480000 bytes of memory"):
+        read_keypoints(path)
+
+
+@pytest.mark.parametrize("args", [
+    ["dataset", "build", str(FIXTURES / "cmu_02_01_short.bvh"), "-o", "{d}/ds.npz",
+     "--seed", "-1", "--quiet"],
+    ["evaluate", "--data", str(FIXTURES / "cmu_poses.npz"), "-o", "{d}/rep",
+     "--sweep-atoms", "x"],
+    ["evaluate", "--data", str(FIXTURES / "cmu_poses.npz"), "-o", "{d}/rep", "--jobs", "0"],
+    ["evaluate", "--data", str(FIXTURES / "cmu_poses.npz"), "-o", "{d}/rep",
+     "--max-poses", "-1"],
+    ["evaluate", "--data", str(FIXTURES / "cmu_poses.npz"), "-o", "{d}/rep", "--counts", "5"],
+    ["evaluate", "--data", str(CORPUS / "npz" / "err_poses_huge_header.npz"), "-o", "{d}/rep"],
+    ["evaluate", "--data", str(CORPUS / "npz" / "err_not_zip.npz"), "-o", "{d}/rep"],
+    ["info", str(CORPUS / "npy" / "err_huge_shape.npy")],
+])
+def test_other_commands_report_bad_input_without_traceback(args, tmp_path, capsys):
+    assert main([a.format(d=tmp_path) for a in args]) == 2
+    err = capsys.readouterr().err
+    assert "error:" in err and "Traceback" not in err
+    assert os.listdir(tmp_path) == []
+
+
 # --------------------------------------------------------------------------
 # one extreme row never sinks the batch
 
@@ -472,6 +504,8 @@ def test_dataset_build_to_npz_lands_exactly(tmp_path):
     (["-o", "{d}/d.npz", "--alpha", "nan"], "alpha"),
     (["-o", "{d}/d.npz", "--passes", "0"], "n_passes"),
     (["-o", "{d}/d.npz", "--alpha-recover", "-1"], "alpha_recover"),
+    (["-o", "{d}/d.npz", "--jobs", "0"], "n_jobs"),
+    (["-o", "{d}/d.npz", "--seed", "-1"], "random_state"),
 ])
 def test_fit_refuses_bad_outputs_and_options(args, match, tmp_path, capsys):
     train = tmp_path / "train.npz"

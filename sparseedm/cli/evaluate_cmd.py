@@ -83,6 +83,11 @@ def run(args):
     unknown = [m for m in methods if m not in METHODS]
     if unknown:
         raise SparseEDMError(f"unknown method(s) {', '.join(unknown)}; known: {', '.join(METHODS)}")
+    try:  # checked before the hour of evaluation that precedes the sweep
+        atoms = tuple(int(a) for a in _split(args.sweep_atoms or ""))
+    except ValueError:
+        raise SparseEDMError(f"--sweep-atoms must be comma-separated integers, got "
+                             f"{args.sweep_atoms!r}") from None
     dictionary = load_dictionary(args.dictionary)
     test, labels, files = _load(args.data, "test data")
     train = _load(args.train, "training")[0] if args.train else None
@@ -105,7 +110,6 @@ def run(args):
             report.notes.append(msg)
             print(f"sparseedm evaluate: {msg}", file=sys.stderr)
         else:
-            atoms = tuple(int(a) for a in _split(args.sweep_atoms))
             # the sweep's dictionaries are used as the evaluated one is
             report.sweep = sweep_atoms(
                 train, test, atoms,
