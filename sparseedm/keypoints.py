@@ -54,14 +54,21 @@ One pose per row after a header row::
   kept as text in ``meta["extra_columns"]`` and written back. A column with
   such a suffix but an unknown joint name (``lefty_wrist_x``) is an error.
 
-An empty cell or ``nan`` marks a missing coordinate. Rows with the wrong
-number of fields or non-numeric text raise :class:`FileFormatError` naming
-the file, line and column. Floats are written with ``repr`` (exact round trip).
+An empty cell or ``nan`` marks a missing coordinate. Numbers are plain
+decimals (``12``, ``-3.5e2``; not ``1_0``, hex or non-ASCII digits). Rows
+with the wrong number of fields or non-numeric text raise
+:class:`FileFormatError` naming the file, line and column. The file is UTF-8
+(a leading BOM is dropped; other bytes are an error naming the line and byte
+offset) and no line may exceed 1 MiB. Floats are written with ``repr``
+(exact round trip).
 
 COCO-style keypoint JSON
 ------------------------
 Either a list of annotations (a COCO *results* file) or a dict with an
-``"annotations"`` list (a COCO *ground-truth* file). Each annotation has
+``"annotations"`` list (a COCO *ground-truth* file), UTF-8, at most 1 GiB,
+nested at most 64 deep, integers of at most 40 digits; keypoint values must be
+JSON numbers (not strings, booleans or null) and ``image_id`` an integer or a
+string. Each annotation has
 ``keypoints`` = [x1, y1, v1, ..., x17, y17, v17] in COCO-17 order (nose,
 left_eye, right_eye, left_ear, right_ear, left_shoulder, right_shoulder,
 left_elbow, right_elbow, left_wrist, right_wrist, left_hip, right_hip,

@@ -736,6 +736,8 @@ def _valid_bytes(kind):
         "coco": (CORPUS / "coco" / "ok_results_list.json").read_bytes(),
         "bvh": (FIXTURES / "cmu_02_01_short.bvh").read_bytes()[:6000]
         + (FIXTURES / "cmu_02_01_short.bvh").read_bytes()[-2000:],
+        "asf": (FIXTURES / "cmu_02.asf").read_bytes(),
+        "amc": (FIXTURES / "cmu_02_01_short.amc").read_bytes()[:4000],
     }[kind]
 
 
@@ -758,18 +760,23 @@ def mutated(draw, kind):
 
 
 _SUFFIX = {"npy": ".npy", "npz": ".npz", "npzc": ".npz", "dictionary": ".npz",
-           "csv": ".csv", "coco": ".json", "bvh": ".bvh"}
+           "csv": ".csv", "coco": ".json", "bvh": ".bvh", "asf": ".asf", "amc": ".amc"}
+_READERS = {
+    "dictionary": load_dictionary, "bvh": load_mocap,
+    "asf": lambda p: load_asf_amc(p, FIXTURES / "cmu_02_01_short.amc"),
+    "amc": lambda p: load_asf_amc(FIXTURES / "cmu_02.asf", p),
+}
 
 
 def _check_generated(tmp_path, kind, data):
     path = tmp_path / f"gen{_SUFFIX[kind]}"
     path.write_bytes(data)
-    reader = {"dictionary": load_dictionary, "bvh": load_mocap}.get(kind, read_keypoints)
     with unchanged(path):
-        _outcome(reader, path)
+        _outcome(_READERS.get(kind, read_keypoints), path)
 
 
-@pytest.mark.parametrize("kind", ["npy", "npz", "npzc", "dictionary", "csv", "coco", "bvh"])
+@pytest.mark.parametrize("kind", ["npy", "npz", "npzc", "dictionary", "csv", "coco", "bvh",
+                                  "asf", "amc"])
 def test_mutated_files_never_escape(kind, tmp_path_factory):
     tmp_path = tmp_path_factory.mktemp(kind)
 
