@@ -330,6 +330,9 @@ def test_honest_zip_bomb_in_a_wanted_member_is_refused_before_decompressing(
     ["evaluate", "--data", str(CORPUS / "npz" / "err_poses_huge_header.npz"), "-o", "{d}/rep"],
     ["evaluate", "--data", str(CORPUS / "npz" / "err_not_zip.npz"), "-o", "{d}/rep"],
     ["info", str(CORPUS / "npy" / "err_huge_shape.npy")],
+    ["evaluate", "--data", str(FIXTURES / "cmu_poses.npz"), "-o", str(FIXTURES / "cmu_02.asf")],
+    ["evaluate", "--data", str(FIXTURES / "cmu_poses.npz"), "-o",
+     str(FIXTURES / "cmu_02.asf" / "rep")],
 ])
 def test_other_commands_report_bad_input_without_traceback(args, tmp_path, capsys):
     assert main([a.format(d=tmp_path) for a in args]) == 2

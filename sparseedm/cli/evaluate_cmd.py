@@ -75,6 +75,19 @@ def _load(path, what):
     return poses.astype(float), labels, files
 
 
+def _check_report_dir(args):
+    """-o is a folder to make (or reuse), never an input file: checked before the work."""
+    from .._atomic import check_paths
+    from ..exceptions import OutputPathError
+
+    out = Path(args.output)
+    if out.exists() and not out.is_dir():
+        raise OutputPathError(f"-o {out} is a file; the report needs a directory")
+    check_paths([("--data", args.data), ("--train", args.train)],
+                [("report", out / name) for name in ("report.md", "results.csv",
+                                                     "per_action.csv")])
+
+
 def run(args):
     from ..dictionary import load_dictionary
     from ..evaluation import METHODS, evaluate, sweep_atoms
@@ -88,6 +101,7 @@ def run(args):
     except ValueError:
         raise SparseEDMError(f"--sweep-atoms must be comma-separated integers, got "
                              f"{args.sweep_atoms!r}") from None
+    _check_report_dir(args)
     dictionary = load_dictionary(args.dictionary)
     test, labels, files = _load(args.data, "test data")
     train = _load(args.train, "training")[0] if args.train else None
