@@ -15,6 +15,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..exceptions import FileFormatError
+from ._text import MAX_FILE_BYTES
 from .asf_amc import find_asf, load_asf_amc, parse_amc, parse_asf, write_cmu_bvh
 from .bvh import detect_rig, load_bvh, parse_bvh, rotation_matrices
 from .rigs import FAMILIES, UNITS, UnitsError, plausibility, read_joint_map, tpose_frames
@@ -31,6 +32,7 @@ __all__ = [
     "write_cmu_bvh",
     "rotation_matrices",
     "MOCAP_SUFFIXES",
+    "MAX_FILE_BYTES",
     "FAMILIES",
     "UNITS",
     "UnitsError",

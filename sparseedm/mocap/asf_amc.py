@@ -37,7 +37,6 @@ ankle           end of ``ltibia`` / ``rtibia``
 
 from __future__ import annotations
 
-import os
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -46,6 +45,7 @@ import numpy as np
 
 from ..exceptions import FileFormatError
 from ..skeleton import JOINT_NAMES
+from ._text import read_text
 from .bvh import rotation_matrices
 
 __all__ = [
@@ -120,21 +120,16 @@ class ASFSkeleton:
         return 0.0254 / self.length_unit
 
 
-def _read_lines(source, name):
-    if isinstance(source, os.PathLike) or (isinstance(source, str) and "\n" not in source):
-        path = os.fspath(source)
-        with open(path, encoding="utf-8", errors="replace") as fh:
-            return fh.read().splitlines(), path
-    return str(source).splitlines(), name or "<string>"
-
-
 def _floats(tokens, path, lineno, what):
     try:
-        return np.array([float(t) for t in tokens])
+        values = np.array([float(t) for t in tokens])
     except ValueError:
         raise FileFormatError(
             f"{path}, line {lineno}: {what} values are not numbers: {' '.join(tokens)!r}"
         ) from None
+    if not np.all(np.isfinite(values)):
+        raise FileFormatError(f"{path}, line {lineno}: {what} values must be finite numbers")
+    return values
 
 
 def parse_asf(source, *, name=None) -> ASFSkeleton:
@@ -179,7 +174,7 @@ def parse_asf(source, *, name=None) -> ASFSkeleton:
     >>> skel.order, skel.bones["lfemur"].dof, round(skel.scale, 5)
     (['lfemur'], ('rx', 'ry', 'rz'), 0.05644)
     """
-    lines, path = _read_lines(source, name)
+    lines, path = read_text(source, name)
 
     def fail(lineno, msg):
         raise FileFormatError(f"{path}, line {lineno}: {msg}")
@@ -349,7 +344,7 @@ def parse_amc(source, skeleton: ASFSkeleton, *, name=None):
         Naming the file and line: an unknown bone, a wrong number of values,
         a frame missing a bone (truncated file), no frames at all.
     """
-    lines, path = _read_lines(source, name)
+    lines, path = read_text(source, name)
     degrees = skeleton.angle_unit == "deg"
     expected = {b.name: len(b.dof) for b in skeleton.bones.values()}
     expected["root"] = len(skeleton.root_order)
@@ -410,7 +405,9 @@ def parse_amc(source, skeleton: ASFSkeleton, *, name=None):
                     ) from None
             raise  # pragma: no cover
         if not np.all(np.isfinite(arr)):
-            raise FileFormatError(f"{path}: non-finite values for bone {k!r}")
+            row = int(np.flatnonzero(~np.isfinite(arr).all(axis=1))[0])
+            raise FileFormatError(f"{path}, line {lines_of[k][row]}: non-finite value for "
+                                  f"bone {k!r}")
         motion[k] = arr
     return motion, degrees
 

@@ -35,7 +35,6 @@ Conventions
 
 from __future__ import annotations
 
-import os
 import re
 from dataclasses import dataclass, field
 
@@ -44,6 +43,7 @@ import numpy as np
 from ..exceptions import FileFormatError
 from ..skeleton import JOINT_NAMES
 from . import rigs as _rigs
+from ._text import read_text
 from .rigs import CMU_SCALE, UNITS, choose_units, read_joint_map
 
 __all__ = [
@@ -184,14 +184,7 @@ def parse_bvh(source, *, name=None) -> BVHData:
     >>> bvh.joint_names, bvh.motion.shape, bvh.frame_rate
     (['Hips'], (2, 6), 2.0)
     """
-    if isinstance(source, os.PathLike) or (isinstance(source, str) and "\n" not in source):
-        path = os.fspath(source)
-        with open(path, encoding="utf-8", errors="replace") as fh:
-            text = fh.read()
-    else:
-        text = str(source)
-        path = name or "<string>"
-    lines = text.splitlines()
+    lines, path = read_text(source, name)
 
     def fail(lineno, msg):
         raise FileFormatError(f"{path}, line {lineno}: {msg}")
@@ -258,6 +251,8 @@ def parse_bvh(source, *, name=None) -> BVHData:
                 fail(lineno, f"OFFSET values are not numbers: {' '.join(tokens[1:])!r}")
             if offset.shape != (3,):
                 fail(lineno, f"OFFSET needs 3 numbers, got {len(tokens) - 1}")
+            if not np.all(np.isfinite(offset)):
+                fail(lineno, "OFFSET values must be finite numbers")
             if stack[-1] == -2:
                 joints[_last_joint(stack)].end_sites[-1] = offset
             else:
@@ -310,11 +305,15 @@ def parse_bvh(source, *, name=None) -> BVHData:
         n_frames = int(value)
     except ValueError:
         fail(i, f"the frame count {value!r} is not an integer")
+    if n_frames < 1:
+        fail(i, f"'Frames: {value}': the file has no motion frames")
     value = header("Frame Time")
     try:
         frame_time = float(value)
     except ValueError:
         fail(i, f"the frame time {value!r} is not a number")
+    if not (np.isfinite(frame_time) and frame_time > 0):
+        fail(i, f"the frame time {value!r} must be a positive number of seconds")
 
     first = i
     rows = lines[first:]

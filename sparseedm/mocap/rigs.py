@@ -598,7 +598,7 @@ RIGID_BONES = (("right_shoulder", "right_elbow"), ("right_elbow", "right_wrist")
 
 
 def plausibility(poses, *, height=None, name="clip", rigidity_tol=0.05,
-                 symmetry_tol=0.1) -> list[str]:
+                 symmetry_tol=0.15) -> list[str]:
     """Problems that make a clip an implausible person (empty if none).
 
     Checks, on poses in metres: the standing height (`height`, e.g. of the
