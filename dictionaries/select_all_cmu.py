@@ -16,8 +16,8 @@ joints, seeded).
 Steps (all single-threaded, k = 2000):
 
 1. grid: training alpha x recovery alpha, one pass;
-2. at the best training alpha: two passes, and left-right mirrored training
-   poses added (one and two passes);
+2. at the grid's best alphas: two passes, and left-right mirrored training
+   poses added (``--variants``);
 3. the current ``cmu-k2000`` on the same validation poses (its own alpha);
 4. information only, never used to choose: Mix Err_ave on Bandai-Namco poses
    (``--bandai``) for ``cmu-k2000`` and the chosen setting;
@@ -101,8 +101,10 @@ def main(argv=None):
     ap.add_argument("--bandai", help="Bandai-Namco dataset: cross-source information only")
     ap.add_argument("--atoms", type=int, default=2000)
     ap.add_argument("--train-alphas", default="0.8,1.6,3.2")
-    ap.add_argument("--recover-alphas", default="0.0005,0.002,0.005,0.01")
-    ap.add_argument("--max-val", type=int, default=2000)
+    ap.add_argument("--recover-alphas", default="0.0005,0.002,0.005")
+    ap.add_argument("--variants", default="2:no,1:mirror",
+                    help="passes:mirror|no, ... tried at the grid's best alphas")
+    ap.add_argument("--max-val", type=int, default=1000)
     ap.add_argument("--out", default="selection_all_cmu.json")
     ap.add_argument("--ship", help="learn the chosen setting on all groups and save it here")
     args = ap.parse_args(argv)
@@ -155,13 +157,11 @@ def main(argv=None):
             run(comp, fit_s, a_train, a_rec, 1, False)
     grid_best = choose(rows)
     a_train = grid_best["alpha_train"]
-    near = sorted({grid_best["alpha_recover"], min(rows, key=lambda r: r["mix_err_ave"])[
-        "alpha_recover"]})
     variants = []
-    for passes, mirror in ((2, False), (1, True), (2, True)):
+    for item in args.variants.split(","):
+        passes, mirror = int(item.split(":")[0]), item.split(":")[1] == "mirror"
         comp, fit_s = learn(X_mirror if mirror else X, a_train, passes, mirror)
-        for a_rec in near:
-            variants.append(run(comp, fit_s, a_train, a_rec, passes, mirror))
+        variants.append(run(comp, fit_s, a_train, grid_best["alpha_recover"], passes, mirror))
     best = min([grid_best] + variants, key=lambda r: r["mix_err_ave"])
 
     old = load_dictionary("cmu-k2000")

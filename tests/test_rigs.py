@@ -273,3 +273,22 @@ def test_cli_inspect_and_options(fixtures_dir, tmp_path, capsys):
     assert main(["dataset", "inspect", str(bad)]) == 2
     err = capsys.readouterr().err
     assert "unknown.bvh" in err and "--joint-map" in err and "Traceback" not in err
+
+
+def test_asf_bone_names_any_case(fixtures_dir):
+    """HDM05-style ASF/AMC: Acclaim bone names, matched whatever their case."""
+    from sparseedm.mocap.asf_amc import JOINT_BONES
+
+    asf = (fixtures_dir / "cmu_02.asf").read_text()
+    amc = (fixtures_dir / "cmu_02_01_short.amc").read_text()
+    for bone in JOINT_BONES.values():
+        asf = asf.replace(f" {bone}", f" {bone.upper()}").replace(f"{bone} ", f"{bone.upper()} ")
+        amc = amc.replace(f"\n{bone} ", f"\n{bone.upper()} ")
+    assert "LFEMUR" in asf and "\nLFEMUR " in amc
+    upper = load_asf_amc(asf, amc)
+    ref = load_asf_amc(fixtures_dir / "cmu_02.asf", fixtures_dir / "cmu_02_01_short.amc")
+    np.testing.assert_allclose(upper, ref, atol=1e-12)
+    # a joint map moves a joint to another bone's end
+    moved = load_asf_amc(fixtures_dir / "cmu_02.asf", fixtures_dir / "cmu_02_01_short.amc",
+                         joint_map={"joints": {"neck": "upperneck"}})
+    assert np.all(moved[:, J("neck"), 1] > ref[:, J("neck"), 1])

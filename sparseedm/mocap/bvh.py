@@ -14,23 +14,27 @@ Conventions
   files give every joint 6 channels whose positions equal the offsets, and a
   root's position channels are absolute). Translation is applied before
   rotation, whatever the channel order.
-* World frame: as in the file (both supported rigs are Y-up, right-handed).
-* Rigs mapped onto :data:`sparseedm.skeleton.SKELETON_14`, detected by joint
-  names (see :data:`RIGS`):
+* World frame: as in the file (the known rigs are Y-up, right-handed).
+* Rigs mapped onto :data:`sparseedm.skeleton.SKELETON_14` are detected by
+  joint names (case-insensitive, prefixes ignored) from the families of
+  :data:`sparseedm.mocap.rigs.FAMILIES`, or named by a user joint map; the
+  unit is chosen by :func:`sparseedm.mocap.rigs.choose_units`. Head-top
+  conventions per family:
 
-  - ``"bandai"`` (Bandai-Namco-Research-Motiondataset): units are centimetres
-    (default ``scale=0.01``). Its ``Head`` End Site has a zero offset, so
-    **head_top is defined as the point 0.2 m from the Head joint along the
-    Head joint's local axis that points from Neck to Head** (the direction of
-    Head's OFFSET, rotated by Head's global rotation).
-  - ``"cmu"`` (the CMU Graphics Lab BVH conversion: Hips, LHipJoint,
-    LeftUpLeg, ..., Neck, Neck1, Head): units are the ASF's length units
-    (1/0.45 inch), so the default scale is the CMU FAQ's
-    ``(1.0 / 0.45) * 2.54 / 100``; head_top is the Head End Site, neck is
+  - ``"bandai"`` (Bandai-Namco-Research-Motiondataset, centimetres): its
+    ``Head`` End Site has a zero offset, so **head_top is the point 0.2 m from
+    the Head joint along the Head joint's local axis that points from Neck to
+    Head** (the direction of Head's OFFSET, rotated by Head's global rotation).
+  - ``"cmu"`` (the CMU Graphics Lab "cgspeed" BVH conversion: Hips,
+    LHipJoint, LeftUpLeg, ..., Neck, Neck1, Head; CMU's 1/0.45-inch unit,
+    ``(1.0 / 0.45) * 2.54 / 100`` m): head_top is the Head End Site, neck is
     ``Neck1`` (the top of CMU's ``lowerneck`` bone, as in
     :mod:`sparseedm.mocap.asf_amc`).
+  - ``"daz"``: the head has only eye children, so head_top is 0.18 m beyond
+    ``head`` along the neck -> head bone, as for Bandai.
+  - the others: see :mod:`sparseedm.mocap.rigs`.
 
-  A ``scale`` argument overrides the rig's unit.
+  A ``scale`` argument overrides the unit.
 """
 
 from __future__ import annotations
