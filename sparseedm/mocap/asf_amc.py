@@ -508,8 +508,7 @@ def asf_joint_bones(skeleton: ASFSkeleton, joint_map=None) -> dict:
     lower = {b.lower(): b for b in skeleton.bones}
     wanted = dict(JOINT_BONES)
     if joint_map is not None:
-        jmap = joint_map if isinstance(joint_map, dict) and "path" in joint_map \
-            else read_joint_map(joint_map)
+        jmap = read_joint_map(joint_map)
         for joint, src in jmap["joints"].items():
             if src.kind not in ("joint", "end"):
                 raise FileFormatError(
@@ -589,9 +588,8 @@ def load_asf_amc(asf, amc, *, scale=None, units="auto", joint_map=None, return_i
     raw_height = max(float(rigs.standing_height(rest)[0]),
                      float(np.percentile(rigs.standing_height(sample), 95)))
     if units is None or units == "auto":
-        units = "auto"
-        if isinstance(joint_map, dict) and joint_map.get("units"):
-            units = joint_map["units"]
+        units = (rigs.read_joint_map(joint_map)["units"] if joint_map is not None else None) \
+            or "auto"
     if scale is not None:
         scale, unit_name = float(scale), "scale"
     elif units != "auto":

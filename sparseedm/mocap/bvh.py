@@ -445,8 +445,7 @@ def resolve_sources(bvh: BVHData, *, rig=None, joint_map=None):
     ends = [j.name for j in bvh.joints if j.end_sites]
     jmap = None
     if joint_map is not None:
-        jmap = joint_map if isinstance(joint_map, dict) and "path" in joint_map \
-            else read_joint_map(joint_map)
+        jmap = read_joint_map(joint_map)
         rig = rig or jmap["rig"]
     overrides = {}
     if jmap is not None:
@@ -570,7 +569,7 @@ def load_bvh(path, *, rig=None, scale=None, units="auto", joint_map=None, return
     sparseedm.exceptions.FileFormatError: <string>: unknown BVH rig: mixamo rig misses ...
     """
     bvh = path if isinstance(path, BVHData) else parse_bvh(path)
-    if joint_map is not None and not (isinstance(joint_map, dict) and "path" in joint_map):
+    if joint_map is not None:
         joint_map = read_joint_map(joint_map)
     rig_name, default_units, sources = resolve_sources(bvh, rig=rig, joint_map=joint_map)
     if units is None or units == "auto":

@@ -415,6 +415,9 @@ def read_joint_map(source) -> dict:
     >>> m["units"], m["joints"]["head_top"].describe()
     ('cm', 'End Site of Head')
     """
+    if isinstance(source, dict) and "path" in source and all(
+            isinstance(v, Source) for v in source.get("joints", {}).values()):
+        return source  # already read
     if isinstance(source, dict):
         raw, where = source, "joint map"
     else:
