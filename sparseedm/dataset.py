@@ -237,8 +237,8 @@ def build_dataset(
             poses, info = load_mocap(path, units=units, joint_map=joint_map, return_info=True)
             meta = clip_metadata(path)
         except (SparseEDMError, OSError, UnicodeDecodeError) as exc:
-            warnings.warn(f"skipping {path}: {exc}", stacklevel=2)
-            skipped.append((str(path), str(exc)))
+            warnings.warn(f"skipping {path}: {_skip_reason(path, exc)}", stacklevel=2)
+            skipped.append((str(path), _skip_reason(path, exc)))
             continue
         for problem in plausibility(poses, height=info.get("height"), name=str(path)):
             warnings.warn(problem, stacklevel=2)
@@ -258,8 +258,8 @@ def build_dataset(
         try:
             p2d = project(kept, cams)
         except SparseEDMError as exc:
-            warnings.warn(f"skipping {path}: {exc}", stacklevel=2)
-            skipped.append((str(path), str(exc)))
+            warnings.warn(f"skipping {path}: {_skip_reason(path, exc)}", stacklevel=2)
+            skipped.append((str(path), _skip_reason(path, exc)))
             read -= 1
             continue
         parts.append((kept, p2d, frames, cams, meta))
@@ -293,6 +293,14 @@ def build_dataset(
                   "tpose_frames": n_tpose, "warnings": problems}
         return data, report
     return data
+
+
+def _skip_reason(path, exc):
+    """The error's message without the leading path (it is reported beside it)."""
+    reason = str(exc)
+    if reason.startswith(str(path)):
+        reason = reason[len(str(path)):].lstrip(":, ")
+    return reason
 
 
 def _auto_step(frame_rate):

@@ -131,7 +131,8 @@ def test_folder_mixing_good_and_bad_files(tmp_path, fixtures_dir, capsys):
     assert report["files"] == 3 and len(data["labels"]) == 15
     assert sorted(p.split("/")[-1] for p, _ in report["skipped"]) == sorted(
         f"{c}.bvh" for c in BVH_CASES)
-    code = main(["dataset", "build", str(folder), "-o", str(tmp_path / "m.npz")])
+    with pytest.warns(UserWarning):
+        code = main(["dataset", "build", str(folder), "-o", str(tmp_path / "m.npz")])
     out, err = capsys.readouterr()
     assert code == 1 and "read 3 file(s), skipped 12" in out
     for case in BVH_CASES:
