@@ -15,8 +15,8 @@ from sparseedm.dataset import build_dataset
 from sparseedm.exceptions import FileFormatError
 from sparseedm.mocap import load_asf_amc, load_bvh, parse_bvh
 from sparseedm.mocap.rigs import (
-    FAMILIES, HEIGHT_RANGE, Source, UnitsError, choose_units, joint_map_to_json, match_names,
-    plausibility, read_joint_map, standing_height, tpose_frames,
+    FAMILIES, HEIGHT_RANGE, UNITS, Source, UnitsError, chirality, choose_units,
+    joint_map_to_json, match_names, plausibility, read_joint_map, standing_height, tpose_frames,
 )
 from sparseedm.skeleton import SKELETON_14
 
@@ -70,6 +70,27 @@ def test_family_fixture_builds_the_true_poses(fixtures_dir, truth, name):
     assert np.all(poses[:, J("head_top"), 1] > poses[:, J("neck"), 1] + 0.1)
     assert plausibility(poses, height=info["height"]) == []
     assert len(info["tpose_frames"]) == 0
+    assert chirality(poses) > 0.5
+
+
+def test_left_right_swapped_map_is_flagged(fixtures_dir):
+    path = fixtures_dir / "rigs" / "daz_cm.bvh"
+    _, info = load_bvh(path, return_info=True)
+    swapped = {}
+    for joint, src in info["joint_map"].items():
+        other = joint.replace("left", "R").replace("right", "left").replace("R", "right")
+        swapped[other] = src.to_json()
+    mirror = load_bvh(path, joint_map={"joints": swapped})
+    assert chirality(mirror) < -0.5
+    problems = plausibility(mirror, name="swapped.bvh")
+    assert len(problems) == 1 and "left and right look swapped" in problems[0]
+
+
+def test_units_never_both_plausible():
+    """HEIGHT_RANGE is narrower than the ratio of any two units: auto is unambiguous."""
+    lo, hi = HEIGHT_RANGE
+    scales = sorted(UNITS.values())
+    assert all(b / a > hi / lo for a, b in zip(scales, scales[1:]))
 
 
 def test_head_top_rules_along_the_head_bone(fixtures_dir):

@@ -38,10 +38,10 @@ from the standing height (head top to the ankles' midpoint) of the skeleton:
 the larger of its *rest pose*'s (offsets only, no motion) and the 95th
 percentile over the clip's frames (some rigs, Bandai's for one, have a rest
 pose that is not standing: every offset along a local x axis). It takes the
-family's usual unit if it gives a height within
-:data:`HEIGHT_RANGE`, else the one unit that does (the nearest to 1.7 m if
-several do); with none a :class:`UnitsError` names the file, the height per
-unit and the fix (``--units`` or ``--joint-map``). An explicit unit is taken as
+family's usual unit if it gives a height within :data:`HEIGHT_RANGE`, else
+the one unit that does (no two units can: the range is narrower than their
+ratios); with none a :class:`UnitsError` names the file, the height per unit
+and the fix (``--units`` or ``--joint-map``). An explicit unit is taken as
 given (the per-clip plausibility check of :func:`plausibility` still warns).
 """
 
@@ -73,6 +73,7 @@ __all__ = [
     "standing_height",
     "tpose_frames",
     "plausibility",
+    "chirality",
 ]
 
 #: CMU's length unit (ASF ``length 0.45``) in metres: (1.0/0.45) * 2.54 / 100
@@ -81,8 +82,10 @@ CMU_SCALE = (1.0 / 0.45) * 2.54 / 100
 #: unit name -> metres per file unit
 UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "inch": 0.0254, "cmu": CMU_SCALE}
 
-#: plausible standing height of a person (head top to ankles), metres
-HEIGHT_RANGE = (1.0, 2.4)
+#: plausible standing height of a person (head top to ankles), metres. The
+#: ratio of its ends (2.2) is below that of any two units of :data:`UNITS`
+#: (inch/cmu 2.22, cm/inch 2.54, ...), so at most one unit is plausible.
+HEIGHT_RANGE = (1.0, 2.2)
 
 #: the height ``auto`` prefers when several units are plausible, metres
 TYPICAL_HEIGHT = 1.7
@@ -250,7 +253,8 @@ FAMILIES: tuple[Rig, ...] = (
         **_limbs(_LR, shoulder=["{s}Arm"], elbow=["{s}ForeArm"], wrist=["{s}Hand"],
                  hip=["{s}UpLeg"], knee=["{s}Leg"], ankle=["{s}Foot"]),
     }),
-    Rig("cmu-3dsmax", "CMU 3ds Max (LeftHip, LeftKnee, LeftCollar, LeftShoulder)", None, {
+    Rig("cmu-3dsmax", "CMU 3ds Max / MocapBank (LeftHip, LeftKnee, LeftCollar, LeftShoulder)",
+        None, {
         "head_top": (_end("Head"), _along("Head", 0.18)),
         "neck": (_j("Neck"),),
         **_limbs(_LR, shoulder=["{s}Shoulder"], elbow=["{s}Elbow"], wrist=["{s}Wrist"],
@@ -600,6 +604,44 @@ RIGID_BONES = (("right_shoulder", "right_elbow"), ("right_elbow", "right_wrist")
                ("left_hip", "left_knee"), ("left_knee", "left_ankle"))
 
 
+def chirality(poses, *, min_bend=0.02):
+    """+1 if left is the subject's left, -1 for a mirror image, None if unknown.
+
+    Knees bend forwards: with ``b`` the knee's offset from the hip-ankle
+    midpoint (frames where it exceeds `min_bend`), ``up`` the hips -> neck
+    direction and ``lr`` the right hip -> left hip vector, a person has
+    ``(lr x up) . b > 0`` -- whatever the world's axes. Returns the
+    bend-weighted mean sign, or None when no knee is bent enough.
+
+    Examples
+    --------
+    >>> p = np.zeros((1, 14, 3))
+    >>> p[0, :, 1] = [1.8, 1.5, 1.5, 1.2, .9, 1.5, 1.2, .9, 1, .5, 0, 1, .5, 0]
+    >>> p[0, :, 0] = [0, 0, -.2, -.2, -.2, .2, .2, .2, -.1, -.1, -.1, .1, .1, .1]
+    >>> p[0, [9, 12], 2] = 0.1            # knees forward (+z); left is +x
+    >>> chirality(p), chirality(p * [-1, 1, 1])
+    (1.0, -1.0)
+    """
+    p = np.asarray(poses, dtype=float)
+    i = SKELETON_14.index
+    hips = p[:, [i("left_hip"), i("right_hip")]].mean(axis=1)
+    up = _unit(p[:, i("neck")] - hips)
+    lr = p[:, i("left_hip")] - p[:, i("right_hip")]
+    forward = _unit(np.cross(lr, up))
+    votes, weights = [], []
+    for side in ("left", "right"):
+        h, k, a = (p[:, i(f"{side}_{j}")] for j in ("hip", "knee", "ankle"))
+        bend = k - (h + a) / 2
+        size = np.linalg.norm(bend, axis=-1)
+        use = size > min_bend
+        votes.append(np.sign(np.einsum("ni,ni->n", forward[use], bend[use])))
+        weights.append(size[use])
+    w = np.concatenate(weights)
+    if w.sum() == 0:
+        return None
+    return float(np.sum(np.concatenate(votes) * w) / w.sum())
+
+
 def plausibility(poses, *, height=None, name="clip", rigidity_tol=0.05,
                  symmetry_tol=0.15) -> list[str]:
     """Problems that make a clip an implausible person (empty if none).
@@ -608,13 +650,15 @@ def plausibility(poses, *, height=None, name="clip", rigidity_tol=0.05,
     rest pose, else the 95th percentile over frames) within
     :data:`HEIGHT_RANGE`; each limb bone rigid (max - min within
     `rigidity_tol` of its mean length); left and right limb bones of equal
-    mean length within `symmetry_tol`.
+    mean length within `symmetry_tol`; left on the subject's left
+    (:func:`chirality` not below -0.5: knees bending backwards means a mirror
+    image, e.g. left and right joints swapped).
 
     Examples
     --------
     >>> p = np.zeros((3, 14, 3)); p[:, :, 1] = np.linspace(17, 0, 14)
     >>> plausibility(p, name="giant")  # doctest: +ELLIPSIS
-    ['giant: standing height 15 m is outside the plausible 1-2.4 m (wrong units? ...)']
+    ['giant: standing height 15 m is outside the plausible 1-2.2 m (wrong units? ...)']
     """
     poses = np.asarray(poses, dtype=float)
     problems = []
@@ -644,4 +688,8 @@ def plausibility(poses, *, height=None, name="clip", rigidity_tol=0.05,
             problems.append(f"{name}: {a.replace('right_', '')}-{b.replace('right_', '')} "
                             f"is {r:.3f} m on the right but {l_:.3f} m on the left "
                             "(left/right joints swapped or mis-mapped?)")
+    hand = chirality(poses)
+    if hand is not None and hand < -0.5:
+        problems.append(f"{name}: the knees bend backwards, so left and right look swapped "
+                        "(a mirror image: check the left/right joints of the rig or joint map)")
     return problems
