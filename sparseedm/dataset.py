@@ -31,7 +31,10 @@ reads the file. Joint order is :data:`sparseedm.skeleton.SKELETON_14`.
 Frame subsampling: ``frame_step=None`` keeps about 40 frames per second of
 motion (``round(frame_rate / 40)``, at least 1): every 3rd frame of CMU's
 120 fps, every frame of Bandai-Namco's 30 fps. With the shared data this
-gives 25,926 CMU poses and 31,914 Bandai-Namco poses per camera.
+gives 34,434 CMU ASF/AMC poses (25,926 from subjects 01-03), 17,711 CMU Daz
+BVH poses and 31,914 Bandai-Namco poses per camera. T-pose frames at the start
+or end of a clip (:func:`sparseedm.mocap.rigs.tpose_frames`) are dropped
+first unless ``keep_tpose``.
 """
 
 from __future__ import annotations

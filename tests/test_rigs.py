@@ -313,3 +313,14 @@ def test_asf_bone_names_any_case(fixtures_dir):
     moved = load_asf_amc(fixtures_dir / "cmu_02.asf", fixtures_dir / "cmu_02_01_short.amc",
                          joint_map={"joints": {"neck": "upperneck"}})
     assert np.all(moved[:, J("neck"), 1] > ref[:, J("neck"), 1])
+
+
+def test_real_tpose_frames(shared_data):
+    """The Daz conversions start with a T-pose; Bandai dancers and wavers spread
+    their arms mid-clip, which is motion and is kept."""
+    _, info = load_bvh(shared_data / "cmu-bvh-daz" / "salsa" / "01.bvh", return_info=True)
+    assert info["tpose_frames"].tolist() == [0]
+    for name in ["dataset-1_walk_musical_002.bvh", "dataset-1_byebye_active_001.bvh"]:
+        poses, info = load_bvh(shared_data / "bandai-namco-1" / "data" / name, return_info=True)
+        assert len(info["tpose_frames"]) == 0
+        assert len(tpose_frames(poses, edges_only=False)) > 0

@@ -553,13 +553,17 @@ def choose_units(height_for, default=None, *, path="<string>", extra=None) -> tu
 
 
 # ------------------------------------------------------------------ T-pose
-def tpose_frames(poses, *, tol=0.9) -> np.ndarray:
+def tpose_frames(poses, *, tol=0.9, edges_only=True) -> np.ndarray:
     """Indices of T-pose frames: both arms straight, level and opposite.
 
     A frame is a T-pose when each arm is straight (shoulder -> wrist at least
     `tol` of upper arm + forearm), both arms point in opposite directions
     (cosine below ``-tol``) and are perpendicular to the trunk (|cosine with
     neck -> hips midpoint| below ``1 - tol``), and both legs are straight.
+    With `edges_only` (the default) only the runs of such frames that start
+    the clip or end it count: calibration T-poses come first or last, while a
+    dancer or a waving person spreads the arms level mid-clip (Bandai-Namco
+    has 67 such frames, none a calibration pose).
 
     Examples
     --------
@@ -569,6 +573,8 @@ def tpose_frames(poses, *, tol=0.9) -> np.ndarray:
     >>> t[1, [4, 7], 1] = 1.0   # second frame: wrists dropped
     >>> tpose_frames(t)
     array([0])
+    >>> tpose_frames(t[[1, 0, 1]]), tpose_frames(t[[1, 0, 1]], edges_only=False)
+    (array([], dtype=int64), array([1]))
     """
     p = np.asarray(poses, dtype=float)
     i = SKELETON_14.index
@@ -588,6 +594,13 @@ def tpose_frames(poses, *, tol=0.9) -> np.ndarray:
         leg = np.linalg.norm(k - h, axis=-1) + np.linalg.norm(a - k, axis=-1)
         ok &= np.linalg.norm(a - h, axis=-1) >= tol * leg
     ok &= np.einsum("ni,ni->n", arms[0], arms[1]) <= -tol
+    if edges_only and ok.size:
+        first = ok.size if ok.all() else int(np.argmin(ok))  # leading run length
+        last = ok.size if ok.all() else int(np.argmin(ok[::-1]))  # trailing run length
+        edge = np.zeros_like(ok)
+        edge[:first] = True
+        edge[ok.size - last:] = True
+        ok &= edge
     return np.flatnonzero(ok)
 
 
