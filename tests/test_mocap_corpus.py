@@ -3,13 +3,16 @@ and the line (never a traceback), and a folder mixing good and bad files builds
 the good ones and lists the bad."""
 
 import shutil
+from pathlib import Path
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import sparseedm.mocap
 from sparseedm.cli import main
 from sparseedm.dataset import build_dataset
-from sparseedm.exceptions import FileFormatError
+from sparseedm.exceptions import FileFormatError, SparseEDMError
 from sparseedm.mocap import load_mocap
 
 
@@ -137,3 +140,69 @@ def test_folder_mixing_good_and_bad_files(tmp_path, fixtures_dir, capsys):
     for case in BVH_CASES:
         assert f"skipped {folder / case}.bvh" in out
     assert "Traceback" not in out + err
+
+
+GOOD_BVH = (Path(__file__).parent / "fixtures" / "rigs" / "daz_cm.bvh").read_text()
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.data())
+def test_mutated_bvh_never_escapes_as_another_error(tmp_path_factory, data):
+    """Any line deleted, duplicated or garbled: the file loads or raises a
+    SparseEDMError -- never an IndexError, KeyError, numpy error ..."""
+    lines = GOOD_BVH.splitlines()
+    for _ in range(data.draw(st.integers(1, 3))):
+        k = data.draw(st.integers(0, len(lines) - 1))
+        action = data.draw(st.sampled_from(["delete", "duplicate", "garble", "truncate"]))
+        if action == "delete":
+            del lines[k]
+        elif action == "duplicate":
+            lines.insert(k, lines[k])
+        elif action == "truncate":
+            lines[k] = lines[k][: data.draw(st.integers(0, max(len(lines[k]) - 1, 0)))]
+        else:
+            lines[k] = data.draw(st.text(alphabet="{} 0123456789.-eE+nainfXYZrotsCHANLJIMO:\t",
+                                         max_size=30))
+        if not lines:
+            break
+    path = tmp_path_factory.mktemp("fuzz") / "m.bvh"
+    path.write_text("\n".join(lines) + "\n")
+    try:
+        load_mocap(path)
+    except SparseEDMError as exc:
+        assert str(path) in str(exc)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.data(), st.sampled_from(["asf", "amc"]))
+def test_mutated_asf_amc_never_escapes_as_another_error(tmp_path_factory, data, which):
+    fixtures = Path(__file__).parent / "fixtures"
+    texts = {"asf": (fixtures / "cmu_02.asf").read_text(),
+             "amc": (fixtures / "cmu_02_01_short.amc").read_text()}
+    lines = texts[which].splitlines()
+    for _ in range(data.draw(st.integers(1, 3))):
+        k = data.draw(st.integers(0, len(lines) - 1))
+        action = data.draw(st.sampled_from(["delete", "duplicate", "garble"]))
+        if action == "delete":
+            del lines[k]
+        elif action == "duplicate":
+            lines.insert(k, lines[k])
+        else:
+            lines[k] = data.draw(st.text(alphabet="()# 0123456789.-naifbegndroot:xyzXYZ",
+                                         max_size=30))
+    texts[which] = "\n".join(lines) + "\n"
+    folder = tmp_path_factory.mktemp("fuzz")
+    (folder / "02.asf").write_text(texts["asf"])
+    (folder / "02_01.amc").write_text(texts["amc"])
+    try:
+        load_mocap(folder / "02_01.amc")
+    except SparseEDMError as exc:
+        assert str(folder) in str(exc)
+
+
+def test_unreadable_path_is_a_clear_error(tmp_path):
+    (tmp_path / "folder.bvh").mkdir()
+    with pytest.raises(FileFormatError, match=r"folder\.bvh: cannot read it"):
+        load_mocap(tmp_path / "folder.bvh")
+    with pytest.raises(FileNotFoundError):
+        load_mocap(tmp_path / "missing.bvh")

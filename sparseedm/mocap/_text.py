@@ -24,13 +24,18 @@ def read_text(source, name=None) -> tuple[list[str], str]:
         path = os.fspath(source)
         from . import MAX_FILE_BYTES as limit  # the package attribute users may change
 
-        size = os.path.getsize(path)
-        if size > limit:
-            raise FileFormatError(
-                f"{path}: {size / 2**20:.0f} MiB is larger than the {limit / 2**20:.0f} MiB "
-                "limit for one motion file (set sparseedm.mocap.MAX_FILE_BYTES to allow it)")
-        with open(path, "rb") as fh:
-            data = fh.read()
+        try:
+            size = os.path.getsize(path)
+            if size > limit:
+                raise FileFormatError(
+                    f"{path}: {size / 2**20:.0f} MiB is larger than the {limit / 2**20:.0f} MiB "
+                    "limit for one motion file (set sparseedm.mocap.MAX_FILE_BYTES to allow it)")
+            with open(path, "rb") as fh:
+                data = fh.read()
+        except FileNotFoundError:
+            raise
+        except OSError as exc:  # a folder, no permission ...
+            raise FileFormatError(f"{path}: cannot read it ({exc.strerror or exc})") from None
         try:
             text = data.decode("utf-8")
         except UnicodeDecodeError as exc:
