@@ -74,6 +74,8 @@ __all__ = [
     "tpose_frames",
     "plausibility",
     "chirality",
+    "family",
+    "RIGID_BONES",
 ]
 
 #: CMU's length unit (ASF ``length 0.45``) in metres: (1.0/0.45) * 2.54 / 100
@@ -691,8 +693,7 @@ def plausibility(poses, *, height=None, name="clip", rigidity_tol=0.05,
         if s > rigidity_tol:
             problems.append(f"{name}: bone {a}-{b} changes length by {100 * s:.0f}% "
                             "over the clip (wrong joint mapped?)")
-    for k in range(0, len(RIGID_BONES), 1):
-        a, b = RIGID_BONES[k]
+    for k, (a, b) in enumerate(RIGID_BONES):
         if not a.startswith("right"):
             continue
         m = RIGID_BONES.index((a.replace("right", "left"), b.replace("right", "left")))
@@ -700,7 +701,7 @@ def plausibility(poses, *, height=None, name="clip", rigidity_tol=0.05,
         if max(r, l_) > 0 and abs(r - l_) / max(r, l_) > symmetry_tol:
             problems.append(f"{name}: {a.replace('right_', '')}-{b.replace('right_', '')} "
                             f"is {r:.3f} m on the right but {l_:.3f} m on the left "
-                            "(left/right joints swapped or mis-mapped?)")
+                            "(a limb mapped to the wrong joint?)")
     hand = chirality(poses)
     if hand is not None and hand < -0.5:
         problems.append(f"{name}: the knees bend backwards, so left and right look swapped "
