@@ -15,7 +15,6 @@ On the same held-out subjects and validation poses as ``select_all_cmu.py``:
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 from pathlib import Path
@@ -23,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from select_all_cmu import held_out, load_groups, sample  # noqa: E402
+from select_all_cmu import data_parser, load_split, sample  # noqa: E402
 
 from sparseedm.dictionary import Dictionary, load_dictionary  # noqa: E402
 from sparseedm.edm import pose_to_vector  # noqa: E402
@@ -40,15 +39,11 @@ def per_pose(dictionary, poses, alpha, seed=0):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--cmu", required=True)
-    ap.add_argument("--daz", required=True)
+    ap = data_parser(__doc__)
     ap.add_argument("--max-val", type=int, default=1000)
     ap.add_argument("--out", default="selection_all_cmu_check.json")
     args = ap.parse_args(argv)
-    daz = dict(item.split("=", 1) for item in args.daz.split(","))
-    poses, groups, sources = load_groups(args.cmu, daz)
-    is_val = np.isin(groups, held_out(groups))
+    poses, groups, sources, is_val = load_split(args)
     val = {s: sample(poses[is_val & (sources == s)], args.max_val // 2) for s in ("cmu-asf", "daz")}
     X, _ = complete_pose_vectors(poses[~is_val])
     odl = OnlineDictionaryLearning(2000, alpha=0.8, batch_size=512, n_passes=1,

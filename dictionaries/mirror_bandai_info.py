@@ -13,7 +13,6 @@ only these numbers are kept.
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 from pathlib import Path
@@ -22,23 +21,20 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from check_all_cmu import per_pose  # noqa: E402
-from select_all_cmu import held_out, load_groups, mirrored, sample  # noqa: E402
+from select_all_cmu import data_parser, load_split, mirrored, sample  # noqa: E402
 
 from sparseedm.dictionary import Dictionary  # noqa: E402
 from sparseedm.learning import OnlineDictionaryLearning, complete_pose_vectors  # noqa: E402
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--cmu", required=True)
-    ap.add_argument("--daz", required=True)
+    ap = data_parser(__doc__)
     ap.add_argument("--bandai", required=True)
     ap.add_argument("--n", type=int, default=1000)
     ap.add_argument("--out", default="selection_all_cmu_mirror_bandai.json")
     args = ap.parse_args(argv)
-    daz = dict(item.split("=", 1) for item in args.daz.split(","))
-    poses, groups, _ = load_groups(args.cmu, daz)
-    train = poses[~np.isin(groups, held_out(groups))]
+    poses, _, _, is_val = load_split(args)
+    train = poses[~is_val]
     with np.load(args.bandai, allow_pickle=False) as npz:
         bandai = sample(npz["poses2d"], args.n)
     errs = {}

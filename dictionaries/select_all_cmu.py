@@ -75,6 +75,21 @@ def held_out(groups):
     return [g for i, g in enumerate(names) if i % 3 == 1]
 
 
+def data_parser(doc):
+    """An argument parser with the --cmu and --daz datasets every script here reads."""
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
+    ap.add_argument("--cmu", required=True)
+    ap.add_argument("--daz", required=True, help="name=path,... one dataset per Daz folder")
+    return ap
+
+
+def load_split(args):
+    """(poses2d, groups, sources, is_val) of the --cmu/--daz datasets, split by subject."""
+    daz = dict(item.split("=", 1) for item in args.daz.split(","))
+    poses, groups, sources = load_groups(args.cmu, daz)
+    return poses, groups, sources, np.isin(groups, held_out(groups))
+
+
 def mirrored(poses2d):
     """Left-right mirror images: x negated and left/right joints swapped."""
     out = poses2d[:, SKELETON_14.flip_permutation()].copy()
@@ -95,9 +110,7 @@ def sample(poses, n, seed=0):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--cmu", required=True)
-    ap.add_argument("--daz", required=True, help="name=path,... one dataset per Daz folder")
+    ap = data_parser(__doc__)
     ap.add_argument("--bandai", help="Bandai-Namco dataset: cross-source information only")
     ap.add_argument("--atoms", type=int, default=2000)
     ap.add_argument("--train-alphas", default="0.8,1.6,3.2")
@@ -110,9 +123,8 @@ def main(argv=None):
     args = ap.parse_args(argv)
 
     daz = dict(item.split("=", 1) for item in args.daz.split(","))
-    poses, groups, sources = load_groups(args.cmu, daz)
+    poses, groups, sources, is_val = load_split(args)
     val_groups = held_out(groups)
-    is_val = np.isin(groups, val_groups)
     val = {s: sample(poses[is_val & (sources == s)], args.max_val // 2) for s in ("cmu-asf", "daz")}
     train = poses[~is_val]
     X, _ = complete_pose_vectors(train)

@@ -48,7 +48,6 @@ given (the per-clip plausibility check of :func:`plausibility` still warns).
 from __future__ import annotations
 
 import json
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
