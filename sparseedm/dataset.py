@@ -31,7 +31,10 @@ reads the file. Joint order is :data:`sparseedm.skeleton.SKELETON_14`.
 Frame subsampling: ``frame_step=None`` keeps about 40 frames per second of
 motion (``round(frame_rate / 40)``, at least 1): every 3rd frame of CMU's
 120 fps, every frame of Bandai-Namco's 30 fps. With the shared data this
-gives 25,926 CMU poses and 31,914 Bandai-Namco poses per camera.
+gives 34,434 CMU ASF/AMC poses (25,926 from subjects 01-03), 17,711 CMU Daz
+BVH poses and 31,914 Bandai-Namco poses per camera. T-pose frames at the start
+or end of a clip (:func:`sparseedm.mocap.rigs.tpose_frames`) are dropped
+first unless ``keep_tpose``.
 """
 
 from __future__ import annotations
@@ -47,10 +50,11 @@ import numpy as np
 
 from ._atomic import check_paths, save_npz
 from ._safeio import load_npz
-from ._validation import Interval, validate_params
+from ._validation import Interval, Options, validate_params
 from .cameras import project, sample_cameras
 from .exceptions import FileFormatError, OutputPathError, SparseEDMError
-from .mocap import MOCAP_SUFFIXES, load_mocap
+from .mocap import MOCAP_SUFFIXES, load_mocap, plausibility, read_joint_map
+from .mocap.rigs import UNITS
 from .skeleton import JOINT_NAMES
 
 __all__ = ["build_dataset", "load_dataset", "find_mocap_files", "clip_metadata",
@@ -167,6 +171,9 @@ def build_dataset(
     progress=True,
     camera_options=None,
     return_report=False,
+    units="auto",
+    joint_map=None,
+    keep_tpose=False,
 ):
     """Build a training set of 2D/3D poses from motion-capture files.
 
@@ -191,7 +198,16 @@ def build_dataset(
         (``distance``, ``height``, ``focal``, ``principal_point``, ``up``).
     return_report : bool
         Also return a dict: ``files`` read, ``skipped`` [(path, reason)],
-        ``poses``.
+        ``poses``, ``tpose_frames`` (T-pose frames dropped), ``warnings``
+        [(path, problem)] from the plausibility check.
+    units : {"auto", "m", "cm", "mm", "inch", "cmu"}
+        Length unit of the files (see :mod:`sparseedm.mocap.rigs`).
+    joint_map : dict or path, optional
+        A joint map for rigs not recognised by name
+        (:func:`sparseedm.mocap.rigs.read_joint_map`).
+    keep_tpose : bool
+        Keep T-pose frames (:func:`sparseedm.mocap.rigs.tpose_frames`);
+        by default they are dropped before subsampling.
 
     Returns
     -------
@@ -202,7 +218,9 @@ def build_dataset(
     -----
     UserWarning
         For each file that cannot be read (named with the reason); it is
-        skipped and the rest are built.
+        skipped and the rest are built. Also, one per clip, for a clip that
+        fails the plausibility check (:func:`sparseedm.mocap.rigs.plausibility`:
+        height, bone rigidity, left/right symmetry); such clips are kept.
 
     Raises
     ------
@@ -217,6 +235,8 @@ def build_dataset(
         "frame_step": [Interval(Integral, 1, None), None],
         "progress": ["boolean"], "return_report": ["boolean"],
         "camera_options": [dict, None]})
+    validate_params("build_dataset", dict(units=units, keep_tpose=keep_tpose), {
+        "units": [Options(("auto", *UNITS))], "keep_tpose": ["boolean"]})
     validate_params("build_dataset", dict(random_state=random_state), {
         "random_state": [Interval(Integral, 0, None), np.random.Generator, None]})
     cameras_per_pose = int(cameras_per_pose)
@@ -226,17 +246,26 @@ def build_dataset(
     files = find_mocap_files(paths)
     rng = np.random.default_rng(random_state)
     cam_opts = dict(camera_options or {})
-    parts, skipped, read = [], [], 0
+    if joint_map is not None:
+        joint_map = read_joint_map(joint_map)
+    parts, skipped, read, n_tpose, problems = [], [], 0, 0, []
     for path in _progress(files, len(files), progress, "dataset"):
         try:
-            poses, info = load_mocap(path, return_info=True)
+            poses, info = load_mocap(path, units=units, joint_map=joint_map, return_info=True)
             meta = clip_metadata(path)
         except (SparseEDMError, OSError, UnicodeDecodeError) as exc:
-            warnings.warn(f"skipping {path}: {exc}", stacklevel=2)
-            skipped.append((str(path), str(exc)))
+            warnings.warn(f"skipping {path}: {_skip_reason(path, exc)}", stacklevel=2)
+            skipped.append((str(path), _skip_reason(path, exc)))
             continue
+        for problem in plausibility(poses, height=info.get("height"), name=str(path)):
+            warnings.warn(problem, stacklevel=2)
+            problems.append((str(path), problem))
         step = int(frame_step) if frame_step is not None else _auto_step(info.get("frame_rate"))
-        idx = np.arange(0, poses.shape[0], step)
+        keep = np.arange(poses.shape[0])
+        if not keep_tpose and len(info.get("tpose_frames", ())):
+            keep = np.setdiff1d(keep, info["tpose_frames"])
+            n_tpose += poses.shape[0] - keep.size
+        idx = keep[::step]
         read += 1
         if idx.size == 0:
             continue
@@ -246,8 +275,8 @@ def build_dataset(
         try:
             p2d = project(kept, cams)
         except SparseEDMError as exc:
-            warnings.warn(f"skipping {path}: {exc}", stacklevel=2)
-            skipped.append((str(path), str(exc)))
+            warnings.warn(f"skipping {path}: {_skip_reason(path, exc)}", stacklevel=2)
+            skipped.append((str(path), _skip_reason(path, exc)))
             read -= 1
             continue
         parts.append((kept, p2d, frames, cams, meta))
@@ -277,9 +306,18 @@ def build_dataset(
     if output is not None:
         save_dataset(output, data)
     if return_report:
-        report = {"files": read, "skipped": skipped, "poses": int(data["poses3d"].shape[0])}
+        report = {"files": read, "skipped": skipped, "poses": int(data["poses3d"].shape[0]),
+                  "tpose_frames": n_tpose, "warnings": problems}
         return data, report
     return data
+
+
+def _skip_reason(path, exc):
+    """The error's message without the leading path (it is reported beside it)."""
+    reason = str(exc)
+    if reason.startswith(str(path)):
+        reason = reason[len(str(path)):].lstrip(":, ")
+    return reason
 
 
 def _auto_step(frame_rate):

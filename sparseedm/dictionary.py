@@ -41,7 +41,7 @@ __all__ = ["Dictionary", "load_dictionary", "available_dictionaries", "check_lay
 
 FORMAT_VERSION = 1
 #: the file the name "default" resolves to, in the sparseedm.dictionaries package
-DEFAULT_DICTIONARY = "cmu-k2000"
+DEFAULT_DICTIONARY = "cmu-all-k2000"
 _UNIT_NORM_TOL = 1e-6
 
 

@@ -101,7 +101,7 @@ def test_build_dataset_schema(mocap_dir, tmp_path):
     out = tmp_path / "train.npz"
     data, report = build_dataset(mocap_dir, out, cameras_per_pose=2, frame_step=5,
                                  progress=False, return_report=True)
-    assert report == {"files": 2, "skipped": [], "poses": 16}
+    assert report == {"files": 2, "skipped": [], "poses": 16, "tpose_frames": 0, "warnings": []}
     with np.load(out, allow_pickle=False) as npz:
         assert set(npz.files) == set(SCHEMA)
         assert npz["labels"].dtype.kind == "U"

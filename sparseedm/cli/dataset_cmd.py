@@ -1,4 +1,5 @@
-"""``sparseedm dataset build``: a training set (.npz) from motion-capture files."""
+"""``sparseedm dataset build``: a training set (.npz) from motion-capture files;
+``sparseedm dataset inspect``: the rig, units and joint sources of one file."""
 
 from __future__ import annotations
 
@@ -25,8 +26,31 @@ def add_parser(subparsers) -> None:
                        help="keep every S-th frame (default: about 40 frames/s of motion)")
     build.add_argument("--seed", type=int, default=0, metavar="N", help="camera seed (default 0)")
     build.add_argument("--quiet", action="store_true", help="no progress bar or summary")
+    _rig_options(build)
+    build.add_argument("--keep-tpose", action="store_true",
+                       help="keep T-pose frames (dropped by default)")
     build.set_defaults(func=run)
+    inspect = sub.add_parser(
+        "inspect", help="show a file's rig, units and the source of each of the 14 joints",
+        description="Load one .bvh/.amc file and print the rig detected, the units chosen, "
+        "the standing height, T-pose frames, the plausibility check and the source joint "
+        "of each of the 14 joints.",
+    )
+    inspect.add_argument("path", metavar="FILE", help="a .bvh or .amc file")
+    _rig_options(inspect)
+    inspect.add_argument("--write-map", metavar="JSON",
+                         help="also write the resolved joint map (a starting point to edit)")
+    inspect.set_defaults(func=run_inspect)
     parser.set_defaults(func=_help(parser))
+
+
+def _rig_options(parser):
+    parser.add_argument("--units", choices=("auto", "m", "cm", "mm", "inch", "cmu"),
+                        default="auto",
+                        help="length unit of the files (default auto: from the standing height)")
+    parser.add_argument("--joint-map", metavar="MAP",
+                        help="JSON (or TOML) joint map naming the source joint of some or all "
+                        "of the 14 joints (see README, 'Motion capture from any rig')")
 
 
 def _positive(text):
@@ -54,11 +78,51 @@ def run(args) -> int:
             args.paths, args.output,
             cameras_per_pose=args.cameras_per_pose, frame_step=args.frame_step,
             random_state=args.seed, progress=not args.quiet, return_report=True,
+            units=args.units, joint_map=args.joint_map, keep_tpose=args.keep_tpose,
         )
     if not args.quiet:
         n_labels = len(set(data["labels"].tolist()))
         print(f"read {report['files']} file(s), skipped {len(report['skipped'])}; "
               f"wrote {report['poses']} poses ({n_labels} labels) to {args.output}")
+        if report["tpose_frames"]:
+            print(f"dropped {report['tpose_frames']} T-pose frame(s) (--keep-tpose keeps them)")
         for path, reason in report["skipped"]:
             print(f"  skipped {path}: {reason}")
+        for _, problem in report["warnings"]:
+            print(f"  warning: {problem}")
     return 1 if report["skipped"] else 0
+
+
+def run_inspect(args) -> int:
+    """Print what the loader makes of one file; exit code 0 (1 if implausible)."""
+    import json
+
+    from .._atomic import atomic_path
+    from ..mocap import load_mocap, plausibility
+    from ..mocap.rigs import joint_map_to_json
+
+    poses, info = load_mocap(args.path, units=args.units, joint_map=args.joint_map,
+                             return_info=True)
+    problems = plausibility(poses, height=info["height"], name=args.path)
+    tpose = info["tpose_frames"]
+    print(f"file:    {args.path}")
+    print(f"rig:     {info['rig']}")
+    print(f"units:   {info['units']} ({info['scale']:.6g} m per file unit)")
+    print(f"height:  {info['height']:.3f} m (head top to ankles)")
+    print(f"frames:  {len(poses)} at {info['frame_rate']:.4g} fps; T-pose frames: {len(tpose)}"
+          + (f" ({', '.join(map(str, tpose[:10]))}{' ...' if len(tpose) > 10 else ''})"
+             if len(tpose) else ""))
+    print("joints:")
+    for joint, source in info["sources"].items():
+        print(f"  {joint:<15} <- {source}")
+    for problem in problems:
+        print(f"warning: {problem}")
+    if args.write_map:
+        if "joint_map" not in info:
+            print("--write-map: joint maps are written for BVH files only")
+            return 2
+        units = info["units"] if info["units"] in ("m", "cm", "mm", "inch", "cmu") else None
+        with atomic_path(args.write_map) as tmp, open(tmp, "w", encoding="utf-8") as fh:
+            json.dump(joint_map_to_json(info["joint_map"], units=units), fh, indent=1)
+        print(f"wrote the joint map to {args.write_map}")
+    return 1 if problems else 0

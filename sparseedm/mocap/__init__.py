@@ -3,8 +3,9 @@
 The 14 joints follow :data:`sparseedm.skeleton.SKELETON_14`; every loader runs
 forward kinematics over all frames at once and returns positions in metres
 in the file's world frame (Y-up for BVH and ASF/AMC). See
-:mod:`sparseedm.mocap.bvh` and :mod:`sparseedm.mocap.asf_amc` for the rigs,
-units and head-top conventions.
+:mod:`sparseedm.mocap.rigs` for the rig families, joint maps, units and
+head-top rules, :mod:`sparseedm.mocap.bvh` and :mod:`sparseedm.mocap.asf_amc`
+for the formats.
 
 :func:`load_mocap` dispatches on the file extension.
 """
@@ -14,8 +15,10 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..exceptions import FileFormatError
+from ._text import MAX_FILE_BYTES
 from .asf_amc import find_asf, load_asf_amc, parse_amc, parse_asf, write_cmu_bvh
 from .bvh import detect_rig, load_bvh, parse_bvh, rotation_matrices
+from .rigs import FAMILIES, UNITS, UnitsError, plausibility, read_joint_map, tpose_frames
 
 __all__ = [
     "load_mocap",
@@ -29,17 +32,27 @@ __all__ = [
     "write_cmu_bvh",
     "rotation_matrices",
     "MOCAP_SUFFIXES",
+    "MAX_FILE_BYTES",
+    "FAMILIES",
+    "UNITS",
+    "UnitsError",
+    "plausibility",
+    "read_joint_map",
+    "tpose_frames",
 ]
 
 #: file suffixes :func:`load_mocap` reads
 MOCAP_SUFFIXES = (".bvh", ".amc")
 
 
-def load_mocap(path, *, scale=None, return_info=False):
+def load_mocap(path, *, scale=None, units="auto", joint_map=None, return_info=False):
     """14-joint 3D poses (n_frames, 14, 3) in metres from a .bvh or .amc file.
 
     For ``NN_MM.amc`` the skeleton ``NN.asf`` in the same folder is used.
-    With ``return_info`` a dict (``frame_rate``, ``scale``, ...) comes too.
+    `units` and `joint_map` are those of :func:`load_bvh` /
+    :func:`load_asf_amc`. With ``return_info`` a dict (``rig``, ``units``,
+    ``scale``, ``height``, ``frame_rate``, ``sources``, ``tpose_frames``)
+    comes too.
 
     Examples
     --------
@@ -57,9 +70,11 @@ def load_mocap(path, *, scale=None, return_info=False):
                      "return_info": ["boolean"]})
     suffix = Path(path).suffix.lower()
     if suffix == ".bvh":
-        return load_bvh(path, scale=scale, return_info=return_info)
+        return load_bvh(path, scale=scale, units=units, joint_map=joint_map,
+                        return_info=return_info)
     if suffix == ".amc":
-        return load_asf_amc(None, path, scale=scale, return_info=return_info)
+        return load_asf_amc(None, path, scale=scale, units=units, joint_map=joint_map,
+                            return_info=return_info)
     raise FileFormatError(
         f"{path}: unsupported motion-capture file type {suffix!r} (expected .bvh or .amc)"
     )

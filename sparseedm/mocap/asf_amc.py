@@ -37,7 +37,6 @@ ankle           end of ``ltibia`` / ``rtibia``
 
 from __future__ import annotations
 
-import os
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -46,6 +45,7 @@ import numpy as np
 
 from ..exceptions import FileFormatError
 from ..skeleton import JOINT_NAMES
+from ._text import read_text
 from .bvh import rotation_matrices
 
 __all__ = [
@@ -56,6 +56,7 @@ __all__ = [
     "parse_amc",
     "asf_forward_kinematics",
     "load_asf_amc",
+    "asf_joint_bones",
     "find_asf",
     "write_cmu_bvh",
 ]
@@ -119,21 +120,16 @@ class ASFSkeleton:
         return 0.0254 / self.length_unit
 
 
-def _read_lines(source, name):
-    if isinstance(source, os.PathLike) or (isinstance(source, str) and "\n" not in source):
-        path = os.fspath(source)
-        with open(path, encoding="utf-8", errors="replace") as fh:
-            return fh.read().splitlines(), path
-    return str(source).splitlines(), name or "<string>"
-
-
 def _floats(tokens, path, lineno, what):
     try:
-        return np.array([float(t) for t in tokens])
+        values = np.array([float(t) for t in tokens])
     except ValueError:
         raise FileFormatError(
             f"{path}, line {lineno}: {what} values are not numbers: {' '.join(tokens)!r}"
         ) from None
+    if not np.all(np.isfinite(values)):
+        raise FileFormatError(f"{path}, line {lineno}: {what} values must be finite numbers")
+    return values
 
 
 def parse_asf(source, *, name=None) -> ASFSkeleton:
@@ -178,7 +174,7 @@ def parse_asf(source, *, name=None) -> ASFSkeleton:
     >>> skel.order, skel.bones["lfemur"].dof, round(skel.scale, 5)
     (['lfemur'], ('rx', 'ry', 'rz'), 0.05644)
     """
-    lines, path = _read_lines(source, name)
+    lines, path = read_text(source, name)
 
     def fail(lineno, msg):
         raise FileFormatError(f"{path}, line {lineno}: {msg}")
@@ -348,7 +344,7 @@ def parse_amc(source, skeleton: ASFSkeleton, *, name=None):
         Naming the file and line: an unknown bone, a wrong number of values,
         a frame missing a bone (truncated file), no frames at all.
     """
-    lines, path = _read_lines(source, name)
+    lines, path = read_text(source, name)
     degrees = skeleton.angle_unit == "deg"
     expected = {b.name: len(b.dof) for b in skeleton.bones.values()}
     expected["root"] = len(skeleton.root_order)
@@ -409,7 +405,9 @@ def parse_amc(source, skeleton: ASFSkeleton, *, name=None):
                     ) from None
             raise  # pragma: no cover
         if not np.all(np.isfinite(arr)):
-            raise FileFormatError(f"{path}: non-finite values for bone {k!r}")
+            row = int(np.flatnonzero(~np.isfinite(arr).all(axis=1))[0])
+            raise FileFormatError(f"{path}, line {lines_of[k][row]}: non-finite value for "
+                                  f"bone {k!r}")
         motion[k] = arr
     return motion, degrees
 
@@ -492,7 +490,45 @@ def find_asf(amc_path) -> Path:
     raise FileFormatError(f"{amc_path}: no skeleton file {subject}.asf beside it")
 
 
-def load_asf_amc(asf, amc, *, scale=None, return_info=False):
+def asf_joint_bones(skeleton: ASFSkeleton, joint_map=None) -> dict:
+    """14-joint name -> the ASF bone whose end it is (case-insensitive names).
+
+    The Acclaim names of :data:`JOINT_BONES` (CMU's and HDM05's ASF use them)
+    by default; a joint map (:func:`sparseedm.mocap.rigs.read_joint_map`)
+    may name other bones (``"neck": "upperneck"`` or ``{"end_site":
+    "upperneck"}``: the end of that bone).
+
+    Raises
+    ------
+    FileFormatError
+        A bone that is missing, or a joint-map rule other than a bone name.
+    """
+    from .rigs import read_joint_map
+
+    lower = {b.lower(): b for b in skeleton.bones}
+    wanted = dict(JOINT_BONES)
+    if joint_map is not None:
+        jmap = read_joint_map(joint_map)
+        for joint, src in jmap["joints"].items():
+            if src.kind not in ("joint", "end"):
+                raise FileFormatError(
+                    f"{skeleton.path}: an ASF joint is the end of a bone; the joint map "
+                    f"({jmap['path']}) gives {joint} as {src.describe()!r}")
+            wanted[joint] = src.joint
+    out, missing = {}, []
+    for joint in JOINT_NAMES:
+        bone = lower.get(wanted[joint].lower())
+        if bone is None:
+            missing.append(wanted[joint])
+        else:
+            out[joint] = bone
+    if missing:
+        raise FileFormatError(f"{skeleton.path}: the skeleton has no bone(s) {', '.join(missing)} "
+                              "needed for the 14 joints (name others with --joint-map)")
+    return out
+
+
+def load_asf_amc(asf, amc, *, scale=None, units="auto", joint_map=None, return_info=False):
     """3D positions of the 14 joints over the frames of a CMU AMC file, in metres.
 
     Parameters
@@ -502,10 +538,19 @@ def load_asf_amc(asf, amc, *, scale=None, return_info=False):
     amc : str or os.PathLike
         The motion.
     scale : float, optional
-        File length units -> metres; ``0.0254 / length_unit`` by default
-        (the CMU FAQ's ``(1.0/0.45)*2.54/100``).
+        File length units -> metres; overrides `units`.
+    units : {"auto", "m", "cm", "mm", "inch", "cmu"}
+        ``"auto"``: the ASF's own ``:units length`` (``0.0254 / length``,
+        the CMU FAQ's ``(1.0/0.45)*2.54/100`` for CMU) if the skeleton's
+        standing height is then plausible, else the unit that makes it so,
+        else :class:`sparseedm.mocap.rigs.UnitsError` (see
+        :func:`sparseedm.mocap.rigs.choose_units`).
+    joint_map : dict or path, optional
+        Other bones for some of the 14 joints (:func:`asf_joint_bones`).
     return_info : bool
-        Also return a dict with ``scale`` and ``frame_rate`` (120, CMU's).
+        Also return a dict with ``rig`` (``"acclaim-asf"``), ``units``,
+        ``scale``, ``height``, ``frame_rate`` (120, CMU's), ``sources``,
+        ``tpose_frames``.
 
     Returns
     -------
@@ -527,19 +572,40 @@ def load_asf_amc(asf, amc, *, scale=None, return_info=False):
     ...
     sparseedm.exceptions.FileFormatError: .../07_01.amc: no skeleton file 07.asf beside it
     """
+    from . import rigs
+
     if asf is None:
         asf = find_asf(amc)
     skel = asf if isinstance(asf, ASFSkeleton) else parse_asf(asf)
-    missing = [b for b in JOINT_BONES.values() if b not in skel.bones]
-    if missing:
-        raise FileFormatError(f"{skel.path}: the skeleton has no bone(s) {', '.join(missing)} "
-                              "needed for the 14 joints")
+    bones = asf_joint_bones(skel, joint_map)
     motion, degrees = parse_amc(amc, skel)
     ends, _ = asf_forward_kinematics(skel, motion, degrees=degrees)
-    scale = skel.scale if scale is None else float(scale)
-    poses = np.stack([ends[JOINT_BONES[j]] for j in JOINT_NAMES], axis=1) * scale
+    raw = np.stack([ends[bones[j]] for j in JOINT_NAMES], axis=1)
+    rest_motion = {k: np.zeros((1, v.shape[1])) for k, v in motion.items()}
+    rest_ends, _ = asf_forward_kinematics(skel, rest_motion, degrees=degrees)
+    rest = np.stack([rest_ends[bones[j]] for j in JOINT_NAMES], axis=1)
+    sample = raw[np.unique(np.linspace(0, len(raw) - 1, min(len(raw), 200)).astype(int))]
+    raw_height = max(float(rigs.standing_height(rest)[0]),
+                     float(np.percentile(rigs.standing_height(sample), 95)))
+    if units is None or units == "auto":
+        units = (rigs.read_joint_map(joint_map)["units"] if joint_map is not None else None) \
+            or "auto"
+    if scale is not None:
+        scale, unit_name = float(scale), "scale"
+    elif units != "auto":
+        if units not in rigs.UNITS:
+            raise ValueError(f"unknown units {units!r}; use one of {', '.join(rigs.UNITS)} or auto")
+        unit_name, scale = units, rigs.UNITS[units]
+    else:
+        unit_name, _ = rigs.choose_units(lambda s: raw_height * s, "asf", path=str(amc),
+                                         extra={"asf": skel.scale})
+        scale = skel.scale if unit_name == "asf" else rigs.UNITS[unit_name]
+    poses = raw * scale
     if return_info:
-        return poses, {"scale": scale, "frame_rate": CMU_FRAME_RATE}
+        return poses, {"rig": "acclaim-asf", "units": unit_name, "scale": scale,
+                       "height": raw_height * scale, "frame_rate": CMU_FRAME_RATE,
+                       "sources": {j: f"end of bone {bones[j]}" for j in JOINT_NAMES},
+                       "tpose_frames": rigs.tpose_frames(poses)}
     return poses
 
 

@@ -14,28 +14,31 @@ Conventions
   files give every joint 6 channels whose positions equal the offsets, and a
   root's position channels are absolute). Translation is applied before
   rotation, whatever the channel order.
-* World frame: as in the file (both supported rigs are Y-up, right-handed).
-* Rigs mapped onto :data:`sparseedm.skeleton.SKELETON_14`, detected by joint
-  names (see :data:`RIGS`):
+* World frame: as in the file (the known rigs are Y-up, right-handed).
+* Rigs mapped onto :data:`sparseedm.skeleton.SKELETON_14` are detected by
+  joint names (case-insensitive, prefixes ignored) from the families of
+  :data:`sparseedm.mocap.rigs.FAMILIES`, or named by a user joint map; the
+  unit is chosen by :func:`sparseedm.mocap.rigs.choose_units`. Head-top
+  conventions per family:
 
-  - ``"bandai"`` (Bandai-Namco-Research-Motiondataset): units are centimetres
-    (default ``scale=0.01``). Its ``Head`` End Site has a zero offset, so
-    **head_top is defined as the point 0.2 m from the Head joint along the
-    Head joint's local axis that points from Neck to Head** (the direction of
-    Head's OFFSET, rotated by Head's global rotation).
-  - ``"cmu"`` (the CMU Graphics Lab BVH conversion: Hips, LHipJoint,
-    LeftUpLeg, ..., Neck, Neck1, Head): units are the ASF's length units
-    (1/0.45 inch), so the default scale is the CMU FAQ's
-    ``(1.0 / 0.45) * 2.54 / 100``; head_top is the Head End Site, neck is
+  - ``"bandai"`` (Bandai-Namco-Research-Motiondataset, centimetres): its
+    ``Head`` End Site has a zero offset, so **head_top is the point 0.2 m from
+    the Head joint along the Head joint's local axis that points from Neck to
+    Head** (the direction of Head's OFFSET, rotated by Head's global rotation).
+  - ``"cmu"`` (the CMU Graphics Lab "cgspeed" BVH conversion: Hips,
+    LHipJoint, LeftUpLeg, ..., Neck, Neck1, Head; CMU's 1/0.45-inch unit,
+    ``(1.0 / 0.45) * 2.54 / 100`` m): head_top is the Head End Site, neck is
     ``Neck1`` (the top of CMU's ``lowerneck`` bone, as in
     :mod:`sparseedm.mocap.asf_amc`).
+  - ``"daz"``: the head has only eye children, so head_top is 0.18 m beyond
+    ``head`` along the neck -> head bone, as for Bandai.
+  - the others: see :mod:`sparseedm.mocap.rigs`.
 
-  A ``scale`` argument overrides the rig's unit.
+  A ``scale`` argument overrides the unit.
 """
 
 from __future__ import annotations
 
-import os
 import re
 from dataclasses import dataclass, field
 
@@ -43,11 +46,16 @@ import numpy as np
 
 from ..exceptions import FileFormatError
 from ..skeleton import JOINT_NAMES
+from . import rigs as _rigs
+from ._text import read_text
+from .rigs import CMU_SCALE, UNITS, choose_units, read_joint_map
 
 __all__ = [
     "BVHJoint",
     "BVHData",
-    "RIGS",
+    "resolve_sources",
+    "rest_pose_kinematics",
+    "CMU_SCALE",
     "parse_bvh",
     "bvh_forward_kinematics",
     "detect_rig",
@@ -55,57 +63,10 @@ __all__ = [
     "rotation_matrices",
 ]
 
-#: CMU's length unit (ASF ``length 0.45``) in metres: (1.0/0.45) * 2.54 / 100
-CMU_SCALE = (1.0 / 0.45) * 2.54 / 100
 #: Bandai-Namco files are in centimetres
-BANDAI_SCALE = 0.01
+BANDAI_SCALE = UNITS["cm"]
 #: distance from the Bandai Head joint to the defined head top, in metres
 BANDAI_HEAD_TOP = 0.2
-
-#: Rig name -> (default scale to metres, {14-joint name: source}). A source is
-#: ``("joint", name)`` (the joint's position), ``("end", name)`` (the joint's
-#: first End Site) or ``("extend", name, metres)`` (a point `metres` beyond the
-#: joint along its own bone direction).
-RIGS = {
-    "bandai": (
-        BANDAI_SCALE,
-        {
-            "head_top": ("extend", "Head", BANDAI_HEAD_TOP),
-            "neck": ("joint", "Neck"),
-            "right_shoulder": ("joint", "UpperArm_R"),
-            "right_elbow": ("joint", "LowerArm_R"),
-            "right_wrist": ("joint", "Hand_R"),
-            "left_shoulder": ("joint", "UpperArm_L"),
-            "left_elbow": ("joint", "LowerArm_L"),
-            "left_wrist": ("joint", "Hand_L"),
-            "right_hip": ("joint", "UpperLeg_R"),
-            "right_knee": ("joint", "LowerLeg_R"),
-            "right_ankle": ("joint", "Foot_R"),
-            "left_hip": ("joint", "UpperLeg_L"),
-            "left_knee": ("joint", "LowerLeg_L"),
-            "left_ankle": ("joint", "Foot_L"),
-        },
-    ),
-    "cmu": (
-        CMU_SCALE,
-        {
-            "head_top": ("end", "Head"),
-            "neck": ("joint", "Neck1"),
-            "right_shoulder": ("joint", "RightArm"),
-            "right_elbow": ("joint", "RightForeArm"),
-            "right_wrist": ("joint", "RightHand"),
-            "left_shoulder": ("joint", "LeftArm"),
-            "left_elbow": ("joint", "LeftForeArm"),
-            "left_wrist": ("joint", "LeftHand"),
-            "right_hip": ("joint", "RightUpLeg"),
-            "right_knee": ("joint", "RightLeg"),
-            "right_ankle": ("joint", "RightFoot"),
-            "left_hip": ("joint", "LeftUpLeg"),
-            "left_knee": ("joint", "LeftLeg"),
-            "left_ankle": ("joint", "LeftFoot"),
-        },
-    ),
-}
 
 _AXIS = {"X": 0, "Y": 1, "Z": 2}
 
@@ -227,14 +188,7 @@ def parse_bvh(source, *, name=None) -> BVHData:
     >>> bvh.joint_names, bvh.motion.shape, bvh.frame_rate
     (['Hips'], (2, 6), 2.0)
     """
-    if isinstance(source, os.PathLike) or (isinstance(source, str) and "\n" not in source):
-        path = os.fspath(source)
-        with open(path, encoding="utf-8", errors="replace") as fh:
-            text = fh.read()
-    else:
-        text = str(source)
-        path = name or "<string>"
-    lines = text.splitlines()
+    lines, path = read_text(source, name)
 
     def fail(lineno, msg):
         raise FileFormatError(f"{path}, line {lineno}: {msg}")
@@ -301,6 +255,8 @@ def parse_bvh(source, *, name=None) -> BVHData:
                 fail(lineno, f"OFFSET values are not numbers: {' '.join(tokens[1:])!r}")
             if offset.shape != (3,):
                 fail(lineno, f"OFFSET needs 3 numbers, got {len(tokens) - 1}")
+            if not np.all(np.isfinite(offset)):
+                fail(lineno, "OFFSET values must be finite numbers")
             if stack[-1] == -2:
                 joints[_last_joint(stack)].end_sites[-1] = offset
             else:
@@ -353,11 +309,15 @@ def parse_bvh(source, *, name=None) -> BVHData:
         n_frames = int(value)
     except ValueError:
         fail(i, f"the frame count {value!r} is not an integer")
+    if n_frames < 1:
+        fail(i, f"'Frames: {value}': the file has no motion frames")
     value = header("Frame Time")
     try:
         frame_time = float(value)
     except ValueError:
         fail(i, f"the frame time {value!r} is not a number")
+    if not (np.isfinite(frame_time) and frame_time > 0):
+        fail(i, f"the frame time {value!r} must be a positive number of seconds")
 
     first = i
     rows = lines[first:]
@@ -432,53 +392,167 @@ def bvh_forward_kinematics(bvh: BVHData):
     return pos, rot
 
 
-def detect_rig(joint_names) -> str:
-    """Name of the rig in :data:`RIGS` whose joints are all present.
+def detect_rig(joint_names, end_sites=None) -> str:
+    """Name of the first rig family (:data:`sparseedm.mocap.rigs.FAMILIES`) that fits.
+
+    `end_sites` names the joints with an End Site (all of them if not given).
 
     Raises
     ------
     FileFormatError
-        If no rig fits; the message lists, per rig, the joints missing.
+        If no family fits; the message lists, per family, what is missing.
 
     Examples
     --------
+    >>> detect_rig(["mixamorig:Hips", "mixamorig:Neck", "mixamorig:HeadTop_End"]
+    ...            + [f"mixamorig:{s}{j}" for s in ("Left", "Right")
+    ...               for j in ("Arm", "ForeArm", "Hand", "UpLeg", "Leg", "Foot")])
+    'mixamo'
     >>> detect_rig(["Hips", "Neck1", "Head", "LeftArm"])  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
     sparseedm.exceptions.FileFormatError: unknown BVH rig: ...
     """
-    names = set(joint_names)
-    missing = {}
-    for rig, (_, mapping) in RIGS.items():
-        need = {src[1] for src in mapping.values()}
-        miss = sorted(need - names)
-        if not miss:
-            return rig
-        missing[rig] = miss
-    detail = "; ".join(f"{rig} rig misses {', '.join(m)}" for rig, m in missing.items())
-    raise FileFormatError(f"unknown BVH rig: {detail}")
+    names = list(joint_names)
+    rig, _ = _rigs.detect_family(names, names if end_sites is None else end_sites)
+    return rig.name
 
 
-def load_bvh(path, *, rig=None, scale=None, return_info=False):
+def resolve_sources(bvh: BVHData, *, rig=None, joint_map=None):
+    """The rig of a parsed BVH file and the source of each of the 14 joints.
+
+    Parameters
+    ----------
+    bvh : BVHData
+    rig : str, optional
+        A family name of :data:`sparseedm.mocap.rigs.FAMILIES`; detected from
+        the joint names by default.
+    joint_map : dict or path, optional
+        A user joint map (:func:`sparseedm.mocap.rigs.read_joint_map`); its
+        joints override the family's, its ``rig``/``units`` are used when
+        given.
+
+    Returns
+    -------
+    rig_name : str
+        The family's name, or ``"joint-map"`` when the map alone names all 14.
+    default_units : str or None
+        The family's (or the map's) unit.
+    sources : dict
+        14-joint name -> :class:`sparseedm.mocap.rigs.Source` (file's names).
+    """
+    names = bvh.joint_names
+    ends = [j.name for j in bvh.joints if j.end_sites]
+    jmap = None
+    if joint_map is not None:
+        jmap = read_joint_map(joint_map)
+        rig = rig or jmap["rig"]
+    overrides = {}
+    if jmap is not None:
+        for joint, src in jmap["joints"].items():
+            found = _rigs.match_names(src.names(), names)
+            lost = [n for n in src.names() if n not in found]
+            if lost:
+                raise FileFormatError(
+                    f"{bvh.path}: the joint map ({jmap['path']}) names {', '.join(lost)} for "
+                    f"{joint}, but the file has no such joint (its joints: "
+                    f"{', '.join(names[:40])}{' ...' if len(names) > 40 else ''})")
+            src = src.renamed(found)
+            if src.kind == "end" and src.joint not in ends:
+                raise FileFormatError(f"{bvh.path}: joint {src.joint!r} has no End Site "
+                                      f"(joint map {jmap['path']}, {joint})")
+            overrides[joint] = src
+    if rig is not None:
+        family = _rigs.family(rig)
+        resolved, missing = _rigs.resolve_rig(family, names, ends)
+        left = [j for j in JOINT_NAMES if j not in resolved and j not in overrides]
+        if left:
+            raise FileFormatError(f"{bvh.path}: the {rig} rig cannot place "
+                                  f"{', '.join(left)} in this file; name them in a joint map")
+        name, units = family.name, family.units
+    elif len(overrides) == len(JOINT_NAMES):
+        resolved, name, units = {}, "joint-map", None
+    else:
+        try:
+            family, resolved = _rigs.detect_family(names, ends)
+        except FileFormatError as exc:
+            if overrides:
+                left = [j for j in JOINT_NAMES if j not in overrides]
+                raise FileFormatError(
+                    f"{bvh.path}: the joint map names {len(overrides)} of the 14 joints and "
+                    f"no known rig fits the rest ({', '.join(left)}): {exc}") from None
+            raise FileFormatError(f"{bvh.path}: {exc}") from None
+        name, units = family.name, family.units
+    if jmap is not None and jmap["units"] is not None:
+        units = jmap["units"]
+    return name, units, {**resolved, **overrides}
+
+
+def _place(bvh: BVHData, pos, rot, sources, scale, path) -> np.ndarray:
+    """(n, 14, 3) metres from FK positions/rotations (file units)."""
+    index = {j.name: k for k, j in enumerate(bvh.joints)}
+    out = np.empty((pos.shape[0], len(JOINT_NAMES), 3))
+    for k, jname in enumerate(JOINT_NAMES):
+        src = sources[jname]
+        j = index[src.joint]
+        if src.kind == "joint":
+            out[:, k] = pos[:, j]
+        elif src.kind == "end":
+            out[:, k] = pos[:, j] + rot[:, j] @ bvh.joints[j].end_sites[0]
+        elif src.kind == "along":
+            direction = bvh.joints[j].offset
+            norm = np.linalg.norm(direction)
+            if norm == 0:
+                raise FileFormatError(f"{path}: joint {src.joint!r} has a zero OFFSET; "
+                                      f"cannot place {jname} along its bone")
+            out[:, k] = pos[:, j] + rot[:, j] @ (direction / norm * (src.distance / scale))
+        elif src.kind == "offset":
+            out[:, k] = pos[:, j] + rot[:, j] @ (np.asarray(src.vector) / scale)
+        else:  # extrapolate
+            o = index[src.other]
+            out[:, k] = pos[:, j] + src.factor * (pos[:, j] - pos[:, o])
+    return out * scale
+
+
+def rest_pose_kinematics(bvh: BVHData):
+    """FK of the rest pose (OFFSETs only, no channel values), one frame."""
+    rest = BVHData(
+        joints=[BVHJoint(j.name, j.parent, j.offset, (), 0, j.end_sites) for j in bvh.joints],
+        motion=np.zeros((1, 0)), frame_time=bvh.frame_time, path=bvh.path,
+    )
+    return bvh_forward_kinematics(rest)
+
+
+def load_bvh(path, *, rig=None, scale=None, units="auto", joint_map=None, return_info=False):
     r"""3D positions of the 14 joints over the frames of a BVH file, in metres.
 
     Parameters
     ----------
-    path : str or os.PathLike
+    path : str, os.PathLike or BVHData
         The ``.bvh`` file (or BVH text).
-    rig : {"bandai", "cmu"}, optional
-        Joint-name mapping; detected from the joint names by default.
+    rig : str, optional
+        A rig family (:data:`sparseedm.mocap.rigs.FAMILIES`: ``"cmu"``,
+        ``"mixamo"``, ``"daz"``, ...); detected from the joint names by
+        default (case-insensitive, namespace prefixes ignored).
     scale : float, optional
-        File units -> metres; the rig's default (Bandai 0.01, CMU
-        (1/0.45)*2.54/100) when not given.
+        File units -> metres; overrides `units`.
+    units : {"auto", "m", "cm", "mm", "inch", "cmu"}
+        The file's length unit. ``"auto"`` takes the rig family's usual unit
+        if it gives a plausible standing height for the rest pose, else the
+        unit that does, and raises :class:`sparseedm.mocap.rigs.UnitsError`
+        (naming the file, the height and the fix) if none does.
+    joint_map : dict or path, optional
+        A user joint map (:func:`sparseedm.mocap.rigs.read_joint_map`).
     return_info : bool
-        Also return a dict with ``rig``, ``scale``, ``frame_rate``.
+        Also return a dict: ``rig``, ``units``, ``scale``, ``height``
+        (standing height in metres, see :mod:`sparseedm.mocap.rigs`), ``frame_rate``, ``sources`` (14-joint name -> source
+        description), ``tpose_frames`` (indices of T-pose frames).
 
     Returns
     -------
     poses : ndarray, shape (n_frames, 14, 3)
         In the order of :data:`sparseedm.skeleton.SKELETON_14`, world frame of
-        the file (Y-up for both rigs), metres.
+        the file, metres.
 
     Examples
     --------
@@ -492,40 +566,41 @@ def load_bvh(path, *, rig=None, scale=None, return_info=False):
     >>> load_bvh(text + "MOTION\nFrames: 1\nFrame Time: 0.01\n0\n")  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    sparseedm.exceptions.FileFormatError: <string>: unknown BVH rig: bandai rig misses Foot_L, ...
+    sparseedm.exceptions.FileFormatError: <string>: unknown BVH rig: mixamo rig misses ...
     """
     bvh = path if isinstance(path, BVHData) else parse_bvh(path)
-    if rig is None:
-        try:
-            rig = detect_rig(bvh.joint_names)
-        except FileFormatError as exc:
-            raise FileFormatError(f"{bvh.path}: {exc}") from None
-    if rig not in RIGS:
-        raise ValueError(f"unknown rig {rig!r}; known: {', '.join(RIGS)}")
-    default_scale, mapping = RIGS[rig]
-    scale = default_scale if scale is None else float(scale)
-    names = bvh.joint_names
-    missing = sorted({src[1] for src in mapping.values()} - set(names))
-    if missing:
-        raise FileFormatError(f"{bvh.path}: the {rig} rig needs joints {', '.join(missing)}")
+    if joint_map is not None:
+        joint_map = read_joint_map(joint_map)
+    rig_name, default_units, sources = resolve_sources(bvh, rig=rig, joint_map=joint_map)
+    if units is None or units == "auto":
+        units = (joint_map or {}).get("units") or "auto"
+    if units != "auto" and units not in UNITS:
+        raise ValueError(f"unknown units {units!r}; use one of {', '.join(UNITS)} or auto")
     pos, rot = bvh_forward_kinematics(bvh)
-    out = np.empty((pos.shape[0], len(JOINT_NAMES), 3))
-    for k, jname in enumerate(JOINT_NAMES):
-        src = mapping[jname]
-        j = names.index(src[1])
-        if src[0] == "joint":
-            out[:, k] = pos[:, j]
-        elif src[0] == "end":
-            if not bvh.joints[j].end_sites:
-                raise FileFormatError(f"{bvh.path}: joint {src[1]!r} has no End Site for {jname}")
-            out[:, k] = pos[:, j] + rot[:, j] @ bvh.joints[j].end_sites[0]
-        else:  # extend along the joint's own bone direction
-            direction = bvh.joints[j].offset
-            norm = np.linalg.norm(direction)
-            if norm == 0:
-                raise FileFormatError(f"{bvh.path}: joint {src[1]!r} has a zero OFFSET; cannot place {jname}")
-            out[:, k] = pos[:, j] + rot[:, j] @ (direction / norm * (src[2] / scale))
-    out *= scale
+    rpos, rrot = rest_pose_kinematics(bvh)
+    sample = np.unique(np.linspace(0, max(len(pos) - 1, 0), min(len(pos), 200)).astype(int))
+
+    def height(s):
+        return max(
+            float(_rigs.standing_height(_place(bvh, rpos, rrot, sources, s, bvh.path))[0]),
+            float(np.percentile(_rigs.standing_height(
+                _place(bvh, pos[sample], rot[sample], sources, s, bvh.path)), 95)),
+        )
+
+    if scale is not None:
+        scale, unit_name = float(scale), "scale"
+    elif units != "auto":
+        unit_name, scale = units, UNITS[units]
+    else:
+        unit_name, _ = choose_units(height, default_units, path=bvh.path)
+        scale = UNITS[unit_name]
+    out = _place(bvh, pos, rot, sources, scale, bvh.path)
     if return_info:
-        return out, {"rig": rig, "scale": scale, "frame_rate": bvh.frame_rate}
+        return out, {
+            "rig": rig_name, "units": unit_name, "scale": scale, "height": height(scale),
+            "frame_rate": bvh.frame_rate,
+            "sources": {j: sources[j].describe() for j in JOINT_NAMES},
+            "joint_map": {j: sources[j] for j in JOINT_NAMES},
+            "tpose_frames": _rigs.tpose_frames(out),
+        }
     return out

@@ -1,0 +1,47 @@
+"""Reading a motion-capture text file: size limit, strict UTF-8, errors naming the line."""
+
+from __future__ import annotations
+
+import os
+
+from ..exceptions import FileFormatError
+
+#: files larger than this are refused before reading (bytes); raise it for
+#: genuinely long takes (``sparseedm.mocap.MAX_FILE_BYTES = ...``)
+MAX_FILE_BYTES = 1 << 30
+
+
+def read_text(source, name=None) -> tuple[list[str], str]:
+    """(lines, name) of a path, or of text given directly (containing a newline).
+
+    Raises
+    ------
+    FileFormatError
+        A file over :data:`MAX_FILE_BYTES`, or bytes that are not UTF-8 text
+        (the message names the line).
+    """
+    if isinstance(source, os.PathLike) or (isinstance(source, str) and "\n" not in source):
+        path = os.fspath(source)
+        from . import MAX_FILE_BYTES as limit  # the package attribute users may change
+
+        try:
+            size = os.path.getsize(path)
+            if size > limit:
+                raise FileFormatError(
+                    f"{path}: {size / 2**20:.0f} MiB is larger than the {limit / 2**20:.0f} MiB "
+                    "limit for one motion file (set sparseedm.mocap.MAX_FILE_BYTES to allow it)")
+            with open(path, "rb") as fh:
+                data = fh.read()
+        except FileNotFoundError:
+            raise
+        except OSError as exc:  # a folder, no permission ...
+            raise FileFormatError(f"{path}: cannot read it ({exc.strerror or exc})") from None
+        try:
+            text = data.decode("utf-8")
+        except UnicodeDecodeError as exc:
+            line = data.count(b"\n", 0, exc.start) + 1
+            raise FileFormatError(
+                f"{path}, line {line}: byte 0x{data[exc.start]:02x} is not UTF-8 text "
+                "(a binary or corrupted file?)") from None
+        return text.splitlines(), path
+    return str(source).splitlines(), name or "<string>"
