@@ -10,6 +10,7 @@ __all__ = [
     "PoseError",
     "FileFormatError",
     "DictionaryError",
+    "ModelError",
     "ConvergenceWarning",
 ]
 
@@ -31,6 +32,10 @@ class FileFormatError(SparseEDMError):
 
 class DictionaryError(SparseEDMError):
     """A dictionary file that is corrupt, unsafe, or does not fit the data."""
+
+
+class ModelError(SparseEDMError):
+    """A network model file (sparseedm.fconv) that is corrupt, unsafe, or does not fit."""
 
 
 class ConvergenceWarning(UserWarning):

@@ -169,9 +169,62 @@ def _validate(poses, missing, n_joints):
     return poses, mask, bad_coord
 
 
+def _screen(poses, mask, bad_coord, representation):
+    """Statuses of every pose, and the usable ones' vectors under `representation`.
+
+    Shared by the sparse path and the FConv path (:mod:`sparseedm.fconv`).
+    """
+    n, N = mask.shape
+    status = np.full(n, "recovered", dtype=object)
+    reason = np.full(n, "", dtype=object)
+    n_obs = (~mask).sum(axis=1)
+    status[bad_coord] = "invalid_coordinates"
+    reason[bad_coord] = "an observed joint has a NaN or infinite coordinate"
+    few = ~bad_coord & (n_obs < MIN_OBSERVED_JOINTS)
+    status[few] = "too_few_observed"
+    reason[few] = [f"{k} observed joints, at least {MIN_OBSERVED_JOINTS} needed" for k in n_obs[few]]
+    clean = np.where(mask[..., None], 0.0, poses)
+    with np.errstate(invalid="ignore"):  # inf - inf on refused rows
+        lo = np.where(mask[..., None], np.inf, poses).min(axis=1)
+        hi = np.where(mask[..., None], -np.inf, poses).max(axis=1)
+        widest = (hi - lo).max(axis=1)  # -inf for a pose with no observed joint
+    degenerate = (status == "recovered") & ~(widest > 0)
+    status[degenerate] = "degenerate"
+    reason[degenerate] = "all observed joints coincide"
+    complete = (status == "recovered") & (n_obs == N)
+    status[complete] = "complete"
+    reason[complete] = "no joint missing"
+
+    vectors = np.full((n, N * (N - 1) // 2), np.nan)
+    center = np.full((n, 2), np.nan)
+    scale = np.full(n, np.nan)
+    filled = np.full_like(poses, np.nan)
+    usable = np.isin(status, ("recovered", "complete"))
+    if usable.any():
+        T, c, s = represent(clean[usable], mask[usable], representation)
+        vectors[usable], center[usable], scale[usable] = T, c, s
+        filled[complete] = poses[complete]
+    return status, reason, n_obs, clean, vectors, center, scale, filled
+
+
+def _place(poses, clean, mask, vectors, center, scale, status, filled):
+    """Place the occluded joints of recovered poses into `filled`, batched by count."""
+    N = mask.shape[1]
+    n_obs = (~mask).sum(axis=1)
+    placed_rows = np.flatnonzero(np.isin(status, ("recovered", "inaccurate")))
+    for count in np.unique(N - n_obs[placed_rows]):
+        rows = placed_rows[N - n_obs[placed_rows] == count]
+        normed = (clean[rows] - center[rows, None, :]) / scale[rows, None, None]
+        P = place_missing_joints(normed, vector_to_edm(vectors[rows]), mask[rows])
+        out = poses[rows].copy()
+        out[mask[rows]] = (P * scale[rows, None, None] + center[rows, None, :]).reshape(-1, 2)
+        filled[rows] = out
+
+
 def recover(poses, missing=None, *, dictionary=None, alpha=None,
             representation="average", solver="fast", n_jobs=1, chunk_size=2048,
-            positive=None, progress=False, backend=None, scheduler=None):
+            positive=None, progress=False, backend=None, scheduler=None,
+            method="sparse", model=None):
     """Recover the occluded joints of 2D poses.
 
     Parameters
@@ -205,6 +258,13 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
     scheduler : str, optional
         With ``backend="dask"``: the scheduler address (``tcp://host:8786``);
         None uses the Dask client already created in this process.
+    method : {"sparse", "fconv"}, default "sparse"
+        "fconv" completes the EDM with a trained FConv network instead
+        (:mod:`sparseedm.fconv`, needs ``sparseedm[torch]``); the dictionary,
+        alpha and solver arguments are then unused.
+    model : FConvModel, str or path, optional
+        The network for ``method="fconv"`` (``sparseedm fit-cnn``); its
+        representation must be `representation`.
 
     Returns
     -------
@@ -224,6 +284,13 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
     >>> bool(np.isfinite(res.poses).all()), bool((res.poses[0, :4] == pose[:4]).all())
     (True, True)
     """
+    if method == "fconv":  # torch is imported only on this path
+        from .fconv.recover import recover_fconv
+
+        return recover_fconv(poses, missing, model=model, representation=representation,
+                             chunk_size=chunk_size, progress=progress)
+    if method != "sparse":
+        raise SparseEDMError(f"unknown method {method!r}; use 'sparse' or 'fconv'")
     # the work is many small BLAS calls beside numba's threads: BLAS threads
     # would only spin against them (measured 2x slower), so BLAS gets one.
     with threadpool_limits(1, user_api="blas"):
@@ -253,41 +320,12 @@ def _recover(poses, missing=None, *, dictionary=None, alpha=None,
     n = len(poses)
     m = dictionary.n_features
     components = dictionary.components
-
-    status = np.full(n, "recovered", dtype=object)
-    reason = np.full(n, "", dtype=object)
-    n_obs = (~mask).sum(axis=1)
-    status[bad_coord] = "invalid_coordinates"
-    reason[bad_coord] = "an observed joint has a NaN or infinite coordinate"
-    few = ~bad_coord & (n_obs < MIN_OBSERVED_JOINTS)
-    status[few] = "too_few_observed"
-    reason[few] = [f"{k} observed joints, at least {MIN_OBSERVED_JOINTS} needed" for k in n_obs[few]]
-    clean = np.where(mask[..., None], 0.0, poses)
-    with np.errstate(invalid="ignore"):  # inf - inf on refused rows
-        lo = np.where(mask[..., None], np.inf, poses).min(axis=1)
-        hi = np.where(mask[..., None], -np.inf, poses).max(axis=1)
-        widest = (hi - lo).max(axis=1)  # -inf for a pose with no observed joint
-    degenerate = (status == "recovered") & ~(widest > 0)
-    status[degenerate] = "degenerate"
-    reason[degenerate] = "all observed joints coincide"
-    complete = (status == "recovered") & (n_obs == N)
-    status[complete] = "complete"
-    reason[complete] = "no joint missing"
-
-    vectors = np.full((n, m), np.nan)
-    center = np.full((n, 2), np.nan)
-    scale = np.full(n, np.nan)
+    status, reason, n_obs, clean, vectors, center, scale, filled = _screen(
+        poses, mask, bad_coord, representation)
     objective = np.full(n, np.nan)
     gap = np.full(n, np.nan)
     n_active = np.zeros(n, dtype=int)
     fallback = np.zeros(n, dtype=bool)
-    filled = np.full_like(poses, np.nan)
-
-    usable = np.isin(status, ("recovered", "complete"))
-    if usable.any():
-        T, c, s = represent(clean[usable], mask[usable], representation)
-        vectors[usable], center[usable], scale[usable] = T, c, s
-        filled[complete] = poses[complete]
 
     todo = np.flatnonzero(status == "recovered")
     dict_key = hashlib.sha1(np.ascontiguousarray(components).tobytes()).hexdigest()
@@ -317,15 +355,7 @@ def _recover(poses, missing=None, *, dictionary=None, alpha=None,
     vectors[failed] = np.nan
     reason[status == "inaccurate"] = "duality gap above tolerance"
 
-    # place the occluded joints, batched by how many are missing
-    placed_rows = np.flatnonzero(np.isin(status, ("recovered", "inaccurate")))
-    for count in np.unique(N - n_obs[placed_rows]):
-        rows = placed_rows[N - n_obs[placed_rows] == count]
-        normed = (clean[rows] - center[rows, None, :]) / scale[rows, None, None]
-        P = place_missing_joints(normed, vector_to_edm(vectors[rows]), mask[rows])
-        out = poses[rows].copy()
-        out[mask[rows]] = (P * scale[rows, None, None] + center[rows, None, :]).reshape(-1, 2)
-        filled[rows] = out
+    _place(poses, clean, mask, vectors, center, scale, status, filled)
     return RecoveryResult(
         poses=filled, vectors=vectors, missing=mask, center=center, scale=scale,
         objective=objective, gap=gap, n_active=n_active,

@@ -46,6 +46,9 @@ def add_parser(sub):
                    help="training alpha of the sweep dictionaries (default: the "
                    "evaluated dictionary's; their recovery alpha is --alpha or its)")
     p.add_argument("--jobs", type=int, default=1, help="joblib workers for the recovery")
+    p.add_argument("--fconv-model", action="append", default=[], metavar="PATH",
+                   help="FConv model from `sparseedm fit-cnn` (repeat: one per representation); "
+                   "adds the fconv method (needs the torch extra)")
     p.add_argument("-o", "--output", required=True, help="report directory")
     p.set_defaults(func=run)
 
@@ -83,12 +86,15 @@ def _load(path, what):
 
 def run(args):
     from ..dictionary import load_dictionary
-    from ..evaluation import METHODS, evaluate, sweep_atoms
+    from ..evaluation import METHODS, OPTIONAL_METHODS, evaluate, sweep_atoms
 
     methods = _split(args.methods)
-    unknown = [m for m in methods if m not in METHODS]
+    if args.fconv_model and "fconv" not in methods:
+        methods = methods[:1] + ("fconv",) + methods[1:]
+    known = METHODS + OPTIONAL_METHODS
+    unknown = [m for m in methods if m not in known]
     if unknown:
-        raise SparseEDMError(f"unknown method(s) {', '.join(unknown)}; known: {', '.join(METHODS)}")
+        raise SparseEDMError(f"unknown method(s) {', '.join(unknown)}; known: {', '.join(known)}")
     dictionary = load_dictionary(args.dictionary)
     test, labels, files = _load(args.data, "test data")
     train = _load(args.train, "training")[0] if args.train else None
@@ -103,7 +109,7 @@ def run(args):
         dictionary, test, train_poses2d=train, labels=labels, methods=methods,
         counts=_split(args.counts), representations=_split(args.representations),
         random_state=args.seed, n_jobs=args.jobs, max_poses=args.max_poses,
-        max_train=args.max_train, alpha=args.alpha,
+        max_train=args.max_train, alpha=args.alpha, fconv_models=args.fconv_model,
     )
     if args.sweep_atoms:
         if train is None:
