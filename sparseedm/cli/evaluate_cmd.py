@@ -3,12 +3,9 @@
 from __future__ import annotations
 
 import sys
-import zipfile
-from pathlib import Path
-
-import numpy as np
 
 from ..exceptions import FileFormatError, SparseEDMError
+from ._common import load_npz
 
 
 def add_parser(sub):
@@ -59,23 +56,8 @@ def _split(text):
 
 def _load(path, what):
     """poses2d and, if present, labels from an .npz (not every dataset key is needed)."""
-    path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"no such {what} file: {path}")
-    try:
-        with np.load(path, allow_pickle=False) as npz:
-            files = set(npz.files)
-            if "poses2d" not in files:
-                raise FileFormatError(
-                    f"{path}: no 'poses2d' array (has: {', '.join(sorted(files)) or 'nothing'})")
-            poses = npz["poses2d"]
-            labels = npz["labels"] if "labels" in files else None
-    except FileFormatError:
-        raise
-    except ValueError as exc:
-        raise FileFormatError(f"{path}: unreadable .npz or one holding pickles ({exc})") from None
-    except (OSError, EOFError, zipfile.BadZipFile) as exc:
-        raise FileFormatError(f"{path}: not an .npz file ({exc})") from None
+    arrays, files = load_npz(path, what, ("poses2d",), ("labels",))
+    poses, labels = arrays["poses2d"], arrays.get("labels")
     if poses.dtype.kind not in "fiu" or poses.ndim != 3 or poses.shape[-1] != 2:
         raise FileFormatError(f"{path}: poses2d must be numeric (n, N, 2), got "
                               f"{poses.dtype} {poses.shape}")

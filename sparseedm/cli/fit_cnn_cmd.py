@@ -3,13 +3,10 @@
 from __future__ import annotations
 
 import sys
-import zipfile
 from pathlib import Path
 
-import numpy as np
-
 from ..exceptions import FileFormatError, SparseEDMError
-from ._common import add_quiet, show_progress
+from ._common import add_quiet, load_npz, show_progress
 
 
 def add_parser(sub):
@@ -52,23 +49,8 @@ def add_parser(sub):
 
 
 def _load(path, need3d):
-    path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"no such training file: {path}")
-    try:
-        with np.load(path, allow_pickle=False) as npz:
-            files = set(npz.files)
-            if "poses2d" not in files or (need3d and "poses3d" not in files):
-                want = "poses2d and poses3d" if need3d else "poses2d"
-                raise FileFormatError(f"{path}: needs {want} (has: {', '.join(sorted(files))}); "
-                                      "build one with `sparseedm dataset build`")
-            out = {k: npz[k] for k in ("poses2d", "poses3d", "clips") if k in files}
-    except FileFormatError:
-        raise
-    except ValueError as exc:
-        raise FileFormatError(f"{path}: unreadable .npz or one holding pickles ({exc})") from None
-    except (OSError, EOFError, zipfile.BadZipFile) as exc:
-        raise FileFormatError(f"{path}: not an .npz file ({exc})") from None
+    required = ("poses2d", "poses3d") if need3d else ("poses2d",)
+    out, _ = load_npz(path, "training", required, ("clips",))
     for key in ("poses2d", "poses3d"):
         if key in out and out[key].dtype.kind not in "fiu":
             raise FileFormatError(f"{path}: {key} must be numeric, got {out[key].dtype}")

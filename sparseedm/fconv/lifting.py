@@ -14,7 +14,7 @@ import numpy as np
 
 from ..recovery import _screen, _validate
 from .model import load_model
-from .training import fit_lifter
+from .training import _NetworkShell, fit_lifter
 
 __all__ = ["lift", "FConvLifter"]
 
@@ -57,36 +57,17 @@ def lift(model, poses2d, missing=None, *, batch_size=4096):
     return out
 
 
-class FConvLifter:
+class FConvLifter(_NetworkShell):
     """scikit-learn-style shell: ``fit(X2d, y3d)`` trains, ``predict(X2d)`` lifts.
 
-    ``__init__`` stores the arguments of :func:`~sparseedm.fconv.fit_lifter`;
-    the trained model is ``model_``; :meth:`predict` returns 3D EDM vectors.
+    ``__init__`` stores the arguments of :func:`~sparseedm.fconv.fit_lifter`
+    (``occluded=None`` means its default, complete inputs); the trained model
+    is ``model_``; :meth:`predict` returns 3D EDM vectors.
     """
-
-    def __init__(self, *, representation="average", occluded=(0, 0), channels=(32, 64),
-                 kernel=3, symmetrize=False, batch_size=256, max_epochs=30, patience=4,
-                 learning_rate=1e-3, random_state=0, device="cpu"):
-        self.representation = representation
-        self.occluded = occluded
-        self.channels = channels
-        self.kernel = kernel
-        self.symmetrize = symmetrize
-        self.batch_size = batch_size
-        self.max_epochs = max_epochs
-        self.patience = patience
-        self.learning_rate = learning_rate
-        self.random_state = random_state
-        self.device = device
 
     def fit(self, X, y, clips=None):
         """X: 2D poses (n, N, 2); y: their 3D poses (n, N, 3)."""
-        self.model_ = fit_lifter(X, y, clips, representation=self.representation,
-                                 occluded=self.occluded, channels=self.channels,
-                                 kernel=self.kernel, symmetrize=self.symmetrize,
-                                 batch_size=self.batch_size, max_epochs=self.max_epochs,
-                                 patience=self.patience, learning_rate=self.learning_rate,
-                                 random_state=self.random_state, device=self.device)
+        self.model_ = fit_lifter(X, y, clips, **self._options((0, 0)))
         return self
 
     def predict(self, X, missing=None):

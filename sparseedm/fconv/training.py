@@ -295,10 +295,38 @@ def _fit_network(pairs, n, N, clips, meta, *, representation, channels, kernel, 
     return FConvModel(best_state, meta)
 
 
-class FConvRecoverer:
+class _NetworkShell:
+    """Stores the training arguments shared by the estimator shells."""
+
+    def __init__(self, *, representation="average", occluded=None, channels=(32, 64),
+                 kernel=3, symmetrize=False, batch_size=256, max_epochs=30, patience=4,
+                 learning_rate=1e-3, random_state=0, device="cpu"):
+        self.representation = representation
+        self.occluded = occluded
+        self.channels = channels
+        self.kernel = kernel
+        self.symmetrize = symmetrize
+        self.batch_size = batch_size
+        self.max_epochs = max_epochs
+        self.patience = patience
+        self.learning_rate = learning_rate
+        self.random_state = random_state
+        self.device = device
+
+    def _options(self, default_occluded):
+        return dict(representation=self.representation,
+                    occluded=default_occluded if self.occluded is None else self.occluded,
+                    channels=self.channels, kernel=self.kernel, symmetrize=self.symmetrize,
+                    batch_size=self.batch_size, max_epochs=self.max_epochs,
+                    patience=self.patience, learning_rate=self.learning_rate,
+                    random_state=self.random_state, device=self.device)
+
+
+class FConvRecoverer(_NetworkShell):
     """scikit-learn-style shell: ``fit`` trains :func:`fit_fconv`, ``transform`` recovers.
 
-    ``__init__`` only stores the arguments; the trained model is ``model_``.
+    ``__init__`` only stores the arguments of :func:`fit_fconv` (``occluded=None``
+    means its default, 1-3); the trained model is ``model_``.
 
     Examples
     --------
@@ -310,28 +338,9 @@ class FConvRecoverer:
     (2, 14, 2)
     """
 
-    def __init__(self, *, representation="average", channels=(32, 64), kernel=3,
-                 symmetrize=False, batch_size=256, max_epochs=30, patience=4,
-                 learning_rate=1e-3, random_state=0, device="cpu"):
-        self.representation = representation
-        self.channels = channels
-        self.kernel = kernel
-        self.symmetrize = symmetrize
-        self.batch_size = batch_size
-        self.max_epochs = max_epochs
-        self.patience = patience
-        self.learning_rate = learning_rate
-        self.random_state = random_state
-        self.device = device
-
     def fit(self, X, y=None, clips=None):
         """Train on complete poses X (n, N, 2)."""
-        self.model_ = fit_fconv(X, clips, representation=self.representation,
-                                channels=self.channels, kernel=self.kernel,
-                                symmetrize=self.symmetrize, batch_size=self.batch_size,
-                                max_epochs=self.max_epochs, patience=self.patience,
-                                learning_rate=self.learning_rate,
-                                random_state=self.random_state, device=self.device)
+        self.model_ = fit_fconv(X, clips, **self._options((1, 3)))
         return self
 
     def transform(self, X, missing=None):
