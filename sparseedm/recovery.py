@@ -261,7 +261,7 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
     method : {"sparse", "fconv"}, default "sparse"
         "fconv" completes the EDM with a trained FConv network instead
         (:mod:`sparseedm.fconv`, needs ``sparseedm[torch]``); the dictionary,
-        alpha and solver arguments are then unused.
+        alpha, solver, n_jobs, backend and positive arguments are then unused.
     model : FConvModel, str or path, optional
         The network for ``method="fconv"`` (``sparseedm fit-cnn``); its
         representation must be `representation`.

@@ -143,6 +143,8 @@ def test_bad_model_files(trained, tmp_path):
     path = trained.save(tmp_path / "m.npz")
     with pytest.raises(ModelError, match="14 joints"):
         load_model(path, n_joints=13)
+    with pytest.raises(ModelError, match="for 14 joints, the data has 13"):
+        recover(np.zeros((2, 13, 2)), method="fconv", model=path, representation="zero")
     with pytest.raises(ModelError, match="'zero' inputs"):
         recover(np.zeros((1, 14, 2)), method="fconv", model=path, representation="average")
     with pytest.raises(ModelError, match="'lift' model is needed"):

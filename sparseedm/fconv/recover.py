@@ -40,6 +40,9 @@ def recover_fconv(poses, missing=None, *, model=None, representation="average",
         raise SparseEDMError(
             f"unknown representation {representation!r}; use one of {REPRESENTATIONS}")
     model = load_model(model, representation=representation, kind="recover")
+    shape = np.shape(poses)
+    if len(shape) >= 2 and shape[-2] != model.n_joints:
+        load_model(model, n_joints=shape[-2])  # names the model and both joint counts
     poses, mask, bad_coord = _validate(poses, missing, model.n_joints)
     status, reason, _, clean, vectors, center, scale, filled = _screen(
         poses, mask, bad_coord, representation)
