@@ -196,7 +196,7 @@ def test_lifter_learns_3d_edms(cmu_poses, clips):
     assert np.isnan(out[1]).all() and np.isfinite(out[[0, 2, 3, 4]]).all()
 
 
-def test_cli_fit_cnn_recover_evaluate(tmp_path, fixtures_dir):
+def test_cli_fit_cnn_recover_evaluate(tmp_path, fixtures_dir, capsys):
     from sparseedm.cli import main
 
     model = tmp_path / "fconv.npz"
@@ -204,6 +204,8 @@ def test_cli_fit_cnn_recover_evaluate(tmp_path, fixtures_dir):
                  "--representation", "zero", "--channels", "4,8", "--batch-size", "32",
                  "--epochs", "2", "-q"]) == 0
     assert load_model(model).representation == "zero"
+    assert main(["info", str(model)]) == 0
+    assert "FConv recover model" in capsys.readouterr().out
     with np.load(fixtures_dir / "cmu_poses.npz") as d:
         poses = d["poses2d"][:10].copy()
     poses[:, 5] = np.nan
