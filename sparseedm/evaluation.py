@@ -29,6 +29,10 @@ recovery; :func:`evaluate` runs both and records the largest difference
 ``mean-fill`` reads the occluded entries; ``knn``, ``iterative`` and
 ``nearest`` read the observed joints only, are run once per count and listed
 under both representations.
+
+``"fconv"`` (the paper's network, :mod:`sparseedm.fconv`, torch extra) runs only
+when asked, with trained models (``fconv_models=``, one per representation):
+each runs under the representation it was trained on, on the same masks.
 """
 
 from __future__ import annotations
