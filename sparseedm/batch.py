@@ -190,7 +190,8 @@ def _output_format(out_path, in_fmt, output_format):
 def recover_file(input, output, *, dictionary=None, alpha=None, representation="average",
                  solver="fast", n_jobs=1, chunk_size=50_000, output_format=None,
                  errors_path=None, progress=False, save_edm=False,
-                 confidence_threshold=0.0, backend=None, scheduler=None):
+                 confidence_threshold=0.0, backend=None, scheduler=None,
+                 method="sparse", model=None):
     """Recover every pose of a keypoint file and write the filled poses.
 
     Parameters
@@ -220,6 +221,9 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
         Also store the completed EDM vectors (see the module docstring).
     confidence_threshold : float, default 0.0
         Joints whose confidence is below it count as missing.
+    method, model
+        ``method="fconv"`` with an FConv ``model`` file (see
+        :func:`sparseedm.recover`); the model is loaded and checked first.
 
     Returns
     -------
@@ -241,7 +245,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
         representation=representation, n_jobs=n_jobs, chunk_size=chunk_size,
         errors_path=errors_path, progress=progress,
         save_edm=save_edm, confidence_threshold=confidence_threshold, backend=backend,
-        scheduler=scheduler), _PARAMS)
+        scheduler=scheduler, method=method), _PARAMS)
     in_path, out_path = Path(input), Path(output)
     errors_path = default_errors_path(out_path) if errors_path is None else Path(errors_path)
     if not in_path.exists():
@@ -267,13 +271,17 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
         raise SparseEDMError(f"solver {solver!r} is not available ({exc})") from None
     except ValueError as exc:
         raise SparseEDMError(str(exc)) from None
+    if method == "fconv":  # checked before anything is read or written
+        from .fconv.model import load_model
+
+        model = load_model(model, representation=representation, kind="recover")
 
     source = _NpySource(in_path, confidence_threshold) if in_fmt == "npy" else \
         _MemorySource(in_path, in_fmt, confidence_threshold)
     try:
         return _run(source, in_fmt, out_path, out_fmt, errors_path, dictionary, alpha,
                     representation, solver, n_jobs, chunk_size, progress, save_edm, t0,
-                    backend, scheduler)
+                    backend, scheduler, method, model)
     finally:
         source.close()
 
@@ -287,12 +295,13 @@ _PARAMS = {
     "confidence_threshold": [Interval(Real, None, None)],
     "backend": [Options(("loky", "threading", "multiprocessing", "dask")), None],
     "scheduler": PATH + [None],
+    "method": [Options(("sparse", "fconv"))],
 }
 
 
 def _run(source, in_fmt, out_path, out_fmt, errors_path, dictionary, alpha,
          representation, solver, n_jobs, chunk_size, progress, save_edm, t0,
-         backend=None, scheduler=None):
+         backend=None, scheduler=None, method="sparse", model=None):
     from tqdm.auto import tqdm
 
     n = source.n
@@ -335,7 +344,7 @@ def _run(source, in_fmt, out_path, out_fmt, errors_path, dictionary, alpha,
                 poses, missing = source.chunk(start, stop)
                 res = recover(poses, missing, dictionary=dictionary, alpha=alpha,
                               representation=representation, solver=solver, n_jobs=n_jobs,
-                              backend=backend, scheduler=scheduler)
+                              backend=backend, scheduler=scheduler, method=method, model=model)
                 ok = res.ok
                 # refused rows are written back as read
                 filled[start:stop] = np.where(ok[:, None, None], res.poses, poses)

@@ -29,6 +29,10 @@ recovery; :func:`evaluate` runs both and records the largest difference
 ``mean-fill`` reads the occluded entries; ``knn``, ``iterative`` and
 ``nearest`` read the observed joints only, are run once per count and listed
 under both representations.
+
+``"fconv"`` (the paper's network, :mod:`sparseedm.fconv`, torch extra) runs only
+when asked, with trained models (``fconv_models=``, one per representation):
+each runs under the representation it was trained on, on the same masks.
 """
 
 from __future__ import annotations
@@ -54,10 +58,12 @@ from .normalize import REPRESENTATIONS
 from .recovery import recover
 
 __all__ = ["evaluate", "sweep_atoms", "occlusion_masks", "torso_size",
-           "EvaluationReport", "METHODS", "RESULT_COLUMNS"]
+           "EvaluationReport", "METHODS", "OPTIONAL_METHODS", "RESULT_COLUMNS"]
 
 #: every method evaluate knows, in table order
 METHODS = ("sparse",) + tuple(BASELINES)
+#: methods run only when asked, with what they need (fconv: torch and a model)
+OPTIONAL_METHODS = ("fconv",)
 #: methods whose output does not depend on the occlusion representation
 _REP_INDEPENDENT = ("knn", "iterative", "nearest")
 _COUNT_KEYS = {1: 1, 2: 2, 3: 3, "mix": 0}
@@ -98,10 +104,11 @@ def _check_counts(counts):
 
 def _check_methods(methods):
     methods = tuple(methods)
-    unknown = [m for m in methods if m not in METHODS]
+    known = METHODS + OPTIONAL_METHODS
+    unknown = [m for m in methods if m not in known]
     if unknown:
         raise SparseEDMError(
-            f"unknown method(s) {', '.join(map(repr, unknown))}; known: {', '.join(METHODS)}"
+            f"unknown method(s) {', '.join(map(repr, unknown))}; known: {', '.join(known)}"
         )
     return methods
 
@@ -374,7 +381,7 @@ def evaluate(dictionary, test_poses2d, *, train_poses2d=None, labels=None,
              methods=("sparse", "mean-fill", "knn", "iterative", "nearest"),
              counts=(1, 2, 3, "mix"), representations=("average", "zero"),
              random_state=0, n_jobs=1, max_poses=None, max_train=20000,
-             alpha=None, solver="fast", n_examples=4):
+             alpha=None, solver="fast", n_examples=4, fconv_models=None):
     """Run the paper's protocol for each method x count x representation.
 
     Parameters
@@ -401,6 +408,10 @@ def evaluate(dictionary, test_poses2d, *, train_poses2d=None, labels=None,
         Passed to :func:`sparseedm.recover`.
     n_examples : int
         Mix poses kept in ``report.examples`` for figures.
+    fconv_models : sequence of FConvModel or path, optional
+        Trained FConv recovery networks (``sparseedm fit-cnn``), at most one per
+        representation: method "fconv" runs each under its own representation
+        (needs the torch extra); without any, "fconv" is skipped (noted).
 
     Returns
     -------
@@ -445,6 +456,17 @@ def evaluate(dictionary, test_poses2d, *, train_poses2d=None, labels=None,
         if need:
             notes.append(f"no training poses: skipped {', '.join(need)} (they need --train)")
             methods = tuple(m for m in methods if m not in need)
+    fconv = {}
+    if "fconv" in methods:
+        fconv = _load_fconv(fconv_models or (), N)
+        if not fconv:
+            notes.append("no FConv model: skipped fconv (it needs --fconv-model)")
+            methods = tuple(m for m in methods if m != "fconv")
+        for rep, model in fconv.items():
+            t = model.meta.get("training", {})
+            notes.append(f"fconv {rep}: trained on {t.get('n_train', '?')} poses, "
+                         f"{t.get('epochs', '?')} epochs, "
+                         f"{'with' if model.symmetrize else 'without'} symmetrisation")
     fitted = {}
     for m in methods:
         if BASELINES.get(m):
@@ -467,6 +489,9 @@ def evaluate(dictionary, test_poses2d, *, train_poses2d=None, labels=None,
             warm = np.where(masks[counts[0]][:1, :, None], np.nan, gt[:1])
             recover(warm, masks[counts[0]][:1], dictionary=dictionary, alpha=alpha,
                     solver=solver)
+    for rep, model in fconv.items():  # torch import and first call out of the timings
+        recover(np.where(masks[counts[0]][:1, :, None], np.nan, gt[:1]), masks[counts[0]][:1],
+                method="fconv", model=model, representation=rep)
 
     rows, per_pose, per_action, examples = [], {}, [], {}
     sparse_vectors = {}
@@ -478,6 +503,8 @@ def evaluate(dictionary, test_poses2d, *, train_poses2d=None, labels=None,
         for m in methods:
             for rep in representations:
                 note = ""
+                if m == "fconv" and rep not in fconv:
+                    continue
                 if m in _REP_INDEPENDENT and m in cache:
                     res = cache[m]
                     note = "reads observed joints only: same as the other representation"
@@ -487,6 +514,9 @@ def evaluate(dictionary, test_poses2d, *, train_poses2d=None, labels=None,
                         res = recover(inputs, mask, dictionary=dictionary, alpha=alpha,
                                       representation=rep, solver=solver, n_jobs=n_jobs)
                     sparse_vectors[(c, rep)] = res.vectors
+                elif m == "fconv":
+                    res = recover(inputs, mask, method="fconv", model=fconv[rep],
+                                  representation=rep)
                 elif m == "mean-fill":
                     res = mean_fill(inputs, mask, rep)
                 else:
@@ -543,6 +573,20 @@ def evaluate(dictionary, test_poses2d, *, train_poses2d=None, labels=None,
                             masks=masks, examples=examples,
                             sparse_representation_max_diff=max_diff,
                             notes=notes, settings=settings)
+
+
+def _load_fconv(models, n_joints):
+    """representation -> FConvModel, one per representation."""
+    from .fconv.model import load_model
+
+    out = {}
+    for item in models:
+        model = load_model(item, n_joints=n_joints, kind="recover")
+        if model.representation in out:
+            raise SparseEDMError(f"two FConv models for representation "
+                                 f"{model.representation!r}; give one per representation")
+        out[model.representation] = model
+    return out
 
 
 def sweep_atoms(train_poses2d, test_poses2d, atoms=(100, 250, 500, 1000, 2000), *,

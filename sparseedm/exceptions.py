@@ -12,6 +12,7 @@ __all__ = [
     "DictionaryError",
     "ParameterError",
     "OutputPathError",
+    "ModelError",
     "ConvergenceWarning",
 ]
 
@@ -46,6 +47,10 @@ class OutputPathError(SparseEDMError):
     """An output path that would overwrite an input or another output, or
     that cannot be created (its parent is a file, it is a directory, the
     format cannot be written under that name)."""
+
+
+class ModelError(SparseEDMError):
+    """A network model file (sparseedm.fconv) that is corrupt, unsafe, or does not fit."""
 
 
 class ConvergenceWarning(UserWarning):

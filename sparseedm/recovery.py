@@ -190,9 +190,88 @@ def _validate(poses, missing, n_joints):
     return poses, mask, bad_coord
 
 
+def _screen(poses, mask, bad_coord, representation):
+    """Statuses of every pose, and the usable ones' vectors under `representation`.
+
+    Shared by the sparse path and the FConv path (:mod:`sparseedm.fconv`).
+    """
+    n, N = mask.shape
+    status = np.full(n, "recovered", dtype=object)
+    reason = np.full(n, "", dtype=object)
+    n_obs = (~mask).sum(axis=1)
+    status[bad_coord] = "invalid_coordinates"
+    reason[bad_coord] = "an observed joint has a NaN or infinite coordinate"
+    few = ~bad_coord & (n_obs < MIN_OBSERVED_JOINTS)
+    status[few] = "too_few_observed"
+    reason[few] = [f"{k} observed joints, at least {MIN_OBSERVED_JOINTS} needed" for k in n_obs[few]]
+    clean = np.where(mask[..., None], 0.0, poses)
+    with np.errstate(invalid="ignore", over="ignore"):  # inf - inf on refused rows
+        lo = np.where(mask[..., None], np.inf, poses).min(axis=1)
+        hi = np.where(mask[..., None], -np.inf, poses).max(axis=1)
+        widest = (hi - lo).max(axis=1)  # -inf for a pose with no observed joint
+        # the 'average' fill sums the observed coordinates: that must not overflow
+        total = np.abs(clean).sum(axis=1).max(axis=1)
+    degenerate = (status == "recovered") & ~(widest > 0)
+    status[degenerate] = "degenerate"
+    reason[degenerate] = "all observed joints coincide"
+    huge = (status == "recovered") & ~(np.isfinite(widest) & np.isfinite(total))
+    status[huge] = "out_of_range"
+    reason[huge] = ("the observed joints span more than float64 can hold (extent or sum "
+                    "overflows); rescale the coordinates")
+    tiny = (status == "recovered") & (widest / 2 < _TINY)
+    status[tiny] = "out_of_range"
+    reason[tiny] = [f"the observed joints span only {w:.3g} (a subnormal extent); rescale "
+                    "the coordinates" for w in widest[tiny]]
+    complete = (status == "recovered") & (n_obs == N)
+    status[complete] = "complete"
+    reason[complete] = "no joint missing"
+
+    vectors = np.full((n, N * (N - 1) // 2), np.nan)
+    center = np.full((n, 2), np.nan)
+    scale = np.full(n, np.nan)
+    filled = np.full_like(poses, np.nan)
+    usable = np.isin(status, ("recovered", "complete"))
+    if usable.any():
+        T, c, s = represent(clean[usable], mask[usable], representation)
+        vectors[usable], center[usable], scale[usable] = T, c, s
+        filled[complete] = poses[complete]
+    return status, reason, n_obs, clean, vectors, center, scale, filled
+
+
+def _place(poses, clean, mask, vectors, center, scale, status, reason, filled, certified=None):
+    """Place the occluded joints of recovered poses into `filled`, batched by count.
+
+    No row stays recovered unless what it returns (its joints, its distances
+    and, where given, ``certified``: a finite objective and gap) is finite:
+    such rows become ``solver_failed``.
+    """
+    N = mask.shape[1]
+    n_obs = (~mask).sum(axis=1)
+    placed_rows = np.flatnonzero(np.isin(status, ("recovered", "inaccurate")))
+    for count in np.unique(N - n_obs[placed_rows]):
+        rows = placed_rows[N - n_obs[placed_rows] == count]
+        normed = (clean[rows] - center[rows, None, :]) / scale[rows, None, None]
+        P = place_missing_joints(normed, vector_to_edm(vectors[rows]), mask[rows])
+        out = poses[rows].copy()
+        with np.errstate(over="ignore", invalid="ignore"):
+            out[mask[rows]] = (P * scale[rows, None, None]
+                               + center[rows, None, :]).reshape(-1, 2)
+        filled[rows] = out
+    placed = np.isin(status, ("recovered", "inaccurate"))
+    finite = np.isfinite(filled).all(axis=(1, 2)) & np.isfinite(vectors).all(axis=1)
+    if certified is not None:
+        finite &= certified
+    broken = placed & ~finite
+    status[broken] = "solver_failed"
+    reason[broken] = "the recovered distances or joints are not finite"
+    filled[broken] = np.nan
+    vectors[broken] = np.nan
+
+
 def recover(poses, missing=None, *, dictionary=None, alpha=None,
             representation="average", solver="fast", n_jobs=1, chunk_size=2048,
-            positive=None, progress=False, backend=None, scheduler=None):
+            positive=None, progress=False, backend=None, scheduler=None,
+            method="sparse", model=None):
     """Recover the occluded joints of 2D poses.
 
     Parameters
@@ -226,6 +305,13 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
     scheduler : str, optional
         With ``backend="dask"``: the scheduler address (``tcp://host:8786``);
         None uses the Dask client already created in this process.
+    method : {"sparse", "fconv"}, default "sparse"
+        "fconv" completes the EDM with a trained FConv network instead
+        (:mod:`sparseedm.fconv`, needs ``sparseedm[torch]``); the dictionary,
+        alpha, solver, n_jobs, backend and positive arguments are then unused.
+    model : FConvModel, str or path, optional
+        The network for ``method="fconv"`` (``sparseedm fit-cnn``); its
+        representation must be `representation`.
 
     Returns
     -------
@@ -245,6 +331,12 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
     >>> bool(np.isfinite(res.poses).all()), bool((res.poses[0, :4] == pose[:4]).all())
     (True, True)
     """
+    validate_params("recover", dict(method=method), {"method": [Options(("sparse", "fconv"))]})
+    if method == "fconv":  # torch is imported only on this path
+        from .fconv.recover import recover_fconv
+
+        return recover_fconv(poses, missing, model=model, representation=representation,
+                             chunk_size=chunk_size, progress=progress)
     # the work is many small BLAS calls beside numba's threads: BLAS threads
     # would only spin against them (measured 2x slower), so BLAS gets one.
     with threadpool_limits(1, user_api="blas"):
@@ -274,51 +366,12 @@ def _recover(poses, missing=None, *, dictionary=None, alpha=None,
     n = len(poses)
     m = dictionary.n_features
     components = dictionary.components
-
-    status = np.full(n, "recovered", dtype=object)
-    reason = np.full(n, "", dtype=object)
-    n_obs = (~mask).sum(axis=1)
-    status[bad_coord] = "invalid_coordinates"
-    reason[bad_coord] = "an observed joint has a NaN or infinite coordinate"
-    few = ~bad_coord & (n_obs < MIN_OBSERVED_JOINTS)
-    status[few] = "too_few_observed"
-    reason[few] = [f"{k} observed joints, at least {MIN_OBSERVED_JOINTS} needed" for k in n_obs[few]]
-    clean = np.where(mask[..., None], 0.0, poses)
-    with np.errstate(invalid="ignore", over="ignore"):  # inf - inf on refused rows
-        lo = np.where(mask[..., None], np.inf, poses).min(axis=1)
-        hi = np.where(mask[..., None], -np.inf, poses).max(axis=1)
-        widest = (hi - lo).max(axis=1)  # -inf for a pose with no observed joint
-        # the 'average' fill sums the observed coordinates: that must not overflow
-        total = np.abs(clean).sum(axis=1).max(axis=1)
-    degenerate = (status == "recovered") & ~(widest > 0)
-    status[degenerate] = "degenerate"
-    reason[degenerate] = "all observed joints coincide"
-    huge = (status == "recovered") & ~(np.isfinite(widest) & np.isfinite(total))
-    status[huge] = "out_of_range"
-    reason[huge] = ("the observed joints span more than float64 can hold (extent or sum "
-                    "overflows); rescale the coordinates")
-    tiny = (status == "recovered") & (widest / 2 < _TINY)
-    status[tiny] = "out_of_range"
-    reason[tiny] = [f"the observed joints span only {w:.3g} (a subnormal extent); rescale "
-                    "the coordinates" for w in widest[tiny]]
-    complete = (status == "recovered") & (n_obs == N)
-    status[complete] = "complete"
-    reason[complete] = "no joint missing"
-
-    vectors = np.full((n, m), np.nan)
-    center = np.full((n, 2), np.nan)
-    scale = np.full(n, np.nan)
+    status, reason, n_obs, clean, vectors, center, scale, filled = _screen(
+        poses, mask, bad_coord, representation)
     objective = np.full(n, np.nan)
     gap = np.full(n, np.nan)
     n_active = np.zeros(n, dtype=int)
     fallback = np.zeros(n, dtype=bool)
-    filled = np.full_like(poses, np.nan)
-
-    usable = np.isin(status, ("recovered", "complete"))
-    if usable.any():
-        T, c, s = represent(clean[usable], mask[usable], representation)
-        vectors[usable], center[usable], scale[usable] = T, c, s
-        filled[complete] = poses[complete]
 
     todo = np.flatnonzero(status == "recovered")
     dict_key = hashlib.sha1(np.ascontiguousarray(components).tobytes()).hexdigest()
@@ -348,26 +401,8 @@ def _recover(poses, missing=None, *, dictionary=None, alpha=None,
     vectors[failed] = np.nan
     reason[status == "inaccurate"] = "duality gap above tolerance"
 
-    # place the occluded joints, batched by how many are missing
-    placed_rows = np.flatnonzero(np.isin(status, ("recovered", "inaccurate")))
-    for count in np.unique(N - n_obs[placed_rows]):
-        rows = placed_rows[N - n_obs[placed_rows] == count]
-        normed = (clean[rows] - center[rows, None, :]) / scale[rows, None, None]
-        P = place_missing_joints(normed, vector_to_edm(vectors[rows]), mask[rows])
-        out = poses[rows].copy()
-        with np.errstate(over="ignore", invalid="ignore"):
-            out[mask[rows]] = (P * scale[rows, None, None]
-                               + center[rows, None, :]).reshape(-1, 2)
-        filled[rows] = out
-    # no row is reported recovered unless what it returns is finite
-    placed = np.isin(status, ("recovered", "inaccurate"))
-    broken = placed & ~(np.isfinite(filled).all(axis=(1, 2))
-                        & np.isfinite(vectors).all(axis=1)
-                        & np.isfinite(objective) & np.isfinite(gap))
-    status[broken] = "solver_failed"
-    reason[broken] = "the recovered distances or joints are not finite"
-    filled[broken] = np.nan
-    vectors[broken] = np.nan
+    _place(poses, clean, mask, vectors, center, scale, status, reason, filled,
+           certified=np.isfinite(objective) & np.isfinite(gap))
     return RecoveryResult(
         poses=filled, vectors=vectors, missing=mask, center=center, scale=scale,
         objective=objective, gap=gap, n_active=n_active,

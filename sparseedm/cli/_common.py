@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+from pathlib import Path
 
 
 def add_quiet(parser):
@@ -13,3 +14,27 @@ def add_quiet(parser):
 def show_progress(args) -> bool:
     """Progress bars only for a person watching a terminal."""
     return not getattr(args, "quiet", False) and sys.stderr.isatty()
+
+
+def load_npz(path, what, required, optional=()):
+    """The `required` and present `optional` arrays of an .npz, read by the bounded
+    reader (:func:`sparseedm._safeio.load_npz`: sizes checked first, pickles refused).
+
+    Returns ``(arrays, names)``: a dict of the arrays read and the set of all
+    array names in the file. Raises FileNotFoundError or FileFormatError
+    naming the file.
+    """
+    from .._safeio import load_npz as load_bounded
+    from ..exceptions import FileFormatError
+
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"no such {what} file: {path}")
+    arrays, names = load_bounded(path, (*required, *optional),
+                                 what=f"{path}: not a readable .npz:")
+    lacking = [k for k in required if k not in arrays]
+    if lacking:
+        raise FileFormatError(
+            f"{path}: no {' or '.join(map(repr, lacking))} array (has: "
+            f"{', '.join(sorted(names)) or 'nothing'}); see `sparseedm dataset build`")
+    return arrays, set(names)

@@ -5,9 +5,9 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-import numpy as np
 
 from ..exceptions import FileFormatError, SparseEDMError
+from ._common import load_npz
 
 
 def add_parser(sub):
@@ -45,6 +45,9 @@ def add_parser(sub):
                    help="training alpha of the sweep dictionaries (default: the "
                    "evaluated dictionary's; their recovery alpha is --alpha or its)")
     p.add_argument("--jobs", type=int, default=1, help="joblib workers for the recovery")
+    p.add_argument("--fconv-model", action="append", default=[], metavar="PATH",
+                   help="FConv model from `sparseedm fit-cnn` (repeat: one per representation); "
+                   "adds the fconv method (needs the torch extra)")
     p.add_argument("-o", "--output", required=True, help="report directory")
     p.set_defaults(func=run)
 
@@ -55,18 +58,8 @@ def _split(text):
 
 def _load(path, what):
     """poses2d and, if present, labels from an .npz (not every dataset key is needed)."""
-    from .._safeio import load_npz
-
-    path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"no such {what} file: {path}")
-    arrays, names = load_npz(path, ("poses2d", "labels"), what=f"{path}: not a readable .npz:")
-    files = set(names)
-    if "poses2d" not in arrays:
-        raise FileFormatError(
-            f"{path}: no 'poses2d' array (has: {', '.join(sorted(files)) or 'nothing'})")
-    poses = arrays["poses2d"]
-    labels = arrays.get("labels")
+    arrays, files = load_npz(path, what, ("poses2d",), ("labels",))
+    poses, labels = arrays["poses2d"], arrays.get("labels")
     if poses.dtype.kind not in "fiu" or poses.ndim != 3 or poses.shape[-1] != 2:
         raise FileFormatError(f"{path}: poses2d must be numeric (n, N, 2), got "
                               f"{poses.dtype} {poses.shape}")
@@ -90,12 +83,15 @@ def _check_report_dir(args):
 
 def run(args):
     from ..dictionary import load_dictionary
-    from ..evaluation import METHODS, evaluate, sweep_atoms
+    from ..evaluation import METHODS, OPTIONAL_METHODS, evaluate, sweep_atoms
 
     methods = _split(args.methods)
-    unknown = [m for m in methods if m not in METHODS]
+    if args.fconv_model and "fconv" not in methods:
+        methods = methods[:1] + ("fconv",) + methods[1:]
+    known = METHODS + OPTIONAL_METHODS
+    unknown = [m for m in methods if m not in known]
     if unknown:
-        raise SparseEDMError(f"unknown method(s) {', '.join(unknown)}; known: {', '.join(METHODS)}")
+        raise SparseEDMError(f"unknown method(s) {', '.join(unknown)}; known: {', '.join(known)}")
     try:  # checked before the hour of evaluation that precedes the sweep
         atoms = tuple(int(a) for a in _split(args.sweep_atoms or ""))
     except ValueError:
@@ -116,7 +112,7 @@ def run(args):
         dictionary, test, train_poses2d=train, labels=labels, methods=methods,
         counts=_split(args.counts), representations=_split(args.representations),
         random_state=args.seed, n_jobs=args.jobs, max_poses=args.max_poses,
-        max_train=args.max_train, alpha=args.alpha,
+        max_train=args.max_train, alpha=args.alpha, fconv_models=args.fconv_model,
     )
     if args.sweep_atoms:
         if train is None:

@@ -50,6 +50,11 @@ def add_parser(sub):
                    "(pip install 'sparseedm[dask]')")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="Dask scheduler address with --backend dask, e.g. tcp://host:8786")
+    p.add_argument("--method", choices=("sparse", "fconv"), default="sparse",
+                   help="sparse coding (default) or a trained FConv network (--model; "
+                   "needs the torch extra)")
+    p.add_argument("--model", default=None, metavar="PATH",
+                   help="FConv model .npz from `sparseedm fit-cnn` (with --method fconv)")
     p.add_argument("--save-edm", action="store_true",
                    help="also store the completed EDM vectors (see sparseedm.batch)")
     add_quiet(p)
@@ -58,6 +63,10 @@ def add_parser(sub):
 
 def run(args):
     from ..batch import recover_file
+    from ..exceptions import SparseEDMError
+
+    if (args.method == "fconv") != (args.model is not None):
+        raise SparseEDMError("--method fconv and --model PATH go together")
 
     summary = recover_file(
         args.input, args.output, dictionary=args.dictionary, alpha=args.alpha,
@@ -66,6 +75,7 @@ def run(args):
         progress=show_progress(args), save_edm=args.save_edm,
         confidence_threshold=args.confidence_threshold,
         backend=args.backend, scheduler=args.scheduler,
+        method=args.method, model=args.model,
     )
     out = sys.stderr if args.quiet else sys.stdout
     print(format_summary(summary), file=out)

@@ -1,0 +1,75 @@
+"""2D -> 3D: DMR's distance-matrix regression with the FConv layers.
+
+:func:`lift` maps 2D poses (pixels, occluded joints as NaN or a mask) to 3D
+EDM vectors in the training 3D units (metres for :mod:`sparseedm.dataset`
+files) with a ``kind="lift"`` model from :func:`~sparseedm.fconv.fit_lifter`;
+:class:`FConvLifter` is its scikit-learn-style shell. Turning a 3D EDM into
+joint coordinates (multidimensional scaling) is left to the caller, e.g. the
+3D lifting module, which can wrap these.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..recovery import _screen, _validate
+from .model import load_model
+from .training import _NetworkShell, fit_lifter
+
+__all__ = ["lift", "FConvLifter"]
+
+
+def lift(model, poses2d, missing=None, *, batch_size=4096):
+    """3D EDM vectors (n, N(N-1)/2) predicted from 2D poses.
+
+    Parameters
+    ----------
+    model : FConvModel, str or path
+        A ``kind="lift"`` model.
+    poses2d : array_like (n, N, 2)
+        Pixels; occluded joints NaN or marked in `missing`.
+    missing : array_like of bool (n, N), optional
+
+    Returns
+    -------
+    ndarray (n, N(N-1)/2)
+        Upper-triangle 3D distances (row-major over i < j), in the training
+        3D units; NaN rows for poses with fewer than 3 observed joints or
+        invalid coordinates.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(0)
+    >>> p3 = rng.normal(size=(64, 14, 3)); p2 = p3[..., :2] * 100
+    >>> from sparseedm.fconv import fit_lifter
+    >>> m = fit_lifter(p2, p3, channels=(4, 8), batch_size=16, max_epochs=1)
+    >>> lift(m, p2[:3]).shape
+    (3, 91)
+    """
+    model = load_model(model, kind="lift")
+    poses, mask, bad_coord = _validate(poses2d, missing, model.n_joints)
+    status, _, _, _, vectors, _, _, _ = _screen(poses, mask, bad_coord, model.representation)
+    ok = np.isin(status, ("recovered", "complete"))
+    out = np.full(vectors.shape, np.nan)
+    if ok.any():
+        out[ok] = model.predict(vectors[ok], batch_size=batch_size)
+    return out
+
+
+class FConvLifter(_NetworkShell):
+    """scikit-learn-style shell: ``fit(X2d, y3d)`` trains, ``predict(X2d)`` lifts.
+
+    ``__init__`` stores the arguments of :func:`~sparseedm.fconv.fit_lifter`
+    (``occluded=None`` means its default, complete inputs); the trained model
+    is ``model_``; :meth:`predict` returns 3D EDM vectors.
+    """
+
+    def fit(self, X, y, clips=None):
+        """X: 2D poses (n, N, 2); y: their 3D poses (n, N, 3)."""
+        self.model_ = fit_lifter(X, y, clips, **self._options((0, 0)))
+        return self
+
+    def predict(self, X, missing=None):
+        """3D EDM vectors (n, N(N-1)/2) of 2D poses X."""
+        return lift(self.model_, X, missing)

@@ -1,0 +1,352 @@
+"""Training FConv networks: seeded Adam on mini-batches, early stopping by clip.
+
+Two tasks share one training loop (:func:`_fit_network`):
+
+* :func:`fit_fconv` -- the paper's recovery network: the input is the
+  occluded pose's EDM vector under the 'zero' or 'average' representation,
+  built by :func:`sparseedm.normalize.represent` exactly as the sparse path
+  builds it; the target is the complete pose's EDM in the same normalisation
+  (the observed joints' bounding box), so its output is read as the sparse
+  path's recovered vector is. Every epoch draws fresh masks of 1-3 occluded
+  joints per pose (the protocol's Mix).
+* :func:`fit_lifter` -- DMR's 2D -> 3D regression with the same network: the
+  input is the 2D EDM (optionally occluded, same representations), the target
+  the 3D pose's EDM in metres.
+
+Validation rows are whole clips (every 5th clip in sorted order from the 3rd,
+the split ``dictionaries/select_alpha.py`` and the benchmarks use), with masks
+drawn once; the parameters of the epoch with the lowest validation loss are
+kept; training stops after ``patience`` epochs without a relative improvement
+of ``tol``. CPU by default; ``device="cuda"`` when asked.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ..edm import pose_to_vector, triu_indices
+from ..exceptions import PoseError, SparseEDMError
+from ..normalize import REPRESENTATIONS, represent
+from ..skeleton import JOINT_NAMES
+from .model import FConvModel
+from .network import build_network, require_torch
+
+__all__ = ["fit_fconv", "fit_lifter", "split_by_clip", "occlusion_range", "FConvRecoverer"]
+
+
+def split_by_clip(clips, n_poses, random_state=0):
+    """Validation mask: every 5th clip in sorted order from the 3rd.
+
+    Without clip names (``clips=None``), or with fewer than 3 clips, a seeded
+    10 % of the rows is used instead (said in the model's metadata).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> clips = np.array(["a", "a", "b", "c", "c", "d"])
+    >>> split_by_clip(clips, 6)[0].tolist()
+    [False, False, False, True, True, False]
+    """
+    if clips is not None:
+        clips = np.asarray(clips).astype(str)
+        if clips.shape != (n_poses,):
+            raise PoseError(f"clips must have shape ({n_poses},), got {clips.shape}")
+        names = sorted(set(clips.tolist()))
+        if len(names) >= 3:
+            held = [c for i, c in enumerate(names) if i % 5 == 2]
+            return np.isin(clips, held), f"by clip: {len(held)} of {len(names)} clips held out"
+    rng = np.random.default_rng([int(random_state), 7])
+    val = np.zeros(n_poses, dtype=bool)
+    val[rng.choice(n_poses, max(1, n_poses // 10), replace=False)] = True
+    return val, "by row: no clip names (or fewer than 3 clips), a seeded 10 % of the poses"
+
+
+def occlusion_range(n_poses, n_joints, occluded, rng):
+    """Masks with a uniform count of occluded joints in ``occluded = (lo, hi)``.
+
+    Examples
+    --------
+    >>> m = occlusion_range(6, 14, (1, 3), np.random.default_rng(0))
+    >>> m.shape, set(m.sum(axis=1).tolist()) <= {1, 2, 3}
+    ((6, 14), True)
+    """
+    from ..metrics import random_occlusion
+
+    lo, hi = (int(k) for k in occluded)
+    if not 0 <= lo <= hi <= n_joints - 3:
+        raise SparseEDMError(f"occluded={occluded!r}: need 0 <= lo <= hi <= {n_joints - 3}")
+    counts = rng.integers(lo, hi + 1, size=n_poses)
+    mask = np.zeros((n_poses, n_joints), dtype=bool)
+    for k in range(lo, hi + 1):
+        rows = np.flatnonzero(counts == k)
+        mask[rows] = random_occlusion(len(rows), n_joints, k, random_state=rng)
+    return mask
+
+
+def _check_training_poses(poses, name, dim, batch_size):
+    poses = np.asarray(poses, dtype=float)
+    if poses.ndim != 3 or poses.shape[-1] != dim:
+        raise PoseError(f"{name} must have shape (n, N, {dim}), got {poses.shape}")
+    bad = ~np.isfinite(poses).all(axis=(1, 2))
+    if bad.any():
+        rows = np.flatnonzero(bad)
+        raise PoseError(f"{name}: {len(rows)} pose(s) hold NaN or inf (first row {rows[0]}); "
+                        "training needs complete poses")
+    flat = np.ptp(poses, axis=1).max(axis=1) <= 0
+    if flat.any():
+        raise PoseError(f"{name}: pose {int(np.flatnonzero(flat)[0])} has all joints coinciding")
+    if batch_size < 1:
+        raise SparseEDMError(f"batch_size must be >= 1, got {batch_size}")
+    return poses
+
+
+def _recover_pairs(poses, mask, representation):
+    """(input, target) EDM vectors of the recovery task for one set of masks."""
+    X, center, scale = represent(poses, mask, representation)
+    target = pose_to_vector((poses - center[:, None, :]) / scale[:, None, None])
+    return X, target
+
+
+def fit_fconv(poses2d, clips=None, *, representation="average", occluded=(1, 3),
+              channels=(32, 64), kernel=3, symmetrize=False, batch_size=256,
+              max_epochs=30, patience=4, tol=1e-3, learning_rate=1e-3, random_state=0,
+              device="cpu", progress=False, max_train=None, provenance=None):
+    """Train the paper's FConv recovery network on complete 2D poses.
+
+    Parameters
+    ----------
+    poses2d : array_like (n, N, 2)
+        Complete training poses (any pixel frame; each is normalised).
+    clips : array_like of str (n,), optional
+        Clip of each pose: validation holds out whole clips.
+    representation : {"average", "zero"}
+    occluded : (int, int), default (1, 3)
+        Each pose draws its count of occluded joints uniformly from this
+        range, afresh every epoch.
+    channels, kernel, symmetrize
+        The architecture (:mod:`sparseedm.fconv.network`).
+    batch_size, max_epochs, patience, tol, learning_rate
+        Adam on mini-batches of the training rows; stop after `patience`
+        epochs whose validation loss is not ``(1 - tol)`` below the best.
+    random_state : int
+        Seeds the initial weights, the masks and the batch order.
+    device : str, default "cpu"
+        A torch device ("cuda" when asked).
+    progress : bool
+        tqdm bar over epochs (ETA, losses).
+    max_train : int, optional
+        Keep a seeded subsample of this many training rows.
+
+    Returns
+    -------
+    FConvModel
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(0)
+    >>> poses = rng.normal(size=(64, 14, 2))
+    >>> model = fit_fconv(poses, representation="zero", channels=(4, 8),
+    ...                   batch_size=16, max_epochs=2)
+    >>> model.kind, model.representation, model.meta["training"]["epochs"]
+    ('recover', 'zero', 2)
+    """
+    if representation not in REPRESENTATIONS:
+        raise SparseEDMError(f"unknown representation {representation!r}; use one of "
+                             f"{REPRESENTATIONS}")
+    poses = _check_training_poses(poses2d, "training poses", 2, batch_size)
+    N = poses.shape[1]
+
+    def pairs(rows, rng):
+        return _recover_pairs(poses[rows], occlusion_range(len(rows), N, occluded, rng),
+                              representation)
+
+    meta = {"kind": "recover", "occluded": list(occluded)}
+    return _fit_network(pairs, len(poses), N, clips, meta, representation=representation,
+                        channels=channels, kernel=kernel, symmetrize=symmetrize,
+                        batch_size=batch_size, max_epochs=max_epochs, patience=patience,
+                        tol=tol, learning_rate=learning_rate, random_state=random_state,
+                        device=device, progress=progress, max_train=max_train,
+                        provenance=provenance)
+
+
+def fit_lifter(poses2d, poses3d, clips=None, *, representation="average", occluded=(0, 0),
+               channels=(32, 64), kernel=3, symmetrize=False, batch_size=256, max_epochs=30,
+               patience=4, tol=1e-3, learning_rate=1e-3, random_state=0, device="cpu",
+               progress=False, max_train=None, provenance=None):
+    """Train the 2D -> 3D EDM network (DMR's regression) with the FConv layers.
+
+    The input is the 2D pose's EDM vector (normalised, under `representation`,
+    with 0 occluded joints by default, or a fresh count from `occluded` per
+    pose and epoch); the target the 3D pose's EDM vector in its own units
+    (metres for :mod:`sparseedm.dataset` files). :func:`sparseedm.fconv.lift`
+    applies the result. Other parameters as :func:`fit_fconv`.
+
+    Returns
+    -------
+    FConvModel
+        ``kind == "lift"``.
+    """
+    if representation not in REPRESENTATIONS:
+        raise SparseEDMError(f"unknown representation {representation!r}; use one of "
+                             f"{REPRESENTATIONS}")
+    p2 = _check_training_poses(poses2d, "training 2D poses", 2, batch_size)
+    p3 = _check_training_poses(poses3d, "training 3D poses", 3, batch_size)
+    if p2.shape[:2] != p3.shape[:2]:
+        raise PoseError(f"2D poses {p2.shape} and 3D poses {p3.shape} do not pair up")
+    N = p2.shape[1]
+    target3d = pose_to_vector(p3)
+
+    def pairs(rows, rng):
+        mask = occlusion_range(len(rows), N, occluded, rng)
+        return represent(p2[rows], mask, representation)[0], target3d[rows]
+
+    meta = {"kind": "lift", "occluded": list(occluded), "output_units": "3D pose units (metres)"}
+    return _fit_network(pairs, len(p2), N, clips, meta, representation=representation,
+                        channels=channels, kernel=kernel, symmetrize=symmetrize,
+                        batch_size=batch_size, max_epochs=max_epochs, patience=patience,
+                        tol=tol, learning_rate=learning_rate, random_state=random_state,
+                        device=device, progress=progress, max_train=max_train,
+                        provenance=provenance)
+
+
+def _fit_network(pairs, n, N, clips, meta, *, representation, channels, kernel, symmetrize,
+                 batch_size, max_epochs, patience, tol, learning_rate, random_state, device,
+                 progress, max_train, provenance):
+    """The shared loop. ``pairs(rows, rng) -> (X, Y)`` builds one epoch's vectors."""
+    torch = require_torch()
+    from tqdm.auto import tqdm
+
+    from .model import _to_matrix
+
+    seed = int(random_state or 0)
+    val, split_note = split_by_clip(clips, n, seed)
+    train_rows, val_rows = np.flatnonzero(~val), np.flatnonzero(val)
+    if max_train is not None and len(train_rows) > max_train:
+        pick = np.random.default_rng([seed, 3]).choice(len(train_rows), int(max_train),
+                                                       replace=False)
+        train_rows = np.sort(train_rows[pick])
+    if len(train_rows) < batch_size:
+        raise SparseEDMError(f"{len(train_rows)} training poses (after holding out "
+                             f"{len(val_rows)} for validation) are fewer than one batch "
+                             f"of {batch_size}; lower batch_size or add poses")
+    if len(val_rows) == 0:
+        raise SparseEDMError("no validation poses: give more clips or poses")
+    try:
+        dev = torch.device(device)
+        torch.empty(1, device=dev)
+    except (RuntimeError, AssertionError) as exc:
+        raise SparseEDMError(f"device {device!r} is not usable here ({exc})") from None
+    torch.manual_seed(seed)
+    net = build_network(N, channels, kernel, symmetrize).to(dev)
+    opt = torch.optim.Adam(net.parameters(), lr=learning_rate)
+    iu, ju = (torch.from_numpy(a.copy()).to(dev) for a in triu_indices(N))
+
+    def tensors(X, Y):
+        x = _to_matrix(torch, torch.as_tensor(X, dtype=torch.float32, device=dev), N, iu, ju)
+        y = _to_matrix(torch, torch.as_tensor(Y, dtype=torch.float32, device=dev), N, iu, ju)
+        return x, y
+
+    xv, yv = tensors(*pairs(val_rows, np.random.default_rng([seed, 1])))
+    rng = np.random.default_rng([seed, 2])
+    best, best_state, since, history = np.inf, None, 0, []
+    t0 = time.perf_counter()
+    bar = tqdm(range(max_epochs), disable=not progress, desc="fit-cnn", unit="epoch")
+    for epoch in bar:
+        net.train()
+        xt, yt = tensors(*pairs(train_rows, rng))
+        order = torch.from_numpy(rng.permutation(len(train_rows))).to(dev)
+        total = 0.0
+        for start in range(0, len(order) - batch_size + 1, batch_size):
+            idx = order[start:start + batch_size]
+            loss = torch.mean((net(xt[idx]) - yt[idx]) ** 2)
+            opt.zero_grad()
+            loss.backward()
+            opt.step()
+            total += loss.item() * len(idx)
+        train_loss = total / (len(order) // batch_size * batch_size)
+        net.eval()
+        with torch.inference_mode():
+            val_loss = float(torch.mean((net(xv) - yv) ** 2))
+        history.append([train_loss, val_loss])
+        bar.set_postfix(train=f"{train_loss:.3g}", val=f"{val_loss:.3g}")
+        if val_loss < best * (1 - tol):
+            best, since = val_loss, 0
+            best_state = {k: v.detach().cpu().numpy().copy() for k, v in net.state_dict().items()}
+        else:
+            since += 1
+            if since >= patience:
+                break
+    bar.close()
+    meta = dict(meta, n_joints=int(N), representation=representation,
+                channels=[int(c) for c in channels], kernel=int(kernel),
+                symmetrize=bool(symmetrize),
+                joint_names=list(JOINT_NAMES) if N == len(JOINT_NAMES) else [],
+                training={"n_train": int(len(train_rows)), "n_val": int(len(val_rows)),
+                          "validation": split_note, "random_state": seed,
+                          "batch_size": int(batch_size), "learning_rate": float(learning_rate),
+                          "epochs": len(history), "max_epochs": int(max_epochs),
+                          "patience": int(patience), "best_val_loss": float(best),
+                          "history": history, "seconds": time.perf_counter() - t0,
+                          "device": str(dev), "loss": "mean squared error over the N x N EDM",
+                          "provenance": provenance or {}})
+    return FConvModel(best_state, meta)
+
+
+class _NetworkShell:
+    """Stores the training arguments shared by the estimator shells."""
+
+    def __init__(self, *, representation="average", occluded=None, channels=(32, 64),
+                 kernel=3, symmetrize=False, batch_size=256, max_epochs=30, patience=4,
+                 learning_rate=1e-3, random_state=0, device="cpu"):
+        self.representation = representation
+        self.occluded = occluded
+        self.channels = channels
+        self.kernel = kernel
+        self.symmetrize = symmetrize
+        self.batch_size = batch_size
+        self.max_epochs = max_epochs
+        self.patience = patience
+        self.learning_rate = learning_rate
+        self.random_state = random_state
+        self.device = device
+
+    def _options(self, default_occluded):
+        return dict(representation=self.representation,
+                    occluded=default_occluded if self.occluded is None else self.occluded,
+                    channels=self.channels, kernel=self.kernel, symmetrize=self.symmetrize,
+                    batch_size=self.batch_size, max_epochs=self.max_epochs,
+                    patience=self.patience, learning_rate=self.learning_rate,
+                    random_state=self.random_state, device=self.device)
+
+
+class FConvRecoverer(_NetworkShell):
+    """scikit-learn-style shell: ``fit`` trains :func:`fit_fconv`, ``transform`` recovers.
+
+    ``__init__`` only stores the arguments of :func:`fit_fconv` (``occluded=None``
+    means its default, 1-3); the trained model is ``model_``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> poses = np.random.default_rng(0).normal(size=(64, 14, 2))
+    >>> est = FConvRecoverer(channels=(4, 8), batch_size=16, max_epochs=1).fit(poses)
+    >>> occluded = poses[:2].copy(); occluded[:, 3] = np.nan
+    >>> est.transform(occluded).shape
+    (2, 14, 2)
+    """
+
+    def fit(self, X, y=None, clips=None):
+        """Train on complete poses X (n, N, 2)."""
+        self.model_ = fit_fconv(X, clips, **self._options((1, 3)))
+        return self
+
+    def transform(self, X, missing=None):
+        """Filled poses (n, N, 2); the last RecoveryResult is ``result_``."""
+        from ..recovery import recover
+
+        self.result_ = recover(X, missing, method="fconv", model=self.model_,
+                               representation=self.representation)
+        return self.result_.poses
