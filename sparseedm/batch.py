@@ -178,7 +178,8 @@ def _output_format(out_path, in_fmt, output_format):
 def recover_file(input, output, *, dictionary=None, alpha=None, representation="average",
                  solver="fast", n_jobs=1, chunk_size=50_000, output_format=None,
                  errors_path=None, progress=False, save_edm=False,
-                 confidence_threshold=0.0, backend=None, scheduler=None):
+                 confidence_threshold=0.0, backend=None, scheduler=None, adapt="auto",
+                 save_dictionary=None):
     """Recover every pose of a keypoint file and write the filled poses.
 
     Parameters
@@ -208,6 +209,13 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
         Also store the completed EDM vectors (see the module docstring).
     confidence_threshold : float, default 0.0
         Joints whose confidence is below it count as missing.
+    adapt : "auto", False, path or array_like (n, N, 2)
+        ``"auto"``: adapt the dictionary on a bounded, seeded sample of the
+        file's complete poses (gathered in a first pass; see
+        :mod:`sparseedm.adaptation`) before recovering; ``False``: do not; a
+        keypoint file or an array: adapt on those poses instead.
+    save_dictionary : str or path-like, optional
+        Write the dictionary the poses were recovered with (.npz) there.
 
     Returns
     -------
@@ -215,7 +223,8 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
         ``poses``, ``recovered_joints``, ``refused``, ``fallbacks``,
         ``seconds``, ``poses_per_second``, ``status`` (counts per status),
         ``output``, ``format``, ``errors`` (the errors file, or None),
-        ``sidecars`` (other files written).
+        ``sidecars`` (other files written), ``adaptation`` (what adaptation
+        did, :meth:`AdaptationResult.summary`, or None) and ``adaptation_line``.
 
     Raises
     ------
@@ -251,11 +260,38 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
     source = _NpySource(in_path, confidence_threshold) if in_fmt == "npy" else \
         _MemorySource(in_path, in_fmt, confidence_threshold)
     try:
-        return _run(source, in_fmt, out_path, out_fmt, errors_path, dictionary, alpha,
-                    representation, solver, n_jobs, chunk_size, progress, save_edm, t0,
-                    backend, scheduler)
+        dictionary, adaptation = _adapt(source, dictionary, adapt, chunk_size,
+                                        confidence_threshold, n_jobs)
+        summary = _run(source, in_fmt, out_path, out_fmt, errors_path, dictionary, alpha,
+                       representation, solver, n_jobs, chunk_size, progress, save_edm, t0,
+                       backend, scheduler)
     finally:
         source.close()
+    summary["adaptation"] = adaptation.summary() if adaptation is not None else None
+    summary["adaptation_line"] = adaptation.line() if adaptation is not None else None
+    if save_dictionary is not None:
+        summary["dictionary"] = str(dictionary.save(save_dictionary))
+    return summary
+
+
+def _adapt(source, dictionary, adapt, chunk_size, threshold, n_jobs):
+    """The dictionary to recover with: adapted on the file's complete poses
+    (a bounded seeded sample, one pass over the source), on other poses, or as given."""
+    from .adaptation import resolve_adaptation, sample_complete
+
+    if adapt is False or adapt is None:
+        return dictionary, None
+    if isinstance(adapt, str) and adapt == "auto":
+        chunks = (source.chunk(s, min(s + chunk_size, source.n))
+                  for s in range(0, source.n, chunk_size))
+        poses = sample_complete(chunks)
+        if poses.size == 0:
+            poses = np.zeros((0, dictionary.n_joints, 2))
+        return resolve_adaptation(dictionary, poses, None, "auto", n_jobs=n_jobs, warn=False)
+    if isinstance(adapt, (str, Path)):
+        kps = read_keypoints(adapt, confidence_threshold=threshold)
+        adapt = np.where(kps.missing[..., None], np.nan, kps.poses)
+    return resolve_adaptation(dictionary, None, None, adapt, n_jobs=n_jobs, warn=False)
 
 
 def _run(source, in_fmt, out_path, out_fmt, errors_path, dictionary, alpha,
@@ -303,7 +339,7 @@ def _run(source, in_fmt, out_path, out_fmt, errors_path, dictionary, alpha,
                 poses, missing = source.chunk(start, stop)
                 res = recover(poses, missing, dictionary=dictionary, alpha=alpha,
                               representation=representation, solver=solver, n_jobs=n_jobs,
-                              backend=backend, scheduler=scheduler)
+                              backend=backend, scheduler=scheduler, adapt=False)
                 ok = res.ok
                 # refused rows are written back as read
                 filled[start:stop] = np.where(ok[:, None, None], res.poses, poses)

@@ -87,6 +87,11 @@ class RecoveryResult:
         The unscaled alpha used.
     seconds : float
         Wall time of the call.
+    adaptation : AdaptationResult or None
+        What ``adapt`` did (:mod:`sparseedm.adaptation`); None with ``adapt=False``.
+    dictionary : Dictionary
+        The dictionary the poses were recovered with (the adapted one when
+        adaptation was used): ``res.dictionary.save(path)`` keeps it.
     """
 
     poses: np.ndarray
@@ -102,6 +107,8 @@ class RecoveryResult:
     fallback: np.ndarray
     alpha: float
     seconds: float = 0.0
+    adaptation: object = None
+    dictionary: Dictionary | None = None
 
     @property
     def edms(self) -> np.ndarray:
@@ -118,10 +125,15 @@ class RecoveryResult:
         """True for poses that came back usable (recovered or complete)."""
         return np.isin(self.status, _OK)
 
+    @property
+    def adapted(self) -> bool:
+        """True when the poses were recovered with a dictionary adapted to them."""
+        return bool(self.adaptation is not None and self.adaptation.adapted)
+
     def summary(self) -> dict:
         """Counts a person reads at the end of a batch."""
         counts = {s: int((self.status == s).sum()) for s in STATUSES}
-        return {
+        out = {
             "poses": int(len(self.status)),
             "recovered_joints": int(self.missing[np.isin(self.status, ("recovered", "inaccurate"))].sum()),
             "refused": int((~self.ok).sum()),
@@ -130,6 +142,9 @@ class RecoveryResult:
             "poses_per_second": round(len(self.status) / self.seconds, 1) if self.seconds else None,
             "status": {k: v for k, v in counts.items() if v},
         }
+        if self.adaptation is not None:
+            out["adaptation"] = self.adaptation.summary()
+        return out
 
 
 def _solve_chunk(solver, components, obs_idx, pattern_key, X_sub, alpha_eff, positive,
@@ -171,7 +186,7 @@ def _validate(poses, missing, n_joints):
 
 def recover(poses, missing=None, *, dictionary=None, alpha=None,
             representation="average", solver="fast", n_jobs=1, chunk_size=2048,
-            positive=None, progress=False, backend=None, scheduler=None):
+            positive=None, progress=False, backend=None, scheduler=None, adapt="auto"):
     """Recover the occluded joints of 2D poses.
 
     Parameters
@@ -205,6 +220,14 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
     scheduler : str, optional
         With ``backend="dask"``: the scheduler address (``tcp://host:8786``);
         None uses the Dask client already created in this process.
+    adapt : "auto", False or array_like (n_adapt, N, 2)
+        ``"auto"`` (default): when the poses hold at least
+        :data:`sparseedm.adaptation.MIN_COMPLETE_POSES` complete plausible
+        poses, the dictionary is first adapted on them (guarded: kept only if
+        better on a held-back slice, see :mod:`sparseedm.adaptation`).
+        ``False``: recover with the dictionary as given. An array: adapt on
+        those (complete) poses instead, e.g. other files of the same source.
+        ``res.adaptation`` says what was done.
 
     Returns
     -------
@@ -227,10 +250,20 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
     # the work is many small BLAS calls beside numba's threads: BLAS threads
     # would only spin against them (measured 2x slower), so BLAS gets one.
     with threadpool_limits(1, user_api="blas"):
-        return _recover(poses, missing, dictionary=dictionary, alpha=alpha,
-                        representation=representation, solver=solver, n_jobs=n_jobs,
-                        chunk_size=chunk_size, positive=positive, progress=progress,
-                        backend=backend, scheduler=scheduler)
+        adaptation = None
+        if adapt is not False:
+            from .adaptation import resolve_adaptation
+
+            dictionary, adaptation = resolve_adaptation(dictionary, poses, missing, adapt,
+                                                        n_jobs=n_jobs)
+        res = _recover(poses, missing, dictionary=dictionary, alpha=alpha,
+                       representation=representation, solver=solver, n_jobs=n_jobs,
+                       chunk_size=chunk_size, positive=positive, progress=progress,
+                       backend=backend, scheduler=scheduler)
+        if adaptation is not None:
+            res.adaptation = adaptation
+            res.seconds += adaptation.seconds
+        return res
 
 
 def _recover(poses, missing=None, *, dictionary=None, alpha=None,
@@ -330,7 +363,7 @@ def _recover(poses, missing=None, *, dictionary=None, alpha=None,
         poses=filled, vectors=vectors, missing=mask, center=center, scale=scale,
         objective=objective, gap=gap, n_active=n_active,
         status=status.astype(str), reason=reason.astype(str), fallback=fallback,
-        alpha=float(alpha), seconds=time.perf_counter() - t0,
+        alpha=float(alpha), seconds=time.perf_counter() - t0, dictionary=dictionary,
     )
 
 
@@ -418,9 +451,10 @@ class OcclusionRecoverer:
     """
 
     def __init__(self, dictionary=None, *, alpha=None, representation="average",
-                 solver="fast", n_jobs=1):
+                 solver="fast", n_jobs=1, adapt="auto"):
         self.dictionary = dictionary
         self.alpha = alpha
+        self.adapt = adapt
         self.representation = representation
         self.solver = solver
         self.n_jobs = n_jobs
@@ -437,5 +471,5 @@ class OcclusionRecoverer:
             self.fit()
         self.result_ = recover(X, missing, dictionary=self.dictionary_, alpha=self.alpha,
                                representation=self.representation, solver=self.solver,
-                               n_jobs=self.n_jobs)
+                               n_jobs=self.n_jobs, adapt=self.adapt)
         return self.result_.poses

@@ -46,6 +46,15 @@ def add_parser(sub):
                    help="training alpha of the sweep dictionaries (default: the "
                    "evaluated dictionary's; their recovery alpha is --alpha or its)")
     p.add_argument("--jobs", type=int, default=1, help="joblib workers for the recovery")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--adapt-from", default=None, metavar="FILE",
+                   help="adaptation protocol: adapt the dictionary on the complete poses of "
+                   "FILE (.npz with poses2d; other clips of --data's source) and add a "
+                   "'sparse-adapted' row; knn, iterative and nearest are fitted on FILE "
+                   "(--train is then not used)")
+    g.add_argument("--adapt-clips", type=int, default=None, metavar="K",
+                   help="adaptation protocol within --data (needs its 'clips'): clip i in "
+                   "sorted order adapts when i %% K == 0, the other clips are scored")
     p.add_argument("-o", "--output", required=True, help="report directory")
     p.set_defaults(func=run)
 
@@ -81,6 +90,19 @@ def _load(path, what):
     return poses.astype(float), labels, files
 
 
+def _split_clips(path, poses, labels, k):
+    """(scored poses, their labels, adaptation poses) of --adapt-clips K."""
+    with np.load(path, allow_pickle=False) as npz:
+        if "clips" not in npz.files:
+            raise FileFormatError(f"{path}: --adapt-clips needs a 'clips' array")
+        clips = npz["clips"].astype(str)
+    if k < 2:
+        raise SparseEDMError(f"--adapt-clips must be >= 2, got {k}")
+    order = {c: i for i, c in enumerate(np.unique(clips))}
+    adapt = np.array([order[c] % k == 0 for c in clips])
+    return poses[~adapt], (labels[~adapt] if labels is not None else None), poses[adapt]
+
+
 def run(args):
     from ..dictionary import load_dictionary
     from ..evaluation import METHODS, evaluate, sweep_atoms
@@ -99,12 +121,26 @@ def run(args):
         say.append(f"{args.data}: no poses3d: nothing needs it (the evaluation is 2D)")
     for s in say:
         print(f"sparseedm evaluate: {s}", file=sys.stderr)
-    report = evaluate(
-        dictionary, test, train_poses2d=train, labels=labels, methods=methods,
-        counts=_split(args.counts), representations=_split(args.representations),
-        random_state=args.seed, n_jobs=args.jobs, max_poses=args.max_poses,
-        max_train=args.max_train, alpha=args.alpha,
-    )
+    adapt_poses = None
+    if args.adapt_from:
+        adapt_poses = _load(args.adapt_from, "adaptation")[0]
+    elif args.adapt_clips:
+        test, labels, adapt_poses = _split_clips(args.data, test, labels, args.adapt_clips)
+    if adapt_poses is not None:
+        from ..adaptation import evaluate_adaptation
+
+        report = evaluate_adaptation(
+            dictionary, test, adapt_poses, methods=methods, counts=_split(args.counts),
+            representations=_split(args.representations), random_state=args.seed,
+            n_jobs=args.jobs, max_poses=args.max_poses, max_train=args.max_train,
+            alpha=args.alpha)
+    else:
+        report = evaluate(
+            dictionary, test, train_poses2d=train, labels=labels, methods=methods,
+            counts=_split(args.counts), representations=_split(args.representations),
+            random_state=args.seed, n_jobs=args.jobs, max_poses=args.max_poses,
+            max_train=args.max_train, alpha=args.alpha,
+        )
     if args.sweep_atoms:
         if train is None:
             msg = "--sweep-atoms needs --train: sweep skipped"
@@ -124,6 +160,8 @@ def run(args):
     written, message = report.write(args.output)
     if message:
         print(f"sparseedm evaluate: {message}", file=sys.stderr)
+    if adapt_poses is not None:
+        print(next(n for n in report.notes if n.startswith("sparse-adapted:")))
     mix = report.table(count="mix", representation=report.settings["representations"][0])
     for r in mix:
         print(f"{r['method']:>10}  Mix Err_ave {r['err_ave_mean']:.2f} %  "
