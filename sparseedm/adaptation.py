@@ -585,8 +585,10 @@ def resolve_adaptation(dictionary, poses, missing, adapt, *, n_jobs=1, random_st
     `adapt` is ``"auto"`` (adapt on the complete rows of `poses`), ``False``
     (nothing) or an array of separate poses to adapt on. Returns
     ``(dictionary, AdaptationResult or None)``. A refusal is warned about
-    (``UserWarning``) when adaptation poses were given explicitly, or when
-    ``"auto"`` found some complete poses but too few (unless ``warn=False``).
+    (``UserWarning``) when adaptation poses were given explicitly (unless
+    ``warn=False``); under ``"auto"`` it is said in the result's summary only
+    (small batches of incomplete poses are the common case, not a problem),
+    and ``sparseedm recover`` says it on stderr.
     """
     if adapt is False or adapt is None:
         return dictionary, None
@@ -602,7 +604,7 @@ def resolve_adaptation(dictionary, poses, missing, adapt, *, n_jobs=1, random_st
     else:
         res = run_adaptation(dictionary, adapt, n_jobs=n_jobs, random_state=random_state)
         explicit = True
-    if warn and not res.adapted and res.candidate is None and (explicit or res.n_complete > 0):
+    if warn and explicit and not res.adapted and res.candidate is None:
         warnings.warn(f"no adaptation: {res.reason}", UserWarning, stacklevel=3)
     return res.dictionary, res
 

@@ -87,8 +87,7 @@ def test_adapt_false_reproduces_todays_results_exactly(cmu_poses, small_dictiona
     assert off.adaptation is None and not off.adapted and "adaptation" not in off.summary()
     # 167 complete poses are below the threshold: "auto" changes nothing either
     assert MIN_COMPLETE_POSES > 167
-    with pytest.warns(UserWarning, match="no adaptation"):
-        auto = sparseedm.recover(poses, missing, dictionary=small_dictionary)
+    auto = sparseedm.recover(poses, missing, dictionary=small_dictionary)
     np.testing.assert_array_equal(auto.poses, ref.poses)
     assert not auto.adapted
     s = auto.summary()["adaptation"]
@@ -114,6 +113,10 @@ def test_recover_adapts_on_separate_poses(cmu_poses, shifted_dictionary):
 
 
 def test_recover_rejects_a_bad_adapt_argument(cmu_poses, small_dictionary):
+    with pytest.warns(UserWarning, match="no adaptation: 2 complete"):
+        res = sparseedm.recover(cmu_poses[:2], dictionary=small_dictionary,
+                                adapt=cmu_poses[2:4])
+    assert not res.adapted and "fewer than" in res.summary()["adaptation"]["reason"]
     with pytest.raises(sparseedm.exceptions.SparseEDMError, match="adapt must be"):
         sparseedm.recover(cmu_poses[:2], dictionary=small_dictionary, adapt="always")
 
