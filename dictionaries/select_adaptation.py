@@ -25,7 +25,10 @@ around fresh statistics / 3 passes / training alpha 1.6 / no replay: inner
 statistics (fresh / carried with memory 1 or 10), passes (1, 3, 5), training
 alpha (0.4, 0.8, 1.6), replay of base atoms (0, 0.25). Grid 2: the chosen setting against the number of adaptation poses,
 with the guard on (what ``recover(adapt="auto")`` does), to choose
-MIN_COMPLETE_POSES. About 15 minutes single-threaded.
+MIN_COMPLETE_POSES. Grid 3 (``--grid 3``, after the choice): the README's
+table, cold vs adapted vs baselines on the *test* clips, through
+``sparseedm evaluate --adapt-from``. About 15 minutes per grid single-threaded
+on an idle machine.
 """
 
 from __future__ import annotations
@@ -183,8 +186,45 @@ def main(argv=None):
                       f"{r.err_adapted:.2f}; scored {used:.3f} (candidate {cand:.3f}) "
                       f"{secs:.1f} s", flush=True)
             rec["min_poses"] = rows
+        if "3" in args.grid:
+            rec["test"] = test_table(base, src, dst, args, poses, clips)
         Path(args.out).write_text(json.dumps(out, indent=1, default=float))
     return 0
+
+
+def test_table(base, src, dst, args, poses, clips):
+    """Grid 3, run once after the choice: the README's table on the *test* clips.
+
+    ``sparseedm evaluate --adapt-from`` (the CLI, in process) with the
+    adaptation clips' poses (a seeded sample of --n-adapt) and the test clips'
+    poses (a seeded subsample of --n-score x 2), Mix occlusion; baselines fitted
+    on the same adaptation poses.
+    """
+    import csv
+
+    from sparseedm.cli import main as cli
+
+    pool, _, test = split(poses, clips)
+    work = Path(args.work) / f"test_{src}_{dst}"
+    work.mkdir(parents=True, exist_ok=True)
+    np.savez(work / "adapt.npz", poses2d=sample(pool, args.n_adapt, 2))
+    np.savez(work / "test.npz", poses2d=test)
+    dict_path = work / "base.npz"
+    base.save(dict_path)
+    t0 = time.perf_counter()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        cli(["evaluate", "--dictionary", str(dict_path), "--data", str(work / "test.npz"),
+             "--adapt-from", str(work / "adapt.npz"), "--methods",
+             "sparse,mean-fill,knn,iterative,nearest", "--counts", "mix",
+             "--representations", "average", "--max-poses", str(2 * args.n_score),
+             "-o", str(work / "report")])
+    with open(work / "report" / "results.csv") as f:
+        rows = {r["method"]: float(r["err_ave_mean"]) for r in csv.DictReader(f)}
+    rows["seconds"] = time.perf_counter() - t0
+    rows["n_test_clips_poses"] = int(len(test))
+    print(f"  test: {rows}", flush=True)
+    return rows
 
 
 if __name__ == "__main__":

@@ -100,7 +100,7 @@ def test_recover_adapts_on_separate_poses(cmu_poses, shifted_dictionary):
     missing = random_occlusion(len(poses), 14, "mix", random_state=2)
     poses[missing] = np.nan
     res = sparseedm.recover(poses, missing, dictionary=shifted_dictionary,
-                            adapt=_jittered(cmu_poses[~held_back], MIN_COMPLETE_POSES + 100))
+                            adapt=_jittered(cmu_poses[~held_back], 600))
     assert res.adapted and res.dictionary is res.adaptation.dictionary
     s = res.summary()["adaptation"]
     assert s["adapted"] and s["poses_used"] > 0
