@@ -197,7 +197,7 @@ def test_table(base, src, dst, args, poses, clips):
 
     ``sparseedm evaluate --adapt-from`` (the CLI, in process) with the
     adaptation clips' poses (a seeded sample of --n-adapt) and the test clips'
-    poses (a seeded subsample of --n-score x 2), Mix occlusion; baselines fitted
+    poses (a seeded subsample of 2 x --n-score), Mix occlusion; baselines fitted
     on the same adaptation poses.
     """
     import csv

@@ -16,11 +16,11 @@ Steps of :func:`run_adaptation`
    :func:`outlier_rows` (far-out relative residual under the base dictionary:
    detector garbage) and :func:`swapped_rows` (the arms' or the legs'
    left/right labels exchanged: the exchanged pose is explained much better;
-   checked on the worse-explained half of the poses only, to save time).
+   checked on the worst-explained quarter of the poses only, to save time).
 2. **Bound** the work: at most ``max_poses`` poses, a seeded sample.
 3. **Hold back** a validation slice (``validation_fraction``, whole
    contiguous blocks of rows, so neighbouring video frames do not leak
-   across), adapt on the rest.
+   across; at most 500 poses), adapt on the rest.
 4. **Guard**: occlude the held-back poses with the evaluation protocol
    (:func:`sparseedm.evaluation.occlusion_masks`, the Mix of 1-3 joints),
    recover them with the base and with the adapted dictionary and compare the
@@ -78,7 +78,7 @@ DEFAULT_MEMORY = 1.0
 DEFAULT_BATCH_SIZE = 256
 DEFAULT_MAX_POSES = 5000
 DEFAULT_VALIDATION_FRACTION = 0.2
-MAX_VALIDATION = 1000
+MAX_VALIDATION = 500
 
 
 # --------------------------------------------------------------------------
@@ -228,9 +228,9 @@ def filter_poses(poses, dictionary, *, outlier_factor=3.0, swap_ratio=0.5):
     out = outlier_rows(err, outlier_factor)
     counts["outlier"] = int(out.sum())
     idx = idx[~out]
-    # a pose with exchanged labels is explained badly: only the worse half is checked
+    # a pose with exchanged labels is explained badly: only the worst quarter is checked
     err = err[~out]
-    check = err > np.median(err) if len(err) else np.zeros(0, dtype=bool)
+    check = err > np.percentile(err, 75) if len(err) else np.zeros(0, dtype=bool)
     sw = np.zeros(len(idx), dtype=bool)
     sw[check] = swapped_rows(poses[idx[check]], dictionary.components, alpha, ratio=swap_ratio)
     counts["swapped"] = int(sw.sum())
@@ -467,7 +467,7 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
     max_poses : int
         At most this many poses (a seeded sample) are used, bounding the time.
     validation_fraction : float
-        Share of the poses held back for the guard (at most 1000).
+        Share of the poses held back for the guard (at most 500).
     guard : bool
         Compare base and adapted on the held-back poses and keep the better.
         ``False`` uses the adapted dictionary unchecked (and holds nothing back).
