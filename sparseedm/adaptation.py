@@ -439,7 +439,11 @@ def _complete_input(poses, missing):
         raise PoseError(f"adaptation poses must have shape (n, N, 2), got {poses.shape}")
     ok = np.isfinite(poses).all(axis=(-1, -2))
     if missing is not None:
-        mask = np.asarray(missing, dtype=bool).reshape(poses.shape[:2])
+        mask = np.asarray(missing, dtype=bool)
+        if mask.ndim == 1:
+            mask = mask[None]
+        if mask.shape != poses.shape[:2]:
+            raise PoseError(f"missing must have shape {poses.shape[:2]}, got {mask.shape}")
         ok &= ~mask.any(axis=1)
     return poses[ok], len(poses)
 

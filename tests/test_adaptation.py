@@ -119,6 +119,8 @@ def test_recover_rejects_a_bad_adapt_argument(cmu_poses, small_dictionary):
     assert not res.adapted and "fewer than" in res.summary()["adaptation"]["reason"]
     with pytest.raises(sparseedm.exceptions.SparseEDMError, match="adapt must be"):
         sparseedm.recover(cmu_poses[:2], dictionary=small_dictionary, adapt="always")
+    with pytest.raises(sparseedm.exceptions.PoseError, match="missing must have shape"):
+        sparseedm.recover(cmu_poses[:3], np.zeros((2, 14), bool), dictionary=small_dictionary)
 
 
 def test_adapted_dictionary_round_trips(tmp_path, cmu_poses, shifted_dictionary):
