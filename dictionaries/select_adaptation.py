@@ -25,7 +25,9 @@ around fresh statistics / 3 passes / training alpha 1.6 / no replay: inner
 statistics (fresh / carried with memory 1 or 10), passes (1, 3, 5), training
 alpha (0.4, 0.8, 1.6), replay of base atoms (0, 0.25). Grid 2: the chosen setting against the number of adaptation poses,
 with the guard on (what ``recover(adapt="auto")`` does), to choose
-MIN_COMPLETE_POSES. Grid 3 (``--grid 3``, after the choice): the README's
+MIN_COMPLETE_POSES. Grid 4: 2 vs 3 passes of the chosen setting, and recovery
+alpha 0.002 vs 0.0005 for the adapted dictionary (and the cold one). Grid 3
+(``--grid 3``, after the choice): the README's
 table, cold vs adapted vs baselines on the *test* clips, through
 ``sparseedm evaluate --adapt-from``. About 15 minutes per grid single-threaded
 on an idle machine.
@@ -186,6 +188,21 @@ def main(argv=None):
                       f"{r.err_adapted:.2f}; scored {used:.3f} (candidate {cand:.3f}) "
                       f"{secs:.1f} s", flush=True)
             rec["min_poses"] = rows
+        if "4" in args.grid:
+            # after grids 1-2: 2 vs 3 passes, and the adapted dictionary's recovery alpha
+            A = sample(pool, args.n_adapt, 2)
+            X = _vectors(A)
+            r = {}
+            for passes in (2, 3):
+                t0 = time.perf_counter()
+                d = with_atoms(base, adapt_vectors(base.components, X, base.alpha_train,
+                                                   passes=passes))
+                r[f"passes{passes}_seconds"] = time.perf_counter() - t0
+                for ar in ((0.002, 0.0005) if passes == 3 else (0.002,)):
+                    r[f"passes{passes}_alpha_recover{ar}"] = masked_error(d, scored, alpha=ar)
+            r["cold_alpha_recover0.0005"] = masked_error(base, scored, alpha=0.0005)
+            rec["passes_and_recovery_alpha"] = r
+            print(f"  grid 4: {r}", flush=True)
         if "3" in args.grid:
             rec["test"] = test_table(base, src, dst, args, poses, clips)
         Path(args.out).write_text(json.dumps(out, indent=1, default=float))

@@ -71,7 +71,10 @@ MIN_COMPLETE_POSES = 250
 #: Inner-statistics modes of :func:`adapt_vectors`.
 STATS = ("fresh", "carried")
 # defaults chosen by dictionaries/select_adaptation.py (see dictionaries/README.md)
-DEFAULT_PASSES = 3
+DEFAULT_PASSES = 2
+#: The adapted dictionary's recommended recovery alpha is the base's times this
+#: (0.002 -> 0.0005 for the shipped default; chosen on the validation splits).
+ADAPTED_ALPHA_RECOVER_FACTOR = 0.25
 DEFAULT_STATS = "fresh"
 DEFAULT_REPLAY = 0.0
 DEFAULT_MEMORY = 1.0
@@ -465,7 +468,8 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
     missing : array_like of bool (n, N), optional
     passes, alpha, stats, memory, replay, batch_size
         The learning (:func:`adapt_vectors`); ``alpha`` defaults to the
-        dictionary's ``alpha_train``.
+        dictionary's ``alpha_train``. The adapted dictionary recommends
+        ``ADAPTED_ALPHA_RECOVER_FACTOR`` times the base's recovery alpha.
     min_poses : int
         Fewer complete plausible poses than this: no adaptation.
     max_poses : int
@@ -532,7 +536,8 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
                           "base_sha256": prov.get("sha256", "")}
     candidate = Dictionary(
         components=comps, joint_names=dictionary.joint_names,
-        alpha_recover=dictionary.alpha_recover, alpha_train=dictionary.alpha_train,
+        alpha_recover=dictionary.alpha_recover * ADAPTED_ALPHA_RECOVER_FACTOR,
+        alpha_train=dictionary.alpha_train,
         alpha_scaling=dictionary.alpha_scaling, positive_code=dictionary.positive_code,
         representation=dictionary.representation, normalization=dictionary.normalization,
         provenance=prov,
