@@ -6,10 +6,10 @@ Data: the CMU training set (:func:`benchmarks.load_cmu`), the poses of subjects
 other than 01-03 (whom the shipped default was learned from): a seeded sample of
 5,000 complete poses. Dictionary: the shipped default (k = 2000). Rows:
 
-- ``run_adaptation`` with its defaults, n_jobs = 2 (filters, 20 % held back, the
+- ``run_adaptation`` with its defaults, n_jobs = 2 (filters, held-back slice, the
   guard's two recoveries of the held-back poses included): what
-  ``recover(adapt="auto")`` spends before recovering;
-- ``adapt_vectors`` alone (the warm-started learning on the same 4,000 training
+  ``recover(adapt="auto")`` spends before recovering (4,500 poses learned from, 500 held back);
+- ``adapt_vectors`` alone (the warm-started learning on the same 4,500 training
   vectors), n_jobs = 2;
 - peers: scikit-learn ``IterativeImputer`` fitted on the same 5,000 poses (the
   baseline the accuracy goal compares with), a k = 2000 dictionary learned from
