@@ -61,6 +61,7 @@ removed otherwise.
 from __future__ import annotations
 
 import contextlib
+import os
 import csv
 import json
 import math
@@ -191,7 +192,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
                  solver="fast", n_jobs=1, chunk_size=50_000, output_format=None,
                  errors_path=None, progress=False, save_edm=False,
                  confidence_threshold=0.0, backend=None, scheduler=None,
-                 method="sparse", model=None):
+                 method="sparse", model=None, adapt="auto", save_dictionary=None):
     """Recover every pose of a keypoint file and write the filled poses.
 
     Parameters
@@ -224,6 +225,13 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
     method, model
         ``method="fconv"`` with an FConv ``model`` file (see
         :func:`sparseedm.recover`); the model is loaded and checked first.
+    adapt : "auto", False, path or array_like (n, N, 2)
+        ``"auto"``: adapt the dictionary on a bounded, seeded sample of the
+        file's complete poses (gathered in a first pass; see
+        :mod:`sparseedm.adaptation`) before recovering (the sparse method only); ``False``: do not; a
+        keypoint file or an array: adapt on those poses instead.
+    save_dictionary : str or path-like, optional
+        Write the dictionary the poses were recovered with (.npz) there.
 
     Returns
     -------
@@ -231,7 +239,8 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
         ``poses``, ``recovered_joints``, ``refused``, ``fallbacks``,
         ``seconds``, ``poses_per_second``, ``status`` (counts per status),
         ``output``, ``format``, ``errors`` (the errors file, or None),
-        ``sidecars`` (other files written).
+        ``sidecars`` (other files written), ``adaptation`` (what adaptation
+        did, :meth:`AdaptationResult.summary`, or None) and ``adaptation_line``.
 
     Raises
     ------
@@ -245,7 +254,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
         representation=representation, n_jobs=n_jobs, chunk_size=chunk_size,
         errors_path=errors_path, progress=progress,
         save_edm=save_edm, confidence_threshold=confidence_threshold, backend=backend,
-        scheduler=scheduler, method=method), _PARAMS)
+        scheduler=scheduler, method=method, save_dictionary=save_dictionary), _PARAMS)
     in_path, out_path = Path(input), Path(output)
     errors_path = default_errors_path(out_path) if errors_path is None else Path(errors_path)
     if not in_path.exists():
@@ -257,7 +266,10 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
     if not isinstance(dictionary, Dictionary):
         with contextlib.suppress(SparseEDMError):
             inputs.append(("dictionary", _resolve(dictionary)))
-    outputs = [("output", out_path), ("errors file", errors_path)]
+    if isinstance(adapt, (str, os.PathLike)) and adapt != "auto":
+        inputs.append(("adaptation poses", Path(adapt)))
+    outputs = [("output", out_path), ("errors file", errors_path),
+               ("saved dictionary", save_dictionary)]
     if out_fmt == "npy":
         outputs.append(("status sidecar", _sidecar(out_path, "status")))
     elif save_edm and out_fmt != "npz":
@@ -279,11 +291,41 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
     source = _NpySource(in_path, confidence_threshold) if in_fmt == "npy" else \
         _MemorySource(in_path, in_fmt, confidence_threshold)
     try:
-        return _run(source, in_fmt, out_path, out_fmt, errors_path, dictionary, alpha,
-                    representation, solver, n_jobs, chunk_size, progress, save_edm, t0,
-                    backend, scheduler, method, model)
+        if method == "sparse":
+            dictionary, adaptation = _adapt(source, dictionary, adapt, chunk_size,
+                                            confidence_threshold, n_jobs)
+        else:
+            adaptation = None
+        summary = _run(source, in_fmt, out_path, out_fmt, errors_path, dictionary, alpha,
+                       representation, solver, n_jobs, chunk_size, progress, save_edm, t0,
+                       backend, scheduler, method, model)
     finally:
         source.close()
+    summary["adaptation"] = adaptation.summary() if adaptation is not None else None
+    summary["adaptation_line"] = adaptation.line() if adaptation is not None else None
+    if save_dictionary is not None:
+        summary["dictionary"] = str(dictionary.save(save_dictionary))
+    return summary
+
+
+def _adapt(source, dictionary, adapt, chunk_size, threshold, n_jobs):
+    """The dictionary to recover with: adapted on the file's complete poses
+    (a bounded seeded sample, one pass over the source), on other poses, or as given."""
+    from .adaptation import resolve_adaptation, sample_complete
+
+    if adapt is False or adapt is None:
+        return dictionary, None
+    if isinstance(adapt, str) and adapt == "auto":
+        chunks = (source.chunk(s, min(s + chunk_size, source.n))
+                  for s in range(0, source.n, chunk_size))
+        poses = sample_complete(chunks)
+        if poses.size == 0:
+            poses = np.zeros((0, dictionary.n_joints, 2))
+        return resolve_adaptation(dictionary, poses, None, "auto", n_jobs=n_jobs, warn=False)
+    if isinstance(adapt, (str, Path)):
+        kps = read_keypoints(adapt, confidence_threshold=threshold)
+        adapt = np.where(kps.missing[..., None], np.nan, kps.poses)
+    return resolve_adaptation(dictionary, None, None, adapt, n_jobs=n_jobs, warn=False)
 
 
 #: constraints of recover_file()'s arguments (see sparseedm._validation)
@@ -296,6 +338,7 @@ _PARAMS = {
     "backend": [Options(("loky", "threading", "multiprocessing", "dask")), None],
     "scheduler": PATH + [None],
     "method": [Options(("sparse", "fconv"))],
+    "save_dictionary": PATH + [None],
 }
 
 
@@ -344,7 +387,8 @@ def _run(source, in_fmt, out_path, out_fmt, errors_path, dictionary, alpha,
                 poses, missing = source.chunk(start, stop)
                 res = recover(poses, missing, dictionary=dictionary, alpha=alpha,
                               representation=representation, solver=solver, n_jobs=n_jobs,
-                              backend=backend, scheduler=scheduler, method=method, model=model)
+                              backend=backend, scheduler=scheduler, method=method, model=model,
+                              adapt=False)
                 ok = res.ok
                 # refused rows are written back as read
                 filled[start:stop] = np.where(ok[:, None, None], res.poses, poses)

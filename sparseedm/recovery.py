@@ -91,6 +91,11 @@ class RecoveryResult:
         The unscaled alpha used.
     seconds : float
         Wall time of the call.
+    adaptation : AdaptationResult or None
+        What ``adapt`` did (:mod:`sparseedm.adaptation`); None with ``adapt=False``.
+    dictionary : Dictionary
+        The dictionary the poses were recovered with (the adapted one when
+        adaptation was used): ``res.dictionary.save(path)`` keeps it.
     """
 
     poses: np.ndarray
@@ -106,6 +111,8 @@ class RecoveryResult:
     fallback: np.ndarray
     alpha: float
     seconds: float = 0.0
+    adaptation: object = None
+    dictionary: Dictionary | None = None
 
     @property
     def edms(self) -> np.ndarray:
@@ -122,10 +129,15 @@ class RecoveryResult:
         """True for poses that came back usable (recovered or complete)."""
         return np.isin(self.status, _OK)
 
+    @property
+    def adapted(self) -> bool:
+        """True when the poses were recovered with a dictionary adapted to them."""
+        return bool(self.adaptation is not None and self.adaptation.adapted)
+
     def summary(self) -> dict:
         """Counts a person reads at the end of a batch."""
         counts = {s: int((self.status == s).sum()) for s in STATUSES}
-        return {
+        out = {
             "poses": int(len(self.status)),
             "recovered_joints": int(self.missing[np.isin(self.status, ("recovered", "inaccurate"))].sum()),
             "refused": int((~self.ok).sum()),
@@ -134,6 +146,9 @@ class RecoveryResult:
             "poses_per_second": round(len(self.status) / self.seconds, 1) if self.seconds else None,
             "status": {k: v for k, v in counts.items() if v},
         }
+        if self.adaptation is not None:
+            out["adaptation"] = self.adaptation.summary()
+        return out
 
 
 def _solve_chunk(solver, components, obs_idx, pattern_key, X_sub, alpha_eff, positive,
@@ -161,6 +176,7 @@ _PARAMS = {
     "progress": BOOLEAN,
     "backend": [Options(("loky", "threading", "multiprocessing", "dask")), None],
     "scheduler": ["path", None],
+    "method": [Options(("sparse", "fconv"))],
 }
 #: the smallest extent a pose may have: below it 1/extent overflows or loses bits
 _TINY = np.finfo(float).tiny
@@ -271,7 +287,7 @@ def _place(poses, clean, mask, vectors, center, scale, status, reason, filled, c
 def recover(poses, missing=None, *, dictionary=None, alpha=None,
             representation="average", solver="fast", n_jobs=1, chunk_size=2048,
             positive=None, progress=False, backend=None, scheduler=None,
-            method="sparse", model=None):
+            method="sparse", model=None, adapt="auto"):
     """Recover the occluded joints of 2D poses.
 
     Parameters
@@ -312,6 +328,15 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
     model : FConvModel, str or path, optional
         The network for ``method="fconv"`` (``sparseedm fit-cnn``); its
         representation must be `representation`.
+    adapt : "auto", False or array_like (n_adapt, N, 2)
+        (sparse method only)
+        ``"auto"`` (default): when the poses hold at least
+        :data:`sparseedm.adaptation.MIN_COMPLETE_POSES` complete plausible
+        poses, the dictionary is first adapted on them (guarded: kept only if
+        better on a held-back slice, see :mod:`sparseedm.adaptation`).
+        ``False``: recover with the dictionary as given. An array: adapt on
+        those (complete) poses instead, e.g. other files of the same source.
+        ``res.adaptation`` says what was done.
 
     Returns
     -------
@@ -331,7 +356,10 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
     >>> bool(np.isfinite(res.poses).all()), bool((res.poses[0, :4] == pose[:4]).all())
     (True, True)
     """
-    validate_params("recover", dict(method=method), {"method": [Options(("sparse", "fconv"))]})
+    validate_params("recover", dict(
+        dictionary=dictionary, alpha=alpha, representation=representation, solver=solver,
+        n_jobs=n_jobs, chunk_size=chunk_size, positive=positive, progress=progress,
+        backend=backend, scheduler=scheduler, method=method), _PARAMS)
     if method == "fconv":  # torch is imported only on this path
         from .fconv.recover import recover_fconv
 
@@ -340,20 +368,29 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
     # the work is many small BLAS calls beside numba's threads: BLAS threads
     # would only spin against them (measured 2x slower), so BLAS gets one.
     with threadpool_limits(1, user_api="blas"):
-        return _recover(poses, missing, dictionary=dictionary, alpha=alpha,
-                        representation=representation, solver=solver, n_jobs=n_jobs,
-                        chunk_size=chunk_size, positive=positive, progress=progress,
-                        backend=backend, scheduler=scheduler)
+        adaptation = None
+        if adapt is not False:
+            from .adaptation import resolve_adaptation
+
+            if not isinstance(dictionary, Dictionary):
+                dictionary = load_dictionary(dictionary)
+            poses, missing, _ = _validate(poses, missing, dictionary.n_joints)
+            dictionary, adaptation = resolve_adaptation(dictionary, poses, missing, adapt,
+                                                        n_jobs=n_jobs)
+        res = _recover(poses, missing, dictionary=dictionary, alpha=alpha,
+                       representation=representation, solver=solver, n_jobs=n_jobs,
+                       chunk_size=chunk_size, positive=positive, progress=progress,
+                       backend=backend, scheduler=scheduler)
+        if adaptation is not None:
+            res.adaptation = adaptation
+            res.seconds += adaptation.seconds
+        return res
 
 
 def _recover(poses, missing=None, *, dictionary=None, alpha=None,
              representation="average", solver="fast", n_jobs=1, chunk_size=2048,
              positive=None, progress=False, backend=None, scheduler=None):
     t0 = time.perf_counter()
-    validate_params("recover", dict(
-        dictionary=dictionary, alpha=alpha, representation=representation, solver=solver,
-        n_jobs=n_jobs, chunk_size=chunk_size, positive=positive, progress=progress,
-        backend=backend, scheduler=scheduler), _PARAMS)
     if not isinstance(dictionary, Dictionary):
         dictionary = load_dictionary(dictionary)
     if dictionary.n_joints == SKELETON_14.num_joints:  # 14-joint poses come in SKELETON_14 order
@@ -407,7 +444,7 @@ def _recover(poses, missing=None, *, dictionary=None, alpha=None,
         poses=filled, vectors=vectors, missing=mask, center=center, scale=scale,
         objective=objective, gap=gap, n_active=n_active,
         status=status.astype(str), reason=reason.astype(str), fallback=fallback,
-        alpha=float(alpha), seconds=time.perf_counter() - t0,
+        alpha=float(alpha), seconds=time.perf_counter() - t0, dictionary=dictionary,
     )
 
 
@@ -495,9 +532,10 @@ class OcclusionRecoverer:
     """
 
     def __init__(self, dictionary=None, *, alpha=None, representation="average",
-                 solver="fast", n_jobs=1):
+                 solver="fast", n_jobs=1, adapt="auto"):
         self.dictionary = dictionary
         self.alpha = alpha
+        self.adapt = adapt
         self.representation = representation
         self.solver = solver
         self.n_jobs = n_jobs
@@ -519,5 +557,5 @@ class OcclusionRecoverer:
             self.fit()
         self.result_ = recover(X, missing, dictionary=self.dictionary_, alpha=self.alpha,
                                representation=self.representation, solver=self.solver,
-                               n_jobs=self.n_jobs)
+                               n_jobs=self.n_jobs, adapt=self.adapt)
         return self.result_.poses

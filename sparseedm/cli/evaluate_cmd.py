@@ -5,6 +5,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+import numpy as np
+
 
 from ..exceptions import FileFormatError, SparseEDMError
 from ._common import load_npz
@@ -48,6 +50,15 @@ def add_parser(sub):
     p.add_argument("--fconv-model", action="append", default=[], metavar="PATH",
                    help="FConv model from `sparseedm fit-cnn` (repeat: one per representation); "
                    "adds the fconv method (needs the torch extra)")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--adapt-from", default=None, metavar="FILE",
+                   help="adaptation protocol: adapt the dictionary on the complete poses of "
+                   "FILE (.npz with poses2d; other clips of --data's source) and add a "
+                   "'sparse-adapted' row; knn, iterative and nearest are fitted on FILE "
+                   "(--train is then not used)")
+    g.add_argument("--adapt-clips", type=int, default=None, metavar="K",
+                   help="adaptation protocol within --data (needs its 'clips'): clip i in "
+                   "sorted order adapts when i %% K == 0, the other clips are scored")
     p.add_argument("-o", "--output", required=True, help="report directory")
     p.set_defaults(func=run)
 
@@ -76,9 +87,21 @@ def _check_report_dir(args):
     out = Path(args.output)
     if out.exists() and not out.is_dir():
         raise OutputPathError(f"-o {out} is a file; the report needs a directory")
-    check_paths([("--data", args.data), ("--train", args.train)],
+    check_paths([("--data", args.data), ("--train", args.train),
+                 ("--adapt-from", args.adapt_from)],
                 [("report", out / name) for name in ("report.md", "results.csv",
                                                      "per_action.csv")])
+
+
+def _split_clips(path, poses, labels, k):
+    """(scored poses, their labels, adaptation poses) of --adapt-clips K."""
+    if k < 2:
+        raise SparseEDMError(f"--adapt-clips must be >= 2, got {k}")
+    arrays, _ = load_npz(path, "test data", ("clips",))  # --adapt-clips needs its 'clips'
+    clips = arrays["clips"].astype(str)
+    order = {c: i for i, c in enumerate(np.unique(clips))}
+    adapt = np.array([order[c] % k == 0 for c in clips])
+    return poses[~adapt], (labels[~adapt] if labels is not None else None), poses[adapt]
 
 
 def run(args):
@@ -108,12 +131,26 @@ def run(args):
         say.append(f"{args.data}: no poses3d: nothing needs it (the evaluation is 2D)")
     for s in say:
         print(f"sparseedm evaluate: {s}", file=sys.stderr)
-    report = evaluate(
-        dictionary, test, train_poses2d=train, labels=labels, methods=methods,
-        counts=_split(args.counts), representations=_split(args.representations),
-        random_state=args.seed, n_jobs=args.jobs, max_poses=args.max_poses,
-        max_train=args.max_train, alpha=args.alpha, fconv_models=args.fconv_model,
-    )
+    adapt_poses = None
+    if args.adapt_from:
+        adapt_poses = _load(args.adapt_from, "adaptation")[0]
+    elif args.adapt_clips:
+        test, labels, adapt_poses = _split_clips(args.data, test, labels, args.adapt_clips)
+    if adapt_poses is not None:
+        from ..adaptation import evaluate_adaptation
+
+        report = evaluate_adaptation(
+            dictionary, test, adapt_poses, methods=methods, counts=_split(args.counts),
+            representations=_split(args.representations), random_state=args.seed,
+            n_jobs=args.jobs, max_poses=args.max_poses, max_train=args.max_train,
+            alpha=args.alpha, fconv_models=args.fconv_model)
+    else:
+        report = evaluate(
+            dictionary, test, train_poses2d=train, labels=labels, methods=methods,
+            counts=_split(args.counts), representations=_split(args.representations),
+            random_state=args.seed, n_jobs=args.jobs, max_poses=args.max_poses,
+            max_train=args.max_train, alpha=args.alpha, fconv_models=args.fconv_model,
+        )
     if args.sweep_atoms:
         if train is None:
             msg = "--sweep-atoms needs --train: sweep skipped"
@@ -132,6 +169,8 @@ def run(args):
     written, message = report.write(args.output)
     if message:
         print(f"sparseedm evaluate: {message}", file=sys.stderr)
+    if adapt_poses is not None:
+        print(next(n for n in report.notes if n.startswith("sparse-adapted:")))
     mix = report.table(count="mix", representation=report.settings["representations"][0])
     for r in mix:
         print(f"{r['method']:>10}  Mix Err_ave {r['err_ave_mean']:.2f} %  "

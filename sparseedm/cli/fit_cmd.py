@@ -18,12 +18,17 @@ def add_parser(sub):
     p.add_argument("train", help="training .npz with poses2d (n, N, 2)")
     p.add_argument("-o", "--output", required=True, help="dictionary file to write (.npz)")
     p.add_argument("--atoms", type=int, default=2000, help="number of atoms k (default 2000)")
-    p.add_argument("--alpha", type=float, default=1.6,
+    p.add_argument("--alpha", type=float, default=None,
                    help="lasso penalty while learning (default 1.6, chosen on a "
-                   "validation split: dictionaries/README.md)")
-    p.add_argument("--alpha-recover", type=float, default=0.002,
+                   "validation split: dictionaries/README.md; with --init, the initial "
+                   "dictionary's)")
+    p.add_argument("--alpha-recover", type=float, default=None,
                    help="recommended recovery alpha to store (default 0.002, chosen "
-                   "likewise)")
+                   "likewise; with --init, the initial dictionary's)")
+    p.add_argument("--init", default=None, metavar="default|PATH",
+                   help="fine-tune this dictionary (shipped name or .npz) on TRAIN instead "
+                   "of learning from scratch: online learning continued from its atoms "
+                   "(sparseedm.adaptation; --atoms, --checkpoint and --resume do not apply)")
     p.add_argument("--passes", type=float, default=2.0,
                    help="passes over the data (default 2: better held-out error than "
                    "one, still faster than SPAMS trainDL's one; benchmarks/README.md)")
@@ -43,14 +48,25 @@ def run(args):
     from ..learning import fit_dictionary_file
 
     t0 = time.perf_counter()
-    d = fit_dictionary_file(
-        args.train, args.output, n_components=args.atoms, alpha=args.alpha,
-        batch_size=args.batch_size, n_passes=args.passes,
-        positive_code=args.positive_code, random_state=args.seed, n_jobs=args.jobs,
-        alpha_recover=args.alpha_recover, checkpoint=args.checkpoint,
-        resume=args.resume, progress=show_progress(args),
-    )
-    print(f"wrote {args.output}: {d.n_components} atoms from "
+    if args.init is not None:
+        from ..adaptation import fine_tune_file
+
+        d = fine_tune_file(args.train, args.output, args.init, passes=args.passes,
+                           alpha=args.alpha, alpha_recover=args.alpha_recover,
+                           batch_size=args.batch_size, random_state=args.seed,
+                           n_jobs=args.jobs)
+        how = f"fine-tuned from {args.init}"
+    else:
+        d = fit_dictionary_file(
+            args.train, args.output, n_components=args.atoms,
+            alpha=1.6 if args.alpha is None else args.alpha,
+            batch_size=args.batch_size, n_passes=args.passes,
+            positive_code=args.positive_code, random_state=args.seed, n_jobs=args.jobs,
+            alpha_recover=0.002 if args.alpha_recover is None else args.alpha_recover,
+            checkpoint=args.checkpoint, resume=args.resume, progress=show_progress(args),
+        )
+        how = "learned"
+    print(f"wrote {args.output}: {d.n_components} atoms {how} from "
           f"{d.provenance['n_poses']} poses in {time.perf_counter() - t0:.1f} s",
           file=sys.stderr if args.quiet else sys.stdout)
     return 0

@@ -57,6 +57,16 @@ def add_parser(sub):
                    help="FConv model .npz from `sparseedm fit-cnn` (with --method fconv)")
     p.add_argument("--save-edm", action="store_true",
                    help="also store the completed EDM vectors (see sparseedm.batch)")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--no-adapt", action="store_true",
+                   help="do not adapt the dictionary to INPUT's complete poses (by default "
+                   "it is adapted when INPUT has enough of them, and kept only if better "
+                   "on a held-back slice: sparseedm.adaptation)")
+    g.add_argument("--adapt-from", default=None, metavar="FILE",
+                   help="adapt on the complete poses of FILE (same source, any keypoint "
+                   "format) instead of INPUT's")
+    p.add_argument("--save-dictionary", default=None, metavar="FILE",
+                   help="write the dictionary used (adapted or not) to FILE (.npz)")
     add_quiet(p)
     p.set_defaults(func=run)
 
@@ -76,8 +86,13 @@ def run(args):
         confidence_threshold=args.confidence_threshold,
         backend=args.backend, scheduler=args.scheduler,
         method=args.method, model=args.model,
+        adapt=False if args.no_adapt else (args.adapt_from or "auto"),
+        save_dictionary=args.save_dictionary,
     )
     out = sys.stderr if args.quiet else sys.stdout
+    ad = summary.get("adaptation")
+    if ad is not None and not ad["adapted"] and ad["poses_used"] == 0:
+        print(f"sparseedm recover: no adaptation: {ad['reason']}", file=sys.stderr)
     print(format_summary(summary), file=out)
     if summary["refused"]:
         print(f"sparseedm recover: {summary['refused']} row(s) refused; see {summary['errors']}",
@@ -101,4 +116,8 @@ def format_summary(s) -> str:
         lines.append(f"solver fallbacks to Clarabel: {s['fallbacks']}")
     if s.get("sidecars"):
         lines.append("also wrote: " + ", ".join(s["sidecars"]))
+    if s.get("adaptation_line"):
+        lines.append(s["adaptation_line"])
+    if s.get("dictionary"):
+        lines.append(f"dictionary written to {s['dictionary']}")
     return "\n".join(lines)

@@ -1,0 +1,248 @@
+"""Choose the adaptation settings of sparseedm.adaptation on cross-source validation splits.
+
+    python dictionaries/select_adaptation.py --data-dir ../shared/data \\
+        --work /tmp/select_adaptation --out dictionaries/selection_adaptation.json
+
+Directions (dictionary learned on one source, adapted to and scored on another):
+
+* ``cmu->bandai``: the shipped default (CMU ASF/AMC subjects 01-03) on Bandai-Namco;
+* ``bandai->cmu``: a k = 2000 dictionary learned here on all Bandai-Namco poses
+  (kept in --work, never committed: CC BY-NC) on the CMU ASF/AMC clips;
+* ``cmu->daz``: the shipped default on the CMU Daz-rig BVH clips (dance,
+  martial arts; another rig, read here with a head top 0.2 m beyond the head
+  joint along the neck-head bone, as for Bandai).
+
+The target's clips, sorted, are split three ways by clip: clip i with
+``i % 3 == 0`` is an *adaptation* clip (its complete poses adapt), ``1`` a
+*validation* clip (scored here), ``2`` a *test* clip (left for the README's
+table, ``sparseedm evaluate --adapt-fraction``; never looked at here). Scored
+poses: a seeded sample of --n-score validation poses, Mix occlusion (1-3
+joints), the masks of :func:`sparseedm.evaluation.occlusion_masks`; the
+figure is the mean Err_ave (%) of the recovered pixel EDMs.
+
+Grid 1 (n_adapt = 3000 poses, no guard, no filter): one axis at a time
+around fresh statistics / 3 passes / training alpha 1.6 / no replay: inner
+statistics (fresh / carried with memory 1 or 10), passes (1, 3, 5), training
+alpha (0.4, 0.8, 1.6), replay of base atoms (0, 0.25). Grid 2: the chosen setting against the number of adaptation poses,
+with the guard on (what ``recover(adapt="auto")`` does), to choose
+MIN_COMPLETE_POSES. Grid 4: 2 vs 3 passes of the chosen setting, and recovery
+alpha 0.002 vs 0.0005 for the adapted dictionary (and the cold one). Grid 3
+(``--grid 3``, after the choice): the README's
+table, cold vs adapted vs baselines on the *test* clips, through
+``sparseedm evaluate --adapt-from``. About 15 minutes per grid single-threaded
+on an idle machine.
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import json
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from sparseedm.adaptation import _vectors, adapt_vectors, masked_error, run_adaptation
+from sparseedm.dictionary import Dictionary, load_dictionary
+
+DAZ_RIG = {
+    "head_top": ("extend", "head", 0.2),
+    "neck": ("joint", "neck"),
+    "right_shoulder": ("joint", "rShldr"),
+    "right_elbow": ("joint", "rForeArm"),
+    "right_wrist": ("joint", "rHand"),
+    "left_shoulder": ("joint", "lShldr"),
+    "left_elbow": ("joint", "lForeArm"),
+    "left_wrist": ("joint", "lHand"),
+    "right_hip": ("joint", "rThigh"),
+    "right_knee": ("joint", "rShin"),
+    "right_ankle": ("joint", "rFoot"),
+    "left_hip": ("joint", "lThigh"),
+    "left_knee": ("joint", "lShin"),
+    "left_ankle": ("joint", "lFoot"),
+}
+
+
+def build(data_dir, work, name, seed):
+    """The target's dataset .npz in `work` (built once)."""
+    from sparseedm.dataset import build_dataset
+    from sparseedm.mocap import bvh
+
+    out = Path(work) / f"{name}.npz"
+    if not out.is_file():
+        folder = {"cmu": "cmu-mocap", "bandai": "bandai-namco-1", "daz": "cmu-bvh-daz"}[name]
+        if name == "daz" and "daz" not in bvh.RIGS:
+            bvh.RIGS["daz"] = (0.01, DAZ_RIG)  # centimetres
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            build_dataset(Path(data_dir) / folder, out, random_state=seed, progress=False)
+    with np.load(out, allow_pickle=False) as z:
+        return z["poses2d"].astype(float), z["clips"].astype(str)
+
+
+def split(poses, clips):
+    """(adaptation, validation, test) poses by clip: sorted clip index mod 3."""
+    uc = np.unique(clips)
+    part = {c: i % 3 for i, c in enumerate(uc)}
+    which = np.array([part[c] for c in clips])
+    return poses[which == 0], poses[which == 1], poses[which == 2]
+
+
+def sample(poses, n, seed):
+    if len(poses) <= n:
+        return poses
+    rng = np.random.default_rng(seed)
+    return poses[np.sort(rng.choice(len(poses), n, replace=False))]
+
+
+def source_dictionary(name, data_dir, work):
+    if name == "cmu":
+        return load_dictionary("default")
+    path = Path(work) / "bandai-k2000.npz"
+    if not path.is_file():
+        from sparseedm.learning import fit_dictionary_file
+
+        build(data_dir, work, "bandai", 1)
+        fit_dictionary_file(Path(work) / "bandai.npz", path, n_components=2000, alpha=1.6,
+                            n_passes=2, random_state=0, progress=False)
+    return load_dictionary(path)
+
+
+def with_atoms(base, components):
+    return Dictionary(components, joint_names=base.joint_names,
+                      alpha_recover=base.alpha_recover, alpha_train=base.alpha_train,
+                      alpha_scaling=base.alpha_scaling, positive_code=base.positive_code)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data-dir", default="../shared/data")
+    ap.add_argument("--work", default="/tmp/select_adaptation")
+    ap.add_argument("--out", default="dictionaries/selection_adaptation.json")
+    ap.add_argument("--n-adapt", type=int, default=3000)
+    ap.add_argument("--n-score", type=int, default=600)
+    ap.add_argument("--directions", default="cmu->bandai,bandai->cmu,cmu->daz")
+    ap.add_argument("--grid", default="1,2")
+    args = ap.parse_args(argv)
+    Path(args.work).mkdir(parents=True, exist_ok=True)
+    out = {"settings": vars(args), "directions": {}}
+    if Path(args.out).is_file():
+        out = json.loads(Path(args.out).read_text())
+    seeds = {"cmu": 0, "bandai": 1, "daz": 2}
+    # one axis at a time around fresh / 3 passes / training alpha 1.6 / no replay
+    # (a full product is too slow for a shared 2-core machine)
+    base_cell = dict(stats="fresh", memory=0.0, passes=3, alpha=1.6, replay=0.0)
+    grid = [base_cell] + [dict(base_cell, **change) for change in (
+        {"passes": 1}, {"passes": 5}, {"alpha": 0.4}, {"alpha": 0.8}, {"replay": 0.25},
+        {"stats": "carried", "memory": 1.0}, {"stats": "carried", "memory": 1.0, "passes": 5},
+        {"stats": "carried", "memory": 10.0}, {"stats": "carried", "memory": 1.0,
+                                               "replay": 0.25})]
+    for direction in args.directions.split(","):
+        src, dst = direction.split("->")
+        base = source_dictionary(src, args.data_dir, args.work)
+        poses, clips = build(args.data_dir, args.work, dst, seeds[dst])
+        pool, val, _ = split(poses, clips)
+        scored = sample(val, args.n_score, 1)
+        rec = out["directions"].setdefault(direction, {})
+        rec.update(n_pool=len(pool), n_val=len(val), n_scored=len(scored))
+        cold = masked_error(base, scored)
+        rec["cold"] = cold
+        print(f"{direction}: pool {len(pool)}, validation {len(val)}; cold {cold:.3f}",
+              flush=True)
+        if "1" in args.grid:
+            A = sample(pool, args.n_adapt, 2)
+            X = _vectors(A)
+            rows = []
+            for g in grid:
+                t0 = time.perf_counter()
+                comps = adapt_vectors(base.components, X, g["alpha"], passes=g["passes"],
+                                      stats=g["stats"], memory=g["memory"] or 1.0,
+                                      replay=g["replay"], random_state=0)
+                secs = time.perf_counter() - t0
+                err = masked_error(with_atoms(base, comps), scored)
+                rows.append({**g, "err": err, "ratio_cold": err / cold, "seconds": secs})
+                print(f"  {g} -> {err:.3f} ({err / cold:.2f}x cold) {secs:.1f} s", flush=True)
+            rec["grid"] = rows
+        if "2" in args.grid:
+            chosen = out.get("chosen", dict(stats="fresh", memory=1.0, passes=3, alpha=1.6,
+                                            replay=0.0))
+            rows = []
+            for n in (100, 250, 500, 1000, 2000, 5000):
+                A = sample(pool, n, 3)
+                t0 = time.perf_counter()
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    r = run_adaptation(base, A, min_poses=1, passes=chosen["passes"],
+                                       alpha=chosen["alpha"], stats=chosen["stats"],
+                                       memory=chosen["memory"], replay=chosen["replay"])
+                secs = time.perf_counter() - t0
+                used = masked_error(r.dictionary, scored)
+                cand = masked_error(r.candidate, scored) if r.candidate is not None else cold
+                rows.append({"n_adapt": len(A), "adapted": r.adapted, "n_used": r.n_used,
+                             "guard_base": r.err_base, "guard_adapted": r.err_adapted,
+                             "err_used": used, "err_candidate": cand,
+                             "ratio_cold": used / cold, "seconds": secs})
+                print(f"  n={len(A)}: adapted={r.adapted} guard {r.err_base:.2f}->"
+                      f"{r.err_adapted:.2f}; scored {used:.3f} (candidate {cand:.3f}) "
+                      f"{secs:.1f} s", flush=True)
+            rec["min_poses"] = rows
+        if "4" in args.grid:
+            # after grids 1-2: 2 vs 3 passes, and the adapted dictionary's recovery alpha
+            A = sample(pool, args.n_adapt, 2)
+            X = _vectors(A)
+            r = {}
+            for passes in (2, 3):
+                t0 = time.perf_counter()
+                d = with_atoms(base, adapt_vectors(base.components, X, base.alpha_train,
+                                                   passes=passes))
+                r[f"passes{passes}_seconds"] = time.perf_counter() - t0
+                for ar in ((0.002, 0.0005) if passes == 3 else (0.002,)):
+                    r[f"passes{passes}_alpha_recover{ar}"] = masked_error(d, scored, alpha=ar)
+            r["cold_alpha_recover0.0005"] = masked_error(base, scored, alpha=0.0005)
+            rec["passes_and_recovery_alpha"] = r
+            print(f"  grid 4: {r}", flush=True)
+        if "3" in args.grid:
+            rec["test"] = test_table(base, src, dst, args, poses, clips)
+        Path(args.out).write_text(json.dumps(out, indent=1, default=float))
+    return 0
+
+
+def test_table(base, src, dst, args, poses, clips):
+    """Grid 3, run once after the choice: the README's table on the *test* clips.
+
+    ``sparseedm evaluate --adapt-from`` (the CLI, in process) with the
+    adaptation clips' poses (a seeded sample of --n-adapt) and the test clips'
+    poses (a seeded subsample of 2 x --n-score), Mix occlusion; baselines fitted
+    on the same adaptation poses.
+    """
+    import csv
+
+    from sparseedm.cli import main as cli
+
+    pool, _, test = split(poses, clips)
+    work = Path(args.work) / f"test_{src}_{dst}"
+    work.mkdir(parents=True, exist_ok=True)
+    np.savez(work / "adapt.npz", poses2d=sample(pool, args.n_adapt, 2))
+    np.savez(work / "test.npz", poses2d=test)
+    dict_path = work / "base.npz"
+    base.save(dict_path)
+    t0 = time.perf_counter()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        cli(["evaluate", "--dictionary", str(dict_path), "--data", str(work / "test.npz"),
+             "--adapt-from", str(work / "adapt.npz"), "--methods",
+             "sparse,mean-fill,knn,iterative,nearest", "--counts", "mix",
+             "--representations", "average", "--max-poses", str(2 * args.n_score),
+             "-o", str(work / "report")])
+    with open(work / "report" / "results.csv") as f:
+        rows = {r["method"]: float(r["err_ave_mean"]) for r in csv.DictReader(f)}
+    rows["seconds"] = time.perf_counter() - t0
+    rows["n_test_clips_poses"] = int(len(test))
+    print(f"  test: {rows}", flush=True)
+    return rows
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,770 @@
+"""Adapt a dictionary to the user's own poses before recovering their occluded joints.
+
+A keypoint file is mostly complete poses with some occluded joints; the
+complete ones are in-domain training data. :func:`adapt` continues the online
+dictionary learning of :mod:`sparseedm.learning` from the given atoms (a warm
+start) on the normalised EDM vectors of those poses, and returns the adapted
+:class:`~sparseedm.dictionary.Dictionary`. :func:`run_adaptation` does the same
+and returns an :class:`AdaptationResult` saying what happened; it is what
+``recover(..., adapt="auto")`` and ``sparseedm recover`` run.
+
+Steps of :func:`run_adaptation`
+-------------------------------
+1. **Filter** implausible poses, each by a small pure function:
+   :func:`usable_rows` (NaN/inf, zero extent), :func:`duplicate_rows` (exact
+   repeats, e.g. a frozen detector), :func:`reconstruction_error` +
+   :func:`outlier_rows` (far-out relative residual under the base dictionary:
+   detector garbage) and :func:`swapped_rows` (the arms' or the legs'
+   left/right labels exchanged: the exchanged pose is explained much better;
+   checked on the worst-explained quarter of the poses only, to save time).
+2. **Bound** the work: at most ``max_poses`` poses, a seeded sample.
+3. **Hold back** a validation slice (``validation_fraction``, whole
+   contiguous blocks of rows, so neighbouring video frames do not leak
+   across; at most 500 poses), adapt on the rest.
+4. **Guard**: occlude the held-back poses with the evaluation protocol
+   (:func:`sparseedm.evaluation.occlusion_masks`, the Mix of 1-3 joints),
+   recover them with the base and with the adapted dictionary and compare the
+   mean Err_ave; the base dictionary is kept unless the adapted one is better.
+   Both figures are reported.
+
+The learning (:func:`adapt_vectors`)
+------------------------------------
+``stats="fresh"`` starts Mairal's inner statistics A, B at zero, as a new fit
+does (atoms no adaptation pose uses are re-drawn from the poses).
+``stats="carried"`` starts them as if each base atom had been seen
+``memory`` times on its own (``A = memory I``, ``B = memory D^T``), without
+the early-batch forgetting: atoms move towards the new poses in proportion to
+how much the new poses use them, unused atoms stay as they were. ``replay``
+mixes base atoms, scaled to the poses' typical norm, into every mini-batch
+against forgetting. The defaults were chosen on cross-source validation splits
+by ``dictionaries/select_adaptation.py`` (results in
+``dictionaries/selection_adaptation.json``, summary in
+``dictionaries/README.md``).
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .dictionary import Dictionary, load_dictionary
+from .edm import pose_to_vector
+from .exceptions import PoseError, SparseEDMError
+from .learning import (OnlineDictionaryLearning, check_params, iter_batches, sparse_code,
+                       _numba_threads)
+from .normalize import normalize
+from .skeleton import SKELETON_14
+
+__all__ = ["adapt", "run_adaptation", "adapt_vectors", "AdaptationResult",
+           "usable_rows", "duplicate_rows", "reconstruction_error", "outlier_rows",
+           "swapped_rows", "filter_poses", "holdout_blocks", "resolve_adaptation",
+           "masked_error", "sample_complete", "fine_tune_file", "evaluate_adaptation",
+           "MIN_COMPLETE_POSES",
+           "STATS"]
+
+#: Fewest complete poses (after filtering) that ``adapt="auto"`` adapts on;
+#: chosen on the validation splits (dictionaries/README.md).
+MIN_COMPLETE_POSES = 250
+#: Inner-statistics modes of :func:`adapt_vectors`.
+STATS = ("fresh", "carried")
+# defaults chosen by dictionaries/select_adaptation.py (see dictionaries/README.md)
+DEFAULT_PASSES = 2
+#: The adapted dictionary's recommended recovery alpha is the base's times this
+#: (0.002 -> 0.0005 for the shipped default; chosen on the validation splits).
+ADAPTED_ALPHA_RECOVER_FACTOR = 0.25
+DEFAULT_STATS = "fresh"
+DEFAULT_REPLAY = 0.0
+DEFAULT_MEMORY = 1.0
+DEFAULT_BATCH_SIZE = 256
+DEFAULT_MAX_POSES = 5000
+DEFAULT_VALIDATION_FRACTION = 0.2
+MAX_VALIDATION = 500
+
+
+# --------------------------------------------------------------------------
+# filters: small pure functions over poses / vectors
+
+def usable_rows(poses):
+    """True for poses with every coordinate finite and a non-zero extent.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> p = np.ones((3, 14, 2)); p[:, 0] = 0; p[1, 3, 0] = np.nan; p[2] = 5.0
+    >>> usable_rows(p).tolist()
+    [True, False, False]
+    """
+    poses = np.asarray(poses, dtype=float)
+    ok = np.isfinite(poses).all(axis=(-1, -2))
+    finite = np.where(np.isfinite(poses), poses, 0.0)
+    with np.errstate(over="ignore", invalid="ignore"):  # the extents recover() refuses
+        span = np.ptp(finite, axis=-2).max(axis=-1)
+        total = np.abs(finite).sum(axis=-2).max(axis=-1)
+    return ok & np.isfinite(span) & np.isfinite(total) & (span / 2 >= np.finfo(float).tiny)
+
+
+def duplicate_rows(X, decimals=9):
+    """True for rows that repeat an earlier row (after rounding to `decimals`).
+
+    Examples
+    --------
+    >>> duplicate_rows([[1., 2.], [3., 4.], [1., 2.]]).tolist()
+    [False, False, True]
+    """
+    X = np.round(np.asarray(X, dtype=float), decimals)
+    if len(X) == 0:
+        return np.zeros(0, dtype=bool)
+    _, first = np.unique(X, axis=0, return_index=True)
+    out = np.ones(len(X), dtype=bool)
+    out[first] = False
+    return out
+
+
+def reconstruction_error(X, components, alpha):
+    """Relative residual ``||x - D c|| / ||x||`` of each row's lasso code.
+
+    Parameters
+    ----------
+    X : ndarray (n, m)
+        Normalised EDM vectors.
+    components : ndarray (k, m)
+    alpha : float
+        Lasso penalty of the code (a dictionary's ``alpha_train``).
+    """
+    X = np.asarray(X, dtype=float)
+    if len(X) == 0:
+        return np.zeros(0)
+    code = sparse_code(X, components, alpha)
+    R = X - code @ components
+    return np.linalg.norm(R, axis=1) / np.maximum(np.linalg.norm(X, axis=1), 1e-12)
+
+
+def outlier_rows(errors, factor=3.0):
+    """True for far-out errors: above ``Q3 + factor * (Q3 - Q1)`` (Tukey's fence).
+
+    Examples
+    --------
+    >>> outlier_rows([1.0, 1.1, 0.9, 1.0, 1.05, 9.0]).tolist()
+    [False, False, False, False, False, True]
+    """
+    e = np.asarray(errors, dtype=float)
+    if len(e) < 4:
+        return np.zeros(len(e), dtype=bool)
+    q1, q3 = np.percentile(e, [25, 75])
+    return e > q3 + factor * (q3 - q1)
+
+
+def _swap(poses, pairs):
+    out = poses.copy()
+    for a, b in pairs:
+        out[:, [a, b]] = poses[:, [b, a]]
+    return out
+
+
+def swapped_rows(poses, components, alpha, *, skeleton=SKELETON_14, ratio=0.5):
+    """True where the arms' or the legs' left/right labels look exchanged.
+
+    A pose whose arm (or leg) joints have their left and right labels
+    exchanged -- a detector's common mistake -- is explained by the
+    dictionary much better after exchanging them back. A pose is flagged when
+    exchanging the arms or the legs lowers its relative reconstruction error
+    below ``ratio`` times its own. (Exchanging every left/right label at once
+    gives the pose seen from behind, a plausible pose: that is not tested.)
+
+    Parameters
+    ----------
+    poses : ndarray (n, N, 2), complete
+    components : ndarray (k, m)
+    alpha : float
+    skeleton : Skeleton
+    ratio : float
+    """
+    poses = np.asarray(poses, dtype=float)
+    if len(poses) == 0:
+        return np.zeros(0, dtype=bool)
+    pairs = list(zip(skeleton.joints_left, skeleton.joints_right))
+    # arms: the pairs whose joints hang from the shoulders; legs: the rest
+    names = skeleton.joint_names
+    arms = [(a, b) for a, b in pairs if any(k in names[a] for k in ("shoulder", "elbow", "wrist"))]
+    legs = [p for p in pairs if p not in arms]
+    base = reconstruction_error(_vectors(poses), components, alpha)
+    flagged = np.zeros(len(poses), dtype=bool)
+    for group in (arms, legs):
+        if group:
+            err = reconstruction_error(_vectors(_swap(poses, group)), components, alpha)
+            flagged |= err < ratio * base
+    return flagged
+
+
+def _vectors(poses):
+    normed, _, _ = normalize(poses)
+    return pose_to_vector(normed)
+
+
+@dataclass
+class FilterReport:
+    """Which complete poses survived :func:`filter_poses`, and why others did not."""
+
+    keep: np.ndarray
+    counts: dict
+
+
+def filter_poses(poses, dictionary, *, outlier_factor=3.0, swap_ratio=0.5):
+    """Drop implausible poses before adapting (see the module docstring).
+
+    Returns
+    -------
+    FilterReport
+        ``keep`` (n,) bool and ``counts`` of dropped poses per reason
+        (``incomplete``, ``duplicate``, ``outlier``, ``swapped``).
+    """
+    poses = np.asarray(poses, dtype=float)
+    keep = usable_rows(poses)
+    counts = {"incomplete": int((~keep).sum())}
+    idx = np.flatnonzero(keep)
+    X = _vectors(poses[idx])
+    dup = duplicate_rows(X)
+    counts["duplicate"] = int(dup.sum())
+    idx, X = idx[~dup], X[~dup]
+    alpha = dictionary.alpha_train
+    err = reconstruction_error(X, dictionary.components, alpha)
+    out = outlier_rows(err, outlier_factor)
+    counts["outlier"] = int(out.sum())
+    idx = idx[~out]
+    # a pose with exchanged labels is explained badly: only the worst quarter is checked
+    err = err[~out]
+    check = err > np.percentile(err, 75) if len(err) else np.zeros(0, dtype=bool)
+    sw = np.zeros(len(idx), dtype=bool)
+    sw[check] = swapped_rows(poses[idx[check]], dictionary.components, alpha, ratio=swap_ratio)
+    counts["swapped"] = int(sw.sum())
+    idx = idx[~sw]
+    keep = np.zeros(len(poses), dtype=bool)
+    keep[idx] = True
+    return FilterReport(keep=keep, counts=counts)
+
+
+def holdout_blocks(n, fraction, random_state=0, n_blocks=20, max_rows=MAX_VALIDATION):
+    """Seeded held-back rows made of whole contiguous blocks (rows in file order).
+
+    Neighbouring frames of a video are near-copies: a random row split would
+    leak them across. The rows are cut into `n_blocks` contiguous blocks and
+    whole blocks are held back until `fraction` of the rows (at most
+    `max_rows`) are.
+
+    Examples
+    --------
+    >>> v = holdout_blocks(100, 0.2, random_state=0)
+    >>> int(v.sum())
+    20
+    """
+    out = np.zeros(n, dtype=bool)
+    want = min(int(round(fraction * n)), max_rows)
+    if want <= 0 or n < 2:
+        return out
+    edges = np.linspace(0, n, min(n_blocks, n) + 1).astype(int)
+    order = np.random.default_rng([int(random_state or 0), 11]).permutation(len(edges) - 1)
+    for b in order:
+        if out.sum() >= want:
+            break
+        lo, hi = edges[b], edges[b + 1]
+        out[lo:min(hi, lo + want - int(out.sum()))] = True
+    return out
+
+
+# --------------------------------------------------------------------------
+# the learning
+
+def adapt_vectors(components, X, alpha, *, passes=DEFAULT_PASSES, stats=DEFAULT_STATS,
+                  memory=DEFAULT_MEMORY, replay=DEFAULT_REPLAY, replay_vectors=None,
+                  batch_size=DEFAULT_BATCH_SIZE, random_state=0, n_jobs=1):
+    """Continue online dictionary learning from `components` on the vectors X.
+
+    Parameters
+    ----------
+    components : ndarray (k, m)
+        Base atoms (rows, unit norm); not modified.
+    X : ndarray (n, m)
+        Normalised EDM vectors of complete poses.
+    alpha : float
+        Lasso penalty of the coding step.
+    passes : float
+    stats : {"fresh", "carried"}
+        Inner statistics A, B start at zero ("fresh") or as ``memory``
+        pseudo-observations of each base atom ("carried").
+    memory : float
+        Weight of the carried statistics.
+    replay : float in [0, 1)
+        Fraction of each mini-batch made of replayed vectors.
+    replay_vectors : ndarray (r, m), optional
+        What is replayed; default the base atoms scaled to X's median norm.
+    batch_size, random_state, n_jobs
+        As :class:`sparseedm.learning.OnlineDictionaryLearning`.
+
+    Returns
+    -------
+    components : ndarray (k, m), unit-norm rows
+    """
+    if stats not in STATS:
+        raise SparseEDMError(f"stats must be one of {STATS}, got {stats!r}")
+    if not 0 <= replay < 1:
+        raise SparseEDMError(f"replay must be in [0, 1), got {replay!r}")
+    components = np.array(components, dtype=float)
+    X = np.asarray(X, dtype=float)
+    k, m = components.shape
+    check_params(k, alpha, batch_size, passes)
+    est = OnlineDictionaryLearning(k, alpha=alpha, batch_size=batch_size, n_passes=passes,
+                                   random_state=random_state, n_jobs=n_jobs)
+    est._init_state(components=components)
+    if stats == "carried":
+        est.inner_stats_ = (memory * np.eye(k), memory * components.T.copy())
+        # a continued learner: no early-batch forgetting of the carried statistics
+        est.n_steps_ = batch_size
+    n_replay = int(round(replay * batch_size))
+    if n_replay:
+        if replay_vectors is None:
+            replay_vectors = components * np.median(np.linalg.norm(X, axis=1))
+        replay_vectors = np.asarray(replay_vectors, dtype=float)
+        rng = np.random.default_rng([int(random_state or 0), 13])
+    for batch in iter_batches(len(X), batch_size, passes, random_state):
+        Xb = X[np.sort(batch)]
+        if n_replay:
+            Xb = np.vstack([Xb, replay_vectors[rng.integers(0, len(replay_vectors), n_replay)]])
+        est._step(Xb)
+    out = est.components_
+    return out / np.linalg.norm(out, axis=1, keepdims=True)
+
+
+# --------------------------------------------------------------------------
+# the guard
+
+def masked_error(dictionary, poses, *, random_state=0, alpha=None, n_jobs=1):
+    """Mean Mix Err_ave (%) of recovering `poses` with the protocol's seeded masks.
+
+    The masks are :func:`sparseedm.evaluation.occlusion_masks` (the Mix of
+    1-3 joints), so every dictionary compared on the same poses sees the same
+    occlusions.
+    """
+    from .evaluation import occlusion_masks
+    from .metrics import err_ave
+    from .recovery import recover
+
+    poses = np.asarray(poses, dtype=float)
+    mask = occlusion_masks(len(poses), poses.shape[1], ("mix",), random_state)["mix"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = recover(np.where(mask[..., None], np.nan, poses), mask, dictionary=dictionary,
+                      alpha=alpha, adapt=False, n_jobs=n_jobs)
+    e = err_ave(res.vectors * res.scale[:, None], pose_to_vector(poses))
+    e = e[res.ok & np.isfinite(e)]
+    return float(e.mean()) if len(e) else float("nan")
+
+
+# --------------------------------------------------------------------------
+# the whole: filter, bound, hold back, adapt, guard
+
+@dataclass
+class AdaptationResult:
+    """What :func:`run_adaptation` did.
+
+    Attributes
+    ----------
+    dictionary : Dictionary
+        The dictionary to recover with: the adapted one if it was used, else
+        the base.
+    adapted : bool
+        True when the adapted dictionary passed the guard and is used.
+    reason : str
+        Why not, or what was done, in words.
+    n_given, n_complete, n_used, n_validation : int
+        Poses given; complete and plausible after filtering; adapted on;
+        held back for the guard.
+    dropped : dict
+        Poses dropped per filter reason.
+    err_base, err_adapted : float
+        Mean Mix Err_ave (%) on the held-back poses (NaN when not measured).
+    seconds : float
+    candidate : Dictionary or None
+        The adapted dictionary even when the guard rejected it.
+    settings : dict
+    """
+
+    dictionary: Dictionary
+    adapted: bool
+    reason: str
+    n_given: int = 0
+    n_complete: int = 0
+    n_used: int = 0
+    n_validation: int = 0
+    dropped: dict = field(default_factory=dict)
+    err_base: float = float("nan")
+    err_adapted: float = float("nan")
+    seconds: float = 0.0
+    candidate: Dictionary | None = None
+    settings: dict = field(default_factory=dict)
+
+    def summary(self) -> dict:
+        """JSON-able summary (what ``RecoveryResult.summary()`` reports)."""
+        def num(v):
+            return None if not np.isfinite(v) else round(float(v), 4)
+        return {
+            "adapted": bool(self.adapted), "reason": self.reason,
+            "poses_given": self.n_given, "complete_poses": self.n_complete,
+            "poses_used": self.n_used, "validation_poses": self.n_validation,
+            "dropped": dict(self.dropped),
+            "validation_err_base": num(self.err_base),
+            "validation_err_adapted": num(self.err_adapted),
+            "seconds": round(self.seconds, 3),
+        }
+
+    def line(self) -> str:
+        """One line a person reads (what ``sparseedm recover`` prints)."""
+        if np.isfinite(self.err_base) and np.isfinite(self.err_adapted):
+            errs = (f"validation Mix Err_ave {self.err_base:.2f}% -> {self.err_adapted:.2f}% "
+                    f"on {self.n_validation} held-back poses")
+        else:
+            errs = ""
+        head = ("adapted the dictionary" if self.adapted else "kept the base dictionary")
+        parts = [f"{head} ({self.reason})"]
+        if self.n_used:
+            parts.append(f"{self.n_used} poses used")
+        if errs:
+            parts.append(errs)
+        parts.append(f"{self.seconds:.1f} s")
+        return "adaptation: " + "; ".join(parts)
+
+
+def _complete_input(poses, missing):
+    """The complete rows of user poses (NaN or `missing` mark occlusions)."""
+    poses = np.asarray(poses, dtype=float)
+    if poses.ndim == 2:
+        poses = poses[None]
+    if poses.ndim != 3 or poses.shape[-1] != 2:
+        raise PoseError(f"adaptation poses must have shape (n, N, 2), got {poses.shape}")
+    ok = np.isfinite(poses).all(axis=(-1, -2))
+    if missing is not None:
+        mask = np.asarray(missing, dtype=bool)
+        if mask.ndim == 1:
+            mask = mask[None]
+        if mask.shape != poses.shape[:2]:
+            raise PoseError(f"missing must have shape {poses.shape[:2]}, got {mask.shape}")
+        ok &= ~mask.any(axis=1)
+    return poses[ok], len(poses)
+
+
+def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, alpha=None,
+                   stats=DEFAULT_STATS, memory=DEFAULT_MEMORY, replay=DEFAULT_REPLAY,
+                   batch_size=DEFAULT_BATCH_SIZE, min_poses=MIN_COMPLETE_POSES,
+                   max_poses=DEFAULT_MAX_POSES,
+                   validation_fraction=DEFAULT_VALIDATION_FRACTION, guard=True,
+                   filter=True, random_state=0, n_jobs=1):
+    """Adapt `dictionary` on the complete rows of `poses`, guarded; see the module docstring.
+
+    Parameters
+    ----------
+    dictionary : Dictionary, str or path
+    poses : array_like (n, N, 2)
+        Poses in pixels; rows with a missing joint (NaN or `missing`) are
+        not used.
+    missing : array_like of bool (n, N), optional
+    passes, alpha, stats, memory, replay, batch_size
+        The learning (:func:`adapt_vectors`); ``alpha`` defaults to the
+        dictionary's ``alpha_train``. The adapted dictionary recommends
+        ``ADAPTED_ALPHA_RECOVER_FACTOR`` times the base's recovery alpha.
+    min_poses : int
+        Fewer complete plausible poses than this: no adaptation.
+    max_poses : int
+        At most this many poses (a seeded sample) are used, bounding the time.
+    validation_fraction : float
+        Share of the poses held back for the guard (at most 500).
+    guard : bool
+        Compare base and adapted on the held-back poses and keep the better.
+        ``False`` uses the adapted dictionary unchecked (and holds nothing back).
+    filter : bool
+        Drop duplicates, outliers and left/right swaps first.
+    random_state : int
+    n_jobs : int
+        Threads for the coding step and the guard's recovery.
+
+    Returns
+    -------
+    AdaptationResult
+    """
+    t0 = time.perf_counter()
+    if not isinstance(dictionary, Dictionary):
+        dictionary = load_dictionary(dictionary)
+    complete, n_given = _complete_input(poses, missing)
+    if complete.shape[1] != dictionary.n_joints:
+        raise PoseError(f"adaptation poses have {complete.shape[1]} joints but the "
+                        f"dictionary is for {dictionary.n_joints}")
+    settings = dict(passes=passes, alpha=alpha, stats=stats, memory=memory, replay=replay,
+                    batch_size=batch_size, min_poses=min_poses, max_poses=max_poses,
+                    validation_fraction=validation_fraction, guard=guard, filter=filter,
+                    random_state=random_state)
+
+    def done(reason, **kw):
+        return AdaptationResult(dictionary=kw.pop("use", dictionary), reason=reason,
+                                n_given=n_given, seconds=time.perf_counter() - t0,
+                                settings=settings, **kw)
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        if filter:
+            rep = filter_poses(complete, dictionary)
+            keep, dropped = rep.keep, rep.counts
+        else:
+            keep = usable_rows(complete)
+            dropped = {"incomplete": int((~keep).sum())}
+    dropped["incomplete"] += n_given - len(complete)
+    good = complete[keep]
+    n_complete = len(good)
+    if n_complete < min_poses:
+        return done(f"{n_complete} complete plausible poses, fewer than the {min_poses} needed",
+                    adapted=False, n_complete=n_complete, dropped=dropped)
+    if n_complete > max_poses:  # a seeded sample, file order kept
+        rng = np.random.default_rng([int(random_state or 0), 17])
+        good = good[np.sort(rng.choice(n_complete, max_poses, replace=False))]
+    val = holdout_blocks(len(good), validation_fraction if guard else 0.0, random_state)
+    train, held = good[~val], good[val]
+    alpha_train = dictionary.alpha_train if alpha is None else alpha
+    X = _vectors(train)
+    comps = adapt_vectors(dictionary.components, X, alpha_train, passes=passes, stats=stats,
+                          memory=memory, replay=replay, batch_size=batch_size,
+                          random_state=random_state, n_jobs=n_jobs)
+    prov = dict(dictionary.provenance or {})
+    prov["adaptation"] = {"poses": int(len(train)), "passes": passes, "stats": stats,
+                          "replay": replay, "alpha": alpha_train, "seed": random_state,
+                          "base_sha256": prov.get("sha256", "")}
+    candidate = Dictionary(
+        components=comps, joint_names=dictionary.joint_names,
+        alpha_recover=dictionary.alpha_recover * ADAPTED_ALPHA_RECOVER_FACTOR,
+        alpha_train=dictionary.alpha_train,
+        alpha_scaling=dictionary.alpha_scaling, positive_code=dictionary.positive_code,
+        representation=dictionary.representation, normalization=dictionary.normalization,
+        provenance=prov,
+    )
+    kw = dict(n_complete=n_complete, n_used=len(train), n_validation=len(held),
+              dropped=dropped, candidate=candidate)
+    if not guard or len(held) == 0:
+        return done("unchecked: no held-back poses", adapted=True, use=candidate, **kw)
+    with _numba_threads(n_jobs):
+        e0 = masked_error(dictionary, held, random_state=random_state)
+        e1 = masked_error(candidate, held, random_state=random_state)
+    candidate.provenance["adaptation"].update(validation_err_base=e0, validation_err_adapted=e1)
+    if e1 < e0:
+        return done("better on the held-back poses", adapted=True, use=candidate,
+                    err_base=e0, err_adapted=e1, **kw)
+    return done("the adapted dictionary was not better on the held-back poses",
+                adapted=False, err_base=e0, err_adapted=e1, **kw)
+
+
+def adapt(dictionary, complete_poses, *, passes=DEFAULT_PASSES, alpha=None, **kwargs):
+    """A new Dictionary warm-started from `dictionary` and adapted on `complete_poses`.
+
+    :func:`run_adaptation` with its guard and filters; returns the dictionary
+    it decided on (the base one when adaptation was refused or not better),
+    whose ``provenance["adaptation"]`` records what was done. Use
+    :func:`run_adaptation` to see why.
+
+    Parameters
+    ----------
+    dictionary : Dictionary, str or path
+    complete_poses : array_like (n, N, 2)
+        Poses in pixels; rows with NaN are ignored.
+    passes : float
+    alpha : float, optional
+    **kwargs
+        Any other argument of :func:`run_adaptation`.
+
+    Returns
+    -------
+    Dictionary
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import sparseedm
+    >>> d = sparseedm.load_dictionary()
+    >>> few = np.random.default_rng(0).uniform(0, 100, (3, 14, 2))
+    >>> sparseedm.adapt(d, few) is d        # 3 poses are too few: the base comes back
+    True
+    """
+    return run_adaptation(dictionary, complete_poses, passes=passes, alpha=alpha,
+                          **kwargs).dictionary
+
+
+def resolve_adaptation(dictionary, poses, missing, adapt, *, n_jobs=1, random_state=0,
+                       warn=True):
+    """The dictionary :func:`sparseedm.recover` should use, and what was done.
+
+    `adapt` is ``"auto"`` (adapt on the complete rows of `poses`), ``False``
+    (nothing) or an array of separate poses to adapt on. Returns
+    ``(dictionary, AdaptationResult or None)``. A refusal is warned about
+    (``UserWarning``) when adaptation poses were given explicitly (unless
+    ``warn=False``); under ``"auto"`` it is said in the result's summary only
+    (small batches of incomplete poses are the common case, not a problem),
+    and ``sparseedm recover`` says it on stderr.
+    """
+    if adapt is False or adapt is None:
+        return dictionary, None
+    if not isinstance(dictionary, Dictionary):
+        dictionary = load_dictionary(dictionary)
+    if isinstance(adapt, str):
+        if adapt != "auto":
+            raise SparseEDMError(f"adapt must be 'auto', False or an array of poses, "
+                                 f"got {adapt!r}")
+        res = run_adaptation(dictionary, poses, missing, n_jobs=n_jobs,
+                             random_state=random_state)
+        explicit = False
+    else:
+        res = run_adaptation(dictionary, adapt, n_jobs=n_jobs, random_state=random_state)
+        explicit = True
+    if warn and explicit and not res.adapted and res.candidate is None:
+        warnings.warn(f"no adaptation: {res.reason}", UserWarning, stacklevel=3)
+    return res.dictionary, res
+
+
+def sample_complete(chunks, max_poses=DEFAULT_MAX_POSES, random_state=0):
+    """A bounded, seeded sample of the complete poses of a stream, in stream order.
+
+    Parameters
+    ----------
+    chunks : iterable of (poses (n, N, 2), missing (n, N))
+        The stream, chunk by chunk (e.g. a memory-mapped .npy file's rows).
+    max_poses : int
+    random_state : int
+
+    Returns
+    -------
+    ndarray (<= max_poses, N, 2)
+        Each complete, finite pose gets a seeded random key; the `max_poses`
+        smallest keys are kept (the same sample whatever the chunk size), so
+        memory stays at ``max_poses`` poses however long the stream.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> p = np.arange(10 * 14 * 2, dtype=float).reshape(10, 14, 2)
+    >>> m = np.zeros((10, 14), bool); m[3, 0] = True
+    >>> s = sample_complete([(p[:5], m[:5]), (p[5:], m[5:])], max_poses=4)
+    >>> s.shape
+    (4, 14, 2)
+    """
+    rng = np.random.default_rng([int(random_state or 0), 19])
+    keep_keys = np.zeros(0)
+    keep_rows, keep_poses = np.zeros(0, dtype=np.int64), None
+    offset = 0
+    for poses, missing in chunks:
+        poses = np.asarray(poses, dtype=float)
+        n = len(poses)
+        keys = rng.random(n)  # one key per row, drawn whatever the row holds
+        ok = np.isfinite(poses).all(axis=(-1, -2)) & ~np.asarray(missing, bool).any(axis=1)
+        rows = np.flatnonzero(ok)
+        cand_keys = np.concatenate([keep_keys, keys[rows]])
+        cand_rows = np.concatenate([keep_rows, rows + offset])
+        cand_poses = poses[rows] if keep_poses is None else np.concatenate([keep_poses, poses[rows]])
+        top = np.argsort(cand_keys, kind="stable")[:max_poses]
+        keep_keys, keep_rows, keep_poses = cand_keys[top], cand_rows[top], cand_poses[top]
+        offset += n
+    if keep_poses is None:
+        return np.zeros((0, 0, 2))
+    return keep_poses[np.argsort(keep_rows)]
+
+
+def fine_tune_file(train_path, output, init="default", *, passes=DEFAULT_PASSES, alpha=None,
+                   alpha_recover=None, stats=DEFAULT_STATS, replay=DEFAULT_REPLAY,
+                   batch_size=DEFAULT_BATCH_SIZE, random_state=0, n_jobs=None):
+    """Fine-tune an existing dictionary on the complete poses of a training .npz; save it.
+
+    What ``sparseedm fit TRAIN.npz --init default|PATH`` runs: the learning
+    of :func:`adapt_vectors` over every complete pose of TRAIN (no sample, no
+    guard: the caller validates, e.g. with ``sparseedm evaluate``).
+
+    Returns
+    -------
+    Dictionary
+    """
+    from pathlib import Path
+
+    from .learning import _load_training_poses, _sha256, complete_pose_vectors
+
+    base = init if isinstance(init, Dictionary) else load_dictionary(init)
+    poses = _load_training_poses(train_path)
+    X, ok = complete_pose_vectors(poses)
+    if len(X) == 0:
+        raise SparseEDMError(f"{train_path}: no complete poses to fine-tune on")
+    if poses.shape[1] != base.n_joints:
+        raise PoseError(f"{train_path}: poses have {poses.shape[1]} joints, the dictionary "
+                        f"{base.n_joints}")
+    alpha = base.alpha_train if alpha is None else alpha
+    comps = adapt_vectors(base.components, X, alpha, passes=passes, stats=stats,
+                          replay=replay, batch_size=batch_size, random_state=random_state,
+                          n_jobs=n_jobs)
+    prov = {
+        "files": [Path(train_path).name], "n_poses": int(len(X)), "sha256": _sha256(poses),
+        "sha256_of": "poses2d float64 values", "seed": random_state, "passes": passes,
+        "batch_size": batch_size, "fine_tuned_from": dict(base.provenance or {}),
+        "stats": stats,
+    }
+    d = Dictionary(components=comps, joint_names=base.joint_names,
+                   alpha_recover=base.alpha_recover if alpha_recover is None else alpha_recover,
+                   alpha_train=alpha, alpha_scaling=base.alpha_scaling,
+                   positive_code=base.positive_code, provenance=prov)
+    d.save(output)
+    return d
+
+
+# --------------------------------------------------------------------------
+# the evaluation protocol
+
+def evaluate_adaptation(dictionary, test_poses2d, adapt_poses2d, *,
+                        methods=("sparse", "mean-fill", "knn", "iterative", "nearest"),
+                        counts=("mix",), representations=("average",), random_state=0,
+                        n_jobs=1, max_poses=None, max_train=20000, alpha=None, fconv_models=(),
+                        **adapt_kwargs):
+    """:func:`sparseedm.evaluation.evaluate` with the adaptation protocol.
+
+    The dictionary (learned on source A) is evaluated cold (``sparse``) and
+    after :func:`run_adaptation` on `adapt_poses2d` (``sparse-adapted``: the
+    dictionary the guard chose); the baselines that need training poses are
+    fitted on the same adaptation poses. `test_poses2d` should come from other
+    clips of the adaptation poses' source (complete poses, occluded by the
+    protocol's seeded masks). `fconv_models` are passed to ``evaluate`` (FConv
+    rows, not adapted).
+
+    Returns
+    -------
+    EvaluationReport
+        Rows for ``sparse``, ``sparse-adapted`` and the baselines; the notes
+        and ``settings["adaptation"]`` say what adaptation did.
+    """
+    from .evaluation import evaluate
+
+    if not isinstance(dictionary, Dictionary):
+        dictionary = load_dictionary(dictionary)
+    adapt_poses2d = np.asarray(adapt_poses2d, dtype=float)
+    common = dict(counts=counts, representations=representations, random_state=random_state,
+                  n_jobs=n_jobs, max_poses=max_poses, alpha=alpha)
+    report = evaluate(dictionary, test_poses2d, train_poses2d=adapt_poses2d, methods=methods,
+                      max_train=max_train, fconv_models=fconv_models, **common)
+    res = run_adaptation(dictionary, adapt_poses2d, random_state=random_state, n_jobs=n_jobs,
+                         **adapt_kwargs)
+    report.notes.append(res.line().replace("adaptation:", "sparse-adapted:", 1))
+    report.settings["adaptation"] = res.summary()
+    if "sparse" in methods:
+        adapted = evaluate(res.dictionary, test_poses2d, methods=("sparse",), **common)
+        rows = []
+        for r in report.rows:
+            rows.append(r)
+            if r["method"] == "sparse":
+                twin = adapted.table(method="sparse", representation=r["representation"],
+                                     count=r["count"])[0]
+                rows.append(dict(twin, method="sparse-adapted",
+                                 note="" if res.adapted else "guard kept the base dictionary"))
+        report.rows = rows
+        for (m, rep, c), e in adapted.per_pose.items():
+            report.per_pose[("sparse-adapted", rep, c)] = e
+        report.settings["methods"] = list(report.settings["methods"]) + ["sparse-adapted"]
+    return report

@@ -1,0 +1,291 @@
+"""sparseedm.adaptation: warm-started dictionary adaptation, its guard and filters,
+recover(adapt=...), recover_file / `sparseedm recover` adaptation, `fit --init`."""
+
+import json
+
+import numpy as np
+import pytest
+
+import sparseedm
+from sparseedm.adaptation import (MIN_COMPLETE_POSES, _vectors, adapt_vectors,
+                                  duplicate_rows, filter_poses, holdout_blocks, masked_error,
+                                  run_adaptation, sample_complete, swapped_rows)
+from sparseedm.batch import recover_file
+from sparseedm.cli import main
+from sparseedm.dictionary import Dictionary, load_dictionary
+from sparseedm.keypoints import COCO_KEYPOINTS, read_keypoints, write_keypoints
+from sparseedm.learning import OnlineDictionaryLearning, complete_pose_vectors
+from sparseedm.metrics import random_occlusion
+from sparseedm.recovery import _recover
+from sparseedm.skeleton import JOINT_NAMES
+
+
+def _stretch(poses, fx=1.7):
+    """The same motion under another 'rig': x stretched about each pose's centre."""
+    c = poses.mean(axis=1, keepdims=True)
+    out = poses.copy()
+    out[..., 0] = c[..., 0] + fx * (poses[..., 0] - c[..., 0])
+    return out
+
+
+@pytest.fixture(scope="module")
+def shifted_dictionary(cmu_poses):
+    """k=100 atoms learned on x-stretched fixture poses: the wrong domain for the real ones."""
+    X, _ = complete_pose_vectors(_stretch(cmu_poses))
+    odl = OnlineDictionaryLearning(100, alpha=0.05, batch_size=64, n_passes=2,
+                                   random_state=0).fit(X)
+    return Dictionary(odl.components_, alpha_recover=0.002, alpha_train=0.05)
+
+
+def _jittered(poses, n, seed=0, sd=0.5):
+    """n poses drawn from `poses` with a little pixel noise (no exact repeats)."""
+    rng = np.random.default_rng(seed)
+    pick = rng.integers(0, len(poses), n)
+    return poses[np.sort(pick)] + rng.normal(0, sd, (n,) + poses.shape[1:])
+
+
+def test_adaptation_lowers_masked_error_on_held_back_poses(cmu_poses, shifted_dictionary):
+    held_back = np.random.default_rng(0).permutation(len(cmu_poses)) >= 250
+    train, held = cmu_poses[~held_back], cmu_poses[held_back]
+    before = masked_error(shifted_dictionary, held)
+    res = run_adaptation(shifted_dictionary, train, min_poses=50, guard=False)
+    after = masked_error(res.dictionary, held)
+    assert res.adapted and res.n_used == 250
+    assert after < 0.92 * before, (before, after)
+
+
+def test_guard_accepts_a_better_dictionary(cmu_poses, shifted_dictionary):
+    res = run_adaptation(shifted_dictionary, cmu_poses, min_poses=50)
+    assert res.adapted and res.err_adapted < res.err_base
+    assert res.n_validation > 0 and res.n_used + res.n_validation <= len(cmu_poses)
+    assert res.dictionary is res.candidate
+    assert "adapted the dictionary" in res.line()
+
+
+def test_guard_keeps_the_base_when_the_adapted_one_is_worse(cmu_poses, small_dictionary):
+    # the rows the guard holds back are real poses (the base's domain); the
+    # rows it adapts on are stretched ones: the adapted atoms are worse there
+    n = len(cmu_poses)
+    held = holdout_blocks(n, 0.2, random_state=0)
+    poses = np.where(held[:, None, None], cmu_poses, _stretch(cmu_poses))
+    res = run_adaptation(small_dictionary, poses, min_poses=50, filter=False, passes=3)
+    assert not res.adapted
+    assert res.err_adapted > res.err_base
+    assert res.dictionary is small_dictionary and res.candidate is not None
+    assert "not better" in res.reason and "kept the base" in res.line()
+
+
+def test_adapt_false_reproduces_todays_results_exactly(cmu_poses, small_dictionary):
+    poses = cmu_poses.copy()
+    missing = random_occlusion(len(poses), 14, "mix", random_state=1)
+    missing[::2] = False                       # half the poses complete
+    poses[missing] = np.nan
+    ref = _recover(poses, missing, dictionary=small_dictionary)
+    off = sparseedm.recover(poses, missing, dictionary=small_dictionary, adapt=False)
+    for name in ("poses", "vectors", "objective", "gap", "n_active"):
+        np.testing.assert_array_equal(getattr(off, name), getattr(ref, name))
+    assert off.adaptation is None and not off.adapted and "adaptation" not in off.summary()
+    # 167 complete poses are below the threshold: "auto" changes nothing either
+    assert MIN_COMPLETE_POSES > 167
+    auto = sparseedm.recover(poses, missing, dictionary=small_dictionary)
+    np.testing.assert_array_equal(auto.poses, ref.poses)
+    assert not auto.adapted
+    s = auto.summary()["adaptation"]
+    assert s["adapted"] is False and "fewer than" in s["reason"] and s["complete_poses"] <= 167
+
+
+def test_recover_adapts_on_separate_poses(cmu_poses, shifted_dictionary):
+    held_back = np.random.default_rng(0).permutation(len(cmu_poses)) >= 250
+    poses = cmu_poses[held_back].copy()
+    missing = random_occlusion(len(poses), 14, "mix", random_state=2)
+    poses[missing] = np.nan
+    res = sparseedm.recover(poses, missing, dictionary=shifted_dictionary,
+                            adapt=_jittered(cmu_poses[~held_back], 600))
+    assert res.adapted and res.dictionary is res.adaptation.dictionary
+    s = res.summary()["adaptation"]
+    assert s["adapted"] and s["poses_used"] > 0
+    assert s["validation_err_adapted"] < s["validation_err_base"]
+    cold = sparseedm.recover(poses, missing, dictionary=shifted_dictionary, adapt=False)
+    gt = sparseedm.edm.pose_to_vector(cmu_poses[held_back])
+    err = [np.mean(sparseedm.metrics.err_ave(r.vectors * r.scale[:, None], gt))
+           for r in (cold, res)]
+    assert err[1] < err[0]
+
+
+def test_recover_rejects_a_bad_adapt_argument(cmu_poses, small_dictionary):
+    with pytest.warns(UserWarning, match="no adaptation: 2 complete"):
+        res = sparseedm.recover(cmu_poses[:2], dictionary=small_dictionary,
+                                adapt=cmu_poses[2:4])
+    assert not res.adapted and "fewer than" in res.summary()["adaptation"]["reason"]
+    with pytest.raises(sparseedm.exceptions.SparseEDMError, match="adapt must be"):
+        sparseedm.recover(cmu_poses[:2], dictionary=small_dictionary, adapt="always")
+    with pytest.raises(sparseedm.exceptions.PoseError, match="missing must have shape"):
+        sparseedm.recover(cmu_poses[:3], np.zeros((2, 14), bool), dictionary=small_dictionary)
+
+
+def test_adapted_dictionary_round_trips(tmp_path, cmu_poses, shifted_dictionary):
+    d = run_adaptation(shifted_dictionary, cmu_poses, min_poses=50).dictionary
+    back = load_dictionary(d.save(tmp_path / "adapted.npz"))
+    np.testing.assert_array_equal(back.components, d.components)
+    assert back.provenance["adaptation"]["poses"] == d.provenance["adaptation"]["poses"]
+    assert back.alpha_recover == d.alpha_recover
+
+
+def test_nan_inf_and_duplicates_are_ignored(cmu_poses, small_dictionary):
+    poses = cmu_poses[:100].copy()
+    poses[3, 4] = np.nan
+    poses[5, 2, 0] = np.inf
+    poses = np.concatenate([poses, poses[10:20]])   # 10 exact repeats
+    rep = filter_poses(poses, small_dictionary)
+    assert rep.counts["incomplete"] == 2 and rep.counts["duplicate"] == 10
+    assert not rep.keep[3] and not rep.keep[5] and not rep.keep[100:].any()
+    res = run_adaptation(small_dictionary, poses, min_poses=1000)
+    assert not res.adapted and res.n_complete == rep.keep.sum()
+    assert duplicate_rows(np.zeros((0, 3))).shape == (0,)
+
+
+def test_swapped_labels_are_flagged(cmu_poses, small_dictionary):
+    poses = cmu_poses[::3]
+    legs = [(8, 11), (9, 12), (10, 13)]
+    swapped = poses.copy()
+    for a, b in legs:
+        swapped[:, [a, b]] = poses[:, [b, a]]
+    flagged_real = swapped_rows(poses, small_dictionary.components, 0.05).mean()
+    flagged_swapped = swapped_rows(swapped, small_dictionary.components, 0.05).mean()
+    assert flagged_real < 0.1 and flagged_swapped > 0.5, (flagged_real, flagged_swapped)
+
+
+def test_adapt_vectors_options(cmu_poses, small_dictionary):
+    X = _vectors(cmu_poses[:100])
+    base = small_dictionary.components
+    for kw in ({"stats": "carried"}, {"replay": 0.25}):
+        C = adapt_vectors(base, X, 0.05, passes=1, batch_size=32, **kw)
+        assert C.shape == base.shape and np.allclose(np.linalg.norm(C, axis=1), 1)
+        assert not np.array_equal(C, base)
+    again = adapt_vectors(base, X, 0.05, passes=1, batch_size=32, stats="carried")
+    np.testing.assert_array_equal(again, adapt_vectors(base, X, 0.05, passes=1, batch_size=32,
+                                                       stats="carried"))
+    with pytest.raises(sparseedm.exceptions.SparseEDMError, match="stats"):
+        adapt_vectors(base, X, 0.05, stats="warm")
+
+
+def test_sample_complete_is_bounded_seeded_and_chunking_free(cmu_poses):
+    poses = cmu_poses.copy()
+    missing = np.zeros(poses.shape[:2], bool)
+    missing[::4, 3] = True
+    a = sample_complete([(poses, missing)], max_poses=50)
+    b = sample_complete([(poses[s:s + 7], missing[s:s + 7]) for s in range(0, len(poses), 7)],
+                        max_poses=50)
+    np.testing.assert_array_equal(a, b)
+    assert a.shape == (50, 14, 2) and np.isfinite(a).all()
+
+
+# --------------------------------------------------------------------------
+# files and the CLI
+
+@pytest.fixture(scope="module")
+def many_poses(cmu_poses):
+    """Enough real (jittered) poses to adapt on, 40 of them with a missing joint."""
+    poses = _jittered(cmu_poses, MIN_COMPLETE_POSES + 150, seed=1)
+    missing = np.zeros(poses.shape[:2], bool)
+    missing[5::17, 4] = True
+    poses[missing] = np.nan
+    return poses
+
+
+@pytest.fixture(scope="module")
+def shifted_dictionary_path(shifted_dictionary, tmp_path_factory):
+    return shifted_dictionary.save(tmp_path_factory.mktemp("shifted") / "shifted.npz")
+
+
+def test_cli_prints_the_adaptation_line(tmp_path, many_poses, shifted_dictionary_path, capsys):
+    inp, out = tmp_path / "in.npz", tmp_path / "out.npz"
+    write_keypoints(inp, many_poses)
+    saved = tmp_path / "adapted.npz"
+    assert main(["recover", str(inp), "-o", str(out), "--dictionary",
+                 str(shifted_dictionary_path), "--save-dictionary", str(saved)]) == 0
+    text = capsys.readouterr().out
+    line = next(ln for ln in text.splitlines() if ln.startswith("adaptation:"))
+    assert "adapted the dictionary" in line and "poses used" in line and "->" in line
+    assert load_dictionary(saved).provenance["adaptation"]["poses"] > 0
+
+    out2 = tmp_path / "out2.npz"
+    assert main(["recover", str(inp), "-o", str(out2), "--dictionary",
+                 str(shifted_dictionary_path), "--no-adapt"]) == 0
+    assert "adaptation:" not in capsys.readouterr().out
+    a, b = read_keypoints(out).poses, read_keypoints(out2).poses
+    assert not np.array_equal(a, b)
+    observed = np.isfinite(many_poses)
+    np.testing.assert_array_equal(a[observed], b[observed])
+
+
+def test_cli_too_few_complete_poses_says_so(tmp_path, cmu_poses, small_dictionary_path,
+                                            capsys):
+    poses = cmu_poses[:40].copy()
+    poses[::2, 3] = np.nan
+    inp, out = tmp_path / "in.csv", tmp_path / "out.csv"
+    write_keypoints(inp, poses)
+    assert main(["recover", str(inp), "-o", str(out), "--dictionary",
+                 str(small_dictionary_path)]) == 0
+    cap = capsys.readouterr()
+    assert "no adaptation: 19 complete plausible poses, fewer than" in cap.err   # 1 outlier
+    assert "kept the base dictionary" in cap.out
+
+
+def test_cli_adapt_from_and_streamed_npy(tmp_path, many_poses, cmu_poses,
+                                         shifted_dictionary_path, capsys):
+    occluded = cmu_poses[:60].copy()
+    occluded[:, 3] = np.nan
+    inp, out = tmp_path / "in.npy", tmp_path / "out.npy"
+    np.save(inp, occluded)
+    src = tmp_path / "same_source.npy"
+    np.save(src, many_poses)
+    assert main(["recover", str(inp), "-o", str(out), "--dictionary",
+                 str(shifted_dictionary_path), "--adapt-from", str(src), "--quiet"]) == 0
+    assert "adapted the dictionary" in capsys.readouterr().err
+    # a streamed .npy adapts on its own complete poses, sampled in a first pass
+    s = recover_file(src, tmp_path / "o.npy", dictionary=shifted_dictionary_path,
+                     chunk_size=100)
+    assert s["adaptation"]["poses_given"] <= 5000 and s["adaptation"]["poses_used"] > 0
+
+
+def test_coco17_file_adapts(tmp_path, cmu_poses, shifted_dictionary_path):
+    """A COCO-17 file (another joint convention: neck = mid-shoulders, head top
+    extrapolated from the face keypoints) is what adaptation is for."""
+    poses = _jittered(cmu_poses, MIN_COMPLETE_POSES + 150, seed=2)
+    names = dict(zip(JOINT_NAMES, range(14)))
+    anns = []
+    for i, p in enumerate(poses):
+        kp = np.zeros((17, 3))
+        for c, name in enumerate(COCO_KEYPOINTS):
+            if name in names:
+                kp[c] = [*p[names[name]], 2]
+        face = p[1] + 0.6 * (p[0] - p[1])
+        for c, dx in ((0, 0), (1, 3), (2, -3), (3, 6), (4, -6)):
+            kp[c] = [face[0] + dx, face[1], 2]
+        if i % 9 == 0:
+            kp[9] = 0                            # left wrist not detected
+        anns.append({"image_id": i, "keypoints": kp.ravel().tolist()})
+    inp = tmp_path / "coco.json"
+    inp.write_text(json.dumps({"annotations": anns}))
+    out = tmp_path / "out.json"
+    s = recover_file(inp, out, dictionary=shifted_dictionary_path)
+    ad = s["adaptation"]
+    assert ad["complete_poses"] > MIN_COMPLETE_POSES and ad["poses_used"] > 0
+    assert np.isfinite(ad["validation_err_base"]) and np.isfinite(ad["validation_err_adapted"])
+    back = read_keypoints(out)
+    assert not back.missing.any() and s["refused"] == 0
+
+
+def test_fit_init_fine_tunes(tmp_path, cmu_poses, small_dictionary_path, capsys):
+    train = tmp_path / "train.npz"
+    np.savez(train, poses2d=_stretch(cmu_poses))
+    out = tmp_path / "tuned.npz"
+    assert main(["fit", str(train), "-o", str(out), "--init", str(small_dictionary_path),
+                 "--passes", "1", "--quiet"]) == 0
+    assert "fine-tuned from" in capsys.readouterr().err
+    base, tuned = load_dictionary(small_dictionary_path), load_dictionary(out)
+    assert tuned.n_components == base.n_components
+    assert tuned.alpha_recover == base.alpha_recover
+    assert not np.array_equal(tuned.components, base.components)
+    assert tuned.provenance["n_poses"] == len(cmu_poses)
