@@ -49,9 +49,10 @@ class DictionaryLifter(Lifter):
 
     Parameters
     ----------
-    n_components : int, default 1000
-    alpha : float, default 0.1
-        Lasso penalty while learning.
+    n_components : int, default 2000
+    alpha : float, default 1.6
+        Lasso penalty while learning (defaults: the settings chosen on CMU
+        validation clips, ``lifters/selection.json``).
     alpha_lift : float, default 0.002
         Lasso penalty when lifting (scaled by observed entries / M).
     weight : float, default 1.0
@@ -71,7 +72,7 @@ class DictionaryLifter(Lifter):
     _params = ("n_components", "alpha", "alpha_lift", "weight", "batch_size", "n_passes",
                "normalization", "random_state")
 
-    def __init__(self, n_components=1000, *, alpha=0.1, alpha_lift=0.002, weight=1.0,
+    def __init__(self, n_components=2000, *, alpha=1.6, alpha_lift=0.002, weight=1.0,
                  batch_size=512, n_passes=1, normalization="tied", solver="fast",
                  random_state=0):
         super().__init__(normalization=normalization, random_state=random_state)

@@ -69,7 +69,7 @@ class MLPLifter(Lifter):
 
         net = MLPRegressor(hidden_layer_sizes=self.hidden_layer_sizes, alpha=self.alpha, max_iter=self.max_iter,
                            early_stopping=True, random_state=self.random_state,
-                           batch_size=min(256, len(X2)))
+                           batch_size=min(256, max(1, len(X2) * 9 // 10)))
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", ConvergenceWarning)
             net.fit(X2, X3)
