@@ -254,3 +254,26 @@ def test_fit_refuses_bad_training_vectors():
 
     with pytest.raises(SparseEDMError, match="NaN"):
         DictionaryLifter(10).fit(np.full((20, 6), np.nan), np.ones((20, 6)))
+
+
+def test_application_table_on_fixture(tmp_path, data, split, dict_lifter, mlp_lifter,
+                                      small_dictionary):
+    from sparseedm.lifting.evaluation import evaluate_lifting
+
+    test = {k: v[split[1]] for k, v in data.items() if k != "joint_names"}
+    rep = evaluate_lifting({"dictionary": dict_lifter, "mlp": mlp_lifter}, test,
+                           dictionary=small_dictionary, train_poses2d=data["poses2d"][split[0]],
+                           counts=(1, "mix"), pipelines=["complete", "as-is average",
+                                                         "applyspar", "nearest", "joint"],
+                           max_poses=40)
+    got = {(r["lifter"], r["pipeline"], str(r["count"])) for r in rep.rows}
+    assert ("dictionary", "joint", "mix") in got and ("mlp", "joint", "mix") not in got
+    assert ("mlp", "applyspar", "1") in got and ("dictionary", "complete", "none") in got
+    row = {(r["lifter"], r["pipeline"], str(r["count"])): r for r in rep.rows}
+    assert row["dictionary", "joint", "mix"]["err3d"] < row["dictionary", "as-is average",
+                                                             "mix"]["err3d"]
+    assert {r["label"] for r in rep.per_action} <= set(VAL_CLIPS)
+    written = rep.write(tmp_path)
+    lines = (tmp_path / "lift_report.md").read_text().splitlines()
+    assert sum(line.startswith("| dictionary |") for line in lines) == 5
+    assert any(p.name == "lift_poses.png" for p in written)
