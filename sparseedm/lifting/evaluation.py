@@ -76,16 +76,19 @@ class LiftReport:
                "margin < 1.", ""]
         counts = list(dict.fromkeys(str(r["count"]) for r in self.rows))
         out.append("| lifter | pipeline | " + " | ".join(f"err3d {c}" for c in counts)
-                   + " | PA-MPJPE Mix | MPJPE Mix | poses/s Mix |")
-        out.append("|---" * (len(counts) + 5) + "|")
+                   + " | PA-MPJPE Mix | N-MPJPE Mix | MPJPE Mix | reflection ok Mix "
+                   "| poses/s Mix |")
+        out.append("|---" * (len(counts) + 7) + "|")
         keys = list(dict.fromkeys((r["lifter"], r["pipeline"]) for r in self.rows))
+        nan = float("nan")
         for lf, pl in keys:
             rr = {str(r["count"]): r for r in self.table(lifter=lf, pipeline=pl)}
             mix = rr.get("mix") or rr.get("none") or {}
             out.append(f"| {lf} | {pl} | " + " | ".join(
                 f"{rr[c]['err3d']:.2f}" if c in rr else "" for c in counts)
-                + f" | {mix.get('pa_mpjpe', float('nan')):.1f} | "
-                  f"{mix.get('mpjpe', float('nan')):.1f} | {mix.get('poses_per_s', 0):.0f} |")
+                + f" | {mix.get('pa_mpjpe', nan):.1f} | {mix.get('n_mpjpe', nan):.1f} | "
+                  f"{mix.get('mpjpe', nan):.1f} | {mix.get('reflection_ok', nan):.2f} | "
+                  f"{mix.get('poses_per_s', 0):.0f} |")
         if self.per_action:
             out += ["", "## Per action (Mix err3d)", "", "| label | lifter | pipeline | n | err3d |",
                     "|---|---|---|---|---|"]

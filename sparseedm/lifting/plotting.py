@@ -19,7 +19,7 @@ def plot_poses3d(truth, lifted, path, titles=None, missing=None):
     truth = np.asarray(truth, float)
     lifted = np.asarray(lifted, float)
     k = len(truth)
-    fig = _figure(3.4 * k, 4.0)
+    fig = _figure(3.6 * k, 4.4)
     for i in range(k):
         ax = fig.add_subplot(1, k, i + 1, projection="3d")
         for pose, color, style in ((truth[i], "0.6", "--"), (lifted[i], "tab:blue", "-")):
@@ -41,4 +41,6 @@ def plot_poses3d(truth, lifted, path, titles=None, missing=None):
         ax.view_init(elev=15, azim=-70)
         if titles is not None:
             ax.set_title(titles[i], fontsize=8)
+    fig.suptitle("grey dashed: truth; blue: lifted (at the size prior); red x: occluded joints",
+                 fontsize=9)
     return _save(fig, path)
