@@ -53,7 +53,7 @@ def judge(lifters, data, ix, seed=1):
     return out
 
 
-def speed(lifters, poses, repeats=3):
+def speed(lifters, poses, repeats=3, mask=None):
     rows = {}
     for name, lf in lifters.items():
         lift(poses[:50], lifter=lf)  # warm the JIT caches
@@ -61,7 +61,7 @@ def speed(lifters, poses, repeats=3):
             best = np.inf
             for _ in range(repeats):
                 t = time.perf_counter()
-                lift(poses, lifter=lf, n_jobs=jobs)
+                lift(poses, mask, lifter=lf, n_jobs=jobs)
                 best = min(best, time.perf_counter() - t)
             rows[f"{name}, n_jobs={jobs}"] = len(poses) / best
     return rows
@@ -75,8 +75,27 @@ def main(argv=None):
     ap.add_argument("--max-test", type=int, default=2000)
     ap.add_argument("--mlp-max-iter", type=int, default=60)
     ap.add_argument("-o", "--output", default=str(ROOT / "benchmarks" / "results-lifting.json"))
+    ap.add_argument("--speed-only", nargs=2, metavar=("DICT_LIFTER", "MLP_LIFTER"),
+                    help="only time lift() with these two lifter files (no fitting) and "
+                    "write results-lifting-speed.json")
     args = ap.parse_args(argv)
     cmu = _load(args.cmu)
+    if args.speed_only:
+        from sparseedm.lifting import load_lifter
+
+        lifters = {"dictionary": load_lifter(args.speed_only[0]),
+                   "mlp": load_lifter(args.speed_only[1])}
+        poses = cmu["poses2d"][np.sort(np.random.default_rng(0).choice(
+            len(cmu["poses2d"]), args.max_test, replace=False))]
+        mask = random_occlusion(len(poses), 14, "mix", random_state=0)
+        res = {"machine": machine(), "loadavg_start": loadavg(),
+               "lifters": list(args.speed_only),
+               "complete": speed(lifters, poses), "mix": speed(lifters, poses, mask=mask),
+               "loadavg_end": loadavg()}
+        out = Path(args.output).with_name("results-lifting-speed.json")
+        out.write_text(json.dumps(res, indent=1))
+        print(json.dumps(res, indent=1))
+        return
     tr, val = split(cmu)
     rng = np.random.default_rng(0)
     tr = np.sort(rng.choice(tr, min(args.max_train, len(tr)), replace=False))

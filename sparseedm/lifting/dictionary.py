@@ -31,6 +31,7 @@ Examples
 from __future__ import annotations
 
 import hashlib
+import os
 
 import numpy as np
 from joblib import Parallel, delayed
@@ -144,6 +145,7 @@ class DictionaryLifter(Lifter):
         mask = np.zeros((n, N), bool) if missing is None else np.asarray(missing, bool)
         solver = get_solver(self.solver)
         key0 = hashlib.sha1(np.ascontiguousarray(C).tobytes()).hexdigest()
+        workers = os.cpu_count() or 1 if n_jobs == -1 else max(int(n_jobs or 1), 1)
         patterns, inverse = np.unique(mask, axis=0, return_inverse=True)
         inverse = inverse.reshape(-1)
         tasks = []
@@ -151,8 +153,10 @@ class DictionaryLifter(Lifter):
             rows = np.flatnonzero(inverse == p)
             obs = np.flatnonzero(observed_entries(pattern))
             a = self.alpha_lift * len(obs) / m
-            for s in range(0, len(rows), chunk_size):
-                tasks.append((rows[s:s + chunk_size], obs, (key0, pattern.tobytes()), a))
+            # with several workers, a large group is cut so that each gets a share
+            step = chunk_size if workers == 1 else max(1, min(chunk_size, -(-len(rows) // workers)))
+            for s in range(0, len(rows), step):
+                tasks.append((rows[s:s + step], obs, (key0, pattern.tobytes()), a))
 
         def run(rows, obs, key, a):
             res = solver.solve(C[:, obs].T, X2[rows][:, obs], a, key=key)
