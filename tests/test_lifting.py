@@ -3,6 +3,7 @@
 import csv
 import json
 import pickle
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,8 +18,7 @@ from sparseedm.lifting.mds import (ChiralityPrior, align_to_image, classical_mds
                                    smacof)
 from sparseedm.lifting.metrics import err_ave_3d, pa_mpjpe
 
-from conftest import CMU_POSES  # noqa: E402
-
+CMU_POSES = Path(__file__).resolve().parent / "fixtures" / "cmu_poses.npz"
 VAL_CLIPS = ("02_05", "02_10")  # held-out clips of the fixture (punch, wash: 114 poses)
 
 
@@ -277,3 +277,13 @@ def test_application_table_on_fixture(tmp_path, data, split, dict_lifter, mlp_li
     lines = (tmp_path / "lift_report.md").read_text().splitlines()
     assert sum(line.startswith("| dictionary |") for line in lines) == 5
     assert any(p.name == "lift_poses.png" for p in written)
+
+
+def test_shipped_default_lifter_loads_by_name():
+    from sparseedm.lifting import available_lifters
+
+    assert {"default", "cmu-lift"} <= set(available_lifters())
+    lf = load_lifter("default")
+    assert lf.method == "dictionary" and lf.n_joints == 14
+    assert lf.provenance_["files"] == ["cmu.npz"]  # CMU only (lifters/README.md)
+    assert 0.5 < lf.size_prior_ < 1.0
