@@ -287,3 +287,13 @@ def test_shipped_default_lifter_loads_by_name():
     assert lf.method == "dictionary" and lf.n_joints == 14
     assert lf.provenance_["files"] == ["cmu.npz"]  # CMU only (lifters/README.md)
     assert 0.5 < lf.size_prior_ < 1.0
+
+
+def test_cli_evaluate_lift(tmp_path, lifter_path, capsys):
+    out = tmp_path / "rep"
+    assert main(["evaluate-lift", "--data", str(CMU_POSES), "--lifter", str(lifter_path),
+                 "--pipelines", "complete,as-is zero,joint", "--counts", "2,mix",
+                 "--max-poses", "20", "-o", str(out)]) == 0
+    assert "joint  mix  err3d" in capsys.readouterr().out
+    doc = json.loads((out / "lift_results.json").read_text())
+    assert len(doc["rows"]) == 5 and (out / "lift_report.md").is_file()
