@@ -10,6 +10,7 @@ See README.md for the tour; the modules, one per idea:
 - :mod:`sparseedm.dictionary` the dictionary file format and the shipped default
 - :mod:`sparseedm.recovery`   recover(): lasso on the observed sub-dictionary, Eq. 10
 - :mod:`sparseedm.adaptation` adapt(): warm-start the dictionary on the user's complete poses
+- :mod:`sparseedm.lifting`    lift(): 2D poses -> 3D (coupled dictionary or MLP, then MDS)
 """
 
 __version__ = "0.1.0"
@@ -17,5 +18,7 @@ __version__ = "0.1.0"
 from .dictionary import Dictionary, load_dictionary  # noqa: E402
 from .recovery import OcclusionRecoverer, RecoveryResult, recover  # noqa: E402
 from .adaptation import adapt  # noqa: E402
+from .lifting import LiftResult, lift, load_lifter  # noqa: E402
 
-__all__ = ["recover", "adapt", "RecoveryResult", "OcclusionRecoverer", "load_dictionary", "Dictionary", "__version__"]
+__all__ = ["recover", "adapt", "lift", "RecoveryResult", "LiftResult", "OcclusionRecoverer",
+           "load_dictionary", "load_lifter", "Dictionary", "__version__"]

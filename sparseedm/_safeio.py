@@ -50,7 +50,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .exceptions import FileFormatError
+from .exceptions import FileFormatError, PickledDataError
 
 __all__ = ["load_npy", "load_npz", "text_lines", "load_json", "MAX_LINE_BYTES",
            "MAX_JSON_BYTES", "MAX_JSON_DEPTH", "MAX_INT_DIGITS"]
@@ -109,7 +109,7 @@ def _parse_header(f, what):
         raise ValueError(f"unsupported .npy format version {version[0]}.{version[1]}")
     shape, fortran, dtype = header
     if dtype.hasobject:
-        raise FileFormatError(
+        raise PickledDataError(
             f"{what} holds pickled Python objects, which sparseedm refuses to load "
             "(they can run code); save plain numeric/string arrays"
         )
@@ -179,6 +179,15 @@ def load_npy(path, *, mmap_mode=None, max_bytes=None, what=None):
     return _guard(lambda: np.load(path, mmap_mode=mmap_mode, allow_pickle=False), what)
 
 
+def _refuse_pickle_file(path, what):
+    """A whole-file pickle (protocol 2+ starts with 0x80) is named as such, never read."""
+    with open(path, "rb") as f:
+        head = f.read(2)
+    if len(head) == 2 and head[0] == 0x80 and head[1] <= 5:
+        raise PickledDataError(
+            f"{what} is a Python pickle, which sparseedm refuses to load (it can run code)")
+
+
 def npz_members(path, what=None):
     """Names of the arrays an ``.npz`` holds (nothing is decompressed)."""
     what = what or f"{path}:"
@@ -210,6 +219,7 @@ def load_npz(path, keys, *, max_bytes=None, what=None):
     what = what or f"{path}:"
     _regular_file(path, what)
     keys = list(keys)
+    _refuse_pickle_file(path, what)
 
     def read():
         arrays = {}

@@ -33,7 +33,7 @@ from ._atomic import save_npz
 from ._safeio import load_npz
 from ._validation import Interval, validate_params
 from .edm import num_joints_from_dim
-from .exceptions import DictionaryError, FileFormatError, PoseError
+from .exceptions import DictionaryError, FileFormatError, PickledDataError, PoseError
 from .skeleton import JOINT_NAMES
 
 __all__ = ["Dictionary", "load_dictionary", "available_dictionaries", "check_layout",
@@ -316,7 +316,7 @@ def load_dictionary(name_or_path=None, *, n_joints=None) -> Dictionary:
                                  max_bytes=_MAX_BYTES)
     except FileFormatError as exc:
         text = str(exc)
-        if "pickle" in text:
+        if isinstance(exc, PickledDataError):
             raise DictionaryError(
                 f"{path}: holds pickled data, which is refused (never executed)") from None
         raise DictionaryError(f"corrupt or truncated dictionary file: {text}") from None

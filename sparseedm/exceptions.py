@@ -9,6 +9,7 @@ __all__ = [
     "SparseEDMError",
     "PoseError",
     "FileFormatError",
+    "PickledDataError",
     "DictionaryError",
     "ParameterError",
     "OutputPathError",
@@ -30,6 +31,10 @@ class FileFormatError(SparseEDMError):
 
     The message names the file and, where known, the line or row.
     """
+
+
+class PickledDataError(FileFormatError):
+    """A file (or an array in one) that holds a Python pickle: refused, never loaded."""
 
 
 class DictionaryError(SparseEDMError):

@@ -15,7 +15,8 @@ from .. import __version__
 from ..exceptions import SparseEDMError
 
 #: sub-command modules, in the order ``sparseedm --help`` lists them
-COMMANDS = ("dataset", "fit", "info", "recover", "evaluate", "fit_cnn")
+COMMANDS = ("dataset", "fit", "info", "recover", "evaluate", "fit_cnn", "fit_lifter", "lift",
+            "evaluate_lift")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -4,10 +4,11 @@ from __future__ import annotations
 
 
 def add_parser(sub):
-    p = sub.add_parser("info", help="describe a dictionary file (or a shipped one by name), "
-                       "or an FConv model file")
+    p = sub.add_parser("info", help="describe a dictionary, lifter or FConv model file (or a "
+                       "shipped one by name)")
     p.add_argument("dictionary", nargs="?", default="default",
-                   help="path to a dictionary .npz or a shipped name (default: default)")
+                   help="path to a dictionary or lifter .npz, or a shipped name "
+                   "(default: default)")
     p.set_defaults(func=run)
 
 
@@ -15,14 +16,18 @@ def run(args):
     from ..dictionary import load_dictionary
     from ..exceptions import DictionaryError, ModelError
     from ..fconv.model import load_model  # no torch needed to read one
+    from ..lifting import is_lifter_file, load_lifter
 
-    try:
-        d = load_dictionary(args.dictionary)
-    except DictionaryError as exc:
-        try:  # an FConv model file (sparseedm fit-cnn)?
-            d = load_model(args.dictionary)
-        except ModelError:
-            raise exc from None
+    if is_lifter_file(args.dictionary):
+        d = load_lifter(args.dictionary)
+    else:
+        try:
+            d = load_dictionary(args.dictionary)
+        except DictionaryError as exc:
+            try:  # an FConv model file (sparseedm fit-cnn)?
+                d = load_model(args.dictionary)
+            except ModelError:
+                raise exc from None
     print(f"{args.dictionary}:")
     print(d.describe())
     return 0

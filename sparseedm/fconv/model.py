@@ -30,7 +30,7 @@ from .. import __version__
 from .._atomic import atomic_path
 from .._safeio import load_npz, npz_members
 from ..edm import triu_indices
-from ..exceptions import FileFormatError, ModelError
+from ..exceptions import FileFormatError, ModelError, PickledDataError
 from ..normalize import REPRESENTATIONS
 from .network import build_network, param_shapes, require_torch
 
@@ -226,7 +226,7 @@ def load_model(path, *, n_joints=None, representation=None, kind=None) -> FConvM
             wanted = ["meta"] + [k for k in names if k.startswith(_PREFIX)]
             arrays, _ = load_npz(path, wanted, max_bytes=_MAX_BYTES)
         except FileFormatError as exc:
-            if "pickle" in str(exc):
+            if isinstance(exc, PickledDataError):
                 raise ModelError(f"{path}: holds pickled data, which is refused (never "
                                  "executed)") from None
             raise ModelError(f"corrupt or truncated model file: {exc}") from None

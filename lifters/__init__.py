@@ -1,0 +1,1 @@
+"""Shipped lifters (installed as package sparseedm.lifters); see README.md here."""

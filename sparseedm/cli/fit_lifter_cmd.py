@@ -1,0 +1,80 @@
+"""``sparseedm fit-lifter TRAIN.npz -o L.npz --method dictionary|mlp``: learn a lifter."""
+
+from __future__ import annotations
+
+import sys
+import time
+
+import numpy as np
+
+
+def add_parser(sub):
+    p = sub.add_parser(
+        "fit-lifter", help="learn a 2D -> 3D lifter from a training .npz with poses3d",
+        description="Learn a lifter from the complete poses of TRAIN (as written by "
+        "`sparseedm dataset build`: poses2d, poses3d, camera_R/t/f). Methods: "
+        "dictionary (coupled [2D ; w 3D] dictionary, the default) and mlp (DMR's FConn). "
+        "Defaults are the settings chosen on CMU validation clips (lifters/README.md).",
+    )
+    p.add_argument("train", help="training .npz with poses2d, poses3d and cameras")
+    p.add_argument("-o", "--output", required=True, help="lifter file to write (.npz)")
+    p.add_argument("--method", default="dictionary",
+                   help="dictionary (default) or mlp; fconv is not available yet")
+    p.add_argument("--atoms", type=int, default=None, help="dictionary: atoms k")
+    p.add_argument("--alpha", type=float, default=None,
+                   help="dictionary: training lasso alpha; mlp: L2 penalty")
+    p.add_argument("--alpha-lift", type=float, default=None, help="dictionary: lifting alpha")
+    p.add_argument("--weight", type=float, default=None, help="dictionary: 3D weight w")
+    p.add_argument("--passes", type=float, default=None, help="dictionary: passes")
+    p.add_argument("--hidden", default=None, help="mlp: hidden layer sizes, e.g. 400,400,400")
+    p.add_argument("--max-iter", type=int, default=None, help="mlp: epochs at most")
+    p.add_argument("--normalization", choices=("tied", "unit"), default=None,
+                   help="3D EDM normalisation (default tied)")
+    p.add_argument("--max-train", type=int, default=None,
+                   help="use a seeded subsample of this many training poses")
+    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.set_defaults(func=run)
+
+
+_DICT_OPTS = {"atoms": "n_components", "alpha": "alpha", "alpha_lift": "alpha_lift",
+              "weight": "weight", "passes": "n_passes", "normalization": "normalization"}
+_MLP_OPTS = {"alpha": "alpha", "max_iter": "max_iter", "normalization": "normalization"}
+
+
+def run(args):
+    from pathlib import Path
+
+    from ..dataset import load_dataset
+    from ..exceptions import SparseEDMError
+    from ..learning import _sha256
+    from ..lifting import fit_lifter
+    from ..lifting.base import LIFTERS, _lifter_class
+    from ..lifting.defaults import DEFAULTS
+
+    _lifter_class(args.method, "--method")  # refuses unknown methods, naming the known
+    opts = _DICT_OPTS if args.method == "dictionary" else _MLP_OPTS
+    params = dict(DEFAULTS.get(args.method, {}))
+    for opt, name in opts.items():
+        if getattr(args, opt) is not None:
+            params[name] = getattr(args, opt)
+    if args.method == "mlp" and args.hidden:
+        params["hidden_layer_sizes"] = tuple(int(h) for h in args.hidden.split(","))
+    params["random_state"] = args.seed
+    data = load_dataset(args.train)
+    idx = np.arange(len(data["poses2d"]))  # load_dataset refuses NaN: all complete
+    if args.max_train and args.max_train < len(idx):
+        idx = np.sort(np.random.default_rng(args.seed).choice(idx, args.max_train, replace=False))
+    if len(idx) < 10:
+        raise SparseEDMError(f"{args.train}: {len(idx)} training poses are too few")
+    t0 = time.perf_counter()
+    prov = {"files": [Path(args.train).name], "sha256": _sha256(data["poses2d"][idx]),
+            "sha256_of": "poses2d float64 values", "seed": args.seed}
+    lifter = fit_lifter(data["poses2d"][idx], data["poses3d"][idx], data["camera_R"][idx],
+                        data["camera_t"][idx], data["camera_f"][idx], method=args.method,
+                        provenance=prov, **params)
+    lifter.save(args.output)
+    print(f"wrote {args.output}: {args.method} lifter from {len(idx)} poses in "
+          f"{time.perf_counter() - t0:.1f} s (known methods: {', '.join(LIFTERS)})",
+          file=sys.stdout)
+    return 0
+

@@ -1,0 +1,30 @@
+"""Lifting completed or occluded 2D poses to 3D (DMR's pipeline on the toolkit's EDMs).
+
+- :mod:`.base`        the lifter interface, 3D normalisation, file format, registry
+- :mod:`.dictionary`  the coupled [2D ; 3D] dictionary lifter (default; one lasso
+                      on the observed 2D entries recovers and lifts)
+- :mod:`.mlp`         DMR's FConn regressor (scikit-learn MLP, stored as weights)
+- :mod:`.mds`         3D coordinates from a 3D EDM: MDS, SMACOF, camera alignment,
+                      reflection choice
+- :mod:`.metrics`     Err_ave on 3D EDMs, MPJPE, N-MPJPE, PA-MPJPE
+- :mod:`.lift`        :func:`lift`, the user entry point
+- :mod:`.evaluation`  the paper's application table (lifting after recovery)
+"""
+
+from .base import (LIFTERS, Lifter, LifterError, available_lifters, is_lifter_file,  # noqa: F401
+                   load_lifter, training_pairs)
+from .lift import STATUSES, LiftResult, lift  # noqa: F401
+
+__all__ = ["lift", "LiftResult", "STATUSES", "Lifter", "LifterError", "LIFTERS",
+           "load_lifter", "available_lifters", "training_pairs", "is_lifter_file",
+           "fit_lifter"]
+
+
+def fit_lifter(poses2d, poses3d, camera_R, camera_t, camera_f, *, method="dictionary",
+               provenance=None, **params):
+    """Fit a lifter of `method` (a name in :data:`LIFTERS`) on complete training poses."""
+    from .base import _lifter_class
+
+    cls = _lifter_class(method, "fit_lifter")
+    return cls(**params).fit_poses(poses2d, poses3d, camera_R, camera_t, camera_f,
+                                   provenance=provenance)

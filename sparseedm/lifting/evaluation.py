@@ -1,0 +1,259 @@
+"""The paper's application table: how recovered 2D poses serve 3D lifting.
+
+Guo & Dai's Table 1 / lower Table 2 measure recovery *inside* DMR's pipeline.
+:func:`evaluate_lifting` runs that protocol on held-out poses with known 3D
+(``poses3d`` and cameras, as ``sparseedm dataset build`` writes them), with the
+same seeded occlusions (1, 2, 3 joints and Mix) for every pipeline:
+
+``complete``        the lifter on the complete 2D pose (the reference row);
+``as-is average`` / ``as-is zero``
+                    the lifter on the occluded pose's whole 2D EDM in that
+                    representation (the paper's "baseline on occluded input");
+``applyspar``       sparse recovery (:func:`sparseedm.recover`), then the lifter;
+``knn`` / ``iterative`` / ``nearest`` (+ lifter)
+                    a 2D imputer of :mod:`sparseedm.baselines`, then the lifter;
+``joint``           dictionary lifter only: one lasso on the observed 2D
+                    entries, 3D read from the coupled atoms (recovery and
+                    lifting in one step).
+
+Each pipeline is run for every lifter given (``dictionary`` and, if given,
+``mlp`` = DMR's FConn). FConv rows (applyzero / applyave, zero+basl) come
+with the FConv network.
+
+Per row: 3D-EDM Err_ave (per cent, one least-squares scale per pose, see
+:mod:`.metrics`), PA-MPJPE, N-MPJPE and MPJPE (mm; MPJPE at the lifter's size
+prior), how often the chosen depth reflection is the right one and how often
+it was ambiguous, and poses per second for the whole pipeline.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .._atomic import atomic_path
+from ..baselines import fit_baseline
+from ..metrics import random_occlusion
+from ..normalize import represent
+from ..recovery import recover
+from .base import training_pairs
+from .lift import poses_from_vectors
+from .metrics import err_ave_3d, mpjpe, pa_mpjpe, pelvis
+
+__all__ = ["evaluate_lifting", "LiftReport", "COLUMNS"]
+
+COLUMNS = ("lifter", "pipeline", "count", "n_poses", "err3d", "pa_mpjpe", "n_mpjpe", "mpjpe",
+           "reflection_ok", "ambiguous", "poses_per_s")
+IMPUTERS = ("knn", "iterative", "nearest")
+
+
+@dataclass
+class LiftReport:
+    """Rows of the application table, per-action Mix errors, examples for figures."""
+
+    rows: list
+    per_action: list
+    examples: dict
+    settings: dict
+    notes: list = field(default_factory=list)
+
+    def table(self, **where):
+        return [r for r in self.rows if all(str(r[k]) == str(v) for k, v in where.items())]
+
+    def to_markdown(self):
+        s = self.settings
+        out = ["# sparseedm lifting evaluation (the paper's application table)", "",
+               f"Test poses: {s['n_poses']} from {s['data']}; occlusion seed {s['seed']}; "
+               f"lifters: {', '.join(f'{k} = {v}' for k, v in s['lifters'].items())}.", "",
+               "err3d: 3D-EDM Err_ave in per cent after one least-squares scale per pose; "
+               "PA-MPJPE / N-MPJPE / MPJPE in mm (similarity / scale / none beyond the "
+               "pelvis; MPJPE at the lifter's size prior); reflection_ok: chosen depth "
+               "reflection closer to the truth than its mirror; ambiguous: chirality "
+               "margin < 1.", ""]
+        counts = list(dict.fromkeys(str(r["count"]) for r in self.rows))
+        out.append("| lifter | pipeline | " + " | ".join(f"err3d {c}" for c in counts)
+                   + " | PA-MPJPE Mix | N-MPJPE Mix | MPJPE Mix | reflection ok Mix "
+                   "| poses/s Mix |")
+        out.append("|---" * (len(counts) + 7) + "|")
+        keys = list(dict.fromkeys((r["lifter"], r["pipeline"]) for r in self.rows))
+        nan = float("nan")
+        for lf, pl in keys:
+            rr = {str(r["count"]): r for r in self.table(lifter=lf, pipeline=pl)}
+            mix = rr.get("mix") or rr.get("none") or {}
+            out.append(f"| {lf} | {pl} | " + " | ".join(
+                f"{rr[c]['err3d']:.2f}" if c in rr else "" for c in counts)
+                + f" | {mix.get('pa_mpjpe', nan):.1f} | {mix.get('n_mpjpe', nan):.1f} | "
+                  f"{mix.get('mpjpe', nan):.1f} | {mix.get('reflection_ok', nan):.2f} | "
+                  f"{mix.get('poses_per_s', 0):.0f} |")
+        if self.per_action:
+            out += ["", "## Per action (Mix err3d)", "", "| label | lifter | pipeline | n | err3d |",
+                    "|---|---|---|---|---|"]
+            out += [f"| {r['label']} | {r['lifter']} | {r['pipeline']} | {r['n_poses']} | "
+                    f"{r['err3d']:.2f} |" for r in self.per_action]
+        out += [""] + [f"- {n}" for n in self.notes]
+        return "\n".join(out) + "\n"
+
+    def write(self, directory, figures=True):
+        directory = Path(directory)
+        directory.mkdir(parents=True, exist_ok=True)
+        written = []
+        for name, text in (("lift_report.md", self.to_markdown()),
+                           ("lift_results.json", json.dumps(
+                               {"settings": self.settings, "rows": self.rows,
+                                "per_action": self.per_action, "notes": self.notes},
+                               indent=1, default=_jsonable))):
+            with atomic_path(directory / name) as tmp:
+                Path(tmp).write_text(text)
+            written.append(directory / name)
+        if figures and self.examples:
+            from ..plotting import have_matplotlib
+
+            if have_matplotlib():
+                from .plotting import plot_poses3d
+
+                ex = self.examples
+                written.append(plot_poses3d(ex["truth"], ex["lifted"], directory / "lift_poses.png",
+                                            titles=ex["titles"], missing=ex["missing"]))
+        return written
+
+
+def _jsonable(v):
+    if isinstance(v, (np.integer,)):
+        return int(v)
+    if isinstance(v, (np.floating,)):
+        return float(v)
+    return str(v)
+
+
+def _lift_rows(lifter, X2, poses2d, predict_missing, geometry_missing, n_jobs):
+    """Lift given 2D vectors; returns (poses3d, vectors3d, margin, ok)."""
+    Y, info = lifter.predict(X2, predict_missing, n_jobs=n_jobs)
+    ok = (info["status"] != "failed") & np.isfinite(Y).all(axis=1)
+    P = np.full(poses2d.shape[:2] + (3,), np.nan)
+    margin = np.full(len(Y), np.nan)
+    if ok.any():
+        P[ok], margin[ok], _ = poses_from_vectors(lifter, Y[ok], poses2d[ok],
+                                                  geometry_missing[ok])
+    return P, Y, margin, ok
+
+
+def _score(P, Y, margin, truth_vec, truth_cam):
+    ok = np.isfinite(P).all(axis=(1, 2))
+    e3 = np.full(len(P), np.nan)
+    e3[ok] = err_ave_3d(Y[ok], truth_vec[ok])
+    pa = np.full(len(P), np.nan)
+    pa[ok] = pa_mpjpe(P[ok], truth_cam[ok])
+    t = truth_cam - pelvis(truth_cam)[:, None, :]
+    mirror = P * np.array([1.0, 1.0, -1.0])
+    mirror = mirror - pelvis(mirror)[:, None, :]
+    d_keep = np.linalg.norm(P - t, axis=-1).mean(axis=1)
+    d_flip = np.linalg.norm(mirror - t, axis=-1).mean(axis=1)
+    return {"err3d": e3, "pa_mpjpe": pa,
+            "n_mpjpe": np.where(ok, mpjpe(np.nan_to_num(P), truth_cam, align="scale"), np.nan),
+            "mpjpe": np.where(ok, mpjpe(np.nan_to_num(P), truth_cam), np.nan),
+            "reflection_ok": np.where(ok, d_keep <= d_flip, np.nan),
+            "ambiguous": np.where(ok, margin < 1, np.nan)}
+
+
+def evaluate_lifting(lifters, test, *, dictionary=None, train_poses2d=None,
+                     counts=(1, 2, 3, "mix"), pipelines=None, max_poses=None, seed=0,
+                     n_jobs=1, max_train=20000, data_name="test data"):
+    """Run the application table.
+
+    Parameters
+    ----------
+    lifters : dict name -> Lifter
+        E.g. ``{"dictionary": ..., "mlp": ...}``.
+    test : dict
+        ``poses2d``, ``poses3d``, ``camera_R``, ``camera_t``, ``camera_f`` and
+        optionally ``labels`` (a dataset as :func:`sparseedm.dataset.load_dataset`
+        returns it).
+    dictionary : Dictionary or name, optional
+        For ``applyspar`` (default: the shipped 2D dictionary).
+    train_poses2d : (n, N, 2), optional
+        For the imputer pipelines (skipped without it).
+    pipelines : iterable of str, optional
+        Default: all of complete, as-is average, as-is zero, applyspar, the
+        imputers (with training poses) and joint.
+    """
+    rng = np.random.default_rng(seed)
+    n_all = len(test["poses2d"])
+    idx = np.arange(n_all)
+    if max_poses and max_poses < n_all:
+        idx = np.sort(rng.choice(n_all, max_poses, replace=False))
+    poses2d = np.asarray(test["poses2d"], float)[idx]
+    _, _, truth_vec, truth_cam = training_pairs(
+        poses2d, test["poses3d"][idx], test["camera_R"][idx], test["camera_t"][idx],
+        test["camera_f"][idx])
+    labels = np.asarray(test["labels"])[idx] if "labels" in test else None
+    n, N, _ = poses2d.shape
+    notes = []
+    all_pipes = ["complete", "as-is average", "as-is zero", "applyspar", *IMPUTERS, "joint"]
+    pipelines = list(pipelines or all_pipes)
+    imputers = {}
+    if any(p in IMPUTERS for p in pipelines):
+        if train_poses2d is None:
+            notes.append("no training poses: the imputer pipelines were skipped")
+            pipelines = [p for p in pipelines if p not in IMPUTERS]
+        else:
+            for p in pipelines:
+                if p in IMPUTERS:
+                    imputers[p] = fit_baseline(p, train_poses2d, max_train=max_train,
+                                               random_state=seed)
+    rows, per_action, examples = [], [], {}
+    none_mask = np.zeros((n, N), bool)
+    masks = {c: random_occlusion(n, N, c, random_state=np.random.default_rng([seed, i]))
+             for i, c in enumerate(counts)}
+    for lname, lifter in lifters.items():
+        for pipe in pipelines:
+            if pipe == "joint" and not lifter.codes_observed_only:
+                continue
+            for count in (["none"] if pipe == "complete" else counts):
+                mask = none_mask if pipe == "complete" else masks[count]
+                t0 = time.perf_counter()
+                if pipe in ("complete", "joint"):
+                    X2, _, _ = represent(poses2d, mask, "average")
+                    P, Y, margin, _ = _lift_rows(lifter, X2, poses2d, mask, mask, n_jobs)
+                elif pipe.startswith("as-is"):
+                    rep = pipe.split()[1]
+                    X2, _, _ = represent(np.where(mask[..., None], np.nan, poses2d), mask, rep)
+                    P, Y, margin, _ = _lift_rows(lifter, X2, poses2d, None, mask, n_jobs)
+                else:
+                    occluded = np.where(mask[..., None], np.nan, poses2d)
+                    if pipe == "applyspar":
+                        filled = recover(occluded, mask, dictionary=dictionary,
+                                         n_jobs=n_jobs).poses
+                    else:
+                        filled = imputers[pipe].complete(occluded, mask).poses
+                    good = np.isfinite(filled).all(axis=(1, 2))
+                    filled = np.where(good[:, None, None], filled, poses2d * 0 + 1)
+                    X2, _, _ = represent(filled, None, "average")
+                    P, Y, margin, _ = _lift_rows(lifter, X2, filled, none_mask, none_mask,
+                                                 n_jobs)
+                    P[~good] = np.nan
+                sec = time.perf_counter() - t0
+                sc = _score(P, Y, margin, truth_vec, truth_cam)
+                row = {"lifter": lname, "pipeline": pipe, "count": count, "n_poses": n}
+                row.update({k: float(np.nanmean(v)) for k, v in sc.items()})
+                row["poses_per_s"] = n / sec
+                rows.append(row)
+                if labels is not None and count == "mix":
+                    for lab in np.unique(labels):
+                        sel = labels == lab
+                        per_action.append({"label": str(lab), "lifter": lname, "pipeline": pipe,
+                                           "n_poses": int(sel.sum()),
+                                           "err3d": float(np.nanmean(sc["err3d"][sel]))})
+                if pipe == "joint" and count == "mix" and not examples:
+                    pick = np.random.default_rng(seed).choice(n, min(4, n), replace=False)
+                    examples = {"truth": truth_cam[pick] - pelvis(truth_cam[pick])[:, None],
+                                "lifted": P[pick], "missing": mask[pick],
+                                "titles": [f"{int(mask[i].sum())} occluded, err3d "
+                                           f"{sc['err3d'][i]:.1f}%" for i in pick]}
+    settings = {"n_poses": int(n), "data": data_name, "seed": seed,
+                "counts": [str(c) for c in counts], "pipelines": pipelines,
+                "lifters": {k: v.method for k, v in lifters.items()}}
+    return LiftReport(rows, per_action, examples, settings, notes)

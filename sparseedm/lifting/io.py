@@ -1,0 +1,98 @@
+"""lift_file(): lift a keypoint file to 3D; write x, y, z per joint, statuses and errors.
+
+Input: any keypoint file :func:`sparseedm.keypoints.read_keypoints` reads
+(.csv, .npz, .npy, COCO .json). Output (written atomically), by extension or
+``output_format``:
+
+``.csv``   one pose per row: ``id, <joint>_x, <joint>_y, <joint>_z`` for the 14
+           joints (metres, pelvis at the origin, camera axes: x right, y down,
+           z away from the camera; empty for refused rows), then ``status``,
+           ``reason``, ``chirality_margin``;
+``.npz``   ``poses3d`` (n, 14, 3), ``vectors3d`` (n, 91) in the lifter's
+           normalisation, ``scale_metric`` (n,), ``missing`` (n, 14),
+           ``status``, ``reason``, ``chirality_margin``, ``joint_names`` and
+           ``ids`` when the input had them;
+``.json``  a list of ``{"id", "status", "reason", "joints": {name: [x, y, z] or
+           null}}``.
+
+Refused rows (see :data:`sparseedm.lifting.STATUSES`) are listed in an errors
+file ``<output stem>.errors.csv`` (``row,id,status,reason``), as
+``sparseedm recover`` does.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import numpy as np
+
+from .._atomic import atomic_path
+from ..batch import _write_errors, default_errors_path
+from ..exceptions import FileFormatError
+from ..keypoints import read_keypoints
+from ..skeleton import JOINT_NAMES
+from .lift import lift
+
+__all__ = ["lift_file", "write_poses3d", "OUTPUT_FORMATS"]
+
+OUTPUT_FORMATS = {".csv": "csv", ".npz": "npz", ".json": "json"}
+
+
+def _num(v):
+    return "" if not np.isfinite(v) else repr(float(v))
+
+
+def write_poses3d(path, result, ids=None, output_format=None):
+    """Write a :class:`~sparseedm.lifting.LiftResult` atomically (format from the extension)."""
+    path = Path(path)
+    fmt = output_format or OUTPUT_FORMATS.get(path.suffix.lower())
+    if fmt not in OUTPUT_FORMATS.values():
+        raise FileFormatError(f"{path}: cannot tell the output format; use .csv, .npz or "
+                              ".json or pass --format")
+    n = len(result.status)
+    ids = np.array([str(i) for i in range(n)]) if ids is None else np.asarray(ids, str)
+    P = result.poses3d
+    if fmt == "npz":
+        with atomic_path(path) as tmp:
+            np.savez(tmp, poses3d=P, vectors3d=result.vectors3d,
+                     scale_metric=result.scale_metric, missing=result.missing,
+                     status=result.status.astype(str), reason=result.reason.astype(str),
+                     chirality_margin=result.chirality_margin, ids=ids,
+                     joint_names=np.array(JOINT_NAMES))
+    elif fmt == "csv":
+        with atomic_path(path) as tmp, open(tmp, "w", newline="", encoding="utf-8") as f:
+            w = csv.writer(f)
+            w.writerow(["id"] + [f"{j}_{a}" for j in JOINT_NAMES for a in "xyz"]
+                       + ["status", "reason", "chirality_margin"])
+            for r in range(n):
+                w.writerow([ids[r]] + [_num(v) for v in P[r].ravel()]
+                           + [result.status[r], result.reason[r],
+                              _num(result.chirality_margin[r])])
+    else:
+        doc = []
+        for r in range(n):
+            ok = np.isfinite(P[r]).all()
+            doc.append({"id": str(ids[r]), "status": str(result.status[r]),
+                        "reason": str(result.reason[r]),
+                        "joints": {j: ([float(v) for v in P[r, i]] if ok else None)
+                                   for i, j in enumerate(JOINT_NAMES)}})
+        with atomic_path(path) as tmp, open(tmp, "w", encoding="utf-8") as f:
+            json.dump(doc, f)
+    return path
+
+
+def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, errors_path=None,
+              confidence_threshold=0.0, representation="average"):
+    """Read 2D keypoints, lift them, write 3D poses and an errors file; return a summary."""
+    kps = read_keypoints(input, confidence_threshold=confidence_threshold)
+    result = lift(kps.poses, kps.missing, lifter=lifter, n_jobs=n_jobs,
+                  representation=representation)
+    write_poses3d(output, result, kps.ids, output_format)
+    errors = Path(errors_path) if errors_path else default_errors_path(output)
+    refused = ~result.ok
+    _write_errors(errors, refused, kps.ids, result.status, result.reason)
+    summary = result.summary()
+    summary.update(output=str(output), errors=str(errors) if refused.any() else None)
+    return summary

@@ -1,0 +1,204 @@
+"""lift(): 2D poses (occluded or not) -> 3D poses, with a status per pose.
+
+1. Each pose is normalised by its observed joints (:mod:`sparseedm.normalize`)
+   and becomes its 2D EDM vector (the ``"average"`` representation; a
+   dictionary lifter reads only the observed entries, an MLP the whole vector).
+2. The lifter predicts the 3D EDM vector (:mod:`.dictionary`, :mod:`.mlp`).
+3. :func:`sparseedm.lifting.mds.reconstruct` turns it into coordinates:
+   MDS + SMACOF, rotated to agree with the 2D input (weak perspective), the
+   depth reflection chosen by the lifter's chirality prior.
+4. The pose is scaled to metres by the lifter's size prior and centred on the
+   pelvis; axes are the camera's (x right, y down, z away from the camera).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..edm import vector_to_edm
+from ..exceptions import PoseError, SparseEDMError
+from ..recovery import STATUSES as RECOVERY_STATUSES
+from ..normalize import MIN_OBSERVED_JOINTS, REPRESENTATIONS, normalize, represent
+from .base import load_lifter, rms
+from .mds import reconstruct
+from .metrics import pelvis
+
+__all__ = ["lift", "LiftResult", "STATUSES", "poses_from_vectors"]
+
+#: Per-pose statuses and what they mean (refusals as in :data:`sparseedm.recovery.STATUSES`).
+STATUSES = {
+    "lifted": "lifted from a complete 2D pose",
+    "lifted_occluded": "lifted from the observed joints of an occluded 2D pose",
+    "inaccurate": "lifted, but the lasso optimum is not certified (gap above tolerance)",
+    **{k: RECOVERY_STATUSES[k] for k in ("solver_failed", "too_few_observed",
+                                         "invalid_coordinates", "degenerate")},
+}
+_OK = ("lifted", "lifted_occluded", "inaccurate")
+
+
+@dataclass
+class LiftResult:
+    """What :func:`lift` returns; arrays have the poses' leading axis n.
+
+    Attributes
+    ----------
+    poses3d : (n, N, 3) metres, pelvis at the origin, camera axes (x right,
+        y down, z away from the camera); NaN for refused poses
+    vectors3d : (n, M) 3D EDM vectors in the lifter's normalisation
+    scale_metric : (n,) metres per normalised unit used for poses3d
+    missing : (n, N) bool
+    status, reason : (n,) str (see :data:`STATUSES`)
+    chirality_margin : (n,) how clearly the depth reflection was decided
+        (< 1 counts as ambiguous)
+    seconds : float
+    """
+
+    poses3d: np.ndarray
+    vectors3d: np.ndarray
+    scale_metric: np.ndarray
+    missing: np.ndarray
+    status: np.ndarray
+    reason: np.ndarray
+    chirality_margin: np.ndarray
+    seconds: float = 0.0
+
+    @property
+    def edms3d(self):
+        """3D EDMs (n, N, N) in metres (at the size prior)."""
+        return vector_to_edm(self.vectors3d * self.scale_metric[:, None])
+
+    @property
+    def ok(self):
+        return np.isin(self.status, _OK)
+
+    def summary(self):
+        counts = {s: int((self.status == s).sum()) for s in STATUSES}
+        return {
+            "poses": int(len(self.status)),
+            "refused": int((~self.ok).sum()),
+            "ambiguous_reflection": int((self.chirality_margin[self.ok] < 1).sum()),
+            "seconds": round(self.seconds, 3),
+            "poses_per_second": round(len(self.status) / self.seconds, 1) if self.seconds else None,
+            "status": {k: v for k, v in counts.items() if v},
+        }
+
+
+def _validate(poses, missing, n_joints):
+    poses = np.asarray(poses, dtype=float)
+    if poses.ndim == 2:
+        poses = poses[None]
+    if poses.ndim != 3 or poses.shape[-1] != 2:
+        raise PoseError(f"poses must have shape (n, N, 2), got {np.shape(poses)}")
+    if poses.shape[1] != n_joints:
+        raise PoseError(f"poses have {poses.shape[1]} joints but the lifter is for {n_joints}")
+    mask = np.isnan(poses).any(axis=-1)
+    if missing is not None:
+        extra = np.asarray(missing, dtype=bool)
+        if extra.ndim == 1:
+            extra = extra[None]
+        if extra.shape != mask.shape:
+            raise PoseError(f"missing must have shape {mask.shape}, got {extra.shape}")
+        mask = mask | extra
+    bad = ((~np.isfinite(poses)).any(axis=-1) & ~mask).any(axis=1)
+    return poses, mask, bad
+
+
+def lift(poses, missing=None, *, lifter=None, n_jobs=1, representation="average"):
+    """Lift 2D poses to 3D.
+
+    Parameters
+    ----------
+    poses : array_like (n, N, 2) or (N, 2)
+        Pixels (any frame: each pose is normalised); NaN marks missing joints.
+    missing : array_like of bool (n, N), optional
+        More missing joints (combined with NaN by "or").
+    lifter : Lifter, str or path, optional
+        A loaded lifter, a shipped name, or a lifter .npz; default the
+        shipped ``"default"``.
+    n_jobs : int, default 1
+        Threads for the dictionary lifter's lasso.
+    representation : {"average", "zero"}
+        How occluded joints are fed to a lifter that reads whole vectors
+        (MLP); the dictionary lifter reads observed entries only.
+
+    Returns
+    -------
+    LiftResult
+
+    Examples
+    --------
+    >>> import numpy as np, sparseedm
+    >>> pose = np.array([[50, 10], [50, 30], [35, 32], [30, 55], [28, 78],
+    ...                  [65, 32], [70, 55], [72, 78], [40, 80], [40, 115],
+    ...                  [40, 150], [60, 80], [60, 115], [60, 150]], float)
+    >>> pose[4] = np.nan                      # right wrist occluded
+    >>> res = sparseedm.lift(pose)
+    >>> res.status.tolist(), res.poses3d.shape
+    (['lifted_occluded'], (1, 14, 3))
+    >>> 1.2 < float(np.ptp(res.poses3d[0, :, 1])) < 2.2     # height in metres
+    True
+    """
+    t0 = time.perf_counter()
+    lifter = load_lifter(lifter)
+    if representation not in REPRESENTATIONS:
+        raise SparseEDMError(f"unknown representation {representation!r}; use one of "
+                             f"{REPRESENTATIONS}")
+    N = lifter.n_joints
+    poses, mask, bad = _validate(poses, missing, N)
+    n = len(poses)
+    m = N * (N - 1) // 2
+    status = np.full(n, "lifted", dtype=object)
+    reason = np.full(n, "", dtype=object)
+    n_obs = (~mask).sum(axis=1)
+    status[bad] = "invalid_coordinates"
+    reason[bad] = "an observed joint has a NaN or infinite coordinate"
+    few = ~bad & (n_obs < MIN_OBSERVED_JOINTS)
+    status[few] = "too_few_observed"
+    reason[few] = [f"{k} observed joints, at least {MIN_OBSERVED_JOINTS} needed" for k in n_obs[few]]
+    clean = np.where(mask[..., None], 0.0, poses)
+    with np.errstate(invalid="ignore"):
+        lo = np.where(mask[..., None], np.inf, clean).min(axis=1)
+        hi = np.where(mask[..., None], -np.inf, clean).max(axis=1)
+        widest = (hi - lo).max(axis=1)
+    degenerate = (status == "lifted") & ~(widest > 0)
+    status[degenerate] = "degenerate"
+    reason[degenerate] = "all observed joints coincide"
+    status[(status == "lifted") & (n_obs < N)] = "lifted_occluded"
+
+    out = np.full((n, N, 3), np.nan)
+    vec3 = np.full((n, m), np.nan)
+    scale_metric = np.full(n, np.nan)
+    margin = np.full(n, np.nan)
+    rows = np.flatnonzero(np.isin(status, ("lifted", "lifted_occluded")))
+    if len(rows):
+        X2, _, _ = represent(clean[rows], mask[rows], representation)
+        Y, info = lifter.predict(X2, mask[rows], n_jobs=n_jobs)
+        st = info["status"]
+        status[rows[st == "inaccurate"]] = "inaccurate"
+        reason[rows[st == "inaccurate"]] = "duality gap above tolerance"
+        failed = (st == "failed") | ~np.isfinite(Y).all(axis=1)
+        status[rows[failed]] = "solver_failed"
+        reason[rows[failed]] = "the lifter gave no finite answer"
+        good = ~failed
+        rows, Y = rows[good], Y[good]
+        if len(rows):
+            out[rows], margin[rows], scale_metric[rows] = poses_from_vectors(
+                lifter, Y, poses[rows], mask[rows])
+            vec3[rows] = Y
+    return LiftResult(poses3d=out, vectors3d=vec3, scale_metric=scale_metric, missing=mask,
+                      status=status.astype(str), reason=reason.astype(str),
+                      chirality_margin=margin, seconds=time.perf_counter() - t0)
+
+
+def poses_from_vectors(lifter, vectors3d, poses2d, missing):
+    """Metric 3D poses from predicted 3D EDM vectors and the 2D input (steps 3-4 above).
+
+    Returns ``(poses3d, chirality_margin, scale_metric)``.
+    """
+    normed, _, _ = normalize(np.where(missing[..., None], np.nan, poses2d), missing)
+    P, margin, _ = reconstruct(vector_to_edm(vectors3d), normed, ~missing, lifter.chirality_)
+    k = lifter.size_prior_ / np.maximum(rms(vectors3d), 1e-12)
+    return (P - pelvis(P)[:, None, :]) * k[:, None, None], margin, k
