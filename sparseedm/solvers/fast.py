@@ -68,23 +68,41 @@ def _chol_rebuild(R, active, n, L):
     return True
 
 
+#: where `_lars_core` takes Gram rows from
+_FROM_GRAM, _FROM_ATOMS, _DOWNDATE = 0, 1, 2
+
+
 @numba.njit(cache=True, inline="always")
-def _gram_row(G, DW, use_gram, j, out):
-    """Row j of the Gram matrix: copied from G, or computed from the atoms DW."""
-    if use_gram:
+def _gram_row(G, DW, mode, miss, j, out):
+    """Row j of the (sub-)dictionary's Gram matrix, by `mode`.
+
+    _FROM_GRAM: copied from G; _FROM_ATOMS: computed from the atoms DW (k x m);
+    _DOWNDATE: from the full Gram G and the full dictionary DW (features x k)
+    as ``G[j] - sum_{q in miss} DW[q, j] DW[q]``, the rows `miss` being the
+    features the sub-dictionary lacks (m_miss x k work instead of m_obs x k).
+    """
+    if mode == 0:
         for t in range(out.shape[0]):
             out[t] = G[j, t]
-    else:
+    elif mode == 1:
         out[:] = np.dot(DW, DW[j])  # BLAS gemv
+    else:
+        for t in range(out.shape[0]):
+            out[t] = G[j, t]
+        for q in miss:
+            v = DW[q, j]
+            if v != 0.0:
+                for t in range(out.shape[0]):
+                    out[t] -= v * DW[q, t]
 
 
 @numba.njit(cache=True)
-def _lars_core(G, DW, use_gram, dtx, alpha, positive, max_steps, rank, coef):
+def _lars_core(G, DW, mode, miss, dtx, alpha, positive, max_steps, rank, coef):
     """LARS-lasso homotopy for one signal over k atoms; writes `coef`.
 
-    Gram rows come from G (k x k) when `use_gram`, else are computed from the
-    atoms DW (k x m) as atoms enter. Returns the step count, negative if the
-    path stopped early (the certificate then decides).
+    Gram rows come from G, DW and `miss` as `_gram_row`'s `mode` says, as
+    atoms enter. Returns the step count, negative if the path stopped early
+    (the certificate then decides).
     """
     k = dtx.shape[0]
     c = dtx.copy()  # correlations D^T r at the current point
@@ -122,7 +140,7 @@ def _lars_core(G, DW, use_gram, dtx, alpha, positive, max_steps, rank, coef):
         if entering >= 0:
             if n >= max_active:
                 return -steps
-            _gram_row(G, DW, use_gram, entering, R[n])
+            _gram_row(G, DW, mode, miss, entering, R[n])
             # append `entering` to the Cholesky factor of G_AA
             for i in range(n):
                 s = R[i, entering]
@@ -222,8 +240,8 @@ def _lars_core(G, DW, use_gram, dtx, alpha, positive, max_steps, rank, coef):
 
 @numba.njit(cache=True)
 def _lars_one(G, dtx, alpha, positive, max_steps, rank, coef):
-    return _lars_core(G, np.empty((0, 0)), True, dtx, alpha, positive, max_steps, rank,
-                      coef)
+    return _lars_core(G, np.empty((0, 0)), 0, np.empty(0, np.int64), dtx, alpha, positive,
+                      max_steps, rank, coef)
 
 
 @numba.njit(cache=True, parallel=True, nogil=True)
@@ -231,8 +249,8 @@ def _lars_rows_batch(Dt, X, alpha, positive, max_steps, coef, steps):
     k, m = Dt.shape
     for i in numba.prange(X.shape[0]):
         dtx = np.dot(Dt, X[i])
-        steps[i] = _lars_core(np.empty((0, 0)), Dt, False, dtx, alpha, positive,
-                              max_steps, m, coef[i])
+        steps[i] = _lars_core(np.empty((0, 0)), Dt, 1, np.empty(0, np.int64), dtx, alpha,
+                              positive, max_steps, m, coef[i])
 
 
 @numba.njit(cache=True, nogil=True)
@@ -240,8 +258,8 @@ def _lars_rows_batch_serial(Dt, X, alpha, positive, max_steps, coef, steps):
     k, m = Dt.shape
     for i in range(X.shape[0]):
         dtx = np.dot(Dt, X[i])
-        steps[i] = _lars_core(np.empty((0, 0)), Dt, False, dtx, alpha, positive,
-                              max_steps, m, coef[i])
+        steps[i] = _lars_core(np.empty((0, 0)), Dt, 1, np.empty(0, np.int64), dtx, alpha,
+                              positive, max_steps, m, coef[i])
 
 
 def lars_lasso_rows(D, X, alpha, *, positive=False, max_steps=500):
@@ -328,6 +346,69 @@ def lars_lasso_gram(G, DtX, alpha, *, positive=False, max_steps=500, rank=None):
     return coef, steps
 
 
+@numba.njit(cache=True, nogil=True)
+def _lars_masked_row(G, D, Dt, X0, miss, n_miss, alpha, positive, max_steps, coef, steps,
+                     i):
+    dtx = np.dot(Dt, X0[i])  # D_sub^T x_sub: X0 is zero off the observed entries
+    steps[i] = _lars_core(G, D, 2, miss[i, :n_miss[i]], dtx, alpha[i], positive, max_steps,
+                          D.shape[0] - n_miss[i], coef[i])
+
+
+@numba.njit(cache=True, parallel=True, nogil=True)
+def _lars_masked_batch(G, D, Dt, X0, miss, n_miss, alpha, positive, max_steps, coef, steps):
+    for i in numba.prange(X0.shape[0]):
+        _lars_masked_row(G, D, Dt, X0, miss, n_miss, alpha, positive, max_steps, coef, steps, i)
+
+
+@numba.njit(cache=True, nogil=True)
+def _lars_masked_batch_serial(G, D, Dt, X0, miss, n_miss, alpha, positive, max_steps, coef,
+                              steps):
+    for i in range(X0.shape[0]):
+        _lars_masked_row(G, D, Dt, X0, miss, n_miss, alpha, positive, max_steps, coef, steps, i)
+
+
+def lars_lasso_masked(G, D, X, observed, alpha, *, positive=False, max_steps=500):
+    """As :func:`lars_lasso_gram` for rows of many sub-dictionaries of one D.
+
+    Row i is solved on ``D[observed[i]]``; every Gram row it needs is the full
+    Gram's row downdated by the features it lacks, so no per-pattern Gram
+    matrix is ever formed.
+
+    Parameters
+    ----------
+    G : ndarray, shape (k, k)
+        ``D^T D`` of the full dictionary.
+    D : ndarray, shape (n_features, k)
+    X : ndarray, shape (n_samples, n_features)
+        Zero off the observed entries.
+    observed : ndarray of bool, shape (n_samples, n_features)
+    alpha : ndarray, shape (n_samples,)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> D = np.eye(3); obs = np.array([[True, True, False]])
+    >>> coef, steps = lars_lasso_masked(D.T @ D, D, np.array([[3.0, -0.5, 0.0]]), obs,
+    ...                                 np.array([1.0]))
+    >>> coef.tolist()
+    [[2.0, 0.0, 0.0]]
+    """
+    D = np.ascontiguousarray(D, dtype=np.float64)
+    X = np.ascontiguousarray(np.atleast_2d(X), dtype=np.float64)
+    observed = np.asarray(observed, dtype=bool)
+    n_miss = (~observed).sum(axis=1).astype(np.int64)
+    # the unobserved features of each row first (argsort of False before True)
+    miss = np.ascontiguousarray(np.argsort(observed, axis=1, kind="stable")[:, :max(
+        int(n_miss.max(initial=0)), 1)].astype(np.int64))
+    coef = np.zeros((X.shape[0], D.shape[1]))
+    steps = np.zeros(X.shape[0], dtype=np.int64)
+    kernel = _lars_masked_batch if len(X) >= _PARALLEL_MIN else _lars_masked_batch_serial
+    kernel(np.ascontiguousarray(G, dtype=np.float64), D, np.ascontiguousarray(D.T), X, miss,
+           n_miss, np.ascontiguousarray(alpha, dtype=np.float64), bool(positive),
+           int(max_steps), coef, steps)
+    return coef, steps
+
+
 class FastSolver(BaseSolver):
     """LARS-lasso homotopy on a cached per-pattern Gram matrix, certified.
 
@@ -395,6 +476,13 @@ class FastSolver(BaseSolver):
             while len(self._grams) > self.cache_size:
                 self._grams.popitem(last=False)
         return G
+
+    def _solve_masked(self, D, X, observed, alpha, positive, key):
+        # one Gram matrix for the whole dictionary, downdated per row as atoms
+        # enter: no per-pattern set-up at all
+        coef, steps = lars_lasso_masked(self._gram(D, key), D, X, observed, alpha,
+                                        positive=positive, max_steps=self.max_steps)
+        return coef, np.full(X.shape[0], OPTIMAL, dtype=object), steps
 
     def _solve(self, D, X, alpha, positive, key):
         if len(X) < self.gram_min:  # (by size only: results must not depend on cache state)
