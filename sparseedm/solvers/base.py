@@ -219,14 +219,21 @@ class BaseSolver:
 
     def _solve_masked(self, D, X, observed, alpha, positive, key):
         """Default: each (pattern, alpha) group's rows through ``_solve``."""
+        return self._by_pattern(D, X, observed, alpha, key,
+                                lambda Ds, Xs, a, sub_key, rows: self._solve(Ds, Xs, a, positive,
+                                                                             sub_key))
+
+    @staticmethod
+    def _by_pattern(D, X, observed, alpha, key, solve_group):
+        """(coef, status, n_iter) with ``solve_group(D_sub, X_sub, alpha, key, rows)``
+        run on each (pattern, alpha) group of rows."""
         n = len(X)
         coef = np.zeros((n, D.shape[1]))
         status = np.empty(n, dtype=object)
         n_iter = np.zeros(n, dtype=int)
         for rows, obs in _pattern_groups(observed, alpha):
             sub_key = None if key is None else (key, obs.tobytes())
-            c, st, it = self._solve(D[obs], X[rows][:, obs], float(alpha[rows[0]]), positive,
-                                    sub_key)
+            c, st, it = solve_group(D[obs], X[rows][:, obs], float(alpha[rows[0]]), sub_key, rows)
             coef[rows], status[rows], n_iter[rows] = c, st, it
         return coef, status, n_iter
 

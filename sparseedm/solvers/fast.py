@@ -206,15 +206,17 @@ def _lars_core(G, DW, mode, miss, dtx, alpha, positive, max_steps, rank, coef):
         if event == 0:
             break
         if event == 3:
-            # drop active[best]; rebuild the factor (rare, n <= rows)
+            # drop active[best]: the last active atom takes its place (one
+            # Gram row moved, not all those after it); rebuild the factor
             dropped = active[best]
             state[dropped] = 0
-            for i in range(best, n - 1):
-                active[i] = active[i + 1]
-                sign[i] = sign[i + 1]
-                beta[i] = beta[i + 1]
+            last = n - 1
+            if best != last:
+                active[best] = active[last]
+                sign[best] = sign[last]
+                beta[best] = beta[last]
                 for j in range(k):
-                    R[i, j] = R[i + 1, j]
+                    R[best, j] = R[last, j]
             n -= 1
             if not _chol_rebuild(R, active, n, L):
                 return -steps
