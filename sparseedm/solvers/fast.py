@@ -362,13 +362,6 @@ def _lars_masked_batch(G, D, Dt, X0, miss, n_miss, alpha, positive, max_steps, c
         _lars_masked_row(G, D, Dt, X0, miss, n_miss, alpha, positive, max_steps, coef, steps, i)
 
 
-@numba.njit(cache=True, nogil=True)
-def _lars_masked_batch_serial(G, D, Dt, X0, miss, n_miss, alpha, positive, max_steps, coef,
-                              steps):
-    for i in range(X0.shape[0]):
-        _lars_masked_row(G, D, Dt, X0, miss, n_miss, alpha, positive, max_steps, coef, steps, i)
-
-
 def lars_lasso_masked(G, D, X, observed, alpha, *, positive=False, max_steps=500):
     """As :func:`lars_lasso_gram` for rows of many sub-dictionaries of one D.
 
@@ -404,11 +397,144 @@ def lars_lasso_masked(G, D, X, observed, alpha, *, positive=False, max_steps=500
         int(n_miss.max(initial=0)), 1)].astype(np.int64))
     coef = np.zeros((X.shape[0], D.shape[1]))
     steps = np.zeros(X.shape[0], dtype=np.int64)
-    kernel = _lars_masked_batch if len(X) >= _PARALLEL_MIN else _lars_masked_batch_serial
-    kernel(np.ascontiguousarray(G, dtype=np.float64), D, np.ascontiguousarray(D.T), X, miss,
-           n_miss, np.ascontiguousarray(alpha, dtype=np.float64), bool(positive),
+    G = np.ascontiguousarray(G, dtype=np.float64)
+    alpha = np.ascontiguousarray(alpha, dtype=np.float64)
+    if len(X) < NUMPY_MAX:  # by size only: an answer must not depend on cache state
+        for i in range(len(X)):
+            steps[i] = _lars_masked_numpy(G, D, X[i], miss[i, :n_miss[i]], alpha[i],
+                                          bool(positive), int(max_steps), coef[i])
+        return coef, steps
+    _lars_masked_batch(G, D, np.ascontiguousarray(D.T), X, miss, n_miss, alpha, bool(positive),
            int(max_steps), coef, steps)
     return coef, steps
+
+
+def _trsolve(L, b):
+    """x with L x = b, L lower triangular (LAPACK, without scipy's checks)."""
+    from scipy.linalg.lapack import dtrtrs
+
+    return dtrtrs(L, b, lower=1)[0]
+
+
+def _chsolve(L, b):
+    """x with L L' x = b (LAPACK, without scipy's checks)."""
+    from scipy.linalg.lapack import dpotrs
+
+    return dpotrs(L, b, lower=1)[0]
+
+
+def _lars_masked_numpy(G, D, x0, miss, alpha, positive, max_steps, coef):
+    """`_lars_core` in downdate mode, written with numpy instead of compiled.
+
+    The same homotopy step for step (each event search is one vectorised
+    pass where the compiled kernel loops), so the same answer to round-off:
+    it serves small batches, which then never wait for numba to compile
+    (several seconds on first use).
+    """
+    k = G.shape[0]
+    dtx = D.T @ x0
+    c = dtx.copy()
+    max_active = min(k, max_steps + 1, D.shape[0] - len(miss) + 1)
+    active = np.empty(max_active, np.int64)
+    sign = np.empty(max_active)
+    beta = np.zeros(max_active)
+    L = np.zeros((max_active, max_active))
+    R = np.empty((max_active + 1, k))
+    state = np.zeros(k, np.int8)
+    coef[:] = 0.0
+    score = c if positive else np.abs(c)
+    jmax = int(np.argmax(score))
+    lam = score[jmax]
+    if lam <= alpha:
+        return 0
+    n = 0
+    new_sign = 1.0 if c[jmax] > 0 else -1.0
+    entering, dropped = jmax, -1
+    tiny = 1e-14 * lam
+    Dm = D[miss]
+    steps = 0
+    while steps < max_steps:
+        steps += 1
+        if entering >= 0:
+            if n >= max_active:
+                return -steps
+            R[n] = G[entering] - Dm[:, entering] @ Dm
+            if n:
+                L[n, :n] = _trsolve(L[:n, :n], R[:n, entering])
+            d = R[n, entering] - L[n, :n] @ L[n, :n]
+            if d <= 1e-10 * R[n, entering]:
+                state[entering] = 2
+            else:
+                L[n, n] = np.sqrt(d)
+                active[n], sign[n], beta[n] = entering, new_sign, 0.0
+                state[entering] = 1
+                n += 1
+            entering = -1
+        if n:
+            w = _chsolve(L[:n, :n], sign[:n])
+            a = w @ R[:n]
+        else:
+            w, a = np.zeros(0), np.zeros(k)
+        gamma = lam - alpha
+        event, best = 0, -1
+        free = state == 0
+        if dropped >= 0:
+            free[dropped] = False
+        # the kernel's scan, vectorised: first minimum in the order (j, +), (j, -)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            den, num = 1.0 - a, lam - c
+            g1 = np.where(free & (den > 1e-12) & (num > tiny * den), num / den, np.inf)
+            j1 = int(np.argmin(g1))
+            j2 = -1
+            if not positive:
+                den, num = 1.0 + a, lam + c
+                g2 = np.where(free & (den > 1e-12) & (num > tiny * den), num / den, np.inf)
+                j2 = int(np.argmin(g2))
+        if j2 >= 0 and (g2[j2] < g1[j1] or (g2[j2] == g1[j1] and j2 < j1)):
+            if g2[j2] < gamma:
+                gamma, event, best = g2[j2], 2, j2
+        elif g1[j1] < gamma:
+            gamma, event, best = g1[j1], 1, j1
+        if n:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                g = np.where(w * sign[:n] < 0.0, -beta[:n] / w, np.inf)
+            g = np.where(g > tiny, g, np.inf)
+            i = int(np.argmin(g))
+            if g[i] < gamma:
+                gamma, event, best = g[i], 3, i
+        beta[:n] += gamma * w
+        c -= gamma * a
+        lam -= gamma
+        dropped = -1
+        if event == 0:
+            break
+        if event == 3:
+            dropped = active[best]
+            state[dropped] = 0
+            last = n - 1
+            if best != last:
+                active[best], sign[best], beta[best] = active[last], sign[last], beta[last]
+                R[best] = R[last]
+            n -= 1
+            try:
+                L[:n, :n] = np.linalg.cholesky(R[:n][:, active[:n]]) if n else 0.0
+            except np.linalg.LinAlgError:
+                return -steps
+        else:
+            entering = best
+            new_sign = 1.0 if event == 1 else -1.0
+    else:
+        return -steps
+    A = active[:n]
+    w = _chsolve(L[:n, :n], dtx[A] - alpha * sign[:n]) if n else beta[:0]
+    consistent = not (w * sign[:n] < 0.0).any()
+    coef[A] = w if consistent else beta[:n]
+    return steps
+
+
+#: below this many signals, the masked solve runs `_lars_masked_numpy`: no
+#: compilation, and for a handful of poses as fast as waiting for it
+NUMPY_MAX = 64
 
 
 class FastSolver(BaseSolver):
