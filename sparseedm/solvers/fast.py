@@ -96,6 +96,27 @@ def _gram_row(G, DW, mode, miss, j, out):
                     out[t] -= v * DW[q, t]
 
 
+def _drop_atom(active, sign, beta, R, state, best, n):
+    """Drop active[best] from the n active atoms; returns the atom dropped.
+
+    The last active atom takes its place (one Gram row moved, not all those
+    after it); the caller rebuilds the Cholesky factor. Plain Python, shared
+    by the compiled kernel (as `_drop_atom_jit`) and the numpy path.
+    """
+    dropped = active[best]
+    state[dropped] = 0
+    last = n - 1
+    if best != last:
+        active[best] = active[last]
+        sign[best] = sign[last]
+        beta[best] = beta[last]
+        R[best, :] = R[last, :]
+    return dropped
+
+
+_drop_atom_jit = numba.njit(cache=True, inline="always")(_drop_atom)
+
+
 @numba.njit(cache=True)
 def _lars_core(G, DW, mode, miss, dtx, alpha, positive, max_steps, rank, coef):
     """LARS-lasso homotopy for one signal over k atoms; writes `coef`.
@@ -206,17 +227,7 @@ def _lars_core(G, DW, mode, miss, dtx, alpha, positive, max_steps, rank, coef):
         if event == 0:
             break
         if event == 3:
-            # drop active[best]: the last active atom takes its place (one
-            # Gram row moved, not all those after it); rebuild the factor
-            dropped = active[best]
-            state[dropped] = 0
-            last = n - 1
-            if best != last:
-                active[best] = active[last]
-                sign[best] = sign[last]
-                beta[best] = beta[last]
-                for j in range(k):
-                    R[best, j] = R[last, j]
+            dropped = _drop_atom_jit(active, sign, beta, R, state, best, n)
             n -= 1
             if not _chol_rebuild(R, active, n, L):
                 return -steps
@@ -509,12 +520,7 @@ def _lars_masked_numpy(G, D, x0, miss, alpha, positive, max_steps, coef):
         if event == 0:
             break
         if event == 3:
-            dropped = active[best]
-            state[dropped] = 0
-            last = n - 1
-            if best != last:
-                active[best], sign[best], beta[best] = active[last], sign[last], beta[last]
-                R[best] = R[last]
+            dropped = _drop_atom(active, sign, beta, R, state, best, n)
             n -= 1
             try:
                 L[:n, :n] = np.linalg.cholesky(R[:n][:, active[:n]]) if n else 0.0
