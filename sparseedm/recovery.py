@@ -19,10 +19,11 @@ observed: the penalty keeps its weight per observed distance, as the data term
 shrinks with the entries left. The recommended alpha of a dictionary was chosen
 with the same rule on a validation split.
 
-Poses are grouped by missing pattern (at most 469 patterns for up to 3 of 14
-joints), so each pattern's sub-dictionary work (a compiled cvxpy problem, a
-Gram matrix) is done once; groups are cut into chunks that joblib spreads over
-CPU cores.
+Poses are sorted by missing pattern (at most 469 patterns for up to 3 of 14
+joints) and cut into chunks that joblib spreads over CPU cores; each chunk
+goes to the solver's ``solve_masked``, which solves every row on its observed
+entries (the fast solver in one kernel call from one cached Gram matrix of the
+whole dictionary; the others per pattern group).
 """
 
 from __future__ import annotations

@@ -5,10 +5,19 @@ Why this backend exists
 Every recovery solves a small lasso: 55-78 observed distances, k = 2000 atoms.
 The optimum has at most as many non-zeros as rows, and the LARS-lasso homotopy
 (Efron et al. 2004; the algorithm behind SPAMS' ``lasso``) walks to it exactly in
-one step per atom that enters or leaves, each step costing O(k |A|) on a
-precomputed Gram matrix ``G = D^T D``. Poses that share a missing-joint pattern
-share D, hence G, so G is computed once per pattern by BLAS-3 and cached, and
-``D^T x`` for the whole group is one matrix product.
+one step per atom that enters or leaves, each step costing O(k |A|) on the
+Gram rows of the active atoms. Those rows come from one Gram matrix ``G = D^T D``
+of the *whole* dictionary, computed once and cached: the sub-dictionary of a
+pose lacks the rows ``D_m`` of its missing entries, and its Gram row j is
+``G[j] - D_m[:, j]^T D_m`` (m_miss x k work, m_miss = 13-36 of 91 entries), so no
+per-pattern Gram matrix is ever formed and rows of every pattern run in one
+kernel call (:func:`lars_lasso_masked`, ``FastSolver.solve_masked``).
+``FastSolver.solve`` on a given sub-dictionary keeps the per-pattern Gram
+(or atom-computed rows for a handful of signals).
+
+Batches under ``NUMPY_MAX`` rows run the same homotopy written with numpy
+(:func:`_lars_masked_numpy`: the same steps, vectorised event search), so a
+small first call never waits for numba to compile.
 
 The homotopy's inner loop (scan k atoms for the next event, rank-one Cholesky
 updates) is scalar code that numpy cannot batch, so it is compiled with numba;
