@@ -87,7 +87,8 @@ def _triu_csc(G, n):
     ks = len(G)
     rows, cols = np.triu_indices(ks)
     order = np.lexsort((rows, cols))  # column-major
-    indptr = np.concatenate([[0], np.cumsum(np.arange(1, ks + 1)), np.full(n - ks, ks * (ks + 1) // 2)])
+    nnz = ks * (ks + 1) // 2
+    indptr = np.concatenate([[0], np.cumsum(np.arange(1, ks + 1)), np.full(n - ks, nnz)])
     return sp.csc_matrix((G[rows[order], cols[order]], rows[order], indptr), shape=(n, n))
 
 
@@ -97,7 +98,8 @@ def _box_csc(ks):
     indices = np.stack([j, ks + j], axis=1).ravel()
     data = np.concatenate([np.tile([1.0, -1.0], ks), np.full(2 * ks, -1.0)])
     indptr = np.arange(0, 4 * ks + 1, 2)
-    return sp.csc_matrix((data, np.concatenate([indices, indices]), indptr), shape=(2 * ks, 2 * ks))
+    return sp.csc_matrix((data, np.concatenate([indices, indices]), indptr),
+                         shape=(2 * ks, 2 * ks))
 
 
 def _polish_candidates(D, x, c, alpha, positive, levels=(1e-6, 1e-4, 1e-3, 1e-2)):
