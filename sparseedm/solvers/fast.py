@@ -424,8 +424,11 @@ def lars_lasso_masked(G, D, X, observed, alpha, *, positive=False, max_steps=500
             steps[i] = _lars_masked_numpy(G, D, X[i], miss[i, :n_miss[i]], alpha[i],
                                           bool(positive), int(max_steps), coef[i])
         return coef, steps
-    _lars_masked_batch(G, D, np.ascontiguousarray(D.T), X, miss, n_miss, alpha, bool(positive),
-           int(max_steps), coef, steps)
+    # dynamic scheduling in small chunks: rows differ in cost, and on a busy
+    # machine a static half per thread waits for the slower thread
+    with numba.parallel_chunksize(4):
+        _lars_masked_batch(G, D, np.ascontiguousarray(D.T), X, miss, n_miss, alpha,
+                           bool(positive), int(max_steps), coef, steps)
     return coef, steps
 
 
