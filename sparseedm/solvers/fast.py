@@ -382,6 +382,13 @@ def _lars_masked_batch(G, D, Dt, X0, miss, n_miss, alpha, positive, max_steps, c
         _lars_masked_row(G, D, Dt, X0, miss, n_miss, alpha, positive, max_steps, coef, steps, i)
 
 
+@numba.njit(cache=True, nogil=True)
+def _lars_masked_batch_serial(G, D, Dt, X0, miss, n_miss, alpha, positive, max_steps, coef,
+                              steps):
+    for i in range(X0.shape[0]):
+        _lars_masked_row(G, D, Dt, X0, miss, n_miss, alpha, positive, max_steps, coef, steps, i)
+
+
 def lars_lasso_masked(G, D, X, observed, alpha, *, positive=False, max_steps=500):
     """As :func:`lars_lasso_gram` for rows of many sub-dictionaries of one D.
 
@@ -424,11 +431,17 @@ def lars_lasso_masked(G, D, X, observed, alpha, *, positive=False, max_steps=500
             steps[i] = _lars_masked_numpy(G, D, X[i], miss[i, :n_miss[i]], alpha[i],
                                           bool(positive), int(max_steps), coef[i])
         return coef, steps
+    args = (G, D, np.ascontiguousarray(D.T), X, miss, n_miss, alpha, bool(positive),
+            int(max_steps), coef, steps)
+    if numba.get_num_threads() == 1:
+        # e.g. a joblib worker thread: numba's parallel launches would
+        # serialise across threads (measured: 2 jobs at 0.8 cores)
+        _lars_masked_batch_serial(*args)
+        return coef, steps
     # dynamic scheduling in small chunks: rows differ in cost, and on a busy
     # machine a static half per thread waits for the slower thread
     with numba.parallel_chunksize(4):
-        _lars_masked_batch(G, D, np.ascontiguousarray(D.T), X, miss, n_miss, alpha,
-                           bool(positive), int(max_steps), coef, steps)
+        _lars_masked_batch(*args)
     return coef, steps
 
 
