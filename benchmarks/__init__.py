@@ -56,7 +56,7 @@ def load_cmu():
         p.parent.mkdir(parents=True, exist_ok=True)
         log(f"building the CMU training set into {p} (about 20 s)")
         subprocess.run([sys.executable, "-m", "sparseedm", "dataset", "build", str(CMU_RAW),
-                        "-o", str(p), "--seed", "0", "-q"], check=True)
+                        "-o", str(p), "--seed", "0", "--quiet"], check=True)
     with np.load(p, allow_pickle=False) as npz:
         return npz["poses2d"], npz["clips"], p
 

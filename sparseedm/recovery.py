@@ -19,10 +19,11 @@ observed: the penalty keeps its weight per observed distance, as the data term
 shrinks with the entries left. The recommended alpha of a dictionary was chosen
 with the same rule on a validation split.
 
-Poses are grouped by missing pattern (at most 469 patterns for up to 3 of 14
-joints), so each pattern's sub-dictionary work (a compiled cvxpy problem, a
-Gram matrix) is done once; groups are cut into chunks that joblib spreads over
-CPU cores.
+Poses are sorted by missing pattern (at most 469 patterns for up to 3 of 14
+joints) and cut into chunks that joblib spreads over CPU cores; each chunk
+goes to the solver's ``solve_masked``, which solves every row on its observed
+entries (the fast solver in one kernel call from one cached Gram matrix of the
+whole dictionary; the others per pattern group).
 """
 
 from __future__ import annotations
@@ -151,17 +152,24 @@ class RecoveryResult:
         return out
 
 
-def _solve_chunk(solver, components, obs_idx, pattern_key, X_sub, alpha_eff, positive,
-                 threads=None):
-    D_sub = components[:, obs_idx].T
+def _solve_chunk(solver, components, X, observed, alpha_eff, positive, key, threads=None):
+    """One task: the lasso of every row on its observed entries, merged (Eq. 10)."""
     if threads is not None:  # one thread per joblib worker: no oversubscription
         import numba
 
         numba.set_num_threads(threads)
-    res = solver.solve(D_sub, X_sub, alpha_eff, positive=positive, key=pattern_key)
-    T_re = res.coef @ components
-    n_active = (res.coef != 0).sum(axis=1)
-    return T_re, res.objective, res.gap, res.status, n_active, res.fallback
+    res = solver.solve_masked(components.T, X, observed, alpha_eff, positive=positive,
+                              key=key)
+    # T_re = c D row by row over the few atoms used: a row's answer must not
+    # depend on which rows share its chunk (a batched product rounds differently)
+    T_re = np.empty_like(X)
+    n_active = np.empty(len(X), dtype=int)
+    for i, c in enumerate(res.coef):
+        nz = np.flatnonzero(c)
+        T_re[i] = c[nz] @ components[nz]
+        n_active[i] = len(nz)
+    merged = np.where(observed, X, T_re)  # Eq. 10
+    return merged, res.objective, res.gap, res.status, n_active, res.fallback
 
 
 #: constraints of recover()'s arguments (see sparseedm._validation)
@@ -412,23 +420,20 @@ def _recover(poses, missing=None, *, dictionary=None, alpha=None,
 
     todo = np.flatnonzero(status == "recovered")
     dict_key = hashlib.sha1(np.ascontiguousarray(components).tobytes()).hexdigest()
-    # group by missing pattern, cut each group into chunks
-    patterns, inverse = np.unique(mask[todo], axis=0, return_inverse=True)
-    inverse = inverse.reshape(-1)
-    tasks = []
-    for p, pattern in enumerate(patterns):
-        rows = todo[inverse == p]
-        obs_idx = np.flatnonzero(observed_entries(pattern))
-        scale_factor = len(obs_idx) / m if dictionary.alpha_scaling == "entries" else 1.0
-        key = (dict_key, pattern.tobytes())
-        for start in range(0, len(rows), chunk_size):
-            chunk = rows[start:start + chunk_size]
-            tasks.append((chunk, obs_idx, key, alpha * scale_factor))
-    results = _run_tasks(solver, components, vectors, tasks, positive, n_jobs, progress,
-                         backend, scheduler)
-    for (chunk, obs_idx, _, _), (T_re, obj, g, st, act, fb) in zip(tasks, results):
-        merged = T_re.copy()
-        merged[:, obs_idx] = vectors[chunk][:, obs_idx]  # Eq. 10
+    # rows sorted by missing pattern (a backend that works per pattern sees
+    # whole groups), cut into chunks; each row is solved on its observed entries
+    order = np.lexsort(mask[todo].T[::-1])
+    todo = todo[order]
+    observed = observed_entries(mask[todo])
+    m_obs = observed.sum(axis=1)
+    alpha_eff = alpha * (m_obs / m if dictionary.alpha_scaling == "entries" else 1.0)
+    n_tasks = max(-(-len(todo) // chunk_size), _min_tasks(n_jobs, backend))
+    tasks = [t for t in np.array_split(np.arange(len(todo)), max(1, min(n_tasks, len(todo))))
+             if len(t)]  # no task when no pose needs recovering
+    results = _run_tasks(solver, components, vectors[todo], observed, alpha_eff, tasks,
+                         positive, dict_key, n_jobs, progress, backend, scheduler)
+    for t, (merged, obj, g, st, act, fb) in zip(tasks, results):
+        chunk = todo[t]
         vectors[chunk] = merged
         objective[chunk], gap[chunk], n_active[chunk], fallback[chunk] = obj, g, act, fb
         status[chunk] = np.where(st == "optimal", "recovered",
@@ -448,8 +453,17 @@ def _recover(poses, missing=None, *, dictionary=None, alpha=None,
     )
 
 
-def _run_tasks(solver, components, vectors, tasks, positive, n_jobs, progress,
-               backend=None, scheduler=None):
+def _min_tasks(n_jobs, backend):
+    """Tasks enough to keep every worker busy (1 when the work runs in-process)."""
+    if n_jobs in (None, 1) and backend is None:
+        return 1
+    from joblib import effective_n_jobs
+
+    return 4 * max(effective_n_jobs(n_jobs), 1)
+
+
+def _run_tasks(solver, components, X, observed, alpha_eff, tasks, positive, key, n_jobs,
+               progress, backend=None, scheduler=None):
     if not tasks:
         return []
     from tqdm.auto import tqdm
@@ -457,9 +471,9 @@ def _run_tasks(solver, components, vectors, tasks, positive, n_jobs, progress,
     distributed = backend == "dask"
     threads = None if (n_jobs in (None, 1) and not distributed) else 1
     calls = (
-        delayed(_solve_chunk)(solver, components, obs_idx, key, vectors[chunk][:, obs_idx],
-                              a, positive, threads)
-        for chunk, obs_idx, key, a in tasks
+        delayed(_solve_chunk)(solver, components, X[t], observed[t], alpha_eff[t], positive,
+                              key, threads)
+        for t in tasks
     )
     bar = dict(total=len(tasks), disable=not progress, unit="chunk", desc="recover")
     if distributed:

@@ -112,15 +112,15 @@ def test_sparse_combination_recovered_exactly(small_dictionary, seed):
     a, b = rng.choice(len(comp), 2, replace=False)
     T = 0.7 * comp[a] + 0.3 * comp[b]
     mask = random_occlusion(1, 14, 2, random_state=seed)[0]
-    idx = np.flatnonzero(observed_entries(mask))
-    T_re, obj, gap, status, n_active, _ = recovery._solve_chunk(
-        get_solver("fast"), comp, idx, ("exact", seed), T[None, idx], ALPHA_TINY, False)
-    merged = T_re[0].copy()
-    merged[idx] = T[idx]
+    observed = observed_entries(mask)
+    idx = np.flatnonzero(observed)
+    merged, obj, gap, status, n_active, _ = recovery._solve_chunk(
+        get_solver("fast"), comp, T[None], observed[None], np.array([ALPHA_TINY]), False,
+        ("exact", seed))
     assert status[0] == "optimal"
-    np.testing.assert_allclose(merged, T, atol=1e-6)
+    np.testing.assert_array_equal(merged[0, idx], T[idx])  # Eq. 10 keeps the observed
     occluded = np.setdiff1d(np.arange(M), idx)
-    np.testing.assert_allclose(T_re[0, occluded], T[occluded], atol=1e-6)
+    np.testing.assert_allclose(merged[0, occluded], T[occluded], atol=1e-6)
     assert n_active[0] >= 2
 
 
@@ -255,3 +255,10 @@ def test_recovered_joints_beat_the_average_fill(mix, mix_result):
     assert err < 0.25 * err_avg, (err, err_avg)
     # and small against the pose size (~215 px bounding boxes)
     assert err < 15.0
+
+
+def test_a_batch_with_nothing_to_recover(cmu_poses, small_dictionary):
+    """Complete poses only: no solver task, every pose comes back as given."""
+    res = sparseedm.recover(cmu_poses[:5], dictionary=small_dictionary, adapt=False)
+    assert res.status.tolist() == ["complete"] * 5
+    np.testing.assert_array_equal(res.poses, cmu_poses[:5])

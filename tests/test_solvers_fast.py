@@ -137,3 +137,26 @@ def test_solver_pickles_without_its_cache(problems):
     assert len(t._grams) == 0
     np.testing.assert_array_equal(t.solve(D, X, alpha, key=key).coef,
                                   s.solve(D, X, alpha, key=key).coef)
+
+
+def test_numpy_path_walks_the_same_homotopy_as_the_compiled_one(cmu_poses, small_dictionary):
+    """Small batches run the numpy LARS (no compilation), large ones the numba
+    kernel: same steps, same supports, same codes to round-off, on real poses."""
+    from sparseedm.solvers.fast import NUMPY_MAX, lars_lasso_masked
+
+    poses = cmu_poses[:2 * NUMPY_MAX]
+    mask = random_occlusion(len(poses), 14, "mix", random_state=5)
+    T, _, _ = represent(np.where(mask[..., None], np.nan, poses), mask)
+    obs = observed_entries(mask)
+    X0 = np.where(obs, T, 0.0)
+    D = small_dictionary.components.T
+    G = D.T @ D
+    alpha = 0.002 * obs.sum(axis=1) / 91
+    compiled, steps_c = lars_lasso_masked(G, D, X0, obs, alpha)
+    parts = [lars_lasso_masked(G, D, X0[s], obs[s], alpha[s])
+             for s in np.array_split(np.arange(len(X0)), 4)]  # < NUMPY_MAX rows each
+    numpy_coef = np.concatenate([p[0] for p in parts])
+    steps_n = np.concatenate([p[1] for p in parts])
+    np.testing.assert_array_equal(steps_n, steps_c)
+    np.testing.assert_array_equal(numpy_coef != 0, compiled != 0)
+    np.testing.assert_allclose(numpy_coef, compiled, atol=1e-8)

@@ -32,6 +32,8 @@ __all__ = ["LassoResult", "BaseSolver", "lasso_objective", "duality_gap"]
 OPTIMAL = "optimal"
 INACCURATE = "inaccurate"
 FAILED = "failed"
+#: LassoResult's per-row arrays a fallback replaces
+_FIELDS = ("coef", "objective", "gap", "status", "n_iter")
 
 
 @dataclass
@@ -72,8 +74,13 @@ def lasso_objective(D, X, coef, alpha):
     return 0.5 * np.einsum("ij,ij->i", R, R) + alpha * np.abs(coef).sum(axis=1)
 
 
-def duality_gap(D, X, coef, alpha, positive=False):
+def duality_gap(D, X, coef, alpha, positive=False, observed=None):
     """Primal objective and duality gap for each row, as documented above.
+
+    `alpha` may be one value per row. With `observed` (bool, the shape of X),
+    row i is judged on its observed entries only -- the lasso of
+    ``D[observed[i]]`` and ``X[i, observed[i]]`` -- so one call certifies rows
+    of many sub-dictionaries of one D.
 
     Examples
     --------
@@ -84,6 +91,9 @@ def duality_gap(D, X, coef, alpha, positive=False):
     True
     """
     R = X - coef @ D.T
+    if observed is not None:
+        X = np.where(observed, X, 0.0)
+        R = np.where(observed, R, 0.0)
     corr = R @ D
     dual_norm = corr.max(axis=1) if positive else np.abs(corr).max(axis=1)
     shrink = np.maximum(1.0, np.maximum(dual_norm, 0.0) / alpha)
@@ -147,7 +157,89 @@ class BaseSolver:
         if not np.isscalar(alpha) or not alpha > 0:
             raise SparseEDMError(f"alpha must be a number > 0, got {alpha!r}")
         coef, status, n_iter = self._solve(D, X, float(alpha), bool(positive), key)
-        objective, gap = duality_gap(D, X, coef, alpha, positive)
+        return self._certify(D, X, coef, status, n_iter, float(alpha), bool(positive), key)
+
+    def solve_masked(self, D, X, observed, alpha, *, positive=False, key=None):
+        """Solve, for each row, the lasso on its observed entries only.
+
+        Row i is the lasso of ``D[observed[i]]`` and ``X[i, observed[i]]``
+        with penalty ``alpha[i]``: what :meth:`solve` gives on each pattern's
+        sub-dictionary, in one call for rows of many patterns. Backends that
+        can work from ``D`` itself (the fast one: a Gram downdate from one
+        cached ``D^T D``) override ``_solve_masked``; the default solves each
+        pattern's rows with ``_solve``. One certificate per row, as in
+        :meth:`solve`; ``key`` identifies D.
+
+        Parameters
+        ----------
+        D : ndarray, shape (n_features, n_components)
+        X : ndarray, shape (n_samples, n_features)
+            Values at unobserved entries are ignored (may be NaN).
+        observed : ndarray of bool, shape (n_samples, n_features)
+        alpha : float or ndarray, shape (n_samples,)
+        positive : bool, default False
+        key : hashable, optional
+
+        Returns
+        -------
+        LassoResult
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from sparseedm.solvers import get_solver
+        >>> rng = np.random.default_rng(0)
+        >>> D = rng.standard_normal((6, 10)); X = rng.standard_normal((2, 6))
+        >>> obs = np.ones((2, 6), bool); obs[1, 2] = False
+        >>> solver = get_solver("clarabel")
+        >>> res = solver.solve_masked(D, X, obs, 0.5)
+        >>> one = solver.solve(D[obs[1]], X[1:, obs[1]], 0.5)
+        >>> bool(abs(res.objective[1] - one.objective[0]) < 1e-6 * one.objective[0])
+        True
+        """
+        D = np.asarray(D, dtype=float)
+        X = np.atleast_2d(np.asarray(X, dtype=float))
+        observed = np.atleast_2d(np.asarray(observed, dtype=bool))
+        if D.ndim != 2 or not np.isfinite(D).all():
+            raise SparseEDMError(f"D must be 2-D and finite, got shape {D.shape}")
+        if X.ndim != 2 or X.shape[1] != D.shape[0] or observed.shape != X.shape:
+            raise SparseEDMError(
+                f"X and observed must have shape (n_samples, {D.shape[0]}), got "
+                f"{X.shape} and {observed.shape}"
+            )
+        X = np.where(observed, X, 0.0)
+        if not np.isfinite(X).all():
+            raise SparseEDMError("X must be finite at its observed entries")
+        alpha = np.broadcast_to(np.asarray(alpha, dtype=float), (len(X),)).copy()
+        if not (alpha > 0).all():
+            raise SparseEDMError(f"alpha must be > 0, got {alpha[~(alpha > 0)][:1]}")
+        positive = bool(positive)
+        coef, status, n_iter = self._solve_masked(D, X, observed, alpha, positive, key)
+        return self._certify(D, X, coef, status, n_iter, alpha, positive, key, observed)
+
+    def _solve_masked(self, D, X, observed, alpha, positive, key):
+        """Default: each (pattern, alpha) group's rows through ``_solve``."""
+        return self._by_pattern(D, X, observed, alpha, key,
+                                lambda Ds, Xs, a, sub_key, rows: self._solve(Ds, Xs, a, positive,
+                                                                             sub_key))
+
+    @staticmethod
+    def _by_pattern(D, X, observed, alpha, key, solve_group):
+        """(coef, status, n_iter) with ``solve_group(D_sub, X_sub, alpha, key, rows)``
+        run on each (pattern, alpha) group of rows."""
+        n = len(X)
+        coef = np.zeros((n, D.shape[1]))
+        status = np.empty(n, dtype=object)
+        n_iter = np.zeros(n, dtype=int)
+        for rows, obs in _pattern_groups(observed, alpha):
+            sub_key = None if key is None else (key, obs.tobytes())
+            c, st, it = solve_group(D[obs], X[rows][:, obs], float(alpha[rows[0]]), sub_key, rows)
+            coef[rows], status[rows], n_iter[rows] = c, st, it
+        return coef, status, n_iter
+
+    def _certify(self, D, X, coef, status, n_iter, alpha, positive, key, observed=None):
+        """The shared certificate on every row, then the fallback for the rejected."""
+        objective, gap = duality_gap(D, X, coef, alpha, positive, observed)
         status = np.asarray(status, dtype=object)
         certified = gap <= self.tol * np.maximum(objective, np.finfo(float).tiny)
         status = np.where(
@@ -156,7 +248,19 @@ class BaseSolver:
         result = LassoResult(coef, objective, gap, status, np.asarray(n_iter))
         bad = result.status != OPTIMAL
         if self.fallback is not None and bad.any():
-            self._fall_back(result, bad, D, X, alpha, positive, key)
+            if observed is None:
+                self._fall_back(result, bad, D, X, alpha, positive, key)
+            else:  # per pattern, on its sub-dictionary
+                rows_bad = np.flatnonzero(bad)
+                for rows, obs in _pattern_groups(observed[rows_bad], alpha[rows_bad]):
+                    idx = rows_bad[rows]
+                    sub = LassoResult(*(getattr(result, name)[idx] for name in _FIELDS))
+                    sub_key = None if key is None else (key, obs.tobytes())
+                    self._fall_back(sub, np.ones(len(idx), dtype=bool), D[obs], X[idx][:, obs],
+                                    float(alpha[idx[0]]), positive, sub_key)
+                    for name in _FIELDS:
+                        getattr(result, name)[idx] = getattr(sub, name)
+                    result.fallback[idx] = True
         return result
 
     def _fall_back(self, result, bad, D, X, alpha, positive, key):
@@ -166,10 +270,21 @@ class BaseSolver:
         backup = (get_solver(self.fallback, tol=self.tol) if isinstance(self.fallback, str)
                   else get_solver(self.fallback))
         res = backup.solve(D, X[bad], alpha, positive=positive, key=key)
-        for name in ("coef", "objective", "gap", "status", "n_iter"):
+        for name in _FIELDS:
             getattr(result, name)[bad] = getattr(res, name)
         result.fallback[bad] = True
 
     def _solve(self, D, X, alpha, positive, key):  # pragma: no cover - abstract
         """Return (coef, status, n_iter) for validated inputs."""
         raise NotImplementedError
+
+
+def _pattern_groups(observed, alpha):
+    """(rows, observed entries) of each group of rows sharing a pattern and an alpha."""
+    keys = np.concatenate([observed.astype(float), alpha[:, None]], axis=1)
+    _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+    inverse = inverse.reshape(-1)
+    order = np.argsort(inverse, kind="stable")
+    bounds = np.flatnonzero(np.diff(inverse[order])) + 1
+    for rows in np.split(order, bounds):
+        yield rows, observed[rows[0]]

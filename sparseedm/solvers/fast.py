@@ -5,10 +5,19 @@ Why this backend exists
 Every recovery solves a small lasso: 55-78 observed distances, k = 2000 atoms.
 The optimum has at most as many non-zeros as rows, and the LARS-lasso homotopy
 (Efron et al. 2004; the algorithm behind SPAMS' ``lasso``) walks to it exactly in
-one step per atom that enters or leaves, each step costing O(k |A|) on a
-precomputed Gram matrix ``G = D^T D``. Poses that share a missing-joint pattern
-share D, hence G, so G is computed once per pattern by BLAS-3 and cached, and
-``D^T x`` for the whole group is one matrix product.
+one step per atom that enters or leaves, each step costing O(k |A|) on the
+Gram rows of the active atoms. Those rows come from one Gram matrix ``G = D^T D``
+of the *whole* dictionary, computed once and cached: the sub-dictionary of a
+pose lacks the rows ``D_m`` of its missing entries, and its Gram row j is
+``G[j] - D_m[:, j]^T D_m`` (m_miss x k work, m_miss = 13-36 of 91 entries), so no
+per-pattern Gram matrix is ever formed and rows of every pattern run in one
+kernel call (:func:`lars_lasso_masked`, ``FastSolver.solve_masked``).
+``FastSolver.solve`` on a given sub-dictionary keeps the per-pattern Gram
+(or atom-computed rows for a handful of signals).
+
+Batches under ``NUMPY_MAX`` rows run the same homotopy written with numpy
+(:func:`_lars_masked_numpy`: the same steps, vectorised event search), so a
+small first call never waits for numba to compile.
 
 The homotopy's inner loop (scan k atoms for the next event, rank-one Cholesky
 updates) is scalar code that numpy cannot batch, so it is compiled with numba;
@@ -68,23 +77,62 @@ def _chol_rebuild(R, active, n, L):
     return True
 
 
+#: where `_lars_core` takes Gram rows from
+_FROM_GRAM, _FROM_ATOMS, _DOWNDATE = 0, 1, 2
+
+
 @numba.njit(cache=True, inline="always")
-def _gram_row(G, DW, use_gram, j, out):
-    """Row j of the Gram matrix: copied from G, or computed from the atoms DW."""
-    if use_gram:
+def _gram_row(G, DW, mode, miss, j, out):
+    """Row j of the (sub-)dictionary's Gram matrix, by `mode`.
+
+    _FROM_GRAM: copied from G; _FROM_ATOMS: computed from the atoms DW (k x m);
+    _DOWNDATE: from the full Gram G and the full dictionary DW (features x k)
+    as ``G[j] - sum_{q in miss} DW[q, j] DW[q]``, the rows `miss` being the
+    features the sub-dictionary lacks (m_miss x k work instead of m_obs x k).
+    """
+    if mode == 0:
         for t in range(out.shape[0]):
             out[t] = G[j, t]
-    else:
+    elif mode == 1:
         out[:] = np.dot(DW, DW[j])  # BLAS gemv
+    else:
+        for t in range(out.shape[0]):
+            out[t] = G[j, t]
+        for q in miss:
+            v = DW[q, j]
+            if v != 0.0:
+                for t in range(out.shape[0]):
+                    out[t] -= v * DW[q, t]
+
+
+def _drop_atom(active, sign, beta, R, state, best, n):
+    """Drop active[best] from the n active atoms; returns the atom dropped.
+
+    The last active atom takes its place (one Gram row moved, not all those
+    after it); the caller rebuilds the Cholesky factor. Plain Python, shared
+    by the compiled kernel (as `_drop_atom_jit`) and the numpy path.
+    """
+    dropped = active[best]
+    state[dropped] = 0
+    last = n - 1
+    if best != last:
+        active[best] = active[last]
+        sign[best] = sign[last]
+        beta[best] = beta[last]
+        R[best, :] = R[last, :]
+    return dropped
+
+
+_drop_atom_jit = numba.njit(cache=True, inline="always")(_drop_atom)
 
 
 @numba.njit(cache=True)
-def _lars_core(G, DW, use_gram, dtx, alpha, positive, max_steps, rank, coef):
+def _lars_core(G, DW, mode, miss, dtx, alpha, positive, max_steps, rank, coef):
     """LARS-lasso homotopy for one signal over k atoms; writes `coef`.
 
-    Gram rows come from G (k x k) when `use_gram`, else are computed from the
-    atoms DW (k x m) as atoms enter. Returns the step count, negative if the
-    path stopped early (the certificate then decides).
+    Gram rows come from G, DW and `miss` as `_gram_row`'s `mode` says, as
+    atoms enter. Returns the step count, negative if the path stopped early
+    (the certificate then decides).
     """
     k = dtx.shape[0]
     c = dtx.copy()  # correlations D^T r at the current point
@@ -122,7 +170,7 @@ def _lars_core(G, DW, use_gram, dtx, alpha, positive, max_steps, rank, coef):
         if entering >= 0:
             if n >= max_active:
                 return -steps
-            _gram_row(G, DW, use_gram, entering, R[n])
+            _gram_row(G, DW, mode, miss, entering, R[n])
             # append `entering` to the Cholesky factor of G_AA
             for i in range(n):
                 s = R[i, entering]
@@ -188,15 +236,7 @@ def _lars_core(G, DW, use_gram, dtx, alpha, positive, max_steps, rank, coef):
         if event == 0:
             break
         if event == 3:
-            # drop active[best]; rebuild the factor (rare, n <= rows)
-            dropped = active[best]
-            state[dropped] = 0
-            for i in range(best, n - 1):
-                active[i] = active[i + 1]
-                sign[i] = sign[i + 1]
-                beta[i] = beta[i + 1]
-                for j in range(k):
-                    R[i, j] = R[i + 1, j]
+            dropped = _drop_atom_jit(active, sign, beta, R, state, best, n)
             n -= 1
             if not _chol_rebuild(R, active, n, L):
                 return -steps
@@ -222,8 +262,8 @@ def _lars_core(G, DW, use_gram, dtx, alpha, positive, max_steps, rank, coef):
 
 @numba.njit(cache=True)
 def _lars_one(G, dtx, alpha, positive, max_steps, rank, coef):
-    return _lars_core(G, np.empty((0, 0)), True, dtx, alpha, positive, max_steps, rank,
-                      coef)
+    return _lars_core(G, np.empty((0, 0)), 0, np.empty(0, np.int64), dtx, alpha, positive,
+                      max_steps, rank, coef)
 
 
 @numba.njit(cache=True, parallel=True, nogil=True)
@@ -231,8 +271,8 @@ def _lars_rows_batch(Dt, X, alpha, positive, max_steps, coef, steps):
     k, m = Dt.shape
     for i in numba.prange(X.shape[0]):
         dtx = np.dot(Dt, X[i])
-        steps[i] = _lars_core(np.empty((0, 0)), Dt, False, dtx, alpha, positive,
-                              max_steps, m, coef[i])
+        steps[i] = _lars_core(np.empty((0, 0)), Dt, 1, np.empty(0, np.int64), dtx, alpha,
+                              positive, max_steps, m, coef[i])
 
 
 @numba.njit(cache=True, nogil=True)
@@ -240,8 +280,8 @@ def _lars_rows_batch_serial(Dt, X, alpha, positive, max_steps, coef, steps):
     k, m = Dt.shape
     for i in range(X.shape[0]):
         dtx = np.dot(Dt, X[i])
-        steps[i] = _lars_core(np.empty((0, 0)), Dt, False, dtx, alpha, positive,
-                              max_steps, m, coef[i])
+        steps[i] = _lars_core(np.empty((0, 0)), Dt, 1, np.empty(0, np.int64), dtx, alpha,
+                              positive, max_steps, m, coef[i])
 
 
 def lars_lasso_rows(D, X, alpha, *, positive=False, max_steps=500):
@@ -328,6 +368,206 @@ def lars_lasso_gram(G, DtX, alpha, *, positive=False, max_steps=500, rank=None):
     return coef, steps
 
 
+@numba.njit(cache=True, nogil=True)
+def _lars_masked_row(G, D, Dt, X0, miss, n_miss, alpha, positive, max_steps, coef, steps,
+                     i):
+    dtx = np.dot(Dt, X0[i])  # D_sub^T x_sub: X0 is zero off the observed entries
+    steps[i] = _lars_core(G, D, 2, miss[i, :n_miss[i]], dtx, alpha[i], positive, max_steps,
+                          D.shape[0] - n_miss[i], coef[i])
+
+
+@numba.njit(cache=True, parallel=True, nogil=True)
+def _lars_masked_batch(G, D, Dt, X0, miss, n_miss, alpha, positive, max_steps, coef, steps):
+    for i in numba.prange(X0.shape[0]):
+        _lars_masked_row(G, D, Dt, X0, miss, n_miss, alpha, positive, max_steps, coef, steps, i)
+
+
+@numba.njit(cache=True, nogil=True)
+def _lars_masked_batch_serial(G, D, Dt, X0, miss, n_miss, alpha, positive, max_steps, coef,
+                              steps):
+    for i in range(X0.shape[0]):
+        _lars_masked_row(G, D, Dt, X0, miss, n_miss, alpha, positive, max_steps, coef, steps, i)
+
+
+def lars_lasso_masked(G, D, X, observed, alpha, *, positive=False, max_steps=500):
+    """As :func:`lars_lasso_gram` for rows of many sub-dictionaries of one D.
+
+    Row i is solved on ``D[observed[i]]``; every Gram row it needs is the full
+    Gram's row downdated by the features it lacks, so no per-pattern Gram
+    matrix is ever formed.
+
+    Parameters
+    ----------
+    G : ndarray, shape (k, k)
+        ``D^T D`` of the full dictionary.
+    D : ndarray, shape (n_features, k)
+    X : ndarray, shape (n_samples, n_features)
+        Zero off the observed entries.
+    observed : ndarray of bool, shape (n_samples, n_features)
+    alpha : ndarray, shape (n_samples,)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> D = np.eye(3); obs = np.array([[True, True, False]])
+    >>> coef, steps = lars_lasso_masked(D.T @ D, D, np.array([[3.0, -0.5, 0.0]]), obs,
+    ...                                 np.array([1.0]))
+    >>> coef.tolist()
+    [[2.0, 0.0, 0.0]]
+    """
+    D = np.ascontiguousarray(D, dtype=np.float64)
+    X = np.ascontiguousarray(np.atleast_2d(X), dtype=np.float64)
+    observed = np.asarray(observed, dtype=bool)
+    n_miss = (~observed).sum(axis=1).astype(np.int64)
+    # the unobserved features of each row first (argsort of False before True)
+    miss = np.ascontiguousarray(np.argsort(observed, axis=1, kind="stable")[:, :max(
+        int(n_miss.max(initial=0)), 1)].astype(np.int64))
+    coef = np.zeros((X.shape[0], D.shape[1]))
+    steps = np.zeros(X.shape[0], dtype=np.int64)
+    G = np.ascontiguousarray(G, dtype=np.float64)
+    alpha = np.ascontiguousarray(alpha, dtype=np.float64)
+    if len(X) < NUMPY_MAX:  # by size only: an answer must not depend on cache state
+        for i in range(len(X)):
+            steps[i] = _lars_masked_numpy(G, D, X[i], miss[i, :n_miss[i]], alpha[i],
+                                          bool(positive), int(max_steps), coef[i])
+        return coef, steps
+    args = (G, D, np.ascontiguousarray(D.T), X, miss, n_miss, alpha, bool(positive),
+            int(max_steps), coef, steps)
+    if numba.get_num_threads() == 1:
+        # e.g. a joblib worker thread: numba's parallel launches would
+        # serialise across threads (measured: 2 jobs at 0.8 cores)
+        _lars_masked_batch_serial(*args)
+        return coef, steps
+    # dynamic scheduling in small chunks: rows differ in cost, and on a busy
+    # machine a static half per thread waits for the slower thread
+    with numba.parallel_chunksize(4):
+        _lars_masked_batch(*args)
+    return coef, steps
+
+
+def _trsolve(L, b):
+    """x with L x = b, L lower triangular (LAPACK, without scipy's checks)."""
+    from scipy.linalg.lapack import dtrtrs
+
+    return dtrtrs(L, b, lower=1)[0]
+
+
+def _chsolve(L, b):
+    """x with L L' x = b (LAPACK, without scipy's checks)."""
+    from scipy.linalg.lapack import dpotrs
+
+    return dpotrs(L, b, lower=1)[0]
+
+
+def _lars_masked_numpy(G, D, x0, miss, alpha, positive, max_steps, coef):
+    """`_lars_core` in downdate mode, written with numpy instead of compiled.
+
+    The same homotopy step for step (each event search is one vectorised
+    pass where the compiled kernel loops), so the same answer to round-off:
+    it serves small batches, which then never wait for numba to compile
+    (several seconds on first use).
+    """
+    k = G.shape[0]
+    dtx = D.T @ x0
+    c = dtx.copy()
+    max_active = min(k, max_steps + 1, D.shape[0] - len(miss) + 1)
+    active = np.empty(max_active, np.int64)
+    sign = np.empty(max_active)
+    beta = np.zeros(max_active)
+    L = np.zeros((max_active, max_active))
+    R = np.empty((max_active + 1, k))
+    state = np.zeros(k, np.int8)
+    coef[:] = 0.0
+    score = c if positive else np.abs(c)
+    jmax = int(np.argmax(score))
+    lam = score[jmax]
+    if lam <= alpha:
+        return 0
+    n = 0
+    new_sign = 1.0 if c[jmax] > 0 else -1.0
+    entering, dropped = jmax, -1
+    tiny = 1e-14 * lam
+    Dm = D[miss]
+    steps = 0
+    while steps < max_steps:
+        steps += 1
+        if entering >= 0:
+            if n >= max_active:
+                return -steps
+            R[n] = G[entering] - Dm[:, entering] @ Dm
+            if n:
+                L[n, :n] = _trsolve(L[:n, :n], R[:n, entering])
+            d = R[n, entering] - L[n, :n] @ L[n, :n]
+            if d <= 1e-10 * R[n, entering]:
+                state[entering] = 2
+            else:
+                L[n, n] = np.sqrt(d)
+                active[n], sign[n], beta[n] = entering, new_sign, 0.0
+                state[entering] = 1
+                n += 1
+            entering = -1
+        if n:
+            w = _chsolve(L[:n, :n], sign[:n])
+            a = w @ R[:n]
+        else:
+            w, a = np.zeros(0), np.zeros(k)
+        gamma = lam - alpha
+        event, best = 0, -1
+        free = state == 0
+        if dropped >= 0:
+            free[dropped] = False
+        # the kernel's scan, vectorised: first minimum in the order (j, +), (j, -)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            den, num = 1.0 - a, lam - c
+            g1 = np.where(free & (den > 1e-12) & (num > tiny * den), num / den, np.inf)
+            j1 = int(np.argmin(g1))
+            j2 = -1
+            if not positive:
+                den, num = 1.0 + a, lam + c
+                g2 = np.where(free & (den > 1e-12) & (num > tiny * den), num / den, np.inf)
+                j2 = int(np.argmin(g2))
+        if j2 >= 0 and (g2[j2] < g1[j1] or (g2[j2] == g1[j1] and j2 < j1)):
+            if g2[j2] < gamma:
+                gamma, event, best = g2[j2], 2, j2
+        elif g1[j1] < gamma:
+            gamma, event, best = g1[j1], 1, j1
+        if n:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                g = np.where(w * sign[:n] < 0.0, -beta[:n] / w, np.inf)
+            g = np.where(g > tiny, g, np.inf)
+            i = int(np.argmin(g))
+            if g[i] < gamma:
+                gamma, event, best = g[i], 3, i
+        beta[:n] += gamma * w
+        c -= gamma * a
+        lam -= gamma
+        dropped = -1
+        if event == 0:
+            break
+        if event == 3:
+            dropped = _drop_atom(active, sign, beta, R, state, best, n)
+            n -= 1
+            try:
+                L[:n, :n] = np.linalg.cholesky(R[:n][:, active[:n]]) if n else 0.0
+            except np.linalg.LinAlgError:
+                return -steps
+        else:
+            entering = best
+            new_sign = 1.0 if event == 1 else -1.0
+    else:
+        return -steps
+    A = active[:n]
+    w = _chsolve(L[:n, :n], dtx[A] - alpha * sign[:n]) if n else beta[:0]
+    consistent = not (w * sign[:n] < 0.0).any()
+    coef[A] = w if consistent else beta[:n]
+    return steps
+
+
+#: below this many signals, the masked solve runs `_lars_masked_numpy`: no
+#: compilation, and for a handful of poses as fast as waiting for it
+NUMPY_MAX = 64
+
+
 class FastSolver(BaseSolver):
     """LARS-lasso homotopy on a cached per-pattern Gram matrix, certified.
 
@@ -395,6 +635,13 @@ class FastSolver(BaseSolver):
             while len(self._grams) > self.cache_size:
                 self._grams.popitem(last=False)
         return G
+
+    def _solve_masked(self, D, X, observed, alpha, positive, key):
+        # one Gram matrix for the whole dictionary, downdated per row as atoms
+        # enter: no per-pattern set-up at all
+        coef, steps = lars_lasso_masked(self._gram(D, key), D, X, observed, alpha,
+                                        positive=positive, max_steps=self.max_steps)
+        return coef, np.full(X.shape[0], OPTIMAL, dtype=object), steps
 
     def _solve(self, D, X, alpha, positive, key):
         if len(X) < self.gram_min:  # (by size only: results must not depend on cache state)
