@@ -179,3 +179,24 @@ def test_application_table_fconv_rows(data, split, fconv_lifter, tmp_path):
     assert row["fconv", "applyzero", "mix"]["err3d"] < row["fconv", "as-is zero", "mix"]["err3d"]
     rep.write(tmp_path, figures=False)
     assert "| fconv | zero+basl |" in (tmp_path / "lift_report.md").read_text()
+
+
+def test_cli_fit_lifter_fconv_info_and_evaluate(tmp_path, capsys):
+    out = tmp_path / "f.npz"
+    assert main(["fit-lifter", str(CMU_POSES), "-o", str(out), "--method", "fconv",
+                 "--channels", "4,8", "--epochs", "1", "--batch-size", "32",
+                 "--occluded", "0-2", "--representation", "zero"]) == 0
+    lf = load_lifter(out)
+    assert (lf.method, lf.representation, lf.occluded, lf.channels) == ("fconv", "zero",
+                                                                         (0, 2), (4, 8))
+    assert "by clip" in lf.provenance_["training"]["validation"]  # the file's clips were used
+    capsys.readouterr()
+    assert main(["info", str(out)]) == 0
+    assert "lifter 'fconv'" in capsys.readouterr().out
+    rep = tmp_path / "rep"
+    assert main(["evaluate-lift", "--data", str(CMU_POSES), "--lifter", str(out),
+                 "--fconv", str(out), "--basl-zero", str(out), "--pipelines",
+                 "complete,zero+basl,applyave", "--counts", "mix", "--max-poses", "10",
+                 "-o", str(rep)]) == 0
+    io = capsys.readouterr()
+    assert "zero+basl  mix" in io.out and "applyave skipped" in io.err
