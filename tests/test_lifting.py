@@ -192,10 +192,10 @@ def test_refuses_pickled_corrupt_unknown_and_wrong_n(tmp_path, lifter_path):
     with np.load(lifter_path, allow_pickle=False) as npz:
         arrays = {k: npz[k] for k in npz.files}
     meta = json.loads(str(arrays["meta"]))
-    meta["method"] = "fconv"
-    np.savez(tmp_path / "fconv.npz", **dict(arrays, meta=np.array(json.dumps(meta))))
-    with pytest.raises(LifterError, match="'fconv' is not available.*dictionary, mlp"):
-        load_lifter(tmp_path / "fconv.npz")
+    meta["method"] = "gnn"
+    np.savez(tmp_path / "gnn.npz", **dict(arrays, meta=np.array(json.dumps(meta))))
+    with pytest.raises(LifterError, match="'gnn' is not available.*dictionary, mlp, fconv"):
+        load_lifter(tmp_path / "gnn.npz")
     np.savez(tmp_path / "n13.npz", **dict(arrays, joint_names=arrays["joint_names"][:13],
                                           chirality=np.zeros(715)))
     with pytest.raises(LifterError, match="not the 78 of 13 joints"):
@@ -243,8 +243,8 @@ def test_cli_fit_lifter_and_refusals(tmp_path, fixtures_dir, capsys):
                  "--method", "mlp", "--hidden", "16", "--max-iter", "20"]) == 0
     assert load_lifter(out).method == "mlp"
     assert main(["fit-lifter", str(fixtures_dir / "cmu_poses.npz"), "-o", str(out),
-                 "--method", "fconv"]) == 2
-    assert "'fconv' is not available" in capsys.readouterr().err
+                 "--method", "gnn"]) == 2
+    assert "'gnn' is not available" in capsys.readouterr().err
     assert main(["lift", str(fixtures_dir / "cmu_poses.npz"), "-o", str(tmp_path / "x.csv"),
                  "--lifter", str(fixtures_dir / "cmu_02.asf")]) == 2
 

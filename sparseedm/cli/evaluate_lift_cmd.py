@@ -11,7 +11,9 @@ def add_parser(sub):
         help="measure 3D lifting after occlusion and recovery (the paper's application table)",
         description="Seeded occlusion (1, 2, 3 joints, Mix) of held-out poses with known 3D; "
         "lifts them complete, occluded as is ('average', 'zero'), after sparse recovery "
-        "(applyspar), after 2D imputers, and through the joint coupled lasso; reports "
+        "(applyspar), after FConv recovery (applyzero/applyave, torch extra), after 2D imputers, "
+        "through the joint coupled lasso, and through lifters retrained on occluded input "
+        "(zero+basl/ave+basl); reports "
         "3D-EDM Err_ave, PA-MPJPE, N-MPJPE, MPJPE, reflection accuracy, speed, per action, "
         "and 3D skeleton figures. Writes lift_report.md, lift_results.json, lift_poses.png.",
     )
@@ -19,12 +21,23 @@ def add_parser(sub):
                    help="test .npz with poses2d, poses3d, cameras (sparseedm dataset build)")
     p.add_argument("--lifter", default="default", help="dictionary lifter (name or .npz)")
     p.add_argument("--mlp", default=None, help="an mlp (FConn) lifter .npz to compare")
+    p.add_argument("--fconv", default=None, help="an fconv lifter .npz to compare (torch extra)")
+    p.add_argument("--fconv-zero", default=None, metavar="MODEL",
+                   help="FConv 'zero' recovery model (sparseedm fit-cnn) for applyzero")
+    p.add_argument("--fconv-average", default=None, metavar="MODEL",
+                   help="FConv 'average' recovery model (sparseedm fit-cnn) for applyave")
+    p.add_argument("--basl-zero", default=None, metavar="LIFTER",
+                   help="lifter retrained on occluded 'zero' input (fit-lifter --occluded 1-3 "
+                   "--representation zero) for zero+basl")
+    p.add_argument("--basl-average", default=None, metavar="LIFTER",
+                   help="lifter retrained on occluded 'average' input, for ave+basl")
     p.add_argument("--dictionary", default="default",
                    help="2D dictionary for applyspar (default: the shipped one)")
     p.add_argument("--train", default=None, help="training .npz (poses2d) for the imputers")
     p.add_argument("--pipelines", default=None,
                    help="comma-separated subset of: complete, as-is average, as-is zero, "
-                   "applyspar, knn, iterative, nearest, joint (default all)")
+                   "applyspar, knn, iterative, nearest, joint, applyzero, applyave, "
+                   "zero+basl, ave+basl (default all; FConv rows need their models)")
     p.add_argument("--counts", default="1,2,3,mix", help="occlusion counts (default 1,2,3,mix)")
     p.add_argument("--max-poses", type=int, default=None, help="seeded subsample of test poses")
     p.add_argument("--max-train", type=int, default=20000, help="imputer training poses")
@@ -42,6 +55,13 @@ def run(args):
     lifters = {"dictionary": load_lifter(args.lifter)}
     if args.mlp:
         lifters["mlp"] = load_lifter(args.mlp)
+    if args.fconv:
+        lifters["fconv"] = load_lifter(args.fconv)
+    fconv_models = {rep: path for rep, path in (("zero", args.fconv_zero),
+                                                 ("average", args.fconv_average)) if path}
+    retrained = {rep: load_lifter(path) for rep, path in (("zero", args.basl_zero),
+                                                           ("average", args.basl_average))
+                 if path}
     test = load_dataset(args.data)
     train = load_dataset(args.train)["poses2d"] if args.train else None
     counts = [c.strip() if c.strip() == "mix" else int(c) for c in args.counts.split(",")]
@@ -49,7 +69,8 @@ def run(args):
     report = evaluate_lifting(lifters, test, dictionary=args.dictionary, train_poses2d=train,
                               counts=counts, pipelines=pipes, max_poses=args.max_poses,
                               seed=args.seed, n_jobs=args.jobs, max_train=args.max_train,
-                              data_name=str(args.data))
+                              data_name=str(args.data), fconv_models=fconv_models,
+                              retrained=retrained)
     written = report.write(args.output)
     for note in report.notes:
         print(f"sparseedm evaluate-lift: {note}", file=sys.stderr)

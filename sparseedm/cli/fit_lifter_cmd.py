@@ -1,4 +1,4 @@
-"""``sparseedm fit-lifter TRAIN.npz -o L.npz --method dictionary|mlp``: learn a lifter."""
+"""``sparseedm fit-lifter TRAIN.npz -o L.npz --method dictionary|mlp|fconv``: learn a lifter."""
 
 from __future__ import annotations
 
@@ -13,13 +13,14 @@ def add_parser(sub):
         "fit-lifter", help="learn a 2D -> 3D lifter from a training .npz with poses3d",
         description="Learn a lifter from the complete poses of TRAIN (as written by "
         "`sparseedm dataset build`: poses2d, poses3d, camera_R/t/f). Methods: "
-        "dictionary (coupled [2D ; w 3D] dictionary, the default) and mlp (DMR's FConn). "
+        "dictionary (coupled [2D ; w 3D] dictionary, the default), mlp (DMR's FConn) and "
+        "fconv (DMR's fully convolutional network; needs the torch extra). "
         "Defaults are the settings chosen on CMU validation clips (lifters/README.md).",
     )
     p.add_argument("train", help="training .npz with poses2d, poses3d and cameras")
     p.add_argument("-o", "--output", required=True, help="lifter file to write (.npz)")
     p.add_argument("--method", default="dictionary",
-                   help="dictionary (default) or mlp; fconv is not available yet")
+                   help="dictionary (default), mlp or fconv (torch extra)")
     p.add_argument("--atoms", type=int, default=None, help="dictionary: atoms k")
     p.add_argument("--alpha", type=float, default=None,
                    help="dictionary: training lasso alpha; mlp: L2 penalty")
@@ -28,6 +29,14 @@ def add_parser(sub):
     p.add_argument("--passes", type=float, default=None, help="dictionary: passes")
     p.add_argument("--hidden", default=None, help="mlp: hidden layer sizes, e.g. 400,400,400")
     p.add_argument("--max-iter", type=int, default=None, help="mlp: epochs at most")
+    p.add_argument("--representation", choices=("average", "zero"), default=None,
+                   help="fconv: occlusion representation of the input (default average)")
+    p.add_argument("--occluded", default=None, metavar="LO-HI",
+                   help="fconv: occluded joints per training pose, e.g. 1-3 to retrain end "
+                   "to end on occluded input (default 0-0, complete)")
+    p.add_argument("--channels", default=None, help="fconv: encoder channels C1,C2 (32,64)")
+    p.add_argument("--epochs", type=int, default=None, help="fconv: most epochs (default 30)")
+    p.add_argument("--batch-size", type=int, default=None, help="fconv: mini-batch (256)")
     p.add_argument("--normalization", choices=("tied", "unit"), default=None,
                    help="3D EDM normalisation (default tied)")
     p.add_argument("--max-train", type=int, default=None,
@@ -39,6 +48,8 @@ def add_parser(sub):
 _DICT_OPTS = {"atoms": "n_components", "alpha": "alpha", "alpha_lift": "alpha_lift",
               "weight": "weight", "passes": "n_passes", "normalization": "normalization"}
 _MLP_OPTS = {"alpha": "alpha", "max_iter": "max_iter", "normalization": "normalization"}
+_FCONV_OPTS = {"representation": "representation", "epochs": "max_epochs",
+               "batch_size": "batch_size", "normalization": "normalization"}
 
 
 def run(args):
@@ -52,13 +63,21 @@ def run(args):
     from ..lifting.defaults import DEFAULTS
 
     _lifter_class(args.method, "--method")  # refuses unknown methods, naming the known
-    opts = _DICT_OPTS if args.method == "dictionary" else _MLP_OPTS
+    opts = {"dictionary": _DICT_OPTS, "mlp": _MLP_OPTS, "fconv": _FCONV_OPTS}[args.method]
     params = dict(DEFAULTS.get(args.method, {}))
     for opt, name in opts.items():
         if getattr(args, opt) is not None:
             params[name] = getattr(args, opt)
     if args.method == "mlp" and args.hidden:
         params["hidden_layer_sizes"] = tuple(int(h) for h in args.hidden.split(","))
+    if args.method == "fconv":
+        from ..fconv.network import require_torch
+        from .fit_cnn_cmd import _range
+
+        require_torch()  # before any data is read: names the torch extra
+        params["occluded"] = _range(args.occluded, params["occluded"])
+        if args.channels:
+            params["channels"] = tuple(int(c) for c in args.channels.split(","))
     params["random_state"] = args.seed
     data = load_dataset(args.train)
     idx = np.arange(len(data["poses2d"]))  # load_dataset refuses NaN: all complete
@@ -69,9 +88,10 @@ def run(args):
     t0 = time.perf_counter()
     prov = {"files": [Path(args.train).name], "sha256": _sha256(data["poses2d"][idx]),
             "sha256_of": "poses2d float64 values", "seed": args.seed}
+    clips = data["clips"][idx] if "clips" in data else None
     lifter = fit_lifter(data["poses2d"][idx], data["poses3d"][idx], data["camera_R"][idx],
                         data["camera_t"][idx], data["camera_f"][idx], method=args.method,
-                        provenance=prov, **params)
+                        provenance=prov, clips=clips, **params)
     lifter.save(args.output)
     print(f"wrote {args.output}: {args.method} lifter from {len(idx)} poses in "
           f"{time.perf_counter() - t0:.1f} s (known methods: {', '.join(LIFTERS)})",

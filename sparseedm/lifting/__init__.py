@@ -4,6 +4,7 @@
 - :mod:`.dictionary`  the coupled [2D ; 3D] dictionary lifter (default; one lasso
                       on the observed 2D entries recovers and lifts)
 - :mod:`.mlp`         DMR's FConn regressor (scikit-learn MLP, stored as weights)
+- :mod:`.fconv`       DMR's fully convolutional regressor (torch extra, stored as weights)
 - :mod:`.mds`         3D coordinates from a 3D EDM: MDS, SMACOF, camera alignment,
                       reflection choice
 - :mod:`.metrics`     Err_ave on 3D EDMs, MPJPE, N-MPJPE, PA-MPJPE
@@ -21,10 +22,14 @@ __all__ = ["lift", "LiftResult", "STATUSES", "Lifter", "LifterError", "LIFTERS",
 
 
 def fit_lifter(poses2d, poses3d, camera_R, camera_t, camera_f, *, method="dictionary",
-               provenance=None, **params):
-    """Fit a lifter of `method` (a name in :data:`LIFTERS`) on complete training poses."""
+               provenance=None, clips=None, **params):
+    """Fit a lifter of `method` (a name in :data:`LIFTERS`) on complete training poses.
+
+    `clips` (optional, one name per pose) lets ``fconv`` hold out whole clips
+    for early stopping; the other methods ignore it.
+    """
     from .base import _lifter_class
 
     cls = _lifter_class(method, "fit_lifter")
     return cls(**params).fit_poses(poses2d, poses3d, camera_R, camera_t, camera_f,
-                                   provenance=provenance)
+                                   provenance=provenance, clips=clips)

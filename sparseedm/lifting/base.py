@@ -7,11 +7,11 @@ registered by name in :data:`LIFTERS` (module and class, imported lazily):
 
 ``dictionary``  :class:`sparseedm.lifting.dictionary.DictionaryLifter` (default)
 ``mlp``         :class:`sparseedm.lifting.mlp.MLPLifter` (DMR's FConn)
+``fconv``       :class:`sparseedm.lifting.fconv.FConvNetLifter` (DMR's fully
+                convolutional network; needs the torch extra to fit and predict)
 
-DMR's fully convolutional ``fconv`` lifter is not here yet: it is added by
-registering ``"fconv": ("sparseedm.lifting.fconv", "FConvLifter")`` once the
-FConv network exists; a file whose method is not registered is refused with
-a message naming the methods this installation knows.
+A file whose method is not registered is refused with a message naming the
+methods this installation knows.
 
 3D normalisation ("tied", the default)
 --------------------------------------
@@ -66,10 +66,11 @@ FORMAT_VERSION = 1
 KIND = "sparseedm-lifter"
 #: 3D EDM normalisations (see the module docstring)
 NORMALIZATIONS = ("tied", "unit")
-#: name -> (module, class); "fconv" joins when the FConv network exists
+#: name -> (module, class)
 LIFTERS = {
     "dictionary": ("sparseedm.lifting.dictionary", "DictionaryLifter"),
     "mlp": ("sparseedm.lifting.mlp", "MLPLifter"),
+    "fconv": ("sparseedm.lifting.fconv", "FConvNetLifter"),
 }
 #: the shipped lifter the name "default" resolves to (package sparseedm.lifters)
 DEFAULT_LIFTER = "cmu-lift"
@@ -129,6 +130,16 @@ def rms(vectors):
     return np.sqrt((np.asarray(vectors, float) ** 2).mean(axis=-1))
 
 
+def _check_pairs(X2, X3):
+    X2 = np.asarray(X2, float)
+    X3 = np.asarray(X3, float)
+    if X2.ndim != 2 or X2.shape != X3.shape:
+        raise SparseEDMError(f"X2 and X3 must both be (n, M), got {X2.shape} and {X3.shape}")
+    if not (np.isfinite(X2).all() and np.isfinite(X3).all()):
+        raise SparseEDMError("training vectors contain NaN or inf")
+    return X2, X3
+
+
 class Lifter:
     """Base class: 2D EDM vectors -> 3D EDM vectors, plus what every lifter carries.
 
@@ -158,21 +169,19 @@ class Lifter:
     # -- fitting -----------------------------------------------------------
     def fit(self, X2, X3):
         """Learn the 2D -> 3D map from paired EDM vectors (n, M)."""
-        X2 = np.asarray(X2, float)
-        X3 = np.asarray(X3, float)
-        if X2.ndim != 2 or X2.shape != X3.shape:
-            raise SparseEDMError(f"X2 and X3 must both be (n, M), got {X2.shape} and {X3.shape}")
-        if not (np.isfinite(X2).all() and np.isfinite(X3).all()):
-            raise SparseEDMError("training vectors contain NaN or inf")
-        self._fit(X2, X3)
+        self._fit(*_check_pairs(X2, X3))
         return self
 
     def fit_poses(self, poses2d, poses3d, camera_R, camera_t, camera_f, *, provenance=None,
-                  joint_names=JOINT_NAMES):
-        """Fit from a training set's arrays (as ``sparseedm dataset build`` writes them)."""
+                  joint_names=JOINT_NAMES, clips=None):
+        """Fit from a training set's arrays (as ``sparseedm dataset build`` writes them).
+
+        `clips` (the clip of each pose) is used by lifters that hold out
+        validation clips (``fconv``); the others ignore it.
+        """
         X2, X3, metric, cam3d = training_pairs(poses2d, poses3d, camera_R, camera_t, camera_f,
                                                self.normalization)
-        self.fit(X2, X3)
+        self._fit_from_poses(X2, X3, poses2d, clips)
         self.chirality_ = ChiralityPrior().fit(cam3d, random_state=self.random_state)
         self.size_prior_ = float(np.median(rms(metric)))
         self.joint_names_ = tuple(joint_names)
@@ -181,6 +190,10 @@ class Lifter:
 
     def _fit(self, X2, X3):  # pragma: no cover - abstract
         raise NotImplementedError
+
+    def _fit_from_poses(self, X2, X3, poses2d, clips):
+        """Fit from the pairs; lifters that also need the 2D poses or clips override this."""
+        self.fit(X2, X3)
 
     # -- prediction --------------------------------------------------------
     def predict(self, X2, missing=None, *, n_jobs=1):

@@ -6,4 +6,8 @@ DEFAULTS = {
                    "n_passes": 1, "normalization": "tied"},
     "mlp": {"hidden_layer_sizes": (400, 400, 400), "alpha": 1e-4, "max_iter": 200,
             "normalization": "tied"},
+    # not selected on validation data: the fconv package's defaults (DMR's setting:
+    # complete input), tied like the others (sparseedm/lifting/fconv.py says why)
+    "fconv": {"representation": "average", "occluded": (0, 0), "channels": (32, 64),
+              "kernel": 3, "max_epochs": 30, "normalization": "tied"},
 }

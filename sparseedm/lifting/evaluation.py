@@ -16,9 +16,19 @@ same seeded occlusions (1, 2, 3 joints and Mix) for every pipeline:
                     entries, 3D read from the coupled atoms (recovery and
                     lifting in one step).
 
+``applyzero`` / ``applyave``
+                    FConv recovery (``recover(..., method="fconv")`` with a
+                    ``sparseedm fit-cnn`` model trained on 'zero' / 'average'
+                    input), then the lifter;
+``zero+basl`` / ``ave+basl``
+                    no recovery: a lifter retrained end to end on occluded
+                    'zero' / 'average' input (e.g. ``fit-lifter --method fconv
+                    --occluded 1-3``) on the occluded pose as is; listed under
+                    that lifter's method.
+
 Each pipeline is run for every lifter given (``dictionary`` and, if given,
-``mlp`` = DMR's FConn). FConv rows (applyzero / applyave, zero+basl) come
-with the FConv network.
+``mlp`` = DMR's FConn and ``fconv`` = DMR's FConv). The FConv rows need the
+torch extra and their models; without them they are skipped with a note.
 
 Per row: 3D-EDM Err_ave (per cent, one least-squares scale per pose, see
 :mod:`.metrics`), PA-MPJPE, N-MPJPE and MPJPE (mm; MPJPE at the lifter's size
@@ -28,6 +38,7 @@ it was ambiguous, and poses per second for the whole pipeline.
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import time
 from dataclasses import dataclass, field
@@ -37,6 +48,7 @@ import numpy as np
 
 from .._atomic import atomic_path
 from ..baselines import fit_baseline
+from ..exceptions import SparseEDMError
 from ..metrics import random_occlusion
 from ..normalize import represent
 from ..recovery import recover
@@ -49,6 +61,10 @@ __all__ = ["evaluate_lifting", "LiftReport", "COLUMNS"]
 COLUMNS = ("lifter", "pipeline", "count", "n_poses", "err3d", "pa_mpjpe", "n_mpjpe", "mpjpe",
            "reflection_ok", "ambiguous", "poses_per_s")
 IMPUTERS = ("knn", "iterative", "nearest")
+#: FConv recovery then lifting: pipeline -> representation of the fit-cnn model
+APPLY_FCONV = {"applyzero": "zero", "applyave": "average"}
+#: lifters retrained end to end on occluded input: pipeline -> representation
+RETRAINED = {"zero+basl": "zero", "ave+basl": "average"}
 
 
 @dataclass
@@ -161,7 +177,8 @@ def _score(P, Y, margin, truth_vec, truth_cam):
 
 def evaluate_lifting(lifters, test, *, dictionary=None, train_poses2d=None,
                      counts=(1, 2, 3, "mix"), pipelines=None, max_poses=None, seed=0,
-                     n_jobs=1, max_train=20000, data_name="test data"):
+                     n_jobs=1, max_train=20000, data_name="test data", fconv_models=None,
+                     retrained=None):
     """Run the application table.
 
     Parameters
@@ -178,7 +195,15 @@ def evaluate_lifting(lifters, test, *, dictionary=None, train_poses2d=None,
         For the imputer pipelines (skipped without it).
     pipelines : iterable of str, optional
         Default: all of complete, as-is average, as-is zero, applyspar, the
-        imputers (with training poses) and joint.
+        imputers (with training poses), joint, and the FConv rows whose
+        models are given.
+    fconv_models : dict, optional
+        ``{"zero": model, "average": model}`` (FConvModel or path; either
+        key may be absent): the FConv recovery models of ``applyzero`` /
+        ``applyave``.
+    retrained : dict, optional
+        ``{"zero": lifter, "average": lifter}``: lifters retrained on
+        occluded input in that representation, for ``zero+basl`` / ``ave+basl``.
     """
     rng = np.random.default_rng(seed)
     n_all = len(test["poses2d"])
@@ -192,8 +217,11 @@ def evaluate_lifting(lifters, test, *, dictionary=None, train_poses2d=None,
     labels = np.asarray(test["labels"])[idx] if "labels" in test else None
     n, N, _ = poses2d.shape
     notes = []
-    all_pipes = ["complete", "as-is average", "as-is zero", "applyspar", *IMPUTERS, "joint"]
+    all_pipes = ["complete", "as-is average", "as-is zero", "applyspar", *IMPUTERS, "joint",
+                 *APPLY_FCONV, *RETRAINED]
     pipelines = list(pipelines or all_pipes)
+    fconv_models, retrained = dict(fconv_models or {}), dict(retrained or {})
+    lifters, pipelines = _torch_rows(lifters, pipelines, fconv_models, retrained, notes)
     imputers = {}
     if any(p in IMPUTERS for p in pipelines):
         if train_poses2d is None:
@@ -208,52 +236,91 @@ def evaluate_lifting(lifters, test, *, dictionary=None, train_poses2d=None,
     none_mask = np.zeros((n, N), bool)
     masks = {c: random_occlusion(n, N, c, random_state=np.random.default_rng([seed, i]))
              for i, c in enumerate(counts)}
-    for lname, lifter in lifters.items():
-        for pipe in pipelines:
-            if pipe == "joint" and not lifter.codes_observed_only:
-                continue
-            for count in (["none"] if pipe == "complete" else counts):
-                mask = none_mask if pipe == "complete" else masks[count]
-                t0 = time.perf_counter()
-                if pipe in ("complete", "joint"):
-                    X2, _, _ = represent(poses2d, mask, "average")
-                    P, Y, margin, _ = _lift_rows(lifter, X2, poses2d, mask, mask, n_jobs)
-                elif pipe.startswith("as-is"):
-                    rep = pipe.split()[1]
-                    X2, _, _ = represent(np.where(mask[..., None], np.nan, poses2d), mask, rep)
-                    P, Y, margin, _ = _lift_rows(lifter, X2, poses2d, None, mask, n_jobs)
+    jobs = [(lname, lifter, pipe) for lname, lifter in lifters.items() for pipe in pipelines
+            if pipe not in RETRAINED and (pipe != "joint" or lifter.codes_observed_only)]
+    jobs += [(lf.method, lf, pipe) for pipe, rep in RETRAINED.items()
+             if pipe in pipelines for lf in [retrained[rep]]]
+    for lname, lifter, pipe in jobs:
+        for count in (["none"] if pipe == "complete" else counts):
+            mask = none_mask if pipe == "complete" else masks[count]
+            t0 = time.perf_counter()
+            if pipe in ("complete", "joint"):
+                X2, _, _ = represent(poses2d, mask, "average")
+                P, Y, margin, _ = _lift_rows(lifter, X2, poses2d, mask, mask, n_jobs)
+            elif pipe.startswith("as-is") or pipe in RETRAINED:
+                rep = RETRAINED.get(pipe) or pipe.split()[1]
+                X2, _, _ = represent(np.where(mask[..., None], np.nan, poses2d), mask, rep)
+                P, Y, margin, _ = _lift_rows(lifter, X2, poses2d, None, mask, n_jobs)
+            else:
+                occluded = np.where(mask[..., None], np.nan, poses2d)
+                if pipe == "applyspar":
+                    filled = recover(occluded, mask, dictionary=dictionary,
+                                     n_jobs=n_jobs).poses
+                elif pipe in APPLY_FCONV:
+                    rep = APPLY_FCONV[pipe]
+                    filled = recover(occluded, mask, method="fconv",
+                                     model=fconv_models[rep], representation=rep).poses
                 else:
-                    occluded = np.where(mask[..., None], np.nan, poses2d)
-                    if pipe == "applyspar":
-                        filled = recover(occluded, mask, dictionary=dictionary,
-                                         n_jobs=n_jobs).poses
-                    else:
-                        filled = imputers[pipe].complete(occluded, mask).poses
-                    good = np.isfinite(filled).all(axis=(1, 2))
-                    filled = np.where(good[:, None, None], filled, poses2d * 0 + 1)
-                    X2, _, _ = represent(filled, None, "average")
-                    P, Y, margin, _ = _lift_rows(lifter, X2, filled, none_mask, none_mask,
-                                                 n_jobs)
-                    P[~good] = np.nan
-                sec = time.perf_counter() - t0
-                sc = _score(P, Y, margin, truth_vec, truth_cam)
-                row = {"lifter": lname, "pipeline": pipe, "count": count, "n_poses": n}
-                row.update({k: float(np.nanmean(v)) for k, v in sc.items()})
-                row["poses_per_s"] = n / sec
-                rows.append(row)
-                if labels is not None and count == "mix":
-                    for lab in np.unique(labels):
-                        sel = labels == lab
-                        per_action.append({"label": str(lab), "lifter": lname, "pipeline": pipe,
-                                           "n_poses": int(sel.sum()),
-                                           "err3d": float(np.nanmean(sc["err3d"][sel]))})
-                if pipe == "joint" and count == "mix" and not examples:
-                    pick = np.random.default_rng(seed).choice(n, min(4, n), replace=False)
-                    examples = {"truth": truth_cam[pick] - pelvis(truth_cam[pick])[:, None],
-                                "lifted": P[pick], "missing": mask[pick],
-                                "titles": [f"{int(mask[i].sum())} occluded, err3d "
-                                           f"{sc['err3d'][i]:.1f}%" for i in pick]}
+                    filled = imputers[pipe].complete(occluded, mask).poses
+                good = np.isfinite(filled).all(axis=(1, 2))
+                filled = np.where(good[:, None, None], filled, poses2d * 0 + 1)
+                X2, _, _ = represent(filled, None, "average")
+                P, Y, margin, _ = _lift_rows(lifter, X2, filled, none_mask, none_mask,
+                                             n_jobs)
+                P[~good] = np.nan
+            sec = time.perf_counter() - t0
+            sc = _score(P, Y, margin, truth_vec, truth_cam)
+            row = {"lifter": lname, "pipeline": pipe, "count": count, "n_poses": n}
+            row.update({k: float(np.nanmean(v)) for k, v in sc.items()})
+            row["poses_per_s"] = n / sec
+            rows.append(row)
+            if labels is not None and count == "mix":
+                for lab in np.unique(labels):
+                    sel = labels == lab
+                    per_action.append({"label": str(lab), "lifter": lname, "pipeline": pipe,
+                                       "n_poses": int(sel.sum()),
+                                       "err3d": float(np.nanmean(sc["err3d"][sel]))})
+            if pipe == "joint" and count == "mix" and not examples:
+                pick = np.random.default_rng(seed).choice(n, min(4, n), replace=False)
+                examples = {"truth": truth_cam[pick] - pelvis(truth_cam[pick])[:, None],
+                            "lifted": P[pick], "missing": mask[pick],
+                            "titles": [f"{int(mask[i].sum())} occluded, err3d "
+                                       f"{sc['err3d'][i]:.1f}%" for i in pick]}
     settings = {"n_poses": int(n), "data": data_name, "seed": seed,
                 "counts": [str(c) for c in counts], "pipelines": pipelines,
-                "lifters": {k: v.method for k, v in lifters.items()}}
+                "lifters": {k: v.method for k, v in lifters.items()},
+                "retrained": {k: v.method for k, v in retrained.items()},
+                "fconv_recovery": sorted(fconv_models)}
     return LiftReport(rows, per_action, examples, settings, notes)
+
+
+def _torch_rows(lifters, pipelines, fconv_models, retrained, notes):
+    """Drop the rows whose models are absent, or that need torch when it is absent."""
+    from ..fconv.model import load_model
+
+    have_torch = importlib.util.find_spec("torch") is not None
+    for pipe, rep in APPLY_FCONV.items():
+        if pipe in pipelines and rep not in fconv_models:
+            notes.append(f"no FConv '{rep}' recovery model (sparseedm fit-cnn "
+                         f"--representation {rep}): {pipe} skipped")
+            pipelines = [p for p in pipelines if p != pipe]
+        elif pipe in pipelines:
+            fconv_models[rep] = load_model(fconv_models[rep], representation=rep, kind="recover")
+    for pipe, rep in RETRAINED.items():
+        lf = retrained.get(rep)
+        if pipe in pipelines and lf is None:
+            notes.append(f"no lifter retrained on occluded '{rep}' input: {pipe} skipped")
+            pipelines = [p for p in pipelines if p != pipe]
+        elif pipe in pipelines and getattr(lf, "representation", rep) != rep:
+            raise SparseEDMError(f"{pipe} needs a lifter retrained on '{rep}' input, this one "
+                                 f"reads '{lf.representation}'")
+    if not have_torch:
+        torch_pipes = [p for p in pipelines if p in APPLY_FCONV
+                       or (p in RETRAINED and retrained[RETRAINED[p]].method == "fconv")]
+        torch_lifters = [k for k, v in lifters.items() if v.method == "fconv"]
+        if torch_pipes or torch_lifters:
+            notes.append("PyTorch is not installed (the sparseedm[torch] extra): skipped "
+                         + ", ".join(torch_pipes + [f"lifter {k}" for k in torch_lifters]))
+        pipelines = [p for p in pipelines if p not in torch_pipes]
+        lifters = {k: v for k, v in lifters.items() if k not in torch_lifters}
+    return lifters, pipelines

@@ -3,7 +3,7 @@
 1. Each pose is normalised by its observed joints (:mod:`sparseedm.normalize`)
    and becomes its 2D EDM vector (the ``"average"`` representation; a
    dictionary lifter reads only the observed entries, an MLP the whole vector).
-2. The lifter predicts the 3D EDM vector (:mod:`.dictionary`, :mod:`.mlp`).
+2. The lifter predicts the 3D EDM vector (:mod:`.dictionary`, :mod:`.mlp`, :mod:`.fconv`).
 3. :func:`sparseedm.lifting.mds.reconstruct` turns it into coordinates:
    MDS + SMACOF, rotated to agree with the 2D input (weak perspective), the
    depth reflection chosen by the lifter's chirality prior.
