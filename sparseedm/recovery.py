@@ -190,22 +190,24 @@ _PARAMS = {
 _TINY = np.finfo(float).tiny
 
 
-def _validate(poses, missing, n_joints):
-    poses = check_poses(poses, "recover")
+def _validate(poses, missing, n_joints, caller="recover", model="dictionary"):
+    """Poses (n, N, 2) as floats, the missing mask and the rows with a bad
+    observed coordinate; whole-input problems raise, naming `caller`/`model`."""
+    poses = check_poses(poses, caller)
     if poses.ndim == 2:
         poses = poses[None]
     if poses.ndim != 3 or poses.shape[-1] != 2:
         raise PoseError(f"poses must have shape (n, N, 2), got {np.shape(poses)}")
     if poses.shape[1] != n_joints:
         raise PoseError(
-            f"poses have {poses.shape[1]} joints but the dictionary is for {n_joints}"
+            f"poses have {poses.shape[1]} joints but the {model} is for {n_joints}"
         )
     nan = np.isnan(poses).any(axis=-1)
     if missing is None:
         mask = nan
         bad_coord = np.isinf(poses).any(axis=-1).any(axis=-1)
     else:
-        mask = check_mask(missing, "recover")
+        mask = check_mask(missing, caller)
         if mask.ndim == 1:
             mask = mask[None]
         if mask.shape != poses.shape[:2]:
@@ -214,13 +216,17 @@ def _validate(poses, missing, n_joints):
     return poses, mask, bad_coord
 
 
-def _screen(poses, mask, bad_coord, representation):
-    """Statuses of every pose, and the usable ones' vectors under `representation`.
+def screen_poses(poses, mask, bad_coord):
+    """Why each pose cannot be used, before any solving: shared by every path.
 
-    Shared by the sparse path and the FConv path (:mod:`sparseedm.fconv`).
+    Returns ``(status, reason, n_obs, clean)``: `status` is ``""`` for a usable
+    pose and a refusal of :data:`STATUSES` otherwise (``invalid_coordinates``,
+    ``too_few_observed``, ``degenerate``, ``out_of_range``); `clean` is the poses
+    with missing joints at 0. Used by :func:`recover`, the FConv path and
+    :func:`sparseedm.lift`.
     """
     n, N = mask.shape
-    status = np.full(n, "recovered", dtype=object)
+    status = np.full(n, "", dtype=object)
     reason = np.full(n, "", dtype=object)
     n_obs = (~mask).sum(axis=1)
     status[bad_coord] = "invalid_coordinates"
@@ -235,17 +241,28 @@ def _screen(poses, mask, bad_coord, representation):
         widest = (hi - lo).max(axis=1)  # -inf for a pose with no observed joint
         # the 'average' fill sums the observed coordinates: that must not overflow
         total = np.abs(clean).sum(axis=1).max(axis=1)
-    degenerate = (status == "recovered") & ~(widest > 0)
+    degenerate = (status == "") & ~(widest > 0)
     status[degenerate] = "degenerate"
     reason[degenerate] = "all observed joints coincide"
-    huge = (status == "recovered") & ~(np.isfinite(widest) & np.isfinite(total))
+    huge = (status == "") & ~(np.isfinite(widest) & np.isfinite(total))
     status[huge] = "out_of_range"
     reason[huge] = ("the observed joints span more than float64 can hold (extent or sum "
                     "overflows); rescale the coordinates")
-    tiny = (status == "recovered") & (widest / 2 < _TINY)
+    tiny = (status == "") & (widest / 2 < _TINY)
     status[tiny] = "out_of_range"
     reason[tiny] = [f"the observed joints span only {w:.3g} (a subnormal extent); rescale "
                     "the coordinates" for w in widest[tiny]]
+    return status, reason, n_obs, clean
+
+
+def _screen(poses, mask, bad_coord, representation):
+    """Statuses of every pose, and the usable ones' vectors under `representation`.
+
+    Shared by the sparse path and the FConv path (:mod:`sparseedm.fconv`).
+    """
+    n, N = mask.shape
+    status, reason, n_obs, clean = screen_poses(poses, mask, bad_coord)
+    status[status == ""] = "recovered"
     complete = (status == "recovered") & (n_obs == N)
     status[complete] = "complete"
     reason[complete] = "no joint missing"

@@ -19,9 +19,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..edm import vector_to_edm
-from ..exceptions import PoseError, SparseEDMError
 from ..recovery import STATUSES as RECOVERY_STATUSES
-from ..normalize import MIN_OBSERVED_JOINTS, REPRESENTATIONS, normalize, represent
+from ..recovery import _validate, screen_poses
+from .._validation import N_JOBS, Options, validate_params
+from ..normalize import REPRESENTATIONS, normalize, represent
 from .base import load_lifter, rms
 from .mds import reconstruct
 from .metrics import pelvis
@@ -86,26 +87,6 @@ class LiftResult:
         }
 
 
-def _validate(poses, missing, n_joints):
-    poses = np.asarray(poses, dtype=float)
-    if poses.ndim == 2:
-        poses = poses[None]
-    if poses.ndim != 3 or poses.shape[-1] != 2:
-        raise PoseError(f"poses must have shape (n, N, 2), got {np.shape(poses)}")
-    if poses.shape[1] != n_joints:
-        raise PoseError(f"poses have {poses.shape[1]} joints but the lifter is for {n_joints}")
-    mask = np.isnan(poses).any(axis=-1)
-    if missing is not None:
-        extra = np.asarray(missing, dtype=bool)
-        if extra.ndim == 1:
-            extra = extra[None]
-        if extra.shape != mask.shape:
-            raise PoseError(f"missing must have shape {mask.shape}, got {extra.shape}")
-        mask = mask | extra
-    bad = ((~np.isfinite(poses)).any(axis=-1) & ~mask).any(axis=1)
-    return poses, mask, bad
-
-
 def lift(poses, missing=None, *, lifter=None, n_jobs=1, representation="average"):
     """Lift 2D poses to 3D.
 
@@ -142,30 +123,15 @@ def lift(poses, missing=None, *, lifter=None, n_jobs=1, representation="average"
     True
     """
     t0 = time.perf_counter()
+    validate_params("lift", dict(representation=representation, n_jobs=n_jobs),
+                    {"representation": [Options(REPRESENTATIONS)], "n_jobs": N_JOBS})
     lifter = load_lifter(lifter)
-    if representation not in REPRESENTATIONS:
-        raise SparseEDMError(f"unknown representation {representation!r}; use one of "
-                             f"{REPRESENTATIONS}")
     N = lifter.n_joints
-    poses, mask, bad = _validate(poses, missing, N)
+    poses, mask, bad = _validate(poses, missing, N, caller="lift", model="lifter")
     n = len(poses)
     m = N * (N - 1) // 2
-    status = np.full(n, "lifted", dtype=object)
-    reason = np.full(n, "", dtype=object)
-    n_obs = (~mask).sum(axis=1)
-    status[bad] = "invalid_coordinates"
-    reason[bad] = "an observed joint has a NaN or infinite coordinate"
-    few = ~bad & (n_obs < MIN_OBSERVED_JOINTS)
-    status[few] = "too_few_observed"
-    reason[few] = [f"{k} observed joints, at least {MIN_OBSERVED_JOINTS} needed" for k in n_obs[few]]
-    clean = np.where(mask[..., None], 0.0, poses)
-    with np.errstate(invalid="ignore"):
-        lo = np.where(mask[..., None], np.inf, clean).min(axis=1)
-        hi = np.where(mask[..., None], -np.inf, clean).max(axis=1)
-        widest = (hi - lo).max(axis=1)
-    degenerate = (status == "lifted") & ~(widest > 0)
-    status[degenerate] = "degenerate"
-    reason[degenerate] = "all observed joints coincide"
+    status, reason, n_obs, clean = screen_poses(poses, mask, bad)
+    status[status == ""] = "lifted"
     status[(status == "lifted") & (n_obs < N)] = "lifted_occluded"
 
     out = np.full((n, N, 3), np.nan)
