@@ -161,6 +161,14 @@ def test_bad_rows_are_flagged_and_good_rows_lifted(data, dict_lifter):
     assert "2 observed joints" in res.reason[1]
 
 
+def test_an_overflowing_row_is_refused_and_the_rest_lifted(data, dict_lifter):
+    poses = data["poses2d"][:3].copy()
+    poses[1] = np.where(np.arange(14)[:, None] % 2, 1.5e308, -1.5e308)  # extent overflows
+    res = lift(poses, lifter=dict_lifter)
+    assert res.status.tolist() == ["lifted", "out_of_range", "lifted"]
+    assert "rescale" in res.reason[1] and np.isfinite(res.poses3d[[0, 2]]).all()
+
+
 def test_lift_refuses_other_joint_counts(dict_lifter):
     with pytest.raises(PoseError, match="13 joints but the lifter is for 14"):
         lift(np.zeros((2, 13, 2)), lifter=dict_lifter)
