@@ -23,7 +23,6 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass, field
 from numbers import Integral, Real
-from importlib import resources
 from pathlib import Path
 
 import numpy as np
@@ -31,6 +30,7 @@ import numpy as np
 from . import __version__
 from ._atomic import save_npz
 from ._safeio import load_npz
+from ._shipped import resolve_shipped, shipped_names
 from ._validation import Interval, validate_params
 from .edm import num_joints_from_dim
 from .exceptions import DictionaryError, FileFormatError, PickledDataError, PoseError
@@ -266,26 +266,12 @@ def _check_meta(meta, where):
 
 def available_dictionaries() -> list[str]:
     """Names of the dictionaries shipped with the package ("default" included)."""
-    names = sorted(
-        p.name[:-4] for p in resources.files("sparseedm.dictionaries").iterdir()
-        if p.name.endswith(".npz")
-    )
-    return ["default"] + names if DEFAULT_DICTIONARY in names else names
+    return shipped_names("sparseedm.dictionaries", DEFAULT_DICTIONARY)
 
 
 def _resolve(name_or_path):
-    if name_or_path is None or name_or_path == "default":
-        name_or_path = DEFAULT_DICTIONARY
-    path = Path(name_or_path)
-    if path.suffix == ".npz" or path.exists() or "/" in str(name_or_path):
-        return path
-    res = resources.files("sparseedm.dictionaries") / f"{name_or_path}.npz"
-    if not res.is_file():
-        raise DictionaryError(
-            f"no dictionary called {name_or_path!r}; shipped ones: "
-            f"{', '.join(available_dictionaries()) or 'none'}; or give a path to an .npz"
-        )
-    return Path(str(res))
+    return resolve_shipped(name_or_path, "sparseedm.dictionaries", DEFAULT_DICTIONARY,
+                           DictionaryError, "dictionary")
 
 
 def load_dictionary(name_or_path=None, *, n_joints=None) -> Dictionary:

@@ -45,7 +45,6 @@ from __future__ import annotations
 
 import importlib
 import json
-from importlib import resources
 from pathlib import Path
 
 import numpy as np
@@ -53,6 +52,7 @@ import numpy as np
 from .. import __version__
 from .._atomic import atomic_path
 from .._safeio import load_npz, npz_members
+from .._shipped import resolve_shipped, shipped_names
 from ..edm import pose_to_vector
 from ..exceptions import DictionaryError, FileFormatError, PickledDataError, PoseError, SparseEDMError
 from ..normalize import normalize
@@ -276,25 +276,12 @@ def _lifter_class(method, where):
 
 def available_lifters():
     """Names of the lifters shipped with the package ("default" included)."""
-    try:
-        names = sorted(p.name[:-4] for p in resources.files("sparseedm.lifters").iterdir()
-                       if p.name.endswith(".npz"))
-    except ModuleNotFoundError:  # pragma: no cover - a broken install
-        names = []
-    return ["default"] + names if DEFAULT_LIFTER in names else names
+    return shipped_names("sparseedm.lifters", DEFAULT_LIFTER)
 
 
 def _resolve(name_or_path):
-    if name_or_path is None or name_or_path == "default":
-        name_or_path = DEFAULT_LIFTER
-    path = Path(name_or_path)
-    if path.suffix == ".npz" or path.exists() or "/" in str(name_or_path):
-        return path
-    res = resources.files("sparseedm.lifters") / f"{name_or_path}.npz"
-    if not res.is_file():
-        raise LifterError(f"no lifter called {name_or_path!r}; shipped ones: "
-                          f"{', '.join(available_lifters()) or 'none'}; or give a path to an .npz")
-    return Path(str(res))
+    return resolve_shipped(name_or_path, "sparseedm.lifters", DEFAULT_LIFTER, LifterError,
+                           "lifter")
 
 
 def is_lifter_file(name_or_path):
