@@ -124,7 +124,8 @@ def main(argv=None):
     ap.add_argument("--n-adapt", type=int, default=3000)
     ap.add_argument("--n-score", type=int, default=600)
     ap.add_argument("--directions", default="cmu->bandai,bandai->cmu,cmu->daz")
-    ap.add_argument("--grid", default="1,2")
+    ap.add_argument("--grid", default="1,2",
+                    help="1, 2, 4 (issue 9), 5 (the tuning follow-up), 3 (test table)")
     args = ap.parse_args(argv)
     Path(args.work).mkdir(parents=True, exist_ok=True)
     out = {"settings": vars(args), "directions": {}}
@@ -203,10 +204,53 @@ def main(argv=None):
             r["cold_alpha_recover0.0005"] = masked_error(base, scored, alpha=0.0005)
             rec["passes_and_recovery_alpha"] = r
             print(f"  grid 4: {r}", flush=True)
+        if "5" in args.grid:
+            rec["tune"] = tune_grid(base, src, pool, scored, cold, args)
         if "3" in args.grid:
             rec["test"] = test_table(base, src, dst, args, poses, clips)
         Path(args.out).write_text(json.dumps(out, indent=1, default=float))
     return 0
+
+
+#: grid 5 (issue 9 follow-up, with the all-CMU default): one change at a time
+#: around the shipped setting (fresh, 2 passes, batch 256, recovery alpha x 0.25)
+TUNE_CELLS = [
+    ("shipped", {}),
+    ("passes 4", {"passes": 4}),
+    ("batch 128", {"batch_size": 128}),
+    ("reinit from all poses", {"reinit": True}),
+    ("forget 0.9", {"forget": 0.9}),
+    ("replay 0.25 source training vectors", {"replay": 0.25, "replay_real": True}),
+]
+TUNE_FACTORS = (0.1, 0.25, 0.5)
+
+
+def tune_grid(base, src, pool, scored, cold, args):
+    """Grid 5: learning budget, forgetting, replay of real source vectors,
+    re-initialisation from the adaptation poses, recovery alpha (validation clips)."""
+    A = sample(pool, args.n_adapt, 2)
+    X = _vectors(A)
+    real = None
+    rows = []
+    for name, change in TUNE_CELLS:
+        change = dict(change)
+        if change.pop("replay_real", False):
+            if real is None:
+                src_poses, _ = build(args.data_dir, args.work, src, {"cmu": 0, "bandai": 1}[src])
+                real = _vectors(sample(src_poses, 20000, 5))
+            change["replay_vectors"] = real
+        t0 = time.perf_counter()
+        comps = adapt_vectors(base.components, X, base.alpha_train, random_state=0, **change)
+        secs = time.perf_counter() - t0
+        d = with_atoms(base, comps)
+        factors = TUNE_FACTORS if name == "shipped" else (0.25,)
+        for f in factors:
+            err = masked_error(d, scored, alpha=base.alpha_recover * f)
+            rows.append({"cell": name, "alpha_recover_factor": f, "err": err,
+                         "ratio_cold": err / cold, "seconds": secs})
+            print(f"  {name}, alpha x{f}: {err:.3f} ({err / cold:.2f}x cold) {secs:.1f} s",
+                  flush=True)
+    return rows
 
 
 def test_table(base, src, dst, args, poses, clips):
