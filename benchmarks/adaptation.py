@@ -64,6 +64,8 @@ def run(quick=False):
     res = run_adaptation(base, sample, n_jobs=2)
     rows["run_adaptation (defaults: filters + learning + guard), n_jobs=2"] = {
         "seconds": time.perf_counter() - t0, "note": res.line()}
+    for step, secs in res.step_seconds.items():
+        rows[f"  of which {step}"] = {"seconds": secs, "note": ""}
     X = _vectors(sample[: res.n_used])
     t0 = time.perf_counter()
     adapt_vectors(base.components, X, base.alpha_train, n_jobs=2)

@@ -64,7 +64,7 @@ __all__ = ["adapt", "run_adaptation", "adapt_vectors", "AdaptationResult",
            "usable_rows", "duplicate_rows", "reconstruction_error", "outlier_rows",
            "swapped_rows", "filter_poses", "holdout_blocks", "resolve_adaptation",
            "masked_error", "guard_masks", "sample_complete", "fine_tune_file", "evaluate_adaptation",
-           "MIN_COMPLETE_POSES",
+           "MIN_COMPLETE_POSES", "ADAPTED_ALPHA_TRAIN", "adaptation_alpha",
            "STATS"]
 
 #: Fewest complete poses (after filtering) that ``adapt="auto"`` adapts on;
@@ -75,8 +75,31 @@ STATS = ("fresh", "carried")
 # defaults chosen by dictionaries/select_adaptation.py (see dictionaries/README.md)
 DEFAULT_PASSES = 2
 #: The adapted dictionary's recommended recovery alpha is the base's times this
-#: (0.002 -> 0.0005 for the shipped default; chosen on the validation splits).
-ADAPTED_ALPHA_RECOVER_FACTOR = 0.25
+#: (0.0005 -> 0.00025 for the shipped default; chosen on the validation splits,
+#: grid 6 of dictionaries/select_adaptation.py).
+ADAPTED_ALPHA_RECOVER_FACTOR = 0.5
+#: Lasso penalty of the adaptation's coding step (``alpha=None``):
+#: ``min(ADAPTED_ALPHA_TRAIN_FACTOR * base alpha_train, ADAPTED_ALPHA_TRAIN)``,
+#: sparser codes than the base's own (0.8 for the all-CMU default -> 3.2; 1.6
+#: for the k = 2000 ones -> 3.2). Chosen on the validation splits (grid 6 of
+#: dictionaries/select_adaptation.py): 2-5 % lower error than the base's alpha
+#: for k = 2000 dictionaries, and a faster learning (shorter LARS paths). The
+#: factor keeps small dictionaries (trained with small alphas: denser codes)
+#: away from a penalty that would leave their codes empty.
+ADAPTED_ALPHA_TRAIN = 3.2
+ADAPTED_ALPHA_TRAIN_FACTOR = 4.0
+
+
+def adaptation_alpha(dictionary):
+    """The default training alpha of adapting `dictionary` (see ADAPTED_ALPHA_TRAIN).
+
+    Examples
+    --------
+    >>> import sparseedm
+    >>> adaptation_alpha(sparseedm.load_dictionary())   # the default's 0.8, times 4
+    3.2
+    """
+    return float(min(ADAPTED_ALPHA_TRAIN_FACTOR * dictionary.alpha_train, ADAPTED_ALPHA_TRAIN))
 DEFAULT_STATS = "fresh"
 DEFAULT_REPLAY = 0.0
 DEFAULT_MEMORY = 1.0
@@ -440,6 +463,8 @@ class AdaptationResult:
     err_base, err_adapted : float
         Mean Mix Err_ave (%) on the held-back poses (NaN when not measured).
     seconds : float
+    step_seconds : dict
+        Seconds of each step: ``filter``, ``learning``, ``guard``.
     candidate : Dictionary or None
         The adapted dictionary even when the guard rejected it.
     settings : dict
@@ -456,6 +481,7 @@ class AdaptationResult:
     err_base: float = float("nan")
     err_adapted: float = float("nan")
     seconds: float = 0.0
+    step_seconds: dict = field(default_factory=dict)
     candidate: Dictionary | None = None
     settings: dict = field(default_factory=dict)
 
@@ -471,6 +497,7 @@ class AdaptationResult:
             "validation_err_base": num(self.err_base),
             "validation_err_adapted": num(self.err_adapted),
             "seconds": round(self.seconds, 3),
+            "step_seconds": {k: round(v, 3) for k, v in self.step_seconds.items()},
         }
 
     def line(self) -> str:
@@ -525,7 +552,7 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
     missing : array_like of bool (n, N), optional
     passes, alpha, stats, memory, replay, batch_size
         The learning (:func:`adapt_vectors`); ``alpha`` defaults to the
-        dictionary's ``alpha_train``. The adapted dictionary recommends
+        :func:`adaptation_alpha` (3.2 for the default). The adapted dictionary recommends
         ``ADAPTED_ALPHA_RECOVER_FACTOR`` times the base's recovery alpha.
     min_poses : int
         Fewer complete plausible poses than this: no adaptation.
@@ -561,8 +588,10 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
     def done(reason, **kw):
         return AdaptationResult(dictionary=kw.pop("use", dictionary), reason=reason,
                                 n_given=n_given, seconds=time.perf_counter() - t0,
-                                settings=settings, **kw)
+                                settings=settings, step_seconds=steps, **kw)
 
+    steps = {}
+    t_step = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         if filter:
@@ -572,6 +601,7 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
             keep = usable_rows(complete)
             dropped = {"incomplete": int((~keep).sum())}
     dropped["incomplete"] += n_given - len(complete)
+    steps["filter"] = time.perf_counter() - t_step
     good = complete[keep]
     n_complete = len(good)
     if n_complete < min_poses:
@@ -582,11 +612,13 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
         good = good[np.sort(rng.choice(n_complete, max_poses, replace=False))]
     val = holdout_blocks(len(good), validation_fraction if guard else 0.0, random_state)
     train, held = good[~val], good[val]
-    alpha_train = dictionary.alpha_train if alpha is None else alpha
+    alpha_train = adaptation_alpha(dictionary) if alpha is None else alpha
+    t_step = time.perf_counter()
     X = _vectors(train)
     comps = adapt_vectors(dictionary.components, X, alpha_train, passes=passes, stats=stats,
                           memory=memory, replay=replay, batch_size=batch_size,
                           random_state=random_state, n_jobs=n_jobs)
+    steps["learning"] = time.perf_counter() - t_step
     prov = dict(dictionary.provenance or {})
     prov["adaptation"] = {"poses": int(len(train)), "passes": passes, "stats": stats,
                           "replay": replay, "alpha": alpha_train, "seed": random_state,
@@ -594,7 +626,7 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
     candidate = Dictionary(
         components=comps, joint_names=dictionary.joint_names,
         alpha_recover=dictionary.alpha_recover * ADAPTED_ALPHA_RECOVER_FACTOR,
-        alpha_train=dictionary.alpha_train,
+        alpha_train=alpha_train,
         alpha_scaling=dictionary.alpha_scaling, positive_code=dictionary.positive_code,
         representation=dictionary.representation, normalization=dictionary.normalization,
         provenance=prov,
@@ -603,10 +635,12 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
               dropped=dropped, candidate=candidate)
     if not guard or len(held) == 0:
         return done("unchecked: no held-back poses", adapted=True, use=candidate, **kw)
+    t_step = time.perf_counter()
     with _numba_threads(n_jobs):
         e0, e1 = (masked_error(d, held, random_state=random_state, n_jobs=n_jobs,
                                n_patterns=max(1, len(held) // GUARD_POSES_PER_PATTERN))
                   for d in (dictionary, candidate))
+    steps["guard"] = time.perf_counter() - t_step
     candidate.provenance["adaptation"].update(validation_err_base=e0, validation_err_adapted=e1)
     if e1 < e0:
         return done("better on the held-back poses", adapted=True, use=candidate,
