@@ -10,7 +10,13 @@ Directions (dictionary learned on one source, adapted to and scored on another):
   (kept in --work, never committed: CC BY-NC) on the CMU ASF/AMC clips;
 * ``cmu->daz``: the shipped default on the CMU Daz-rig BVH clips (dance,
   martial arts; another rig, read here with a head top 0.2 m beyond the head
-  joint along the neck-head bone, as for Bandai).
+  joint along the neck-head bone, as for Bandai). Since the default became
+  ``cmu-all-k2000`` (learned on the Daz clips too) this is in-domain, so
+* ``cmu0103->daz``: the shipped ``cmu-k2000`` (CMU subjects 01-03 only) on the
+  Daz clips, the cross-source Daz direction of grids 6, 7 and 3.
+
+(``cmu->bandai`` used subjects 01-03's ``cmu-k2000`` in grids 1-4, the
+all-CMU default in grids 5-7 and the final grid 3.)
 
 The target's clips, sorted, are split three ways by clip: clip i with
 ``i % 3 == 0`` is an *adaptation* clip (its complete poses adapt), ``1`` a
@@ -26,7 +32,12 @@ statistics (fresh / carried with memory 1 or 10), passes (1, 3, 5), training
 alpha (0.4, 0.8, 1.6), replay of base atoms (0, 0.25). Grid 2: the chosen setting against the number of adaptation poses,
 with the guard on (what ``recover(adapt="auto")`` does), to choose
 MIN_COMPLETE_POSES. Grid 4: 2 vs 3 passes of the chosen setting, and recovery
-alpha 0.002 vs 0.0005 for the adapted dictionary (and the cold one). Grid 3
+alpha 0.002 vs 0.0005 for the adapted dictionary (and the cold one). Grids
+5-7 (the follow-up with the all-CMU default, ``--n-score 400``): one change at
+a time around the shipped setting (passes, batch size, forgetting, replay of
+real source vectors, re-drawing atoms from all poses, mirrored poses, union
+with the base atoms, k), then training alpha x recovery alpha and passes, then
+k = 3000. Grid 3
 (``--grid 3``, after the choice): the README's
 table, cold vs adapted vs baselines on the *test* clips, through
 ``sparseedm evaluate --adapt-from``. About 15 minutes per grid single-threaded
@@ -100,6 +111,8 @@ def sample(poses, n, seed):
 def source_dictionary(name, data_dir, work):
     if name == "cmu":
         return load_dictionary("default")
+    if name == "cmu0103":  # subjects 01-03 only: the all-CMU default has seen the Daz clips
+        return load_dictionary("cmu-k2000")
     path = Path(work) / "bandai-k2000.npz"
     if not path.is_file():
         from sparseedm.learning import fit_dictionary_file
@@ -124,7 +137,8 @@ def main(argv=None):
     ap.add_argument("--n-adapt", type=int, default=3000)
     ap.add_argument("--n-score", type=int, default=600)
     ap.add_argument("--directions", default="cmu->bandai,bandai->cmu,cmu->daz")
-    ap.add_argument("--grid", default="1,2")
+    ap.add_argument("--grid", default="1,2",
+                    help="1, 2, 4 (issue 9), 5, 6, 7 (the tuning follow-up), 3 (test table)")
     args = ap.parse_args(argv)
     Path(args.work).mkdir(parents=True, exist_ok=True)
     out = {"settings": vars(args), "directions": {}}
@@ -146,9 +160,12 @@ def main(argv=None):
         pool, val, _ = split(poses, clips)
         scored = sample(val, args.n_score, 1)
         rec = out["directions"].setdefault(direction, {})
-        rec.update(n_pool=len(pool), n_val=len(val), n_scored=len(scored))
         cold = masked_error(base, scored)
-        rec["cold"] = cold
+        if set("124") & set(args.grid):  # issue 9's grids share these
+            rec.update(n_pool=len(pool), n_val=len(val), n_scored=len(scored), cold=cold)
+        tuned = dict(dictionary={"cmu": "default (cmu-all-k2000)", "cmu0103": "cmu-k2000",
+                                 "bandai": "bandai-k2000"}[src],
+                     n_adapt=args.n_adapt, n_scored=len(scored), cold=cold)
         print(f"{direction}: pool {len(pool)}, validation {len(val)}; cold {cold:.3f}",
               flush=True)
         if "1" in args.grid:
@@ -203,10 +220,109 @@ def main(argv=None):
             r["cold_alpha_recover0.0005"] = masked_error(base, scored, alpha=0.0005)
             rec["passes_and_recovery_alpha"] = r
             print(f"  grid 4: {r}", flush=True)
+        if "5" in args.grid:
+            rec["tune"] = dict(tuned, rows=tune_grid(base, src, pool, scored, cold, args))
+        if "6" in args.grid:
+            rec["alpha"] = dict(tuned, rows=alpha_grid(base, src, pool, scored, cold, args))
+        if "7" in args.grid:
+            cells = [("alpha_train 3.2, k 3000 (1000 atoms drawn from the adaptation poses "
+                      "added)", {"alpha": 3.2, "extra_atoms": 1000})]
+            rec["k3000"] = dict(tuned, rows=tune_grid(base, src, pool, scored, cold, args,
+                                                      cells, (0.5,)))
         if "3" in args.grid:
             rec["test"] = test_table(base, src, dst, args, poses, clips)
         Path(args.out).write_text(json.dumps(out, indent=1, default=float))
     return 0
+
+
+#: grid 5 (issue 9 follow-up, with the all-CMU default): one change at a time
+#: around the shipped setting of issue 9 (fresh, 2 passes, batch 256, training
+#: alpha = the base's, recovery alpha x 0.25). Keys besides adapt_vectors'
+#: arguments: ``replay_real`` (replay a sample of the source's own training
+#: vectors), ``most_used`` (keep only the k base atoms the adaptation poses use
+#: most), ``union`` (recover with the adapted atoms and the base atoms),
+#: ``mirror`` (add the left/right mirror of every adaptation pose),
+#: ``alpha_factor`` (training alpha = the base's times this).
+TUNE_CELLS = [
+    ("shipped", {}),
+    ("passes 4", {"passes": 4}),
+    ("batch 128", {"batch_size": 128}),
+    ("reinit from all poses", {"reinit": True}),
+    ("forget 0.9", {"forget": 0.9}),
+    ("replay 0.25 source training vectors", {"replay": 0.25, "replay_real": True}),
+    ("union of adapted and base atoms (k 4000)", {"union": True}),
+    ("mirrored poses added, 1 pass", {"mirror": True, "passes": 1}),
+    ("mirrored poses added, 2 passes", {"mirror": True}),
+    ("k 1000 most used base atoms", {"most_used": 1000}),
+    ("k 500 most used base atoms", {"most_used": 500}),
+]
+TUNE_FACTORS = (0.1, 0.25, 0.5)
+#: grid 6: the adaptation's training alpha (absolute: the EDM vectors are
+#: normalised, the bases' own are 0.8 for the all-CMU default and 1.6 for the
+#: Bandai-Namco one) against the recovery alpha (x the base's); then passes
+GRID6_ALPHAS = (1.6, 2.4, 3.2, 4.8)
+RECOVER_FACTORS = (0.25, 0.5, 1.0)
+
+
+def _adapt_cell(base, src, A, X, change, args, cache):
+    """Atoms adapted as one grid-5/6 cell says (see TUNE_CELLS)."""
+    from sparseedm.adaptation import _swap
+    from sparseedm.learning import sparse_code
+    from sparseedm.skeleton import SKELETON_14
+
+    change = dict(change)
+    C0 = base.components
+    alpha = change.pop("alpha", base.alpha_train * change.pop("alpha_factor", 1.0))
+    if change.pop("replay_real", False):
+        if "real" not in cache:
+            name = "bandai" if src == "bandai" else "cmu"
+            src_poses, _ = build(args.data_dir, args.work, name, {"cmu": 0, "bandai": 1}[name])
+            cache["real"] = _vectors(sample(src_poses, 20000, 5))
+        change["replay_vectors"] = cache["real"]
+    if change.pop("mirror", False):
+        pairs = list(zip(SKELETON_14.joints_left, SKELETON_14.joints_right))
+        X = np.vstack([X, _vectors(_swap(A, pairs))])
+    extra = change.pop("extra_atoms", 0)
+    if extra:  # more atoms: rows of X, unit-normalised, appended to the base's
+        rows = X[np.random.default_rng(7).choice(len(X), extra, replace=False)]
+        C0 = np.vstack([C0, rows / np.linalg.norm(rows, axis=1, keepdims=True)])
+    k = change.pop("most_used", None)
+    if k:
+        use = (sparse_code(X, C0, base.alpha_train) != 0).sum(axis=0)
+        C0 = C0[np.sort(np.argsort(-use, kind="stable")[:k])]
+    union = change.pop("union", False)
+    comps = adapt_vectors(C0, X, alpha, random_state=0, **change)
+    return np.vstack([comps, base.components]) if union else comps
+
+
+def tune_grid(base, src, pool, scored, cold, args, cells=TUNE_CELLS, factors=None):
+    """Grids 5 and 6 on the validation clips: each cell's atoms, scored with
+    the recovery alpha factors (`factors`, default TUNE_FACTORS for the
+    shipped cell and 0.25 for the others)."""
+    A = sample(pool, args.n_adapt, 2)
+    X = _vectors(A)
+    cache, rows = {}, []
+    for name, change in cells:
+        t0 = time.perf_counter()
+        comps = _adapt_cell(base, src, A, X, change, args, cache)
+        secs = time.perf_counter() - t0
+        d = with_atoms(base, comps)
+        for f in factors or (TUNE_FACTORS if name == "shipped" else (0.25,)):
+            err = masked_error(d, scored, alpha=base.alpha_recover * f)
+            rows.append({"cell": name, "alpha_recover_factor": f, "err": err,
+                         "ratio_cold": err / cold, "seconds": secs})
+            print(f"  {name}, alpha x{f}: {err:.3f} ({err / cold:.2f}x cold) {secs:.1f} s",
+                  flush=True)
+    return rows
+
+
+def alpha_grid(base, src, pool, scored, cold, args):
+    """Grid 6: training alpha x recovery alpha of the adapted dictionary, then
+    passes 1 and 4 at alpha 3.2."""
+    cells = [(f"alpha_train {a}", {"alpha": a}) for a in GRID6_ALPHAS]
+    rows = tune_grid(base, src, pool, scored, cold, args, cells, RECOVER_FACTORS)
+    cells = [(f"alpha_train 3.2, passes {p}", {"alpha": 3.2, "passes": p}) for p in (1, 4)]
+    return rows + tune_grid(base, src, pool, scored, cold, args, cells, (0.5,))
 
 
 def test_table(base, src, dst, args, poses, clips):

@@ -20,12 +20,14 @@ Steps of :func:`run_adaptation`
 2. **Bound** the work: at most ``max_poses`` poses, a seeded sample.
 3. **Hold back** a validation slice (``validation_fraction``, whole
    contiguous blocks of rows, so neighbouring video frames do not leak
-   across; at most 500 poses), adapt on the rest.
-4. **Guard**: occlude the held-back poses with the evaluation protocol
-   (:func:`sparseedm.evaluation.occlusion_masks`, the Mix of 1-3 joints),
-   recover them with the base and with the adapted dictionary and compare the
-   mean Err_ave; the base dictionary is kept unless the adapted one is better.
-   Both figures are reported.
+   across; at most 300 poses), adapt on the rest.
+4. **Guard**: occlude the held-back poses with the evaluation protocol's
+   Mix of 1-3 joints (:func:`guard_masks`: the protocol's masks of a few
+   patterns, each shared by ``GUARD_POSES_PER_PATTERN`` poses so that the
+   fast solver recovers them in batches), recover them with the base and
+   with the adapted dictionary and compare the mean Err_ave; the base
+   dictionary is kept unless the adapted one is better. Both figures are
+   reported.
 
 The learning (:func:`adapt_vectors`)
 ------------------------------------
@@ -61,8 +63,8 @@ from .skeleton import SKELETON_14
 __all__ = ["adapt", "run_adaptation", "adapt_vectors", "AdaptationResult",
            "usable_rows", "duplicate_rows", "reconstruction_error", "outlier_rows",
            "swapped_rows", "filter_poses", "holdout_blocks", "resolve_adaptation",
-           "masked_error", "sample_complete", "fine_tune_file", "evaluate_adaptation",
-           "MIN_COMPLETE_POSES",
+           "masked_error", "guard_masks", "sample_complete", "fine_tune_file", "evaluate_adaptation",
+           "MIN_COMPLETE_POSES", "ADAPTED_ALPHA_TRAIN", "adaptation_alpha",
            "STATS"]
 
 #: Fewest complete poses (after filtering) that ``adapt="auto"`` adapts on;
@@ -73,15 +75,43 @@ STATS = ("fresh", "carried")
 # defaults chosen by dictionaries/select_adaptation.py (see dictionaries/README.md)
 DEFAULT_PASSES = 2
 #: The adapted dictionary's recommended recovery alpha is the base's times this
-#: (0.002 -> 0.0005 for the shipped default; chosen on the validation splits).
-ADAPTED_ALPHA_RECOVER_FACTOR = 0.25
+#: (0.0005 -> 0.00025 for the shipped default; chosen on the validation splits,
+#: grid 6 of dictionaries/select_adaptation.py).
+ADAPTED_ALPHA_RECOVER_FACTOR = 0.5
+#: Lasso penalty of the adaptation's coding step (``alpha=None``):
+#: ``min(ADAPTED_ALPHA_TRAIN_FACTOR * base alpha_train, ADAPTED_ALPHA_TRAIN)``,
+#: sparser codes than the base's own (0.8 for the all-CMU default -> 3.2; 1.6
+#: for the k = 2000 ones -> 3.2). Chosen on the validation splits (grid 6 of
+#: dictionaries/select_adaptation.py): 2-5 % lower error than the base's alpha
+#: for k = 2000 dictionaries, and a faster learning (shorter LARS paths). The
+#: factor keeps small dictionaries (trained with small alphas: denser codes)
+#: away from a penalty that would leave their codes empty.
+ADAPTED_ALPHA_TRAIN = 3.2
+ADAPTED_ALPHA_TRAIN_FACTOR = 4.0
+
+
+def adaptation_alpha(dictionary):
+    """The default training alpha of adapting `dictionary` (see ADAPTED_ALPHA_TRAIN).
+
+    Examples
+    --------
+    >>> import sparseedm
+    >>> adaptation_alpha(sparseedm.load_dictionary())   # the default's 0.8, times 4
+    3.2
+    """
+    return float(min(ADAPTED_ALPHA_TRAIN_FACTOR * dictionary.alpha_train, ADAPTED_ALPHA_TRAIN))
 DEFAULT_STATS = "fresh"
 DEFAULT_REPLAY = 0.0
 DEFAULT_MEMORY = 1.0
 DEFAULT_BATCH_SIZE = 256
+DEFAULT_REINIT = False
 DEFAULT_MAX_POSES = 5000
 DEFAULT_VALIDATION_FRACTION = 0.2
-MAX_VALIDATION = 500
+MAX_VALIDATION = 300
+#: Held-back poses per occlusion pattern of the guard (:func:`guard_masks`):
+#: the fast solver codes a pattern's poses together through one Gram matrix
+#: once they are at least its ``gram_min`` (12).
+GUARD_POSES_PER_PATTERN = 12
 
 
 # --------------------------------------------------------------------------
@@ -164,7 +194,7 @@ def _swap(poses, pairs):
     return out
 
 
-def swapped_rows(poses, components, alpha, *, skeleton=SKELETON_14, ratio=0.5):
+def swapped_rows(poses, components, alpha, *, skeleton=SKELETON_14, ratio=0.5, errors=None):
     """True where the arms' or the legs' left/right labels look exchanged.
 
     A pose whose arm (or leg) joints have their left and right labels
@@ -181,6 +211,8 @@ def swapped_rows(poses, components, alpha, *, skeleton=SKELETON_14, ratio=0.5):
     alpha : float
     skeleton : Skeleton
     ratio : float
+    errors : ndarray (n,), optional
+        The poses' own :func:`reconstruction_error`, if already known.
     """
     poses = np.asarray(poses, dtype=float)
     if len(poses) == 0:
@@ -190,13 +222,15 @@ def swapped_rows(poses, components, alpha, *, skeleton=SKELETON_14, ratio=0.5):
     names = skeleton.joint_names
     arms = [(a, b) for a, b in pairs if any(k in names[a] for k in ("shoulder", "elbow", "wrist"))]
     legs = [p for p in pairs if p not in arms]
-    base = reconstruction_error(_vectors(poses), components, alpha)
-    flagged = np.zeros(len(poses), dtype=bool)
-    for group in (arms, legs):
-        if group:
-            err = reconstruction_error(_vectors(_swap(poses, group)), components, alpha)
-            flagged |= err < ratio * base
-    return flagged
+    base = reconstruction_error(_vectors(poses), components, alpha) if errors is None \
+        else np.asarray(errors, dtype=float)
+    groups = [g for g in (arms, legs) if g]
+    if not groups:
+        return np.zeros(len(poses), dtype=bool)
+    # the arms- and the legs-exchanged poses coded in one batch
+    err = reconstruction_error(np.vstack([_vectors(_swap(poses, g)) for g in groups]),
+                               components, alpha).reshape(len(groups), len(poses))
+    return (err < ratio * base).any(axis=0)
 
 
 def _vectors(poses):
@@ -238,7 +272,8 @@ def filter_poses(poses, dictionary, *, outlier_factor=3.0, swap_ratio=0.5):
     err = err[~out]
     check = err > np.percentile(err, 75) if len(err) else np.zeros(0, dtype=bool)
     sw = np.zeros(len(idx), dtype=bool)
-    sw[check] = swapped_rows(poses[idx[check]], dictionary.components, alpha, ratio=swap_ratio)
+    sw[check] = swapped_rows(poses[idx[check]], dictionary.components, alpha, ratio=swap_ratio,
+                             errors=err[check])
     counts["swapped"] = int(sw.sum())
     idx = idx[~sw]
     keep = np.zeros(len(poses), dtype=bool)
@@ -279,7 +314,8 @@ def holdout_blocks(n, fraction, random_state=0, n_blocks=20, max_rows=MAX_VALIDA
 
 def adapt_vectors(components, X, alpha, *, passes=DEFAULT_PASSES, stats=DEFAULT_STATS,
                   memory=DEFAULT_MEMORY, replay=DEFAULT_REPLAY, replay_vectors=None,
-                  batch_size=DEFAULT_BATCH_SIZE, random_state=0, n_jobs=1):
+                  batch_size=DEFAULT_BATCH_SIZE, reinit=DEFAULT_REINIT, forget=None,
+                  random_state=0, n_jobs=1):
     """Continue online dictionary learning from `components` on the vectors X.
 
     Parameters
@@ -300,6 +336,15 @@ def adapt_vectors(components, X, alpha, *, passes=DEFAULT_PASSES, stats=DEFAULT_
         Fraction of each mini-batch made of replayed vectors.
     replay_vectors : ndarray (r, m), optional
         What is replayed; default the base atoms scaled to X's median norm.
+    reinit : bool
+        Start with one step over all of X (every vector coded once): the
+        atoms no adaptation vector uses are re-drawn from the rows of all of
+        X, and the inner statistics start from the whole set, instead of from
+        the first mini-batch alone (whose few rows would otherwise re-seed
+        every atom it does not use). Only with ``stats="fresh"``.
+    forget : float in (0, 1], optional
+        A constant forgetting factor of the inner statistics per mini-batch
+        (new poses dominate); default Mairal's schedule.
     batch_size, random_state, n_jobs
         As :class:`sparseedm.learning.OnlineDictionaryLearning`.
 
@@ -322,6 +367,12 @@ def adapt_vectors(components, X, alpha, *, passes=DEFAULT_PASSES, stats=DEFAULT_
         est.inner_stats_ = (memory * np.eye(k), memory * components.T.copy())
         # a continued learner: no early-batch forgetting of the carried statistics
         est.n_steps_ = batch_size
+    if forget is not None:
+        if not 0 < forget <= 1:
+            raise SparseEDMError(f"forget must be in (0, 1], got {forget!r}")
+        est._beta = lambda: float(forget)
+    if reinit and stats == "fresh":
+        est._step(X)  # every atom's statistics from all of X; unused atoms re-drawn from X
     n_replay = int(round(replay * batch_size))
     if n_replay:
         if replay_vectors is None:
@@ -340,19 +391,45 @@ def adapt_vectors(components, X, alpha, *, passes=DEFAULT_PASSES, stats=DEFAULT_
 # --------------------------------------------------------------------------
 # the guard
 
-def masked_error(dictionary, poses, *, random_state=0, alpha=None, n_jobs=1):
-    """Mean Mix Err_ave (%) of recovering `poses` with the protocol's seeded masks.
+def guard_masks(n_poses, n_joints, n_patterns=None, random_state=0):
+    """Seeded Mix masks (1-3 joints) for `n_poses` poses, from at most `n_patterns` patterns.
 
-    The masks are :func:`sparseedm.evaluation.occlusion_masks` (the Mix of
-    1-3 joints), so every dictionary compared on the same poses sees the same
-    occlusions.
+    ``n_patterns=None``: the evaluation protocol's masks
+    (:func:`sparseedm.evaluation.occlusion_masks`), nearly one pattern per
+    pose. With ``n_patterns`` the protocol's masks of the first
+    ``n_patterns`` poses are dealt round the poses in a seeded order: every
+    pattern is then shared by ``n_poses / n_patterns`` poses, which the fast
+    solver recovers together through one Gram matrix (the guard's speed;
+    both dictionaries it compares see the same masks).
+
+    Examples
+    --------
+    >>> m = guard_masks(100, 14, n_patterns=10)
+    >>> len(np.unique(m, axis=0)) <= 10, sorted(set(m.sum(axis=1).tolist())) <= [1, 2, 3]
+    (True, True)
     """
     from .evaluation import occlusion_masks
+
+    if n_patterns is None or n_patterns >= n_poses:
+        return occlusion_masks(n_poses, n_joints, ("mix",), random_state)["mix"]
+    patterns = occlusion_masks(n_patterns, n_joints, ("mix",), random_state)["mix"]
+    order = np.random.default_rng([int(random_state or 0), 23]).permutation(n_poses)
+    return patterns[order % n_patterns]
+
+
+def masked_error(dictionary, poses, *, random_state=0, alpha=None, n_jobs=1, n_patterns=None):
+    """Mean Mix Err_ave (%) of recovering `poses` with seeded masks.
+
+    The masks are :func:`guard_masks`: by default the evaluation protocol's
+    (:func:`sparseedm.evaluation.occlusion_masks`, the Mix of 1-3 joints);
+    with `n_patterns`, that many patterns shared round the poses (faster).
+    Every dictionary compared on the same poses sees the same occlusions.
+    """
     from .metrics import err_ave
     from .recovery import recover
 
     poses = np.asarray(poses, dtype=float)
-    mask = occlusion_masks(len(poses), poses.shape[1], ("mix",), random_state)["mix"]
+    mask = guard_masks(len(poses), poses.shape[1], n_patterns, random_state)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         res = recover(np.where(mask[..., None], np.nan, poses), mask, dictionary=dictionary,
@@ -386,6 +463,8 @@ class AdaptationResult:
     err_base, err_adapted : float
         Mean Mix Err_ave (%) on the held-back poses (NaN when not measured).
     seconds : float
+    step_seconds : dict
+        Seconds of each step: ``filter``, ``learning``, ``guard``.
     candidate : Dictionary or None
         The adapted dictionary even when the guard rejected it.
     settings : dict
@@ -402,6 +481,7 @@ class AdaptationResult:
     err_base: float = float("nan")
     err_adapted: float = float("nan")
     seconds: float = 0.0
+    step_seconds: dict = field(default_factory=dict)
     candidate: Dictionary | None = None
     settings: dict = field(default_factory=dict)
 
@@ -417,6 +497,7 @@ class AdaptationResult:
             "validation_err_base": num(self.err_base),
             "validation_err_adapted": num(self.err_adapted),
             "seconds": round(self.seconds, 3),
+            "step_seconds": {k: round(v, 3) for k, v in self.step_seconds.items()},
         }
 
     def line(self) -> str:
@@ -471,14 +552,14 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
     missing : array_like of bool (n, N), optional
     passes, alpha, stats, memory, replay, batch_size
         The learning (:func:`adapt_vectors`); ``alpha`` defaults to the
-        dictionary's ``alpha_train``. The adapted dictionary recommends
+        :func:`adaptation_alpha` (3.2 for the default). The adapted dictionary recommends
         ``ADAPTED_ALPHA_RECOVER_FACTOR`` times the base's recovery alpha.
     min_poses : int
         Fewer complete plausible poses than this: no adaptation.
     max_poses : int
         At most this many poses (a seeded sample) are used, bounding the time.
     validation_fraction : float
-        Share of the poses held back for the guard (at most 500).
+        Share of the poses held back for the guard (at most ``MAX_VALIDATION``).
     guard : bool
         Compare base and adapted on the held-back poses and keep the better.
         ``False`` uses the adapted dictionary unchecked (and holds nothing back).
@@ -507,8 +588,10 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
     def done(reason, **kw):
         return AdaptationResult(dictionary=kw.pop("use", dictionary), reason=reason,
                                 n_given=n_given, seconds=time.perf_counter() - t0,
-                                settings=settings, **kw)
+                                settings=settings, step_seconds=steps, **kw)
 
+    steps = {}
+    t_step = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         if filter:
@@ -518,6 +601,7 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
             keep = usable_rows(complete)
             dropped = {"incomplete": int((~keep).sum())}
     dropped["incomplete"] += n_given - len(complete)
+    steps["filter"] = time.perf_counter() - t_step
     good = complete[keep]
     n_complete = len(good)
     if n_complete < min_poses:
@@ -528,11 +612,13 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
         good = good[np.sort(rng.choice(n_complete, max_poses, replace=False))]
     val = holdout_blocks(len(good), validation_fraction if guard else 0.0, random_state)
     train, held = good[~val], good[val]
-    alpha_train = dictionary.alpha_train if alpha is None else alpha
+    alpha_train = adaptation_alpha(dictionary) if alpha is None else alpha
+    t_step = time.perf_counter()
     X = _vectors(train)
     comps = adapt_vectors(dictionary.components, X, alpha_train, passes=passes, stats=stats,
                           memory=memory, replay=replay, batch_size=batch_size,
                           random_state=random_state, n_jobs=n_jobs)
+    steps["learning"] = time.perf_counter() - t_step
     prov = dict(dictionary.provenance or {})
     prov["adaptation"] = {"poses": int(len(train)), "passes": passes, "stats": stats,
                           "replay": replay, "alpha": alpha_train, "seed": random_state,
@@ -540,7 +626,7 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
     candidate = Dictionary(
         components=comps, joint_names=dictionary.joint_names,
         alpha_recover=dictionary.alpha_recover * ADAPTED_ALPHA_RECOVER_FACTOR,
-        alpha_train=dictionary.alpha_train,
+        alpha_train=alpha_train,
         alpha_scaling=dictionary.alpha_scaling, positive_code=dictionary.positive_code,
         representation=dictionary.representation, normalization=dictionary.normalization,
         provenance=prov,
@@ -549,9 +635,12 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
               dropped=dropped, candidate=candidate)
     if not guard or len(held) == 0:
         return done("unchecked: no held-back poses", adapted=True, use=candidate, **kw)
+    t_step = time.perf_counter()
     with _numba_threads(n_jobs):
-        e0 = masked_error(dictionary, held, random_state=random_state)
-        e1 = masked_error(candidate, held, random_state=random_state)
+        e0, e1 = (masked_error(d, held, random_state=random_state, n_jobs=n_jobs,
+                               n_patterns=max(1, len(held) // GUARD_POSES_PER_PATTERN))
+                  for d in (dictionary, candidate))
+    steps["guard"] = time.perf_counter() - t_step
     candidate.provenance["adaptation"].update(validation_err_base=e0, validation_err_adapted=e1)
     if e1 < e0:
         return done("better on the held-back poses", adapted=True, use=candidate,

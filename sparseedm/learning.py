@@ -33,6 +33,7 @@ import numbers
 
 import numba
 import numpy as np
+from scipy import sparse
 
 from .exceptions import DictionaryError, SparseEDMError
 from .solvers.fast import lars_lasso_gram
@@ -76,9 +77,15 @@ def update_inner_stats(A, B, X, code, beta=1.0):
     `beta` < 1 down-weights the first, poorly coded batches (Mairal 2009, sec. 3.4).
     """
     A *= beta
-    A += code.T @ code
     B *= beta
-    B += X.T @ code
+    if 8 * np.count_nonzero(code) < code.size:  # sparse codes: add the non-zero products only
+        S = sparse.csr_matrix(code)
+        M = (S.T @ S).tocoo()
+        A[M.row, M.col] += M.data
+        B += (S.T @ X).T
+    else:
+        A += code.T @ code
+        B += X.T @ code
 
 
 @numba.njit(cache=True)
@@ -91,7 +98,12 @@ def _bcd_pass(C, A, B, used):
         if ajj < 1e-12:
             used[j] = False
             continue
-        Da = np.dot(A[j], C)  # D a_j, BLAS gemv over contiguous rows
+        Da = np.zeros(m)  # D a_j over the atoms co-used with atom j (A is sparse)
+        for l in range(k):
+            a = A[j, l]
+            if a != 0.0:
+                for i in range(m):
+                    Da[i] += a * C[l, i]
         norm = 0.0
         for i in range(m):
             C[j, i] += (B[i, j] - Da[i]) / ajj

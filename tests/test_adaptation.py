@@ -289,3 +289,35 @@ def test_fit_init_fine_tunes(tmp_path, cmu_poses, small_dictionary_path, capsys)
     assert tuned.alpha_recover == base.alpha_recover
     assert not np.array_equal(tuned.components, base.components)
     assert tuned.provenance["n_poses"] == len(cmu_poses)
+
+
+def test_sparse_inner_stats_match_the_dense_update():
+    from sparseedm.learning import update_inner_stats
+
+    rng = np.random.default_rng(0)
+    k, X = 300, rng.standard_normal((64, 91))
+    code = np.zeros((64, k))
+    for i in range(64):  # ~4 atoms a row: the sparse path
+        code[i, rng.choice(k, 4, replace=False)] = rng.standard_normal(4)
+    A, B = rng.standard_normal((k, k)), rng.standard_normal((91, k))
+    A2, B2 = 0.9 * A + code.T @ code, 0.9 * B + X.T @ code
+    update_inner_stats(A, B, X, code, 0.9)
+    np.testing.assert_allclose(A, A2, atol=1e-12)
+    np.testing.assert_allclose(B, B2, atol=1e-12)
+
+
+def test_guard_masks_share_few_patterns_of_the_mix():
+    from sparseedm.adaptation import guard_masks
+    from sparseedm.evaluation import occlusion_masks
+
+    m = guard_masks(300, 14, n_patterns=25, random_state=3)
+    assert len(np.unique(m, axis=0)) <= 25 and set(m.sum(axis=1)) <= {1, 2, 3}
+    full = guard_masks(30, 14, None, random_state=3)
+    assert (full == occlusion_masks(30, 14, ("mix",), 3)["mix"]).all()
+
+
+def test_adaptation_alpha_scales_with_the_base(shifted_dictionary):
+    from sparseedm.adaptation import ADAPTED_ALPHA_TRAIN, adaptation_alpha
+
+    assert adaptation_alpha(load_dictionary()) == ADAPTED_ALPHA_TRAIN
+    assert adaptation_alpha(shifted_dictionary) == pytest.approx(4 * 0.05)
