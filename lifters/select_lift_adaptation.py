@@ -9,7 +9,8 @@ three ways (seeded, by clip, so no frame has a near-duplicate across parts):
 adaptation clips (their 2D poses adapt the lifter), validation clips (the
 settings are chosen on them: mean of complete and Mix 3D-EDM Err_ave) and
 scored clips (reported once, for the base and the chosen setting).
-Scores: 3D-EDM Err_ave (after one scale per pose) and PA-MPJPE (mm), complete
+Each row also records ``mix2d``, :func:`masked_error_2d` on the same poses:
+the only figure a guard without 3D could use. Scores: 3D-EDM Err_ave (after one scale per pose) and PA-MPJPE (mm), complete
 input and Mix-occluded input (1-3 joints, the joint lasso on observed entries),
 via :func:`sparseedm.lifting.evaluation.evaluate_lifting`.
 
@@ -28,7 +29,7 @@ import numpy as np
 
 from sparseedm.dataset import load_dataset
 from sparseedm.lifting import load_lifter
-from sparseedm.lifting.adaptation import adapt_lifter
+from sparseedm.lifting.adaptation import adapt_lifter, masked_error_2d
 from sparseedm.lifting.evaluation import evaluate_lifting
 
 # round 1 was coarse; round 2 refines where round 1 pointed (both in lifters/README.md)
@@ -41,6 +42,7 @@ GRIDS = {
         "2d-half": {"memory": (30.0, 100.0, 300.0, 1000.0), "passes": (1.0, 3.0)},
         "reweight": {"gamma": (0.25, 0.5, 1.0), "alpha": (0.05, 0.2, 1.0)},
     },
+    "round3": {"reweight": {"gamma": (0.25, 0.5, 0.75), "alpha": (1.0, 3.0)}},
 }
 
 
@@ -73,6 +75,8 @@ def score(lifter, test, seed):
         key = "complete" if r["pipeline"] == "complete" else "mix"
         out[key] = {"err3d": r["err3d"], "pa_mpjpe": r["pa_mpjpe"]}
     out["criterion"] = 0.5 * (out["complete"]["err3d"] + out["mix"]["err3d"])
+    # what a 3D-free guard could see: the 2D half's Mix completion error
+    out["mix2d"] = masked_error_2d(lifter, test["poses2d"], random_state=seed)
     return out
 
 
@@ -87,6 +91,9 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--method", default="2d-half", choices=("2d-half", "reweight"))
     ap.add_argument("--grid", default="round2", choices=sorted(GRIDS))
+    ap.add_argument("--control", help="a dataset .npz of the lifter's own source: the "
+                    "chosen setting is also applied with its 2D poses (no domain shift), "
+                    "to tell adaptation from a generic change of the lifter")
     a = ap.parse_args(argv)
     data = load_dataset(a.data)
     part = split_clips(data["clips"], a.seed)
@@ -121,6 +128,13 @@ def main(argv=None):
     result["adapted_scored"] = score(lf, scored, a.seed)
     print("scored base", result["base"]["scored"], "adapted", result["adapted_scored"],
           flush=True)
+    if a.control:
+        ctl = load_dataset(a.control)
+        ic = sample(np.arange(len(ctl["poses2d"])), len(ia), a.seed)
+        lf = adapt_lifter(base, ctl["poses2d"][ic], method=a.method, random_state=a.seed,
+                          **result["chosen"])
+        result["control_scored"] = score(lf, scored, a.seed)
+        print("scored control", result["control_scored"], flush=True)
     with open(a.output, "w") as f:
         json.dump(result, f, indent=1)
 

@@ -48,3 +48,13 @@ def test_adapt_lifter_refuses_bad_input(data, dict_lifter, mlp_lifter):
         adapt_lifter(dict_lifter, np.full((5, 14, 2), np.nan))
     with pytest.raises(LifterError, match="method"):
         adapt_lifter(dict_lifter, data["poses2d"][:50], method="3d")
+
+
+def test_lift_adapt_argument_uses_the_adapted_lifter(data, split, dict_lifter):
+    val = split[1]
+    adapt_on, test = data["poses2d"][val][::2], data["poses2d"][val][1::2][:20]
+    via_lift = lift(test, lifter=dict_lifter, adapt=adapt_on)
+    direct = lift(test, lifter=adapt_lifter(dict_lifter, adapt_on))
+    plain = lift(test, lifter=dict_lifter)
+    assert np.allclose(via_lift.vectors3d, direct.vectors3d)
+    assert not np.allclose(via_lift.vectors3d, plain.vectors3d)   # it changed something

@@ -2,9 +2,19 @@
 
 A user's keypoint file holds complete 2D poses but no 3D: only the 2D half of
 the coupled atoms ``d_j = [a_j ; b_j]`` (:mod:`.dictionary`) can learn from
-them. :func:`adapt_lifter` continues the online learning of
-:func:`sparseedm.adaptation.adapt_vectors` on the 2D halves alone and keeps
-every atom's 3D half ``b_j`` as it was:
+them. :func:`adapt_lifter` offers two ways.
+
+``method="reweight"`` (the default, :func:`reweight_atoms`) moves no atom: it
+codes the poses on the 2D halves and scales each whole atom by
+``r ** gamma`` (clipped to [0.1, 10]), ``r = (u + mean u) / (2 mean u)``
+with u an atom's mean absolute code (smoothed: an unused atom counts as half
+an average one). A scaled atom costs less (or more) in the lifting lasso's
+L1 penalty, so the poses' typical atoms are preferred, while every atom's
+2D : 3D pairing stays exactly as learned.
+
+``method="2d-half"`` (:func:`adapt_vectors_2d`) continues the online learning
+of :func:`sparseedm.adaptation.adapt_vectors` on the 2D halves alone and
+keeps every atom's 3D half ``b_j`` as it was:
 
 1. the usable, distinct poses (the filters of :mod:`sparseedm.adaptation`)
    are turned into normalised 2D EDM vectors;
@@ -18,17 +28,9 @@ every atom's 3D half ``b_j`` as it was:
    balance of every atom, and hence the lasso ``alpha_lift``, stay as they
    were.
 
-The alternative ``method="reweight"`` (:func:`reweight_atoms`) moves no atom:
-it codes the poses on the 2D halves and scales each whole atom by
-``r ** gamma`` (clipped to [0.1, 10]), ``r = (u + mean u) / (2 mean u)``
-with u an atom's mean absolute code (smoothed: an unused atom counts as half
-an average one). A scaled atom costs less (or more) in the lifting lasso's
-L1 penalty, so the poses' typical atoms are preferred, while every atom's
-2D : 3D pairing stays exactly as learned.
-
-The 3D half cannot follow: an atom whose 2D half drifts far pairs the new 2D
+Here the 3D half cannot follow: an atom whose 2D half drifts far pairs the new 2D
 shape with the old 3D shape, which can lift worse. ``memory`` bounds the
-drift. Whether it helps was measured across sources by
+drift. Whether each helps was measured across sources by
 ``lifters/select_lift_adaptation.py`` (``lifters/README.md``): read that before
 relying on it.
 
@@ -54,15 +56,17 @@ from ..adaptation import _vectors, adapt_vectors, duplicate_rows, usable_rows
 from ..exceptions import PoseError
 from .base import LifterError, load_lifter
 
-__all__ = ["adapt_lifter", "adapt_vectors_2d", "reweight_atoms", "METHODS",
+__all__ = ["adapt_lifter", "adapt_vectors_2d", "reweight_atoms", "masked_error_2d", "METHODS",
            "DEFAULT_LIFT_ADAPT"]
 
 #: what :func:`adapt_lifter` can do
 METHODS = ("2d-half", "reweight")
 
 #: settings of :func:`adapt_lifter` (see lifters/README.md for how they were chosen)
-DEFAULT_LIFT_ADAPT = dict(method="2d-half", passes=1.0, memory=1.0, alpha=None,
-                          batch_size=256, gamma=0.5)
+DEFAULT_LIFT_ADAPT = dict(method="reweight", gamma=0.5, alpha=None, passes=1.0, memory=100.0,
+                          batch_size=256)
+#: coding penalty of :func:`reweight_atoms` (chosen on the validation clips)
+REWEIGHT_ALPHA = 1.0
 
 
 def adapt_vectors_2d(lifter, X2, *, passes=1.0, memory=1.0, alpha=None, batch_size=256,
@@ -97,7 +101,7 @@ def adapt_vectors_2d(lifter, X2, *, passes=1.0, memory=1.0, alpha=None, batch_si
     return out
 
 
-def reweight_atoms(lifter, X2, *, gamma=0.5, alpha=None, clip=(0.1, 10.0)):
+def reweight_atoms(lifter, X2, *, gamma=0.5, alpha=REWEIGHT_ALPHA, clip=(0.1, 10.0)):
     """A copy of a dictionary lifter whose atoms are scaled by their usage on X2.
 
     Parameters
@@ -107,8 +111,10 @@ def reweight_atoms(lifter, X2, *, gamma=0.5, alpha=None, clip=(0.1, 10.0)):
         Normalised 2D EDM vectors of complete poses.
     gamma : float
         Exponent of the relative usage (0: nothing changes).
-    alpha : float, optional
-        Lasso penalty of the usage codes; default the lifter's ``alpha_lift``.
+    alpha : float, default REWEIGHT_ALPHA
+        Lasso penalty of the usage codes (on unit-scale 2D EDM vectors; None:
+        the lifter's ``alpha_lift``). Sparse codes (a large penalty) pick the
+        poses' dominant atoms; measured best on the validation clips.
     clip : (low, high)
         Bounds of the scale factors.
 
@@ -128,6 +134,29 @@ def reweight_atoms(lifter, X2, *, gamma=0.5, alpha=None, clip=(0.1, 10.0)):
     out = copy.deepcopy(lifter)
     out.components_ = C * g[:, None]
     return out
+
+
+def masked_error_2d(lifter, poses2d, *, random_state=0, n_jobs=1):
+    """Mean Mix Err_ave (%) of the 2D EDMs a dictionary lifter completes from occluded poses.
+
+    The only score 3D-free poses allow: the protocol's seeded Mix masks
+    (:func:`sparseedm.evaluation.occlusion_masks`) occlude complete 2D poses,
+    the lifter codes the observed entries and its 2D half (``vectors2d``) is
+    compared with the true 2D EDM in the same normalisation. It says how well
+    the 2D half fits the poses, not how well they lift.
+    """
+    from ..edm import pose_to_vector
+    from ..evaluation import occlusion_masks
+    from ..metrics import err_ave
+    from ..normalize import normalize, represent
+
+    poses2d = np.asarray(poses2d, float)
+    mask = occlusion_masks(len(poses2d), poses2d.shape[1], ("mix",), random_state)["mix"]
+    X2, _, _ = represent(poses2d, mask, "average")
+    truth = pose_to_vector(normalize(poses2d, mask)[0])
+    _, info = lifter.predict(X2, mask, n_jobs=n_jobs)
+    e = err_ave(info["vectors2d"], truth)
+    return float(np.nanmean(e))
 
 
 def _check(lifter, X2):
@@ -154,10 +183,12 @@ def adapt_lifter(lifter, complete_poses2d, *, method=DEFAULT_LIFT_ADAPT["method"
     lifter : DictionaryLifter, shipped name or path
     complete_poses2d : array_like (n, N, 2)
         Pixels; rows with NaN, zero extent or exact repeats are ignored.
-    method : {"2d-half", "reweight"}
-        :func:`adapt_vectors_2d` or :func:`reweight_atoms`.
+    method : {"reweight", "2d-half"}
+        :func:`reweight_atoms` (the default: it lifted better on the
+        validation clips of both sources) or :func:`adapt_vectors_2d`.
     passes, memory, alpha, batch_size : see :func:`adapt_vectors_2d`
-    gamma : see :func:`reweight_atoms` (``alpha`` is its coding penalty then)
+    gamma : see :func:`reweight_atoms` (``alpha`` is its coding penalty then,
+        default ``REWEIGHT_ALPHA``)
     max_poses : int
         At most this many poses (a seeded sample) are used.
     random_state, n_jobs
@@ -190,7 +221,8 @@ def adapt_lifter(lifter, complete_poses2d, *, method=DEFAULT_LIFT_ADAPT["method"
         rng = np.random.default_rng([int(random_state or 0), 17])
         X2 = X2[np.sort(rng.choice(len(X2), max_poses, replace=False))]
     if method == "reweight":
-        out = reweight_atoms(lifter, X2, gamma=gamma, alpha=alpha)
+        out = reweight_atoms(lifter, X2, gamma=gamma,
+                             alpha=REWEIGHT_ALPHA if alpha is None else alpha)
         done = {"gamma": gamma}
     else:
         out = adapt_vectors_2d(lifter, X2, passes=passes, memory=memory, alpha=alpha,

@@ -106,7 +106,7 @@ def _validate(poses, missing, n_joints):
     return poses, mask, bad
 
 
-def lift(poses, missing=None, *, lifter=None, n_jobs=1, representation="average"):
+def lift(poses, missing=None, *, lifter=None, n_jobs=1, representation="average", adapt=None):
     """Lift 2D poses to 3D.
 
     Parameters
@@ -123,6 +123,11 @@ def lift(poses, missing=None, *, lifter=None, n_jobs=1, representation="average"
     representation : {"average", "zero"}
         How occluded joints are fed to a lifter that reads whole vectors
         (MLP); the dictionary lifter reads observed entries only.
+    adapt : array_like (m, N, 2), optional
+        Complete 2D poses of the same domain, without 3D: the (dictionary)
+        lifter is first adapted on them by
+        :func:`sparseedm.lifting.adaptation.adapt_lifter` with its defaults
+        (measured in lifters/README.md). Default None: no adaptation.
 
     Returns
     -------
@@ -143,6 +148,9 @@ def lift(poses, missing=None, *, lifter=None, n_jobs=1, representation="average"
     """
     t0 = time.perf_counter()
     lifter = load_lifter(lifter)
+    if adapt is not None:
+        from .adaptation import adapt_lifter
+        lifter = adapt_lifter(lifter, adapt, n_jobs=n_jobs)
     if representation not in REPRESENTATIONS:
         raise SparseEDMError(f"unknown representation {representation!r}; use one of "
                              f"{REPRESENTATIONS}")
