@@ -94,6 +94,10 @@ def main(argv=None):
     ap.add_argument("--control", help="a dataset .npz of the lifter's own source: the "
                     "chosen setting is also applied with its 2D poses (no domain shift), "
                     "to tell adaptation from a generic change of the lifter")
+    ap.add_argument("--only", nargs="*", help="with --final: these methods only")
+    ap.add_argument("--final", action="store_true",
+                    help="no grid: score the shipped defaults of both methods on the "
+                    "scored clips, adapted on the target poses and on --control poses")
     a = ap.parse_args(argv)
     data = load_dataset(a.data)
     part = split_clips(data["clips"], a.seed)
@@ -102,6 +106,8 @@ def main(argv=None):
     isc = sample(np.flatnonzero(part == 2), a.n_score, a.seed)
     base = load_lifter(a.lifter)
     val, scored = subset(data, iv), subset(data, isc)
+    if a.final:
+        return final(a, data, ia, isc, iv)
     grid = GRIDS[a.grid][a.method]
     result = {"data": a.data, "lifter": a.lifter, "seed": a.seed, "method": a.method,
               "grid_name": a.grid,
@@ -135,6 +141,41 @@ def main(argv=None):
                           **result["chosen"])
         result["control_scored"] = score(lf, scored, a.seed)
         print("scored control", result["control_scored"], flush=True)
+    with open(a.output, "w") as f:
+        json.dump(result, f, indent=1)
+
+
+FINAL = {"reweight": {"method": "reweight"},  # the defaults of adapt_lifter
+         "2d-half": {"method": "2d-half", "memory": 100.0, "passes": 1.0},
+         "both": {"method": "both", "memory": 100.0, "passes": 1.0}}
+
+
+def final(a, data, ia, isc, iv):
+    """Base, and each method adapted on the target's and on the control's poses.
+
+    Each target row is also scored on the validation clips (``.../val``): the
+    choice among methods is made there.
+    """
+    base = load_lifter(a.lifter)
+    scored = subset(data, isc)
+    result = {"data": a.data, "control": a.control, "n": {"adapt": len(ia), "scored": len(isc)},
+              "base": score(base, scored, a.seed)}
+    print("base", json.dumps(result["base"]), flush=True)
+    sources = {"target": data["poses2d"][ia]}
+    if a.control:
+        ctl = load_dataset(a.control)
+        sources["control"] = ctl["poses2d"][sample(np.arange(len(ctl["poses2d"])), len(ia),
+                                                   a.seed)]
+    for name, setting in FINAL.items():
+        if a.only and name not in a.only:
+            continue
+        for src, poses in sources.items():
+            lf = adapt_lifter(base, poses, random_state=a.seed, **setting)
+            if src == "target":
+                result[f"{name}/val"] = score(lf, subset(data, iv), a.seed)
+                print(f"{name}/val", json.dumps(result[f"{name}/val"]), flush=True)
+            result[f"{name}/{src}"] = score(lf, scored, a.seed)
+            print(f"{name}/{src}", json.dumps(result[f"{name}/{src}"]), flush=True)
     with open(a.output, "w") as f:
         json.dump(result, f, indent=1)
 

@@ -60,7 +60,7 @@ __all__ = ["adapt_lifter", "adapt_vectors_2d", "reweight_atoms", "masked_error_2
            "DEFAULT_LIFT_ADAPT"]
 
 #: what :func:`adapt_lifter` can do
-METHODS = ("2d-half", "reweight")
+METHODS = ("reweight", "2d-half", "both")
 
 #: settings of :func:`adapt_lifter` (see lifters/README.md for how they were chosen)
 DEFAULT_LIFT_ADAPT = dict(method="reweight", gamma=0.5, alpha=None, passes=1.0, memory=100.0,
@@ -183,9 +183,9 @@ def adapt_lifter(lifter, complete_poses2d, *, method=DEFAULT_LIFT_ADAPT["method"
     lifter : DictionaryLifter, shipped name or path
     complete_poses2d : array_like (n, N, 2)
         Pixels; rows with NaN, zero extent or exact repeats are ignored.
-    method : {"reweight", "2d-half"}
-        :func:`reweight_atoms` (the default: it lifted better on the
-        validation clips of both sources) or :func:`adapt_vectors_2d`.
+    method : {"reweight", "2d-half", "both"}
+        :func:`reweight_atoms`, :func:`adapt_vectors_2d`, or the second then
+        the first (``alpha`` is then the re-weighting's).
     passes, memory, alpha, batch_size : see :func:`adapt_vectors_2d`
     gamma : see :func:`reweight_atoms` (``alpha`` is its coding penalty then,
         default ``REWEIGHT_ALPHA``)
@@ -220,15 +220,17 @@ def adapt_lifter(lifter, complete_poses2d, *, method=DEFAULT_LIFT_ADAPT["method"
     if len(X2) > max_poses:
         rng = np.random.default_rng([int(random_state or 0), 17])
         X2 = X2[np.sort(rng.choice(len(X2), max_poses, replace=False))]
-    if method == "reweight":
-        out = reweight_atoms(lifter, X2, gamma=gamma,
-                             alpha=REWEIGHT_ALPHA if alpha is None else alpha)
-        done = {"gamma": gamma}
-    else:
-        out = adapt_vectors_2d(lifter, X2, passes=passes, memory=memory, alpha=alpha,
+    out, done = lifter, {}
+    if method in ("2d-half", "both"):
+        out = adapt_vectors_2d(out, X2, passes=passes, memory=memory,
+                               alpha=None if method == "both" else alpha,
                                batch_size=batch_size, random_state=random_state,
                                n_jobs=n_jobs)
-        done = {"passes": passes, "memory": memory, "seed": random_state}
+        done.update(passes=passes, memory=memory, seed=random_state)
+    if method in ("reweight", "both"):
+        out = reweight_atoms(out, X2, gamma=gamma,
+                             alpha=REWEIGHT_ALPHA if alpha is None else alpha)
+        done.update(gamma=gamma)
     out.provenance_ = dict(lifter.provenance_ or {})
     out.provenance_["adaptation"] = dict(done, method=method, poses=int(len(X2)), alpha=alpha)
     return out
