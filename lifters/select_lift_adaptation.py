@@ -96,8 +96,9 @@ def main(argv=None):
                     "to tell adaptation from a generic change of the lifter")
     ap.add_argument("--in-source", action="store_true",
                     help="DATA is the lifter's own source: fit a k=1000 lifter on its "
-                    "adaptation clips, re-weight it on 3,000 of its own training poses and "
-                    "score both on the scored clips (is re-weighting a generic gain?)")
+                    "adaptation clips, adapt it (each method) on 3,000 of its own training "
+                    "poses and score all on the scored clips (what does adapting in-source "
+                    "cost?)")
     ap.add_argument("--only", nargs="*", help="with --final: these methods only")
     ap.add_argument("--final", action="store_true",
                     help="no grid: score the shipped defaults of both methods on the "
@@ -166,9 +167,10 @@ def in_source(a, data, part):
               "base": score(base, scored, a.seed)}
     print("base", json.dumps(result["base"]), flush=True)
     own = data["poses2d"][sample(itr, a.n_adapt, a.seed)]
-    lf = adapt_lifter(base, own, method="reweight", random_state=a.seed)
-    result["reweight/own"] = score(lf, scored, a.seed)
-    print("reweight/own", json.dumps(result["reweight/own"]), flush=True)
+    for name, setting in FINAL.items():
+        lf = adapt_lifter(base, own, random_state=a.seed, **setting)
+        result[f"{name}/own"] = score(lf, scored, a.seed)
+        print(f"{name}/own", json.dumps(result[f"{name}/own"]), flush=True)
     with open(a.output, "w") as f:
         json.dump(result, f, indent=1)
 
