@@ -18,7 +18,7 @@ __version__ = "0.1.0"
 from .dictionary import Dictionary, load_dictionary  # noqa: E402
 from .recovery import OcclusionRecoverer, RecoveryResult, recover  # noqa: E402
 from .adaptation import adapt  # noqa: E402
-from .lifting import LiftResult, lift, load_lifter  # noqa: E402
+from .lifting import LiftResult, adapt_lifter, lift, load_lifter  # noqa: E402
 
-__all__ = ["recover", "adapt", "lift", "RecoveryResult", "LiftResult", "OcclusionRecoverer",
+__all__ = ["recover", "adapt", "lift", "adapt_lifter", "RecoveryResult", "LiftResult", "OcclusionRecoverer",
            "load_dictionary", "load_lifter", "Dictionary", "__version__"]

@@ -10,15 +10,18 @@
 - :mod:`.metrics`     Err_ave on 3D EDMs, MPJPE, N-MPJPE, PA-MPJPE
 - :mod:`.lift`        :func:`lift`, the user entry point
 - :mod:`.evaluation`  the paper's application table (lifting after recovery)
+- :mod:`.adaptation`  :func:`adapt_lifter`: adapt a dictionary lifter on 3D-free
+                      complete 2D poses (measured: lifters/README.md)
 """
 
 from .base import (LIFTERS, Lifter, LifterError, available_lifters, is_lifter_file,  # noqa: F401
                    load_lifter, training_pairs)
+from .adaptation import adapt_lifter  # noqa: F401
 from .lift import STATUSES, LiftResult, lift  # noqa: F401
 
 __all__ = ["lift", "LiftResult", "STATUSES", "Lifter", "LifterError", "LIFTERS",
            "load_lifter", "available_lifters", "training_pairs", "is_lifter_file",
-           "fit_lifter"]
+           "fit_lifter", "adapt_lifter"]
 
 
 def fit_lifter(poses2d, poses3d, camera_R, camera_t, camera_f, *, method="dictionary",

@@ -87,7 +87,7 @@ class LiftResult:
         }
 
 
-def lift(poses, missing=None, *, lifter=None, n_jobs=1, representation="average"):
+def lift(poses, missing=None, *, lifter=None, n_jobs=1, representation="average", adapt=None):
     """Lift 2D poses to 3D.
 
     Parameters
@@ -104,6 +104,11 @@ def lift(poses, missing=None, *, lifter=None, n_jobs=1, representation="average"
     representation : {"average", "zero"}
         How occluded joints are fed to a lifter that reads whole vectors
         (MLP); the dictionary lifter reads observed entries only.
+    adapt : array_like (m, N, 2), optional
+        Complete 2D poses of the same domain, without 3D: the (dictionary)
+        lifter is first adapted on them by
+        :func:`sparseedm.lifting.adaptation.adapt_lifter` with its defaults
+        (measured in lifters/README.md). Default None: no adaptation.
 
     Returns
     -------
@@ -126,6 +131,9 @@ def lift(poses, missing=None, *, lifter=None, n_jobs=1, representation="average"
     validate_params("lift", dict(representation=representation, n_jobs=n_jobs),
                     {"representation": [Options(REPRESENTATIONS)], "n_jobs": N_JOBS})
     lifter = load_lifter(lifter)
+    if adapt is not None:
+        from .adaptation import adapt_lifter
+        lifter = adapt_lifter(lifter, adapt, n_jobs=n_jobs)
     N = lifter.n_joints
     poses, mask, bad = _validate(poses, missing, N, caller="lift", model="lifter")
     n = len(poses)
