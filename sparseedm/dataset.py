@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import sys
 import warnings
 from numbers import Integral
@@ -138,19 +139,29 @@ def _bandai_labels(path: Path):
 def clip_metadata(path) -> dict:
     """``label``, ``clip``, ``style``, ``subject`` of a motion file.
 
+    A CMU-numbered file (``NN_MM``) is its own clip; another file's clip is
+    ``folder/stem``, so that numbered files of different folders (the Daz BVH's
+    ``salsa/01.bvh`` and ``martial/01.bvh``) stay different clips, and a purely
+    numeric stem takes its folder's name as the action label.
+
     Examples
     --------
     >>> clip_metadata("subjects/02/02_01.amc")
     {'label': '02_01', 'clip': '02_01', 'style': '', 'subject': '02'}
+    >>> clip_metadata("cmu-bvh-daz/salsa/01.bvh")
+    {'label': 'salsa', 'clip': 'salsa/01', 'style': '', 'subject': ''}
     """
     path = Path(path)
     stem = path.stem
-    if path.suffix.lower() == ".amc":
+    if path.suffix.lower() == ".amc" or re.fullmatch(r"\d+_\d+", stem):
         return {"label": stem, "clip": stem, "style": "", "subject": stem.split("_")[0]}
     bandai = _bandai_labels(path)
     if bandai is not None:
         return {"label": bandai[0], "clip": stem, "style": bandai[1], "subject": ""}
-    return {"label": stem, "clip": stem, "style": "", "subject": ""}
+    folder = path.parent.name
+    label = folder if stem.isdigit() and folder else stem
+    return {"label": label, "clip": f"{folder}/{stem}" if folder else stem, "style": "",
+            "subject": ""}
 
 
 def _progress(iterable, total, enabled, desc):
