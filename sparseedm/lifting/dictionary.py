@@ -144,34 +144,32 @@ class DictionaryLifter(Lifter):
         N = num_joints_from_dim(m)
         mask = np.zeros((n, N), bool) if missing is None else np.asarray(missing, bool)
         solver = get_solver(self.solver)
-        key0 = hashlib.sha1(np.ascontiguousarray(C).tobytes()).hexdigest()
+        key = (hashlib.sha1(np.ascontiguousarray(C).tobytes()).hexdigest(), "2d-half")
         workers = os.cpu_count() or 1 if n_jobs == -1 else max(int(n_jobs or 1), 1)
-        patterns, inverse = np.unique(mask, axis=0, return_inverse=True)
-        inverse = inverse.reshape(-1)
-        tasks = []
-        for p, pattern in enumerate(patterns):
-            rows = np.flatnonzero(inverse == p)
-            obs = np.flatnonzero(observed_entries(pattern))
-            a = self.alpha_lift * len(obs) / m
-            # with several workers, a large group is cut so that each gets a share
-            step = chunk_size if workers == 1 else max(1, min(chunk_size, -(-len(rows) // workers)))
-            for s in range(0, len(rows), step):
-                tasks.append((rows[s:s + step], obs, (key0, pattern.tobytes()), a))
+        observed = observed_entries(mask)
+        alpha = self.alpha_lift * observed.sum(axis=1) / m
+        # rows of every pattern in one masked solve per chunk (as recover() does):
+        # the fast solver downdates one cached Gram of the 2D halves per row;
+        # rows are sorted by pattern, and with several workers each gets a share
+        order = np.lexsort(mask.T[::-1])
+        n_chunks = max(-(-n // chunk_size), workers if workers > 1 else 1)
+        tasks = [t for t in np.array_split(order, max(1, min(n_chunks, n))) if len(t)]
+        D2 = C[:, :m].T
 
-        def run(rows, obs, key, a):
-            res = solver.solve(C[:, obs].T, X2[rows][:, obs], a, key=key)
+        def run(rows):
+            res = solver.solve_masked(D2, X2[rows], observed[rows], alpha[rows], key=key)
             return res.coef @ C, res
 
         with threadpool_limits(1, user_api="blas"):
             if n_jobs in (None, 1):
-                out = [run(*t) for t in tasks]
+                out = [run(t) for t in tasks]
             else:
-                out = Parallel(n_jobs=n_jobs, backend="threading")(delayed(run)(*t) for t in tasks)
+                out = Parallel(n_jobs=n_jobs, backend="threading")(delayed(run)(t) for t in tasks)
         full = np.full((n, 2 * m), np.nan)
         info = {"status": np.full(n, "failed", dtype=object), "objective": np.full(n, np.nan),
                 "gap": np.full(n, np.nan), "n_active": np.zeros(n, int),
                 "fallback": np.zeros(n, bool)}
-        for (rows, _, _, _), (rec, res) in zip(tasks, out):
+        for rows, (rec, res) in zip(tasks, out):
             full[rows] = rec
             info["status"][rows] = res.status
             info["objective"][rows] = res.objective
