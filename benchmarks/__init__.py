@@ -150,3 +150,24 @@ def table(headers, rows):
     lines = ["| " + " | ".join(headers) + " |", "|" + "|".join("---" for _ in headers) + "|"]
     lines += ["| " + " | ".join(fmt(v) for v in r) + " |" for r in rows]
     return "\n".join(lines)
+
+
+def write_block(tag, heading, text, readme=None):
+    """Put `text` between ``<!-- BEGIN tag -->`` and ``<!-- END tag -->`` of
+    benchmarks/README.md (a new section `heading` at the end the first time),
+    written atomically."""
+    import re
+    from pathlib import Path
+
+    readme = Path(readme) if readme else Path(__file__).resolve().parent / "README.md"
+    begin, end = f"<!-- BEGIN {tag} -->", f"<!-- END {tag} -->"
+    doc = readme.read_text() if readme.is_file() else ""
+    block = f"{begin}\n{text}\n{end}"
+    if begin in doc and end in doc:
+        doc = re.sub(re.escape(begin) + ".*?" + re.escape(end), lambda _: block, doc,
+                     flags=re.S)
+    else:
+        doc = doc.rstrip("\n") + f"\n\n## {heading}\n\n{block}\n"
+    tmp = readme.with_suffix(".md.tmp")
+    tmp.write_text(doc)
+    tmp.replace(readme)

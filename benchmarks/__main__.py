@@ -10,11 +10,10 @@ from __future__ import annotations
 
 import argparse
 import json
-import re
 import time
 from pathlib import Path
 
-from . import alphas, log, loadavg, machine, versions
+from . import alphas, log, loadavg, machine, versions, write_block
 
 HERE = Path(__file__).resolve().parent
 README = HERE / "README.md"
@@ -24,7 +23,6 @@ def goals(fit_res, rec_res):
     """Each goal: (text, met?, evidence)."""
     out = []
     rows = {r["name"]: r for r in fit_res["rows"]}
-    ours = fit_res["rows"][0]
     spams = next((r for n, r in rows.items() if n.startswith("SPAMS")), None)
     if spams is None or "error" in spams:
         out.append(("fit: time <= SPAMS trainDL at equal or better held-out error", None,
@@ -95,21 +93,6 @@ def render(fit_res, rec_res, meta, quick):
     return "\n".join(lines)
 
 
-def write_block(text, quick):
-    tag = "QUICK" if quick else "RESULTS"
-    begin, end = f"<!-- BEGIN {tag} -->", f"<!-- END {tag} -->"
-    doc = README.read_text() if README.is_file() else ""
-    block = f"{begin}\n{text}\n{end}"
-    if begin in doc and end in doc:
-        doc = re.sub(re.escape(begin) + ".*?" + re.escape(end), lambda _: block, doc,
-                     flags=re.S)
-    else:
-        doc = doc.rstrip("\n") + f"\n\n## {'Quick smoke test' if quick else 'Results'}\n\n{block}\n"
-    tmp = README.with_suffix(".md.tmp")
-    tmp.write_text(doc)
-    tmp.replace(README)
-
-
 def main(argv=None):
     import os
 
@@ -134,7 +117,8 @@ def main(argv=None):
     text = render(fit_res, rec_res, meta, args.quick)
     print(text)
     if not args.no_write:
-        write_block(text, args.quick)
+        write_block("QUICK" if args.quick else "RESULTS",
+                    "Quick smoke test" if args.quick else "Results", text, README)
         raw = HERE / ("results-quick.json" if args.quick else "results.json")
         raw.write_text(json.dumps(dict(meta=meta, fit=fit_res, recovery=rec_res), indent=1,
                                   default=lambda o: o.tolist() if isinstance(o, np.ndarray)

@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import re
 import time
 import warnings
 
@@ -33,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import load_cmu, loadavg, log, machine, table, versions
+from . import load_cmu, loadavg, log, machine, table, versions, write_block
 
 HERE_README = Path(__file__).resolve().parent / "README.md"
 
@@ -118,19 +117,6 @@ def render(res, meta):
     return "\n".join(lines)
 
 
-def write_block(text):
-    begin, end = "<!-- BEGIN ADAPTATION -->", "<!-- END ADAPTATION -->"
-    doc = HERE_README.read_text()
-    block = f"{begin}\n{text}\n{end}"
-    if begin in doc and end in doc:
-        doc = re.sub(re.escape(begin) + ".*?" + re.escape(end), lambda _: block, doc, flags=re.S)
-    else:
-        doc = doc.rstrip("\n") + f"\n\n## Adaptation speed (benchmarks/adaptation.py)\n\n{block}\n"
-    tmp = HERE_README.with_suffix(".md.tmp")
-    tmp.write_text(doc)
-    tmp.replace(HERE_README)
-
-
 def main(argv=None):
     ap = argparse.ArgumentParser(prog="python -m benchmarks.adaptation",
                                  description=__doc__.splitlines()[0])
@@ -144,7 +130,7 @@ def main(argv=None):
     text = render(res, meta)
     print(text)
     if not args.no_write and not args.quick:
-        write_block(text)
+        write_block("ADAPTATION", "Adaptation speed (benchmarks/adaptation.py)", text)
         (HERE_README.parent / "results-adaptation.json").write_text(
             json.dumps(dict(meta=meta, **res), indent=1, default=str))
 

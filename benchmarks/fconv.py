@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import held_out_sample, loadavg, log, machine, split_clips, table
+from . import held_out_sample, loadavg, log, machine, split_clips, table, write_block
 
 HERE = Path(__file__).resolve().parent
 FULL = dict(epochs=20, max_train=None, lift_max_train=10000, n=4096, n_single=300, n_sparse=2000, n_sparse_single=100,
@@ -185,20 +185,6 @@ def render(res):
     return "\n".join(lines)
 
 
-def write_block(text):
-    import re
-
-    readme = HERE / "README.md"
-    begin, end = "<!-- BEGIN FCONV -->", "<!-- END FCONV -->"
-    doc = readme.read_text()
-    block = f"{begin}\n{text}\n{end}"
-    if begin in doc:
-        doc = re.sub(re.escape(begin) + ".*?" + re.escape(end), lambda _: block, doc, flags=re.S)
-    else:
-        doc = doc.rstrip("\n") + f"\n\n## FConv (torch extra)\n\n{block}\n"
-    readme.write_text(doc)
-
-
 def main(argv=None):
     import torch
 
@@ -243,7 +229,7 @@ def main(argv=None):
     text = render(res)
     print(text)
     if not args.no_write:
-        write_block(text)
+        write_block("FCONV", "FConv (torch extra)", text)
         (HERE / ("results-fconv-quick.json" if args.quick else "results-fconv.json")).write_text(
             json.dumps(res, indent=1, default=str))
 

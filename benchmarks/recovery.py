@@ -354,7 +354,6 @@ def render(res):
     for p in protos:
         headers += [f"{p}: poses/s", f"{p}: certified"]
     headers.append("note")
-    first = res["protocols"][protos[0]]
     head = (f"k = {res['k']} ({res['dictionary']}), alpha = {res['alpha']:g} scaled by "
             f"m_obs/91; {res['n']:,} held-out CMU poses; patterns: "
             + ", ".join(f"{p} {res['protocols'][p]['n_patterns']}" for p in protos)
