@@ -305,3 +305,15 @@ def test_cli_evaluate_lift(tmp_path, lifter_path, capsys):
     assert "joint  mix  err3d" in capsys.readouterr().out
     doc = json.loads((out / "lift_results.json").read_text())
     assert len(doc["rows"]) == 5 and (out / "lift_report.md").is_file()
+
+
+def test_cli_lift_never_writes_its_input(tmp_path, data, lifter_path):
+    from sparseedm.keypoints import write_keypoints
+
+    src = write_keypoints(tmp_path / "in.csv", data["poses2d"][:3])
+    before = src.read_bytes()
+    assert main(["lift", str(src), "-o", str(src), "--lifter", str(lifter_path)]) == 2
+    out = tmp_path / "out.csv"
+    assert main(["lift", str(src), "-o", str(out), "--errors", str(out),
+                 "--lifter", str(lifter_path)]) == 2
+    assert src.read_bytes() == before and not out.exists()

@@ -24,11 +24,12 @@ from __future__ import annotations
 
 import csv
 import json
+import os
 from pathlib import Path
 
 import numpy as np
 
-from .._atomic import atomic_path
+from .._atomic import atomic_path, check_paths, save_npz
 from ..batch import _write_errors, default_errors_path
 from ..exceptions import FileFormatError
 from ..keypoints import read_keypoints
@@ -44,23 +45,28 @@ def _num(v):
     return "" if not np.isfinite(v) else repr(float(v))
 
 
-def write_poses3d(path, result, ids=None, output_format=None):
-    """Write a :class:`~sparseedm.lifting.LiftResult` atomically (format from the extension)."""
-    path = Path(path)
-    fmt = output_format or OUTPUT_FORMATS.get(path.suffix.lower())
+def _output_format(path, output_format):
+    fmt = output_format or OUTPUT_FORMATS.get(Path(path).suffix.lower())
     if fmt not in OUTPUT_FORMATS.values():
         raise FileFormatError(f"{path}: cannot tell the output format; use .csv, .npz or "
                               ".json or pass --format")
+    return fmt
+
+
+def write_poses3d(path, result, ids=None, output_format=None):
+    """Write a :class:`~sparseedm.lifting.LiftResult` atomically (format from the extension)."""
+    path = Path(path)
+    fmt = _output_format(path, output_format)
     n = len(result.status)
     ids = np.array([str(i) for i in range(n)]) if ids is None else np.asarray(ids, str)
     P = result.poses3d
-    if fmt == "npz":
-        with atomic_path(path) as tmp:
-            np.savez(tmp, poses3d=P, vectors3d=result.vectors3d,
-                     scale_metric=result.scale_metric, missing=result.missing,
-                     status=result.status.astype(str), reason=result.reason.astype(str),
-                     chirality_margin=result.chirality_margin, ids=ids,
-                     joint_names=np.array(JOINT_NAMES))
+    if fmt == "npz":  # at exactly `path`, whatever its extension
+        save_npz(path, dict(poses3d=P, vectors3d=result.vectors3d,
+                            scale_metric=result.scale_metric, missing=result.missing,
+                            status=result.status.astype(str),
+                            reason=result.reason.astype(str),
+                            chirality_margin=result.chirality_margin, ids=ids,
+                            joint_names=np.array(JOINT_NAMES)))
     elif fmt == "csv":
         with atomic_path(path) as tmp, open(tmp, "w", newline="", encoding="utf-8") as f:
             w = csv.writer(f)
@@ -85,12 +91,21 @@ def write_poses3d(path, result, ids=None, output_format=None):
 
 def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, errors_path=None,
               confidence_threshold=0.0, representation="average"):
-    """Read 2D keypoints, lift them, write 3D poses and an errors file; return a summary."""
+    """Read 2D keypoints, lift them, write 3D poses and an errors file; return a summary.
+
+    Nothing the run reads is ever written, and no output overwrites another:
+    the paths are checked (:func:`sparseedm._atomic.check_paths`) before any work.
+    """
+    errors = Path(errors_path) if errors_path else default_errors_path(output)
+    _output_format(output, output_format)
+    inputs = [("input", input)]
+    if isinstance(lifter, (str, os.PathLike)) and Path(lifter).suffix == ".npz":
+        inputs.append(("lifter", lifter))
+    check_paths(inputs, [("output", output), ("errors file", errors)])
     kps = read_keypoints(input, confidence_threshold=confidence_threshold)
     result = lift(kps.poses, kps.missing, lifter=lifter, n_jobs=n_jobs,
                   representation=representation)
     write_poses3d(output, result, kps.ids, output_format)
-    errors = Path(errors_path) if errors_path else default_errors_path(output)
     refused = ~result.ok
     _write_errors(errors, refused, kps.ids, result.status, result.reason)
     summary = result.summary()
