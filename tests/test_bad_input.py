@@ -470,6 +470,25 @@ def test_outputs_never_overwrite_inputs(case, tmp_path, csv_input, small_diction
     assert sorted(os.listdir(tmp_path)) == before
 
 
+@pytest.mark.parametrize("args", [
+    ["fit-lifter", "{t}", "-o", "{t}", "--method", "mlp"],
+    ["fit-cnn", "{t}", "-o", "{t}"],
+    ["dataset", "inspect", "{b}", "--write-map", "{b}"],
+])
+def test_training_and_inspect_commands_never_overwrite_their_input(args, tmp_path, capsys):
+    if args[0] == "fit-cnn":
+        pytest.importorskip("torch")
+    train = tmp_path / "train.npz"
+    train.write_bytes((FIXTURES / "cmu_poses.npz").read_bytes())
+    bvh = tmp_path / "clip.bvh"
+    bvh.write_bytes((FIXTURES / "cmu_02_01_short.bvh").read_bytes())
+    with unchanged(train, bvh):
+        code = main([a.format(t=train, b=bvh) for a in args])
+    err = capsys.readouterr().err
+    assert code == 2 and "refusing to overwrite" in err, err
+    assert sorted(os.listdir(tmp_path)) == ["clip.bvh", "train.npz"]
+
+
 def test_output_with_any_extension_lands_at_that_path(tmp_path, csv_input, small_dictionary):
     for name in ("out.data", "out", "out.csv.bak", "out.npz.tmp"):
         recover_file(csv_input, tmp_path / name, dictionary=small_dictionary)

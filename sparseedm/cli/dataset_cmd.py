@@ -97,10 +97,13 @@ def run_inspect(args) -> int:
     """Print what the loader makes of one file; exit code 0 (1 if implausible)."""
     import json
 
-    from .._atomic import atomic_path
+    from .._atomic import atomic_path, check_paths
     from ..mocap import load_mocap, plausibility
     from ..mocap.rigs import joint_map_to_json
 
+    if args.write_map:
+        check_paths([("motion file", args.path), ("--joint-map", args.joint_map)],
+                    [("--write-map", args.write_map)])
     poses, info = load_mocap(args.path, units=args.units, joint_map=args.joint_map,
                              return_info=True)
     problems = plausibility(poses, height=info["height"], name=args.path)

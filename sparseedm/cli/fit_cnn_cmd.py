@@ -69,6 +69,7 @@ def _range(text, default):
 
 
 def run(args):
+    from .._atomic import check_paths
     from ..fconv.network import require_torch
     from ..fconv.training import fit_fconv, fit_lifter
 
@@ -77,6 +78,7 @@ def run(args):
         torch.set_num_threads(args.threads)
     if Path(args.output).suffix != ".npz":
         raise SparseEDMError(f"{args.output}: a model file must end in .npz")
+    check_paths([("training file", args.train)], [("output", args.output)])
     try:
         channels = tuple(int(c) for c in args.channels.split(","))
     except ValueError:

@@ -62,7 +62,10 @@ def run(args):
     from ..lifting.base import LIFTERS, _lifter_class
     from ..lifting.defaults import DEFAULTS
 
+    from .._atomic import check_paths
+
     _lifter_class(args.method, "--method")  # refuses unknown methods, naming the known
+    check_paths([("training file", args.train)], [("output", args.output)])
     opts = {"dictionary": _DICT_OPTS, "mlp": _MLP_OPTS, "fconv": _FCONV_OPTS}[args.method]
     params = dict(DEFAULTS.get(args.method, {}))
     for opt, name in opts.items():
