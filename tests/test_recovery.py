@@ -152,6 +152,22 @@ def test_n_jobs_gives_identical_results(mix, small_dictionary):
     assert one.status.tolist() == two.status.tolist()
 
 
+def test_parallel_chunks_stay_on_the_compiled_kernel(mix, small_dictionary, monkeypatch):
+    """n_jobs=2 must not cut a few hundred poses into chunks small enough for the
+    numpy path (meant for a handful of poses: it made 2 jobs ~15x slower than 1)."""
+    from sparseedm.solvers import fast
+
+    calls = []
+    numpy_path = fast._lars_masked_numpy
+    monkeypatch.setattr(fast, "_lars_masked_numpy",
+                        lambda *a, **k: calls.append(1) or numpy_path(*a, **k))
+    poses, missing = mix
+    res = sparseedm.recover(poses, missing, dictionary=small_dictionary, n_jobs=2)
+    assert res.ok.all() and len(poses) > 4 * fast.NUMPY_MAX and calls == []
+    sparseedm.recover(poses[:20], missing[:20], dictionary=small_dictionary, n_jobs=2)
+    assert len(calls) == 20  # a small batch still answers without compiling
+
+
 # ---------------------------------------------------------------- statuses
 
 
