@@ -176,6 +176,52 @@ def test_lift_refuses_other_joint_counts(dict_lifter):
 
 # ------------------------------------------------------------------ files
 
+def test_decoder_refit_beats_the_learned_3d_halves_on_held_out_clips(data, split):
+    """The 3D-half re-fit (decoder_ridge) against the jointly learned halves, same atoms."""
+    tr, val = split
+    kw = dict(method="dictionary", n_components=100, alpha=0.05, alpha_lift=0.002,
+              batch_size=64, n_passes=2)
+    learned = fit_lifter(*_arrays(data, tr), decoder_ridge=None, **kw)
+    refit = fit_lifter(*_arrays(data, tr), decoder_ridge=0.01, **kw)
+    m = learned.components_.shape[1] // 2
+    # same learning, same 2D halves (same codes): only the read-out differs
+    np.testing.assert_array_equal(refit.components_[:, :m], learned.components_[:, :m])
+    _, X3, _, _ = training_pairs(*_arrays(data, val))
+    err = {name: float(np.mean(err_ave_3d(lift(data["poses2d"][val], lifter=lf).vectors3d, X3)))
+           for name, lf in (("learned", learned), ("refit", refit))}
+    assert err["refit"] < err["learned"], err
+
+
+def test_decoder_refit_shrinks_towards_the_learned_halves(data, split):
+    tr = split[0][:300]
+    lf = fit_lifter(*_arrays(data, tr), method="dictionary", n_components=60, alpha=0.05,
+                    batch_size=64, decoder_ridge=None)
+    X2, X3, _, _ = training_pairs(*_arrays(data, tr))
+    G, B = lf._decoder_stats(X2, X3)
+    m = X2.shape[1]
+    far = lf._solve_decoder(G, B, 1e9, len(X2))
+    np.testing.assert_allclose(far, lf.components_, atol=1e-6)
+    near = lf._solve_decoder(G, B, 1e-6, len(X2))
+    np.testing.assert_array_equal(near[:, :m], lf.components_[:, :m])
+    # a weak penalty is (close to) the least-squares read-out of the codes: it
+    # fits the training 3D halves better than the learned halves do
+    before = np.mean((lf.predict(X2)[0] - X3) ** 2)
+    lf.components_ = near
+    assert np.mean((lf.predict(X2)[0] - X3) ** 2) < 0.9 * before
+
+
+def test_lifter_files_without_decoder_ridge_load_as_learned(tmp_path, lifter_path):
+    with np.load(lifter_path, allow_pickle=False) as npz:
+        arrays = {k: npz[k] for k in npz.files}
+    meta = json.loads(str(arrays["meta"]))
+    assert meta["params"]["decoder_ridge"] == 0.01
+    del meta["params"]["decoder_ridge"]  # as files written before the re-fit existed
+    np.savez(tmp_path / "old.npz", **dict(arrays, meta=np.array(json.dumps(meta))))
+    old = load_lifter(tmp_path / "old.npz")
+    assert old.decoder_ridge is None and "re-fitted" not in old.describe()
+    assert "re-fitted to the 2D codes (ridge 0.01)" in load_lifter(lifter_path).describe()
+
+
 def test_round_trip_dictionary_and_mlp(tmp_path, data, dict_lifter, mlp_lifter):
     poses = data["poses2d"][:20]
     for lf in (dict_lifter, mlp_lifter):
@@ -255,6 +301,16 @@ def test_cli_fit_lifter_and_refusals(tmp_path, fixtures_dir, capsys):
     assert "'gnn' is not available" in capsys.readouterr().err
     assert main(["lift", str(fixtures_dir / "cmu_poses.npz"), "-o", str(tmp_path / "x.csv"),
                  "--lifter", str(fixtures_dir / "cmu_02.asf")]) == 2
+    capsys.readouterr()
+    d = tmp_path / "d.npz"
+    assert main(["fit-lifter", str(fixtures_dir / "cmu_poses.npz"), "-o", str(d), "--atoms",
+                 "40", "--passes", "1", "--decoder-ridge", "none"]) == 0
+    lf = load_lifter(d)
+    assert lf.decoder_ridge is None and lf.n_passes == 1
+    with pytest.raises(SystemExit):
+        main(["fit-lifter", str(fixtures_dir / "cmu_poses.npz"), "-o", str(d),
+              "--decoder-ridge", "-1"])
+    assert "expected a number > 0 or 'none', got '-1'" in capsys.readouterr().err
 
 
 def test_fit_refuses_bad_training_vectors():

@@ -26,7 +26,10 @@ def add_parser(sub):
                    help="dictionary: training lasso alpha; mlp: L2 penalty")
     p.add_argument("--alpha-lift", type=float, default=None, help="dictionary: lifting alpha")
     p.add_argument("--weight", type=float, default=None, help="dictionary: 3D weight w")
-    p.add_argument("--passes", type=float, default=None, help="dictionary: passes")
+    p.add_argument("--passes", type=float, default=None, help="dictionary: passes (default 2)")
+    p.add_argument("--decoder-ridge", type=_ridge, default=None, metavar="RHO|none",
+                   help="dictionary: ridge penalty per pose of the 3D-half re-fit "
+                   "(default 0.01; 'none' keeps the learned 3D halves)")
     p.add_argument("--hidden", default=None, help="mlp: hidden layer sizes, e.g. 400,400,400")
     p.add_argument("--max-iter", type=int, default=None, help="mlp: epochs at most")
     p.add_argument("--representation", choices=("average", "zero"), default=None,
@@ -46,7 +49,22 @@ def add_parser(sub):
 
 
 _DICT_OPTS = {"atoms": "n_components", "alpha": "alpha", "alpha_lift": "alpha_lift",
-              "weight": "weight", "passes": "n_passes", "normalization": "normalization"}
+              "weight": "weight", "passes": "n_passes", "decoder_ridge": "decoder_ridge",
+              "normalization": "normalization"}
+def _ridge(text):
+    import argparse
+
+    if text.lower() == "none":
+        return "none"
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number > 0 or 'none', got {text!r}")
+    if not value > 0 or value == float("inf"):
+        raise argparse.ArgumentTypeError(f"expected a number > 0 or 'none', got {text!r}")
+    return value
+
+
 _MLP_OPTS = {"alpha": "alpha", "max_iter": "max_iter", "normalization": "normalization"}
 _FCONV_OPTS = {"representation": "representation", "epochs": "max_epochs",
                "batch_size": "batch_size", "normalization": "normalization"}
@@ -70,7 +88,7 @@ def run(args):
     params = dict(DEFAULTS.get(args.method, {}))
     for opt, name in opts.items():
         if getattr(args, opt) is not None:
-            params[name] = getattr(args, opt)
+            params[name] = None if getattr(args, opt) == "none" else getattr(args, opt)
     if args.method == "mlp" and args.hidden:
         params["hidden_layer_sizes"] = tuple(int(h) for h in args.hidden.split(","))
     if args.method == "fconv":

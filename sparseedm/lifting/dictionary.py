@@ -3,7 +3,14 @@
 Training: online dictionary learning (:mod:`sparseedm.learning`) over the
 concatenated vectors ``[x2 ; w * x3]`` of complete training poses (x2 the
 normalised 2D EDM vector, x3 the 3D one, see :mod:`.base`); each atom is unit
-norm over both halves.
+norm over both halves. Then (``decoder_ridge``, on by default) the 3D halves
+are re-fitted to the training poses given the codes the lifter will actually
+compute: the codes ``c_i`` of the 2D halves alone (the lifting lasso), and
+``D3 = argmin sum_i ||w x3_i - D3 c_i||^2 + n rho ||D3 - D3_learned||_F^2``,
+a ridge regression shrunk towards the learned halves (one k x k solve).
+Learning fits ``[x2 ; w x3]`` jointly, but a lifted pose is coded on x2 only,
+so its 3D read-out is not the one learning optimised; the re-fit is the best
+linear read-out of the 2D codes (lifters/README.md measures it).
 
 Lifting a pose: keep the entries of its 2D EDM vector that touch no occluded
 joint, solve the lasso ``min_c 0.5 ||x2_obs - D2_obs c||^2 + alpha_eff ||c||_1``
@@ -40,6 +47,7 @@ from threadpoolctl import threadpool_limits
 from ..edm import num_joints_from_dim, observed_entries
 from ..learning import OnlineDictionaryLearning
 from ..solvers import get_solver
+from ..solvers.fast import NUMPY_MAX
 from .base import Lifter, LifterError
 
 __all__ = ["DictionaryLifter"]
@@ -58,6 +66,9 @@ class DictionaryLifter(Lifter):
         Lasso penalty when lifting (scaled by observed entries / M).
     weight : float, default 1.0
         w, the weight of the 3D half in the training vectors.
+    decoder_ridge : float or None, default 0.01
+        rho, the per-pose ridge penalty of the 3D-half re-fit (see the module
+        docstring); None keeps the learned 3D halves.
     batch_size, n_passes : learner settings
     normalization : {"tied", "unit"}
     solver : str, default "fast"
@@ -70,17 +81,18 @@ class DictionaryLifter(Lifter):
 
     method = "dictionary"
     codes_observed_only = True
-    _params = ("n_components", "alpha", "alpha_lift", "weight", "batch_size", "n_passes",
-               "normalization", "random_state")
+    _params = ("n_components", "alpha", "alpha_lift", "weight", "decoder_ridge", "batch_size",
+               "n_passes", "normalization", "random_state")
 
     def __init__(self, n_components=2000, *, alpha=1.6, alpha_lift=0.002, weight=1.0,
-                 batch_size=512, n_passes=1, normalization="tied", solver="fast",
-                 random_state=0):
+                 decoder_ridge=0.01, batch_size=512, n_passes=2, normalization="tied",
+                 solver="fast", random_state=0):
         super().__init__(normalization=normalization, random_state=random_state)
         self.n_components = n_components
         self.alpha = alpha
         self.alpha_lift = alpha_lift
         self.weight = weight
+        self.decoder_ridge = decoder_ridge
         self.batch_size = batch_size
         self.n_passes = n_passes
         self.solver = solver
@@ -88,15 +100,52 @@ class DictionaryLifter(Lifter):
     def _fit(self, X2, X3):
         if not self.weight > 0:
             raise LifterError(f"weight must be > 0, got {self.weight!r}")
+        rho = self.decoder_ridge
+        if rho is not None and not (np.isfinite(rho) and rho > 0):
+            raise LifterError(f"decoder_ridge must be > 0 or None, got {rho!r}")
         X = np.hstack([X2, self.weight * X3])
         odl = OnlineDictionaryLearning(self.n_components, alpha=self.alpha,
                                        batch_size=self.batch_size, n_passes=self.n_passes,
                                        random_state=self.random_state)
         self.components_ = odl.fit(X).components_
+        if rho is not None:
+            self.components_ = self._refit_decoder(X2, self.weight * X3, rho)
+
+    def _refit_decoder(self, X2, Y, rho):
+        """Components with the 3D halves re-fitted to ``Y`` (= w X3) given the 2D codes."""
+        return self._solve_decoder(*self._decoder_stats(X2, Y), rho, len(X2))
+
+    def _decoder_stats(self, X2, Y, chunk_size=2048):
+        """``(Z'Z, Z'Y)`` over the lifting codes Z of the complete 2D vectors X2."""
+        from scipy.sparse import csr_matrix
+
+        k = self.components_.shape[0]
+        G, B = np.zeros((k, k)), np.zeros((k, Y.shape[1]))
+
+        def stats(rows, res):
+            Z = csr_matrix(res.coef)
+            return (Z.T @ Z).toarray(), Z.T @ Y[rows]
+
+        for g, b in self._lasso_chunks(X2, None, 1, chunk_size, stats):
+            G += g
+            B += b
+        return G, B
+
+    def _solve_decoder(self, G, B, rho, n):
+        from scipy.linalg import cho_factor, cho_solve
+
+        C = self.components_
+        m = C.shape[1] // 2
+        lam = rho * n
+        D3 = cho_solve(cho_factor(G + lam * np.eye(len(G))), B + lam * C[:, m:])
+        return np.hstack([C[:, :m], D3])
 
     def _describe_model(self):
         k, m2 = self.components_.shape
-        return f"coupled dictionary: {k} atoms over [2D ; {self.weight:g} x 3D] ({m2} entries)"
+        refit = ("" if self.decoder_ridge is None
+                 else f", 3D halves re-fitted to the 2D codes (ridge {self.decoder_ridge:g})")
+        return (f"coupled dictionary: {k} atoms over [2D ; {self.weight:g} x 3D] ({m2} entries)"
+                + refit)
 
     def _arrays(self):
         return {"components": self.components_}
@@ -109,6 +158,8 @@ class DictionaryLifter(Lifter):
         if C.dtype.kind != "f" or C.ndim != 2 or C.shape[1] % 2 or not np.isfinite(C).all():
             raise LifterError(f"{where}: components must be finite floats (k, 2M), got "
                               f"{C.dtype} {C.shape}")
+        # files written before the 3D-half re-fit existed hold learned halves
+        params = dict({"decoder_ridge": None}, **params)
         lf = cls(**{k: params[k] for k in cls._params if k in params})
         lf.components_ = C.astype(float)
         return lf
@@ -118,6 +169,40 @@ class DictionaryLifter(Lifter):
         if num_joints_from_dim(m) != n_joints:
             raise LifterError(f"{where}: atoms have {m} entries per half, not the "
                               f"{n_joints * (n_joints - 1) // 2} of {n_joints} joints")
+
+    def _lasso_chunks(self, X2, missing, n_jobs, chunk_size, fn):
+        """``fn(rows, result)`` for every chunk of the lasso on the observed 2D entries.
+
+        Rows of every missing pattern go through one masked solve per chunk (as
+        recover() does): the fast solver downdates one cached Gram of the 2D
+        halves per row; rows are sorted by pattern, and with several workers
+        each gets a share. `fn` runs in the worker, so a chunk's dense codes
+        never outlive it. Returns the list of `fn`'s values.
+        """
+        n, m = X2.shape
+        C = self.components_
+        N = num_joints_from_dim(m)
+        mask = np.zeros((n, N), bool) if missing is None else np.asarray(missing, bool)
+        solver = get_solver(self.solver)
+        key = (hashlib.sha1(np.ascontiguousarray(C[:, :m]).tobytes()).hexdigest(), "2d-half")
+        workers = os.cpu_count() or 1 if n_jobs == -1 else max(int(n_jobs or 1), 1)
+        observed = observed_entries(mask)
+        alpha = self.alpha_lift * observed.sum(axis=1) / m
+        order = np.lexsort(mask.T[::-1])
+        # a share per worker, but no share under the compiled kernel's size
+        # (smaller batches take the solver's numpy path: see recovery._min_tasks)
+        n_chunks = max(-(-n // chunk_size), min(workers, n // NUMPY_MAX), 1)
+        tasks = [t for t in np.array_split(order, max(1, min(n_chunks, n))) if len(t)]
+        D2 = C[:, :m].T
+
+        def run(rows):
+            return fn(rows, solver.solve_masked(D2, X2[rows], observed[rows], alpha[rows],
+                                                key=key))
+
+        with threadpool_limits(1, user_api="blas"):
+            if n_jobs in (None, 1):
+                return [run(t) for t in tasks]
+            return Parallel(n_jobs=n_jobs, backend="threading")(delayed(run)(t) for t in tasks)
 
     def predict(self, X2, missing=None, *, n_jobs=1, chunk_size=2048):
         """3D EDM vectors from the observed entries of 2D EDM vectors.
@@ -141,41 +226,18 @@ class DictionaryLifter(Lifter):
         C = self.components_
         if C.shape[1] != 2 * m:
             raise LifterError(f"the lifter codes {C.shape[1] // 2}-entry vectors, got {m}")
-        N = num_joints_from_dim(m)
-        mask = np.zeros((n, N), bool) if missing is None else np.asarray(missing, bool)
-        solver = get_solver(self.solver)
-        key = (hashlib.sha1(np.ascontiguousarray(C).tobytes()).hexdigest(), "2d-half")
-        workers = os.cpu_count() or 1 if n_jobs == -1 else max(int(n_jobs or 1), 1)
-        observed = observed_entries(mask)
-        alpha = self.alpha_lift * observed.sum(axis=1) / m
-        # rows of every pattern in one masked solve per chunk (as recover() does):
-        # the fast solver downdates one cached Gram of the 2D halves per row;
-        # rows are sorted by pattern, and with several workers each gets a share
-        order = np.lexsort(mask.T[::-1])
-        n_chunks = max(-(-n // chunk_size), workers if workers > 1 else 1)
-        tasks = [t for t in np.array_split(order, max(1, min(n_chunks, n))) if len(t)]
-        D2 = C[:, :m].T
-
-        def run(rows):
-            res = solver.solve_masked(D2, X2[rows], observed[rows], alpha[rows], key=key)
-            return res.coef @ C, res
-
-        with threadpool_limits(1, user_api="blas"):
-            if n_jobs in (None, 1):
-                out = [run(t) for t in tasks]
-            else:
-                out = Parallel(n_jobs=n_jobs, backend="threading")(delayed(run)(t) for t in tasks)
+        out = self._lasso_chunks(
+            X2, missing, n_jobs, chunk_size,
+            lambda rows, res: (rows, res.coef @ C, res.status, res.objective, res.gap,
+                               (res.coef != 0).sum(axis=1), res.fallback))
         full = np.full((n, 2 * m), np.nan)
         info = {"status": np.full(n, "failed", dtype=object), "objective": np.full(n, np.nan),
                 "gap": np.full(n, np.nan), "n_active": np.zeros(n, int),
                 "fallback": np.zeros(n, bool)}
-        for rows, (rec, res) in zip(tasks, out):
+        for rows, rec, *values in out:
             full[rows] = rec
-            info["status"][rows] = res.status
-            info["objective"][rows] = res.objective
-            info["gap"][rows] = res.gap
-            info["n_active"][rows] = (res.coef != 0).sum(axis=1)
-            info["fallback"][rows] = res.fallback
+            for name, v in zip(("status", "objective", "gap", "n_active", "fallback"), values):
+                info[name][rows] = v
         info["status"] = info["status"].astype(str)
         info["vectors2d"] = full[:, :m]
         return full[:, m:] / self.weight, info
