@@ -29,6 +29,19 @@ Steps of :func:`run_adaptation`
    dictionary is kept unless the adapted one is better. Both figures are
    reported.
 
+Self-training (:func:`self_train`)
+----------------------------------
+The incomplete poses to be recovered are in-domain data too: their observed
+joints show the very poses (and clips) that are scored. After adapting,
+``recover`` recovers a bounded seeded sample of them, adapts the *base*
+dictionary again on the complete poses plus those filled poses, recovers
+again, and so on for ``SELF_TRAINING_ROUNDS`` rounds (transductive
+self-training; only the observed joints of the incomplete poses carry new
+information, the filled ones are the model's own). The guard judges every
+round on the same held-back complete poses (the filled poses are never held
+back), and a round it rejects ends the self-training with the last accepted
+dictionary.
+
 The learning (:func:`adapt_vectors`)
 ------------------------------------
 ``stats="fresh"`` starts Mairal's inner statistics A, B at zero, as a new fit
@@ -63,9 +76,9 @@ from .skeleton import SKELETON_14
 __all__ = ["adapt", "run_adaptation", "adapt_vectors", "AdaptationResult",
            "usable_rows", "duplicate_rows", "reconstruction_error", "outlier_rows",
            "swapped_rows", "filter_poses", "holdout_blocks", "resolve_adaptation",
-           "masked_error", "guard_masks", "sample_complete", "fine_tune_file", "evaluate_adaptation",
-           "MIN_COMPLETE_POSES", "ADAPTED_ALPHA_TRAIN", "adaptation_alpha",
-           "STATS"]
+           "masked_error", "guard_masks", "sample_complete", "sample_stream", "fine_tune_file",
+           "evaluate_adaptation", "self_train", "MIN_COMPLETE_POSES", "ADAPTED_ALPHA_TRAIN",
+           "adaptation_alpha", "STATS", "SELF_TRAINING_ROUNDS"]
 
 #: Fewest complete poses (after filtering) that ``adapt="auto"`` adapts on;
 #: chosen on the validation splits (dictionaries/README.md).
@@ -108,6 +121,11 @@ DEFAULT_REINIT = False
 DEFAULT_MAX_POSES = 5000
 DEFAULT_VALIDATION_FRACTION = 0.2
 MAX_VALIDATION = 300
+#: Rounds of :func:`self_train` that ``recover`` runs after adapting (0: none);
+#: chosen on the validation splits (grid 8 of dictionaries/select_adaptation.py).
+SELF_TRAINING_ROUNDS = 3
+#: Fewest incomplete poses (recovered) a self-training round learns from.
+MIN_SELF_TRAINING_POSES = 50
 #: Held-back poses per occlusion pattern of the guard (:func:`guard_masks`):
 #: the fast solver codes a pattern's poses together through one Gram matrix
 #: once they are at least its ``gram_min`` (12).
@@ -468,6 +486,12 @@ class AdaptationResult:
     candidate : Dictionary or None
         The adapted dictionary even when the guard rejected it.
     settings : dict
+    n_extra : int
+        Filled (recovered) poses learned from besides the complete ones
+        (self-training; 0 otherwise).
+    self_training : list of dict
+        One entry per self-training round: ``poses`` learned from, the
+        guard's ``validation_err`` and whether the round was ``adopted``.
     """
 
     dictionary: Dictionary
@@ -484,6 +508,8 @@ class AdaptationResult:
     step_seconds: dict = field(default_factory=dict)
     candidate: Dictionary | None = None
     settings: dict = field(default_factory=dict)
+    n_extra: int = 0
+    self_training: list = field(default_factory=list)
 
     def summary(self) -> dict:
         """JSON-able summary (what ``RecoveryResult.summary()`` reports)."""
@@ -498,6 +524,8 @@ class AdaptationResult:
             "validation_err_adapted": num(self.err_adapted),
             "seconds": round(self.seconds, 3),
             "step_seconds": {k: round(v, 3) for k, v in self.step_seconds.items()},
+            "self_training": [{k: (num(v) if isinstance(v, float) else v)
+                               for k, v in r.items()} for r in self.self_training],
         }
 
     def line(self) -> str:
@@ -513,6 +541,13 @@ class AdaptationResult:
             parts.append(f"{self.n_used} poses used")
         if errs:
             parts.append(errs)
+        if self.self_training:
+            used = [r for r in self.self_training if r["adopted"]]
+            txt = (f"self-training: {len(used)} of {len(self.self_training)} rounds adopted, "
+                   f"{self.self_training[0]['poses']} recovered poses")
+            if used:
+                txt += f", held-back Mix Err_ave {used[-1]['validation_err']:.2f}%"
+            parts.append(txt)
         parts.append(f"{self.seconds:.1f} s")
         return "adaptation: " + "; ".join(parts)
 
@@ -540,7 +575,7 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
                    batch_size=DEFAULT_BATCH_SIZE, min_poses=MIN_COMPLETE_POSES,
                    max_poses=DEFAULT_MAX_POSES,
                    validation_fraction=DEFAULT_VALIDATION_FRACTION, guard=True,
-                   filter=True, random_state=0, n_jobs=1):
+                   filter=True, random_state=0, n_jobs=1, extra=None):
     """Adapt `dictionary` on the complete rows of `poses`, guarded; see the module docstring.
 
     Parameters
@@ -568,6 +603,10 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
     random_state : int
     n_jobs : int
         Threads for the coding step and the guard's recovery.
+    extra : array_like (m, N, 2), optional
+        Filled poses (e.g. recovered ones, :func:`self_train`) learned from
+        besides the complete ones: never held back for the guard, not
+        counted towards `min_poses`, at most `max_poses` of them (seeded).
 
     Returns
     -------
@@ -612,6 +651,15 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
         good = good[np.sort(rng.choice(n_complete, max_poses, replace=False))]
     val = holdout_blocks(len(good), validation_fraction if guard else 0.0, random_state)
     train, held = good[~val], good[val]
+    n_extra = 0
+    if extra is not None and len(extra):
+        extra = np.asarray(extra, dtype=float)
+        extra = extra[usable_rows(extra)]
+        if len(extra) > max_poses:
+            rng = np.random.default_rng([int(random_state or 0), 23])
+            extra = extra[np.sort(rng.choice(len(extra), max_poses, replace=False))]
+        n_extra = len(extra)
+        train = np.concatenate([train, extra])
     alpha_train = adaptation_alpha(dictionary) if alpha is None else alpha
     t_step = time.perf_counter()
     X = _vectors(train)
@@ -620,7 +668,8 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
                           random_state=random_state, n_jobs=n_jobs)
     steps["learning"] = time.perf_counter() - t_step
     prov = dict(dictionary.provenance or {})
-    prov["adaptation"] = {"poses": int(len(train)), "passes": passes, "stats": stats,
+    prov["adaptation"] = {"poses": int(len(train)), "filled_poses": int(n_extra),
+                          "passes": passes, "stats": stats,
                           "replay": replay, "alpha": alpha_train, "seed": random_state,
                           "base_sha256": prov.get("sha256", "")}
     candidate = Dictionary(
@@ -631,8 +680,8 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
         representation=dictionary.representation, normalization=dictionary.normalization,
         provenance=prov,
     )
-    kw = dict(n_complete=n_complete, n_used=len(train), n_validation=len(held),
-              dropped=dropped, candidate=candidate)
+    kw = dict(n_complete=n_complete, n_used=len(train) - n_extra, n_validation=len(held),
+              dropped=dropped, candidate=candidate, n_extra=n_extra)
     if not guard or len(held) == 0:
         return done("unchecked: no held-back poses", adapted=True, use=candidate, **kw)
     t_step = time.perf_counter()
@@ -684,13 +733,90 @@ def adapt(dictionary, complete_poses, *, passes=DEFAULT_PASSES, alpha=None, **kw
                           **kwargs).dictionary
 
 
+def _incomplete_rows(poses, missing, max_poses, random_state):
+    """A seeded sample (file order kept) of the rows of `poses` with a missing joint."""
+    poses = np.asarray(poses, dtype=float)
+    mask = ~np.isfinite(poses).all(axis=-1)
+    if missing is not None:
+        mask |= np.asarray(missing, dtype=bool)
+    rows = np.flatnonzero(mask.any(axis=1) & ~mask.all(axis=1))
+    if len(rows) > max_poses:
+        rng = np.random.default_rng([int(random_state or 0), 29])
+        rows = np.sort(rng.choice(rows, max_poses, replace=False))
+    return poses[rows], mask[rows]
+
+
+def self_train(dictionary, result, adapt_poses, adapt_missing, poses, missing, *,
+               rounds=SELF_TRAINING_ROUNDS, max_poses=DEFAULT_MAX_POSES, random_state=0,
+               n_jobs=1):
+    """Transductive self-training after :func:`run_adaptation` (module docstring).
+
+    Parameters
+    ----------
+    dictionary : Dictionary
+        The base dictionary (every round adapts it afresh).
+    result : AdaptationResult
+        The first adaptation (on `adapt_poses`); nothing is done unless it
+        was adopted.
+    adapt_poses, adapt_missing
+        What `result` was adapted on (as given to :func:`run_adaptation`).
+    poses, missing
+        The poses to be recovered: their incomplete rows (a seeded sample of
+        at most `max_poses`) are recovered, and the filled poses learned from.
+    rounds : int
+
+    Returns
+    -------
+    AdaptationResult
+        The last adopted round's (``self_training`` lists every round), or
+        `result` itself when no round ran.
+
+    Examples
+    --------
+    >>> import numpy as np, sparseedm
+    >>> from sparseedm.adaptation import run_adaptation, self_train
+    >>> d = sparseedm.load_dictionary()
+    >>> res = run_adaptation(d, np.zeros((3, 14, 2)))      # too few poses: not adopted
+    >>> self_train(d, res, None, None, np.zeros((3, 14, 2)), None) is res
+    True
+    """
+    from .recovery import _recover
+
+    if rounds <= 0 or not result.adapted or poses is None:
+        return result
+    t0 = time.perf_counter()
+    inc, mask = _incomplete_rows(poses, missing, max_poses, random_state)
+    if len(inc) < MIN_SELF_TRAINING_POSES:
+        return result
+    current, history = result, []
+    for r in range(int(rounds)):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            rec = _recover(inc, mask, dictionary=current.dictionary, n_jobs=n_jobs)
+        filled = rec.poses[rec.status == "recovered"]
+        new = run_adaptation(dictionary, adapt_poses, adapt_missing, extra=filled,
+                             random_state=random_state, n_jobs=n_jobs)
+        history.append({"round": r + 1, "poses": int(len(filled)),
+                        "validation_err": float(new.err_adapted),
+                        "adopted": bool(new.adapted)})
+        if not new.adapted:
+            break
+        current = new
+    current.self_training = history
+    current.step_seconds = dict(current.step_seconds, first_adaptation=result.seconds,
+                                self_training=time.perf_counter() - t0)
+    current.seconds = result.seconds + time.perf_counter() - t0
+    return current
+
+
 def resolve_adaptation(dictionary, poses, missing, adapt, *, n_jobs=1, random_state=0,
-                       warn=True):
+                       warn=True, self_training=SELF_TRAINING_ROUNDS):
     """The dictionary :func:`sparseedm.recover` should use, and what was done.
 
     `adapt` is ``"auto"`` (adapt on the complete rows of `poses`), ``False``
-    (nothing) or an array of separate poses to adapt on. Returns
-    ``(dictionary, AdaptationResult or None)``. A refusal is warned about
+    (nothing) or an array of separate poses to adapt on; then, when adopted,
+    `self_training` rounds of :func:`self_train` on the incomplete rows of
+    `poses` (0: none). Returns ``(dictionary, AdaptationResult or None)``. A refusal is warned about
     (``UserWarning``) when adaptation poses were given explicitly (unless
     ``warn=False``); under ``"auto"`` it is said in the result's summary only
     (small batches of incomplete poses are the common case, not a problem),
@@ -704,33 +830,88 @@ def resolve_adaptation(dictionary, poses, missing, adapt, *, n_jobs=1, random_st
         if adapt != "auto":
             raise SparseEDMError(f"adapt must be 'auto', False or an array of poses, "
                                  f"got {adapt!r}")
-        res = run_adaptation(dictionary, poses, missing, n_jobs=n_jobs,
-                             random_state=random_state)
+        source = (poses, missing)
         explicit = False
     else:
-        res = run_adaptation(dictionary, adapt, n_jobs=n_jobs, random_state=random_state)
+        source = (adapt, None)
         explicit = True
+    res = run_adaptation(dictionary, *source, n_jobs=n_jobs, random_state=random_state)
     if warn and explicit and not res.adapted and res.candidate is None:
         warnings.warn(f"no adaptation: {res.reason}", UserWarning, stacklevel=3)
+    res = self_train(dictionary, res, *source, poses, missing, rounds=self_training,
+                     random_state=random_state, n_jobs=n_jobs)
     return res.dictionary, res
+
+
+class _Reservoir:
+    """The rows with the `max_poses` smallest seeded keys seen so far (stream order kept)."""
+
+    def __init__(self, max_poses):
+        self.max_poses = max_poses
+        self.keys = np.zeros(0)
+        self.rows = np.zeros(0, dtype=np.int64)
+        self.poses = self.missing = None
+
+    def add(self, keys, rows, poses, missing):
+        if self.poses is not None:
+            keys, rows = np.concatenate([self.keys, keys]), np.concatenate([self.rows, rows])
+            poses = np.concatenate([self.poses, poses])
+            missing = np.concatenate([self.missing, missing])
+        top = np.argsort(keys, kind="stable")[:self.max_poses]
+        self.keys, self.rows, self.poses, self.missing = keys[top], rows[top], poses[top], missing[top]
+
+    def result(self, n_joints):
+        if self.poses is None:
+            return np.zeros((0, n_joints, 2)), np.zeros((0, n_joints), bool)
+        order = np.argsort(self.rows)
+        return self.poses[order], self.missing[order]
+
+
+def sample_stream(chunks, max_poses=DEFAULT_MAX_POSES, random_state=0):
+    """Bounded, seeded samples of the complete and of the incomplete poses of a stream.
+
+    One pass over `chunks` (iterable of ``(poses (n, N, 2), missing (n, N))``,
+    e.g. a memory-mapped .npy file's rows). Each row gets a seeded random key
+    and each sample keeps the `max_poses` smallest keys of its kind (the
+    same sample whatever the chunk size), in stream order, so memory stays
+    at ``2 * max_poses`` poses however long the stream.
+
+    Returns
+    -------
+    complete : ndarray (<= max_poses, N, 2)
+        Complete, finite poses (what adaptation learns from).
+    incomplete, incomplete_missing : ndarray (<= max_poses, N, 2), (<= max_poses, N)
+        Poses with some but not all joints missing (NaN or `missing`), and
+        their masks (what self-training recovers, :func:`self_train`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> p = np.arange(10 * 14 * 2, dtype=float).reshape(10, 14, 2)
+    >>> m = np.zeros((10, 14), bool); m[3, 0] = True
+    >>> c, i, im = sample_stream([(p[:5], m[:5]), (p[5:], m[5:])], max_poses=4)
+    >>> c.shape, i.shape, int(im.sum())
+    ((4, 14, 2), (1, 14, 2), 1)
+    """
+    rng = np.random.default_rng([int(random_state or 0), 19])
+    full, part = _Reservoir(max_poses), _Reservoir(max_poses)
+    offset, n_joints = 0, 0
+    for poses, missing in chunks:
+        poses = np.asarray(poses, dtype=float)
+        n, n_joints = len(poses), poses.shape[1]
+        keys = rng.random(n)  # one key per row, drawn whatever the row holds
+        mask = np.asarray(missing, bool) | ~np.isfinite(poses).all(axis=-1)
+        for res, ok in ((full, ~mask.any(axis=1)), (part, mask.any(axis=1) & ~mask.all(axis=1))):
+            rows = np.flatnonzero(ok)
+            res.add(keys[rows], rows + offset, poses[rows], mask[rows])
+        offset += n
+    return (full.result(n_joints)[0],) + part.result(n_joints)
 
 
 def sample_complete(chunks, max_poses=DEFAULT_MAX_POSES, random_state=0):
     """A bounded, seeded sample of the complete poses of a stream, in stream order.
 
-    Parameters
-    ----------
-    chunks : iterable of (poses (n, N, 2), missing (n, N))
-        The stream, chunk by chunk (e.g. a memory-mapped .npy file's rows).
-    max_poses : int
-    random_state : int
-
-    Returns
-    -------
-    ndarray (<= max_poses, N, 2)
-        Each complete, finite pose gets a seeded random key; the `max_poses`
-        smallest keys are kept (the same sample whatever the chunk size), so
-        memory stays at ``max_poses`` poses however long the stream.
+    The first sample of :func:`sample_stream` (the same rows).
 
     Examples
     --------
@@ -741,25 +922,7 @@ def sample_complete(chunks, max_poses=DEFAULT_MAX_POSES, random_state=0):
     >>> s.shape
     (4, 14, 2)
     """
-    rng = np.random.default_rng([int(random_state or 0), 19])
-    keep_keys = np.zeros(0)
-    keep_rows, keep_poses = np.zeros(0, dtype=np.int64), None
-    offset = 0
-    for poses, missing in chunks:
-        poses = np.asarray(poses, dtype=float)
-        n = len(poses)
-        keys = rng.random(n)  # one key per row, drawn whatever the row holds
-        ok = np.isfinite(poses).all(axis=(-1, -2)) & ~np.asarray(missing, bool).any(axis=1)
-        rows = np.flatnonzero(ok)
-        cand_keys = np.concatenate([keep_keys, keys[rows]])
-        cand_rows = np.concatenate([keep_rows, rows + offset])
-        cand_poses = poses[rows] if keep_poses is None else np.concatenate([keep_poses, poses[rows]])
-        top = np.argsort(cand_keys, kind="stable")[:max_poses]
-        keep_keys, keep_rows, keep_poses = cand_keys[top], cand_rows[top], cand_poses[top]
-        offset += n
-    if keep_poses is None:
-        return np.zeros((0, 0, 2))
-    return keep_poses[np.argsort(keep_rows)]
+    return sample_stream(chunks, max_poses, random_state)[0]
 
 
 def fine_tune_file(train_path, output, init="default", *, passes=DEFAULT_PASSES, alpha=None,
@@ -812,12 +975,15 @@ def evaluate_adaptation(dictionary, test_poses2d, adapt_poses2d, *,
                         methods=("sparse", "mean-fill", "knn", "iterative", "nearest"),
                         counts=("mix",), representations=("average",), random_state=0,
                         n_jobs=1, max_poses=None, max_train=20000, alpha=None, fconv_models=(),
-                        **adapt_kwargs):
+                        self_training=SELF_TRAINING_ROUNDS, **adapt_kwargs):
     """:func:`sparseedm.evaluation.evaluate` with the adaptation protocol.
 
     The dictionary (learned on source A) is evaluated cold (``sparse``) and
-    after :func:`run_adaptation` on `adapt_poses2d` (``sparse-adapted``: the
-    dictionary the guard chose); the baselines that need training poses are
+    adapted (``sparse-adapted``): ``recover(..., adapt=adapt_poses2d)`` on each
+    occluded test set, i.e. :func:`run_adaptation` on `adapt_poses2d` (the
+    dictionary the guard chose) followed by :func:`self_train` on the occluded
+    test poses (their observed joints; `self_training` rounds, default
+    ``SELF_TRAINING_ROUNDS``); the baselines that need training poses are
     fitted on the same adaptation poses. `test_poses2d` should come from other
     clips of the adaptation poses' source (complete poses, occluded by the
     protocol's seeded masks). `fconv_models` are passed to ``evaluate`` (FConv
@@ -843,7 +1009,13 @@ def evaluate_adaptation(dictionary, test_poses2d, adapt_poses2d, *,
     report.notes.append(res.line().replace("adaptation:", "sparse-adapted:", 1))
     report.settings["adaptation"] = res.summary()
     if "sparse" in methods:
-        adapted = evaluate(res.dictionary, test_poses2d, methods=("sparse",), **common)
+        if self_training and res.adapted and not adapt_kwargs:
+            # the protocol as recover() runs it: adapt, then self-train on the test inputs
+            adapted = evaluate(dictionary, test_poses2d, methods=("sparse",),
+                               adapt=adapt_poses2d, self_training=self_training, **common)
+            report.notes.extend(n for n in adapted.notes if "self-training" in n)
+        else:
+            adapted = evaluate(res.dictionary, test_poses2d, methods=("sparse",), **common)
         rows = []
         for r in report.rows:
             rows.append(r)

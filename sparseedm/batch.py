@@ -70,7 +70,7 @@ from pathlib import Path
 
 import numpy as np
 
-from numbers import Real
+from numbers import Integral, Real
 
 from ._atomic import atomic_path, check_paths
 from ._validation import (ALPHA, BOOLEAN, CHUNK_SIZE, N_JOBS, PATH, Interval, Options,
@@ -192,7 +192,8 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
                  solver="fast", n_jobs=1, chunk_size=50_000, output_format=None,
                  errors_path=None, progress=False, save_edm=False,
                  confidence_threshold=0.0, backend=None, scheduler=None,
-                 method="sparse", model=None, adapt="auto", save_dictionary=None):
+                 method="sparse", model=None, adapt="auto", save_dictionary=None,
+                 self_training=None):
     """Recover every pose of a keypoint file and write the filled poses.
 
     Parameters
@@ -228,10 +229,16 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
     adapt : "auto", False, path or array_like (n, N, 2)
         ``"auto"``: adapt the dictionary on a bounded, seeded sample of the
         file's complete poses (gathered in a first pass; see
-        :mod:`sparseedm.adaptation`) before recovering (the sparse method only); ``False``: do not; a
-        keypoint file or an array: adapt on those poses instead.
+        :mod:`sparseedm.adaptation`) before recovering (the sparse method
+        only); ``False``: do not; a keypoint file or an array: adapt on those
+        poses instead. Either way the first pass also samples the file's
+        incomplete poses for self-training.
     save_dictionary : str or path-like, optional
         Write the dictionary the poses were recovered with (.npz) there.
+    self_training : int, optional
+        Self-training rounds after an adopted adaptation, on a bounded seeded
+        sample of the file's incomplete poses (see :func:`sparseedm.recover`);
+        default :data:`sparseedm.adaptation.SELF_TRAINING_ROUNDS`.
 
     Returns
     -------
@@ -254,7 +261,8 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
         representation=representation, n_jobs=n_jobs, chunk_size=chunk_size,
         errors_path=errors_path, progress=progress,
         save_edm=save_edm, confidence_threshold=confidence_threshold, backend=backend,
-        scheduler=scheduler, method=method, save_dictionary=save_dictionary), _PARAMS)
+        scheduler=scheduler, method=method, save_dictionary=save_dictionary,
+        self_training=self_training), _PARAMS)
     in_path, out_path = Path(input), Path(output)
     errors_path = default_errors_path(out_path) if errors_path is None else Path(errors_path)
     if not in_path.exists():
@@ -293,7 +301,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
     try:
         if method == "sparse":
             dictionary, adaptation = _adapt(source, dictionary, adapt, chunk_size,
-                                            confidence_threshold, n_jobs)
+                                            confidence_threshold, n_jobs, self_training)
         else:
             adaptation = None
         summary = _run(source, in_fmt, out_path, out_fmt, errors_path, dictionary, alpha,
@@ -308,24 +316,32 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
     return summary
 
 
-def _adapt(source, dictionary, adapt, chunk_size, threshold, n_jobs):
-    """The dictionary to recover with: adapted on the file's complete poses
-    (a bounded seeded sample, one pass over the source), on other poses, or as given."""
-    from .adaptation import resolve_adaptation, sample_complete
+def _adapt(source, dictionary, adapt, chunk_size, threshold, n_jobs, self_training):
+    """The dictionary to recover with: adapted on the file's complete poses or
+    on other poses, then self-trained on the file's incomplete poses (bounded
+    seeded samples of both, one pass over the source), or as given."""
+    from .adaptation import resolve_adaptation, sample_stream
 
     if adapt is False or adapt is None:
         return dictionary, None
+    chunks = (source.chunk(s, min(s + chunk_size, source.n))
+              for s in range(0, source.n, chunk_size))
+    complete, partial, partial_missing = sample_stream(chunks)
+    n_joints = dictionary.n_joints
+    if complete.size == 0:
+        complete = np.zeros((0, n_joints, 2))
+    if partial.size == 0:
+        partial, partial_missing = np.zeros((0, n_joints, 2)), np.zeros((0, n_joints), bool)
+    poses = np.concatenate([complete, partial])
+    missing = np.concatenate([np.zeros(complete.shape[:2], bool), partial_missing])
+    kw = dict(n_jobs=n_jobs, warn=False,
+              **({} if self_training is None else {"self_training": self_training}))
     if isinstance(adapt, str) and adapt == "auto":
-        chunks = (source.chunk(s, min(s + chunk_size, source.n))
-                  for s in range(0, source.n, chunk_size))
-        poses = sample_complete(chunks)
-        if poses.size == 0:
-            poses = np.zeros((0, dictionary.n_joints, 2))
-        return resolve_adaptation(dictionary, poses, None, "auto", n_jobs=n_jobs, warn=False)
+        return resolve_adaptation(dictionary, poses, missing, "auto", **kw)
     if isinstance(adapt, (str, Path)):
         kps = read_keypoints(adapt, confidence_threshold=threshold)
         adapt = np.where(kps.missing[..., None], np.nan, kps.poses)
-    return resolve_adaptation(dictionary, None, None, adapt, n_jobs=n_jobs, warn=False)
+    return resolve_adaptation(dictionary, partial, partial_missing, adapt, **kw)
 
 
 #: constraints of recover_file()'s arguments (see sparseedm._validation)
@@ -339,6 +355,7 @@ _PARAMS = {
     "scheduler": PATH + [None],
     "method": [Options(("sparse", "fconv"))],
     "save_dictionary": PATH + [None],
+    "self_training": [Interval(Integral, 0, None), None],
 }
 
 

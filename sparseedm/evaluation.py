@@ -381,7 +381,8 @@ def evaluate(dictionary, test_poses2d, *, train_poses2d=None, labels=None,
              methods=("sparse", "mean-fill", "knn", "iterative", "nearest"),
              counts=(1, 2, 3, "mix"), representations=("average", "zero"),
              random_state=0, n_jobs=1, max_poses=None, max_train=20000,
-             alpha=None, solver="fast", n_examples=4, fconv_models=None):
+             alpha=None, solver="fast", n_examples=4, fconv_models=None, adapt=False,
+             self_training=None):
     """Run the paper's protocol for each method x count x representation.
 
     Parameters
@@ -412,6 +413,15 @@ def evaluate(dictionary, test_poses2d, *, train_poses2d=None, labels=None,
         Trained FConv recovery networks (``sparseedm fit-cnn``), at most one per
         representation: method "fconv" runs each under its own representation
         (needs the torch extra); without any, "fconv" is skipped (noted).
+    adapt : False or array_like (n_adapt, N, 2)
+        Passed to the sparse method's :func:`sparseedm.recover` for each
+        occluded test set: complete poses to adapt on first, then
+        self-training on the occluded test poses themselves (their observed
+        joints only). The adaptation line of each recovery goes into the
+        notes. Default False: the dictionary as given.
+    self_training : int, optional
+        With `adapt`: the self-training rounds (default that of
+        :func:`sparseedm.recover`).
 
     Returns
     -------
@@ -488,7 +498,7 @@ def evaluate(dictionary, test_poses2d, *, train_poses2d=None, labels=None,
             warnings.simplefilter("ignore")
             warm = np.where(masks[counts[0]][:1, :, None], np.nan, gt[:1])
             recover(warm, masks[counts[0]][:1], dictionary=dictionary, alpha=alpha,
-                    solver=solver)
+                    solver=solver, adapt=False)
     for rep, model in fconv.items():  # torch import and first call out of the timings
         recover(np.where(masks[counts[0]][:1, :, None], np.nan, gt[:1]), masks[counts[0]][:1],
                 method="fconv", model=model, representation=rep)
@@ -512,7 +522,10 @@ def evaluate(dictionary, test_poses2d, *, train_poses2d=None, labels=None,
                     with warnings.catch_warnings():
                         warnings.simplefilter("ignore")
                         res = recover(inputs, mask, dictionary=dictionary, alpha=alpha,
-                                      representation=rep, solver=solver, n_jobs=n_jobs)
+                                      representation=rep, solver=solver, n_jobs=n_jobs,
+                                      adapt=adapt, self_training=self_training)
+                    if res.adaptation is not None:
+                        notes.append(f"sparse, {c} missing, {rep}: {res.adaptation.line()}")
                     sparse_vectors[(c, rep)] = res.vectors
                 elif m == "fconv":
                     res = recover(inputs, mask, method="fconv", model=fconv[rep],

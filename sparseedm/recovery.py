@@ -30,14 +30,15 @@ from __future__ import annotations
 
 import hashlib
 import time
+from numbers import Integral
 from dataclasses import dataclass
 
 import numpy as np
 from joblib import Parallel, delayed, parallel_config
 from threadpoolctl import threadpool_limits
 
-from ._validation import (ALPHA, BOOLEAN, CHUNK_SIZE, N_JOBS, Options, check_mask,
-                          check_poses, validate_params)
+from ._validation import (ALPHA, BOOLEAN, CHUNK_SIZE, N_JOBS, Interval, Options,
+                          check_mask, check_poses, validate_params)
 from .dictionary import Dictionary, check_layout, load_dictionary
 from .edm import observed_entries, vector_to_edm
 from .exceptions import PoseError, SparseEDMError
@@ -185,6 +186,7 @@ _PARAMS = {
     "backend": [Options(("loky", "threading", "multiprocessing", "dask")), None],
     "scheduler": ["path", None],
     "method": [Options(("sparse", "fconv"))],
+    "self_training": [Interval(Integral, 0, None), None],
 }
 #: the smallest extent a pose may have: below it 1/extent overflows or loses bits
 _TINY = np.finfo(float).tiny
@@ -312,7 +314,7 @@ def _place(poses, clean, mask, vectors, center, scale, status, reason, filled, c
 def recover(poses, missing=None, *, dictionary=None, alpha=None,
             representation="average", solver="fast", n_jobs=1, chunk_size=2048,
             positive=None, progress=False, backend=None, scheduler=None,
-            method="sparse", model=None, adapt="auto"):
+            method="sparse", model=None, adapt="auto", self_training=None):
     """Recover the occluded joints of 2D poses.
 
     Parameters
@@ -362,6 +364,12 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         ``False``: recover with the dictionary as given. An array: adapt on
         those (complete) poses instead, e.g. other files of the same source.
         ``res.adaptation`` says what was done.
+    self_training : int, optional
+        After an adopted adaptation, this many rounds of transductive
+        self-training on the incomplete poses (recover a seeded sample of
+        them, adapt again on the complete plus the filled poses, guarded each
+        round: :func:`sparseedm.adaptation.self_train`); default
+        :data:`sparseedm.adaptation.SELF_TRAINING_ROUNDS`, 0 turns it off.
 
     Returns
     -------
@@ -384,7 +392,8 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
     validate_params("recover", dict(
         dictionary=dictionary, alpha=alpha, representation=representation, solver=solver,
         n_jobs=n_jobs, chunk_size=chunk_size, positive=positive, progress=progress,
-        backend=backend, scheduler=scheduler, method=method), _PARAMS)
+        backend=backend, scheduler=scheduler, method=method, self_training=self_training),
+        _PARAMS)
     if method == "fconv":  # torch is imported only on this path
         from .fconv.recover import recover_fconv
 
@@ -400,8 +409,9 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
             if not isinstance(dictionary, Dictionary):
                 dictionary = load_dictionary(dictionary)
             poses, missing, _ = _validate(poses, missing, dictionary.n_joints)
-            dictionary, adaptation = resolve_adaptation(dictionary, poses, missing, adapt,
-                                                        n_jobs=n_jobs)
+            dictionary, adaptation = resolve_adaptation(
+                dictionary, poses, missing, adapt, n_jobs=n_jobs,
+                **({} if self_training is None else {"self_training": self_training}))
         res = _recover(poses, missing, dictionary=dictionary, alpha=alpha,
                        representation=representation, solver=solver, n_jobs=n_jobs,
                        chunk_size=chunk_size, positive=positive, progress=progress,

@@ -321,3 +321,114 @@ def test_adaptation_alpha_scales_with_the_base(shifted_dictionary):
 
     assert adaptation_alpha(load_dictionary()) == ADAPTED_ALPHA_TRAIN
     assert adaptation_alpha(shifted_dictionary) == pytest.approx(4 * 0.05)
+
+
+# ---------------------------------------------------------------- self-training
+
+@pytest.fixture(scope="module")
+def cross_domain(cmu_poses):
+    """Complete real poses to adapt on, and other real poses occluded (Mix) to recover."""
+    order = np.random.default_rng(5).permutation(len(cmu_poses))
+    adapt_on = cmu_poses[np.sort(order[:260])]
+    target = cmu_poses[np.sort(order[260:])]
+    mask = random_occlusion(len(target), 14, "mix", random_state=3)
+    return adapt_on, np.where(mask[..., None], np.nan, target), mask, target
+
+
+def _err(res, truth):
+    from sparseedm.edm import pose_to_vector
+    from sparseedm.metrics import err_ave
+
+    return float(np.nanmean(err_ave(res.vectors * res.scale[:, None], pose_to_vector(truth))))
+
+
+def test_self_training_learns_from_the_recovered_poses(cross_domain, shifted_dictionary):
+    adapt_on, inputs, mask, truth = cross_domain
+    kw = dict(dictionary=shifted_dictionary, adapt=adapt_on)
+    r0 = sparseedm.recover(inputs, mask, self_training=0, **kw)
+    r2 = sparseedm.recover(inputs, mask, self_training=2, **kw)
+    assert r0.adapted and r0.adaptation.self_training == [] and r0.adaptation.n_extra == 0
+    rounds = r2.adaptation.summary()["self_training"]
+    assert 1 <= len(rounds) <= 2
+    assert rounds[0]["poses"] == int((r0.status == "recovered").sum())
+    if rounds[0]["adopted"]:
+        assert r2.adaptation.n_extra == [r for r in rounds if r["adopted"]][-1]["poses"]
+        assert "self-training: " in r2.adaptation.line()
+    # the observed joints come back as given, and the filled ones are better
+    np.testing.assert_array_equal(r2.poses[~mask], truth[~mask])
+    assert _err(r2, truth) < _err(r0, truth)
+
+
+def test_self_training_off_reproduces_adaptation_alone(cross_domain, shifted_dictionary):
+    adapt_on, inputs, mask, _ = cross_domain
+    off = sparseedm.recover(inputs, mask, dictionary=shifted_dictionary, adapt=adapt_on,
+                            self_training=0)
+    d = run_adaptation(shifted_dictionary, adapt_on).dictionary
+    alone = sparseedm.recover(inputs, mask, dictionary=d, adapt=False)
+    np.testing.assert_array_equal(off.poses, alone.poses)
+
+
+def test_a_round_the_guard_rejects_ends_self_training(cross_domain, shifted_dictionary,
+                                                      monkeypatch):
+    import dataclasses
+
+    from sparseedm import adaptation
+
+    adapt_on, inputs, mask, _ = cross_domain
+    first = run_adaptation(shifted_dictionary, adapt_on)
+    real = adaptation.run_adaptation
+
+    def rejecting(*args, extra=None, **kw):
+        res = real(*args, extra=extra, **kw)
+        return dataclasses.replace(res, adapted=False) if extra is not None else res
+
+    monkeypatch.setattr(adaptation, "run_adaptation", rejecting)
+    out = adaptation.self_train(shifted_dictionary, first, adapt_on, None, inputs, mask,
+                                rounds=3)
+    assert out.dictionary is first.dictionary
+    assert [r["adopted"] for r in out.self_training] == [False]
+
+
+def test_filled_poses_are_learned_from_but_never_held_back(cmu_poses, shifted_dictionary):
+    plain = run_adaptation(shifted_dictionary, cmu_poses, min_poses=50)
+    more = run_adaptation(shifted_dictionary, cmu_poses, min_poses=50,
+                          extra=_jittered(cmu_poses, 40, seed=9))
+    assert more.n_extra == 40 and plain.n_extra == 0
+    assert (more.n_used, more.n_validation) == (plain.n_used, plain.n_validation)
+    assert more.err_base == plain.err_base  # the same held-back poses judge both
+    assert not np.array_equal(more.candidate.components, plain.candidate.components)
+
+
+def test_sample_stream_samples_incomplete_rows_chunking_free(cmu_poses):
+    from sparseedm.adaptation import sample_stream
+
+    poses = cmu_poses.copy()
+    missing = np.zeros(poses.shape[:2], bool)
+    missing[::3, 4] = True
+    missing[7, :] = True  # nothing observed: neither sample
+    a = sample_stream([(poses, missing)], max_poses=30)
+    b = sample_stream([(poses[s:s + 11], missing[s:s + 11])
+                       for s in range(0, len(poses), 11)], max_poses=30)
+    for x, y in zip(a, b):
+        np.testing.assert_array_equal(x, y)
+    complete, partial, partial_missing = a
+    assert len(complete) == len(partial) == 30
+    assert partial_missing.any(axis=1).all() and not partial_missing.all(axis=1).any()
+    np.testing.assert_array_equal(complete, sample_complete([(poses, missing)], max_poses=30))
+
+
+def test_cli_self_training_flag(tmp_path, cmu_poses, shifted_dictionary_path, capsys):
+    poses = _jittered(cmu_poses, MIN_COMPLETE_POSES + 250, seed=4)
+    poses[3::4, 4] = np.nan  # ~160 incomplete poses
+    inp = tmp_path / "in.npz"
+    write_keypoints(inp, poses)
+    lines = {}
+    for rounds in ("0", "1"):
+        assert main(["recover", str(inp), "-o", str(tmp_path / f"out{rounds}.npz"),
+                     "--dictionary", str(shifted_dictionary_path),
+                     "--self-training", rounds]) == 0
+        lines[rounds] = next(ln for ln in capsys.readouterr().out.splitlines()
+                             if ln.startswith("adaptation:"))
+    assert "self-training" not in lines["0"] and "self-training: " in lines["1"]
+    with pytest.raises(SystemExit):
+        main(["recover", str(inp), "-o", str(tmp_path / "x.npz"), "--self-training", "x"])

@@ -59,6 +59,10 @@ def add_parser(sub):
     g.add_argument("--adapt-clips", type=int, default=None, metavar="K",
                    help="adaptation protocol within --data (needs its 'clips'): clip i in "
                    "sorted order adapts when i %% K == 0, the other clips are scored")
+    p.add_argument("--self-training", type=int, default=None, metavar="ROUNDS",
+                   help="with --adapt-from/--adapt-clips: self-training rounds of the "
+                   "'sparse-adapted' row on the occluded test poses (default 3, as "
+                   "`sparseedm recover`; 0: adaptation on FILE only)")
     p.add_argument("-o", "--output", required=True, help="report directory")
     p.set_defaults(func=run)
 
@@ -143,7 +147,8 @@ def run(args):
             dictionary, test, adapt_poses, methods=methods, counts=_split(args.counts),
             representations=_split(args.representations), random_state=args.seed,
             n_jobs=args.jobs, max_poses=args.max_poses, max_train=args.max_train,
-            alpha=args.alpha, fconv_models=args.fconv_model)
+            alpha=args.alpha, fconv_models=args.fconv_model,
+            **({} if args.self_training is None else {"self_training": args.self_training}))
     else:
         report = evaluate(
             dictionary, test, train_poses2d=train, labels=labels, methods=methods,

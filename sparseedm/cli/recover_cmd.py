@@ -65,6 +65,10 @@ def add_parser(sub):
     g.add_argument("--adapt-from", default=None, metavar="FILE",
                    help="adapt on the complete poses of FILE (same source, any keypoint "
                    "format) instead of INPUT's")
+    p.add_argument("--self-training", type=int, default=None, metavar="ROUNDS",
+                   help="after adapting, rounds of self-training on INPUT's incomplete "
+                   "poses (recover a sample, adapt again with them, guarded each round); "
+                   "default 3, 0 turns it off")
     p.add_argument("--save-dictionary", default=None, metavar="FILE",
                    help="write the dictionary used (adapted or not) to FILE (.npz)")
     add_quiet(p)
@@ -87,7 +91,7 @@ def run(args):
         backend=args.backend, scheduler=args.scheduler,
         method=args.method, model=args.model,
         adapt=False if args.no_adapt else (args.adapt_from or "auto"),
-        save_dictionary=args.save_dictionary,
+        save_dictionary=args.save_dictionary, self_training=args.self_training,
     )
     out = sys.stderr if args.quiet else sys.stdout
     ad = summary.get("adaptation")
