@@ -858,7 +858,8 @@ class _Reservoir:
             poses = np.concatenate([self.poses, poses])
             missing = np.concatenate([self.missing, missing])
         top = np.argsort(keys, kind="stable")[:self.max_poses]
-        self.keys, self.rows, self.poses, self.missing = keys[top], rows[top], poses[top], missing[top]
+        self.keys, self.rows = keys[top], rows[top]
+        self.poses, self.missing = poses[top], missing[top]
 
     def result(self, n_joints):
         if self.poses is None:
