@@ -984,8 +984,9 @@ def evaluate_adaptation(dictionary, test_poses2d, adapt_poses2d, *,
     occluded test set, i.e. :func:`run_adaptation` on `adapt_poses2d` (the
     dictionary the guard chose) followed by :func:`self_train` on the occluded
     test poses (their observed joints; `self_training` rounds, default
-    ``SELF_TRAINING_ROUNDS``); the baselines that need training poses are
-    fitted on the same adaptation poses. `test_poses2d` should come from other
+    ``SELF_TRAINING_ROUNDS``; with non-default adaptation settings in
+    `adapt_kwargs` the row is the adaptation alone); the baselines that need
+    training poses are fitted on the same adaptation poses. `test_poses2d` should come from other
     clips of the adaptation poses' source (complete poses, occluded by the
     protocol's seeded masks). `fconv_models` are passed to ``evaluate`` (FConv
     rows, not adapted).
