@@ -126,6 +126,10 @@ MAX_VALIDATION = 300
 SELF_TRAINING_ROUNDS = 3
 #: Fewest incomplete poses (recovered) a self-training round learns from.
 MIN_SELF_TRAINING_POSES = 50
+#: Most incomplete poses (a seeded sample) a self-training round recovers and
+#: learns from: bounds its cost (3 rounds on 5,000 poses took ~30 s on 2 cores,
+#: benchmarks/README.md); the validation and test runs used 600 and 1,200.
+SELF_TRAINING_MAX_POSES = 2000
 #: Held-back poses per occlusion pattern of the guard (:func:`guard_masks`):
 #: the fast solver codes a pattern's poses together through one Gram matrix
 #: once they are at least its ``gram_min`` (12).
@@ -747,8 +751,8 @@ def _incomplete_rows(poses, missing, max_poses, random_state):
 
 
 def self_train(dictionary, result, adapt_poses, adapt_missing, poses, missing, *,
-               rounds=SELF_TRAINING_ROUNDS, max_poses=DEFAULT_MAX_POSES, random_state=0,
-               n_jobs=1):
+               rounds=SELF_TRAINING_ROUNDS, max_poses=SELF_TRAINING_MAX_POSES,
+               random_state=0, n_jobs=1):
     """Transductive self-training after :func:`run_adaptation` (module docstring).
 
     Parameters
