@@ -1,5 +1,6 @@
-"""``python -m benchmarks [--quick]``: run the fit and recovery benchmarks in one
-process and rewrite their tables in benchmarks/README.md between the markers.
+"""``python -m benchmarks [--quick]``: run the fit, recovery, adaptation and
+lifting-speed benchmarks in one process and rewrite their tables in
+benchmarks/README.md between the markers.
 
 The full run writes the RESULTS block; ``--quick`` (k = 200, a few hundred
 poses, under a minute: a smoke test, not a measurement) writes the QUICK block.
@@ -13,13 +14,14 @@ import json
 import time
 from pathlib import Path
 
-from . import alphas, log, loadavg, machine, versions, write_block
+from . import (adaptation, alphas, lifting, loadavg, log, machine, recovery, versions,
+               write_block)
 
 HERE = Path(__file__).resolve().parent
 README = HERE / "README.md"
 
 
-def goals(fit_res, rec_res):
+def goals(fit_res, rec_res, adapt_res=None, lift_res=None):
     """Each goal: (text, met?, evidence)."""
     out = []
     rows = {r["name"]: r for r in fit_res["rows"]}
@@ -57,11 +59,25 @@ def goals(fit_res, rec_res):
                     f"{100 * cert:.2f}%, fallbacks {f1['fallbacks']} / {f2['fallbacks']}; "
                     f"max relative objective difference to Clarabel {oc['max_rel_diff']:.1e} "
                     f"on {oc['n']} sub-problems"))
+    one = mix.get(recovery.ONE_CORE, {}).get("pps")
+    if one:
+        out.append(("recovery: near-linear in cores, best 2-core rate >= 1.8x one core (Mix; "
+                    "issue 13)", best >= 1.8 * one,
+                    f"{best:.0f} vs {one:.0f} poses/s = {best / one:.2f}x"))
+    if adapt_res is not None:
+        first = next(iter(adapt_res["rows"].values()))
+        out.append((f"adaptation on {adapt_res['n_poses']:,} complete poses <= "
+                    f"{adaptation.GOAL_SECONDS:.0f} s on 2 cores (issue 9)",
+                    first["seconds"] <= adaptation.GOAL_SECONDS, f"{first['seconds']:.1f} s"))
+    if lift_res is not None:
+        met, ev = lifting.speed_goal(lift_res)
+        out.append((f"lifting >= {lifting.LIFT_GOAL:.0f} poses/s on 2 cores, complete and Mix "
+                    "(issue 12)", met, ev))
     return out
 
 
-def render(fit_res, rec_res, meta, quick):
-    from . import fit, recovery
+def render(fit_res, rec_res, meta, quick, adapt_res=None, lift_res=None):
+    from . import fit
 
     lines = []
     lines.append(f"Run: {meta['date']}, `python -m benchmarks{' --quick' if quick else ''}`, "
@@ -79,7 +95,7 @@ def render(fit_res, rec_res, meta, quick):
     lines.append("")
     lines.append("### Goals")
     lines.append("")
-    for text, met, ev in goals(fit_res, rec_res):
+    for text, met, ev in goals(fit_res, rec_res, adapt_res, lift_res):
         mark = "not measured" if met is None else ("**met**" if met else "**NOT met**")
         lines.append(f"- {text}: {mark} ({ev})")
     lines.append("")
@@ -90,6 +106,12 @@ def render(fit_res, rec_res, meta, quick):
     lines.append("### Recovery speed (benchmarks/recovery.py)")
     lines.append("")
     lines.append(recovery.render(rec_res))
+    if adapt_res is not None:
+        lines += ["", "### Adaptation (benchmarks/adaptation.py)", "",
+                  adaptation.render_rows(adapt_res)]
+    if lift_res is not None:
+        lines += ["", "### Lifting speed (benchmarks/lifting.py)", "",
+                  lifting.render_speed(lift_res)]
     return "\n".join(lines)
 
 
@@ -112,15 +134,20 @@ def main(argv=None):
     fit_res = fit.run(args.quick)
     comps = fit_res.pop("components")
     rec_res = recovery.run(args.quick, components=comps)
+    log("adaptation")
+    adapt_res = adaptation.run(args.quick)
+    log("lifting speed")
+    lift_res = lifting.run_speed(args.quick)
     meta["loadavg_end"] = loadavg()
     meta["minutes"] = (time.time() - t0) / 60
-    text = render(fit_res, rec_res, meta, args.quick)
+    text = render(fit_res, rec_res, meta, args.quick, adapt_res, lift_res)
     print(text)
     if not args.no_write:
         write_block("QUICK" if args.quick else "RESULTS",
                     "Quick smoke test" if args.quick else "Results", text, README)
         raw = HERE / ("results-quick.json" if args.quick else "results.json")
-        raw.write_text(json.dumps(dict(meta=meta, fit=fit_res, recovery=rec_res), indent=1,
+        raw.write_text(json.dumps(dict(meta=meta, fit=fit_res, recovery=rec_res,
+                                       adaptation=adapt_res, lifting_speed=lift_res), indent=1,
                                   default=lambda o: o.tolist() if isinstance(o, np.ndarray)
                                   else str(o)))
         log(f"benchmarks: wrote {README} and {raw.name}")

@@ -252,8 +252,9 @@ def run(quick=False, components=None):
         P = dict(n_patterns=len(groups), rows={})
         out["protocols"][proto] = P
         log(f"recovery [{proto}]: {len(val)} poses, {len(groups)} patterns")
-        for name, solver, nj in (("recover(solver='fast', n_jobs=1)", "fast", 1),
-                                 ("recover(solver='fast', n_jobs=2)", "fast", 2),
+        for name, solver, nj in ((FAST1, "fast", 1),
+                                 (FAST2, "fast", 2),
+                                 (ONE_CORE, "fast", 0),
                                  ("recover(solver='clarabel', n_jobs=2)", "clarabel", 2),
                                  (CLAR_CORR, ClarabelSolver(seed="correlation"), 2)):
             n_sub = cfg["n_clarabel_corr" if name == CLAR_CORR else "n_clarabel"]
@@ -261,6 +262,15 @@ def run(quick=False, components=None):
                 sub = np.sort(np.random.default_rng(4).choice(len(val), n_sub, replace=False))
                 r = run_recover(val[sub], mask[sub], dictionary, solver, nj)
                 r["subsample"] = True
+            elif nj == 0:  # one core: one job, one numba thread
+                import numba
+
+                before = numba.get_num_threads()
+                numba.set_num_threads(1)
+                try:
+                    r = run_recover(val, mask, dictionary, solver, 1)
+                finally:
+                    numba.set_num_threads(before)
             else:
                 r = run_recover(val, mask, dictionary, solver, nj)
             P["rows"][name] = r
@@ -307,6 +317,7 @@ def run(quick=False, components=None):
 
 FAST1 = "recover(solver='fast', n_jobs=1)"
 FAST2 = "recover(solver='fast', n_jobs=2)"
+ONE_CORE = "recover(solver='fast', n_jobs=1) on 1 core (numba threads = 1)"
 CLAR = "recover(solver='clarabel', n_jobs=2)"
 CLAR_CORR = ("recover(solver=ClarabelSolver(seed='correlation'), n_jobs=2) "
              "(the Clarabel path before issue 13)")
@@ -372,11 +383,12 @@ def render(res):
         best_spams = max(pps(p, SD), pps(p, SQ))
         ratio_rows.append([p, best_fast / best_spams, pps(p, LF) / best_spams,
                            best_fast / pps(p, SKL), pps(p, LF) / pps(p, SKL),
-                           pps(p, FAST1) / pps(p, CLAR), best_fast / pps(p, CLAR)])
+                           pps(p, FAST1) / pps(p, CLAR), best_fast / pps(p, CLAR),
+                           best_fast / pps(p, ONE_CORE)])
     ratios = table(["protocol", "fast recover (best n_jobs) / SPAMS (best)",
                     "fast lasso-only / SPAMS (best)", "fast recover / sklearn lasso_lars",
                     "fast lasso-only / sklearn lasso_lars", "fast n_jobs=1 / Clarabel n_jobs=2",
-                    "fast best / Clarabel n_jobs=2"], ratio_rows)
+                    "fast best / Clarabel n_jobs=2", "fast: 2 cores / 1 core"], ratio_rows)
     oc = res["objective_check"]
     check = (f"Fast vs Clarabel (`seed='correlation'`: independent of the fast path) on "
              f"{oc['n']} Mix sub-problems (solvers called directly, both "
