@@ -553,18 +553,47 @@ _WRITER = textwrap.dedent("""
 """)
 
 
+def _default_signals():
+    # a writer started from a background or nohup'd shell inherits SIGINT/SIGHUP
+    # ignored, and atomic_path rightly leaves ignored signals ignored: give the
+    # child the dispositions of an interactive run
+    for s in (signal.SIGINT, signal.SIGHUP, signal.SIGTERM):
+        signal.signal(s, signal.SIG_DFL)
+
+
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT, signal.SIGHUP])
 def test_signals_remove_the_temporary_file(sig, tmp_path):
     target = tmp_path / "out.csv"
     target.write_text("previous")
     with subprocess.Popen([sys.executable, "-c", _WRITER, str(target)],
-                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) as proc:
+                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                          preexec_fn=_default_signals) as proc:
         tmp = Path(proc.stdout.readline().strip())
         assert tmp.is_file() and TEMP_MARK in tmp.name
         proc.send_signal(sig)
         proc.communicate(timeout=30)
     assert proc.returncode != 0
     assert os.listdir(tmp_path) == ["out.csv"] and target.read_text() == "previous"
+
+
+def test_an_ignored_signal_stays_ignored(tmp_path):
+    """Under nohup (SIGHUP ignored) a hang-up must not end the write."""
+    def nohup():
+        _default_signals()
+        signal.signal(signal.SIGHUP, signal.SIG_IGN)
+
+    target = tmp_path / "out.csv"
+    with subprocess.Popen([sys.executable, "-c", _WRITER, str(target)],
+                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                          preexec_fn=nohup) as proc:
+        tmp = Path(proc.stdout.readline().strip())
+        proc.send_signal(signal.SIGHUP)
+        with pytest.raises(subprocess.TimeoutExpired):
+            proc.wait(timeout=1)
+        assert tmp.is_file()
+        proc.send_signal(signal.SIGTERM)
+        proc.communicate(timeout=30)
+    assert os.listdir(tmp_path) == []
 
 
 def test_leftovers_of_a_killed_writer_are_removed_on_the_next_write(tmp_path):
