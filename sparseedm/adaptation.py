@@ -65,10 +65,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ._validation import validate_params
 from .dictionary import Dictionary, load_dictionary
 from .edm import pose_to_vector
 from .exceptions import PoseError, SparseEDMError
-from .learning import (OnlineDictionaryLearning, check_params, iter_batches, sparse_code,
+from .learning import (OnlineDictionaryLearning, iter_batches, sparse_code,
                        _numba_threads)
 from .normalize import normalize
 from .skeleton import SKELETON_14
@@ -381,7 +382,6 @@ def adapt_vectors(components, X, alpha, *, passes=DEFAULT_PASSES, stats=DEFAULT_
     components = np.array(components, dtype=float)
     X = np.asarray(X, dtype=float)
     k, m = components.shape
-    check_params(k, alpha, batch_size, passes)
     est = OnlineDictionaryLearning(k, alpha=alpha, batch_size=batch_size, n_passes=passes,
                                    random_state=random_state, n_jobs=n_jobs)
     est._init_state(components=components)
@@ -814,13 +814,13 @@ def self_train(dictionary, result, adapt_poses, adapt_missing, poses, missing, *
 
 
 def resolve_adaptation(dictionary, poses, missing, adapt, *, n_jobs=1, random_state=0,
-                       warn=True, self_training=SELF_TRAINING_ROUNDS):
+                       warn=True, self_training=None):
     """The dictionary :func:`sparseedm.recover` should use, and what was done.
 
     `adapt` is ``"auto"`` (adapt on the complete rows of `poses`), ``False``
     (nothing) or an array of separate poses to adapt on; then, when adopted,
     `self_training` rounds of :func:`self_train` on the incomplete rows of
-    `poses` (0: none). Returns ``(dictionary, AdaptationResult or None)``. A refusal is warned about
+    `poses` (0: none; None: ``SELF_TRAINING_ROUNDS``). Returns ``(dictionary, AdaptationResult or None)``. A refusal is warned about
     (``UserWarning``) when adaptation poses were given explicitly (unless
     ``warn=False``); under ``"auto"`` it is said in the result's summary only
     (small batches of incomplete poses are the common case, not a problem),
@@ -842,7 +842,8 @@ def resolve_adaptation(dictionary, poses, missing, adapt, *, n_jobs=1, random_st
     res = run_adaptation(dictionary, *source, n_jobs=n_jobs, random_state=random_state)
     if warn and explicit and not res.adapted and res.candidate is None:
         warnings.warn(f"no adaptation: {res.reason}", UserWarning, stacklevel=3)
-    res = self_train(dictionary, res, *source, poses, missing, rounds=self_training,
+    rounds = SELF_TRAINING_ROUNDS if self_training is None else self_training
+    res = self_train(dictionary, res, *source, poses, missing, rounds=rounds,
                      random_state=random_state, n_jobs=n_jobs)
     return res.dictionary, res
 
@@ -1001,8 +1002,9 @@ def evaluate_adaptation(dictionary, test_poses2d, adapt_poses2d, *,
         Rows for ``sparse``, ``sparse-adapted`` and the baselines; the notes
         and ``settings["adaptation"]`` say what adaptation did.
     """
-    from .evaluation import evaluate
+    from .evaluation import _PARAMS, evaluate
 
+    validate_params("evaluate_adaptation", {"self_training": self_training}, _PARAMS)
     if not isinstance(dictionary, Dictionary):
         dictionary = load_dictionary(dictionary)
     adapt_poses2d = np.asarray(adapt_poses2d, dtype=float)

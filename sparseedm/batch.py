@@ -334,13 +334,11 @@ def _adapt(source, dictionary, adapt, chunk_size, threshold, n_jobs, self_traini
         partial, partial_missing = np.zeros((0, n_joints, 2)), np.zeros((0, n_joints), bool)
     poses = np.concatenate([complete, partial])
     missing = np.concatenate([np.zeros(complete.shape[:2], bool), partial_missing])
-    kw = dict(n_jobs=n_jobs, warn=False,
-              **({} if self_training is None else {"self_training": self_training}))
+    kw = dict(n_jobs=n_jobs, warn=False, self_training=self_training)
     if isinstance(adapt, str) and adapt == "auto":
         return resolve_adaptation(dictionary, poses, missing, "auto", **kw)
     if isinstance(adapt, (str, Path)):
-        kps = read_keypoints(adapt, confidence_threshold=threshold)
-        adapt = np.where(kps.missing[..., None], np.nan, kps.poses)
+        adapt = read_keypoints(adapt, confidence_threshold=threshold).poses  # NaN where missing
     return resolve_adaptation(dictionary, partial, partial_missing, adapt, **kw)
 
 

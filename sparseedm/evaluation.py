@@ -86,6 +86,7 @@ _PARAMS = {
     "alpha": ALPHA + [None],
     "alpha_recover": ALPHA,
     "n_examples": [Interval(Integral, 0, None)],
+    "self_training": [Interval(Integral, 0, None), None],
 }
 
 
@@ -429,8 +430,8 @@ def evaluate(dictionary, test_poses2d, *, train_poses2d=None, labels=None,
     """
     validate_params("evaluate", dict(
         dictionary=dictionary, random_state=random_state, n_jobs=n_jobs,
-        max_poses=max_poses, max_train=max_train, alpha=alpha, n_examples=n_examples),
-        _PARAMS)
+        max_poses=max_poses, max_train=max_train, alpha=alpha, n_examples=n_examples,
+        self_training=self_training), _PARAMS)
     methods = _check_methods(methods)
     counts = _check_counts(counts)
     for r in representations:

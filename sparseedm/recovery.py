@@ -410,8 +410,7 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
                 dictionary = load_dictionary(dictionary)
             poses, missing, _ = _validate(poses, missing, dictionary.n_joints)
             dictionary, adaptation = resolve_adaptation(
-                dictionary, poses, missing, adapt, n_jobs=n_jobs,
-                **({} if self_training is None else {"self_training": self_training}))
+                dictionary, poses, missing, adapt, n_jobs=n_jobs, self_training=self_training)
         res = _recover(poses, missing, dictionary=dictionary, alpha=alpha,
                        representation=representation, solver=solver, n_jobs=n_jobs,
                        chunk_size=chunk_size, positive=positive, progress=progress,

@@ -38,3 +38,30 @@ def load_npz(path, what, required, optional=()):
             f"{path}: no {' or '.join(map(repr, lacking))} array (has: "
             f"{', '.join(sorted(names)) or 'nothing'}); see `sparseedm dataset build`")
     return arrays, set(names)
+
+
+def occluded_range(text, default):
+    """``--occluded LO-HI`` as (lo, hi); `default` when not given."""
+    from ..exceptions import SparseEDMError
+
+    if text is None:
+        return default
+    try:
+        lo, hi = (int(t) for t in text.split("-"))
+    except ValueError:
+        raise SparseEDMError(f"--occluded must look like LO-HI (e.g. 1-3), got {text!r}") \
+            from None
+    return lo, hi
+
+
+def channels(text):
+    """``--channels C1,C2`` as two positive integers."""
+    from ..exceptions import SparseEDMError
+
+    try:
+        out = tuple(int(c) for c in text.split(","))
+    except ValueError:
+        out = ()
+    if len(out) != 2 or min(out) < 1:
+        raise SparseEDMError(f"--channels must be two positive integers, got {text!r}")
+    return out

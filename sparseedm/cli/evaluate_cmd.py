@@ -110,15 +110,12 @@ def _split_clips(path, poses, labels, k):
 
 def run(args):
     from ..dictionary import load_dictionary
-    from ..evaluation import METHODS, OPTIONAL_METHODS, evaluate, sweep_atoms
+    from ..evaluation import _check_methods, evaluate, sweep_atoms
 
     methods = _split(args.methods)
     if args.fconv_model and "fconv" not in methods:
         methods = methods[:1] + ("fconv",) + methods[1:]
-    known = METHODS + OPTIONAL_METHODS
-    unknown = [m for m in methods if m not in known]
-    if unknown:
-        raise SparseEDMError(f"unknown method(s) {', '.join(unknown)}; known: {', '.join(known)}")
+    methods = _check_methods(methods)
     try:  # checked before the hour of evaluation that precedes the sweep
         atoms = tuple(int(a) for a in _split(args.sweep_atoms or ""))
     except ValueError:

@@ -6,7 +6,7 @@ import sys
 from pathlib import Path
 
 from ..exceptions import FileFormatError, SparseEDMError
-from ._common import add_quiet, load_npz, show_progress
+from ._common import add_quiet, channels, load_npz, occluded_range, show_progress
 
 
 def add_parser(sub):
@@ -57,17 +57,6 @@ def _load(path, need3d):
     return out
 
 
-def _range(text, default):
-    if text is None:
-        return default
-    try:
-        lo, hi = (int(t) for t in text.split("-"))
-    except ValueError:
-        raise SparseEDMError(f"--occluded must look like LO-HI (e.g. 1-3), got {text!r}") \
-            from None
-    return lo, hi
-
-
 def run(args):
     from .._atomic import check_paths
     from ..fconv.network import require_torch
@@ -79,24 +68,19 @@ def run(args):
     if Path(args.output).suffix != ".npz":
         raise SparseEDMError(f"{args.output}: a model file must end in .npz")
     check_paths([("training file", args.train)], [("output", args.output)])
-    try:
-        channels = tuple(int(c) for c in args.channels.split(","))
-    except ValueError:
-        channels = ()
-    if len(channels) != 2 or min(channels) < 1:
-        raise SparseEDMError(f"--channels must be two positive integers, got {args.channels!r}")
     data = _load(args.train, args.task == "lift")
-    common = dict(representation=args.representation, channels=channels, kernel=args.kernel,
+    common = dict(representation=args.representation, channels=channels(args.channels),
+                  kernel=args.kernel,
                   symmetrize=args.symmetrize, batch_size=args.batch_size,
                   max_epochs=args.epochs, patience=args.patience, learning_rate=args.lr,
                   random_state=args.seed, device=args.device, progress=show_progress(args),
                   max_train=args.max_train, provenance={"files": [str(args.train)]})
     if args.task == "recover":
         model = fit_fconv(data["poses2d"], data.get("clips"),
-                          occluded=_range(args.occluded, (1, 3)), **common)
+                          occluded=occluded_range(args.occluded, (1, 3)), **common)
     else:
         model = fit_lifter(data["poses2d"], data["poses3d"], data.get("clips"),
-                           occluded=_range(args.occluded, (0, 0)), **common)
+                           occluded=occluded_range(args.occluded, (0, 0)), **common)
     model.save(args.output)
     t = model.meta["training"]
     print(f"wrote {args.output}: {args.task} model, {t['epochs']} epochs on {t['n_train']} "

@@ -93,12 +93,12 @@ def run(args):
         params["hidden_layer_sizes"] = tuple(int(h) for h in args.hidden.split(","))
     if args.method == "fconv":
         from ..fconv.network import require_torch
-        from .fit_cnn_cmd import _range
+        from ._common import channels, occluded_range
 
         require_torch()  # before any data is read: names the torch extra
-        params["occluded"] = _range(args.occluded, params["occluded"])
+        params["occluded"] = occluded_range(args.occluded, params["occluded"])
         if args.channels:
-            params["channels"] = tuple(int(c) for c in args.channels.split(","))
+            params["channels"] = channels(args.channels)
     params["random_state"] = args.seed
     data = load_dataset(args.train)
     idx = np.arange(len(data["poses2d"]))  # load_dataset refuses NaN: all complete

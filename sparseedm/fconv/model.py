@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
-from .._atomic import atomic_path
+from .._atomic import save_npz
 from .._safeio import load_npz, npz_members
 from ..edm import triu_indices
 from ..exceptions import FileFormatError, ModelError, PickledDataError
@@ -139,10 +139,8 @@ class FConvModel:
         if path.suffix != ".npz":
             raise ModelError(f"{path}: a model file must end in .npz")
         arrays = {_PREFIX + k: v for k, v in self.params.items()}
-        with atomic_path(path) as tmp:
-            np.savez_compressed(tmp, meta=np.array(json.dumps(self.meta, sort_keys=True),
-                                                   dtype=np.str_), **arrays)
-        return path
+        arrays["meta"] = np.array(json.dumps(self.meta, sort_keys=True), dtype=np.str_)
+        return save_npz(path, arrays, compressed=True)
 
     def describe(self) -> str:
         m, t = self.meta, self.meta.get("training", {})

@@ -153,9 +153,7 @@ def fit_fconv(poses2d, clips=None, *, representation="average", occluded=(1, 3),
     >>> model.kind, model.representation, model.meta["training"]["epochs"]
     ('recover', 'zero', 2)
     """
-    if representation not in REPRESENTATIONS:
-        raise SparseEDMError(f"unknown representation {representation!r}; use one of "
-                             f"{REPRESENTATIONS}")
+    _check_representation(representation)
     poses = _check_training_poses(poses2d, "training poses", 2, batch_size)
     N = poses.shape[1]
 
@@ -189,9 +187,7 @@ def fit_lifter(poses2d, poses3d, clips=None, *, representation="average", occlud
     FConvModel
         ``kind == "lift"``.
     """
-    if representation not in REPRESENTATIONS:
-        raise SparseEDMError(f"unknown representation {representation!r}; use one of "
-                             f"{REPRESENTATIONS}")
+    _check_representation(representation)
     p2 = _check_training_poses(poses2d, "training 2D poses", 2, batch_size)
     p3 = _check_training_poses(poses3d, "training 3D poses", 3, batch_size)
     if p2.shape[:2] != p3.shape[:2]:
@@ -210,6 +206,12 @@ def fit_lifter(poses2d, poses3d, clips=None, *, representation="average", occlud
                         tol=tol, learning_rate=learning_rate, random_state=random_state,
                         device=device, progress=progress, max_train=max_train,
                         provenance=provenance)
+
+
+def _check_representation(representation):
+    if representation not in REPRESENTATIONS:
+        raise SparseEDMError(f"unknown representation {representation!r}; use one of "
+                             f"{REPRESENTATIONS}")
 
 
 def _fit_network(pairs, n, N, clips, meta, *, representation, channels, kernel, symmetrize,

@@ -50,7 +50,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
-from .._atomic import atomic_path
+from .._atomic import save_npz
 from .._safeio import load_npz, npz_members
 from .._shipped import resolve_shipped, shipped_names
 from ..edm import pose_to_vector
@@ -231,9 +231,7 @@ class Lifter:
             chirality=np.asarray(self.chirality_.coef_, float),
             meta=np.array(json.dumps(self.meta(), sort_keys=True), dtype=np.str_),
         )
-        with atomic_path(path) as tmp:
-            np.savez_compressed(tmp, **arrays)
-        return path
+        return save_npz(path, arrays, compressed=True)
 
     def describe(self):
         """A few lines a person reads (``sparseedm info``)."""

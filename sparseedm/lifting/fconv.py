@@ -48,12 +48,11 @@ import numpy as np
 
 from ..edm import num_joints_from_dim, observed_entries
 from ..exceptions import SparseEDMError
-from ..normalize import REPRESENTATIONS, represent
+from ..fconv.model import _PREFIX  # numpy only: torch loads lazily
+from ..normalize import represent
 from .base import Lifter, LifterError, _check_pairs
 
 __all__ = ["FConvNetLifter"]
-
-_PREFIX = "param."
 
 
 class FConvNetLifter(Lifter):
@@ -124,12 +123,10 @@ class FConvNetLifter(Lifter):
 
     def _train(self, pairs, shape, clips):
         from ..fconv.network import require_torch
-        from ..fconv.training import _fit_network
+        from ..fconv.training import _check_representation, _fit_network
 
         require_torch()  # names the extra when torch is absent
-        if self.representation not in REPRESENTATIONS:
-            raise SparseEDMError(f"unknown representation {self.representation!r}; use one "
-                                 f"of {REPRESENTATIONS}")
+        _check_representation(self.representation)
         n, m = shape
         N = num_joints_from_dim(m)
         meta = {"kind": "lift", "occluded": list(self.occluded),

@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..edm import pose_to_vector
 from ..metrics import err_ave
 from ..skeleton import SKELETON_14
 
@@ -87,8 +86,3 @@ def pa_mpjpe(pred, true, *, unit=1000.0):
     s = (S * D).sum(axis=1) / np.einsum("nij,nij->n", p, p)
     aligned = s[:, None, None] * p @ R
     return np.linalg.norm(aligned - t, axis=-1).mean(axis=-1) * unit
-
-
-def vectors_3d(poses):
-    """3D EDM vectors of poses (shortcut)."""
-    return pose_to_vector(poses)

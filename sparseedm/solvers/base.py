@@ -282,7 +282,7 @@ class BaseSolver:
 def _pattern_groups(observed, alpha):
     """(rows, observed entries) of each group of rows sharing a pattern and an alpha."""
     keys = np.concatenate([observed.astype(float), alpha[:, None]], axis=1)
-    _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+    _, inverse = np.unique(keys, axis=0, return_inverse=True)
     inverse = inverse.reshape(-1)
     order = np.argsort(inverse, kind="stable")
     bounds = np.flatnonzero(np.diff(inverse[order])) + 1

@@ -327,14 +327,13 @@ class ClarabelSolver(BaseSolver):
         """
         clarabel = _import_clarabel()
         m, ks = DW.shape
-        eye = sp.identity(ks, format="csc")
         if ks <= self.gram_max:
             # built straight in CSC form (scipy's sparse constructors cost more
             # than the solve at these sizes)
             b = DW.T @ x
             if positive:
                 P, q = _triu_csc(DW.T @ DW, ks), alpha - b
-                A, h = -eye, np.zeros(ks)
+                A, h = -sp.identity(ks, format="csc"), np.zeros(ks)
                 cones = [clarabel.NonnegativeConeT(ks)]
             else:
                 P = _triu_csc(DW.T @ DW, 2 * ks)
@@ -343,6 +342,7 @@ class ClarabelSolver(BaseSolver):
                 cones = [clarabel.NonnegativeConeT(2 * ks)]
         else:
             # variables (c, [t,] r): min 0.5 ||r||^2 + alpha 1't  s.t.  D_W c + r = x
+            eye = sp.identity(ks, format="csc")
             nt = 0 if positive else ks
             n = ks + nt + m
             P = sp.csc_matrix(
