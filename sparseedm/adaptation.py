@@ -496,6 +496,9 @@ class AdaptationResult:
     self_training : list of dict
         One entry per self-training round: ``poses`` learned from, the
         guard's ``validation_err`` and whether the round was ``adopted``.
+    pool : ndarray or None
+        The complete poses after filtering and bounding (learning and
+        held-back slice come from them); reused by self-training rounds.
     """
 
     dictionary: Dictionary
@@ -514,6 +517,7 @@ class AdaptationResult:
     settings: dict = field(default_factory=dict)
     n_extra: int = 0
     self_training: list = field(default_factory=list)
+    pool: np.ndarray | None = field(default=None, repr=False)
 
     def summary(self) -> dict:
         """JSON-able summary (what ``RecoveryResult.summary()`` reports)."""
@@ -579,7 +583,7 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
                    batch_size=DEFAULT_BATCH_SIZE, min_poses=MIN_COMPLETE_POSES,
                    max_poses=DEFAULT_MAX_POSES,
                    validation_fraction=DEFAULT_VALIDATION_FRACTION, guard=True,
-                   filter=True, random_state=0, n_jobs=1, extra=None):
+                   filter=True, random_state=0, n_jobs=1, extra=None, reuse=None):
     """Adapt `dictionary` on the complete rows of `poses`, guarded; see the module docstring.
 
     Parameters
@@ -611,6 +615,10 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
         Filled poses (e.g. recovered ones, :func:`self_train`) learned from
         besides the complete ones: never held back for the guard, not
         counted towards `min_poses`, at most `max_poses` of them (seeded).
+    reuse : AdaptationResult, optional
+        An earlier result on the same poses and settings (what
+        :func:`self_train` passes): its filtered, bounded poses and the base
+        dictionary's guard error are taken from it instead of recomputed.
 
     Returns
     -------
@@ -619,10 +627,13 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
     t0 = time.perf_counter()
     if not isinstance(dictionary, Dictionary):
         dictionary = load_dictionary(dictionary)
-    complete, n_given = _complete_input(poses, missing)
-    if complete.shape[1] != dictionary.n_joints:
-        raise PoseError(f"adaptation poses have {complete.shape[1]} joints but the "
-                        f"dictionary is for {dictionary.n_joints}")
+    if reuse is None:
+        complete, n_given = _complete_input(poses, missing)
+        if complete.shape[1] != dictionary.n_joints:
+            raise PoseError(f"adaptation poses have {complete.shape[1]} joints but the "
+                            f"dictionary is for {dictionary.n_joints}")
+    else:
+        n_given = reuse.n_given
     settings = dict(passes=passes, alpha=alpha, stats=stats, memory=memory, replay=replay,
                     batch_size=batch_size, min_poses=min_poses, max_poses=max_poses,
                     validation_fraction=validation_fraction, guard=guard, filter=filter,
@@ -634,25 +645,28 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
                                 settings=settings, step_seconds=steps, **kw)
 
     steps = {}
-    t_step = time.perf_counter()
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        if filter:
-            rep = filter_poses(complete, dictionary)
-            keep, dropped = rep.keep, rep.counts
-        else:
-            keep = usable_rows(complete)
-            dropped = {"incomplete": int((~keep).sum())}
-    dropped["incomplete"] += n_given - len(complete)
-    steps["filter"] = time.perf_counter() - t_step
-    good = complete[keep]
-    n_complete = len(good)
-    if n_complete < min_poses:
-        return done(f"{n_complete} complete plausible poses, fewer than the {min_poses} needed",
-                    adapted=False, n_complete=n_complete, dropped=dropped)
-    if n_complete > max_poses:  # a seeded sample, file order kept
-        rng = np.random.default_rng([int(random_state or 0), 17])
-        good = good[np.sort(rng.choice(n_complete, max_poses, replace=False))]
+    if reuse is None:
+        t_step = time.perf_counter()
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            if filter:
+                rep = filter_poses(complete, dictionary)
+                keep, dropped = rep.keep, rep.counts
+            else:
+                keep = usable_rows(complete)
+                dropped = {"incomplete": int((~keep).sum())}
+        dropped["incomplete"] += n_given - len(complete)
+        steps["filter"] = time.perf_counter() - t_step
+        good = complete[keep]
+        n_complete = len(good)
+        if n_complete < min_poses:
+            return done(f"{n_complete} complete plausible poses, fewer than the {min_poses} "
+                        "needed", adapted=False, n_complete=n_complete, dropped=dropped)
+        if n_complete > max_poses:  # a seeded sample, file order kept
+            rng = np.random.default_rng([int(random_state or 0), 17])
+            good = good[np.sort(rng.choice(n_complete, max_poses, replace=False))]
+    else:  # the same poses, filtered and bounded once
+        good, n_complete, dropped = reuse.pool, reuse.n_complete, dict(reuse.dropped)
     val = holdout_blocks(len(good), validation_fraction if guard else 0.0, random_state)
     train, held = good[~val], good[val]
     n_extra = 0
@@ -685,14 +699,16 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
         provenance=prov,
     )
     kw = dict(n_complete=n_complete, n_used=len(train) - n_extra, n_validation=len(held),
-              dropped=dropped, candidate=candidate, n_extra=n_extra)
+              dropped=dropped, candidate=candidate, n_extra=n_extra, pool=good)
     if not guard or len(held) == 0:
         return done("unchecked: no held-back poses", adapted=True, use=candidate, **kw)
     t_step = time.perf_counter()
+    guard_kw = dict(random_state=random_state, n_jobs=n_jobs,
+                    n_patterns=max(1, len(held) // GUARD_POSES_PER_PATTERN))
     with _numba_threads(n_jobs):
-        e0, e1 = (masked_error(d, held, random_state=random_state, n_jobs=n_jobs,
-                               n_patterns=max(1, len(held) // GUARD_POSES_PER_PATTERN))
-                  for d in (dictionary, candidate))
+        e0 = (reuse.err_base if reuse is not None and np.isfinite(reuse.err_base)
+              else masked_error(dictionary, held, **guard_kw))
+        e1 = masked_error(candidate, held, **guard_kw)
     steps["guard"] = time.perf_counter() - t_step
     candidate.provenance["adaptation"].update(validation_err_base=e0, validation_err_adapted=e1)
     if e1 < e0:
@@ -799,7 +815,7 @@ def self_train(dictionary, result, adapt_poses, adapt_missing, poses, missing, *
             rec = _recover(inc, mask, dictionary=current.dictionary, n_jobs=n_jobs)
         filled = rec.poses[rec.status == "recovered"]
         new = run_adaptation(dictionary, adapt_poses, adapt_missing, extra=filled,
-                             random_state=random_state, n_jobs=n_jobs)
+                             random_state=random_state, n_jobs=n_jobs, reuse=result)
         history.append({"round": r + 1, "poses": int(len(filled)),
                         "validation_err": float(new.err_adapted),
                         "adopted": bool(new.adapted)})
