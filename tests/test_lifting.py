@@ -343,6 +343,25 @@ def test_application_table_on_fixture(tmp_path, data, split, dict_lifter, mlp_li
     assert any(p.name == "lift_poses.png" for p in written)
 
 
+def test_application_table_survives_rows_recovery_could_not_fill(monkeypatch, data, split,
+                                                                 dict_lifter, small_dictionary):
+    import sparseedm.lifting.evaluation as ev
+
+    real = ev.recover
+
+    def failing(*args, **kwargs):  # the recovery fails on two rows
+        res = real(*args, **kwargs)
+        res.poses[[0, 3]] = np.nan
+        return res
+
+    monkeypatch.setattr(ev, "recover", failing)
+    test = {k: v[split[1]] for k, v in data.items() if k != "joint_names"}
+    rep = ev.evaluate_lifting({"dictionary": dict_lifter}, test, dictionary=small_dictionary,
+                              counts=(1,), pipelines=["applyspar"], max_poses=12)
+    (row,) = rep.rows
+    assert np.isfinite(row["err3d"]) and row["n_poses"] == 12
+
+
 def test_shipped_default_lifter_loads_by_name():
     from sparseedm.lifting import available_lifters
 

@@ -262,8 +262,11 @@ def evaluate_lifting(lifters, test, *, dictionary=None, train_poses2d=None,
                                      model=fconv_models[rep], representation=rep).poses
                 else:
                     filled = imputers[pipe].complete(occluded, mask).poses
+                # a row the recovery could not fill is scored as failed (NaN):
+                # it is lifted from a stand-in (its complete pose: a valid
+                # input, whose answer is then discarded) so the batch goes on
                 good = np.isfinite(filled).all(axis=(1, 2))
-                filled = np.where(good[:, None, None], filled, poses2d * 0 + 1)
+                filled = np.where(good[:, None, None], filled, poses2d)
                 X2, _, _ = represent(filled, None, "average")
                 P, Y, margin, _ = _lift_rows(lifter, X2, filled, none_mask, none_mask,
                                              n_jobs)
