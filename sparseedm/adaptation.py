@@ -997,7 +997,7 @@ def evaluate_adaptation(dictionary, test_poses2d, adapt_poses2d, *,
                         methods=("sparse", "mean-fill", "knn", "iterative", "nearest"),
                         counts=("mix",), representations=("average",), random_state=0,
                         n_jobs=1, max_poses=None, max_train=20000, alpha=None, fconv_models=(),
-                        self_training=SELF_TRAINING_ROUNDS, **adapt_kwargs):
+                        self_training=SELF_TRAINING_ROUNDS, ensemble=1, **adapt_kwargs):
     """:func:`sparseedm.evaluation.evaluate` with the adaptation protocol.
 
     The dictionary (learned on source A) is evaluated cold (``sparse``) and
@@ -1010,7 +1010,8 @@ def evaluate_adaptation(dictionary, test_poses2d, adapt_poses2d, *,
     training poses are fitted on the same adaptation poses. `test_poses2d` should come from other
     clips of the adaptation poses' source (complete poses, occluded by the
     protocol's seeded masks). `fconv_models` are passed to ``evaluate`` (FConv
-    rows, not adapted).
+    rows, not adapted). ``ensemble=K`` averages K adapted dictionaries in the
+    ``sparse-adapted`` row (:mod:`sparseedm.ensemble`).
 
     Returns
     -------
@@ -1020,7 +1021,8 @@ def evaluate_adaptation(dictionary, test_poses2d, adapt_poses2d, *,
     """
     from .evaluation import _PARAMS, evaluate
 
-    validate_params("evaluate_adaptation", {"self_training": self_training}, _PARAMS)
+    validate_params("evaluate_adaptation", {"self_training": self_training,
+                                            "ensemble": ensemble}, _PARAMS)
     if not isinstance(dictionary, Dictionary):
         dictionary = load_dictionary(dictionary)
     adapt_poses2d = np.asarray(adapt_poses2d, dtype=float)
@@ -1033,11 +1035,16 @@ def evaluate_adaptation(dictionary, test_poses2d, adapt_poses2d, *,
     report.notes.append(res.line().replace("adaptation:", "sparse-adapted:", 1))
     report.settings["adaptation"] = res.summary()
     if "sparse" in methods:
-        if self_training and res.adapted and not adapt_kwargs:
+        if (self_training or ensemble > 1) and res.adapted and not adapt_kwargs:
             # the protocol as recover() runs it: adapt, then self-train on the test inputs
             adapted = evaluate(dictionary, test_poses2d, methods=("sparse",),
-                               adapt=adapt_poses2d, self_training=self_training, **common)
+                               adapt=adapt_poses2d, self_training=self_training,
+                               ensemble=ensemble, **common)
             report.notes.extend(n for n in adapted.notes if "self-training" in n)
+            if ensemble > 1:
+                report.notes.append(f"sparse-adapted: the mean of an ensemble of {ensemble} "
+                                    "adapted dictionaries (seeds 0-{}), sparseedm.ensemble"
+                                    .format(ensemble - 1))
         else:
             adapted = evaluate(res.dictionary, test_poses2d, methods=("sparse",), **common)
         rows = []

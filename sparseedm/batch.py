@@ -193,7 +193,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
                  errors_path=None, progress=False, save_edm=False,
                  confidence_threshold=0.0, backend=None, scheduler=None,
                  method="sparse", model=None, adapt="auto", save_dictionary=None,
-                 self_training=None):
+                 self_training=None, ensemble=1):
     """Recover every pose of a keypoint file and write the filled poses.
 
     Parameters
@@ -239,6 +239,10 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
         Self-training rounds after an adopted adaptation, on a bounded seeded
         sample of the file's incomplete poses (see :func:`sparseedm.recover`);
         default :data:`sparseedm.adaptation.SELF_TRAINING_ROUNDS`.
+    ensemble : int, default 1
+        Adapted dictionaries to average (seeds 0, 1, ...; see
+        :mod:`sparseedm.ensemble`): every chunk is recovered with each.
+        ``save_dictionary`` writes the first.
 
     Returns
     -------
@@ -262,7 +266,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
         errors_path=errors_path, progress=progress,
         save_edm=save_edm, confidence_threshold=confidence_threshold, backend=backend,
         scheduler=scheduler, method=method, save_dictionary=save_dictionary,
-        self_training=self_training), _PARAMS)
+        self_training=self_training, ensemble=ensemble), _PARAMS)
     in_path, out_path = Path(input), Path(output)
     errors_path = default_errors_path(out_path) if errors_path is None else Path(errors_path)
     if not in_path.exists():
@@ -300,30 +304,35 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
         _MemorySource(in_path, in_fmt, confidence_threshold)
     try:
         if method == "sparse":
-            dictionary, adaptation = _adapt(source, dictionary, adapt, chunk_size,
-                                            confidence_threshold, n_jobs, self_training)
+            members, adaptation = _adapt(source, dictionary, adapt, chunk_size,
+                                         confidence_threshold, n_jobs, self_training, ensemble)
+            dictionary = members[0]
         else:
-            adaptation = None
-        summary = _run(source, in_fmt, out_path, out_fmt, errors_path, dictionary, alpha,
+            members, adaptation = [dictionary], None
+        summary = _run(source, in_fmt, out_path, out_fmt, errors_path, members, alpha,
                        representation, solver, n_jobs, chunk_size, progress, save_edm, t0,
                        backend, scheduler, method, model)
     finally:
         source.close()
     summary["adaptation"] = adaptation.summary() if adaptation is not None else None
+    summary["ensemble"] = len(members)
     summary["adaptation_line"] = adaptation.line() if adaptation is not None else None
     if save_dictionary is not None:
         summary["dictionary"] = str(dictionary.save(save_dictionary))
     return summary
 
 
-def _adapt(source, dictionary, adapt, chunk_size, threshold, n_jobs, self_training):
-    """The dictionary to recover with: adapted on the file's complete poses or
+def _adapt(source, dictionary, adapt, chunk_size, threshold, n_jobs, self_training,
+           ensemble=1):
+    """The dictionaries to recover with (one unless an ensemble is asked for) and
+    the first one's AdaptationResult: adapted on the file's complete poses or
     on other poses, then self-trained on the file's incomplete poses (bounded
     seeded samples of both, one pass over the source), or as given."""
-    from .adaptation import resolve_adaptation, sample_stream
+    from .adaptation import sample_stream
+    from .ensemble import adapt_members
 
     if adapt is False or adapt is None:
-        return dictionary, None
+        return [dictionary], None
     chunks = (source.chunk(s, min(s + chunk_size, source.n))
               for s in range(0, source.n, chunk_size))
     complete, partial, partial_missing = sample_stream(chunks)
@@ -336,10 +345,13 @@ def _adapt(source, dictionary, adapt, chunk_size, threshold, n_jobs, self_traini
     missing = np.concatenate([np.zeros(complete.shape[:2], bool), partial_missing])
     kw = dict(n_jobs=n_jobs, warn=False, self_training=self_training)
     if isinstance(adapt, str) and adapt == "auto":
-        return resolve_adaptation(dictionary, poses, missing, "auto", **kw)
-    if isinstance(adapt, (str, Path)):
-        adapt = read_keypoints(adapt, confidence_threshold=threshold).poses  # NaN where missing
-    return resolve_adaptation(dictionary, partial, partial_missing, adapt, **kw)
+        members, results = adapt_members(dictionary, poses, missing, "auto", ensemble, **kw)
+    else:
+        if isinstance(adapt, (str, Path)):  # NaN where missing
+            adapt = read_keypoints(adapt, confidence_threshold=threshold).poses
+        members, results = adapt_members(dictionary, partial, partial_missing, adapt,
+                                         ensemble, **kw)
+    return members, results[0]
 
 
 #: constraints of recover_file()'s arguments (see sparseedm._validation)
@@ -354,14 +366,18 @@ _PARAMS = {
     "method": [Options(("sparse", "fconv"))],
     "save_dictionary": PATH + [None],
     "self_training": [Interval(Integral, 0, None), None],
+    "ensemble": [Interval(Integral, 1, None)],
 }
 
 
-def _run(source, in_fmt, out_path, out_fmt, errors_path, dictionary, alpha,
+def _run(source, in_fmt, out_path, out_fmt, errors_path, members, alpha,
          representation, solver, n_jobs, chunk_size, progress, save_edm, t0,
          backend=None, scheduler=None, method="sparse", model=None):
     from tqdm.auto import tqdm
 
+    from .ensemble import combine
+
+    dictionary = members[0]
     n = source.n
     status = np.empty(n, dtype=f"<U{max(map(len, STATUSES))}")
     reason = np.empty(n, dtype=object)
@@ -400,10 +416,11 @@ def _run(source, in_fmt, out_path, out_fmt, errors_path, dictionary, alpha,
             for start in range(0, n, chunk_size):
                 stop = min(start + chunk_size, n)
                 poses, missing = source.chunk(start, stop)
-                res = recover(poses, missing, dictionary=dictionary, alpha=alpha,
-                              representation=representation, solver=solver, n_jobs=n_jobs,
-                              backend=backend, scheduler=scheduler, method=method, model=model,
-                              adapt=False)
+                res = combine([recover(poses, missing, dictionary=d, alpha=alpha,
+                                       representation=representation, solver=solver,
+                                       n_jobs=n_jobs, backend=backend, scheduler=scheduler,
+                                       method=method, model=model, adapt=False)
+                               for d in members])
                 ok = res.ok
                 # refused rows are written back as read
                 filled[start:stop] = np.where(ok[:, None, None], res.poses, poses)

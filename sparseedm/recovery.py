@@ -97,7 +97,10 @@ class RecoveryResult:
         What ``adapt`` did (:mod:`sparseedm.adaptation`); None with ``adapt=False``.
     dictionary : Dictionary
         The dictionary the poses were recovered with (the adapted one when
-        adaptation was used): ``res.dictionary.save(path)`` keeps it.
+        adaptation was used): ``res.dictionary.save(path)`` keeps it. For an
+        ensemble, the first member's.
+    members : int
+        Dictionaries averaged (``recover(ensemble=K)``, :mod:`sparseedm.ensemble`).
     """
 
     poses: np.ndarray
@@ -115,6 +118,7 @@ class RecoveryResult:
     seconds: float = 0.0
     adaptation: object = None
     dictionary: Dictionary | None = None
+    members: int = 1
 
     @property
     def edms(self) -> np.ndarray:
@@ -150,6 +154,8 @@ class RecoveryResult:
         }
         if self.adaptation is not None:
             out["adaptation"] = self.adaptation.summary()
+        if self.members > 1:
+            out["ensemble"] = self.members
         return out
 
 
@@ -187,6 +193,7 @@ _PARAMS = {
     "scheduler": ["path", None],
     "method": [Options(("sparse", "fconv"))],
     "self_training": [Interval(Integral, 0, None), None],
+    "ensemble": [Interval(Integral, 1, None)],
 }
 #: the smallest extent a pose may have: below it 1/extent overflows or loses bits
 _TINY = np.finfo(float).tiny
@@ -314,7 +321,7 @@ def _place(poses, clean, mask, vectors, center, scale, status, reason, filled, c
 def recover(poses, missing=None, *, dictionary=None, alpha=None,
             representation="average", solver="fast", n_jobs=1, chunk_size=2048,
             positive=None, progress=False, backend=None, scheduler=None,
-            method="sparse", model=None, adapt="auto", self_training=None):
+            method="sparse", model=None, adapt="auto", self_training=None, ensemble=1):
     """Recover the occluded joints of 2D poses.
 
     Parameters
@@ -370,6 +377,11 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         them, adapt again on the complete plus the filled poses, guarded each
         round: :func:`sparseedm.adaptation.self_train`); default
         :data:`sparseedm.adaptation.SELF_TRAINING_ROUNDS`, 0 turns it off.
+    ensemble : int, default 1
+        (with adaptation) Adapt this many times (seeds 0, 1, ...), recover
+        with each adapted dictionary and return the mean of the filled poses
+        and EDM vectors (:mod:`sparseedm.ensemble`): lower error, K times the
+        work. Stays at one member when the adaptation is not adopted.
 
     Returns
     -------
@@ -392,8 +404,8 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
     validate_params("recover", dict(
         dictionary=dictionary, alpha=alpha, representation=representation, solver=solver,
         n_jobs=n_jobs, chunk_size=chunk_size, positive=positive, progress=progress,
-        backend=backend, scheduler=scheduler, method=method, self_training=self_training),
-        _PARAMS)
+        backend=backend, scheduler=scheduler, method=method, self_training=self_training,
+        ensemble=ensemble), _PARAMS)
     if method == "fconv":  # torch is imported only on this path
         from .fconv.recover import recover_fconv
 
@@ -402,22 +414,29 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
     # the work is many small BLAS calls beside numba's threads: BLAS threads
     # would only spin against them (measured 2x slower), so BLAS gets one.
     with threadpool_limits(1, user_api="blas"):
-        adaptation = None
+        adaptation, adaptations, members = None, [], [dictionary]
         if adapt is not False:
-            from .adaptation import resolve_adaptation
+            from .ensemble import adapt_members
 
             if not isinstance(dictionary, Dictionary):
                 dictionary = load_dictionary(dictionary)
             poses, missing, _ = _validate(poses, missing, dictionary.n_joints)
-            dictionary, adaptation = resolve_adaptation(
-                dictionary, poses, missing, adapt, n_jobs=n_jobs, self_training=self_training)
-        res = _recover(poses, missing, dictionary=dictionary, alpha=alpha,
-                       representation=representation, solver=solver, n_jobs=n_jobs,
-                       chunk_size=chunk_size, positive=positive, progress=progress,
-                       backend=backend, scheduler=scheduler)
+            # one member unless an ensemble was asked for (seed 0 is the default's)
+            members, adaptations = adapt_members(dictionary, poses, missing, adapt, ensemble,
+                                                 n_jobs=n_jobs, self_training=self_training)
+            adaptation = adaptations[0]
+        kw = dict(alpha=alpha, representation=representation, solver=solver, n_jobs=n_jobs,
+                  chunk_size=chunk_size, positive=positive, progress=progress,
+                  backend=backend, scheduler=scheduler)
+        res = _recover(poses, missing, dictionary=members[0], **kw)
+        if len(members) > 1:
+            from .ensemble import combine
+
+            res = combine([res] + [_recover(poses, missing, dictionary=d, **kw)
+                                   for d in members[1:]])
         if adaptation is not None:
             res.adaptation = adaptation
-            res.seconds += adaptation.seconds
+            res.seconds += sum(a.seconds for a in adaptations)
         return res
 
 

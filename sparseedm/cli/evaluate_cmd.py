@@ -63,6 +63,9 @@ def add_parser(sub):
                    help="with --adapt-from/--adapt-clips: self-training rounds of the "
                    "'sparse-adapted' row on the occluded test poses (default 3, as "
                    "`sparseedm recover`; 0: adaptation on FILE only)")
+    p.add_argument("--ensemble", type=int, default=1, metavar="K",
+                   help="with --adapt-from/--adapt-clips: average K adapted dictionaries "
+                   "(seeds 0..K-1) in the 'sparse-adapted' row (default 1)")
     p.add_argument("-o", "--output", required=True, help="report directory")
     p.set_defaults(func=run)
 
@@ -145,6 +148,7 @@ def run(args):
             representations=_split(args.representations), random_state=args.seed,
             n_jobs=args.jobs, max_poses=args.max_poses, max_train=args.max_train,
             alpha=args.alpha, fconv_models=args.fconv_model,
+            ensemble=args.ensemble,
             **({} if args.self_training is None else {"self_training": args.self_training}))
     else:
         report = evaluate(
@@ -176,6 +180,7 @@ def run(args):
     mix = report.table(count="mix", representation=report.settings["representations"][0])
     for r in mix:
         print(f"{r['method']:>10}  Mix Err_ave {r['err_ave_mean']:.2f} %  "
+              f"filled poses {r['err_ave_filled']:.2f} %  "
               f"joint {r['joint_err_px']:.1f} px  {r['poses_per_s']:.0f} poses/s")
     print(f"wrote {len(written)} files to {args.output}/ (report.md)")
     return 0

@@ -48,7 +48,8 @@ def lift(model, poses2d, missing=None, *, batch_size=4096):
     (3, 91)
     """
     model = load_model(model, kind="lift")
-    poses, mask, bad_coord = _validate(poses2d, missing, model.n_joints)
+    poses, mask, bad_coord = _validate(poses2d, missing, model.n_joints, caller="lift",
+                                       model="model")
     status, _, _, _, vectors, _, _, _ = _screen(poses, mask, bad_coord, model.representation)
     ok = np.isin(status, ("recovered", "complete"))
     out = np.full(vectors.shape, np.nan)

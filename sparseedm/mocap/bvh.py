@@ -63,8 +63,6 @@ __all__ = [
     "rotation_matrices",
 ]
 
-#: Bandai-Namco files are in centimetres
-BANDAI_SCALE = UNITS["cm"]
 #: distance from the Bandai Head joint to the defined head top, in metres
 BANDAI_HEAD_TOP = 0.2
 

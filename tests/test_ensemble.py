@@ -1,0 +1,127 @@
+"""sparseedm.ensemble: several adapted dictionaries, their recoveries averaged."""
+
+import numpy as np
+import pytest
+
+import sparseedm
+from sparseedm.cli import main
+from sparseedm.dictionary import Dictionary
+from sparseedm.ensemble import adapt_members, combine
+from sparseedm.exceptions import SparseEDMError
+from sparseedm.keypoints import read_keypoints, write_keypoints
+from sparseedm.learning import OnlineDictionaryLearning, complete_pose_vectors
+from sparseedm.metrics import random_occlusion
+
+
+@pytest.fixture(scope="module")
+def shifted(cmu_poses):
+    """k=100 atoms learned on x-stretched poses: the wrong domain, so adaptation is adopted."""
+    c = cmu_poses.mean(axis=1, keepdims=True)
+    stretched = cmu_poses.copy()
+    stretched[..., 0] = c[..., 0] + 1.7 * (cmu_poses[..., 0] - c[..., 0])
+    X, _ = complete_pose_vectors(stretched)
+    odl = OnlineDictionaryLearning(100, alpha=0.05, batch_size=64, n_passes=2,
+                                   random_state=0).fit(X)
+    return Dictionary(odl.components_, alpha_recover=0.002, alpha_train=0.05)
+
+
+@pytest.fixture(scope="module")
+def split(cmu_poses):
+    order = np.random.default_rng(5).permutation(len(cmu_poses))
+    adapt_on, target = cmu_poses[np.sort(order[:260])], cmu_poses[np.sort(order[260:])]
+    mask = random_occlusion(len(target), 14, "mix", random_state=3)
+    return adapt_on, np.where(mask[..., None], np.nan, target), mask
+
+
+def test_members_differ_by_seed_and_the_answer_is_their_mean(split, shifted):
+    adapt_on, inputs, mask = split
+    kw = dict(self_training=1)
+    res = sparseedm.recover(inputs, mask, dictionary=shifted, adapt=adapt_on, ensemble=3, **kw)
+    members, adaptations = adapt_members(shifted, inputs, mask, adapt_on, 3, **kw)
+    assert res.members == 3 and res.summary()["ensemble"] == 3 and res.adapted
+    assert len(members) == 3 and all(a.adapted for a in adaptations)
+    assert not np.array_equal(members[0].components, members[1].components)
+    one = [sparseedm.recover(inputs, mask, dictionary=d, adapt=False) for d in members]
+    assert all(r.ok.all() for r in one)
+    np.testing.assert_allclose(res.poses, np.mean([r.poses for r in one], axis=0), atol=1e-9)
+    np.testing.assert_allclose(res.vectors, np.mean([r.vectors for r in one], axis=0),
+                               atol=1e-12)
+    np.testing.assert_array_equal(res.poses[~mask], inputs[~mask])  # observed as given
+    # member 0 is what recover() adapts by default
+    np.testing.assert_array_equal(res.dictionary.components, members[0].components)
+    default = sparseedm.recover(inputs, mask, dictionary=shifted, adapt=adapt_on, **kw)
+    np.testing.assert_allclose(default.poses, one[0].poses, atol=1e-9)
+
+
+def test_no_adaptation_means_one_member(split, shifted):
+    adapt_on, inputs, mask = split
+    off = sparseedm.recover(inputs, mask, dictionary=shifted, adapt=False, ensemble=4)
+    assert off.members == 1 and "ensemble" not in off.summary()
+    with pytest.warns(UserWarning, match="no adaptation"):  # 20 poses: too few to adapt on
+        few = sparseedm.recover(inputs, mask, dictionary=shifted, adapt=adapt_on[:20],
+                                ensemble=4)
+    assert few.members == 1 and not few.adapted
+    with pytest.raises(SparseEDMError, match="ensemble"):
+        sparseedm.recover(inputs, mask, dictionary=shifted, ensemble=0)
+
+
+def test_combine_fails_a_row_any_member_failed_and_keeps_refusals(split, shifted):
+    _, inputs, mask = split
+    bad = inputs[:6].copy()
+    bad[0] = np.nan  # no joint observed: refused by the screening, in every member
+    a = sparseedm.recover(bad, mask[:6] | np.isnan(bad).any(-1), dictionary=shifted,
+                          adapt=False)
+    b = sparseedm.recover(bad, mask[:6] | np.isnan(bad).any(-1), dictionary=shifted,
+                          adapt=False)
+    b.status[2], b.reason[2] = "solver_failed", "solver status not optimal"
+    b.status[3] = "inaccurate"
+    both = combine([a, b])
+    assert both.status[0] == a.status[0] != "recovered" and both.reason[0] == a.reason[0]
+    assert both.status[2] == "solver_failed" and np.isnan(both.poses[2]).all()
+    assert both.status[3] == "inaccurate" and np.isfinite(both.poses[3]).all()
+    assert both.status[1] == "recovered" and both.ok.sum() == 4
+    np.testing.assert_allclose(both.poses[1], a.poses[1])
+    assert both.seconds == pytest.approx(a.seconds + b.seconds)
+
+
+def test_cli_recover_ensemble(tmp_path, cmu_poses, shifted, capsys):
+    from sparseedm.adaptation import MIN_COMPLETE_POSES
+
+    rng = np.random.default_rng(1)  # as test_adaptation's many_poses: adopted
+    n = MIN_COMPLETE_POSES + 150
+    poses = cmu_poses[np.sort(rng.integers(0, len(cmu_poses), n))] + rng.normal(
+        0, 0.5, (n, 14, 2))
+    poses[5::17, 4] = np.nan
+    inp, path = tmp_path / "in.npz", shifted.save(tmp_path / "shifted.npz")
+    write_keypoints(inp, poses)
+    outs = {}
+    for k in ("1", "2"):
+        out = tmp_path / f"out{k}.npz"
+        assert main(["recover", str(inp), "-o", str(out), "--dictionary", str(path),
+                     "--self-training", "0", "--ensemble", k]) == 0
+        outs[k] = read_keypoints(out).poses
+        text = capsys.readouterr().out
+        assert "adapted the dictionary" in text
+        assert ("ensemble: the mean of 2" in text) == (k == "2")
+    assert not np.array_equal(outs["1"], outs["2"])
+    observed = np.isfinite(poses)
+    np.testing.assert_array_equal(outs["2"][observed], poses[observed])
+    assert main(["recover", str(inp), "-o", str(tmp_path / "x.npz"), "--ensemble", "0"]) != 0
+    assert "ensemble must be an integer in [1, inf)" in capsys.readouterr().err
+    assert not (tmp_path / "x.npz").exists()
+
+
+def test_evaluate_adaptation_with_an_ensemble(cmu_poses, shifted):
+    from sparseedm.adaptation import evaluate_adaptation
+
+    order = np.random.default_rng(5).permutation(len(cmu_poses))
+    adapt_on, test = cmu_poses[np.sort(order[:260])], cmu_poses[np.sort(order[260:320])]
+    kw = dict(methods=("sparse",), self_training=0)
+    one = evaluate_adaptation(shifted, test, adapt_on, **kw)
+    two = evaluate_adaptation(shifted, test, adapt_on, ensemble=2, **kw)
+    assert any("ensemble of 2" in n for n in two.notes)
+    assert not any("ensemble" in n for n in one.notes)
+    e1, e2 = (r.table(method="sparse-adapted")[0]["err_ave_filled"] for r in (one, two))
+    assert np.isfinite(e1) and np.isfinite(e2) and e1 != e2
+    with pytest.raises(SparseEDMError, match="ensemble"):
+        evaluate_adaptation(shifted, test, adapt_on, ensemble=0, **kw)
