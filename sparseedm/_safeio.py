@@ -245,6 +245,39 @@ def load_npz(path, keys, *, max_bytes=None, what=None):
     return _guard(read, what)
 
 
+def load_npz_file(path, keys, *, error, kind, max_bytes=None):
+    """:func:`load_npz` for one of our own file kinds: every refusal is `error`.
+
+    A pickle is refused as such ("holds pickled data, which is refused (never
+    executed)"), any other read problem is "corrupt or truncated <kind> file",
+    both naming `path`. `keys` may be a callable, given the archive's member
+    names, that returns the keys to read. Shared by the dictionary, lifter and
+    FConv model loaders.
+    """
+    try:
+        if callable(keys):
+            keys = keys(npz_members(path))
+        return load_npz(path, keys, max_bytes=max_bytes)
+    except FileFormatError as exc:
+        if isinstance(exc, PickledDataError):
+            raise error(f"{path}: holds pickled data, which is refused (never executed)"
+                        ) from None
+        raise error(f"corrupt or truncated {kind} file: {exc}") from None
+
+
+def parse_meta(text, path, *, error, parse_int=None):
+    """The JSON object in a file's 0-d string array ``meta``; problems raise `error`."""
+    if text.dtype.kind != "U" or text.ndim != 0:
+        raise error(f"{path}: meta must be a 0-d string array holding JSON")
+    try:
+        meta = json.loads(str(text), parse_int=parse_int)
+    except (json.JSONDecodeError, RecursionError, ValueError) as exc:
+        raise error(f"{path}: metadata is not valid JSON ({exc})") from None
+    if not isinstance(meta, dict):
+        raise error(f"{path}: metadata must be a JSON object")
+    return meta
+
+
 def text_lines(path, *, max_line_bytes=MAX_LINE_BYTES):
     """Yield ``(line_number, text)`` of a UTF-8 file, bounded per line.
 

@@ -29,11 +29,11 @@ import numpy as np
 
 from . import __version__
 from ._atomic import save_npz
-from ._safeio import load_npz
+from ._safeio import load_npz_file, parse_meta
 from ._shipped import resolve_shipped, shipped_names
 from ._validation import Interval, validate_params
 from .edm import num_joints_from_dim
-from .exceptions import DictionaryError, FileFormatError, PickledDataError, PoseError
+from .exceptions import DictionaryError, PoseError
 from .skeleton import JOINT_NAMES
 
 __all__ = ["Dictionary", "load_dictionary", "available_dictionaries", "check_layout",
@@ -297,15 +297,9 @@ def load_dictionary(name_or_path=None, *, n_joints=None) -> Dictionary:
     path = _resolve(name_or_path)
     if not path.is_file():
         raise DictionaryError(f"{path}: no such dictionary file")
-    try:
-        arrays, names = load_npz(path, ("components", "joint_names", "meta"),
-                                 max_bytes=_MAX_BYTES)
-    except FileFormatError as exc:
-        text = str(exc)
-        if isinstance(exc, PickledDataError):
-            raise DictionaryError(
-                f"{path}: holds pickled data, which is refused (never executed)") from None
-        raise DictionaryError(f"corrupt or truncated dictionary file: {text}") from None
+    arrays, names = load_npz_file(path, ("components", "joint_names", "meta"),
+                                  error=DictionaryError, kind="dictionary",
+                                  max_bytes=_MAX_BYTES)
     missing = {"components", "joint_names", "meta"} - set(arrays)
     if missing:
         raise DictionaryError(
@@ -318,13 +312,8 @@ def load_dictionary(name_or_path=None, *, n_joints=None) -> Dictionary:
         raise DictionaryError(f"{path}: joint_names must be a 1-D string array")
     if len(set(joint_names.tolist())) != len(joint_names) or not all(joint_names.tolist()):
         raise DictionaryError(f"{path}: joint_names must be distinct, non-empty names")
-    if meta_text.dtype.kind != "U" or meta_text.ndim != 0:
-        raise DictionaryError(f"{path}: meta must be a 0-d string array holding JSON")
-    try:
-        meta = json.loads(str(meta_text), parse_int=_parse_int)
-    except (json.JSONDecodeError, RecursionError, ValueError) as exc:
-        raise DictionaryError(f"{path}: metadata is not valid JSON ({exc})") from None
-    if isinstance(meta, dict) and meta.get("format_version") != FORMAT_VERSION:
+    meta = parse_meta(meta_text, path, error=DictionaryError, parse_int=_parse_int)
+    if meta.get("format_version") != FORMAT_VERSION:
         raise DictionaryError(
             f"{path}: dictionary format {meta.get('format_version')!r}, this sparseedm "
             f"reads format {FORMAT_VERSION}"

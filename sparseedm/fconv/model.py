@@ -28,9 +28,9 @@ import numpy as np
 
 from .. import __version__
 from .._atomic import save_npz
-from .._safeio import load_npz, npz_members
+from .._safeio import load_npz_file, parse_meta
 from ..edm import triu_indices
-from ..exceptions import FileFormatError, ModelError, PickledDataError
+from ..exceptions import ModelError
 from ..normalize import REPRESENTATIONS
 from .network import build_network, param_shapes, require_torch
 
@@ -217,27 +217,14 @@ def load_model(path, *, n_joints=None, representation=None, kind=None) -> FConvM
         where = str(path)
         if not path.is_file():
             raise ModelError(f"{path}: no such model file")
-        try:  # the bounded reader: sizes checked before anything is decompressed
-            names = npz_members(path)
-            if "meta" not in names:
-                raise ModelError(f"{path}: not a sparseedm FConv model (no 'meta' array)")
-            wanted = ["meta"] + [k for k in names if k.startswith(_PREFIX)]
-            arrays, _ = load_npz(path, wanted, max_bytes=_MAX_BYTES)
-        except FileFormatError as exc:
-            if isinstance(exc, PickledDataError):
-                raise ModelError(f"{path}: holds pickled data, which is refused (never "
-                                 "executed)") from None
-            raise ModelError(f"corrupt or truncated model file: {exc}") from None
-        meta_text = arrays.pop("meta")
+        # the bounded reader: sizes checked before anything is decompressed
+        arrays, _ = load_npz_file(
+            path, lambda names: ["meta"] + [k for k in names if k.startswith(_PREFIX)],
+            error=ModelError, kind="model", max_bytes=_MAX_BYTES)
+        if "meta" not in arrays:
+            raise ModelError(f"{path}: not a sparseedm FConv model (no 'meta' array)")
+        meta = parse_meta(arrays.pop("meta"), path, error=ModelError)
         params = {k[len(_PREFIX):]: v for k, v in arrays.items()}
-        if meta_text.dtype.kind != "U" or meta_text.ndim != 0:
-            raise ModelError(f"{path}: 'meta' must be a JSON string")
-        try:
-            meta = json.loads(str(meta_text))
-        except (json.JSONDecodeError, RecursionError, ValueError) as exc:
-            raise ModelError(f"{path}: metadata is not valid JSON ({exc})") from None
-        if not isinstance(meta, dict):
-            raise ModelError(f"{path}: metadata must be a JSON object")
         for name, value in params.items():
             if value.dtype != np.float32:
                 raise ModelError(f"{path}: parameter {name} must be float32, got {value.dtype}")

@@ -51,10 +51,10 @@ import numpy as np
 
 from .. import __version__
 from .._atomic import save_npz
-from .._safeio import load_npz, npz_members
+from .._safeio import load_npz, load_npz_file, parse_meta
 from .._shipped import resolve_shipped, shipped_names
 from ..edm import pose_to_vector
-from ..exceptions import DictionaryError, FileFormatError, PickledDataError, PoseError, SparseEDMError
+from ..exceptions import DictionaryError, PoseError, SparseEDMError
 from ..normalize import normalize
 from ..skeleton import JOINT_NAMES
 from .mds import ChiralityPrior
@@ -314,23 +314,14 @@ def load_lifter(name_or_path=None, *, n_joints=None):
         where = str(path)
         if not path.is_file():
             raise LifterError(f"{path}: no such lifter file")
-        try:  # the bounded reader: declared sizes checked before anything is decompressed
-            arrays, _ = load_npz(path, npz_members(path), max_bytes=_MAX_BYTES)
-        except FileFormatError as exc:
-            if isinstance(exc, PickledDataError):
-                raise LifterError(f"{path}: holds pickled data, which is refused "
-                                  "(never executed)") from None
-            raise LifterError(f"corrupt or truncated lifter file: {exc}") from None
+        # the bounded reader: declared sizes checked before anything is decompressed
+        arrays, _ = load_npz_file(path, list, error=LifterError, kind="lifter",
+                                  max_bytes=_MAX_BYTES)
         missing = {"meta", "joint_names", "chirality"} - set(arrays)
         if missing:
             raise LifterError(f"{path}: not a sparseedm lifter (missing "
                               f"{', '.join(sorted(missing))})")
-        try:
-            meta = json.loads(str(arrays.pop("meta")))
-        except (json.JSONDecodeError, RecursionError, ValueError) as exc:
-            raise LifterError(f"{path}: metadata is not valid JSON ({exc})") from None
-        if not isinstance(meta, dict):
-            raise LifterError(f"{path}: metadata must be a JSON object")
+        meta = parse_meta(arrays.pop("meta"), path, error=LifterError)
         if meta.get("kind") != KIND or meta.get("format_version") != FORMAT_VERSION:
             raise LifterError(f"{path}: not a sparseedm lifter of format {FORMAT_VERSION} "
                               f"(kind {meta.get('kind')!r}, format {meta.get('format_version')!r})")
