@@ -26,8 +26,8 @@ pixels, observed joints exactly as given.
     after the best scale, ``min_s ||t - s d_obs||`` (the scale absorbs the shift
     of the normalisation when an extreme joint is occluded). The occluded EDM
     entries are taken from ``s * d`` of the neighbour (an Eq. 10-style merge)
-    and the joints placed with :func:`sparseedm.placement.place_missing_joints`,
-    as :func:`sparseedm.recover` does.
+    and the joints placed with :func:`sparseedm.placement.place_missing_joints`
+    (unweighted residuals: the weights were chosen on the sparse method's answers).
 
 The imputers and ``nearest`` read only the observed joints (through the mask),
 so the ``"zero"``/``"average"`` choice does not change them.
@@ -258,7 +258,10 @@ class NearestNeighbourBaseline:
         counts = missing.sum(axis=1)
         for c in np.unique(counts[todo]):
             rows = todo[counts[todo] == c]
-            P = place_missing_joints(normed[rows], vector_to_edm(vectors[rows]), missing[rows])
+            # unweighted, as when this baseline was set up: the residual weights
+            # of sparseedm.placement were chosen on the sparse method's answers
+            P = place_missing_joints(normed[rows], vector_to_edm(vectors[rows]), missing[rows],
+                                     weight_power=0.0)
             out = filled[rows]
             out[missing[rows]] = (P * scale[rows, None, None] + center[rows, None, :]).reshape(-1, 2)
             filled[rows] = out
