@@ -43,7 +43,7 @@ from .dictionary import Dictionary, check_layout, load_dictionary
 from .edm import observed_entries, vector_to_edm
 from .exceptions import PoseError, SparseEDMError
 from .normalize import MIN_OBSERVED_JOINTS, REPRESENTATIONS, represent
-from .placement import place_missing_joints
+from .placement import WEIGHT_POWER, place_missing_joints
 from .skeleton import SKELETON_14
 from .solvers import SOLVERS, BaseSolver, get_solver
 from .solvers.fast import FastSolver
@@ -288,8 +288,12 @@ def _screen(poses, mask, bad_coord, representation):
     return status, reason, n_obs, clean, vectors, center, scale, filled
 
 
-def _place(poses, clean, mask, vectors, center, scale, status, reason, filled, certified=None):
+def _place(poses, clean, mask, vectors, center, scale, status, reason, filled, certified=None,
+           weight_power=WEIGHT_POWER):
     """Place the occluded joints of recovered poses into `filled`, batched by count.
+
+    `weight_power`: the placement's residual weights (chosen on the sparse
+    method's answers; the FConv path keeps unweighted placement).
 
     No row stays recovered unless what it returns (its joints, its distances
     and, where given, ``certified``: a finite objective and gap) is finite:
@@ -301,7 +305,8 @@ def _place(poses, clean, mask, vectors, center, scale, status, reason, filled, c
     for count in np.unique(N - n_obs[placed_rows]):
         rows = placed_rows[N - n_obs[placed_rows] == count]
         normed = (clean[rows] - center[rows, None, :]) / scale[rows, None, None]
-        P = place_missing_joints(normed, vector_to_edm(vectors[rows]), mask[rows])
+        P = place_missing_joints(normed, vector_to_edm(vectors[rows]), mask[rows],
+                                 weight_power=weight_power)
         out = poses[rows].copy()
         with np.errstate(over="ignore", invalid="ignore"):
             out[mask[rows]] = (P * scale[rows, None, None]

@@ -52,7 +52,9 @@ def recover_fconv(poses, missing=None, *, model=None, representation="average",
         keep = observed_entries(mask[todo])
         vectors[todo] = np.where(keep, vectors[todo], out)  # Eq. 10
         reason[todo] = "FConv network (not certified)"
-    _place(poses, clean, mask, vectors, center, scale, status, reason, filled)
+    # unweighted placement, as when FConv was set up: the residual weights of
+    # sparseedm.placement were chosen on the sparse method's answers
+    _place(poses, clean, mask, vectors, center, scale, status, reason, filled, weight_power=0.0)
     n = len(poses)
     return RecoveryResult(
         poses=filled, vectors=vectors, missing=mask, center=center, scale=scale,
