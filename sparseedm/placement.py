@@ -15,7 +15,10 @@ poses (``dictionaries/README.md``, "Placement weighting"): against unweighted
 residuals it lowered the filled poses' Mix Err_ave by 1.0-1.7 % after
 adaptation in three cross-source directions and by 2.7 % cold in-source, and
 moved cold cross-source recoveries by -0.9 to +0.5 %; ``d^2`` gained a little
-more after adaptation but cost 1.7 % cold in one direction.
+more after adaptation but cost 1.7 % cold in one direction. The sparse method
+(:func:`sparseedm.recover`) places with these weights; the ``nearest``
+baseline and the FConv recovery, whose answers they were not chosen on, pass
+``weight_power=0``.
 
 Everything is batched over poses that share a missing pattern.
 """
