@@ -255,6 +255,7 @@ def load_npz_file(path, keys, *, error, kind, max_bytes=None):
     FConv model loaders.
     """
     try:
+        _refuse_pickle_file(path, f"{path}:")  # a whole-file pickle, before the zip is read
         if callable(keys):
             keys = keys(npz_members(path))
         return load_npz(path, keys, max_bytes=max_bytes)
@@ -274,7 +275,7 @@ def parse_meta(text, path, *, error, parse_int=None):
     except (json.JSONDecodeError, RecursionError, ValueError) as exc:
         raise error(f"{path}: metadata is not valid JSON ({exc})") from None
     if not isinstance(meta, dict):
-        raise error(f"{path}: metadata must be a JSON object")
+        raise error(f"{path}: metadata must be a JSON object, got {type(meta).__name__}")
     return meta
 
 

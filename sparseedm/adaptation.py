@@ -1023,6 +1023,10 @@ def evaluate_adaptation(dictionary, test_poses2d, adapt_poses2d, *,
 
     validate_params("evaluate_adaptation", {"self_training": self_training,
                                             "ensemble": ensemble}, _PARAMS)
+    if ensemble > 1 and adapt_kwargs:
+        raise SparseEDMError("ensemble runs recover()'s default adaptation: it cannot be "
+                             f"combined with adaptation settings ({', '.join(adapt_kwargs)})")
+    self_training = SELF_TRAINING_ROUNDS if self_training is None else self_training
     if not isinstance(dictionary, Dictionary):
         dictionary = load_dictionary(dictionary)
     adapt_poses2d = np.asarray(adapt_poses2d, dtype=float)
@@ -1040,11 +1044,8 @@ def evaluate_adaptation(dictionary, test_poses2d, adapt_poses2d, *,
             adapted = evaluate(dictionary, test_poses2d, methods=("sparse",),
                                adapt=adapt_poses2d, self_training=self_training,
                                ensemble=ensemble, **common)
-            report.notes.extend(n for n in adapted.notes if "self-training" in n)
-            if ensemble > 1:
-                report.notes.append(f"sparse-adapted: the mean of an ensemble of {ensemble} "
-                                    "adapted dictionaries (seeds 0-{}), sparseedm.ensemble"
-                                    .format(ensemble - 1))
+            report.notes.extend(n for n in adapted.notes
+                                if "self-training" in n or "ensemble of" in n)
         else:
             adapted = evaluate(res.dictionary, test_poses2d, methods=("sparse",), **common)
         rows = []

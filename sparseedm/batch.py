@@ -267,6 +267,9 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
         save_edm=save_edm, confidence_threshold=confidence_threshold, backend=backend,
         scheduler=scheduler, method=method, save_dictionary=save_dictionary,
         self_training=self_training, ensemble=ensemble), _PARAMS)
+    if method == "fconv" and ensemble > 1:
+        raise SparseEDMError("ensemble averages adapted dictionaries: it needs "
+                             "method='sparse'")
     in_path, out_path = Path(input), Path(output)
     errors_path = default_errors_path(out_path) if errors_path is None else Path(errors_path)
     if not in_path.exists():

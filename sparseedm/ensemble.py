@@ -46,18 +46,22 @@ def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
     Returns
     -------
     dictionaries : list of Dictionary
-        One when the first adaptation was not adopted.
+        The adopted members; only the base dictionary when the first (seed 0)
+        adaptation was not adopted.
     adaptations : list of AdaptationResult
+        One per dictionary.
     """
     dictionaries, adaptations = [], []
     for seed in range(int(n_members)):
         d, res = resolve_adaptation(dictionary, poses, missing, adapt, n_jobs=n_jobs,
                                     random_state=seed, warn=warn and seed == 0,
                                     self_training=self_training)
+        if seed and (res is None or not res.adapted):
+            continue  # this seed's guard kept the base: not a member to average
         dictionaries.append(d)
         adaptations.append(res)
         if res is None or not res.adapted:
-            break  # every further member would be the base dictionary again
+            break  # seed 0 not adopted: too few poses, or the base is better here
     return dictionaries, adaptations
 
 
@@ -94,21 +98,18 @@ def combine(results):
     if len(results) == 1:
         return first
     ok = np.stack([r.ok for r in results])  # (members, n)
-    weight = ok / np.maximum(ok.sum(axis=0), 1)  # rows usable in every member: 1 / K
-    with np.errstate(invalid="ignore"):
-        poses = np.einsum("kn,knij->nij", weight,
-                          np.stack([np.where(o[:, None, None], r.poses, 0.0)
-                                    for o, r in zip(ok, results)]))
-        vectors = np.einsum("kn,knm->nm", weight,
-                            np.stack([np.where(o[:, None], r.vectors, 0.0)
-                                      for o, r in zip(ok, results)]))
+    with np.errstate(invalid="ignore"):  # rows not usable in every member are set below
+        poses = np.mean([r.poses for r in results], axis=0)
+        vectors = np.mean([r.vectors for r in results], axis=0)
     # what every member keeps as given stays bit for bit (a mean of equal floats
     # need not be that float): the observed joints and their distances
     observed = ~first.missing
     poses = np.where(observed[..., None], first.poses, poses)
     vectors = np.where(observed_entries(first.missing), first.vectors, vectors)
-    status = first.status.copy()
-    reason = first.reason.copy()
+    # object arrays: a member's longer status or reason must not be cut to the
+    # first member's string width
+    status = first.status.astype(object)
+    reason = first.reason.astype(object)
     for bad in _PRECEDENCE[::-1]:  # the first of _PRECEDENCE wins
         for r in results[::-1]:
             hit = r.status == bad
@@ -123,7 +124,7 @@ def combine(results):
     return type(first)(
         poses=poses, vectors=vectors, missing=first.missing, center=first.center,
         scale=first.scale, objective=first.objective, gap=first.gap, n_active=first.n_active,
-        status=status, reason=reason,
+        status=status.astype(str), reason=reason.astype(str),
         fallback=np.any([r.fallback for r in results], axis=0), alpha=first.alpha,
         seconds=float(sum(r.seconds for r in results)), adaptation=first.adaptation,
         dictionary=first.dictionary, members=len(results))

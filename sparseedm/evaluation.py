@@ -19,8 +19,8 @@ Protocol (:func:`evaluate`)
    being the mean of the two hips); and the *filled-pose Err_ave*, the same
    metric on the EDM of the filled poses (column ``err_ave_filled``): the
    completed EDM need not be realisable in 2D, the filled joints are, and they
-   are what a user gets. For methods that fill joints directly it equals
-   Err_ave.
+   are what a user gets. For the imputers (knn, iterative), which fill joints,
+   it equals Err_ave.
 5. "Where it fails": poses whose highest or lowest joint in image y (y down)
    is occluded -- the normalisation box of the observed joints is then
    smaller than the pose's, the paper's main error source -- are reported
@@ -540,6 +540,9 @@ def evaluate(dictionary, test_poses2d, *, train_poses2d=None, labels=None,
                                       ensemble=ensemble)
                     if res.adaptation is not None:
                         notes.append(f"sparse, {c} missing, {rep}: {res.adaptation.line()}")
+                    if res.members > 1:
+                        notes.append(f"sparse, {c} missing, {rep}: the mean of an ensemble of "
+                                     f"{res.members} adapted dictionaries (sparseedm.ensemble)")
                     sparse_vectors[(c, rep)] = res.vectors
                 elif m == "fconv":
                     res = recover(inputs, mask, method="fconv", model=fconv[rep],

@@ -78,6 +78,8 @@ def place_missing_joints(poses, edm, missing, n_iter=10, weight_power=WEIGHT_POW
     >>> placed.round(6).tolist()
     [[[1.0, 1.0]]]
     """
+    if not (np.isfinite(weight_power) and weight_power >= 0):
+        raise ValueError(f"weight_power must be a finite number >= 0, got {weight_power!r}")
     poses = np.asarray(poses, dtype=float)
     missing = np.asarray(missing, dtype=bool)
     n, N, _ = poses.shape
@@ -121,8 +123,10 @@ def place_missing_joints(poses, edm, missing, n_iter=10, weight_power=WEIGHT_POW
                 g[:, a] += u[:, p_] * r[:, p_, None]
                 g[:, b] -= u[:, p_] * r[:, p_, None]
         H = H.reshape(n, 2 * M, 2 * M)
-        # damping relative to the (weighted) curvature, so the weights' scale cancels
-        damp = 1e-6 * np.trace(H, axis1=1, axis2=2) / (2 * M) + 1e-12
+        if weight_power == 0:  # unweighted: the fixed damping it always had
+            damp = np.full(n, 1e-6)
+        else:  # relative to the weighted curvature, so the weights' scale cancels
+            damp = 1e-6 * np.trace(H, axis1=1, axis2=2) / (2 * M) + 1e-12
         H = H + damp[:, None, None] * np.eye(2 * M)
         step = np.linalg.solve(H, g.reshape(n, 2 * M, 1))[..., 0]
         P = P - step.reshape(n, M, 2)

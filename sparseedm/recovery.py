@@ -414,6 +414,10 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
     if method == "fconv":  # torch is imported only on this path
         from .fconv.recover import recover_fconv
 
+        if ensemble > 1:
+            raise SparseEDMError("ensemble averages adapted dictionaries: it needs "
+                                 "method='sparse'")
+
         return recover_fconv(poses, missing, model=model, representation=representation,
                              chunk_size=chunk_size, progress=progress)
     # the work is many small BLAS calls beside numba's threads: BLAS threads

@@ -125,3 +125,51 @@ def test_evaluate_adaptation_with_an_ensemble(cmu_poses, shifted):
     assert np.isfinite(e1) and np.isfinite(e2) and e1 != e2
     with pytest.raises(SparseEDMError, match="ensemble"):
         evaluate_adaptation(shifted, test, adapt_on, ensemble=0, **kw)
+
+
+def test_combine_keeps_whole_statuses_when_the_first_member_had_only_short_ones(split,
+                                                                               shifted):
+    _, inputs, mask = split
+    a = sparseedm.recover(inputs[:5], mask[:5], dictionary=shifted, adapt=False)
+    b = sparseedm.recover(inputs[:5], mask[:5], dictionary=shifted, adapt=False)
+    assert set(a.status) == {"recovered"} and a.status.dtype.itemsize < 13 * 4
+    b.status = b.status.astype(object)
+    b.reason = b.reason.astype(object)
+    b.status[1], b.reason[1] = "inaccurate", "duality gap above tolerance"
+    b.status[2], b.reason[2] = "solver_failed", "solver status not optimal"
+    both = combine([a, b])
+    assert both.status.tolist() == ["recovered", "inaccurate", "solver_failed", "recovered",
+                                    "recovered"]
+    assert both.reason[1] == "duality gap above tolerance"
+    assert both.reason[2] == "solver status not optimal"
+    assert both.ok.tolist() == [True, True, False, True, True]
+
+
+def test_a_later_seed_the_guard_rejects_is_left_out(monkeypatch, split, shifted):
+    import sparseedm.ensemble as ens
+
+    real = ens.resolve_adaptation
+
+    def reject_seed_1(*args, random_state=0, **kwargs):
+        d, res = real(*args, random_state=random_state, **kwargs)
+        if random_state == 1:  # as if seed 1's held-back poses had preferred the base
+            res.adapted, d = False, args[0]
+        return d, res
+
+    monkeypatch.setattr(ens, "resolve_adaptation", reject_seed_1)
+    adapt_on, inputs, mask = split
+    members, adaptations = adapt_members(shifted, inputs, mask, adapt_on, 3, self_training=0)
+    assert len(members) == 2 and all(a.adapted for a in adaptations)
+    assert all(m is not shifted for m in members)
+
+
+def test_ensemble_is_refused_where_it_cannot_apply(tmp_path, split, capsys):
+    _, inputs, mask = split
+    with pytest.raises(SparseEDMError, match="needs method='sparse'"):
+        sparseedm.recover(inputs, mask, method="fconv", model="x.npz", ensemble=2)
+    data = tmp_path / "test.npz"
+    np.savez(data, poses2d=np.nan_to_num(inputs[:20]))
+    assert main(["evaluate", "--data", str(data), "--ensemble", "3", "-o",
+                 str(tmp_path / "rep")]) != 0
+    assert "--ensemble averages adapted dictionaries" in capsys.readouterr().err
+    assert not (tmp_path / "rep").exists()

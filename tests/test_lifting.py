@@ -359,7 +359,10 @@ def test_application_table_survives_rows_recovery_could_not_fill(monkeypatch, da
     rep = ev.evaluate_lifting({"dictionary": dict_lifter}, test, dictionary=small_dictionary,
                               counts=(1,), pipelines=["applyspar"], max_poses=12)
     (row,) = rep.rows
-    assert np.isfinite(row["err3d"]) and row["n_poses"] == 12
+    assert np.isfinite(row["err3d"]) and row["n_poses"] == 12 and row["n_failed"] == 2
+    assert any("2 of 12 poses could not be lifted" in n for n in rep.notes)
+    # (n_failed counts rows without a lifted answer: scored from their stand-ins,
+    # they would not be counted)
 
 
 def test_shipped_default_lifter_loads_by_name():
@@ -392,3 +395,24 @@ def test_cli_lift_never_writes_its_input(tmp_path, data, lifter_path):
     assert main(["lift", str(src), "-o", str(out), "--errors", str(out),
                  "--lifter", str(lifter_path)]) == 2
     assert src.read_bytes() == before and not out.exists()
+
+
+def test_whole_file_pickles_and_bad_meta_are_refused_by_name(tmp_path, lifter_path):
+    from sparseedm.dictionary import load_dictionary
+    from sparseedm.exceptions import DictionaryError, ModelError
+    from sparseedm.fconv.model import load_model
+
+    pk = tmp_path / "whole.npz"
+    with open(pk, "wb") as f:
+        pickle.dump({"meta": "{}"}, f, protocol=4)
+    for loader, error in ((load_lifter, LifterError), (load_model, ModelError),
+                          (load_dictionary, DictionaryError)):
+        with pytest.raises(error, match="pickled data, which is refused"):
+            loader(pk)
+    with np.load(lifter_path, allow_pickle=False) as z:
+        arrays = dict(z)
+    for bad, said in ((np.array(5), "0-d string array"), (np.array("[1, 2]"), "got list")):
+        path = tmp_path / "badmeta.npz"
+        np.savez(path, **dict(arrays, meta=bad))
+        with pytest.raises(LifterError, match=said):
+            load_lifter(path)

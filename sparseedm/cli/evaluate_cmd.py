@@ -136,6 +136,9 @@ def run(args):
     for s in say:
         print(f"sparseedm evaluate: {s}", file=sys.stderr)
     adapt_poses = None
+    if args.ensemble != 1 and not (args.adapt_from or args.adapt_clips):
+        raise SparseEDMError("--ensemble averages adapted dictionaries: it needs "
+                             "--adapt-from or --adapt-clips")
     if args.adapt_from:
         adapt_poses = _load(args.adapt_from, "adaptation")[0]
     elif args.adapt_clips:

@@ -73,7 +73,8 @@ def add_parser(sub):
                    help="adapt K times (seeds 0..K-1) and average the K recoveries: lower "
                    "error, K times the work (default 1; sparseedm.ensemble)")
     p.add_argument("--save-dictionary", default=None, metavar="FILE",
-                   help="write the dictionary used (adapted or not) to FILE (.npz)")
+                   help="write the dictionary used (adapted or not; with --ensemble, the "
+                   "first member's) to FILE (.npz)")
     add_quiet(p)
     p.set_defaults(func=run)
 

@@ -58,7 +58,7 @@ from .metrics import err_ave_3d, mpjpe, pa_mpjpe, pelvis
 
 __all__ = ["evaluate_lifting", "LiftReport", "COLUMNS"]
 
-COLUMNS = ("lifter", "pipeline", "count", "n_poses", "err3d", "pa_mpjpe", "n_mpjpe", "mpjpe",
+COLUMNS = ("lifter", "pipeline", "count", "n_poses", "n_failed", "err3d", "pa_mpjpe", "n_mpjpe", "mpjpe",
            "reflection_ok", "ambiguous", "poses_per_s")
 IMPUTERS = ("knn", "iterative", "nearest")
 #: FConv recovery then lifting: pipeline -> representation of the fit-cnn model
@@ -273,7 +273,14 @@ def evaluate_lifting(lifters, test, *, dictionary=None, train_poses2d=None,
                 P[~good] = np.nan
             sec = time.perf_counter() - t0
             sc = _score(P, Y, margin, truth_vec, truth_cam)
-            row = {"lifter": lname, "pipeline": pipe, "count": count, "n_poses": n}
+            # poses without a lifted answer (a recovery that failed, a refused
+            # input) are left out of the means: counted, and said in the notes
+            n_failed = int((~np.isfinite(P).all(axis=(1, 2))).sum())
+            if n_failed:
+                notes.append(f"{lname}, {pipe}, {count} occluded: {n_failed} of {n} poses "
+                             "could not be lifted; the means are over the others")
+            row = {"lifter": lname, "pipeline": pipe, "count": count, "n_poses": n,
+                   "n_failed": n_failed}
             row.update({k: float(np.nanmean(v)) for k, v in sc.items()})
             row["poses_per_s"] = n / sec
             rows.append(row)
