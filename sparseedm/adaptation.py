@@ -753,13 +753,20 @@ def adapt(dictionary, complete_poses, *, passes=DEFAULT_PASSES, alpha=None, **kw
                           **kwargs).dictionary
 
 
-def _incomplete_rows(poses, missing, max_poses, random_state):
-    """A seeded sample (file order kept) of the rows of `poses` with a missing joint."""
-    poses = np.asarray(poses, dtype=float)
+def _occluded(poses, missing):
+    """Joints missing by `missing` or by a non-finite coordinate, and which rows
+    are incomplete (some joints missing, not all)."""
     mask = ~np.isfinite(poses).all(axis=-1)
     if missing is not None:
         mask |= np.asarray(missing, dtype=bool)
-    rows = np.flatnonzero(mask.any(axis=1) & ~mask.all(axis=1))
+    return mask, mask.any(axis=1) & ~mask.all(axis=1)
+
+
+def _incomplete_rows(poses, missing, max_poses, random_state):
+    """A seeded sample (file order kept) of the rows of `poses` with a missing joint."""
+    poses = np.asarray(poses, dtype=float)
+    mask, incomplete = _occluded(poses, missing)
+    rows = np.flatnonzero(incomplete)
     if len(rows) > max_poses:
         rng = np.random.default_rng([int(random_state or 0), 29])
         rows = np.sort(rng.choice(rows, max_poses, replace=False))
@@ -922,8 +929,8 @@ def sample_stream(chunks, max_poses=DEFAULT_MAX_POSES, random_state=0):
         poses = np.asarray(poses, dtype=float)
         n, n_joints = len(poses), poses.shape[1]
         keys = rng.random(n)  # one key per row, drawn whatever the row holds
-        mask = np.asarray(missing, bool) | ~np.isfinite(poses).all(axis=-1)
-        for res, ok in ((full, ~mask.any(axis=1)), (part, mask.any(axis=1) & ~mask.all(axis=1))):
+        mask, incomplete = _occluded(poses, missing)
+        for res, ok in ((full, ~mask.any(axis=1)), (part, incomplete)):
             rows = np.flatnonzero(ok)
             res.add(keys[rows], rows + offset, poses[rows], mask[rows])
         offset += n

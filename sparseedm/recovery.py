@@ -437,12 +437,9 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         kw = dict(alpha=alpha, representation=representation, solver=solver, n_jobs=n_jobs,
                   chunk_size=chunk_size, positive=positive, progress=progress,
                   backend=backend, scheduler=scheduler)
-        res = _recover(poses, missing, dictionary=members[0], **kw)
-        if len(members) > 1:
-            from .ensemble import combine
+        from .ensemble import combine  # one member: its result as it is
 
-            res = combine([res] + [_recover(poses, missing, dictionary=d, **kw)
-                                   for d in members[1:]])
+        res = combine([_recover(poses, missing, dictionary=d, **kw) for d in members])
         if adaptation is not None:
             res.adaptation = adaptation
             res.seconds += sum(a.seconds for a in adaptations)
@@ -481,9 +478,7 @@ def _recover(poses, missing=None, *, dictionary=None, alpha=None,
     observed = observed_entries(mask[todo])
     m_obs = observed.sum(axis=1)
     alpha_eff = alpha * (m_obs / m if dictionary.alpha_scaling == "entries" else 1.0)
-    n_tasks = max(-(-len(todo) // chunk_size), _min_tasks(n_jobs, backend, len(todo)))
-    tasks = [t for t in np.array_split(np.arange(len(todo)), max(1, min(n_tasks, len(todo))))
-             if len(t)]  # no task when no pose needs recovering
+    tasks = _chunk_tasks(np.arange(len(todo)), chunk_size, n_jobs, backend)
     results = _run_tasks(solver, components, vectors[todo], observed, alpha_eff, tasks,
                          positive, dict_key, n_jobs, progress, backend, scheduler)
     for t, (merged, obj, g, st, act, fb) in zip(tasks, results):
@@ -505,6 +500,15 @@ def _recover(poses, missing=None, *, dictionary=None, alpha=None,
         status=status.astype(str), reason=reason.astype(str), fallback=fallback,
         alpha=float(alpha), seconds=time.perf_counter() - t0, dictionary=dictionary,
     )
+
+
+def _chunk_tasks(rows, chunk_size, n_jobs, backend=None):
+    """`rows` cut into consecutive tasks: at most `chunk_size` each, and enough
+    of them to keep every worker busy (:func:`_min_tasks`); none when `rows` is
+    empty. Shared by recover() and the dictionary lifter."""
+    n = len(rows)
+    n_tasks = max(-(-n // chunk_size), _min_tasks(n_jobs, backend, n))
+    return [t for t in np.array_split(rows, max(1, min(n_tasks, n))) if len(t)]
 
 
 def _min_tasks(n_jobs, backend, n_rows):

@@ -11,6 +11,14 @@ def add_quiet(parser):
                         help="no progress bar (it is also off when stderr is not a terminal)")
 
 
+def add_adaptation_rounds(parser, self_training_help, ensemble_help):
+    """``--self-training ROUNDS`` and ``--ensemble K``, as recover and evaluate take them
+    (defaults: the API's, None meaning ``SELF_TRAINING_ROUNDS``, and 1)."""
+    parser.add_argument("--self-training", type=int, default=None, metavar="ROUNDS",
+                        help=self_training_help)
+    parser.add_argument("--ensemble", type=int, default=1, metavar="K", help=ensemble_help)
+
+
 def show_progress(args) -> bool:
     """Progress bars only for a person watching a terminal."""
     return not getattr(args, "quiet", False) and sys.stderr.isatty()

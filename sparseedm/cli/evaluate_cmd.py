@@ -9,7 +9,7 @@ import numpy as np
 
 
 from ..exceptions import FileFormatError, SparseEDMError
-from ._common import load_npz
+from ._common import add_adaptation_rounds, load_npz
 
 
 def add_parser(sub):
@@ -59,13 +59,12 @@ def add_parser(sub):
     g.add_argument("--adapt-clips", type=int, default=None, metavar="K",
                    help="adaptation protocol within --data (needs its 'clips'): clip i in "
                    "sorted order adapts when i %% K == 0, the other clips are scored")
-    p.add_argument("--self-training", type=int, default=None, metavar="ROUNDS",
-                   help="with --adapt-from/--adapt-clips: self-training rounds of the "
-                   "'sparse-adapted' row on the occluded test poses (default 3, as "
-                   "`sparseedm recover`; 0: adaptation on FILE only)")
-    p.add_argument("--ensemble", type=int, default=1, metavar="K",
-                   help="with --adapt-from/--adapt-clips: average K adapted dictionaries "
-                   "(seeds 0..K-1) in the 'sparse-adapted' row (default 1)")
+    add_adaptation_rounds(
+        p, "with --adapt-from/--adapt-clips: self-training rounds of the 'sparse-adapted' "
+        "row on the occluded test poses (default 3, as `sparseedm recover`; 0: adaptation "
+        "on FILE only)",
+        "with --adapt-from/--adapt-clips: average K adapted dictionaries (seeds 0..K-1) in "
+        "the 'sparse-adapted' row (default 1)")
     p.add_argument("-o", "--output", required=True, help="report directory")
     p.set_defaults(func=run)
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import sys
 
-from ._common import add_quiet, show_progress
+from ._common import add_adaptation_rounds, add_quiet, show_progress
 
 
 def add_parser(sub):
@@ -65,13 +65,11 @@ def add_parser(sub):
     g.add_argument("--adapt-from", default=None, metavar="FILE",
                    help="adapt on the complete poses of FILE (same source, any keypoint "
                    "format) instead of INPUT's")
-    p.add_argument("--self-training", type=int, default=None, metavar="ROUNDS",
-                   help="after adapting, rounds of self-training on INPUT's incomplete "
-                   "poses (recover a sample, adapt again with them, guarded each round); "
-                   "default 3, 0 turns it off")
-    p.add_argument("--ensemble", type=int, default=1, metavar="K",
-                   help="adapt K times (seeds 0..K-1) and average the K recoveries: lower "
-                   "error, K times the work (default 1; sparseedm.ensemble)")
+    add_adaptation_rounds(
+        p, "after adapting, rounds of self-training on INPUT's incomplete poses (recover a "
+        "sample, adapt again with them, guarded each round); default 3, 0 turns it off",
+        "adapt K times (seeds 0..K-1) and average the K recoveries: lower error, K times "
+        "the work (default 1; sparseedm.ensemble)")
     p.add_argument("--save-dictionary", default=None, metavar="FILE",
                    help="write the dictionary used (adapted or not; with --ensemble, the "
                    "first member's) to FILE (.npz)")

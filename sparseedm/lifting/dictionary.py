@@ -38,7 +38,6 @@ Examples
 from __future__ import annotations
 
 import hashlib
-import os
 
 import numpy as np
 from joblib import Parallel, delayed
@@ -47,7 +46,7 @@ from threadpoolctl import threadpool_limits
 from ..edm import num_joints_from_dim, observed_entries
 from ..learning import OnlineDictionaryLearning
 from ..solvers import get_solver
-from ..solvers.fast import NUMPY_MAX
+from ..recovery import _chunk_tasks
 from .base import Lifter, LifterError
 
 __all__ = ["DictionaryLifter"]
@@ -185,14 +184,11 @@ class DictionaryLifter(Lifter):
         mask = np.zeros((n, N), bool) if missing is None else np.asarray(missing, bool)
         solver = get_solver(self.solver)
         key = (hashlib.sha1(np.ascontiguousarray(C[:, :m]).tobytes()).hexdigest(), "2d-half")
-        workers = os.cpu_count() or 1 if n_jobs == -1 else max(int(n_jobs or 1), 1)
         observed = observed_entries(mask)
         alpha = self.alpha_lift * observed.sum(axis=1) / m
-        order = np.lexsort(mask.T[::-1])
-        # a share per worker, but no share under the compiled kernel's size
-        # (smaller batches take the solver's numpy path: see recovery._min_tasks)
-        n_chunks = max(-(-n // chunk_size), min(workers, n // NUMPY_MAX), 1)
-        tasks = [t for t in np.array_split(order, max(1, min(n_chunks, n))) if len(t)]
+        # pattern-sorted rows in tasks as recover() cuts them: a share per worker,
+        # none under the compiled kernel's size
+        tasks = _chunk_tasks(np.lexsort(mask.T[::-1]), chunk_size, n_jobs)
         D2 = C[:, :m].T
 
         def run(rows):
