@@ -50,6 +50,7 @@ from numbers import Integral
 from pathlib import Path
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from ._atomic import atomic_path
 from ._validation import ALPHA, N_JOBS, Interval, check_poses, validate_params
@@ -59,6 +60,7 @@ from .edm import pose_to_vector
 from .exceptions import DictionaryError, ParameterError, PoseError, SparseEDMError
 from .metrics import err_ave, joint_error, random_occlusion
 from .normalize import REPRESENTATIONS
+from .ensemble import adapt_members, combine
 from .recovery import recover
 
 __all__ = ["evaluate", "sweep_atoms", "occlusion_masks", "torso_size",
@@ -388,6 +390,28 @@ def _complete_rows(poses):
     return ok & (span > 0)
 
 
+def _recover_adapted(inputs, mask, dictionary, adapt, cache, *, self_training, ensemble,
+                     n_jobs, **kw):
+    """:func:`recover` for one count's inputs, adapting (and self-training) once.
+
+    The adapted dictionaries depend on the poses, the masks and the
+    adaptation settings, not on the occlusion representation, so the
+    representations of one count share them (kept in `cache`).
+    """
+    if adapt is False:
+        return recover(inputs, mask, dictionary=dictionary, n_jobs=n_jobs, adapt=False, **kw)
+    if "adapted" not in cache:
+        with threadpool_limits(1, user_api="blas"):
+            cache["adapted"] = adapt_members(dictionary, inputs, mask, adapt, ensemble,
+                                             n_jobs=n_jobs, self_training=self_training)
+    members, adaptations = cache["adapted"]
+    res = combine([recover(inputs, mask, dictionary=d, n_jobs=n_jobs, adapt=False, **kw)
+                   for d in members])
+    res.adaptation = adaptations[0]
+    res.seconds += sum(a.seconds for a in adaptations)
+    return res
+
+
 def evaluate(dictionary, test_poses2d, *, train_poses2d=None, labels=None,
              methods=("sparse", "mean-fill", "knn", "iterative", "nearest"),
              counts=(1, 2, 3, "mix"), representations=("average", "zero"),
@@ -522,7 +546,7 @@ def evaluate(dictionary, test_poses2d, *, train_poses2d=None, labels=None,
         mask = masks[c]
         extreme = extreme_occluded(gt, mask)
         inputs = np.where(mask[..., None], np.nan, gt)
-        cache = {}
+        cache, adapted = {}, {}
         for m in methods:
             for rep in representations:
                 note = ""
@@ -534,10 +558,11 @@ def evaluate(dictionary, test_poses2d, *, train_poses2d=None, labels=None,
                 elif m == "sparse":
                     with warnings.catch_warnings():
                         warnings.simplefilter("ignore")
-                        res = recover(inputs, mask, dictionary=dictionary, alpha=alpha,
-                                      representation=rep, solver=solver, n_jobs=n_jobs,
-                                      adapt=adapt, self_training=self_training,
-                                      ensemble=ensemble)
+                        res = _recover_adapted(inputs, mask, dictionary, adapt, adapted,
+                                               alpha=alpha, representation=rep,
+                                               solver=solver, n_jobs=n_jobs,
+                                               self_training=self_training,
+                                               ensemble=ensemble)
                     if res.adaptation is not None:
                         notes.append(f"sparse, {c} missing, {rep}: {res.adaptation.line()}")
                     if res.members > 1:

@@ -173,3 +173,25 @@ def test_ensemble_is_refused_where_it_cannot_apply(tmp_path, split, capsys):
                  str(tmp_path / "rep")]) != 0
     assert "--ensemble averages adapted dictionaries" in capsys.readouterr().err
     assert not (tmp_path / "rep").exists()
+
+
+def test_evaluate_adapts_once_per_count_and_scores_as_recover_does(cmu_poses, shifted):
+    """Both representations share one count's adapted members; each scores as a direct
+    recover(adapt=..., ensemble=2) with that representation."""
+    from sparseedm.edm import pose_to_vector
+    from sparseedm.evaluation import evaluate, occlusion_masks
+    from sparseedm.metrics import err_ave
+
+    order = np.random.default_rng(5).permutation(len(cmu_poses))
+    adapt_on, test = cmu_poses[np.sort(order[:260])], cmu_poses[np.sort(order[260:300])]
+    rep = evaluate(shifted, test, methods=("sparse",), counts=(2,),
+                   adapt=adapt_on, self_training=1, ensemble=2, random_state=4)
+    mask = occlusion_masks(len(test), 14, (2,), 4)[2]
+    inputs = np.where(mask[..., None], np.nan, test)
+    for r in ("average", "zero"):
+        res = sparseedm.recover(inputs, mask, dictionary=shifted, adapt=adapt_on,
+                                self_training=1, ensemble=2, representation=r)
+        assert res.members == 2 and res.adapted
+        want = err_ave(res.vectors * res.scale[:, None], pose_to_vector(test))
+        np.testing.assert_allclose(rep.per_pose[("sparse", r, 2)], want, rtol=1e-12)
+    assert sum("adapted the dictionary" in n for n in rep.notes) == 2
