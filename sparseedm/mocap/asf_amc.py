@@ -590,16 +590,9 @@ def load_asf_amc(asf, amc, *, scale=None, units="auto", joint_map=None, return_i
     if units is None or units == "auto":
         units = (rigs.read_joint_map(joint_map)["units"] if joint_map is not None else None) \
             or "auto"
-    if scale is not None:
-        scale, unit_name = float(scale), "scale"
-    elif units != "auto":
-        if units not in rigs.UNITS:
-            raise ValueError(f"unknown units {units!r}; use one of {', '.join(rigs.UNITS)} or auto")
-        unit_name, scale = units, rigs.UNITS[units]
-    else:
-        unit_name, _ = rigs.choose_units(lambda s: raw_height * s, "asf", path=str(amc),
-                                         extra={"asf": skel.scale})
-        scale = skel.scale if unit_name == "asf" else rigs.UNITS[unit_name]
+    unit_name, scale = rigs.resolve_units(lambda s: raw_height * s, scale=scale, units=units,
+                                          default="asf", path=str(amc),
+                                          extra={"asf": skel.scale})
     poses = raw * scale
     if return_info:
         return poses, {"rig": "acclaim-asf", "units": unit_name, "scale": scale,

@@ -48,7 +48,7 @@ from ..exceptions import FileFormatError
 from ..skeleton import JOINT_NAMES
 from . import rigs as _rigs
 from ._text import read_text
-from .rigs import CMU_SCALE, UNITS, choose_units, read_joint_map
+from .rigs import CMU_SCALE, check_units, read_joint_map, resolve_units
 
 __all__ = [
     "BVHJoint",
@@ -572,8 +572,7 @@ def load_bvh(path, *, rig=None, scale=None, units="auto", joint_map=None, return
     rig_name, default_units, sources = resolve_sources(bvh, rig=rig, joint_map=joint_map)
     if units is None or units == "auto":
         units = (joint_map or {}).get("units") or "auto"
-    if units != "auto" and units not in UNITS:
-        raise ValueError(f"unknown units {units!r}; use one of {', '.join(UNITS)} or auto")
+    check_units(units)  # before the kinematics
     pos, rot = bvh_forward_kinematics(bvh)
     rpos, rrot = rest_pose_kinematics(bvh)
     sample = np.unique(np.linspace(0, max(len(pos) - 1, 0), min(len(pos), 200)).astype(int))
@@ -585,13 +584,8 @@ def load_bvh(path, *, rig=None, scale=None, units="auto", joint_map=None, return
                 _place(bvh, pos[sample], rot[sample], sources, s, bvh.path)), 95)),
         )
 
-    if scale is not None:
-        scale, unit_name = float(scale), "scale"
-    elif units != "auto":
-        unit_name, scale = units, UNITS[units]
-    else:
-        unit_name, _ = choose_units(height, default_units, path=bvh.path)
-        scale = UNITS[unit_name]
+    unit_name, scale = resolve_units(height, scale=scale, units=units, default=default_units,
+                                     path=bvh.path)
     out = _place(bvh, pos, rot, sources, scale, bvh.path)
     if return_info:
         return out, {

@@ -553,6 +553,39 @@ def choose_units(height_for, default=None, *, path="<string>", extra=None) -> tu
     )
 
 
+def check_units(units):
+    """`units` itself when it is ``"auto"`` or a name in :data:`UNITS`, else a
+    ValueError naming the choices."""
+    if units != "auto" and units not in UNITS:
+        raise ValueError(f"unknown units {units!r}; use one of {', '.join(UNITS)} or auto")
+    return units
+
+
+def resolve_units(height_for, *, scale=None, units="auto", default=None, path="<string>",
+                  extra=None) -> tuple[str, float]:
+    """The unit a loader uses and its metres per file unit.
+
+    An explicit `scale` wins (named ``"scale"``); then `units` unless it is
+    ``"auto"``; then :func:`choose_units` (`height_for`, `default`, `path` and
+    `extra` are its).
+
+    Examples
+    --------
+    >>> resolve_units(lambda s: 170 * s, units="auto", default="cmu")
+    ('cm', 0.01)
+    >>> resolve_units(lambda s: 170 * s, scale=0.5)
+    ('scale', 0.5)
+    >>> resolve_units(lambda s: 1.7 * s, default="asf", extra={"asf": 1.0})
+    ('asf', 1.0)
+    """
+    if scale is not None:
+        return "scale", float(scale)
+    if check_units(units) != "auto":
+        return units, UNITS[units]
+    name, _ = choose_units(height_for, default, path=path, extra=extra)
+    return name, {**UNITS, **(extra or {})}[name]
+
+
 # ------------------------------------------------------------------ T-pose
 def tpose_frames(poses, *, tol=0.9, edges_only=True) -> np.ndarray:
     """Indices of T-pose frames: both arms straight, level and opposite.
