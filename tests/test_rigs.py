@@ -6,6 +6,7 @@ checked against the ASF/AMC ground truth.
 """
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -324,3 +325,14 @@ def test_real_tpose_frames(shared_data):
         poses, info = load_bvh(shared_data / "bandai-namco-1" / "data" / name, return_info=True)
         assert len(info["tpose_frames"]) == 0
         assert len(tpose_frames(poses, edges_only=False)) > 0
+
+
+@pytest.mark.parametrize("loader", ["bvh", "asf"])
+def test_an_unknown_unit_is_refused_by_both_loaders_even_with_a_scale(loader):
+    fixtures = Path(__file__).parent / "fixtures"
+    with pytest.raises(ValueError, match="unknown units 'furlong'"):
+        if loader == "bvh":
+            load_bvh(fixtures / "cmu_02_01_short.bvh", units="furlong", scale=1.0)
+        else:
+            load_asf_amc(fixtures / "cmu_02.asf", fixtures / "cmu_02_01_short.amc",
+                         units="furlong", scale=1.0)

@@ -574,6 +574,10 @@ def load_asf_amc(asf, amc, *, scale=None, units="auto", joint_map=None, return_i
     """
     from . import rigs
 
+    if units is None or units == "auto":
+        units = (rigs.read_joint_map(joint_map)["units"] if joint_map is not None else None) \
+            or "auto"
+    rigs.check_units(units)  # before the kinematics, as load_bvh
     if asf is None:
         asf = find_asf(amc)
     skel = asf if isinstance(asf, ASFSkeleton) else parse_asf(asf)
@@ -587,9 +591,6 @@ def load_asf_amc(asf, amc, *, scale=None, units="auto", joint_map=None, return_i
     sample = raw[np.unique(np.linspace(0, len(raw) - 1, min(len(raw), 200)).astype(int))]
     raw_height = max(float(rigs.standing_height(rest)[0]),
                      float(np.percentile(rigs.standing_height(sample), 95)))
-    if units is None or units == "auto":
-        units = (rigs.read_joint_map(joint_map)["units"] if joint_map is not None else None) \
-            or "auto"
     unit_name, scale = rigs.resolve_units(lambda s: raw_height * s, scale=scale, units=units,
                                           default="asf", path=str(amc),
                                           extra={"asf": skel.scale})
