@@ -32,7 +32,9 @@ def add_parser(sub):
     p.add_argument("--passes", type=float, default=2.0,
                    help="passes over the data (default 2: better held-out error than "
                    "one, still faster than SPAMS trainDL's one; benchmarks/README.md)")
-    p.add_argument("--batch-size", type=int, default=512, help="mini-batch size (default 512)")
+    p.add_argument("--batch-size", type=int, default=None,
+                   help="mini-batch size (default 512; with --init, the adaptation's 256, "
+                   "chosen on validation: dictionaries/README.md)")
     p.add_argument("--positive-code", action="store_true", help="non-negative codes")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--jobs", type=int, default=None, help="threads for the coding step")
@@ -48,22 +50,25 @@ def run(args):
     from ..learning import fit_dictionary_file
 
     t0 = time.perf_counter()
+    # options left unset take the API's defaults (which differ between learning
+    # from scratch and fine-tuning)
+    given = {} if args.batch_size is None else {"batch_size": args.batch_size}
     if args.init is not None:
         from ..adaptation import fine_tune_file
 
         d = fine_tune_file(args.train, args.output, args.init, passes=args.passes,
                            alpha=args.alpha, alpha_recover=args.alpha_recover,
-                           batch_size=args.batch_size, random_state=args.seed,
-                           n_jobs=args.jobs)
+                           random_state=args.seed, n_jobs=args.jobs, **given)
         how = f"fine-tuned from {args.init}"
     else:
+        for name in ("alpha", "alpha_recover"):
+            if getattr(args, name) is not None:
+                given[name] = getattr(args, name)
         d = fit_dictionary_file(
-            args.train, args.output, n_components=args.atoms,
-            alpha=1.6 if args.alpha is None else args.alpha,
-            batch_size=args.batch_size, n_passes=args.passes,
+            args.train, args.output, n_components=args.atoms, n_passes=args.passes,
             positive_code=args.positive_code, random_state=args.seed, n_jobs=args.jobs,
-            alpha_recover=0.002 if args.alpha_recover is None else args.alpha_recover,
             checkpoint=args.checkpoint, resume=args.resume, progress=show_progress(args),
+            **given,
         )
         how = "learned"
     print(f"wrote {args.output}: {d.n_components} atoms {how} from "

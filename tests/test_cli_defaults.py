@@ -1,0 +1,85 @@
+"""The CLI states its defaults without importing the API (a fast ``--help``);
+these tests keep each stated default equal to the API's, so they cannot drift."""
+
+import inspect
+
+import pytest
+
+from sparseedm.batch import recover_file
+from sparseedm.cli import build_parser, main
+from sparseedm.dataset import build_dataset
+from sparseedm.evaluation import evaluate
+from sparseedm.learning import fit_dictionary_file
+from sparseedm.lifting.evaluation import evaluate_lifting
+from sparseedm.lifting.io import lift_file
+
+
+def api(func, name):
+    return inspect.signature(func).parameters[name].default
+
+
+CASES = [  # (command line, option dest, API function, its parameter)
+    (["recover", "in.csv", "-o", "out.csv"], [
+        ("chunk_size", recover_file, "chunk_size"),
+        ("confidence_threshold", recover_file, "confidence_threshold"),
+        ("jobs", recover_file, "n_jobs"),
+        ("self_training", recover_file, "self_training"),
+        ("ensemble", recover_file, "ensemble")]),
+    (["evaluate", "--data", "t.npz", "-o", "rep"], [
+        ("max_train", evaluate, "max_train"),
+        ("seed", evaluate, "random_state"),
+        ("jobs", evaluate, "n_jobs"),
+        ("self_training", evaluate, "self_training"),
+        ("ensemble", evaluate, "ensemble")]),
+    (["evaluate-lift", "--data", "t.npz", "-o", "rep"], [
+        ("max_train", evaluate_lifting, "max_train"),
+        ("seed", evaluate_lifting, "seed"),
+        ("jobs", evaluate_lifting, "n_jobs")]),
+    (["lift", "in.csv", "-o", "out.csv"], [
+        ("confidence_threshold", lift_file, "confidence_threshold"),
+        ("jobs", lift_file, "n_jobs")]),
+    (["dataset", "build", "mocap", "-o", "d.npz"], [
+        ("cameras_per_pose", build_dataset, "cameras_per_pose"),
+        ("seed", build_dataset, "random_state")]),
+    (["fit", "t.npz", "-o", "d.npz"], [
+        ("atoms", fit_dictionary_file, "n_components"),
+        ("seed", fit_dictionary_file, "random_state")]),
+]
+
+
+@pytest.mark.parametrize("argv,pairs", CASES, ids=[c[0][0] for c in CASES])
+def test_cli_defaults_are_the_apis(argv, pairs):
+    args = build_parser().parse_args(argv)
+    for dest, func, name in pairs:
+        assert getattr(args, dest) == api(func, name), (argv[0], dest)
+
+
+@pytest.mark.parametrize("init", [None, "default"])
+def test_fit_leaves_unset_options_to_the_api(tmp_path, monkeypatch, init):
+    """`fit` passes no batch size, alpha or recovery alpha it was not given: learning
+    from scratch (512) and fine-tuning (the adaptation's 256) keep their own defaults."""
+    import sparseedm.adaptation
+    import sparseedm.learning
+
+    seen = {}
+
+    class Stop(Exception):
+        pass
+
+    def spy(*args, **kwargs):
+        seen.update(kwargs)
+        raise Stop
+
+    target = (sparseedm.adaptation, "fine_tune_file") if init else \
+        (sparseedm.learning, "fit_dictionary_file")
+    monkeypatch.setattr(*target, spy)
+    argv = ["fit", str(tmp_path / "t.npz"), "-o", str(tmp_path / "d.npz")]
+    with pytest.raises(Stop):
+        main(argv + (["--init", init] if init else []))
+    assert "batch_size" not in seen
+    if not init:
+        assert "alpha" not in seen and "alpha_recover" not in seen
+    seen.clear()
+    with pytest.raises(Stop):
+        main(argv + (["--init", init] if init else []) + ["--batch-size", "64"])
+    assert seen["batch_size"] == 64
