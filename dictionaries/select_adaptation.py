@@ -44,7 +44,9 @@ table, cold vs adapted vs baselines on the *test* clips, through
 ``sparseedm evaluate --adapt-from``; it records the Err_ave of the completed
 EDMs and of the filled poses (``<method> filled``), and with ``--ensemble K``
 (key ``test_ensembleK``) the adapted row averages K adapted dictionaries
-(:mod:`sparseedm.ensemble`). Grid 9: ensembles of 1, 3 and 5 adapted dictionaries
+(:mod:`sparseedm.ensemble`); with ``--self-training R`` (key
+``test_self_trainingR``) the adapted row runs R self-training rounds instead
+of the default's (0: adaptation only). Grid 9: ensembles of 1, 3 and 5 adapted dictionaries
 on the validation poses. Grid 8: rounds of self-training
 (:func:`sparseedm.adaptation.self_train`) after the adaptation, on the
 validation poses and, as a check, on other poses of the adaptation clips.
@@ -127,6 +129,8 @@ def main(argv=None):
     ap.add_argument("--directions", default="cmu->bandai,bandai->cmu,cmu->daz")
     ap.add_argument("--ensemble", type=int, default=1,
                     help="grid 3: average this many adapted dictionaries (sparseedm.ensemble)")
+    ap.add_argument("--self-training", type=int, default=None, metavar="ROUNDS",
+                    help="grid 3: self-training rounds of the adapted row (default: recover's)")
     ap.add_argument("--grid", default="1,2",
                     help="1, 2, 4 (issue 9), 5, 6, 7 (the tuning follow-up), 8 (self-training), "
                     "9 (ensembles), 3 (test table)")
@@ -226,6 +230,8 @@ def main(argv=None):
             rec["ensemble"] = dict(tuned, rows=ensemble_grid(base, pool, scored, args))
         if "3" in args.grid:
             key = "test" if args.ensemble == 1 else f"test_ensemble{args.ensemble}"
+            if args.self_training is not None:
+                key += f"_self_training{args.self_training}"
             rec[key] = test_table(base, src, dst, args, poses, clips)
         Path(args.out).write_text(json.dumps(out, indent=1, default=float))
     return 0
@@ -441,6 +447,8 @@ def test_table(base, src, dst, args, poses, clips):
              "sparse,mean-fill,knn,iterative,nearest", "--counts", "mix",
              "--representations", "average", "--max-poses", str(2 * args.n_score),
              "--ensemble", str(args.ensemble),
+             *(["--self-training", str(args.self_training)]
+               if args.self_training is not None else []),
              "-o", str(work / "report")])
     with open(work / "report" / "results.csv") as f:
         table = list(csv.DictReader(f))
