@@ -11,7 +11,8 @@ completed EDM vectors. On those validation clips five members lowered the
 filled-pose error by 4-8 % against seed 0 alone; averaging the members' atoms
 instead (one dictionary) made it 15 % worse, a union of three members' atoms
 5 % worse. It costs K adaptations and K recoveries, so it is off by default
-(``ensemble=1``).
+(``ensemble=1``). With ``n_jobs`` > 1 the members after the first adapt side
+by side, one thread each (the same atoms as one after the other).
 
 Only adapted members are worth averaging: when the first adaptation is not
 adopted (too few complete poses, or the guard keeps the base dictionary) the
@@ -20,7 +21,10 @@ ensemble stops at that one member.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
+from joblib import Parallel, delayed, effective_n_jobs
 
 from .adaptation import resolve_adaptation
 from .edm import observed_entries
@@ -51,17 +55,25 @@ def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
     adaptations : list of AdaptationResult
         One per dictionary.
     """
-    dictionaries, adaptations = [], []
-    for seed in range(int(n_members)):
-        d, res = resolve_adaptation(dictionary, poses, missing, adapt, n_jobs=n_jobs,
-                                    random_state=seed, warn=warn and seed == 0,
-                                    self_training=self_training)
-        if seed and (res is None or not res.adapted):
-            continue  # this seed's guard kept the base: not a member to average
-        dictionaries.append(d)
-        adaptations.append(res)
-        if res is None or not res.adapted:
-            break  # seed 0 not adopted: too few poses, or the base is better here
+    d, res = resolve_adaptation(dictionary, poses, missing, adapt, n_jobs=n_jobs,
+                                random_state=0, warn=warn, self_training=self_training)
+    dictionaries, adaptations = [d], [res]
+    if int(n_members) <= 1 or res is None or not res.adapted:
+        return dictionaries, adaptations  # seed 0 not adopted: too few poses, or base better
+    # The other seeds side by side, one thread each: a member's own steps use a
+    # second thread poorly (1.2x), two members at once ran 1.37x faster than one
+    # after the other with 2 threads, with bit-identical atoms (2 cores, 400 poses).
+    workers = max(1, min(effective_n_jobs(n_jobs), int(n_members) - 1))
+    with warnings.catch_warnings():  # the members' own catch_warnings interleave
+        rest = Parallel(n_jobs=workers, backend="threading")(  # across threads: restored here
+            delayed(resolve_adaptation)(dictionary, poses, missing, adapt,
+                                        n_jobs=1 if workers > 1 else n_jobs, random_state=seed,
+                                        warn=False, self_training=self_training)
+            for seed in range(1, int(n_members)))
+    for d, res in rest:
+        if res is not None and res.adapted:  # else this seed's guard kept the base:
+            dictionaries.append(d)           # not a member to average
+            adaptations.append(res)
     return dictionaries, adaptations
 
 

@@ -195,3 +195,19 @@ def test_evaluate_adapts_once_per_count_and_scores_as_recover_does(cmu_poses, sh
         want = err_ave(res.vectors * res.scale[:, None], pose_to_vector(test))
         np.testing.assert_allclose(rep.per_pose[("sparse", r, 2)], want, rtol=1e-12)
     assert sum("adapted the dictionary" in n for n in rep.notes) == 2
+
+
+def test_members_side_by_side_are_the_members_one_after_the_other(split, shifted):
+    """n_jobs=2 adapts seeds 1.. on threads, one each: the same atoms as n_jobs=1, and
+    the caller's warning filters as they were."""
+    import warnings
+
+    adapt_on, inputs, mask = split
+    before = list(warnings.filters)
+    kw = dict(self_training=1)
+    serial, _ = adapt_members(shifted, inputs, mask, adapt_on, 3, n_jobs=1, **kw)
+    threaded, ads = adapt_members(shifted, inputs, mask, adapt_on, 3, n_jobs=2, **kw)
+    assert len(serial) == len(threaded) == 3 and all(a.adapted for a in ads)
+    for a, b in zip(serial, threaded):
+        np.testing.assert_array_equal(a.components, b.components)
+    assert warnings.filters == before
