@@ -28,7 +28,7 @@ import numba
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from sparseedm.solvers.fast import _chol_solve, lars_lasso_masked
+from sparseedm.solvers.fast import _chol_solve, _next_event, lars_lasso_masked
 
 
 @numba.njit(cache=True, nogil=True)
@@ -174,34 +174,8 @@ def lockstep(D, X0, obsf, alpha, positive, max_steps, coef, steps, B):
             st = state[s]
             lm = lam[s]
             al = alpha[r]
-            gamma = lm - al
-            event = 0
-            best = -1
-            tn = tiny[s]
-            dr = drp[s]
-            for j in range(k):
-                if st[j] != 0 or j == dr:
-                    continue
-                d1 = 1.0 - a[j]
-                num = lm - c[j]
-                if d1 > 1e-12 and num < gamma * d1 and num > tn * d1:
-                    gamma = num / d1
-                    event = 1
-                    best = j
-                if not positive:
-                    d2 = 1.0 + a[j]
-                    num = lm + c[j]
-                    if d2 > 1e-12 and num < gamma * d2 and num > tn * d2:
-                        gamma = num / d2
-                        event = 2
-                        best = j
-            for i in range(n):
-                if W[s, i] * sgn[s, i] < 0.0:
-                    g = -beta[s, i] / W[s, i]
-                    if g > tn and g < gamma:
-                        gamma = g
-                        event = 3
-                        best = i
+            gamma, event, best = _next_event(st, drp[s], a, c, lm, al, tiny[s], positive,
+                                             W[s], sgn[s], beta[s], n)
             for i in range(n):
                 beta[s, i] += gamma * W[s, i]
             for j in range(k):

@@ -126,6 +126,46 @@ def _drop_atom(active, sign, beta, R, state, best, n):
 _drop_atom_jit = numba.njit(cache=True, inline="always")(_drop_atom)
 
 
+@numba.njit(cache=True, inline="always")
+def _next_event(state, dropped, a, c, lam, alpha, tiny, positive, w, sign, beta, n):
+    """The homotopy's next event from lam: ``(gamma, event, best)``.
+
+    event 0: the path reaches alpha (gamma = lam - alpha); 1 / 2: atom `best`
+    enters with sign + / -; 3: active coefficient `best` reaches zero. `a` is
+    G w over all atoms, `c` the correlations, `dropped` the atom just dropped
+    (not re-entered at once; -1 for none).
+    """
+    gamma = lam - alpha
+    event = 0
+    best = -1
+    for j in range(a.shape[0]):
+        if state[j] != 0 or j == dropped:
+            continue
+        # g = (lam -/+ c_j) / (1 -/+ a_j), compared by multiplication: a
+        # division only when a new minimum is found
+        d1 = 1.0 - a[j]
+        num = lam - c[j]
+        if d1 > 1e-12 and num < gamma * d1 and num > tiny * d1:
+            gamma = num / d1
+            event = 1
+            best = j
+        if not positive:
+            d2 = 1.0 + a[j]
+            num = lam + c[j]
+            if d2 > 1e-12 and num < gamma * d2 and num > tiny * d2:
+                gamma = num / d2
+                event = 2
+                best = j
+    for i in range(n):
+        if w[i] * sign[i] < 0.0:  # coefficient heading to zero
+            g = -beta[i] / w[i]
+            if g > tiny and g < gamma:
+                gamma = g
+                event = 3
+                best = i
+    return gamma, event, best
+
+
 @numba.njit(cache=True)
 def _lars_core(G, DW, mode, miss, dtx, alpha, positive, max_steps, rank, coef):
     """LARS-lasso homotopy for one signal over k atoms; writes `coef`.
@@ -198,35 +238,8 @@ def _lars_core(G, DW, mode, miss, dtx, alpha, positive, max_steps, rank, coef):
             a[:] = np.dot(w[:n], R[:n])  # BLAS gemv: G_{:,A} w
         else:
             a[:] = 0.0
-        # next event
-        gamma = lam - alpha
-        event = 0
-        best = -1
-        for j in range(k):
-            if state[j] != 0 or j == dropped:
-                continue
-            # g = (lam -/+ c_j) / (1 -/+ a_j), compared by multiplication: a
-            # division only when a new minimum is found
-            d1 = 1.0 - a[j]
-            num = lam - c[j]
-            if d1 > 1e-12 and num < gamma * d1 and num > tiny * d1:
-                gamma = num / d1
-                event = 1
-                best = j
-            if not positive:
-                d2 = 1.0 + a[j]
-                num = lam + c[j]
-                if d2 > 1e-12 and num < gamma * d2 and num > tiny * d2:
-                    gamma = num / d2
-                    event = 2
-                    best = j
-        for i in range(n):
-            if w[i] * sign[i] < 0.0:  # coefficient heading to zero
-                g = -beta[i] / w[i]
-                if g > tiny and g < gamma:
-                    gamma = g
-                    event = 3
-                    best = i
+        gamma, event, best = _next_event(state, dropped, a, c, lam, alpha, tiny, positive,
+                                         w, sign, beta, n)
         for i in range(n):
             beta[i] += gamma * w[i]
         for j in range(k):
