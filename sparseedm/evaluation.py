@@ -60,8 +60,8 @@ from .edm import pose_to_vector
 from .exceptions import DictionaryError, ParameterError, PoseError, SparseEDMError
 from .metrics import err_ave, joint_error, random_occlusion
 from .normalize import REPRESENTATIONS
-from .ensemble import adapt_members, combine
-from .recovery import recover
+from .ensemble import adapt_members
+from .recovery import _recover_members, recover
 
 __all__ = ["evaluate", "sweep_atoms", "occlusion_masks", "torso_size",
            "EvaluationReport", "METHODS", "OPTIONAL_METHODS", "RESULT_COLUMNS"]
@@ -404,12 +404,7 @@ def _recover_adapted(inputs, mask, dictionary, adapt, cache, *, self_training, e
         with threadpool_limits(1, user_api="blas"):
             cache["adapted"] = adapt_members(dictionary, inputs, mask, adapt, ensemble,
                                              n_jobs=n_jobs, self_training=self_training)
-    members, adaptations = cache["adapted"]
-    res = combine([recover(inputs, mask, dictionary=d, n_jobs=n_jobs, adapt=False, **kw)
-                   for d in members])
-    res.adaptation = adaptations[0]
-    res.seconds += sum(a.seconds for a in adaptations)
-    return res
+    return _recover_members(inputs, mask, *cache["adapted"], n_jobs=n_jobs, **kw)
 
 
 def evaluate(dictionary, test_poses2d, *, train_poses2d=None, labels=None,

@@ -423,7 +423,7 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
     # the work is many small BLAS calls beside numba's threads: BLAS threads
     # would only spin against them (measured 2x slower), so BLAS gets one.
     with threadpool_limits(1, user_api="blas"):
-        adaptation, adaptations, members = None, [], [dictionary]
+        adaptations, members = [], [dictionary]
         if adapt is not False:
             from .ensemble import adapt_members
 
@@ -433,17 +433,25 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
             # one member unless an ensemble was asked for (seed 0 is the default's)
             members, adaptations = adapt_members(dictionary, poses, missing, adapt, ensemble,
                                                  n_jobs=n_jobs, self_training=self_training)
-            adaptation = adaptations[0]
-        kw = dict(alpha=alpha, representation=representation, solver=solver, n_jobs=n_jobs,
-                  chunk_size=chunk_size, positive=positive, progress=progress,
-                  backend=backend, scheduler=scheduler)
-        from .ensemble import combine  # one member: its result as it is
+        return _recover_members(poses, missing, members, adaptations, alpha=alpha,
+                               representation=representation, solver=solver, n_jobs=n_jobs,
+                               chunk_size=chunk_size, positive=positive, progress=progress,
+                               backend=backend, scheduler=scheduler)
 
-        res = combine([_recover(poses, missing, dictionary=d, **kw) for d in members])
-        if adaptation is not None:
-            res.adaptation = adaptation
-            res.seconds += sum(a.seconds for a in adaptations)
-        return res
+
+def _recover_members(poses, missing, members, adaptations, **kwargs):
+    """The poses recovered with each of `members` (dictionaries), combined
+    (:func:`sparseedm.ensemble.combine`: one member's result as it is), with
+    what `adaptations` (:func:`sparseedm.ensemble.adapt_members`'s, or empty)
+    did and took; `kwargs` as :func:`recover`'s recovery settings."""
+    from .ensemble import combine
+
+    with threadpool_limits(1, user_api="blas"):
+        res = combine([_recover(poses, missing, dictionary=d, **kwargs) for d in members])
+    if adaptations:
+        res.adaptation = adaptations[0]
+        res.seconds += sum(a.seconds for a in adaptations)
+    return res
 
 
 def _recover(poses, missing=None, *, dictionary=None, alpha=None,
