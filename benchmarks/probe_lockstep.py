@@ -12,7 +12,7 @@ observed entries). A finished slot takes the next pose. The event search,
 the updates and the polish are the shipped kernel's (``sparseedm.solvers.fast``).
 
 It gives the shipped kernel's answers (identical supports; largest coefficient
-difference ~1e-9 on 2,000 held-out Mix poses) at the same speed on one core:
+difference within 7e-10 on 2,000 held-out Mix poses) at the same speed on one core:
 the product costs 91 x k per pose-step (dgemm at ~12-14 GFMA/s here), against
 the Gram path's n_active x k gemv plus the m_miss x k downdate per entering
 atom at a lower rate -- 15 vs 21 us per pose-step, eaten by the event search
