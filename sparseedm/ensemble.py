@@ -25,6 +25,7 @@ import warnings
 
 import numpy as np
 from joblib import Parallel, delayed, effective_n_jobs
+from threadpoolctl import threadpool_limits
 
 from .adaptation import resolve_adaptation
 from .edm import observed_entries
@@ -64,8 +65,10 @@ def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
     # second thread poorly (1.2x), two members at once ran 1.37x faster than one
     # after the other with 2 threads, with bit-identical atoms (2 cores, 400 poses).
     workers = max(1, min(effective_n_jobs(n_jobs), int(n_members) - 1))
-    with warnings.catch_warnings():  # the members' own catch_warnings interleave
-        rest = Parallel(n_jobs=workers, backend="threading")(  # across threads: restored here
+    # the members' own catch_warnings and BLAS limits (their guards' recover())
+    # interleave across threads: both are held here for all of them, and restored
+    with warnings.catch_warnings(), threadpool_limits(1, user_api="blas"):
+        rest = Parallel(n_jobs=workers, backend="threading")(
             delayed(resolve_adaptation)(dictionary, poses, missing, adapt,
                                         n_jobs=1 if workers > 1 else n_jobs, random_state=seed,
                                         warn=False, self_training=self_training)

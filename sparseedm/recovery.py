@@ -448,6 +448,7 @@ def _recover_members(poses, missing, members, adaptations, **kwargs):
 
     with threadpool_limits(1, user_api="blas"):
         res = combine([_recover(poses, missing, dictionary=d, **kwargs) for d in members])
+    adaptations = [a for a in adaptations if a is not None]  # None: adapt=None, nothing done
     if adaptations:
         res.adaptation = adaptations[0]
         res.seconds += sum(a.seconds for a in adaptations)

@@ -211,3 +211,13 @@ def test_members_side_by_side_are_the_members_one_after_the_other(split, shifted
     for a, b in zip(serial, threaded):
         np.testing.assert_array_equal(a.components, b.components)
     assert warnings.filters == before
+
+
+def test_adapt_none_means_no_adaptation(split, shifted):
+    """adapt=None is taken as adapt=False (resolve_adaptation's rule): one member, no
+    adaptation attached, the same answer as adapt=False."""
+    _, inputs, mask = split
+    none = sparseedm.recover(inputs[:5], mask[:5], dictionary=shifted, adapt=None)
+    off = sparseedm.recover(inputs[:5], mask[:5], dictionary=shifted, adapt=False)
+    assert none.adaptation is None and none.members == 1
+    np.testing.assert_array_equal(none.poses, off.poses)
