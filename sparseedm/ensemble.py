@@ -54,25 +54,33 @@ def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
         The adopted members; only the base dictionary when the first (seed 0)
         adaptation was not adopted.
     adaptations : list of AdaptationResult
-        One per dictionary.
+        One per dictionary; empty when `adapt` asks for none (False or None,
+        as :func:`~sparseedm.adaptation.resolve_adaptation` reads it).
     """
-    d, res = resolve_adaptation(dictionary, poses, missing, adapt, n_jobs=n_jobs,
-                                random_state=0, warn=warn, self_training=self_training)
-    dictionaries, adaptations = [d], [res]
-    if int(n_members) <= 1 or res is None or not res.adapted:
-        return dictionaries, adaptations  # seed 0 not adopted: too few poses, or base better
-    # The other seeds side by side, one thread each: a member's own steps use a
-    # second thread poorly (1.2x), two members at once ran 1.37x faster than one
-    # after the other with 2 threads, with bit-identical atoms (2 cores, 400 poses).
-    workers = max(1, min(effective_n_jobs(n_jobs), int(n_members) - 1))
-    # the members' own catch_warnings and BLAS limits (their guards' recover())
-    # interleave across threads: both are held here for all of them, and restored
-    with warnings.catch_warnings(), threadpool_limits(1, user_api="blas"):
-        rest = Parallel(n_jobs=workers, backend="threading")(
-            delayed(resolve_adaptation)(dictionary, poses, missing, adapt,
-                                        n_jobs=1 if workers > 1 else n_jobs, random_state=seed,
-                                        warn=False, self_training=self_training)
-            for seed in range(1, int(n_members)))
+    # the work is many small BLAS calls beside numba's threads: BLAS threads
+    # would only spin against them (measured 2x slower), so BLAS gets one. Held
+    # here for every member: the members' guards' recover() calls set and
+    # restore the limit, out of order across the threads below.
+    with threadpool_limits(1, user_api="blas"):
+        d, res = resolve_adaptation(dictionary, poses, missing, adapt, n_jobs=n_jobs,
+                                    random_state=0, warn=warn, self_training=self_training)
+        if res is None:  # adaptation off
+            return [d], []
+        dictionaries, adaptations = [d], [res]
+        if int(n_members) <= 1 or not res.adapted:
+            return dictionaries, adaptations  # seed 0 not adopted: too few poses, or base better
+        # The other seeds side by side, one thread each: a member's own steps use a
+        # second thread poorly (1.2x), two members at once ran 1.37x faster than one
+        # after the other with 2 threads, with bit-identical atoms (2 cores, 400 poses).
+        workers = max(1, min(effective_n_jobs(n_jobs), int(n_members) - 1))
+        # the members' own catch_warnings interleave across threads: held here, restored
+        with warnings.catch_warnings():
+            rest = Parallel(n_jobs=workers, backend="threading")(
+                delayed(resolve_adaptation)(dictionary, poses, missing, adapt,
+                                            n_jobs=1 if workers > 1 else n_jobs,
+                                            random_state=seed, warn=False,
+                                            self_training=self_training)
+                for seed in range(1, int(n_members)))
     for d, res in rest:
         if res is not None and res.adapted:  # else this seed's guard kept the base:
             dictionaries.append(d)           # not a member to average

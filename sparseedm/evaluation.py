@@ -50,7 +50,6 @@ from numbers import Integral
 from pathlib import Path
 
 import numpy as np
-from threadpoolctl import threadpool_limits
 
 from ._atomic import atomic_path
 from ._validation import ALPHA, N_JOBS, Interval, check_poses, validate_params
@@ -401,9 +400,8 @@ def _recover_adapted(inputs, mask, dictionary, adapt, cache, *, self_training, e
     if adapt is False:
         return recover(inputs, mask, dictionary=dictionary, n_jobs=n_jobs, adapt=False, **kw)
     if "adapted" not in cache:
-        with threadpool_limits(1, user_api="blas"):
-            cache["adapted"] = adapt_members(dictionary, inputs, mask, adapt, ensemble,
-                                             n_jobs=n_jobs, self_training=self_training)
+        cache["adapted"] = adapt_members(dictionary, inputs, mask, adapt, ensemble,
+                                         n_jobs=n_jobs, self_training=self_training)
     return _recover_members(inputs, mask, *cache["adapted"], n_jobs=n_jobs, **kw)
 
 

@@ -420,23 +420,20 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
 
         return recover_fconv(poses, missing, model=model, representation=representation,
                              chunk_size=chunk_size, progress=progress)
-    # the work is many small BLAS calls beside numba's threads: BLAS threads
-    # would only spin against them (measured 2x slower), so BLAS gets one.
-    with threadpool_limits(1, user_api="blas"):
-        adaptations, members = [], [dictionary]
-        if adapt is not False:
-            from .ensemble import adapt_members
+    adaptations, members = [], [dictionary]
+    if adapt is not False:
+        from .ensemble import adapt_members
 
-            if not isinstance(dictionary, Dictionary):
-                dictionary = load_dictionary(dictionary)
-            poses, missing, _ = _validate(poses, missing, dictionary.n_joints)
-            # one member unless an ensemble was asked for (seed 0 is the default's)
-            members, adaptations = adapt_members(dictionary, poses, missing, adapt, ensemble,
-                                                 n_jobs=n_jobs, self_training=self_training)
-        return _recover_members(poses, missing, members, adaptations, alpha=alpha,
-                               representation=representation, solver=solver, n_jobs=n_jobs,
-                               chunk_size=chunk_size, positive=positive, progress=progress,
-                               backend=backend, scheduler=scheduler)
+        if not isinstance(dictionary, Dictionary):
+            dictionary = load_dictionary(dictionary)
+        poses, missing, _ = _validate(poses, missing, dictionary.n_joints)
+        # one member unless an ensemble was asked for (seed 0 is the default's)
+        members, adaptations = adapt_members(dictionary, poses, missing, adapt, ensemble,
+                                             n_jobs=n_jobs, self_training=self_training)
+    return _recover_members(poses, missing, members, adaptations, alpha=alpha,
+                           representation=representation, solver=solver, n_jobs=n_jobs,
+                           chunk_size=chunk_size, positive=positive, progress=progress,
+                           backend=backend, scheduler=scheduler)
 
 
 def _recover_members(poses, missing, members, adaptations, **kwargs):
@@ -446,9 +443,10 @@ def _recover_members(poses, missing, members, adaptations, **kwargs):
     did and took; `kwargs` as :func:`recover`'s recovery settings."""
     from .ensemble import combine
 
+    # the work is many small BLAS calls beside numba's threads: BLAS threads
+    # would only spin against them (measured 2x slower), so BLAS gets one.
     with threadpool_limits(1, user_api="blas"):
         res = combine([_recover(poses, missing, dictionary=d, **kwargs) for d in members])
-    adaptations = [a for a in adaptations if a is not None]  # None: adapt=None, nothing done
     if adaptations:
         res.adaptation = adaptations[0]
         res.seconds += sum(a.seconds for a in adaptations)
