@@ -127,10 +127,11 @@ class _NpySource:
     """A ``.npy`` file memory-mapped and read chunk by chunk.
 
     The same rules as :func:`read_keypoints` apply (shape (n, 14, 2) or
-    (n, 14, 3) with a confidence column; an infinite value is a file error).
+    (n, 14, 3) with a confidence column; a row with an infinite coordinate is
+    refused by the recovery, as a bad row).
     """
 
-    def __init__(self, path, threshold, scan_chunk=200_000):
+    def __init__(self, path, threshold):
         self.path = path
         self.threshold = threshold
         arr = _np_load(path, mmap_mode="r")
@@ -148,15 +149,6 @@ class _NpySource:
                 f"{path} has {arr.shape[1]} joints; sparseedm uses the 14-joint layout "
                 f"({', '.join(JOINT_NAMES)})"
             )
-        # one cheap streaming pass first: a bad value found after an hour of
-        # recovery would waste the hour (the output would still be left untouched)
-        for start in range(0, len(arr), scan_chunk):
-            block = np.asarray(arr[start:start + scan_chunk])
-            if np.isinf(block).any():
-                r, j = (int(i) for i in np.argwhere(np.isinf(block))[0][:2])
-                raise FileFormatError(
-                    f"{path}: pose {start + r}, joint {JOINT_NAMES[j]!r} has an infinite value"
-                )
         self.arr = arr
         self.n = len(arr)
         self.ids = None
@@ -425,8 +417,11 @@ def _run(source, in_fmt, out_path, out_fmt, errors_path, members, alpha,
                                        method=method, model=model, adapt=False)
                                for d in members])
                 ok = res.ok
-                # refused rows are written back as read
-                filled[start:stop] = np.where(ok[:, None, None], res.poses, poses)
+                # refused rows are written back as read, a joint with an infinite
+                # coordinate as missing (as the CSV writer does: no format gets an inf)
+                bad = ~np.isfinite(poses).all(axis=-1, keepdims=True)
+                filled[start:stop] = np.where(ok[:, None, None], res.poses,
+                                              np.where(bad, np.nan, poses))
                 status[start:stop] = res.status
                 reason[start:stop] = res.reason
                 objective[start:stop] = res.objective

@@ -186,13 +186,38 @@ def test_whole_file_errors(tmp_path, occluded, small_dictionary_path, capsys):
     wrong = tmp_path / "wrong.npy"
     np.save(wrong, np.ones((3, 17, 2)))
     assert _recover(wrong, out, small_dictionary_path) == 2
-    inf = poses.copy()
-    inf[20, 3, 0] = np.inf
-    np.save(inp, inf)
-    assert _recover(inp, out, small_dictionary_path) == 2
-    assert "pose 20" in capsys.readouterr().err
     assert sorted(os.listdir(tmp_path)) == ["in.npy", "wrong.npy"]
 
+
+def test_infinite_coordinate_flags_its_row_and_the_rest_recover(tmp_path, occluded,
+                                                                small_dictionary_path, capsys):
+    """One row with an infinite coordinate never sinks the batch (.npy streamed,
+    .csv read whole): that row is refused and named in the errors file, every
+    other row but the fixture's bad one is recovered."""
+    poses, _ = occluded
+    poses = poses.copy()
+    joint = int(np.flatnonzero(np.isfinite(poses[20, :, 0]))[0])
+    poses[20, joint, 0] = np.inf                  # an observed joint of row 20
+    for ext in ("npy", "csv"):
+        inp, out = tmp_path / f"in.{ext}", tmp_path / f"out.{ext}"
+        if ext == "npy":
+            np.save(inp, poses)
+        else:  # write_keypoints writes an inf as missing: the token is put in by hand
+            marked = poses.copy()
+            marked[20, joint, 0] = 123456.5
+            write_keypoints(inp, marked, ids=_ids())
+            inp.write_text(inp.read_text().replace("123456.5", "inf"))
+        assert _recover(inp, out, small_dictionary_path) == 1
+        assert "2 row(s) refused" in capsys.readouterr().err
+        with open(default_errors_path(out), newline="") as f:
+            errors = {int(r["row"]): r["status"] for r in csv.DictReader(f)}
+        assert errors == {BAD_ROW: "too_few_observed", 20: "invalid_coordinates"}
+        back = read_keypoints(out)
+        good = np.setdiff1d(np.arange(N), [BAD_ROW, 20])
+        assert not back.missing[good].any() and np.isfinite(back.poses[good]).all()
+        assert back.missing[20, joint]            # written back as read, the inf as missing
+        np.testing.assert_array_equal(back.missing[20], np.isnan(poses[20, :, 0]) |
+                                      (np.arange(14) == joint))
 
 def test_recover_file_chunks_and_confidence(tmp_path, occluded, small_dictionary):
     """Small chunks give the same output as one chunk; a confidence threshold
