@@ -197,6 +197,11 @@ class KeypointSet:
         Per-joint detector confidence / COCO visibility.
     ids : ndarray of str, shape (n,), optional
         Image or frame id of each pose.
+    tracks : ndarray, shape (n,), optional
+        Track (person) of each pose, for video: poses sharing a value are one
+        person over time. Any values numpy can compare (ints or strings).
+    frames : ndarray of int, shape (n,), optional
+        Frame number of each pose within its track (may skip and be unsorted).
     meta : dict
         Format details for writing the file back (see the module docstring).
 
@@ -213,6 +218,8 @@ class KeypointSet:
     confidence: np.ndarray | None = None
     ids: np.ndarray | None = None
     meta: dict = field(default_factory=dict)
+    tracks: np.ndarray | None = None
+    frames: np.ndarray | None = None
 
     def __post_init__(self):
         self.poses = np.asarray(self.poses, dtype=float)
@@ -232,6 +239,14 @@ class KeypointSet:
             self.ids = np.asarray(self.ids, dtype=str)
             if self.ids.shape != (n,):
                 raise PoseError(f"ids must have shape ({n},), got {self.ids.shape}")
+        if self.tracks is not None:
+            self.tracks = np.asarray(self.tracks)
+            if self.tracks.shape != (n,):
+                raise PoseError(f"tracks must have shape ({n},), got {self.tracks.shape}")
+        if self.frames is not None:
+            self.frames = np.asarray(self.frames)
+            if self.frames.shape != (n,):
+                raise PoseError(f"frames must have shape ({n},), got {self.frames.shape}")
 
     def __len__(self) -> int:
         return len(self.poses)
