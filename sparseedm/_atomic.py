@@ -10,6 +10,15 @@ the leftovers of writers that were killed outright (SIGKILL, power loss): the
 
 :func:`check_paths` refuses an output that is an input, another output, a
 directory, or under a parent that is a regular file, before any work is done.
+
+Only regular files are ever replaced. A target that exists and is a character
+device or a named pipe (``/dev/null``, ``/dev/stdout``, a FIFO a reader waits
+on), or a symlink to one, is written *through*: the finished temporary (made
+in the system's temporary folder) is streamed into it, and the device or pipe
+stays what it was. A symlink to a regular file is kept: its target is
+replaced atomically. A block device or a socket is refused with an
+:class:`~sparseedm.exceptions.OutputPathError`, and :func:`check_paths`
+refuses any output inside the files shipped with the package.
 """
 
 from __future__ import annotations
@@ -17,14 +26,16 @@ from __future__ import annotations
 import contextlib
 import os
 import re
+import shutil
 import signal
+import stat
 import tempfile
 import threading
 from pathlib import Path
 
 from .exceptions import OutputPathError
 
-__all__ = ["atomic_path", "check_paths", "save_npz", "save_npy", "remove_leftovers", "TEMP_MARK"]
+__all__ = ["atomic_path", "check_paths", "is_stream", "save_npz", "save_npy", "remove_leftovers", "TEMP_MARK"]
 
 #: every temporary file's name holds this (see the module docstring)
 TEMP_MARK = ".sparseedm-tmp-"
@@ -92,6 +103,22 @@ def _pid_alive(pid: int) -> bool:
     return True
 
 
+def _temp_stem(name: str) -> str:
+    """`name` as it appears in its temporaries' names: shortened (with a hash of the
+    whole) when the temporary's name would pass the file systems' limit."""
+    if len(os.fsencode(name)) <= _NAME_MAX - 64:
+        return name
+    import hashlib
+
+    digest = hashlib.sha256(os.fsencode(name)).hexdigest()[:12]
+    return os.fsencode(name)[:120].decode("utf-8", "ignore") + "~" + digest
+
+
+def _temp_suffix(path: Path, suffix) -> str:
+    suffix = suffix or "".join(path.suffixes) or ".tmp"
+    return suffix if len(os.fsencode(suffix)) <= 24 else (path.suffix or ".tmp")[:24]
+
+
 def remove_leftovers(path) -> list[Path]:
     """Remove temporary files that killed writers left beside `path`; return them."""
     path = Path(path)
@@ -99,13 +126,91 @@ def remove_leftovers(path) -> list[Path]:
     with contextlib.suppress(OSError):
         for entry in os.scandir(path.parent):
             m = _LEFTOVER.match(entry.name)
-            if not m or m.group("name") != path.name or not entry.is_file(follow_symlinks=False):
+            if not m or m.group("name") != _temp_stem(path.name) or not entry.is_file(follow_symlinks=False):
                 continue
             if not _pid_alive(int(m.group("pid"))):
                 with contextlib.suppress(OSError):
                     os.unlink(entry.path)
                     removed.append(Path(entry.path))
     return removed
+
+
+#: packages whose files ship with sparseedm: never an output (see check_paths)
+_SHIPPED = ("sparseedm.dictionaries", "sparseedm.lifters")
+#: longest file name most file systems take (bytes); temporaries add to the name
+_NAME_MAX = 255
+
+
+def _through_proc(path: Path) -> bool:
+    """Whether `path` is a symlink whose chain passes through /proc (``/dev/stdout``)."""
+    p = os.path.abspath(path)
+    for _ in range(40):
+        if not os.path.islink(p):
+            return False
+        p = os.path.normpath(os.path.join(os.path.dirname(p), os.readlink(p)))
+        if p.startswith(("/proc/", "/dev/fd/")):
+            return True
+    return False
+
+
+def _target(path: Path):
+    """How to write `path`: ("replace", where) or ("stream", path).
+
+    ``where`` is `path`, or the regular file a symlink at `path` points to.
+    Raises OutputPathError for a directory, block device, socket or other
+    special file: nothing sparseedm writes belongs there.
+    """
+    try:
+        mode = os.stat(path).st_mode  # follows symlinks
+    except (FileNotFoundError, NotADirectoryError):
+        return "replace", path
+    except OSError as exc:
+        raise OutputPathError(f"{path}: cannot write it ({exc.strerror})") from None
+    if stat.S_ISREG(mode):
+        if not os.path.islink(path):
+            return "replace", path
+        if _through_proc(path):
+            return "stream", path
+        return "replace", Path(os.path.realpath(path))
+    if stat.S_ISCHR(mode) or stat.S_ISFIFO(mode):
+        return "stream", path
+    if stat.S_ISDIR(mode):
+        raise OutputPathError(f"{path} is a directory; give a file name")
+    kind = ("a block device" if stat.S_ISBLK(mode) else "a socket" if stat.S_ISSOCK(mode)
+            else "a special file")
+    raise OutputPathError(f"{path} is {kind}, not a regular file: refusing to write over it")
+
+
+def is_stream(path) -> bool:
+    """Whether `path` is a device or pipe an output is written through (never replaced).
+
+    Examples
+    --------
+    >>> is_stream("/dev/null"), is_stream("out.csv")
+    (True, False)
+    """
+    try:
+        return _target(Path(path))[0] == "stream"
+    except OutputPathError:
+        return False
+
+
+def _shipped_dirs() -> list[Path]:
+    from importlib import resources
+
+    dirs = []
+    for package in _SHIPPED:
+        with contextlib.suppress(ModuleNotFoundError, TypeError, OSError):
+            dirs.append(Path(str(resources.files(package))).resolve())
+    return dirs
+
+
+def _shipped(path: Path) -> bool:
+    try:
+        real = Path(os.path.realpath(path))
+    except (OSError, ValueError):
+        return False
+    return any(real.parent == d or d in real.parents for d in _shipped_dirs())
 
 
 def _parent_ok(path: Path):
@@ -163,8 +268,18 @@ def check_paths(inputs=(), outputs=()):
                 raise OutputPathError(
                     f"{label} {out} and {other_label} {other} are the same file: "
                     "give them different names")
-        if out.is_dir():
-            raise OutputPathError(f"{label} {out} is a directory; give a file name")
+        try:
+            kind, _ = _target(out)
+        except OutputPathError as exc:
+            raise OutputPathError(f"{label} {exc}") from None
+        if kind == "replace" and _shipped(out):
+            raise OutputPathError(
+                f"{label} {out} is inside the files shipped with sparseedm: refusing to "
+                "write there; give a path outside the installed package")
+        if len(os.fsencode(out.name)) > _NAME_MAX:
+            raise OutputPathError(
+                f"{label} {out}: the file name is {len(os.fsencode(out.name))} bytes; "
+                f"file systems take at most {_NAME_MAX}")
         _parent_ok(out)
 
 
@@ -189,8 +304,11 @@ def atomic_path(path, suffix=None):
     """
     path = Path(path)
     _parent_ok(path)
-    if path.is_dir():
-        raise OutputPathError(f"{path} is a directory; give a file name")
+    kind, path = _target(path)
+    if kind == "stream":
+        with _streamed(path, suffix) as tmp:
+            yield tmp
+        return
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -198,8 +316,8 @@ def atomic_path(path, suffix=None):
     remove_leftovers(path)
     try:
         fd, tmp = tempfile.mkstemp(
-            prefix=f".{path.name}{TEMP_MARK}{os.getpid()}-",
-            suffix=suffix or "".join(path.suffixes) or ".tmp", dir=path.parent,
+            prefix=f".{_temp_stem(path.name)}{TEMP_MARK}{os.getpid()}-",
+            suffix=_temp_suffix(path, suffix), dir=path.parent,
         )
     except OSError as exc:
         raise OutputPathError(f"{path}: cannot write beside it ({exc.strerror})") from None
@@ -219,6 +337,29 @@ def atomic_path(path, suffix=None):
             os.unlink(tmp)
         raise
     finally:
+        with _lock:
+            _live.discard(tmp)
+            if not _live:
+                _restore()
+
+
+@contextlib.contextmanager
+def _streamed(path: Path, suffix):
+    """A temporary in the system's temporary folder, streamed into `path` on success."""
+    fd, tmp = tempfile.mkstemp(prefix=f"sparseedm-{os.getpid()}-",
+                               suffix=_temp_suffix(path, suffix))
+    os.close(fd)
+    with _lock:
+        if not _live:
+            _install()
+        _live.add(tmp)
+    try:
+        yield tmp
+        with open(tmp, "rb") as src, open(path, "wb") as dst:  # a FIFO waits for its reader
+            shutil.copyfileobj(src, dst, 1 << 20)
+    finally:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(tmp)
         with _lock:
             _live.discard(tmp)
             if not _live:

@@ -44,7 +44,7 @@ import numpy as np
 from .exceptions import ParameterError
 
 __all__ = ["Interval", "Options", "validate_params", "check_poses", "check_mask",
-           "ALPHA", "N_JOBS", "CHUNK_SIZE", "PATH", "BOOLEAN", "THRESHOLD"]
+           "ALPHA", "ALPHA_MIN", "ALPHA_MAX", "N_JOBS", "CHUNK_SIZE", "PATH", "BOOLEAN", "THRESHOLD", "usable_jobs"]
 
 
 class Interval:
@@ -143,13 +143,40 @@ def validate_params(caller, params, constraints):
         raise ParameterError(f"{caller}: {name} must be {must}, got {_show(value)}")
 
 
+#: the lasso penalties the solvers are meaningful for, on vectors of poses normalised
+#: to [-1, 1] (norm at most ~76 for 14 joints): above ALPHA_MAX every code is zero,
+#: below ALPHA_MIN the duality gap cannot be certified (and LARS takes minutes)
+ALPHA_MIN, ALPHA_MAX = 1e-6, 100.0
 #: constraints shared by several functions
-ALPHA = [Interval(Real, 0, None, closed="neither")]
+ALPHA = [Interval(Real, ALPHA_MIN, ALPHA_MAX)]
 N_JOBS = [Interval(Integral, None, -1), Interval(Integral, 1, None), None]
 CHUNK_SIZE = [Interval(Integral, 1, None)]
 PATH = ["path"]
 BOOLEAN = ["boolean"]
 THRESHOLD = [Interval(Real, None, None)]
+
+
+def usable_jobs(n_jobs, n_tasks=None) -> int:
+    """`n_jobs` capped at what can run: this machine's CPUs and the tasks there are.
+
+    ``None`` is 1; a negative count is joblib's (-1 all CPUs, -2 all but one...).
+    A count past the CPUs only adds workers that wait (and joblib fails to start
+    100,000 of them), so ``--jobs 100000`` runs as ``--jobs -1``.
+
+    Examples
+    --------
+    >>> usable_jobs(10**20, n_tasks=3)
+    3
+    >>> usable_jobs(None), usable_jobs(-10**6)
+    (1, 1)
+    """
+    if n_jobs is None:
+        return 1
+    cpus = os.cpu_count() or 1
+    n = min(int(n_jobs), cpus) if n_jobs > 0 else max(cpus + 1 + int(n_jobs), 1)
+    if n_tasks is not None:
+        n = min(n, max(int(n_tasks), 1))
+    return max(n, 1)
 
 
 def check_poses(poses, caller, name="poses"):

@@ -72,11 +72,11 @@ import numpy as np
 
 from numbers import Integral, Real
 
-from ._atomic import atomic_path, check_paths
+from ._atomic import atomic_path, check_paths, is_stream
 from ._validation import (ALPHA, BOOLEAN, CHUNK_SIZE, N_JOBS, PATH, Interval, Options,
                           validate_params)
 from .dictionary import Dictionary, _resolve, load_dictionary
-from .exceptions import FileFormatError, SparseEDMError
+from .exceptions import FileFormatError, OutputPathError, SparseEDMError
 from .keypoints import (N_JOINTS, _EXTENSIONS, _finish, _format_of, _np_load, read_keypoints,
                         write_keypoints)
 from .normalize import REPRESENTATIONS
@@ -93,14 +93,19 @@ _SUFFIX = {"npz": ".npz", "npy": ".npy", "csv": ".csv", "coco": ".json"}
 
 
 def default_errors_path(output) -> Path:
-    """``<output stem>.errors.csv`` beside `output`."""
-    output = Path(output)
-    return output.with_name(output.stem + ".errors.csv")
+    """``<output stem>.errors.csv`` beside `output` (in the current folder when
+    `output` is a device or a pipe, such as ``/dev/null``)."""
+    return _beside(output, ".errors.csv")
 
 
 def _sidecar(output, what) -> Path:
+    return _beside(output, f".{what}.npz")
+
+
+def _beside(output, ending) -> Path:
     output = Path(output)
-    return output.with_name(f"{output.stem}.{what}.npz")
+    name = output.stem + ending
+    return Path(name) if is_stream(output) else output.with_name(name)
 
 
 # --------------------------------------------------------------------------
@@ -170,10 +175,15 @@ class _NpySource:
 
 
 def _output_format(out_path, in_fmt, output_format):
-    if output_format is not None:
-        return _format_of(out_path, output_format)
-    ext = out_path.suffix.lower()
-    return _EXTENSIONS.get(ext, in_fmt)
+    by_name = _EXTENSIONS.get(out_path.suffix.lower())
+    if output_format is None:
+        return by_name or in_fmt
+    fmt = _format_of(out_path, output_format)
+    if by_name is not None and by_name != fmt:
+        raise OutputPathError(
+            f"{out_path}: its extension says {by_name}, the format asked for is "
+            f"{output_format}; give a name that ends in {_SUFFIX[fmt]} (or drop the format)")
+    return fmt
 
 
 # --------------------------------------------------------------------------
@@ -275,12 +285,17 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
             inputs.append(("dictionary", _resolve(dictionary)))
     if isinstance(adapt, (str, os.PathLike)) and adapt != "auto":
         inputs.append(("adaptation poses", Path(adapt)))
+    if isinstance(model, (str, os.PathLike)):
+        inputs.append(("model", Path(model)))
     outputs = [("output", out_path), ("errors file", errors_path),
                ("saved dictionary", save_dictionary)]
     if out_fmt == "npy":
         outputs.append(("status sidecar", _sidecar(out_path, "status")))
     elif save_edm and out_fmt != "npz":
         outputs.append(("edm sidecar", _sidecar(out_path, "edm")))
+    if save_dictionary is not None and Path(save_dictionary).suffix != ".npz":
+        raise OutputPathError(f"saved dictionary {save_dictionary}: a dictionary file must "
+                              "end in .npz")
     check_paths(inputs, outputs)
     if not isinstance(dictionary, Dictionary):
         dictionary = load_dictionary(dictionary)

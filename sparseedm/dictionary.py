@@ -31,7 +31,7 @@ from . import __version__
 from ._atomic import save_npz
 from ._safeio import load_npz_file, parse_meta
 from ._shipped import resolve_shipped, shipped_names
-from ._validation import Interval, validate_params
+from ._validation import ALPHA_MAX, ALPHA_MIN, Interval, validate_params
 from .edm import num_joints_from_dim
 from .exceptions import DictionaryError, PoseError
 from .skeleton import JOINT_NAMES
@@ -231,6 +231,11 @@ _META_TYPES = {  # field -> (kind, required)
     "provenance": (dict, False),
     "library_version": (str, False),
 }
+#: metadata fields with a closed set of values (anything else would be applied as
+#: if it were the one rule recovery knows); normalization: "bbox" or "bbox: ..."
+#: (the rule spelled out), or "" for files that predate the field
+_META_CHOICES = {"alpha_scaling": ("entries", "none"),
+                 "representation": ("complete", "average", "zero")}
 _PROVENANCE_TYPES = {"files": list, "n_poses": Integral, "sha256": str, "sha256_of": str}
 
 
@@ -251,8 +256,19 @@ def _check_meta(meta, where):
                 f"{where}: metadata {key!r} must be {kind.__name__.lower()}, got "
                 f"{type(value).__name__} {str(value)[:40]!r}")
     for key in ("alpha_recover", "alpha_train"):
-        if not (np.isfinite(meta[key]) and meta[key] > 0):
-            raise DictionaryError(f"{where}: metadata {key!r} must be > 0, got {meta[key]!r}")
+        if not (np.isfinite(meta[key]) and ALPHA_MIN <= meta[key] <= ALPHA_MAX):
+            raise DictionaryError(f"{where}: metadata {key!r} must be in [{ALPHA_MIN:g}, "
+                                  f"{ALPHA_MAX:g}] (where the lasso is meaningful), got "
+                                  f"{meta[key]!r}")
+    for key, allowed in _META_CHOICES.items():
+        if key in meta and meta[key] not in allowed:
+            raise DictionaryError(f"{where}: metadata {key!r} must be one of "
+                                  f"{', '.join(map(repr, allowed))}, got {str(meta[key])[:40]!r}")
+    norm = meta.get("normalization", "")
+    if not (norm in ("", "bbox") or norm.startswith("bbox:")):
+        raise DictionaryError(
+            f"{where}: metadata 'normalization' must be 'bbox' (the [-1, 1] bounding-box "
+            f"normalisation recovery applies), got {norm[:40]!r}")
     for key, kind in _PROVENANCE_TYPES.items():
         value = meta.get("provenance", {}).get(key)
         if value is not None and (not isinstance(value, kind) or isinstance(value, bool)):

@@ -38,7 +38,7 @@ from joblib import Parallel, delayed, parallel_config
 from threadpoolctl import threadpool_limits
 
 from ._validation import (ALPHA, BOOLEAN, CHUNK_SIZE, N_JOBS, Interval, Options,
-                          check_mask, check_poses, validate_params)
+                          check_mask, check_poses, usable_jobs, validate_params)
 from .dictionary import Dictionary, check_layout, load_dictionary
 from .edm import observed_entries, vector_to_edm
 from .exceptions import PoseError, SparseEDMError
@@ -60,6 +60,7 @@ STATUSES = {
     "invalid_coordinates": "an observed coordinate is infinite, or NaN where the mask says observed",
     "degenerate": "all observed joints coincide: the pose cannot be normalised",
     "out_of_range": "the observed joints' extent overflows float64 or is subnormal: rescale them",
+    "empty_code": "the lasso chose no atom (alpha too large for this pose): nothing recovered",
 }
 _OK = ("recovered", "inaccurate", "complete")
 
@@ -484,7 +485,8 @@ def _recover(poses, missing=None, *, dictionary=None, alpha=None,
     todo = todo[order]
     observed = observed_entries(mask[todo])
     m_obs = observed.sum(axis=1)
-    alpha_eff = alpha * (m_obs / m if dictionary.alpha_scaling == "entries" else 1.0)
+    alpha_eff = alpha * (m_obs / m if dictionary.alpha_scaling == "entries"
+                         else np.ones(len(m_obs)))
     tasks = _chunk_tasks(np.arange(len(todo)), chunk_size, n_jobs, backend)
     results = _run_tasks(solver, components, vectors[todo], observed, alpha_eff, tasks,
                          positive, dict_key, n_jobs, progress, backend, scheduler)
@@ -494,8 +496,14 @@ def _recover(poses, missing=None, *, dictionary=None, alpha=None,
         objective[chunk], gap[chunk], n_active[chunk], fallback[chunk] = obj, g, act, fb
         status[chunk] = np.where(st == "optimal", "recovered",
                                  np.where(st == "failed", "solver_failed", "inaccurate"))
-    failed = status == "solver_failed"
-    reason[failed] = "solver status not optimal"
+    empty = np.zeros(n, dtype=bool)
+    empty[todo] = n_active[todo] == 0
+    empty &= np.isin(status, ("recovered", "inaccurate"))
+    status[empty] = "empty_code"  # every distance would come back 0: not an answer
+    reason[empty] = (f"the lasso chose no atom at alpha {alpha:g}: lower alpha (the "
+                     f"dictionary recommends {dictionary.alpha_recover:g})")
+    failed = (status == "solver_failed") | empty
+    reason[status == "solver_failed"] = "solver status not optimal"
     vectors[failed] = np.nan
     reason[status == "inaccurate"] = "duality gap above tolerance"
 
@@ -542,6 +550,8 @@ def _run_tasks(solver, components, X, observed, alpha_eff, tasks, positive, key,
     from tqdm.auto import tqdm
 
     distributed = backend == "dask"
+    if not distributed and n_jobs is not None:
+        n_jobs = usable_jobs(n_jobs, len(tasks))  # --jobs 100000 runs what can run
     threads = None if (n_jobs in (None, 1) and not distributed) else 1
     calls = (
         delayed(_solve_chunk)(solver, components, X[t], observed[t], alpha_eff[t], positive,

@@ -3,6 +3,11 @@
 Each sub-command lives in its own module with two functions,
 ``add_parser(subparsers)`` and ``run(args) -> int``; this module only wires
 them together, so ``main([...])`` is what the tests call.
+
+Exit codes, one per outcome: 0 every row done, 1 some rows refused (outputs
+written, the errors file lists them), 2 bad input or arguments (nothing
+written), 3 an internal error (a bug: one line on stderr; ``--debug`` prints
+the traceback), 130 interrupted.
 """
 
 from __future__ import annotations
@@ -10,6 +15,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
+import traceback
 
 from .. import __version__
 from ..exceptions import SparseEDMError
@@ -18,13 +24,22 @@ from ..exceptions import SparseEDMError
 COMMANDS = ("dataset", "fit", "info", "recover", "evaluate", "fit_cnn", "fit_lifter", "lift",
             "evaluate_lift")
 
+#: exit codes (see the module docstring)
+EXIT_OK, EXIT_REFUSED_ROWS, EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
+_EPILOG = ("exit codes: 0 every row done; 1 some rows refused (outputs written, the errors "
+           "file lists them); 2 bad input or arguments (nothing written); 3 internal error "
+           "(a bug: rerun with --debug for the traceback); 130 interrupted")
+
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="sparseedm",
         description="Recover occluded 2D pose joints from distance matrices by sparse coding.",
+        epilog=_EPILOG,
     )
     parser.add_argument("--version", action="version", version=f"sparseedm {__version__}")
+    parser.add_argument("--debug", action="store_true",
+                        help="print the traceback of an internal error (exit code 3)")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in COMMANDS:
         try:
@@ -34,24 +49,47 @@ def build_parser() -> argparse.ArgumentParser:
                 raise
             continue  # a command not built yet
         module.add_parser(sub)
+    for command in sub.choices.values():  # --debug after the command's name too
+        command.epilog = command.epilog or _EPILOG
+        command.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                             help="print the traceback of an internal error (exit code 3)")
     return parser
 
 
 def main(argv=None) -> int:
-    """Run the CLI; returns the exit code (0 ok, 1 partial failure, 2 bad input)."""
+    """Run the CLI; returns the exit code (0 ok, 1 some rows refused, 2 bad input,
+    3 internal error, 130 interrupted)."""
     parser = build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
         parser.print_help()
-        return 2
+        return EXIT_BAD_INPUT
     try:
         return int(args.func(args) or 0)
     except (SparseEDMError, OSError) as exc:  # bad input, or a file that cannot be made
-        print(f"sparseedm {args.command}: error: {exc}", file=sys.stderr)
-        return 2
+        print(f"sparseedm {args.command}: error: {_one_line(exc)}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     except KeyboardInterrupt:
         print(f"sparseedm {args.command}: interrupted", file=sys.stderr)
-        return 130
+        return EXIT_INTERRUPTED
+    except Exception as exc:  # noqa: BLE001 - a bug must never read as rows refused
+        return _internal_error(args, exc)
+
+
+def _one_line(exc) -> str:
+    return " ".join(str(exc).split()) or type(exc).__name__
+
+
+def _internal_error(args, exc) -> int:
+    """One line on stderr (the traceback with --debug); exit code 3."""
+    if getattr(args, "debug", False):
+        traceback.print_exc()
+    what = "out of memory" if isinstance(exc, MemoryError) else type(exc).__name__
+    print(f"sparseedm {args.command}: internal error ({what}: {_one_line(exc)[:300]}); "
+          "this is a bug, please report it" + ("" if getattr(args, "debug", False) else
+                                               " with the output of --debug"),
+          file=sys.stderr)
+    return EXIT_INTERNAL
 
 
 if __name__ == "__main__":  # pragma: no cover

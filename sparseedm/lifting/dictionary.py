@@ -43,6 +43,7 @@ import numpy as np
 from joblib import Parallel, delayed
 from threadpoolctl import threadpool_limits
 
+from .._validation import usable_jobs
 from ..edm import num_joints_from_dim, observed_entries
 from ..learning import OnlineDictionaryLearning
 from ..solvers import get_solver
@@ -196,7 +197,8 @@ class DictionaryLifter(Lifter):
                                                 key=key))
 
         with threadpool_limits(1, user_api="blas"):
-            if n_jobs in (None, 1):
+            n_jobs = usable_jobs(n_jobs, len(tasks))
+            if n_jobs == 1:
                 return [run(t) for t in tasks]
             return Parallel(n_jobs=n_jobs, backend="threading")(delayed(run)(t) for t in tasks)
 

@@ -46,7 +46,12 @@ def _num(v):
 
 
 def _output_format(path, output_format):
-    fmt = output_format or OUTPUT_FORMATS.get(Path(path).suffix.lower())
+    by_name = OUTPUT_FORMATS.get(Path(path).suffix.lower())
+    if output_format and by_name and output_format != by_name:
+        raise FileFormatError(f"{path}: its extension says {by_name}, the format asked for "
+                              f"is {output_format}; give a name that ends in .{output_format} "
+                              "(or drop the format)")
+    fmt = output_format or by_name
     if fmt not in OUTPUT_FORMATS.values():
         raise FileFormatError(f"{path}: cannot tell the output format; use .csv, .npz or "
                               ".json or pass --format")
@@ -99,8 +104,9 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
     errors = Path(errors_path) if errors_path else default_errors_path(output)
     _output_format(output, output_format)
     inputs = [("input", input)]
-    if isinstance(lifter, (str, os.PathLike)) and Path(lifter).suffix == ".npz":
-        inputs.append(("lifter", lifter))
+    if isinstance(lifter, (str, os.PathLike)) and (Path(lifter).suffix == ".npz"
+                                                    or os.path.lexists(lifter)):
+        inputs.append(("lifter", lifter))  # whatever its name: a file the run reads
     check_paths(inputs, [("output", output), ("errors file", errors)])
     kps = read_keypoints(input, confidence_threshold=confidence_threshold)
     result = lift(kps.poses, kps.missing, lifter=lifter, n_jobs=n_jobs,

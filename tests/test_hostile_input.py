@@ -1,0 +1,297 @@
+"""Issue #25: files that are not files, refusals that come late, answers that only
+look right, crashes on valid but extreme input.
+
+Device nodes and named pipes are made in pytest's temporary folder, never the
+system's (``os.mknod`` needs root: those tests skip without it), and every test
+asserts they are still what they were after the run.
+"""
+
+from __future__ import annotations
+
+import os
+import stat
+import threading
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sparseedm._atomic import atomic_path, check_paths
+from sparseedm.cli import main
+from sparseedm.exceptions import OutputPathError
+from sparseedm.keypoints import read_keypoints, write_keypoints
+from sparseedm.metrics import random_occlusion
+
+N = 12
+
+
+@pytest.fixture(scope="module")
+def occluded(cmu_poses):
+    poses = cmu_poses[::13][:N].copy()
+    missing = random_occlusion(N, 14, "mix", random_state=5)
+    poses[missing] = np.nan
+    return poses
+
+
+@pytest.fixture
+def good_csv(tmp_path, occluded):
+    path = tmp_path / "good.csv"
+    write_keypoints(path, occluded)
+    return path
+
+
+def _null_device(folder: Path) -> Path:
+    """A character device like /dev/null (1, 3), made in `folder` (root only)."""
+    if os.geteuid() != 0:
+        pytest.skip("making a device node needs root")
+    node = folder / "null"
+    os.mknod(node, 0o666 | stat.S_IFCHR, os.makedev(1, 3))
+    return node
+
+
+def _is_char_device(path) -> bool:
+    return stat.S_ISCHR(os.lstat(path).st_mode)
+
+
+def _read_fifo(path, into):
+    """Start a reader on the FIFO `path` (as a shell's `cat fifo` would)."""
+    thread = threading.Thread(target=lambda: into.append(Path(path).read_bytes()),
+                              daemon=True)
+    thread.start()
+    return thread
+
+
+# --------------------------------------------------------------------------
+# 1. write only regular files, only where asked
+
+
+def test_output_to_a_device_is_written_through(tmp_path, good_csv, small_dictionary_path):
+    node = _null_device(tmp_path)
+    code = main(["recover", str(good_csv), "-o", str(node), "--dictionary",
+                 str(small_dictionary_path), "--no-adapt", "--quiet"])
+    assert code in (0, 1)
+    assert _is_char_device(node)          # still the device, not a regular file
+    assert not any(p.name.startswith(".null") for p in tmp_path.iterdir())
+
+
+def test_errors_file_on_a_device_stays_a_device(tmp_path, good_csv, small_dictionary_path):
+    node = _null_device(tmp_path)
+    poses = read_keypoints(good_csv).poses
+    poses[0, 2:] = np.nan                   # one row refused: the errors file is written
+    write_keypoints(good_csv, poses)
+    code = main(["recover", str(good_csv), "-o", str(tmp_path / "o.csv"), "--errors",
+                 str(node), "--dictionary", str(small_dictionary_path), "--no-adapt",
+                 "--quiet"])
+    assert code == 1
+    assert _is_char_device(node)
+    assert len(read_keypoints(tmp_path / "o.csv")) == N
+
+
+def test_symlink_to_a_device_is_kept(tmp_path, good_csv, small_dictionary_path):
+    node = _null_device(tmp_path)
+    link = tmp_path / "stdout"
+    link.symlink_to(node)
+    main(["recover", str(good_csv), "-o", str(link), "--dictionary",
+          str(small_dictionary_path), "--no-adapt", "--quiet"])
+    assert link.is_symlink() and _is_char_device(node)
+
+
+def test_output_to_a_fifo_reaches_its_reader(tmp_path, good_csv, small_dictionary_path):
+    fifo = tmp_path / "out.csv"
+    os.mkfifo(fifo)
+    got = []
+    reader = _read_fifo(fifo, got)
+    code = main(["recover", str(good_csv), "-o", str(fifo), "--dictionary",
+                 str(small_dictionary_path), "--no-adapt", "--quiet"])
+    reader.join(timeout=60)
+    assert code in (0, 1)
+    assert stat.S_ISFIFO(os.lstat(fifo).st_mode)
+    (tmp_path / "copy.csv").write_bytes(got[0])
+    assert len(read_keypoints(tmp_path / "copy.csv")) == N
+
+
+def test_atomic_path_streams_into_a_fifo_and_keeps_it(tmp_path):
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    got = []
+    reader = _read_fifo(fifo, got)
+    with atomic_path(fifo) as tmp:
+        Path(tmp).write_text("a,b\n1,2\n")
+    reader.join(timeout=60)
+    assert got == [b"a,b\n1,2\n"] and stat.S_ISFIFO(os.lstat(fifo).st_mode)
+
+
+def test_symlink_to_a_regular_file_keeps_the_link(tmp_path):
+    target = tmp_path / "real.csv"
+    target.write_text("old")
+    link = tmp_path / "link.csv"
+    link.symlink_to(target)
+    with atomic_path(link) as tmp:
+        Path(tmp).write_text("new")
+    assert link.is_symlink() and target.read_text() == "new"
+
+
+def test_socket_and_block_device_refused(tmp_path):
+    import socket
+
+    sock_path = tmp_path / "s.csv"
+    with socket.socket(socket.AF_UNIX) as s:
+        s.bind(str(sock_path))
+        with pytest.raises(OutputPathError, match="is a socket, not a regular file"):
+            check_paths([], [("-o", sock_path)])
+        with pytest.raises(OutputPathError, match="socket"):
+            with atomic_path(sock_path) as tmp:
+                Path(tmp).write_text("x")
+        assert stat.S_ISSOCK(os.lstat(sock_path).st_mode)
+    if os.geteuid() == 0:
+        blk = tmp_path / "disk"
+        os.mknod(blk, 0o600 | stat.S_IFBLK, os.makedev(7, 200))
+        with pytest.raises(OutputPathError, match="block device"):
+            check_paths([], [("-o", blk)])
+        assert stat.S_ISBLK(os.lstat(blk).st_mode)
+
+
+def test_lifter_path_is_an_input_whatever_its_name(tmp_path, good_csv):
+    from sparseedm.lifting.base import _resolve
+
+    lifter = tmp_path / "L"
+    lifter.write_bytes(Path(_resolve(None)).read_bytes())
+    before = lifter.read_bytes()
+    code = main(["lift", str(good_csv), "-o", str(lifter), "--lifter", str(lifter),
+                 "--format", "csv", "--quiet"])
+    assert code == 2 and lifter.read_bytes() == before
+
+
+def test_shipped_dictionary_is_never_a_write_target(tmp_path, good_csv,
+                                                    small_dictionary_path, capsys):
+    from sparseedm.dictionary import _resolve
+
+    shipped = Path(_resolve(None))
+    stamp = shipped.stat().st_mtime_ns
+    # checked first, so that a regression fails here before anything is written
+    with pytest.raises(OutputPathError, match="shipped with sparseedm"):
+        check_paths([], [("--save-dictionary", shipped)])
+    code = main(["recover", str(good_csv), "-o", str(tmp_path / "o.csv"), "--dictionary",
+                 str(small_dictionary_path), "--no-adapt", "--quiet",
+                 "--save-dictionary", str(shipped)])
+    assert code == 2 and "shipped with sparseedm" in capsys.readouterr().err
+    assert shipped.stat().st_mtime_ns == stamp and not (tmp_path / "o.csv").exists()
+
+
+def test_long_output_name_is_written(tmp_path):
+    out = tmp_path / ("p" * 240 + ".csv")
+    with atomic_path(out) as tmp:
+        Path(tmp).write_text("x")
+    assert out.read_text() == "x" and [p.name for p in tmp_path.iterdir()] == [out.name]
+
+
+# --------------------------------------------------------------------------
+# 2. one exit code per outcome
+
+
+def test_internal_error_has_its_own_exit_code(tmp_path, good_csv, monkeypatch, capsys):
+    import sparseedm.batch
+
+    def broken(*args, **kwargs):
+        raise TypeError("unsupported operand type(s) for *: 'float' and 'str'")
+
+    monkeypatch.setattr(sparseedm.batch, "recover_file", broken)
+    argv = ["recover", str(good_csv), "-o", str(tmp_path / "o.csv"), "--quiet"]
+    assert main(argv) == 3
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "internal error (TypeError" in err
+    assert "Traceback" not in err
+    assert main([*argv, "--debug"]) == 3
+    assert "Traceback" in capsys.readouterr().err
+
+
+def test_help_documents_the_exit_codes(capsys):
+    with pytest.raises(SystemExit):
+        main(["recover", "--help"])
+    assert "3 internal error" in " ".join(capsys.readouterr().out.split())
+
+
+def test_late_save_dictionary_refusal_writes_nothing(tmp_path, good_csv,
+                                                     small_dictionary_path, capsys):
+    out = tmp_path / "o.csv"
+    code = main(["recover", str(good_csv), "-o", str(out), "--dictionary",
+                 str(small_dictionary_path), "--quiet", "--save-dictionary",
+                 str(tmp_path / "d.csv")])
+    assert code == 2 and not out.exists() and not (tmp_path / "d.csv").exists()
+    assert "must end in .npz" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("jobs", ["100000", "99999999999999999999"])
+def test_jobs_past_the_machine_run_what_can_run(tmp_path, good_csv, small_dictionary_path,
+                                                jobs):
+    out = tmp_path / "o.csv"
+    code = main(["recover", str(good_csv), "-o", str(out), "--dictionary",
+                 str(small_dictionary_path), "--no-adapt", "--quiet", "--jobs", jobs])
+    assert code in (0, 1) and len(read_keypoints(out)) == N
+
+
+def test_api_n_jobs_past_the_machine(occluded, small_dictionary):
+    from sparseedm import recover
+
+    res = recover(occluded[:4], dictionary=small_dictionary, n_jobs=100000, adapt=False)
+    ref = recover(occluded[:4], dictionary=small_dictionary, adapt=False)
+    assert np.array_equal(res.status, ref.status)
+    np.testing.assert_allclose(res.poses, ref.poses, atol=1e-9)
+
+
+# --------------------------------------------------------------------------
+# 3-4. valid but extreme values; answers that only look right
+
+
+def test_alpha_scaling_none_recovers(occluded, small_dictionary):
+    from dataclasses import replace
+
+    from sparseedm import recover
+
+    flat = replace(small_dictionary, alpha_scaling="none")
+    res = recover(occluded[:5], dictionary=flat, adapt=False)
+    assert set(res.status) <= {"recovered", "inaccurate", "complete"}
+
+
+@pytest.mark.parametrize("alpha", ["1e308", "5e-324", "1000"])
+def test_alpha_outside_the_solvers_range_is_bad_input(tmp_path, good_csv,
+                                                      small_dictionary_path, alpha, capsys):
+    out = tmp_path / "o.csv"
+    code = main(["recover", str(good_csv), "-o", str(out), "--dictionary",
+                 str(small_dictionary_path), "--no-adapt", "--quiet", "--alpha", alpha])
+    assert code == 2 and not out.exists()
+    assert "alpha must be a real number in [1e-06, 100.0]" in capsys.readouterr().err
+
+
+def test_all_zero_code_is_not_recovered(occluded, small_dictionary):
+    from sparseedm import recover
+    from sparseedm.recovery import STATUSES
+
+    res = recover(occluded, dictionary=small_dictionary, alpha=100.0, adapt=False)
+    incomplete = np.isnan(occluded).any(axis=(1, 2))
+    assert incomplete.any()
+    assert (res.status[incomplete] == "empty_code").all()
+    assert np.isnan(res.poses[incomplete]).all(axis=(1, 2)).all()
+    assert "alpha" in res.reason[incomplete][0] and "empty_code" in STATUSES
+
+
+@pytest.mark.parametrize("field, value", [("normalization", "zscore"),
+                                          ("representation", "bogus"),
+                                          ("alpha_scaling", "sqrt"),
+                                          ("alpha_recover", 1e300)])
+def test_dictionary_meta_outside_its_closed_set_is_refused(tmp_path, small_dictionary,
+                                                          field, value):
+    import json
+
+    from sparseedm.dictionary import load_dictionary
+    from sparseedm.exceptions import DictionaryError
+
+    path = small_dictionary.save(tmp_path / "d.npz")
+    with np.load(path) as z:
+        arrays = dict(z)
+    meta = json.loads(str(arrays["meta"]))
+    meta[field] = value
+    arrays["meta"] = np.array(json.dumps(meta))
+    np.savez(path, **arrays)
+    with pytest.raises(DictionaryError, match=f"metadata '{field}' must be"):
+        load_dictionary(path)
