@@ -165,8 +165,8 @@ def usable_jobs(n_jobs, n_tasks=None) -> int:
 
     Examples
     --------
-    >>> usable_jobs(10**20, n_tasks=3)
-    3
+    >>> usable_jobs(10**20) == (os.cpu_count() or 1), usable_jobs(10**20, n_tasks=1)
+    (True, 1)
     >>> usable_jobs(None), usable_jobs(-10**6)
     (1, 1)
     """
