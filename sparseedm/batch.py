@@ -76,9 +76,13 @@ from ._atomic import atomic_path, check_paths, is_stream
 from ._validation import (ALPHA, BOOLEAN, CHUNK_SIZE, N_JOBS, PATH, Interval, Options,
                           validate_params)
 from .dictionary import Dictionary, _resolve, load_dictionary
+from ._safeio import resolved
 from .exceptions import FileFormatError, OutputPathError, SparseEDMError
-from .keypoints import (N_JOINTS, _EXTENSIONS, _finish, _format_of, _np_load, read_keypoints,
-                        write_keypoints)
+from .formats import FILLED_SCORE
+from .formats import FORMATS as FOLDER_OR_TABLE_FORMATS
+from .keypoints import (N_JOINTS, _EXTENSIONS, _finish, _format_of, _np_load,
+                        read_keypoints, write_keypoints)
+from .keypoints import output_format as keypoint_output_format
 from .normalize import REPRESENTATIONS
 from .recovery import STATUSES, _OK, recover
 from .skeleton import JOINT_NAMES
@@ -115,8 +119,9 @@ def _beside(output, ending) -> Path:
 class _MemorySource:
     """Keypoints read whole by :func:`read_keypoints` (csv, npz, COCO json)."""
 
-    def __init__(self, path, fmt, threshold):
-        self.kps = read_keypoints(path, format=fmt, confidence_threshold=threshold)
+    def __init__(self, path, fmt, threshold, joint_map=None):
+        self.kps = read_keypoints(path, format=fmt, confidence_threshold=threshold,
+                                  joint_map=joint_map)
         self.n = len(self.kps)
         self.ids = self.kps.ids
         self.meta = self.kps.meta
@@ -175,15 +180,23 @@ class _NpySource:
 
 
 def _output_format(out_path, in_fmt, output_format):
-    by_name = _EXTENSIONS.get(out_path.suffix.lower())
+    ext = out_path.suffix.lower()
+    named = ext in _EXTENSIONS or ext in (".h5", ".hdf5", ".hdf")
     if output_format is None:
-        return by_name or in_fmt
+        return keypoint_output_format(out_path, None, in_fmt) if named else in_fmt
     fmt = _format_of(out_path, output_format)
+    by_name = keypoint_output_format(out_path, None, fmt) if named else None
     if by_name is not None and by_name != fmt:
         raise OutputPathError(
             f"{out_path}: its extension says {by_name}, the format asked for is "
-            f"{output_format}; give a name that ends in {_SUFFIX[fmt]} (or drop the format)")
+            f"{output_format}; give a name that ends in {_SUFFIX.get(fmt, 'its extension')} "
+            "(or drop the format)")
     return fmt
+
+
+def _is_folder(out_path, out_fmt):
+    """An OpenPose output without ``.json`` is a folder of frame files."""
+    return out_fmt == "openpose" and out_path.suffix.lower() != ".json"
 
 
 # --------------------------------------------------------------------------
@@ -195,7 +208,8 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
                  errors_path=None, progress=False, save_edm=False,
                  confidence_threshold=0.0, backend=None, scheduler=None,
                  method="sparse", model=None, adapt="auto", save_dictionary=None,
-                 self_training=None, ensemble=1):
+                 self_training=None, ensemble=1, joint_map=None,
+                 filled_score=FILLED_SCORE):
     """Recover every pose of a keypoint file and write the filled poses.
 
     Parameters
@@ -245,6 +259,10 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
         Adapted dictionaries to average (seeds 0, 1, ...; see
         :mod:`sparseedm.ensemble`): every chunk is recovered with each.
         ``save_dictionary`` writes the first.
+    joint_map : str or path-like, optional
+        DeepLabCut input: the joints map file (:mod:`sparseedm.formats.deeplabcut`).
+    filled_score : float, default 0.0
+        The score filled joints are written with (OpenPose, MMPose, DeepLabCut).
 
     Returns
     -------
@@ -268,7 +286,8 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
         errors_path=errors_path, progress=progress,
         save_edm=save_edm, confidence_threshold=confidence_threshold, backend=backend,
         scheduler=scheduler, method=method, save_dictionary=save_dictionary,
-        self_training=self_training, ensemble=ensemble), _PARAMS)
+        self_training=self_training, ensemble=ensemble, joint_map=joint_map,
+        filled_score=filled_score), _PARAMS)
     if method == "fconv" and ensemble > 1:
         raise SparseEDMError("ensemble averages adapted dictionaries: it needs "
                              "method='sparse'")
@@ -289,14 +308,21 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
         inputs.append(("model", Path(model)))
     outputs = [("output", out_path), ("errors file", errors_path),
                ("saved dictionary", save_dictionary)]
-    if out_fmt == "npy":
+    if out_fmt in ("npy", "dlc"):
         outputs.append(("status sidecar", _sidecar(out_path, "status")))
     elif save_edm and out_fmt != "npz":
         outputs.append(("edm sidecar", _sidecar(out_path, "edm")))
     if save_dictionary is not None and Path(save_dictionary).suffix != ".npz":
         raise OutputPathError(f"saved dictionary {save_dictionary}: a dictionary file must "
                               "end in .npz")
-    check_paths(inputs, outputs)
+    if _is_folder(out_path, out_fmt):  # a folder output may exist (an earlier run)
+        for label, path in inputs:
+            if resolved(path) == resolved(out_path):
+                raise OutputPathError(f"output {out_path} is the {label} {path}: refusing "
+                                      "to overwrite it")
+        check_paths(inputs, [("output", out_path / "frame.json")] + outputs[1:])
+    else:
+        check_paths(inputs, outputs)
     if not isinstance(dictionary, Dictionary):
         dictionary = load_dictionary(dictionary)
     try:
@@ -311,7 +337,12 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
         model = load_model(model, representation=representation, kind="recover")
 
     source = _NpySource(in_path, confidence_threshold) if in_fmt == "npy" else \
-        _MemorySource(in_path, in_fmt, confidence_threshold)
+        _MemorySource(in_path, in_fmt, confidence_threshold, joint_map)
+    if out_fmt == "openpose" and not _is_folder(out_path, out_fmt) and \
+            source.meta.get("openpose_folder"):
+        source.close()
+        raise FileFormatError(f"{out_path}: a folder of OpenPose frames is written as a "
+                              "folder; give an output path without .json")
     try:
         if method == "sparse":
             members, adaptation = _adapt(source, dictionary, adapt, chunk_size,
@@ -321,7 +352,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
             members, adaptation = [dictionary], None
         summary = _run(source, in_fmt, out_path, out_fmt, errors_path, members, alpha,
                        representation, solver, n_jobs, chunk_size, progress, save_edm, t0,
-                       backend, scheduler, method, model)
+                       backend, scheduler, method, model, filled_score)
     finally:
         source.close()
     summary["adaptation"] = adaptation.summary() if adaptation is not None else None
@@ -371,6 +402,8 @@ _PARAMS = {
     "n_jobs": N_JOBS, "chunk_size": CHUNK_SIZE,
     "errors_path": PATH + [None], "progress": BOOLEAN, "save_edm": BOOLEAN,
     "confidence_threshold": [Interval(Real, None, None)],
+    "joint_map": PATH + [None],
+    "filled_score": [Interval(Real, None, None)],
     "backend": [Options(("loky", "threading", "multiprocessing", "dask")), None],
     "scheduler": PATH + [None],
     "method": [Options(("sparse", "fconv"))],
@@ -382,7 +415,8 @@ _PARAMS = {
 
 def _run(source, in_fmt, out_path, out_fmt, errors_path, members, alpha,
          representation, solver, n_jobs, chunk_size, progress, save_edm, t0,
-         backend=None, scheduler=None, method="sparse", model=None):
+         backend=None, scheduler=None, method="sparse", model=None,
+         filled_score=FILLED_SCORE):
     from tqdm.auto import tqdm
 
     from .ensemble import combine
@@ -405,9 +439,10 @@ def _run(source, in_fmt, out_path, out_fmt, errors_path, members, alpha,
     with contextlib.ExitStack() as stack:
         # the temporary file gets the format's extension whatever the output's
         # name: numpy would otherwise append ".npz" / ".npy" to it
-        out_tmp = stack.enter_context(atomic_path(out_path, suffix=_SUFFIX[out_fmt]))
+        out_tmp = out_path if _is_folder(out_path, out_fmt) else stack.enter_context(
+            atomic_path(out_path, suffix=_SUFFIX.get(out_fmt, out_path.suffix or ".tmp")))
         sidecars = {}
-        if out_fmt == "npy":
+        if out_fmt in ("npy", "dlc"):
             sidecars["status"] = _sidecar(out_path, "status")
         elif save_edm and out_fmt != "npz":
             sidecars["edm"] = _sidecar(out_path, "edm")
@@ -455,7 +490,8 @@ def _run(source, in_fmt, out_path, out_fmt, errors_path, members, alpha,
         fields = {"status": status, "reason": reason, "objective": objective, "gap": gap,
                   "n_active": n_active}
         ids = source.ids
-        _write_output(out_tmp, out_fmt, filled, ids, source.meta, in_fmt, fields, edm)
+        _write_output(out_tmp, out_fmt, filled, ids, source.meta, in_fmt, fields, edm,
+                      filled_score, getattr(source, "kps", None))
         if "status" in sidecars:
             extra = dict(fields)
             if ids is not None:
@@ -490,7 +526,14 @@ def _run(source, in_fmt, out_path, out_fmt, errors_path, members, alpha,
     }
 
 
-def _write_output(tmp, fmt, filled, ids, meta, in_fmt, fields, edm):
+def _write_output(tmp, fmt, filled, ids, meta, in_fmt, fields, edm,
+                  filled_score=FILLED_SCORE, kps=None):
+    if fmt in FOLDER_OR_TABLE_FORMATS:  # status in each person's "sparseedm" object
+        write_keypoints(tmp, filled, format=fmt, ids=ids, meta=meta,
+                        filled_score=filled_score, row_fields=fields,
+                        tracks=None if kps is None else kps.tracks,
+                        frames=None if kps is None else kps.frames)
+        return
     if fmt == "npy":
         if len(filled) == 0:
             with open(tmp, "wb") as f:

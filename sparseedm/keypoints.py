@@ -139,8 +139,10 @@ import numpy as np
 
 from ._atomic import atomic_path, save_npy, save_npz
 from ._safeio import load_json, load_npy, load_npz, text_lines
+from . import formats
 from ._validation import Interval, check_poses, validate_params
 from .exceptions import FileFormatError, PoseError
+from .formats import posetrack
 from .skeleton import JOINT_NAMES, SKELETON_14
 
 __all__ = [
@@ -148,17 +150,19 @@ __all__ = [
     "read_keypoints",
     "write_keypoints",
     "FORMATS",
+    "output_format",
     "COCO_KEYPOINTS",
     "COCO_TO_14",
     "HEAD_TOP_FACTOR",
 ]
 
-#: Formats, by the name ``format=`` accepts.
-FORMATS = ("npz", "npy", "csv", "coco")
+#: Formats, by the name ``format=`` accepts (the last three: :mod:`sparseedm.formats`).
+FORMATS = ("npz", "npy", "csv", "coco") + formats.FORMATS
 #: Per-row result arrays of :func:`sparseedm.batch.recover_file` an ``.npz`` keeps.
 RESULT_FIELDS = ("status", "reason", "objective", "gap", "n_active", "edm_vectors",
                  "center", "scale")
 _EXTENSIONS = {".npz": "npz", ".npy": "npy", ".csv": "csv", ".json": "coco"}
+_H5 = (".h5", ".hdf5", ".hdf")
 
 N_JOINTS = SKELETON_14.num_joints
 
@@ -202,6 +206,8 @@ class KeypointSet:
         person over time. Any values numpy can compare (ints or strings).
     frames : ndarray of int, shape (n,), optional
         Frame number of each pose within its track (may skip and be unsorted).
+    filled : ndarray of bool, shape (n, 14), optional
+        Joints the file flags as filled by sparseedm (read as present).
     meta : dict
         Format details for writing the file back (see the module docstring).
 
@@ -220,6 +226,7 @@ class KeypointSet:
     meta: dict = field(default_factory=dict)
     tracks: np.ndarray | None = None
     frames: np.ndarray | None = None
+    filled: np.ndarray | None = None
 
     def __post_init__(self):
         self.poses = np.asarray(self.poses, dtype=float)
@@ -247,6 +254,10 @@ class KeypointSet:
             self.frames = np.asarray(self.frames)
             if self.frames.shape != (n,):
                 raise PoseError(f"frames must have shape ({n},), got {self.frames.shape}")
+        if self.filled is not None:
+            self.filled = np.asarray(self.filled, dtype=bool)
+            if self.filled.shape != (n, N_JOINTS):
+                raise PoseError(f"filled must have shape ({n}, 14), got {self.filled.shape}")
 
     def __len__(self) -> int:
         return len(self.poses)
@@ -258,18 +269,49 @@ class KeypointSet:
 
 def _format_of(path: Path, format):
     if format is not None:
-        fmt = "coco" if format == "json" else format
+        fmt = {"json": "coco", "posetrack": "coco", "deeplabcut": "dlc"}.get(format, format)
         if fmt not in FORMATS:
             raise FileFormatError(
                 f"{path}: unknown keypoint format {format!r}; use one of {FORMATS}"
             )
         return fmt
+    detected = formats.detect(path)
+    if detected is not None:
+        return detected
     ext = path.suffix.lower()
     if ext not in _EXTENSIONS:
         raise FileFormatError(
             f"{path}: cannot tell the keypoint format from the extension {ext!r}; "
-            f"use {', '.join(_EXTENSIONS)} or pass format= (one of {FORMATS})"
+            f"use {', '.join(_EXTENSIONS)}, .h5 (DeepLabCut), a folder (OpenPose) or "
+            f"pass format= (one of {FORMATS})"
         )
+    return _EXTENSIONS[ext]
+
+
+def output_format(path, format=None, read_format=None):
+    """The format a file written at `path` gets: `format` if given; else the
+    format it was read in (`read_format`) when the extension suits it
+    (OpenPose: ``.json`` or none, a folder; MMPose ``.json``; DeepLabCut
+    ``.csv`` / ``.h5``); else from the extension (``.h5`` is DeepLabCut).
+
+    >>> output_format(Path("out.json"), read_format="mmpose")
+    'mmpose'
+    >>> output_format(Path("out.json"), read_format="csv")
+    'coco'
+    """
+    path = Path(path)
+    if format is not None:
+        return _format_of(path, format)
+    ext = path.suffix.lower()
+    suits = {"openpose": ("", ".json"), "mmpose": (".json",), "dlc": (".csv",) + _H5}
+    if ext in suits.get(read_format, ()):
+        return read_format
+    if ext in _H5:
+        return "dlc"
+    if ext not in _EXTENSIONS:
+        raise FileFormatError(
+            f"{path}: cannot tell the keypoint format from the extension {ext!r}; "
+            f"use {', '.join(_EXTENSIONS)}, .h5 or pass format= (one of {FORMATS})")
     return _EXTENSIONS[ext]
 
 
@@ -324,17 +366,22 @@ def _optional(arr, n, name, where, dtype):
 # reading
 
 
-def read_keypoints(path, *, format=None, confidence_threshold=0.0):
+def read_keypoints(path, *, format=None, confidence_threshold=0.0, joint_map=None):
     """Read 2D keypoints into a :class:`KeypointSet`.
 
     Parameters
     ----------
     path : str or path-like
-    format : {"npz", "npy", "csv", "coco"}, optional
-        Default: from the extension (``.json`` is COCO).
+        A file, or a folder of OpenPose frame files.
+    format : {"npz", "npy", "csv", "coco", "openpose", "mmpose", "dlc"}, optional
+        Default: told from the path (:func:`sparseedm.formats.detect`: a
+        folder is OpenPose, ``.h5`` DeepLabCut, a ``.json`` by its content,
+        else the extension; ``.json`` is COCO).
     confidence_threshold : float, default 0.0
         Joints whose confidence is below it are missing (joints with a
         confidence <= 0 are always missing).
+    joint_map : str or path-like, optional
+        DeepLabCut only: the joints map file (:mod:`sparseedm.formats.deeplabcut`).
 
     Returns
     -------
@@ -365,18 +412,37 @@ def read_keypoints(path, *, format=None, confidence_threshold=0.0):
     10
     """
     validate_params("read_keypoints", dict(
-        path=path, confidence_threshold=confidence_threshold), _READ_PARAMS)
+        path=path, confidence_threshold=confidence_threshold, joint_map=joint_map),
+        _READ_PARAMS)
     path = Path(path)
     fmt = _format_of(path, format)
-    reader = {"npz": _read_npz, "npy": _read_npy, "csv": _read_csv, "coco": _read_coco}
-    kps = reader[fmt](path, confidence_threshold)
+    if fmt in formats.FORMATS:
+        kps = _from_parsed(formats.read(fmt, path, joint_map=joint_map), confidence_threshold)
+    else:
+        reader = {"npz": _read_npz, "npy": _read_npy, "csv": _read_csv, "coco": _read_coco}
+        kps = reader[fmt](path, confidence_threshold)
     kps.meta["format"] = fmt
+    kps.meta.setdefault("read_missing", kps.missing.copy())
     return kps
+
+
+def _from_parsed(parsed, threshold):
+    """A KeypointSet from a :class:`sparseedm.formats.Parsed`: thresholds applied,
+    the joints the file flags as filled kept present."""
+    poses, missing = _finish(parsed.poses, ~parsed.present, parsed.confidence, threshold)
+    if parsed.filled is not None:
+        keep = parsed.filled & ~np.isnan(parsed.poses).any(axis=-1)
+        poses = np.where(keep[..., None], parsed.poses, poses)
+        missing = missing & ~keep
+    parsed.meta.update(read_missing=missing, read_filled=parsed.filled)
+    return KeypointSet(poses, missing, parsed.confidence, parsed.ids, parsed.meta,
+                       tracks=parsed.tracks, frames=parsed.frames, filled=parsed.filled)
 
 
 _READ_PARAMS = {
     "path": ["path"],
     "confidence_threshold": [Interval(Real, None, None), None],
+    "joint_map": ["path", None],
 }
 _ZIP_MAGIC = b"PK\x03\x04"
 
@@ -647,8 +713,15 @@ def _read_coco(path, threshold):
                 )
             poses[a, j] = value
             missing[a, j] = False
+    if posetrack.uses_posetrack_order(doc):  # PoseTrack's own head_top keypoint
+        top = posetrack.HEAD_TOP_INDEX
+        poses[:, _HEAD_TOP] = np.where(coco_missing[:, top, None], np.nan, xy[:, top])
+        missing[:, _HEAD_TOP] = coco_missing[:, top]
+        conf[:, _HEAD_TOP] = v[:, top]
+    tracks, frames = posetrack.tracks_and_frames(doc, anns, path)
     meta = {"coco_document": doc, "coco_missing": coco_missing}
-    return KeypointSet(poses, missing, conf, np.asarray(ids, dtype=str).reshape(n), meta)
+    return KeypointSet(poses, missing, conf, np.asarray(ids, dtype=str).reshape(n), meta,
+                       tracks=tracks, frames=frames)
 
 
 def _coco_to_14(xy, v, coco_missing):
@@ -693,6 +766,11 @@ def write_keypoints(
     ids=None,
     extra_columns=None,
     meta=None,
+    tracks=None,
+    frames=None,
+    filled=None,
+    filled_score=formats.FILLED_SCORE,
+    row_fields=None,
 ):
     """Write 2D keypoints atomically; the format comes from the extension.
 
@@ -717,6 +795,18 @@ def write_keypoints(
     meta : dict, optional
         The ``meta`` of a :func:`read_keypoints` result: COCO output writes
         the original document back (see the module docstring).
+    tracks, frames : array_like, shape (n,), optional
+        OpenPose / MMPose / DeepLabCut: the person and frame of each pose
+        (default: those of a KeypointSet).
+    filled : array_like of bool, shape (n, 14), optional
+        Joints to flag as filled by sparseedm. Default: those the ``meta`` of
+        a read says were missing and that `poses` now holds, and those the
+        read already flagged.
+    filled_score : float, default 0.0
+        The score a filled joint is written with (OpenPose, MMPose, DeepLabCut).
+    row_fields : dict of str -> sequence, optional
+        OpenPose / MMPose: per-pose results (status, ...) stored in each
+        person's ``"sparseedm"`` object.
 
     Returns
     -------
@@ -736,7 +826,9 @@ def write_keypoints(
     """
     validate_params("write_keypoints", dict(path=path), {"path": _READ_PARAMS["path"]})
     path = Path(path)
-    fmt = _format_of(path, format)
+    if isinstance(poses, KeypointSet) and meta is None:
+        meta = poses.meta
+    fmt = output_format(path, format, (meta or {}).get("format"))
     if isinstance(poses, KeypointSet):
         kps = poses
         poses = kps.poses
@@ -744,6 +836,10 @@ def write_keypoints(
         confidence = kps.confidence if confidence is None else confidence
         ids = kps.ids if ids is None else ids
         meta = kps.meta if meta is None else meta
+        tracks = kps.tracks if tracks is None else tracks
+        frames = kps.frames if frames is None else frames
+        if filled is None and kps.filled is not None:
+            filled = kps.filled | _newly_filled(kps.poses, meta)
     meta = meta or {}
     where = f"writing {path}"
     poses = check_poses(poses, "write_keypoints")
@@ -761,7 +857,13 @@ def write_keypoints(
     if ids is not None:
         ids = _optional(np.asarray(ids).astype(str), n, "ids", where, str)
 
-    if fmt == "npz":
+    if fmt in formats.FORMATS:
+        if filled is None:
+            filled = _newly_filled(poses, meta) | _read_filled(meta, n)
+        filled = _optional(filled, n, "filled", where, bool) & ~mask
+        rows = formats.Rows(poses, filled, confidence, ids, tracks, frames, filled_score)
+        formats.write(fmt, path, rows, meta, filled_score=filled_score, row_fields=row_fields)
+    elif fmt == "npz":
         arrays = dict(meta.get("npz_extra") or {})
         arrays.update(poses=poses, missing=mask)
         if confidence is not None:
@@ -784,6 +886,22 @@ def write_keypoints(
     else:
         _write_coco(path, poses, mask, ids, meta, where)
     return path
+
+
+def _newly_filled(poses, meta):
+    """Joints the read (``meta["read_missing"]``) had missing that `poses` now holds."""
+    read_missing = meta.get("read_missing")
+    present = ~np.isnan(np.asarray(poses, dtype=float)).any(axis=-1)
+    if read_missing is None or np.shape(read_missing) != present.shape:
+        return np.zeros(present.shape, dtype=bool)
+    return np.asarray(read_missing, dtype=bool) & present
+
+
+def _read_filled(meta, n):
+    flags = meta.get("read_filled")
+    if flags is None or np.shape(flags) != (n, N_JOINTS):
+        return np.zeros((n, N_JOINTS), dtype=bool)
+    return np.asarray(flags, dtype=bool)
 
 
 def _cell(value):

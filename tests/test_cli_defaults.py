@@ -24,7 +24,9 @@ CASES = [  # (command line, option dest, API function, its parameter)
         ("confidence_threshold", recover_file, "confidence_threshold"),
         ("jobs", recover_file, "n_jobs"),
         ("self_training", recover_file, "self_training"),
-        ("ensemble", recover_file, "ensemble")]),
+        ("ensemble", recover_file, "ensemble"),
+        ("joint_map", recover_file, "joint_map"),
+        ("filled_score", recover_file, "filled_score")]),
     (["evaluate", "--data", "t.npz", "-o", "rep"], [
         ("max_train", evaluate, "max_train"),
         ("seed", evaluate, "random_state"),

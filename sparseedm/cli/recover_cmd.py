@@ -21,7 +21,9 @@ def add_parser(sub):
         "Rows that cannot be recovered are written back unchanged and listed in an "
         "errors file. Exit code 0: all rows usable; 1: some rows refused; 2: bad input.",
     )
-    p.add_argument("input", help="keypoints: .csv, .npz, .npy or COCO-style .json")
+    p.add_argument("input", help="keypoints: .csv, .npz, .npy, COCO-style .json, OpenPose "
+                   ".json or a folder of them, MMPose predictions .json, DeepLabCut "
+                   ".csv/.h5 (see sparseedm.formats)")
     p.add_argument("-o", "--output", required=True,
                    help="file to write, at exactly this path: the format comes from "
                    "its extension (.csv .npz .npy .json), else --format, else INPUT's; "
@@ -37,12 +39,19 @@ def add_parser(sub):
                    help="occlusion representation (default average)")
     p.add_argument("--solver", choices=("fast", "clarabel"), default="fast",
                    help="lasso backend (default fast: certified LARS, Clarabel fallback)")
-    p.add_argument("--format", choices=("csv", "npz", "npy", "coco", "json"), default=None,
+    p.add_argument("--format", choices=("csv", "npz", "npy", "coco", "json", "openpose",
+                                        "mmpose", "dlc"), default=None,
                    help="output format (default: from OUTPUT's extension, else INPUT's)")
     p.add_argument("--errors", default=None, metavar="FILE",
                    help="errors file listing refused rows (default OUTPUT stem + .errors.csv)")
     p.add_argument("--confidence-threshold", type=float, default=0.0, metavar="T",
                    help="joints with a confidence below T count as missing (default 0)")
+    p.add_argument("--joint-map", default=None, metavar="FILE",
+                   help="DeepLabCut input: JSON file naming the body part of each of the "
+                   "14 joints ({\"joints\": {\"head_top\": \"head\", ...}})")
+    p.add_argument("--filled-score", type=float, default=0.0, metavar="S",
+                   help="score written for filled joints (OpenPose, MMPose, DeepLabCut, "
+                   "COCO); default 0, below every threshold")
     p.add_argument("--chunk-size", type=int, default=50_000,
                    help="poses per chunk; bounds memory (default 50000)")
     p.add_argument("--backend", choices=("loky", "threading", "dask"), default=None,
@@ -94,7 +103,7 @@ def run(args):
         method=args.method, model=args.model,
         adapt=False if args.no_adapt else (args.adapt_from or "auto"),
         save_dictionary=args.save_dictionary, self_training=args.self_training,
-        ensemble=args.ensemble,
+        ensemble=args.ensemble, joint_map=args.joint_map, filled_score=args.filled_score,
     )
     out = sys.stderr if args.quiet else sys.stdout
     ad = summary.get("adaptation")

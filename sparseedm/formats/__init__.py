@@ -1,0 +1,124 @@
+"""Detector and tracker keypoint formats: OpenPose, MMPose, DeepLabCut (and PoseTrack).
+
+One module per format, each reading into the 14-joint layout and writing back
+in the same format with the filled joints flagged:
+
+:mod:`~sparseedm.formats.openpose`    OpenPose ``--write_json`` frame files or a folder of them
+:mod:`~sparseedm.formats.mmpose`      MMPose prediction JSON (COCO-17, Halpe, COCO-WholeBody)
+:mod:`~sparseedm.formats.deeplabcut`  DeepLabCut ``.csv`` / ``.h5`` tables with a joints map
+:mod:`~sparseedm.formats.posetrack`   ``track_id`` / ``frame_id`` of COCO files (PoseTrack)
+
+Users call :func:`sparseedm.keypoints.read_keypoints` and
+:func:`~sparseedm.keypoints.write_keypoints`, which dispatch here (COCO, CSV
+and the array formats live in :mod:`sparseedm.keypoints`). :func:`detect`
+tells a format from a path: a folder is OpenPose, ``.h5`` DeepLabCut, a
+``.csv`` whose first cell is ``scorer`` DeepLabCut, and a ``.json`` by its
+first MiB (``"people"``: OpenPose; ``"instance_info"`` or keypoints as
+``[[x, y], ...]`` pairs: MMPose; otherwise COCO).
+
+Default confidence thresholds
+-----------------------------
+:data:`DEFAULT_THRESHOLDS` holds the threshold each format is read with when
+none is given (a joint whose confidence is below it is missing, and recovered):
+
+``dlc`` 0.6        DeepLabCut's own ``pcutoff`` default (``config.yaml``): the
+                   likelihood below which DeepLabCut itself drops a body part
+                   from its plots and filtered outputs;
+``mmpose``,        0.3, MMPose's ``kpt_thr`` default (its demos and
+``coco`` 0.3       visualiser draw only keypoints scoring above it); MMPose's
+                   COCO metric counts keypoints above 0.2 as valid when it
+                   rescores instances, so detectors' occluded joints
+                   (0.02-0.2) fall below either. COCO ground truth (``v`` 0/1/2)
+                   is unaffected: labelled joints have v >= 1;
+``openpose`` 0.05  OpenPose's ``--render_threshold`` default: below it OpenPose
+                   itself does not draw a keypoint (it writes 0 for joints it
+                   did not find at all);
+``csv``, ``npz``,  0: these hold whatever the user put in them, so only a
+``npy``            confidence <= 0 is missing.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+from .._safeio import load_json
+from ..exceptions import FileFormatError
+from . import deeplabcut, mmpose, openpose, posetrack
+from ._base import Parsed, Rows
+
+__all__ = ["FORMATS", "DEFAULT_THRESHOLDS", "FILLED_SCORE", "detect", "read", "write",
+           "default_threshold", "Parsed", "Rows", "deeplabcut", "mmpose", "openpose",
+           "posetrack"]
+
+#: formats read and written by this subpackage
+FORMATS = ("openpose", "mmpose", "dlc")
+#: confidence threshold per format when none is given (see the module docstring)
+DEFAULT_THRESHOLDS = {"dlc": 0.6, "mmpose": 0.3, "coco": 0.3, "openpose": 0.05,
+                      "csv": 0.0, "npz": 0.0, "npy": 0.0}
+#: the score a filled joint is written with by default: below every threshold,
+#: and "not detected" to COCO and OpenPose readers
+FILLED_SCORE = 0.0
+_SNIFF_BYTES = 1 << 20
+_OPENPOSE = re.compile(rb'"people"\s*:\s*\[')
+_MMPOSE = re.compile(rb'"instance_info"\s*:|"instances"\s*:\s*\[|"keypoints"\s*:\s*\[\s*\[')
+_H5 = (".h5", ".hdf5", ".hdf")
+
+
+def default_threshold(fmt):
+    """The confidence threshold `fmt` is read with when none is given.
+
+    >>> default_threshold("dlc")
+    0.6
+    """
+    return DEFAULT_THRESHOLDS.get(fmt, 0.0)
+
+
+def detect(path):
+    """The format of `path` if it is one of :data:`FORMATS`, else None.
+
+    Raises FileFormatError for a folder that holds no ``.json`` file.
+    """
+    path = Path(path)
+    if path.is_dir():
+        return "openpose"
+    ext = path.suffix.lower()
+    if ext in _H5:
+        return "dlc"
+    if ext not in (".csv", ".json") or not path.is_file():
+        return None
+    try:
+        with open(path, "rb") as f:
+            head = f.read(_SNIFF_BYTES)
+    except OSError:
+        return None
+    if ext == ".csv":
+        first = head.lstrip(b"\xef\xbb\xbf").split(b"\n", 1)[0]
+        return "dlc" if first.split(b",", 1)[0].strip() == b"scorer" else None
+    if _OPENPOSE.search(head) and b'"annotations"' not in head:
+        return "openpose"
+    if _MMPOSE.search(head):
+        return "mmpose"
+    return None
+
+
+def read(fmt, path, *, joint_map=None):
+    """Read `path` in format `fmt` (one of :data:`FORMATS`) into a :class:`Parsed`."""
+    if fmt == "openpose":
+        return openpose.read(path)
+    if fmt == "mmpose":
+        doc = load_json(path)
+        if not mmpose.is_mmpose(doc):
+            raise FileFormatError(f"{path}: not an MMPose prediction file (no "
+                                  "'instance_info' and no instances with [x, y] keypoints)")
+        return mmpose.read(path, doc)
+    if fmt == "dlc":
+        return deeplabcut.read(path, joint_map)
+    raise FileFormatError(f"{path}: unknown format {fmt!r}; one of {FORMATS}")
+
+
+def write(fmt, path, rows, meta, *, filled_score=FILLED_SCORE, row_fields=None):
+    """Write :class:`Rows` to `path` in format `fmt`, with `meta` of a read of that format."""
+    module = {"openpose": openpose, "mmpose": mmpose, "dlc": deeplabcut}[fmt]
+    module.write(path, rows, meta if meta.get("format") == fmt else {}, filled_score,
+                 row_fields)

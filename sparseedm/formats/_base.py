@@ -1,0 +1,425 @@
+"""Pieces the detector/tracker format modules share (private to :mod:`sparseedm.formats`).
+
+A :class:`Layout` names a format's keypoints and says how the 14 joints of
+:data:`~sparseedm.skeleton.SKELETON_14` come from them; :func:`to_14` applies it
+and :func:`from_14` goes back. :class:`Parsed` is what every format reader
+returns (plain arrays; :mod:`sparseedm.keypoints` turns it into a
+``KeypointSet`` and applies the confidence threshold). The JSON helpers read a
+person's scores and the ``"sparseedm"`` object this package writes.
+
+The rules of :func:`to_14` (the same as COCO-17's in :mod:`sparseedm.keypoints`):
+
+* shoulders, elbows, wrists, hips, knees, ankles: copied by name;
+* ``neck``: the layout's own neck keypoint where it has one that sits at the
+  base of the neck (OpenPose ``Neck``, Halpe ``neck``); otherwise the midpoint
+  of the two shoulders (missing if either is), confidence the smaller;
+* ``head_top``: the layout's own head-top keypoint where it has one (Halpe
+  ``head``, OpenPose BODY_135 ``HeadTop``, PoseTrack ``head_top``); otherwise
+  ``H + HEAD_TOP_FACTOR * (H - neck)`` with ``H`` the mean of the present face
+  keypoints (nose, eyes, ears), missing without a face keypoint or a neck,
+  confidence the smallest used.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import os
+import re
+import shutil
+import tempfile
+from pathlib import Path
+from dataclasses import dataclass, field
+from numbers import Real
+
+import numpy as np
+
+from .._atomic import atomic_path
+from ..exceptions import FileFormatError, OutputPathError
+from ..skeleton import JOINT_NAMES, SKELETON_14
+
+N_JOINTS = SKELETON_14.num_joints
+NECK = SKELETON_14.index("neck")
+HEAD_TOP = SKELETON_14.index("head_top")
+#: head_top = H + HEAD_TOP_FACTOR * (H - neck) (as sparseedm.keypoints.HEAD_TOP_FACTOR)
+HEAD_TOP_FACTOR = 0.8
+#: the 12 limb joints every layout has by name
+LIMBS = tuple(n for n in JOINT_NAMES if n not in ("neck", "head_top"))
+FACE = ("nose", "left_eye", "right_eye", "left_ear", "right_ear")
+#: the key of the object this package adds to a person / instance / annotation
+EXTRA_KEY = "sparseedm"
+
+
+@dataclass(frozen=True)
+class Layout:
+    """A keypoint layout: its names in file order and where its 14 joints come from.
+
+    Parameters
+    ----------
+    name : str
+    keypoints : tuple of str
+        Keypoint names in file order, in sparseedm's spelling (``left_wrist``).
+    neck, head_top : str or None
+        The keypoint that is the neck / head top itself, or None (derived).
+    """
+
+    name: str
+    keypoints: tuple
+    neck: str | None = None
+    head_top: str | None = None
+
+    def __len__(self):
+        return len(self.keypoints)
+
+    def index(self, name):
+        return self.keypoints.index(name)
+
+    def sources(self):
+        """14-joint index -> keypoint index, for the joints stored as keypoints."""
+        out = {SKELETON_14.index(n): self.index(n) for n in LIMBS}
+        if self.neck is not None:
+            out[NECK] = self.index(self.neck)
+        if self.head_top is not None:
+            out[HEAD_TOP] = self.index(self.head_top)
+        return out
+
+
+COCO17 = ("nose", "left_eye", "right_eye", "left_ear", "right_ear",
+          "left_shoulder", "right_shoulder", "left_elbow", "right_elbow",
+          "left_wrist", "right_wrist", "left_hip", "right_hip",
+          "left_knee", "right_knee", "left_ankle", "right_ankle")
+
+
+@dataclass
+class Parsed:
+    """What a format reader returns: keypoints already in the 14-joint layout.
+
+    ``poses`` hold the file's coordinates (not yet blanked by the threshold),
+    ``present`` says which joints the file gives at all, ``filled`` which ones
+    the file flags as filled by sparseedm (read as present whatever their
+    score). ``meta`` holds what the writer needs to write the file back.
+    """
+
+    poses: np.ndarray
+    present: np.ndarray
+    confidence: np.ndarray | None
+    ids: np.ndarray | None = None
+    tracks: np.ndarray | None = None
+    frames: np.ndarray | None = None
+    filled: np.ndarray | None = None
+    meta: dict = field(default_factory=dict)
+
+
+def to_14(xy, score, present, layout):
+    """Map (n, K, 2) keypoints with (n, K) scores onto the 14 joints.
+
+    Returns ``(poses, present, confidence)`` of shapes (n, 14, 2), (n, 14),
+    (n, 14); ``poses`` is NaN where a joint is not present.
+
+    Examples
+    --------
+    >>> lay = Layout("demo", COCO17)
+    >>> xy = np.zeros((1, 17, 2)); xy[0, 5] = (0, 10); xy[0, 6] = (4, 10)
+    >>> poses, present, conf = to_14(xy, np.ones((1, 17)), np.ones((1, 17), bool), lay)
+    >>> poses[0, NECK].tolist(), bool(present[0, NECK])
+    ([2.0, 10.0], True)
+    """
+    n = len(xy)
+    poses = np.full((n, N_JOINTS, 2), np.nan)
+    conf = np.zeros((n, N_JOINTS))
+    ok = np.zeros((n, N_JOINTS), dtype=bool)
+    for j, k in layout.sources().items():
+        poses[:, j], conf[:, j], ok[:, j] = xy[:, k], score[:, k], present[:, k]
+    ls, rs = layout.index("left_shoulder"), layout.index("right_shoulder")
+    if layout.neck is None:
+        ok[:, NECK] = present[:, ls] & present[:, rs]
+        poses[:, NECK] = (xy[:, ls] + xy[:, rs]) / 2
+        conf[:, NECK] = np.minimum(score[:, ls], score[:, rs])
+    if layout.head_top is None:
+        face = [layout.index(f) for f in FACE if f in layout.keypoints]
+        seen = present[:, face]
+        count = seen.sum(axis=1)
+        total = np.where(seen[..., None], xy[:, face], 0.0).sum(axis=1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            centre = total / count[:, None]
+        neck = poses[:, NECK]
+        poses[:, HEAD_TOP] = centre + HEAD_TOP_FACTOR * (centre - neck)
+        low = np.where(seen, score[:, face], np.inf).min(axis=1)
+        conf[:, HEAD_TOP] = np.where(count > 0, np.minimum(low, conf[:, NECK]), 0.0)
+        ok[:, HEAD_TOP] = ok[:, NECK] & (count > 0)
+    poses = np.where(ok[..., None], poses, np.nan)
+    return poses, ok, conf
+
+
+# --------------------------------------------------------------------------
+# checks
+
+
+def check_scores(scores, where, field_name, *, upper=None):
+    """Scores must be finite numbers >= 0 (and <= `upper` when given)."""
+    scores = np.asarray(scores, dtype=float)
+    bad = ~np.isfinite(scores) | (scores < 0)
+    if upper is not None:
+        bad |= scores > upper
+    if bad.any():
+        k = tuple(int(i) for i in np.argwhere(bad)[0])
+        value = float(scores[k])
+        rule = f"in [0, {upper}]" if upper is not None else "finite and >= 0"
+        raise FileFormatError(
+            f"{where}: '{field_name}' value {k[-1]} is {value!r}; scores must be {rule}")
+    return scores
+
+
+def numbers(values, where, field_name, count=None):
+    """A JSON list of plain numbers (no strings, booleans, null) as a float array."""
+    if not isinstance(values, list):
+        raise FileFormatError(f"{where}: '{field_name}' must be a list, got "
+                              f"{type(values).__name__}")
+    flat = values
+    if flat and isinstance(flat[0], list):  # pairs [[x, y], ...]
+        if not all(isinstance(v, list) for v in flat):
+            raise FileFormatError(f"{where}: '{field_name}' mixes pairs and numbers")
+        flat = [x for v in flat for x in v]
+    bad = next((i for i, x in enumerate(flat)
+                if isinstance(x, bool) or not isinstance(x, Real)), None)
+    if bad is not None:
+        raise FileFormatError(
+            f"{where}: '{field_name}' value {bad} is {type(flat[bad]).__name__} "
+            f"{str(flat[bad])[:20]!r}; keypoints must be numbers")
+    arr = np.asarray(flat, dtype=float)
+    if not np.isfinite(arr).all():
+        raise FileFormatError(f"{where}: '{field_name}' holds a non-finite value")
+    if count is not None and arr.size != count:
+        raise FileFormatError(f"{where}: '{field_name}' has {arr.size} values, "
+                              f"expected {count}")
+    return arr
+
+
+def keypoint_rows(obj, where, key, width, layouts, described):
+    """``obj[key]`` as a (K, width) array, K one of `layouts`' sizes; `obj` an object."""
+    if not isinstance(obj, dict):
+        raise FileFormatError(f"{where} is not an object")
+    values = numbers(obj.get(key), where, key)
+    if values.size % width or values.size // width not in layouts:
+        raise FileFormatError(f"{where}: '{key}' has {values.size} values; {described}")
+    return values.reshape(-1, width)
+
+
+def read_extra(person, where):
+    """The ``"sparseedm"`` object of a person: {joint index: (x, y)} overrides for
+    neck / head top, and the 14-joint indices flagged filled."""
+    extra = person.get(EXTRA_KEY)
+    if not isinstance(extra, dict):
+        return {}, []
+    points = {}
+    for j, key in ((NECK, "neck"), (HEAD_TOP, "head_top")):
+        value = extra.get(key)
+        if value is None:
+            continue
+        if (not isinstance(value, list) or len(value) != 2
+                or not all(isinstance(x, Real) and not isinstance(x, bool)
+                           and math.isfinite(x) for x in value)):
+            raise FileFormatError(f"{where}: '{EXTRA_KEY}.{key}' must be [x, y] "
+                                  "(two finite numbers) or null")
+        points[j] = value
+    filled = extra.get("filled", [])
+    if not isinstance(filled, list) or not all(f in JOINT_NAMES for f in filled):
+        raise FileFormatError(f"{where}: '{EXTRA_KEY}.filled' must list joint names "
+                              f"({', '.join(JOINT_NAMES)})")
+    return points, [JOINT_NAMES.index(f) for f in filled]
+
+
+def write_extra(pose, filled_row, status=None):
+    """The ``"sparseedm"`` object written with a person: neck, head top, filled joints."""
+    def xy(p):
+        return None if np.isnan(p).any() else [float(p[0]), float(p[1])]
+
+    out = {"neck": xy(pose[NECK]), "head_top": xy(pose[HEAD_TOP]),
+           "filled": [JOINT_NAMES[j] for j in np.flatnonzero(filled_row)]}
+    if status:
+        out.update(status)
+    return out
+
+
+_FRAME_NUMBER = re.compile(r"(\d+)(?=_keypoints\.json$)|(\d+)(?=\.json$)")
+
+
+def frame_number(name):
+    """The frame number in a per-frame file name, or None.
+
+    >>> frame_number("video_000000000012_keypoints.json")
+    12
+    >>> frame_number("notes.json") is None
+    True
+    """
+    m = _FRAME_NUMBER.search(name)
+    return None if m is None else int(m.group(1) or m.group(2))
+
+
+# --------------------------------------------------------------------------
+# people: one detected person per row, from the JSON formats
+
+
+@dataclass
+class Person:
+    """One person of a JSON format, in its own layout (K keypoints)."""
+
+    xy: np.ndarray
+    score: np.ndarray
+    id: str
+    frame: int | None = None
+    track: object = None
+    points: dict = field(default_factory=dict)
+    filled: list = field(default_factory=list)
+
+
+def assemble(people, layout, meta, *, tracks=None, frames=None):
+    """Stack `people` (all in `layout`) into a :class:`Parsed`.
+
+    A keypoint is present when its score is positive; the ``"sparseedm"``
+    neck / head top of a person replace the derived ones, and its filled
+    joints are present whatever their score.
+    """
+    n, k = len(people), len(layout)
+    xy = np.zeros((n, k, 2))
+    score = np.zeros((n, k))
+    seen = np.zeros((n, k), dtype=bool)
+    sources = layout.sources()
+    for r, p in enumerate(people):
+        xy[r], score[r] = p.xy, p.score
+        seen[r] = p.score > 0
+        seen[r, [sources[j] for j in p.filled if j in sources]] = True  # flagged: present
+    poses, present, conf = to_14(xy, score, seen, layout)
+    filled = np.zeros((n, N_JOINTS), dtype=bool)
+    for r, p in enumerate(people):
+        for j, value in p.points.items():
+            poses[r, j], present[r, j] = value, True
+        filled[r, p.filled] = True
+    filled &= ~np.isnan(poses).any(axis=-1)
+    present |= filled
+    ids = np.asarray([p.id for p in people], dtype=str).reshape(n)
+    return Parsed(poses, present, conf, ids, tracks, frames, filled if filled.any() else None,
+                  meta)
+
+
+def update_person(xy, score, pose, filled_row, layout, filled_score):
+    """Write the filled joints of a 14-joint `pose` into a person's keypoints (in place)."""
+    for j, k in layout.sources().items():
+        if filled_row[j] and not np.isnan(pose[j]).any():
+            xy[k] = pose[j]
+            score[k] = filled_score
+
+
+def person_tracks(people):
+    """Tracks for the people of a file or folder: their ids where every person has
+    one (>= 0); else one track (0) when no frame holds more than one person;
+    else None (persons cannot be told apart)."""
+    if not people:
+        return None
+    if all(p.track is not None for p in people):
+        return np.asarray([p.track for p in people])
+    frames = [p.frame for p in people]
+    if all(p.track is None for p in people) and len(set(frames)) == len(frames):
+        return np.zeros(len(people), dtype=np.int64)
+    return None
+
+
+def frame_rows(frames, n):
+    """Row index of each pose's frame group, for writers without a document."""
+    if frames is None:
+        return [[r] for r in range(n)], list(range(n))
+    order = {}
+    for r, f in enumerate(frames):
+        order.setdefault(int(f), []).append(r)
+    keys = sorted(order)
+    return [order[f] for f in keys], keys
+
+
+# --------------------------------------------------------------------------
+# writing
+
+
+@dataclass
+class Rows:
+    """What a format writer gets: n poses in the 14-joint layout.
+
+    ``poses`` NaN where missing; ``filled`` the joints sparseedm filled;
+    ``confidence`` the scores read (or None); ``filled_score`` the score a
+    filled joint is written with.
+    """
+
+    poses: np.ndarray
+    filled: np.ndarray
+    confidence: np.ndarray | None = None
+    ids: np.ndarray | None = None
+    tracks: np.ndarray | None = None
+    frames: np.ndarray | None = None
+    filled_score: float = 0.0
+
+    def score(self, r, j):
+        """The score written for joint j of pose r (present joints only)."""
+        if self.filled[r, j]:
+            return float(self.filled_score)
+        if self.confidence is not None and np.isfinite(self.confidence[r, j]):
+            return float(self.confidence[r, j])
+        return 1.0
+
+
+def row_status(row_fields, r):
+    """Row r of per-row result fields (status, reason, ...) as JSON values."""
+    if not row_fields:
+        return None
+    out = {}
+    for key, values in row_fields.items():
+        v = values[r]
+        if isinstance(v, (np.integer, int)) and not isinstance(v, bool):
+            out[key] = int(v)
+        elif isinstance(v, (np.floating, float)):
+            out[key] = None if math.isnan(v) else float(v)
+        else:
+            out[key] = str(v)
+    return out
+
+
+def write_json(path, doc):
+    """One JSON document, atomically."""
+    with atomic_path(path) as tmp:
+        with open(tmp, "w", encoding="utf-8") as f:
+            json.dump(doc, f)
+
+
+def write_json_folder(path, docs):
+    """A folder of JSON files ``[(name, doc), ...]``, in place at once.
+
+    The files are written to a new folder beside `path`, which then takes
+    its name; a folder already at `path` is replaced only if it holds
+    nothing but ``.json`` files (an earlier output), else it is refused.
+    """
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise OutputPathError(f"{path} is a file; an OpenPose folder output needs a folder")
+    if path.is_dir():
+        others = [e.name for e in os.scandir(path)
+                  if not (e.is_file() and e.name.lower().endswith(".json"))]
+        if others:
+            raise OutputPathError(f"{path} holds other files ({others[0]}, ...); "
+                                  "give a new folder for the output")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.tmp-", dir=path.parent))
+    try:
+        for name, doc in docs:
+            with open(tmp / name, "w", encoding="utf-8") as f:
+                json.dump(doc, f)
+        old = None
+        if path.is_dir():
+            old = Path(tempfile.mkdtemp(prefix=f".{path.name}.old-", dir=path.parent))
+            os.rmdir(old)
+            os.replace(path, old)
+        os.replace(tmp, path)
+        if old is not None:
+            shutil.rmtree(old, ignore_errors=True)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            shutil.rmtree(tmp)
+        raise

@@ -1,0 +1,404 @@
+"""DeepLabCut output tables (``.csv`` and ``.h5``) and their joints map.
+
+DeepLabCut writes one row per video frame under a header of three rows
+(``scorer``, ``bodyparts``, ``coords``), four for multi-animal projects
+(``scorer``, ``individuals``, ``bodyparts``, ``coords``); ``coords`` are
+``x``, ``y`` and ``likelihood`` per body part (a probability in [0, 1]). The
+``.h5`` holds the same table as a pandas DataFrame with those column levels;
+it is read with pandas and PyTables (``pip install 'sparseedm[dlc]'``).
+PyTables unpickles the metadata pandas stores in ``.h5`` files, so read
+``.h5`` only from sources you trust; the ``.csv`` is plain text.
+
+Joints map
+----------
+DeepLabCut's body part names are the project's own, so a JSON file says which
+body part is which joint::
+
+    {"joints": {"head_top": "head", "neck": null, "right_shoulder": "r_shoulder",
+                "left_wrist": "l_wrist", ...}}
+
+Keys are the 14 joint names of :data:`~sparseedm.skeleton.JOINT_NAMES`; a
+value is a body part of the table's header or null (not tracked: the joint
+is always missing, except a null ``neck``, which is the midpoint of the two
+shoulders, as in the COCO rule). A joint left out counts as null. Without a
+map, the table's body parts must be the 14 joint names themselves. A map
+naming a body part the header lacks, or a key that is not a joint, is an
+error naming the map file and the key.
+
+Rows: one pose per frame (per frame and individual, frame-major, for
+multi-animal tables); ``ids`` are the table's index (the frame number, or an
+image path), ``frames`` the row number, ``tracks`` the individual (``0`` for
+single-animal tables). An individual whose mapped body parts are all absent
+in a frame is still a row (all missing). ``likelihood`` is the confidence;
+NaN coordinates or a NaN likelihood mark a missing body part; a likelihood
+outside [0, 1] is an error naming the file, row and body part.
+
+Writing back: the same table with each filled joint's ``x``, ``y`` set and its
+``likelihood`` set to ``filled_score``, and one more ``coords`` column,
+``filled`` (1 for a filled body part, else 0), after each mapped body part's
+``likelihood``. Without a DeepLabCut input, a single-animal table is written
+whose body parts are the 14 joint names (scorer ``sparseedm``).
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+import numpy as np
+
+from .._atomic import atomic_path
+from .._safeio import load_json, text_lines
+from ..exceptions import FileFormatError
+from ..skeleton import JOINT_NAMES
+from . import _base
+from ._base import N_JOINTS, NECK
+
+__all__ = ["read", "write", "read_joint_map", "H5_KEY", "EXTRA"]
+
+#: the key DeepLabCut stores its table under in ``.h5`` files
+H5_KEY = "df_with_missing"
+#: the optional dependency and the extra that installs it
+EXTRA = "pip install 'sparseedm[dlc]' (pandas and PyTables)"
+_HDF5_MAGIC = b"\x89HDF\r\n\x1a\n"
+_COORDS = ("x", "y", "likelihood", "filled")
+#: largest table read (cells), checked before pandas loads it
+MAX_CELLS = 200_000_000
+
+
+def _pandas():
+    try:
+        import pandas as pd
+        import tables  # noqa: F401  (pandas needs it for .h5)
+    except ImportError as exc:
+        raise FileFormatError(f"reading DeepLabCut .h5 files needs pandas and PyTables: "
+                              f"{EXTRA} ({exc})") from None
+    return pd
+
+
+# --------------------------------------------------------------------------
+# the joints map
+
+
+def read_joint_map(path):
+    """A joints map file as {joint index: body part or None}.
+
+    Examples
+    --------
+    >>> import json, os, tempfile
+    >>> p = os.path.join(tempfile.mkdtemp(), "map.json")
+    >>> with open(p, "w") as f:
+    ...     json.dump({"joints": {"left_wrist": "wristL", "neck": None}}, f)
+    >>> read_joint_map(p)[7]
+    'wristL'
+    """
+    doc = load_json(path)
+    joints = doc.get("joints", doc) if isinstance(doc, dict) else None
+    if not isinstance(joints, dict):
+        raise FileFormatError(f"{path}: a joints map is a JSON object "
+                              '{"joints": {"<joint>": "<body part>" or null, ...}}')
+    out = {j: None for j in range(N_JOINTS)}
+    for key, part in joints.items():
+        if key not in JOINT_NAMES:
+            raise FileFormatError(f"{path}: 'joints.{key}' is not a joint; joints: "
+                                  f"{', '.join(JOINT_NAMES)}")
+        if part is not None and not isinstance(part, str):
+            raise FileFormatError(f"{path}: 'joints.{key}' must be a body part name or null")
+        out[JOINT_NAMES.index(key)] = part
+    return out
+
+
+def _resolve_map(joint_map, parts, path):
+    if joint_map is None:
+        if set(JOINT_NAMES) <= set(parts):
+            return {j: name for j, name in enumerate(JOINT_NAMES)}, None
+        raise FileFormatError(
+            f"{path}: DeepLabCut body parts ({', '.join(parts[:6])}"
+            f"{', ...' if len(parts) > 6 else ''}) are the project's own names; give a "
+            "joints map (joint_map= / --joint-map FILE): "
+            '{"joints": {"head_top": "<body part>", "neck": ..., ...}}')
+    mapping = read_joint_map(joint_map)
+    unknown = [(JOINT_NAMES[j], p) for j, p in mapping.items()
+               if p is not None and p not in parts]
+    if unknown:
+        key, part = unknown[0]
+        raise FileFormatError(
+            f"{joint_map}: 'joints.{key}' names body part {part!r}, which {path} does not "
+            f"have; its body parts: {', '.join(parts)}")
+    return mapping, str(joint_map)
+
+
+# --------------------------------------------------------------------------
+# the table: header levels per column, index, values
+
+
+def _read_csv_table(path):
+    lines = (text for _, text in text_lines(path))
+    reader = csv.reader(lines)
+    header = []
+    try:
+        for row in reader:
+            header.append(row)
+            if row and row[0].strip() == "coords":
+                break
+            if len(header) == 4:
+                break
+        body = [(reader.line_num, row) for row in reader if row]
+    except csv.Error as exc:
+        raise FileFormatError(f"{path}, line {reader.line_num}: {exc}") from None
+    names = [h[0].strip() if h else "" for h in header]
+    if names not in (["scorer", "bodyparts", "coords"],
+                     ["scorer", "individuals", "bodyparts", "coords"]):
+        raise FileFormatError(
+            f"{path}: not a DeepLabCut table; its first column must start with the header "
+            f"rows scorer, bodyparts, coords (or scorer, individuals, bodyparts, coords), "
+            f"found {', '.join(names) or 'nothing'}")
+    width = len(header[0])
+    for level, row in zip(names, header):
+        if len(row) != width:
+            raise FileFormatError(f"{path}: header row {level!r} has {len(row)} fields, "
+                                  f"'scorer' has {width}")
+    columns = [tuple(h[c].strip() for h in header) for c in range(1, width)]
+    index, values = [], np.empty((len(body), width - 1))
+    for r, (line, row) in enumerate(body):
+        if len(row) != width:
+            raise FileFormatError(f"{path}, line {line}: {len(row)} fields, the header "
+                                  f"has {width}")
+        index.append(row[0].strip())
+        for c, text in enumerate(row[1:]):
+            values[r, c] = _number(text, path, line, columns[c])
+    return names, columns, index, values
+
+
+def _number(text, path, line, column):
+    text = text.strip()
+    if text == "" or text.lower() == "nan":
+        return math.nan
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    else:
+        if math.isfinite(value):
+            return value
+    raise FileFormatError(f"{path}, line {line}, column {'/'.join(column[1:])}: "
+                          f"{text[:20]!r} is not a finite number")
+
+
+def _read_h5_table(path):
+    with open(path, "rb") as f:
+        if f.read(8) != _HDF5_MAGIC:
+            raise FileFormatError(f"{path}: not an HDF5 file")
+    pd = _pandas()
+    try:
+        with pd.HDFStore(path, mode="r") as store:
+            keys = store.keys()
+            key = f"/{H5_KEY}" if f"/{H5_KEY}" in keys else (keys[0] if len(keys) == 1
+                                                            else None)
+            if key is None:
+                raise FileFormatError(f"{path}: no '{H5_KEY}' table (found "
+                                      f"{', '.join(keys) or 'nothing'})")
+            storer = store.get_storer(key)
+            rows = getattr(storer, "nrows", None) or (storer.shape or (0,))[0]
+            if rows * max(1, len(getattr(storer, "non_index_axes", [[0, [0]]])[0][1])) \
+                    > MAX_CELLS:
+                raise FileFormatError(f"{path}: a table of {rows} rows is too large")
+            df = store.select(key)
+    except FileFormatError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - PyTables / pandas raise many kinds
+        raise FileFormatError(f"{path}: not a readable DeepLabCut .h5 ({exc})") from None
+    if not isinstance(df, pd.DataFrame):
+        raise FileFormatError(f"{path}: '{key}' is not a table")
+    names = [str(n) for n in df.columns.names]
+    if names not in (["scorer", "bodyparts", "coords"],
+                     ["scorer", "individuals", "bodyparts", "coords"]):
+        raise FileFormatError(f"{path}: column levels {names}; a DeepLabCut table has "
+                              "scorer, bodyparts, coords (and individuals)")
+    try:
+        values = df.to_numpy(dtype=float)
+    except (TypeError, ValueError):
+        raise FileFormatError(f"{path}: the table holds values that are not numbers") \
+            from None
+    if np.isinf(values).any():
+        raise FileFormatError(f"{path}: the table holds an infinite value")
+    columns = [tuple(str(x) for x in c) for c in df.columns]
+    index = ["/".join(map(str, i)) if isinstance(i, tuple) else str(i) for i in df.index]
+    return names, columns, index, values
+
+
+# --------------------------------------------------------------------------
+# reading
+
+
+def read(path, joint_map=None):
+    """Read a DeepLabCut ``.csv`` or ``.h5`` table into a :class:`_base.Parsed`."""
+    path = Path(path)
+    h5 = path.suffix.lower() in (".h5", ".hdf5", ".hdf")
+    names, columns, index, values = (_read_h5_table if h5 else _read_csv_table)(path)
+    multi = len(names) == 4
+    where = {}  # (individual, part, coord) -> column
+    for c, col in enumerate(columns):
+        ind, part, coord = (col[1], col[2], col[3]) if multi else ("", col[1], col[2])
+        if coord not in _COORDS:
+            raise FileFormatError(f"{path}: column {c + 1} has coords {coord!r}; "
+                                  f"expected one of {', '.join(_COORDS)}")
+        where[(ind, part, coord)] = c
+    parts = list(dict.fromkeys(p for _, p, _ in where))
+    mapping, map_path = _resolve_map(joint_map, parts, path)
+    used = [p for p in mapping.values() if p is not None]
+    individuals = [i for i in dict.fromkeys(i for i, _, _ in where)
+                   if all((i, p, "x") in where and (i, p, "y") in where for p in used)]
+    if not individuals:
+        raise FileFormatError(f"{path}: no individual has x and y for every mapped body "
+                              f"part ({', '.join(used)})")
+    n = len(index) * len(individuals)
+    poses = np.full((n, N_JOINTS, 2), np.nan)
+    conf = np.full((n, N_JOINTS), np.nan)
+    filled = np.zeros((n, N_JOINTS), dtype=bool)
+    has_conf = False
+    for i, ind in enumerate(individuals):
+        rows = slice(i, n, len(individuals))
+        for j, part in mapping.items():
+            if part is None:
+                continue
+            poses[rows, j, 0] = values[:, where[(ind, part, "x")]]
+            poses[rows, j, 1] = values[:, where[(ind, part, "y")]]
+            lc = where.get((ind, part, "likelihood"))
+            if lc is not None:
+                has_conf = True
+                conf[rows, j] = _likelihood(values[:, lc], path, index, part)
+            fc = where.get((ind, part, "filled"))
+            if fc is not None:
+                filled[rows, j] = values[:, fc] == 1
+    present = ~np.isnan(poses).any(axis=-1)
+    if has_conf:
+        present &= ~np.isnan(conf)
+    present |= filled & ~np.isnan(poses).any(axis=-1)
+    _neck_from_shoulders(poses, present, conf, mapping)
+    poses = np.where(present[..., None], poses, np.nan)
+    frames = np.repeat(np.arange(len(index)), len(individuals))
+    tracks = np.tile(np.asarray(individuals if multi else [0]), len(index))
+    ids = np.repeat(np.asarray(index, dtype=str), len(individuals))
+    meta = {"dlc_names": names, "dlc_columns": columns, "dlc_index": index,
+            "dlc_values": values, "dlc_map": {JOINT_NAMES[j]: p for j, p in mapping.items()},
+            "dlc_individuals": individuals, "dlc_h5": h5, "joint_map": map_path}
+    return _base.Parsed(poses, present, conf if has_conf else None, ids, tracks, frames,
+                        filled if filled.any() else None, meta)
+
+
+def _likelihood(column, path, index, part):
+    bad = np.flatnonzero(~np.isnan(column) & ((column < 0) | (column > 1)))
+    if bad.size:
+        r = int(bad[0])
+        raise FileFormatError(f"{path}: row {index[r]!r}, body part {part!r}: likelihood "
+                              f"{float(column[r])!r} is outside [0, 1]")
+    return column
+
+
+def _neck_from_shoulders(poses, present, conf, mapping):
+    if mapping[NECK] is not None:
+        return
+    ls, rs = JOINT_NAMES.index("left_shoulder"), JOINT_NAMES.index("right_shoulder")
+    if mapping[ls] is None or mapping[rs] is None:
+        return
+    both = present[:, ls] & present[:, rs]
+    poses[:, NECK] = (poses[:, ls] + poses[:, rs]) / 2
+    conf[:, NECK] = np.fmin(conf[:, ls], conf[:, rs])
+    present[:, NECK] = both
+
+
+# --------------------------------------------------------------------------
+# writing
+
+
+def write(path, rows, meta, filled_score, row_fields=None):
+    """Write a DeepLabCut table (``.h5`` by the path's extension, else ``.csv``)."""
+    path = Path(path)
+    if meta.get("dlc_columns") is None:
+        names, columns, index, values, mapping, individuals = _fresh(rows)
+    else:
+        names, columns, index, values = (meta["dlc_names"], list(meta["dlc_columns"]),
+                                         meta["dlc_index"], meta["dlc_values"])
+        mapping, individuals = meta["dlc_map"], meta["dlc_individuals"]
+    columns, values = _with_filled(names, columns, values, rows, mapping, individuals,
+                                   filled_score)
+    if path.suffix.lower() in (".h5", ".hdf5", ".hdf"):
+        _write_h5(path, names, columns, index, values)
+    else:
+        _write_csv(path, names, columns, index, values)
+
+
+def _fresh(rows):
+    n = len(rows.poses)
+    columns = [("sparseedm", name, coord) for name in JOINT_NAMES
+               for coord in ("x", "y", "likelihood")]
+    values = np.full((n, len(columns)), np.nan)
+    for j in range(N_JOINTS):
+        ok = ~np.isnan(rows.poses[:, j]).any(axis=-1)
+        values[:, 3 * j: 3 * j + 2] = rows.poses[:, j]
+        values[ok, 3 * j + 2] = [rows.score(r, j) for r in np.flatnonzero(ok)]
+    index = [str(i) for i in (rows.ids if rows.ids is not None else range(n))]
+    return (["scorer", "bodyparts", "coords"], columns, index, values,
+            {name: name for name in JOINT_NAMES}, [""])
+
+
+def _with_filled(names, columns, values, rows, mapping, individuals, filled_score):
+    """Values with the filled joints written in, and a 'filled' column per mapped part."""
+    multi = len(names) == 4
+    key = {((c[1], c[2], c[3]) if multi else ("", c[1], c[2])): k
+           for k, c in enumerate(columns)}
+    values = values.copy()
+    flags = {}
+    n_ind = len(individuals)
+    for i, ind in enumerate(individuals):
+        sl = slice(i, len(rows.poses), n_ind)
+        for name, part in mapping.items():
+            if part is None:
+                continue
+            j = JOINT_NAMES.index(name)
+            fill = rows.filled[sl, j]
+            for a, coord in enumerate(("x", "y")):
+                c = key[(ind, part, coord)]
+                values[:, c] = np.where(fill, rows.poses[sl, j, a], values[:, c])
+            if (ind, part, "likelihood") in key:
+                c = key[(ind, part, "likelihood")]
+                values[:, c] = np.where(fill, filled_score, values[:, c])
+            flags[(ind, part)] = fill.astype(float)
+    out_cols, out_vals = [], []
+    for k, col in enumerate(columns):
+        ind, part, coord = (col[1], col[2], col[3]) if multi else ("", col[1], col[2])
+        if coord == "filled":
+            continue
+        out_cols.append(col)
+        out_vals.append(values[:, k])
+        last = (ind, part, "likelihood") in key and coord == "likelihood" or \
+            (ind, part, "likelihood") not in key and coord == "y"
+        if last and (ind, part) in flags:
+            out_cols.append(col[:-1] + ("filled",))
+            out_vals.append(flags[(ind, part)])
+    return out_cols, np.column_stack(out_vals) if out_vals else values[:, :0]
+
+
+def _cell(v):
+    return "" if math.isnan(v) else repr(float(v))
+
+
+def _write_csv(path, names, columns, index, values):
+    with atomic_path(path) as tmp:
+        with open(tmp, "w", newline="", encoding="utf-8") as f:
+            w = csv.writer(f)
+            for level, name in enumerate(names):
+                w.writerow([name] + [c[level] for c in columns])
+            for r, idx in enumerate(index):
+                w.writerow([idx] + [_cell(v) for v in values[r]])
+
+
+def _write_h5(path, names, columns, index, values):
+    pd = _pandas()
+    cols = pd.MultiIndex.from_tuples(columns, names=names)
+    idx = [int(i) if i.lstrip("-").isdigit() else i for i in index]
+    df = pd.DataFrame(values, columns=cols, index=idx)
+    with atomic_path(path, suffix=".h5") as tmp:
+        df.to_hdf(tmp, key=H5_KEY, format="table", mode="w")

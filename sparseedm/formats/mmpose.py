@@ -1,0 +1,180 @@
+"""MMPose prediction JSON (and files shaped like it).
+
+Three shapes are read, all made of *instances* ``{"keypoints": [[x, y], ...],
+"keypoint_scores": [s, ...], "bbox": ..., "bbox_score": ..., ["track_id": t]}``:
+
+* the demos' ``--save-predictions`` file (``demo/topdown_demo_with_mmdet.py``,
+  ``demo/bottomup_demo.py``): ``{"meta_info": {...}, "instance_info":
+  [{"frame_id": f, "instances": [...]}, ...]}``;
+* the ``instance_info`` list alone: ``[{"frame_id": f, "instances": [...]}, ...]``;
+* an ``MMPoseInferencer`` ``pred_out_dir`` file for one image: ``[instance, ...]``.
+
+Each instance is one pose; its id and frame are the ``frame_id`` (``0`` for
+the one-image shape); tracks are the ``track_id`` where every instance has
+one, else one track when no frame holds more than one instance, else none.
+``keypoint_scores`` are the model's scores: heatmap or SimCC maxima, which
+are not probabilities and can exceed 1 (RTMPose gives 1.0-1.1 for clear
+joints: open-mmlab/mmpose issues 2755 and 3122), so any finite score >= 0 is
+accepted; a score <= 0 is a missing keypoint. A missing ``keypoint_scores``
+reads as 1 for every keypoint.
+
+Layouts, told apart by the number of keypoints:
+
+``COCO-17`` (17): neck = shoulders' midpoint, head top from the face (the
+    COCO rule, :mod:`sparseedm.formats._base`);
+``Halpe-26`` (26) and ``Halpe-136`` (136, whose first 26 are Halpe-26):
+    Halpe's own ``head`` (the top of the head) and ``neck`` keypoints;
+``COCO-WholeBody`` (133): its body subset (the first 17, COCO order), as COCO-17.
+
+Writing back: the input document with, per instance, the filled keypoints
+set to their recovered ``[x, y]`` and score ``filled_score``, and a
+``"sparseedm"`` object (``neck``, ``head_top``, ``filled``: the 14-joint
+names filled; per-row status when written by ``sparseedm recover``).
+Without an MMPose input: the demos' shape, COCO-17 instances grouped by frame.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from ..exceptions import FileFormatError
+from . import _base
+from ._base import COCO17, EXTRA_KEY, Layout, Person
+
+__all__ = ["COCO_17", "HALPE_26", "HALPE_136", "COCO_WHOLEBODY", "LAYOUTS", "read",
+           "write", "is_mmpose"]
+
+_HALPE_EXTRA = ("head", "neck", "hip", "left_big_toe", "right_big_toe", "left_small_toe",
+                "right_small_toe", "left_heel", "right_heel")
+COCO_17 = Layout("COCO-17", COCO17)
+HALPE_26 = Layout("Halpe-26", COCO17 + _HALPE_EXTRA, neck="neck", head_top="head")
+HALPE_136 = Layout("Halpe-136", HALPE_26.keypoints + tuple(f"face_or_hand_{i}"
+                                                           for i in range(110)),
+                   neck="neck", head_top="head")
+COCO_WHOLEBODY = Layout("COCO-WholeBody", COCO17 + tuple(f"foot_face_or_hand_{i}"
+                                                         for i in range(116)))
+#: layouts by their number of keypoints
+LAYOUTS = {len(lay): lay for lay in (COCO_17, HALPE_26, HALPE_136, COCO_WHOLEBODY)}
+
+
+def _is_instance(x):
+    return isinstance(x, dict) and isinstance(x.get("keypoints"), list) and (
+        not x["keypoints"] or isinstance(x["keypoints"][0], list))
+
+
+def is_mmpose(doc):
+    """Whether a JSON document has one of the MMPose shapes."""
+    if isinstance(doc, dict):
+        return isinstance(doc.get("instance_info"), list)
+    if isinstance(doc, list) and doc:
+        first = doc[0]
+        return (isinstance(first, dict) and isinstance(first.get("instances"), list)) \
+            or _is_instance(first)
+    return False
+
+
+def _frames_of(doc, path):
+    """[(frame_id, instances list)] of any of the three shapes."""
+    if isinstance(doc, dict):
+        doc = doc["instance_info"]
+    if doc and _is_instance(doc[0]):
+        return [(0, doc)]
+    out = []
+    for f, entry in enumerate(doc):
+        where = f"{path}: instance_info[{f}]"
+        if not isinstance(entry, dict) or not isinstance(entry.get("instances"), list):
+            raise FileFormatError(f"{where} has no 'instances' list")
+        fid = entry.get("frame_id", f)
+        if isinstance(fid, bool) or not isinstance(fid, int):
+            raise FileFormatError(f"{where}: 'frame_id' must be an integer")
+        out.append((fid, entry["instances"]))
+    return out
+
+
+def _instance(inst, where, frame):
+    xy = _base.keypoint_rows(inst, where, "keypoints", 2, LAYOUTS,
+                             "MMPose layouts read: 17 (COCO), 26 (Halpe), 133 "
+                             "(COCO-WholeBody), 136 (Halpe-136) [x, y] pairs")
+    k = len(xy)
+    if "keypoint_scores" in inst:
+        scores = _base.numbers(inst["keypoint_scores"], where, "keypoint_scores", k)
+        _base.check_scores(scores, where, "keypoint_scores")
+    else:
+        scores = np.ones(k)
+    track = inst.get("track_id")
+    if track is not None and (isinstance(track, bool) or not isinstance(track, (int, str))):
+        raise FileFormatError(f"{where}: 'track_id' must be an integer or a string")
+    points, filled = _base.read_extra(inst, where)
+    return Person(xy, scores, str(frame), frame, track, points, filled)
+
+
+def read(path, doc):
+    """Read an MMPose document (already loaded by the bounded reader)."""
+    people, counts = [], []
+    for fid, instances in _frames_of(doc, path):
+        for i, inst in enumerate(instances):
+            people.append(_instance(inst, f"{path}: frame {fid}, instance {i}", fid))
+        counts.append(len(instances))
+    sizes = {len(p.xy) for p in people}
+    if len(sizes) > 1:
+        raise FileFormatError(f"{path}: instances of different layouts "
+                              f"({', '.join(LAYOUTS[s].name for s in sorted(sizes))})")
+    layout = LAYOUTS[sizes.pop()] if sizes else COCO_17
+    meta = {"mmpose_document": doc, "layout": layout.name, "mmpose_counts": counts}
+    frames = np.asarray([p.frame for p in people], dtype=np.int64)
+    return _base.assemble(people, layout, meta, tracks=_base.person_tracks(people),
+                          frames=frames)
+
+
+def write(path, rows, meta, filled_score, row_fields=None):
+    """Write MMPose JSON: the input's document with the filled joints, or a fresh one."""
+    doc = meta.get("mmpose_document")
+    if doc is None:
+        doc = _fresh(rows)
+    else:
+        doc = json.loads(json.dumps(doc))
+        layout = next(lay for lay in LAYOUTS.values() if lay.name == meta["layout"])
+        r = 0
+        for _, instances in _frames_of(doc, Path(path)):
+            for inst in instances:
+                if r >= len(rows.poses):
+                    raise FileFormatError(f"writing {path}: fewer poses than instances")
+                _update(inst, rows, r, layout, filled_score, row_fields)
+                r += 1
+        if r != len(rows.poses):
+            raise FileFormatError(f"writing {path}: {len(rows.poses)} poses for {r} instances")
+    _base.write_json(path, doc)
+
+
+def _update(inst, rows, r, layout, filled_score, row_fields):
+    xy = np.asarray(inst["keypoints"], dtype=float).reshape(-1, 2)
+    k = len(xy)
+    scores = np.asarray(inst.get("keypoint_scores", [1.0] * k), dtype=float)
+    _base.update_person(xy, scores, rows.poses[r], rows.filled[r], layout, filled_score)
+    inst["keypoints"] = xy.tolist()
+    inst["keypoint_scores"] = scores.tolist()
+    inst[EXTRA_KEY] = _base.write_extra(rows.poses[r], rows.filled[r],
+                                        _base.row_status(row_fields, r))
+
+
+def _fresh(rows):
+    groups, frames = _base.frame_rows(rows.frames, len(rows.poses))
+    info = []
+    for members, frame in zip(groups, frames):
+        instances = []
+        for r in members:
+            xy, scores = np.zeros((17, 2)), np.zeros(17)
+            for j, k in COCO_17.sources().items():
+                if not np.isnan(rows.poses[r, j]).any():
+                    xy[k], scores[k] = rows.poses[r, j], rows.score(r, j)
+            inst = {"keypoints": xy.tolist(), "keypoint_scores": scores.tolist(),
+                    EXTRA_KEY: _base.write_extra(rows.poses[r], rows.filled[r])}
+            if rows.tracks is not None:
+                t = rows.tracks[r]
+                inst["track_id"] = int(t) if np.asarray(t).dtype.kind in "iu" else str(t)
+            instances.append(inst)
+        info.append({"frame_id": int(frame), "instances": instances})
+    return {"meta_info": {"dataset_name": "coco"}, "instance_info": info}

@@ -1,0 +1,253 @@
+"""OpenPose JSON (``--write_json``): one file per frame, or a folder of them.
+
+Each file is ``{"version": ..., "people": [{"person_id": [-1],
+"pose_keypoints_2d": [x1, y1, c1, ...], "face_keypoints_2d": [...], ...}]}``
+(OpenPose ``doc/02_output.md``); its frame number is the one in its name
+(``video_000000000012_keypoints.json``; files without one are numbered in name
+order). Each person is one pose, its id the file's name without
+``_keypoints.json``. ``c`` is OpenPose's confidence in [0, 1]; undetected
+keypoints are written ``0, 0, 0`` and read as missing (``c = 0``).
+
+Body models, told apart by the length of ``pose_keypoints_2d``:
+
+``BODY_25`` (75 values): Nose, Neck, RShoulder, RElbow, RWrist, LShoulder,
+    LElbow, LWrist, MidHip, RHip, RKnee, RAnkle, LHip, LKnee, LAnkle, REye,
+    LEye, REar, LEar, 6 foot points;
+``COCO`` (18 keypoints, 54 values): the first 8 of BODY_25, then RHip ...
+    LAnkle, REye, LEye, REar, LEar;
+``BODY_135`` (405 values): its body part is BODY_25B (the COCO-17 keypoints in
+    COCO order, UpperNeck, HeadTop, 6 foot points); hands and face follow and
+    are not used.
+
+Mapping onto the 14 joints: limbs by name; ``neck`` = OpenPose's ``Neck``
+(BODY_25, COCO-18: trained on the shoulders' midpoint, the base of the neck),
+for BODY_135 the midpoint of the shoulders (its UpperNeck sits higher);
+``head_top`` = BODY_135's ``HeadTop``, for BODY_25 / COCO-18 the COCO rule
+from the face (nose, eyes, ears; :mod:`sparseedm.formats._base`).
+
+Tracks: ``person_id`` (a number or OpenPose's one-element list) where every
+person has one >= 0 (``--tracking``); without ids, one track when no frame
+holds more than one person; otherwise none (persons cannot be told apart).
+
+A file with no people is a frame with no poses (kept, and written back as it
+was). A bad file of a folder (truncated JSON, not an OpenPose frame, a
+keypoint that is not a number, a score outside [0, 1]) is skipped with a
+warning naming the file and field, the good frames are kept
+(``meta["skipped"]``); a folder with no good frame, or a bad single file,
+raises :class:`~sparseedm.exceptions.FileFormatError`. Files that are not
+``.json`` are ignored (listed in ``meta["ignored"]``).
+
+Writing back: every file of the input, with the filled keypoints of each
+person set to ``[x, y, filled_score]`` and a ``"sparseedm"`` object per
+person (``neck``, ``head_top``, ``filled``: the 14-joint names filled,
+``frame``, which a file renamed without the frame number is read with, plus
+per-row status when written by ``sparseedm recover``). A folder input is
+written as a folder (the same file names), a file as a file. Without an
+OpenPose input, BODY_25 files are written (one per frame; ``person_id`` the
+track).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from .._safeio import load_json
+from ..exceptions import FileFormatError
+from . import _base
+from ._base import COCO17, EXTRA_KEY, Layout, Person
+
+__all__ = ["BODY_25", "COCO_18", "BODY_135", "LAYOUTS", "read", "write", "is_openpose"]
+
+_SIDES = ("shoulder", "elbow", "wrist")
+_LEGS = ("hip", "knee", "ankle")
+_FEET = ("big_toe", "small_toe", "heel")
+
+BODY_25 = Layout("BODY_25", (
+    "nose", "neck", *(f"right_{s}" for s in _SIDES), *(f"left_{s}" for s in _SIDES),
+    "mid_hip", *(f"right_{s}" for s in _LEGS), *(f"left_{s}" for s in _LEGS),
+    "right_eye", "left_eye", "right_ear", "left_ear",
+    *(f"left_{s}" for s in _FEET), *(f"right_{s}" for s in _FEET)), neck="neck")
+COCO_18 = Layout("COCO-18", (
+    "nose", "neck", *(f"right_{s}" for s in _SIDES), *(f"left_{s}" for s in _SIDES),
+    *(f"right_{s}" for s in _LEGS), *(f"left_{s}" for s in _LEGS),
+    "right_eye", "left_eye", "right_ear", "left_ear"), neck="neck")
+BODY_135 = Layout("BODY_135", (
+    *COCO17, "upper_neck", "head_top", *(f"left_{s}" for s in _FEET),
+    *(f"right_{s}" for s in _FEET), *(f"hand_or_face_{i}" for i in range(110))),
+    head_top="head_top")
+#: layouts by the number of keypoints in ``pose_keypoints_2d``
+LAYOUTS = {len(lay): lay for lay in (BODY_25, COCO_18, BODY_135)}
+#: most files a folder may hold (a 9-hour video at 30 fps)
+MAX_FILES = 1_000_000
+_SUFFIX = "_keypoints.json"
+
+
+def is_openpose(doc):
+    """Whether a JSON document is an OpenPose frame."""
+    return isinstance(doc, dict) and isinstance(doc.get("people"), list) \
+        and "annotations" not in doc
+
+
+def _stem(name):
+    return name[: -len(_SUFFIX)] if name.endswith(_SUFFIX) else Path(name).stem
+
+
+def _person(person, path, p, frame):
+    where = f"{path}: people[{p}]"
+    kp = _base.keypoint_rows(person, where, "pose_keypoints_2d", 3, LAYOUTS,
+                             "OpenPose body models have 75 (BODY_25), 54 (COCO) or "
+                             "405 (BODY_135): x, y, c per keypoint")
+    _base.check_scores(kp[:, 2], where, "pose_keypoints_2d confidence", upper=1.0)
+    pid = person.get("person_id", -1)
+    if isinstance(pid, list) and len(pid) == 1:
+        pid = pid[0]
+    if isinstance(pid, bool) or not isinstance(pid, int):
+        raise FileFormatError(f"{where}: 'person_id' must be an integer (or [integer])")
+    points, filled = _base.read_extra(person, where)
+    stored = person.get(EXTRA_KEY, {}).get("frame") if isinstance(person.get(EXTRA_KEY),
+                                                                   dict) else None
+    if frame is None and isinstance(stored, int) and not isinstance(stored, bool):
+        frame = stored  # a file written here under a name without the frame number
+    return Person(kp[:, :2], kp[:, 2], _stem(Path(path).name), frame,
+                  pid if pid >= 0 else None, points, filled)
+
+
+def _frame_file(path, frame):
+    """The people of one frame file and its document."""
+    doc = load_json(path)
+    if not is_openpose(doc):
+        raise FileFormatError(f"{path}: not an OpenPose frame (no 'people' list)")
+    return [_person(person, path, p, frame) for p, person in enumerate(doc["people"])], doc
+
+
+def _folder_files(path):
+    names, ignored = [], []
+    with os.scandir(path) as it:
+        for entry in it:
+            if len(names) + len(ignored) >= MAX_FILES:
+                raise FileFormatError(f"{path}: more than {MAX_FILES} files; split the folder")
+            if entry.name.startswith("."):
+                continue
+            (names if entry.name.lower().endswith(".json") and entry.is_file()
+             else ignored).append(entry.name)
+    numbered = [(_base.frame_number(n), n) for n in names]
+    if any(f is None for f, _ in numbered):  # no numbers in some names: name order
+        numbered = [(i, n) for i, n in enumerate(sorted(names))]
+    return sorted(numbered), sorted(ignored)
+
+
+def read(path):
+    """Read an OpenPose frame file or a folder of them into a :class:`_base.Parsed`."""
+    path = Path(path)
+    if not path.is_dir():
+        frame = _base.frame_number(path.name)
+        people, doc = _frame_file(path, frame)
+        files = [{"name": path.name, "doc": doc, "rows": len(people)}]
+        return _parsed(people, files, {"openpose_folder": False, "skipped": [],
+                                       "ignored": []}, path)
+    numbered, ignored = _folder_files(path)
+    people, files, skipped = [], [], []
+    for frame, name in numbered:
+        try:
+            got, doc = _frame_file(path / name, frame)
+        except FileFormatError as exc:
+            skipped.append((name, str(exc)))
+            continue
+        people += got
+        files.append({"name": name, "doc": doc, "rows": len(got)})
+    if not files:
+        why = f"; first: {skipped[0][1]}" if skipped else ""
+        raise FileFormatError(f"{path}: no readable OpenPose frame files (*.json){why}")
+    for name, msg in skipped:
+        warnings.warn(f"skipped {msg}", stacklevel=3)
+    return _parsed(people, files, {"openpose_folder": True, "skipped": skipped,
+                                   "ignored": ignored}, path)
+
+
+def _parsed(people, files, meta, path):
+    sizes = {len(p.xy) for p in people}
+    if len(sizes) > 1:
+        raise FileFormatError(f"{path}: people of different body models "
+                              f"({', '.join(LAYOUTS[s].name for s in sorted(sizes))})")
+    layout = LAYOUTS[sizes.pop()] if sizes else BODY_25
+    meta.update(openpose_files=files, layout=layout.name)
+    frames = None
+    if all(p.frame is not None for p in people):
+        frames = np.asarray([p.frame for p in people], dtype=np.int64)
+    return _base.assemble(people, layout, meta, tracks=_base.person_tracks(people),
+                          frames=frames)
+
+
+# --------------------------------------------------------------------------
+# writing
+
+
+def write(path, rows, meta, filled_score, row_fields=None):
+    """Write OpenPose JSON: the input's files with the filled joints, or BODY_25 files."""
+    path = Path(path)
+    files = meta.get("openpose_files")
+    if files is None:
+        docs, folder = _fresh(rows, path)
+    else:
+        docs, folder = _updated(files, rows, meta, filled_score, row_fields), \
+            meta.get("openpose_folder", False)
+    if not folder:
+        if len(docs) != 1:
+            raise FileFormatError(f"writing {path}: {len(docs)} frames need a folder "
+                                  "(give an output path without .json)")
+        _base.write_json(path, docs[0][1])
+        return
+    _base.write_json_folder(path, docs)
+
+
+def _updated(files, rows, meta, filled_score, row_fields):
+    layout = LAYOUTS[{lay.name: n for n, lay in LAYOUTS.items()}[meta["layout"]]]
+    total = sum(f["rows"] for f in files)
+    if total != len(rows.poses):
+        raise FileFormatError(f"{len(rows.poses)} poses for the {total} people read")
+    docs, r = [], 0
+    for f in files:
+        doc = json.loads(json.dumps(f["doc"]))
+        for person in doc["people"]:
+            kp = np.asarray(person["pose_keypoints_2d"], dtype=float).reshape(-1, 3)
+            _base.update_person(kp[:, :2], kp[:, 2], rows.poses[r], rows.filled[r], layout,
+                                filled_score)
+            person["pose_keypoints_2d"] = [float(v) for v in kp.ravel()]
+            person[EXTRA_KEY] = _base.write_extra(rows.poses[r], rows.filled[r],
+                                                  _base.row_status(row_fields, r))
+            if rows.frames is not None:
+                person[EXTRA_KEY]["frame"] = int(rows.frames[r])
+            r += 1
+        docs.append((f["name"], doc))
+    return docs
+
+
+def _fresh(rows, path):
+    groups, frames = _base.frame_rows(rows.frames, len(rows.poses))
+    layout = BODY_25
+    docs = []
+    for members, frame in zip(groups, frames):
+        people = []
+        for r in members:
+            kp = np.zeros((len(layout), 3))
+            for j, k in layout.sources().items():
+                if not np.isnan(rows.poses[r, j]).any():
+                    kp[k] = (*rows.poses[r, j], rows.score(r, j))
+            track = rows.tracks[r] if rows.tracks is not None else -1
+            people.append({"person_id": [int(track) if _is_int(track) else -1],
+                           "pose_keypoints_2d": [float(v) for v in kp.ravel()],
+                           EXTRA_KEY: _base.write_extra(rows.poses[r], rows.filled[r])})
+        docs.append((f"{path.stem}_{frame:012d}{_SUFFIX}", {"version": 1.3, "people": people}))
+    return docs, path.suffix.lower() != ".json"
+
+
+def _is_int(value):
+    try:
+        return float(value) == int(value)
+    except (TypeError, ValueError):
+        return False

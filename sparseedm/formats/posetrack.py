@@ -1,0 +1,91 @@
+"""PoseTrack: COCO keypoint JSON with ``track_id`` (results or ground truth).
+
+PoseTrack 2018/21 files are COCO documents whose annotations carry a
+``track_id`` (the person over time) and whose ``images`` carry a
+``frame_id`` (and ``vid_id``); results files are COCO results lists with
+``track_id``. :mod:`sparseedm.keypoints` reads and writes them as COCO (the
+document is written back whole, ``track_id`` included); this module adds:
+
+* ``tracks``: each annotation's ``track_id``;
+* ``frames``: the ``frame_id`` of its image when the document lists
+  ``images``, else its ``image_id`` when that is an integer, else the
+  annotation's position;
+* PoseTrack's own keypoint order, used when the document's category names
+  its keypoints with ``head_bottom`` and ``head_top`` (PoseTrack's 17:
+  nose, head_bottom, head_top, ears, then COCO's limbs): ``head_top`` is then
+  the file's own keypoint; the neck stays the shoulders' midpoint (PoseTrack's
+  head_bottom is the chin, not the neck's base).
+
+A ``track_id`` that is not an integer or a string, or present on some
+annotations and not others, is an error naming the annotation.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..exceptions import FileFormatError
+
+__all__ = ["POSETRACK_KEYPOINTS", "tracks_and_frames", "uses_posetrack_order",
+           "HEAD_TOP_INDEX"]
+
+POSETRACK_KEYPOINTS = (
+    "nose", "head_bottom", "head_top", "left_ear", "right_ear",
+    "left_shoulder", "right_shoulder", "left_elbow", "right_elbow",
+    "left_wrist", "right_wrist", "left_hip", "right_hip",
+    "left_knee", "right_knee", "left_ankle", "right_ankle")
+#: index of head_top among PoseTrack's keypoints
+HEAD_TOP_INDEX = 2
+
+
+def uses_posetrack_order(doc):
+    """Whether a COCO document's category names PoseTrack's keypoints."""
+    if not isinstance(doc, dict):
+        return False
+    for cat in doc.get("categories") or []:
+        if isinstance(cat, dict) and isinstance(cat.get("keypoints"), list):
+            return "head_top" in cat["keypoints"] and "head_bottom" in cat["keypoints"]
+    return False
+
+
+def tracks_and_frames(doc, anns, path):
+    """``(tracks, frames)`` of a COCO document's annotations, or ``(None, None)``
+    when no annotation has a ``track_id``.
+
+    Examples
+    --------
+    >>> doc = {"images": [{"id": 10, "frame_id": 3}],
+    ...        "annotations": [{"image_id": 10, "track_id": 1, "keypoints": []}]}
+    >>> tracks_and_frames(doc, doc["annotations"], "x.json")
+    (array([1]), array([3]))
+    """
+    have = [isinstance(a, dict) and "track_id" in a for a in anns]
+    if not any(have):
+        return None, None
+    if not all(have):
+        a = have.index(False)
+        raise FileFormatError(f"{path}: annotation {a} has no 'track_id' while others do")
+    tracks = []
+    for a, ann in enumerate(anns):
+        t = ann["track_id"]
+        if isinstance(t, bool) or not isinstance(t, (int, str)):
+            raise FileFormatError(f"{path}: annotation {a}: 'track_id' must be an integer "
+                                  "or a string")
+        tracks.append(t)
+    frame_of = {}
+    if isinstance(doc, dict) and isinstance(doc.get("images"), list):
+        for img in doc["images"]:
+            if isinstance(img, dict) and isinstance(img.get("frame_id"), int):
+                frame_of[img.get("id")] = img["frame_id"]
+    frames = []
+    for a, ann in enumerate(anns):
+        image = ann.get("image_id")
+        if image in frame_of:
+            frames.append(frame_of[image])
+        elif isinstance(image, int) and not isinstance(image, bool):
+            frames.append(image)
+        else:
+            frames.append(a)
+    kinds = {type(t) for t in tracks}
+    tracks = np.asarray(tracks if len(kinds) == 1 else [str(t) for t in tracks])
+    return tracks, np.asarray(frames, dtype=np.int64)

@@ -1,0 +1,368 @@
+"""Detector and tracker formats (issue 24): OpenPose, MMPose, DeepLabCut, PoseTrack.
+
+Fixtures: tests/fixtures/formats (made by make_formats.py from the formats'
+documented layouts). Round trips go read -> recover -> write -> read.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import shutil
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sparseedm.batch import recover_file
+from sparseedm.exceptions import FileFormatError, OutputPathError
+from sparseedm.formats import detect
+from sparseedm.keypoints import read_keypoints, write_keypoints
+from sparseedm.skeleton import JOINT_NAMES
+
+F = Path(__file__).resolve().parent / "fixtures" / "formats"
+MAP = F / "dlc_joints.json"
+NECK, HEAD_TOP = JOINT_NAMES.index("neck"), JOINT_NAMES.index("head_top")
+RW, LW = JOINT_NAMES.index("right_wrist"), JOINT_NAMES.index("left_wrist")
+
+
+def digest(path):
+    path = Path(path)
+    files = sorted(path.rglob("*")) if path.is_dir() else [path]
+    return {str(p): hashlib.sha256(p.read_bytes()).hexdigest() for p in files if p.is_file()}
+
+
+def needs_pandas():
+    pytest.importorskip("pandas", reason="DeepLabCut .h5 needs the dlc extra (pandas)")
+    pytest.importorskip("tables", reason="DeepLabCut .h5 needs the dlc extra (PyTables)")
+
+
+# --------------------------------------------------------------------------
+# round trips through recover_file, one per format
+
+CASES = {
+    "openpose-folder": (F / "openpose", "out", {}, 0.05),
+    "openpose-file": (F / "openpose" / "video_000000000001_keypoints.json", "out.json", {},
+                      0.05),
+    "mmpose": (F / "mmpose_predictions.json", "out.json", {}, 0.3),
+    "dlc-csv": (F / "dlc.csv", "out.csv", {"joint_map": MAP}, 0.6),
+    "dlc-h5": (F / "dlc.h5", "out.h5", {"joint_map": MAP}, 0.6),
+    "dlc-multi": (F / "dlc_multi.csv", "out.csv", {"joint_map": MAP}, 0.6),
+}
+
+
+@pytest.mark.parametrize("case", CASES)
+def test_round_trip_fills_and_flags_every_occluded_joint(case, tmp_path, small_dictionary):
+    src, name, kw, threshold = CASES[case]
+    if src.suffix == ".h5":
+        needs_pandas()
+    before = digest(src)
+    first = read_keypoints(src, confidence_threshold=threshold, **kw)
+    assert first.missing.any(), "the fixture has occluded joints"
+    out = tmp_path / name
+    summary = recover_file(src, out, dictionary=small_dictionary, adapt=False,
+                           confidence_threshold=threshold, **kw)
+    assert summary["refused"] == 0 and summary["recovered_joints"] == first.missing.sum()
+    assert digest(src) == before, "the input was changed"
+    back = read_keypoints(out, confidence_threshold=threshold, **kw)
+    assert back.meta["format"] == first.meta["format"]
+    assert not back.missing.any(), "every occluded joint is filled"
+    np.testing.assert_array_equal(back.filled, first.missing)
+    observed = ~first.missing
+    np.testing.assert_allclose(back.poses[observed], first.poses[observed])
+    assert np.isfinite(back.poses).all()
+    np.testing.assert_array_equal(back.tracks, first.tracks)
+    np.testing.assert_array_equal(back.frames, first.frames)
+    if case != "openpose-file":  # an OpenPose pose's id is its file's name
+        np.testing.assert_array_equal(back.ids, first.ids)
+    # filled joints carry the filled score, never a detection's
+    np.testing.assert_array_equal(back.confidence[first.missing], 0.0)
+
+
+def test_openpose_folder_round_trip_writes_the_same_files(tmp_path, small_dictionary):
+    out = tmp_path / "op"
+    recover_file(F / "openpose", out, dictionary=small_dictionary, adapt=False)
+    assert sorted(p.name for p in out.iterdir()) == \
+        sorted(p.name for p in (F / "openpose").iterdir())
+    doc = json.loads((out / "video_000000000001_keypoints.json").read_text())
+    person = doc["people"][0]
+    assert person["sparseedm"]["filled"] == ["right_wrist"]
+    assert person["sparseedm"]["status"] == "recovered"
+    assert person["pose_keypoints_2d"][3 * 4 + 2] == 0.0  # RWrist: filled score
+    assert person["pose_keypoints_2d"][3 * 4] != 0.0
+    # a second run replaces the earlier output folder
+    recover_file(F / "openpose", out, dictionary=small_dictionary, adapt=False)
+    assert len(list(out.iterdir())) == 4
+
+
+def test_openpose_output_never_the_input_folder(tmp_path, small_dictionary):
+    folder = tmp_path / "in"
+    shutil.copytree(F / "openpose", folder)
+    before = digest(folder)
+    with pytest.raises(OutputPathError, match="refusing to overwrite"):
+        recover_file(folder, folder, dictionary=small_dictionary, adapt=False)
+    assert digest(folder) == before
+
+
+def test_openpose_folder_to_one_json_is_refused_before_work(tmp_path, small_dictionary):
+    with pytest.raises(FileFormatError, match="written as a folder"):
+        recover_file(F / "openpose", tmp_path / "x.json", dictionary=small_dictionary,
+                     adapt=False)
+    assert list(tmp_path.iterdir()) == []
+
+
+# --------------------------------------------------------------------------
+# OpenPose
+
+
+def _person(n_keypoints, pid=-1, score=0.8, **points):
+    kp = np.zeros((n_keypoints, 3))
+    kp[:, :2] = np.arange(n_keypoints * 2).reshape(-1, 2) + 100
+    kp[:, 2] = score
+    for k, xy in points.items():
+        kp[int(k[1:]), :2] = xy
+    return {"person_id": [pid], "pose_keypoints_2d": kp.ravel().tolist()}
+
+
+def _frame(path, *people):
+    path.write_text(json.dumps({"version": 1.3, "people": list(people)}))
+    return path
+
+
+def test_openpose_layouts_map_by_their_documented_order(tmp_path):
+    # BODY_25: Neck (1) is the neck; RWrist is 4, LAnkle 14
+    k = read_keypoints(_frame(tmp_path / "a_000000000005_keypoints.json", _person(25)))
+    assert k.poses[0, NECK].tolist() == [102, 103]
+    assert k.poses[0, RW].tolist() == [108, 109]
+    assert k.poses[0, JOINT_NAMES.index("left_ankle")].tolist() == [128, 129]
+    assert k.frames.tolist() == [5] and k.ids.tolist() == ["a_000000000005"]
+    # COCO-18: RHip is 8 (BODY_25 has MidHip there)
+    k = read_keypoints(_frame(tmp_path / "b_keypoints.json", _person(18)))
+    assert k.poses[0, JOINT_NAMES.index("right_hip")].tolist() == [116, 117]
+    # BODY_135: COCO order, HeadTop (18) is the head top, neck = shoulders' midpoint
+    k = read_keypoints(_frame(tmp_path / "c_keypoints.json", _person(135)))
+    assert k.poses[0, HEAD_TOP].tolist() == [136, 137]
+    assert k.poses[0, NECK].tolist() == [(110 + 112) / 2, (111 + 113) / 2]
+
+
+def test_openpose_people_and_tracks(tmp_path):
+    empty = read_keypoints(_frame(tmp_path / "e_keypoints.json"))
+    assert len(empty) == 0
+    two = read_keypoints(_frame(tmp_path / "t_keypoints.json", _person(25), _person(25)))
+    assert len(two) == 2 and two.tracks is None  # no ids: persons cannot be told apart
+    d = tmp_path / "tracked"
+    d.mkdir()
+    for f in range(3):
+        _frame(d / f"v_{f:012d}_keypoints.json", _person(25, 7), _person(25, 3))
+    _frame(d / "v_000000000003_keypoints.json")  # an empty frame is kept
+    k = read_keypoints(d)
+    assert k.tracks.tolist() == [7, 3] * 3 and k.frames.tolist() == [0, 0, 1, 1, 2, 2]
+    out = tmp_path / "back"
+    write_keypoints(out, k)
+    assert len(list(out.iterdir())) == 4
+    assert read_keypoints(out).tracks.tolist() == [7, 3] * 3
+
+
+def test_openpose_bad_frames_are_named_and_good_frames_kept(tmp_path):
+    d = tmp_path / "mixed"
+    shutil.copytree(F / "openpose", d)
+    text = (d / "video_000000000002_keypoints.json").read_text()
+    (d / "video_000000000002_keypoints.json").write_text(text[: len(text) // 2])
+    shutil.copy(F / "mmpose_predictions.json", d / "video_000000000007_keypoints.json")
+    bad_score = json.loads(text)
+    bad_score["people"][0]["pose_keypoints_2d"][2] = 1.5
+    (d / "video_000000000008_keypoints.json").write_text(json.dumps(bad_score))
+    (d / "notes.txt").write_text("not a frame")
+    before = digest(d)
+    with pytest.warns(UserWarning) as record:
+        k = read_keypoints(d)
+    assert len(k) == 3 and k.frames.tolist() == [0, 1, 3]
+    messages = " ".join(str(w.message) for w in record)
+    assert "video_000000000002_keypoints.json: invalid or truncated JSON" in messages
+    assert "video_000000000007_keypoints.json: not an OpenPose frame" in messages
+    assert "'pose_keypoints_2d confidence' value 0 is 1.5" in messages
+    assert [name for name, _ in k.meta["skipped"]] == [
+        "video_000000000002_keypoints.json", "video_000000000007_keypoints.json",
+        "video_000000000008_keypoints.json"]
+    assert k.meta["ignored"] == ["notes.txt"]
+    assert digest(d) == before
+
+
+def test_openpose_folder_without_a_good_frame_is_an_error(tmp_path):
+    d = tmp_path / "bad"
+    d.mkdir()
+    (d / "x_keypoints.json").write_text('{"people": [')
+    with pytest.raises(FileFormatError, match="no readable OpenPose frame files"):
+        read_keypoints(d)
+
+
+# --------------------------------------------------------------------------
+# MMPose
+
+
+def _instances(k, scores=None, **extra):
+    xy = (np.arange(2 * k).reshape(k, 2) + 10.0).tolist()
+    return dict(keypoints=xy, keypoint_scores=scores or [0.9] * k, **extra)
+
+
+@pytest.mark.parametrize("shape", ["demo", "instance_info", "inferencer"])
+def test_mmpose_shapes(shape, tmp_path):
+    inst = _instances(17, track_id=4)
+    doc = {"demo": {"meta_info": {}, "instance_info": [{"frame_id": 3, "instances": [inst]}]},
+           "instance_info": [{"frame_id": 3, "instances": [inst]}],
+           "inferencer": [inst]}[shape]
+    path = tmp_path / "p.json"
+    path.write_text(json.dumps(doc))
+    assert detect(path) == "mmpose"
+    k = read_keypoints(path)
+    assert k.poses[0, LW].tolist() == [28.0, 29.0]  # COCO left_wrist is 9
+    assert k.tracks.tolist() == [4] and k.frames.tolist() == [0 if shape == "inferencer"
+                                                              else 3]
+
+
+def test_mmpose_halpe_and_wholebody(tmp_path):
+    path = tmp_path / "h.json"
+    path.write_text(json.dumps([_instances(26)]))
+    k = read_keypoints(path)
+    assert k.poses[0, HEAD_TOP].tolist() == [44.0, 45.0]  # Halpe head (17)
+    assert k.poses[0, NECK].tolist() == [46.0, 47.0]      # Halpe neck (18)
+    path.write_text(json.dumps([_instances(133)]))
+    k = read_keypoints(path)
+    assert k.poses[0, LW].tolist() == [28.0, 29.0]
+    assert k.poses[0, NECK].tolist() == [(20 + 22) / 2, (21 + 23) / 2]
+
+
+def test_mmpose_scores_above_one_are_kept_negative_refused(tmp_path):
+    path = tmp_path / "s.json"
+    path.write_text(json.dumps([_instances(17, [1.08] * 17)]))
+    assert not read_keypoints(path).missing.any()
+    path.write_text(json.dumps([_instances(17, [0.9] * 16 + [-0.1])]))
+    with pytest.raises(FileFormatError, match=r"s.json: frame 0, instance 0: "
+                       r"'keypoint_scores' value 16"):
+        read_keypoints(path)
+
+
+# --------------------------------------------------------------------------
+# DeepLabCut
+
+
+def test_dlc_h5_and_csv_read_the_same():
+    needs_pandas()
+    a = read_keypoints(F / "dlc.csv", joint_map=MAP)
+    b = read_keypoints(F / "dlc.h5", joint_map=MAP)
+    np.testing.assert_array_equal(a.poses, b.poses)
+    np.testing.assert_array_equal(a.confidence, b.confidence)
+    assert a.meta["format"] == b.meta["format"] == "dlc"
+
+
+def test_dlc_needs_a_map_for_its_own_part_names():
+    with pytest.raises(FileFormatError, match=r"dlc.csv: DeepLabCut body parts \(head, "
+                       r"neckbase.*--joint-map"):
+        read_keypoints(F / "dlc.csv")
+
+
+def test_dlc_map_naming_an_unknown_body_part(tmp_path):
+    m = tmp_path / "map.json"
+    m.write_text(json.dumps({"joints": {"left_wrist": "hand_left"}}))
+    with pytest.raises(FileFormatError, match=r"map.json: 'joints.left_wrist' names body "
+                       r"part 'hand_left'"):
+        read_keypoints(F / "dlc.csv", joint_map=m)
+    m.write_text(json.dumps({"joints": {"left_hand": "wristL"}}))
+    with pytest.raises(FileFormatError, match="'joints.left_hand' is not a joint"):
+        read_keypoints(F / "dlc.csv", joint_map=m)
+
+
+def test_dlc_likelihood_rules(tmp_path):
+    lines = (F / "dlc.csv").read_text().splitlines()
+    row = lines[3].split(",")
+    row[3] = "nan"          # head likelihood NaN: missing, not an error
+    lines[3] = ",".join(row)
+    p = tmp_path / "nan.csv"
+    p.write_text("\n".join(lines) + "\n")
+    k = read_keypoints(p, joint_map=MAP)
+    assert k.missing[0, HEAD_TOP] and not k.missing[1, HEAD_TOP]
+    row[3] = "1.7"
+    lines[3] = ",".join(row)
+    p.write_text("\n".join(lines) + "\n")
+    with pytest.raises(FileFormatError, match=r"row '0', body part 'head': likelihood "
+                       r"1.7 is outside \[0, 1\]"):
+        read_keypoints(p, joint_map=MAP)
+
+
+def test_dlc_map_is_optional_when_parts_are_the_joint_names(tmp_path):
+    k = read_keypoints(F / "dlc.csv", joint_map=MAP)
+    out = tmp_path / "fresh.csv"
+    write_keypoints(out, k.poses, format="dlc")
+    again = read_keypoints(out)
+    np.testing.assert_allclose(again.poses, k.poses)
+
+
+def test_h5_without_pandas_names_the_extra(tmp_path, monkeypatch):
+    import builtins
+
+    real = builtins.__import__
+
+    def no_pandas(name, *args, **kwargs):
+        if name in ("pandas", "tables"):
+            raise ImportError(f"No module named {name!r}")
+        return real(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", no_pandas)
+    with pytest.raises(FileFormatError, match=r"sparseedm\[dlc\]"):
+        read_keypoints(F / "dlc.h5", joint_map=MAP)
+
+
+# --------------------------------------------------------------------------
+# PoseTrack
+
+
+def _coco_kp(head_top=(50, 5)):
+    kp = []
+    for k in range(17):
+        kp += [10.0 * k, 20.0 + k, 1]
+    kp[6:8] = head_top
+    return kp
+
+
+def test_posetrack_ground_truth_tracks_frames_and_head_top(tmp_path, small_dictionary):
+    doc = {"images": [{"id": 100, "frame_id": 0, "vid_id": 1},
+                      {"id": 101, "frame_id": 1, "vid_id": 1}],
+           "categories": [{"id": 1, "name": "person", "keypoints": [
+               "nose", "head_bottom", "head_top", "left_ear", "right_ear", "left_shoulder",
+               "right_shoulder", "left_elbow", "right_elbow", "left_wrist", "right_wrist",
+               "left_hip", "right_hip", "left_knee", "right_knee", "left_ankle",
+               "right_ankle"]}],
+           "annotations": [{"image_id": i, "track_id": t, "keypoints": _coco_kp()}
+                           for i in (100, 101) for t in (0, 1)]}
+    path = tmp_path / "pt.json"
+    path.write_text(json.dumps(doc))
+    k = read_keypoints(path)
+    assert k.tracks.tolist() == [0, 1, 0, 1] and k.frames.tolist() == [0, 0, 1, 1]
+    assert k.poses[0, HEAD_TOP].tolist() == [50.0, 5.0]
+    out = tmp_path / "o.json"
+    recover_file(path, out, dictionary=small_dictionary, adapt=False)
+    back = read_keypoints(out)
+    assert back.tracks.tolist() == [0, 1, 0, 1] and back.frames.tolist() == [0, 0, 1, 1]
+
+
+def test_posetrack_track_id_on_some_annotations_only(tmp_path):
+    anns = [{"image_id": 1, "track_id": 0, "keypoints": _coco_kp()},
+            {"image_id": 1, "keypoints": _coco_kp()}]
+    path = tmp_path / "r.json"
+    path.write_text(json.dumps(anns))
+    with pytest.raises(FileFormatError, match="annotation 1 has no 'track_id'"):
+        read_keypoints(path)
+
+
+def test_detect_tells_formats_apart(tmp_path):
+    assert detect(F / "openpose") == "openpose"
+    assert detect(F / "openpose" / "video_000000000000_keypoints.json") == "openpose"
+    assert detect(F / "mmpose_predictions.json") == "mmpose"
+    assert detect(F / "dlc.csv") == "dlc" and detect(F / "dlc.h5") == "dlc"
+    coco = tmp_path / "c.json"
+    coco.write_text(json.dumps([{"image_id": 1, "keypoints": _coco_kp()}]))
+    assert detect(coco) is None  # COCO: read by sparseedm.keypoints
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert read_keypoints(coco).meta["format"] == "coco"
