@@ -195,6 +195,7 @@ _PARAMS = {
     "method": [Options(("sparse", "fconv"))],
     "self_training": [Interval(Integral, 0, None), None],
     "ensemble": [Interval(Integral, 1, None)],
+    "temporal": BOOLEAN,
 }
 #: the smallest extent a pose may have: below it 1/extent overflows or loses bits
 _TINY = np.finfo(float).tiny
@@ -327,7 +328,8 @@ def _place(poses, clean, mask, vectors, center, scale, status, reason, filled, c
 def recover(poses, missing=None, *, dictionary=None, alpha=None,
             representation="average", solver="fast", n_jobs=1, chunk_size=2048,
             positive=None, progress=False, backend=None, scheduler=None,
-            method="sparse", model=None, adapt="auto", self_training=None, ensemble=1):
+            method="sparse", model=None, adapt="auto", self_training=None, ensemble=1,
+            tracks=None, frames=None, temporal=True):
     """Recover the occluded joints of 2D poses.
 
     Parameters
@@ -388,10 +390,23 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         with each adapted dictionary and return the mean of the filled poses
         and EDM vectors (:mod:`sparseedm.ensemble`): lower error, K times the
         work. Stays at one member when the adaptation is not adopted.
+    tracks : array_like (n,), optional
+        With `frames`: the person of each pose (any values); None means all
+        poses are one person.
+    frames : array_like of int (n,), optional
+        Frame number of each pose: turns on temporal recovery
+        (:mod:`sparseedm.temporal`), which fills each track's occluded joints
+        from the frames around them and the per-frame answer. Any order;
+        skipped numbers are frames where the person was not seen.
+    temporal : bool, default True
+        False ignores `tracks` and `frames`: every pose on its own, exactly as
+        without them.
 
     Returns
     -------
     RecoveryResult
+        A :class:`~sparseedm.temporal.recover.TemporalResult` (per-joint
+        ``source``) when `frames` turned temporal recovery on.
 
     Examples
     --------
@@ -411,7 +426,13 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         dictionary=dictionary, alpha=alpha, representation=representation, solver=solver,
         n_jobs=n_jobs, chunk_size=chunk_size, positive=positive, progress=progress,
         backend=backend, scheduler=scheduler, method=method, self_training=self_training,
-        ensemble=ensemble), _PARAMS)
+        ensemble=ensemble, temporal=temporal), _PARAMS)
+    if frames is not None and temporal:
+        return _recover_in_time(poses, missing, tracks, frames, method, dict(
+            dictionary=dictionary, alpha=alpha, representation=representation, solver=solver,
+            n_jobs=n_jobs, chunk_size=chunk_size, positive=positive, progress=progress,
+            backend=backend, scheduler=scheduler, adapt=adapt, self_training=self_training,
+            ensemble=ensemble))
     if method == "fconv":  # torch is imported only on this path
         from .fconv.recover import recover_fconv
 
@@ -435,6 +456,16 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
                            representation=representation, solver=solver, n_jobs=n_jobs,
                            chunk_size=chunk_size, positive=positive, progress=progress,
                            backend=backend, scheduler=scheduler)
+
+
+def _recover_in_time(poses, missing, tracks, frames, method, kwargs):
+    """recover(frames=...): the temporal model (:mod:`sparseedm.temporal`)."""
+    from .temporal.recover import recover_temporal
+
+    if method != "sparse":
+        raise SparseEDMError("temporal recovery uses the sparse method: pass "
+                             "method='sparse', or temporal=False")
+    return recover_temporal(poses, missing, tracks=tracks, frames=frames, **kwargs)
 
 
 def _recover_members(poses, missing, members, adaptations, **kwargs):

@@ -1,0 +1,291 @@
+"""Temporal recovery: poses with tracks and frames, filled across time.
+
+:func:`recover_temporal` is what ``sparseedm.recover(poses, frames=...)``
+runs. It screens every row as the per-frame path does, cuts the rows into
+segments (:mod:`sparseedm.temporal.tracks`), asks the per-frame sparse model
+only for the frames whose answer carries weight
+(:func:`sparseedm.temporal.model.needs_prior`), fills every segment with the
+temporal model (:func:`sparseedm.temporal.model.fill_segment`) and returns a
+:class:`TemporalResult` in the caller's row order. Rows that cannot be placed
+in time (see :mod:`~sparseedm.temporal.tracks`) are recovered frame by frame
+and say why.
+
+:func:`recover_track` is the same model as a gap filler of one track,
+``fill(poses, missing, frames) -> filled``, the shape the video evaluation
+compares every gap filler in.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..dictionary import Dictionary, load_dictionary
+from ..edm import pose_to_vector
+from ..ensemble import adapt_members
+from ..normalize import normalize
+from ..recovery import RecoveryResult, _recover_members, _validate, screen_poses
+from .model import DEFAULT_SETTINGS, fill_segment, needs_prior
+from .tracks import split_tracks
+
+__all__ = ["recover_temporal", "recover_track", "TemporalResult", "SOURCES"]
+
+#: Per-joint sources of :attr:`TemporalResult.source`.
+SOURCES = {
+    "observed": "given by the caller, returned exactly",
+    "temporal": "filled by the temporal model (time and the per-frame pose model)",
+    "per_frame": "filled by the per-frame pose model alone (the row is outside any track)",
+    "": "not filled (the row was refused)",
+}
+#: relative residual of a trajectory's banded solve above which its rows are
+#: 'inaccurate' instead of 'recovered'
+RESIDUAL_TOL = 1e-8
+
+
+@dataclass
+class TemporalResult(RecoveryResult):
+    """A :class:`~sparseedm.recovery.RecoveryResult` with what time did.
+
+    Attributes
+    ----------
+    source : ndarray of str (n, N)
+        Where each joint comes from, one of :data:`SOURCES`.
+    prior_weight : ndarray (n, N)
+        Weight the per-frame pose model had at each filled joint (0: time
+        alone, a spline; 1: full).
+    residual : ndarray (n,)
+        Largest relative residual of the row's trajectories' exact solves (the
+        temporal model's certificate); NaN for rows outside any track.
+    per_frame_poses : int
+        Rows the per-frame model was asked for.
+    segments : int
+        Segments (one track, consecutive frames) solved.
+
+    For rows filled by the temporal model, ``vectors``, ``center`` and
+    ``scale`` describe the filled pose itself (normalised as
+    :func:`sparseedm.normalize.normalize` does); ``objective``, ``gap`` and
+    ``n_active`` are the per-frame answer's where one was computed.
+    """
+
+    source: np.ndarray = field(default=None)
+    prior_weight: np.ndarray = field(default=None)
+    residual: np.ndarray = field(default=None)
+    per_frame_poses: int = 0
+    segments: int = 0
+
+    def summary(self) -> dict:
+        """:meth:`RecoveryResult.summary` plus the temporal model's counts."""
+        out = super().summary()
+        out["temporal"] = {
+            "segments": self.segments,
+            "per_frame_poses": self.per_frame_poses,
+            "joints": {s: int((self.source == s).sum()) for s in SOURCES if s
+                       and s != "observed"},
+        }
+        return out
+
+
+def _confidence(status, settings):
+    return np.select([status == "recovered", status == "inaccurate"],
+                     [1.0, settings.inaccurate], 0.0)
+
+
+def _dense(rows, offsets, poses, mask, usable):
+    """A segment's rows on its full frame range: values, free joints."""
+    T, N = int(offsets[-1]) + 1, mask.shape[1]
+    values = np.zeros((T, N, 2))
+    free = np.ones((T, N), dtype=bool)
+    keep = usable[rows]
+    values[offsets[keep]] = np.where(mask[rows[keep], :, None], 0.0, poses[rows[keep]])
+    free[offsets[keep]] = mask[rows[keep]]
+    return values, free
+
+
+def _plan(layout, poses, mask, usable, settings):
+    """Rows that need a per-frame answer: alone rows and prior frames."""
+    need = layout.alone & usable
+    for rows, off in zip(layout.segments, layout.offsets):
+        _, free = _dense(rows, off, poses, mask, usable)
+        need[rows] |= needs_prior(free, settings)[off] & mask[rows].any(axis=1)
+    return need & usable
+
+
+def _fill_segments(layout, poses, mask, usable, per, settings):
+    """The temporal model on every segment: filled poses, weights, residuals."""
+    n, N = mask.shape
+    filled = np.full_like(poses, np.nan)
+    weight = np.zeros((n, N))
+    residual = np.full(n, np.nan)
+    for rows, off in zip(layout.segments, layout.offsets):
+        values, free = _dense(rows, off, poses, mask, usable)
+        prior = np.full_like(values, np.nan)
+        confidence = np.zeros(len(values))
+        prior[off] = per.poses[rows]
+        confidence[off] = per.confidence[rows]
+        out, w, r = fill_segment(values, free, prior, confidence, settings)
+        filled[rows], weight[rows] = out[off], w[off]
+        residual[rows] = np.max(np.where(free[off], r[None, :], 0.0), axis=1)
+    return filled, weight, residual
+
+
+_PER_FRAME_KEYS = ("vectors", "center", "scale", "objective", "gap", "n_active", "fallback",
+                   "status", "reason")
+
+
+@dataclass
+class _PerFrame:
+    """Per-frame answers spread over all n rows (NaN / "" where not asked)."""
+
+    poses: np.ndarray
+    confidence: np.ndarray
+    fields: dict
+    rows: np.ndarray
+    alpha: float
+
+
+def _per_frame(poses, mask, need, members, settings, kwargs):
+    """The per-frame model on the `need` rows only."""
+    n, N = mask.shape
+    m = N * (N - 1) // 2
+    fields = dict(vectors=np.full((n, m), np.nan), center=np.full((n, 2), np.nan),
+                  scale=np.full(n, np.nan), objective=np.full(n, np.nan),
+                  gap=np.full(n, np.nan), n_active=np.zeros(n, dtype=int),
+                  fallback=np.zeros(n, dtype=bool), status=np.full(n, "", dtype=object),
+                  reason=np.full(n, "", dtype=object))
+    full = np.full_like(poses, np.nan)
+    confidence = np.zeros(n)
+    rows = np.flatnonzero(need)
+    alpha = kwargs.get("alpha")
+    if len(rows):
+        res = _recover_members(poses[rows], mask[rows], members, [], **kwargs)
+        for key in _PER_FRAME_KEYS:
+            fields[key][rows] = getattr(res, key)
+        full[rows] = res.poses
+        confidence[rows] = _confidence(res.status, settings)
+        alpha = res.alpha
+    if alpha is None:
+        alpha = members[0].alpha_recover
+    return _PerFrame(full, confidence, fields, rows, float(alpha))
+
+
+def recover_temporal(poses, missing=None, *, tracks=None, frames, dictionary=None,
+                     adapt="auto", self_training=None, ensemble=1, settings=None,
+                     **kwargs):
+    """Recover occluded joints across time: one call, every track.
+
+    Parameters
+    ----------
+    poses, missing
+        As :func:`sparseedm.recover`.
+    tracks : array_like (n,), optional
+        Person of each pose; None: all one track.
+    frames : array_like (n,)
+        Frame number of each pose (integers; any order; skipped numbers are
+        frames where the person was not seen).
+    dictionary, adapt, self_training, ensemble
+        As :func:`sparseedm.recover`: adaptation runs on the poses' complete
+        frames as it does per frame.
+    settings : TemporalSettings, optional
+        The temporal model's constants; default the validated ones.
+    **kwargs
+        The per-frame recovery's settings (alpha, representation, solver,
+        n_jobs, chunk_size, positive, progress, backend, scheduler).
+
+    Returns
+    -------
+    TemporalResult
+        Rows in the order given.
+    """
+    t0 = time.perf_counter()
+    settings = DEFAULT_SETTINGS if settings is None else settings
+    if not isinstance(dictionary, Dictionary):
+        dictionary = load_dictionary(dictionary)
+    poses, mask, bad_coord = _validate(poses, missing, dictionary.n_joints)
+    refusal, why, _, _ = screen_poses(poses, mask, bad_coord)
+    # rows whose observed coordinates cannot be used are absent from time too
+    usable = ~np.isin(refusal, ("invalid_coordinates", "out_of_range"))
+    layout = split_tracks(len(poses), tracks, frames)
+    members, adaptations = adapt_members(dictionary, poses, mask, adapt, ensemble,
+                                         n_jobs=kwargs.get("n_jobs", 1),
+                                         self_training=self_training)
+    need = _plan(layout, poses, mask, usable, settings)
+    per = _per_frame(poses, mask, need, members, settings, kwargs)
+    filled, weight, residual = _fill_segments(layout, poses, mask, usable, per, settings)
+    res = _assemble(poses, mask, refusal, why, layout, per, filled, weight, residual,
+                    len(members))
+    res.dictionary = members[0] if members else dictionary
+    if adaptations:
+        res.adaptation = adaptations[0]
+    res.seconds = time.perf_counter() - t0
+    return res
+
+
+def _assemble(poses, mask, refusal, why, layout, per, filled, weight, residual, members):
+    """The TemporalResult: per-frame rows as the per-frame path returns them,
+    temporal rows from the segments, statuses and sources per row."""
+    out = dict(per.fields)
+    status, reason = out.pop("status"), out.pop("reason")
+    result = filled.copy()
+    alone = layout.alone
+    result[alone] = per.poses[alone]
+    source = np.where(mask, "", "observed").astype(object)
+    in_time = ~alone
+    ok = in_time & np.isfinite(filled).all(axis=(1, 2)) & ~np.isin(
+        refusal, ("invalid_coordinates", "out_of_range"))
+    complete = in_time & ~mask.any(axis=1) & (refusal == "")
+    temporal = ok & ~complete
+    exact = residual <= RESIDUAL_TOL
+    status[temporal] = np.where(exact[temporal], "recovered", "inaccurate")
+    reason[temporal] = np.where(exact[temporal], "filled across time by the temporal model",
+                                "the temporal model's solve left a residual above 1e-8")
+    status[complete], reason[complete] = "complete", "no joint missing"
+    refused = in_time & ~ok & ~complete
+    status[refused] = np.where(refusal[refused] == "", "solver_failed", refusal[refused])
+    reason[refused] = np.where(
+        why[refused] == "", "a joint is anchored neither by an observation in its track "
+        "nor by a per-frame answer", why[refused])
+    result[refused] = np.nan
+    source[temporal[:, None] & mask] = "temporal"
+    per_ok = alone & np.isin(status, ("recovered", "inaccurate"))
+    source[per_ok[:, None] & mask] = "per_frame"
+    reason[alone & (status != "")] = [f"{r}; per frame because {a}" for r, a in zip(
+        reason[alone & (status != "")], layout.reason[alone & (status != "")])]
+    still = status == ""  # alone rows the per-frame model did not see: refused by screening
+    status[still], reason[still] = refusal[still], why[still]
+    _describe_filled(result, temporal | complete, out)
+    return TemporalResult(
+        poses=result, missing=mask, status=status.astype(str), reason=reason.astype(str),
+        alpha=per.alpha, members=members, source=source.astype(str),
+        prior_weight=np.where(temporal[:, None], weight, 0.0), residual=residual,
+        per_frame_poses=len(per.rows), segments=len(layout.segments), **out)
+
+
+def _describe_filled(result, rows, out):
+    """vectors, center and scale of the filled poses of `rows` (in place in `out`)."""
+    rows = np.flatnonzero(rows)
+    if len(rows):
+        normed, center, scale = normalize(result[rows])
+        out["vectors"][rows] = pose_to_vector(normed)
+        out["center"][rows], out["scale"][rows] = center, scale
+
+
+def recover_track(poses, missing, frames, **kwargs):
+    """The temporal model as a gap filler of one track.
+
+    Parameters
+    ----------
+    poses : ndarray (T, N, 2)
+    missing : ndarray of bool (T, N)
+    frames : ndarray of int (T,)
+        Sorted, unique.
+    **kwargs
+        As :func:`recover_temporal` (e.g. ``adapt=False``).
+
+    Returns
+    -------
+    ndarray (T, N, 2)
+        Observed joints unchanged; NaN where a row was refused.
+    """
+    return recover_temporal(poses, missing, frames=frames, **kwargs).poses

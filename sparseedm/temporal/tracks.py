@@ -1,0 +1,160 @@
+"""Rows to tracks: which poses are one person over time, in frame order.
+
+:func:`split_tracks` reads the ``tracks`` and ``frames`` a caller gives with
+its poses and cuts the rows into *segments*: the rows of one track in frame
+order, broken where more than :data:`MAX_SKIP` frame numbers are absent
+(nothing couples a pose to one seen seconds later). Rows that cannot join a
+segment are not dropped: they are recovered frame by frame, each with a
+reason (a frame number that is NaN, not a number or not an integer; a
+(track, frame) pair given more than once; a segment of one row).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..exceptions import ParameterError
+
+__all__ = ["MAX_SKIP", "TrackLayout", "split_tracks", "distance_to_observed"]
+
+#: a run of more absent frame numbers than this ends a segment
+MAX_SKIP = 30
+
+
+@dataclass
+class TrackLayout:
+    """How the rows fall into segments.
+
+    Attributes
+    ----------
+    segments : list of ndarray of int
+        Row indices of each segment, in frame order.
+    offsets : list of ndarray of int
+        Each segment's frame numbers minus its first (0 .. T-1).
+    alone : ndarray of bool (n,)
+        Rows recovered frame by frame, outside any segment.
+    reason : ndarray of str (n,)
+        Why a row is alone (``""`` for rows in a segment).
+    """
+
+    segments: list
+    offsets: list
+    alone: np.ndarray
+    reason: np.ndarray
+
+
+def _frame_numbers(frames, n):
+    """Frames as int64 (n,) and the reason each unusable one is refused."""
+    arr = np.asarray(frames)
+    if arr.shape != (n,):
+        raise ParameterError(f"frames must have shape ({n},) (one per pose), got {arr.shape}")
+    values = np.zeros(n, dtype=np.int64)
+    reason = np.full(n, "", dtype=object)
+    if arr.dtype.kind in "iu":
+        return arr.astype(np.int64), reason
+    for i, v in enumerate(arr.tolist()):
+        try:
+            f = float(v)
+        except (TypeError, ValueError):
+            reason[i] = f"frame number {v!r} is not a number"
+            continue
+        if not np.isfinite(f):
+            reason[i] = f"frame number is {f}"
+        elif f != round(f) or abs(f) > 2**53:
+            reason[i] = f"frame number {v!r} is not an integer"
+        else:
+            values[i] = int(f)
+    return values, reason
+
+
+def _track_ids(tracks, n):
+    """Integer ids (n,) of the caller's track values (all 0 when None)."""
+    if tracks is None:
+        return np.zeros(n, dtype=np.int64)
+    arr = np.asarray(tracks)
+    if arr.shape != (n,):
+        raise ParameterError(f"tracks must have shape ({n},) (one per pose), got {arr.shape}")
+    try:
+        _, ids = np.unique(arr, return_inverse=True)
+    except TypeError:  # mixed kinds (e.g. numbers and strings): compare as text
+        _, ids = np.unique(arr.astype(str), return_inverse=True)
+    return ids.reshape(n)
+
+
+def split_tracks(n, tracks, frames):
+    """Cut n rows into frame-ordered segments of one track each.
+
+    Parameters
+    ----------
+    n : int
+        Rows.
+    tracks : array_like (n,) or None
+        Person of each row (any values; None: all one track).
+    frames : array_like (n,)
+        Frame number of each row: integers, in any order, gaps allowed.
+
+    Returns
+    -------
+    TrackLayout
+
+    Examples
+    --------
+    >>> lay = split_tracks(5, ["a", "b", "a", "b", "a"], [2, 0, 1, 1, 2.5])
+    >>> [s.tolist() for s in lay.segments], lay.reason[4]
+    ([[2, 0], [1, 3]], 'frame number 2.5 is not an integer')
+    """
+    values, reason = _frame_numbers(frames, n)
+    ids = _track_ids(tracks, n)
+    good = np.flatnonzero(reason == "")
+    order = good[np.lexsort((values[good], ids[good]))]
+    same = (np.diff(ids[order]) == 0) & (np.diff(values[order]) == 0)
+    dup = np.zeros(len(order), dtype=bool)
+    dup[:-1] |= same
+    dup[1:] |= same
+    reason[order[dup]] = "its (track, frame) pair is given more than once"
+    order = order[~dup]
+    breaks = np.flatnonzero((np.diff(ids[order]) != 0)
+                            | (np.diff(values[order]) > MAX_SKIP + 1)) + 1
+    segments, offsets = [], []
+    for rows in np.split(order, breaks):
+        if len(rows) == 1:
+            reason[rows] = "the only frame of its track (or of its stretch of frames)"
+        elif len(rows):
+            segments.append(rows)
+            offsets.append(values[rows] - values[rows[0]])
+    return TrackLayout(segments, offsets, reason != "", reason.astype(str))
+
+
+def distance_to_observed(free):
+    """Frames from each frame to the nearest one where the joint is observed.
+
+    Parameters
+    ----------
+    free : ndarray of bool (T, N)
+        True where the joint is unknown.
+
+    Returns
+    -------
+    ndarray (T, N)
+        0 at observed frames; ``inf`` for a joint never observed.
+
+    Examples
+    --------
+    >>> free = np.array([True, False, True, True, True, False, True])[:, None]
+    >>> distance_to_observed(free)[:, 0].tolist()
+    [1.0, 0.0, 1.0, 2.0, 1.0, 0.0, 1.0]
+    """
+    T, N = free.shape
+    t = np.arange(T)
+    out = np.full((T, N), np.inf)
+    for j in range(N):
+        obs = np.flatnonzero(~free[:, j])
+        if not len(obs):
+            continue
+        k = np.searchsorted(obs, t)
+        after = np.where(k < len(obs), obs[np.minimum(k, len(obs) - 1)] - t, np.inf)
+        before = np.where(k > 0, t - obs[np.maximum(k - 1, 0)], np.inf)
+        out[:, j] = np.minimum(after, before)
+    return out

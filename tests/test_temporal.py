@@ -1,0 +1,211 @@
+"""Temporal recovery (issue 23): the banded model, recover(frames=...), bad input."""
+
+import numpy as np
+import pytest
+from scipy.interpolate import CubicSpline
+
+import sparseedm
+from sparseedm.cameras import project, sample_cameras
+from sparseedm.exceptions import ParameterError
+from sparseedm.temporal.model import TemporalSettings, fill_segment
+from sparseedm.temporal.recover import SOURCES, TemporalResult, recover_track
+from sparseedm.temporal.smoothing import smooth_trajectory
+from sparseedm.temporal.tracks import distance_to_observed, split_tracks
+
+FIXTURE = "tests/fixtures/cmu_poses.npz"
+WRIST = 4
+
+
+@pytest.fixture(scope="module")
+def track():
+    """A smooth 2D track: clip 02_05's 3D keyframes (1/3 s apart) joined by a
+    cubic spline, 10 frames per interval, seen by one fixed camera."""
+    with np.load(FIXTURE, allow_pickle=False) as data:
+        keep = data["clips"] == "02_05"
+        keys = data["poses3d"][keep][:25]
+    t = np.arange(len(keys)) * 10.0
+    frames = np.arange(int(t[-1]) + 1)
+    poses3d = CubicSpline(t, keys, axis=0)(frames)
+    cam = sample_cameras(1, targets=keys.reshape(-1, 3).mean(0), distance=5.0,
+                         random_state=0)
+    cams = type(cam)(R=np.repeat(cam.R, len(frames), 0), t=np.repeat(cam.t, len(frames), 0),
+                     f=np.repeat(cam.f, len(frames)), c=np.repeat(cam.c, len(frames), 0))
+    return project(poses3d, cams)
+
+
+def _height(poses):
+    return np.ptp(poses[..., 1], axis=1).mean()
+
+
+def _error(filled, truth, mask):
+    return np.linalg.norm(filled - truth, axis=-1)[mask].mean() / _height(truth)
+
+
+# -- the banded core ------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_banded_solve_matches_dense_solve(seed):
+    rng = np.random.default_rng(seed)
+    T = int(rng.integers(3, 25))
+    values, prior = rng.normal(size=(T, 2)), rng.normal(size=(T, 2))
+    free = rng.random(T) < 0.6
+    free[rng.integers(T)] = False  # at least one anchor
+    weight = np.where(rng.random(T) < 0.5, rng.random(T), 0.0)
+    lam = float(rng.random() + 0.1)
+    x, residual = smooth_trajectory(values, free, prior, weight, lam)
+    D2 = np.zeros((T - 2, T))
+    for i in range(T - 2):
+        D2[i, i:i + 3] = [1, -2, 1]
+    w = np.where(free, weight, 0.0)
+    H = lam * D2.T @ D2 + np.diag(w)
+    f = np.flatnonzero(free)
+    if (~free).sum() + (w > 0).sum() < 2:
+        D1 = np.diff(np.eye(T), axis=0)
+        H = H + 1e-6 * lam * D1.T @ D1
+    x0 = np.where(free[:, None], 0.0, values)
+    b = (w[:, None] * prior - H @ x0)[f]
+    if len(f):
+        np.testing.assert_allclose(x[f], np.linalg.solve(H[np.ix_(f, f)], b), atol=1e-8)
+        assert residual < 1e-10
+    np.testing.assert_array_equal(x[~free], values[~free])
+
+
+def test_no_anchor_gives_nan_not_a_guess():
+    x, residual = smooth_trajectory(np.zeros((5, 2)), np.ones(5, bool), np.zeros((5, 2)),
+                                    np.zeros(5), 1.0)
+    assert np.isnan(x).all() and np.isnan(residual)
+
+
+def test_distance_and_weight_ramp():
+    free = np.ones((12, 1), bool)
+    free[0] = False
+    d = distance_to_observed(free)[:, 0]
+    assert d.tolist() == list(range(12))
+    s = TemporalSettings(ramp_start=2, ramp_full=6)
+    values = np.zeros((12, 1, 2))
+    prior = np.full((12, 1, 2), 7.0)
+    out, w, _ = fill_segment(values, free, prior, np.ones(12), s)
+    assert w[:3, 0].tolist() == [0, 0, 0] and w[6:, 0].tolist() == [1.0] * 6
+    # far from the observation the answer follows the prior
+    assert abs(out[-1, 0, 0] - 7.0) < 1.0 and out[0, 0, 0] == 0.0
+
+
+# -- recover(frames=...) ---------------------------------------------------------------
+
+
+def test_short_gap_within_spline_accuracy(track, small_dictionary):
+    mask = np.zeros(track.shape[:2], bool)
+    for start in (40, 100, 170):
+        mask[start:start + 4, WRIST] = True
+        mask[start + 20:start + 23, 12] = True
+    res = sparseedm.recover(track, mask, frames=np.arange(len(track)),
+                            dictionary=small_dictionary, adapt=False)
+    assert isinstance(res, TemporalResult)
+    spline = track.copy()
+    for j in (WRIST, 12):
+        obs = ~mask[:, j]
+        spline[~obs, j] = CubicSpline(np.flatnonzero(obs), track[obs, j])(np.flatnonzero(~obs))
+    ours, theirs = _error(res.poses, track, mask), _error(spline, track, mask)
+    assert ours <= 1.5 * theirs + 1e-4, (ours, theirs)
+    np.testing.assert_array_equal(res.poses[~mask], track[~mask])
+    assert set(res.source[mask]) == {"temporal"} and set(res.source[~mask]) == {"observed"}
+
+
+def test_long_gap_at_clip_end_no_worse_than_per_frame(track, small_dictionary):
+    mask = np.zeros(track.shape[:2], bool)
+    mask[-60:, WRIST] = True
+    mask[:45, 13] = True
+    per = sparseedm.recover(track, mask, dictionary=small_dictionary, adapt=False)
+    res = sparseedm.recover(track, mask, frames=np.arange(len(track)),
+                            dictionary=small_dictionary, adapt=False)
+    ours, theirs = _error(res.poses, track, mask), _error(per.poses, track, mask)
+    assert ours <= theirs, (ours, theirs)
+    assert res.prior_weight[mask].max() == 1.0  # deep in the gap the pose model counts fully
+    assert res.per_frame_poses < len(track)  # per-frame answers only where they weigh
+
+
+def test_results_independent_of_row_order(track, small_dictionary):
+    n = 120
+    poses = np.concatenate([track[:n], track[n:2 * n] + 300.0])
+    tracks = np.repeat(["left", "right"], n)
+    frames = np.concatenate([np.arange(n), np.arange(n) + 7])
+    mask = np.zeros(poses.shape[:2], bool)
+    mask[30:45, WRIST] = True
+    mask[n + 50:n + 80, 9] = True
+    perm = np.random.default_rng(0).permutation(len(poses))
+    a = sparseedm.recover(poses, mask, tracks=tracks, frames=frames,
+                          dictionary=small_dictionary, adapt=False)
+    b = sparseedm.recover(poses[perm], mask[perm], tracks=tracks[perm], frames=frames[perm],
+                          dictionary=small_dictionary, adapt=False)
+    np.testing.assert_allclose(b.poses, a.poses[perm], rtol=0, atol=1e-9)
+    np.testing.assert_array_equal(b.status, a.status[perm])
+    assert a.segments == 2
+
+
+def test_temporal_false_is_todays_output_exactly(track, small_dictionary):
+    mask = np.zeros(track.shape[:2], bool)
+    mask[10:40, WRIST] = True
+    mask[5, :12] = True  # refused per frame: too few observed
+    kw = dict(dictionary=small_dictionary, adapt=False)
+    today = sparseedm.recover(track, mask, **kw)
+    off = sparseedm.recover(track, mask, frames=np.arange(len(track)), temporal=False, **kw)
+    assert type(off) is type(today)
+    for name in ("poses", "vectors", "center", "scale", "objective", "gap"):
+        np.testing.assert_array_equal(getattr(off, name), getattr(today, name))
+    np.testing.assert_array_equal(off.status, today.status)
+    np.testing.assert_array_equal(off.reason, today.reason)
+
+
+def test_recover_track_is_a_gap_filler(track, small_dictionary):
+    mask = np.zeros(track.shape[:2], bool)
+    mask[50:60, 7] = True
+    filled = recover_track(track[:100], mask[:100], np.arange(100),
+                           dictionary=small_dictionary, adapt=False)
+    assert filled.shape == (100, 14, 2) and np.isfinite(filled).all()
+    np.testing.assert_array_equal(filled[~mask[:100]], track[:100][~mask[:100]])
+
+
+# -- bad input -------------------------------------------------------------------------
+
+
+def test_bad_frames_and_tracks_per_row(track, small_dictionary):
+    poses = track[:40].copy()
+    mask = np.zeros(poses.shape[:2], bool)
+    mask[:, WRIST] = True  # never observed in its track
+    frames = np.arange(40).astype(object)
+    frames[3], frames[4], frames[5] = np.nan, 2.5, "x"
+    frames[8] = 6  # duplicate of row 6 (both of track "a")
+    tracks = np.array(["a", "b"] * 20, dtype=object)  # interleaved tracks
+    tracks[39] = "alone"  # one frame
+    res = sparseedm.recover(poses, mask, tracks=tracks, frames=frames,
+                            dictionary=small_dictionary, adapt=False)
+    assert len(res.status) == 40 and res.ok.all()
+    assert np.isfinite(res.poses).all()
+    assert "NaN" in res.reason[3] or "nan" in res.reason[3]
+    assert "not an integer" in res.reason[4] and "not a number" in res.reason[5]
+    assert "more than once" in res.reason[6] and "more than once" in res.reason[8]
+    assert "only frame" in res.reason[39]
+    for i in (3, 4, 5, 6, 8, 39):
+        assert res.source[i, WRIST] == "per_frame"
+    assert set(res.source[9:38, WRIST]) == {"temporal"}
+    assert set(np.unique(res.source)) <= set(SOURCES)
+
+
+def test_rows_refused_per_frame_can_be_filled_in_time(track, small_dictionary):
+    poses = track[:60].copy()
+    mask = np.zeros(poses.shape[:2], bool)
+    mask[30, 2:] = True  # two joints left: per frame refuses it
+    poses[31, 0] = np.inf  # invalid: refused, and absent from time
+    res = sparseedm.recover(poses, mask, frames=np.arange(60),
+                            dictionary=small_dictionary, adapt=False)
+    assert res.status[30] == "recovered" and res.source[30, 5] == "temporal"
+    assert res.status[31] == "invalid_coordinates" and np.isnan(res.poses[31]).all()
+    assert _error(res.poses[30:31], track[30:31], mask[30:31]) < 0.05
+
+
+def test_wrong_shapes_are_argument_errors(small_dictionary):
+    with pytest.raises(ParameterError, match="frames must have shape"):
+        sparseedm.recover(np.zeros((3, 14, 2)), frames=[1, 2], dictionary=small_dictionary)
+    with pytest.raises(ParameterError, match="tracks must have shape"):
+        split_tracks(3, [1], [1, 2, 3])
