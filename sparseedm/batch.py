@@ -125,6 +125,7 @@ class _MemorySource:
         self.n = len(self.kps)
         self.ids = self.kps.ids
         self.meta = self.kps.meta
+        self.tracks, self.frames = self.kps.tracks, self.kps.frames
 
     def chunk(self, start, stop):
         return self.kps.poses[start:stop], self.kps.missing[start:stop]
@@ -163,6 +164,7 @@ class _NpySource:
         self.n = len(arr)
         self.ids = None
         self.meta = {}
+        self.tracks = self.frames = None  # a .npy holds poses only
 
     def chunk(self, start, stop):
         block = np.asarray(self.arr[start:stop], dtype=float)
@@ -209,7 +211,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
                  confidence_threshold=0.0, backend=None, scheduler=None,
                  method="sparse", model=None, adapt="auto", save_dictionary=None,
                  self_training=None, ensemble=1, joint_map=None,
-                 filled_score=FILLED_SCORE):
+                 filled_score=FILLED_SCORE, temporal=True):
     """Recover every pose of a keypoint file and write the filled poses.
 
     Parameters
@@ -263,6 +265,12 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
         DeepLabCut input: the joints map file (:mod:`sparseedm.formats.deeplabcut`).
     filled_score : float, default 0.0
         The score filled joints are written with (OpenPose, MMPose, DeepLabCut).
+    temporal : bool, default True
+        When the file gives each pose a frame (CSV column ``frame``, .npz
+        ``frames``; with ``track``/``tracks``/``clips`` for several people),
+        recover across time (:mod:`sparseedm.temporal`), the whole file in one
+        pass; False: every pose on its own, as for a file without frames.
+        ``summary["temporal"]`` says which was used.
 
     Returns
     -------
@@ -287,7 +295,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
         save_edm=save_edm, confidence_threshold=confidence_threshold, backend=backend,
         scheduler=scheduler, method=method, save_dictionary=save_dictionary,
         self_training=self_training, ensemble=ensemble, joint_map=joint_map,
-        filled_score=filled_score), _PARAMS)
+        filled_score=filled_score, temporal=temporal), _PARAMS)
     if method == "fconv" and ensemble > 1:
         raise SparseEDMError("ensemble averages adapted dictionaries: it needs "
                              "method='sparse'")
@@ -350,9 +358,12 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
             dictionary = members[0]
         else:
             members, adaptation = [dictionary], None
+        in_time = temporal and method == "sparse" and source.frames is not None
+        time_axis = (source.tracks, source.frames) if in_time else None
         summary = _run(source, in_fmt, out_path, out_fmt, errors_path, members, alpha,
-                       representation, solver, n_jobs, chunk_size, progress, save_edm, t0,
-                       backend, scheduler, method, model, filled_score)
+                       representation, solver, n_jobs,
+                       max(source.n, 1) if in_time else chunk_size, progress, save_edm, t0,
+                       backend, scheduler, method, model, filled_score, time_axis)
     finally:
         source.close()
     summary["adaptation"] = adaptation.summary() if adaptation is not None else None
@@ -410,13 +421,14 @@ _PARAMS = {
     "save_dictionary": PATH + [None],
     "self_training": [Interval(Integral, 0, None), None],
     "ensemble": [Interval(Integral, 1, None)],
+    "temporal": BOOLEAN,
 }
 
 
 def _run(source, in_fmt, out_path, out_fmt, errors_path, members, alpha,
          representation, solver, n_jobs, chunk_size, progress, save_edm, t0,
          backend=None, scheduler=None, method="sparse", model=None,
-         filled_score=FILLED_SCORE):
+         filled_score=FILLED_SCORE, time_axis=None):
     from tqdm.auto import tqdm
 
     from .ensemble import combine
@@ -455,17 +467,21 @@ def _run(source, in_fmt, out_path, out_fmt, errors_path, members, alpha,
         else:
             filled = np.empty((n, N_JOINTS, 2))
 
+        temporal_summary = None
         bar = tqdm(total=n, disable=not progress, unit="pose", desc="recover",
                    dynamic_ncols=True)
         with bar:
             for start in range(0, n, chunk_size):
                 stop = min(start + chunk_size, n)
                 poses, missing = source.chunk(start, stop)
+                in_time = {} if time_axis is None else dict(  # time_axis: one chunk
+                    tracks=time_axis[0], frames=time_axis[1])
                 res = combine([recover(poses, missing, dictionary=d, alpha=alpha,
                                        representation=representation, solver=solver,
                                        n_jobs=n_jobs, backend=backend, scheduler=scheduler,
-                                       method=method, model=model, adapt=False)
+                                       method=method, model=model, adapt=False, **in_time)
                                for d in members])
+                temporal_summary = res.summary().get("temporal")
                 ok = res.ok
                 # refused rows are written back as read, a joint with an infinite
                 # coordinate as missing (as the CSV writer does: no format gets an inf)
@@ -523,6 +539,7 @@ def _run(source, in_fmt, out_path, out_fmt, errors_path, members, alpha,
         "format": out_fmt,
         "errors": str(errors_path) if refused.any() else None,
         "sidecars": [str(p) for p in sidecars.values()],
+        "temporal": temporal_summary,
     }
 
 

@@ -28,7 +28,8 @@ Array files
 -----------
 ``.npz``: key ``poses`` (n, 14, 2) float; optional ``missing`` (n, 14) bool
 (or 0/1), ``confidence`` (n, 14) float, ``ids`` (n,) str (or integers, or
-UTF-8 bytes). The per-row result arrays :func:`sparseedm.batch.recover_file`
+UTF-8 bytes), ``tracks`` (n,) (or ``clips``, as ``sparseedm dataset build``
+names them) and ``frames`` (n,) integers for video. The per-row result arrays :func:`sparseedm.batch.recover_file`
 writes (:data:`RESULT_FIELDS`) are kept in ``meta["npz_extra"]`` and written
 back; any other member is ignored, never decompressed or copied (its name is
 listed in ``meta["npz_ignored"]``). Each member's declared size is checked
@@ -50,6 +51,10 @@ One pose per row after a header row::
   :data:`~sparseedm.skeleton.JOINT_NAMES` (all 28 required; any order on read,
   SKELETON_14 order on write);
 * ``<joint>_conf`` (optional, for all 14 joints or for none);
+* ``track`` and ``frame`` (optional, video): the person and frame number of
+  each pose, read into ``tracks`` (text) and ``frames`` (integers, or the
+  cells as text when one is not an integer: the recovery then says which row);
+  they stay extra columns too and are written back as read;
 * any other column (no ``_x``/``_y``/``_conf`` suffix, e.g. ``status``) is
   kept as text in ``meta["extra_columns"]`` and written back. A column with
   such a suffix but an unknown joint name (``lefty_wrist_x``) is an error.
@@ -466,7 +471,7 @@ def _read_npz(path, threshold):
         if f.read(4) != _ZIP_MAGIC:
             raise FileFormatError(f"{path}: expected an .npz archive, found no zip archive "
                                   "(a single .npy array?)")
-    known = ("poses", "missing", "confidence", "ids") + RESULT_FIELDS
+    known = ("poses", "missing", "confidence", "ids") + TIME_KEYS + RESULT_FIELDS
     arrays, names = load_npz(path, known)
     if "poses" not in arrays:
         raise FileFormatError(
@@ -495,6 +500,7 @@ def _read_npz(path, threshold):
     ids = arrays.pop("ids", None)
     if ids is not None:
         ids = _optional(_ids_text(ids, path), n, "ids", path, str)
+    tracks, frames, time_meta = _npz_time(arrays, n, path)
     # result fields are kept only as what they claim to be: plain values, one per row
     odd = [k for k, a in arrays.items()
            if a.dtype.kind not in "fiuU" or a.ndim < 1 or len(a) != n]
@@ -503,9 +509,32 @@ def _read_npz(path, threshold):
     if missing is None:
         missing = np.zeros((n, N_JOINTS), dtype=bool)
     poses, missing = _finish(poses, missing, confidence, threshold)
-    ignored = sorted(set(names) - set(arrays) - {"poses", "missing", "confidence", "ids"})
+    ignored = sorted(set(names) - set(arrays) - {"poses", "missing", "confidence", "ids"}
+                     - set(TIME_KEYS))
     return KeypointSet(poses, missing, confidence, ids,
-                       {"npz_extra": arrays, "npz_ignored": ignored})
+                       {"npz_extra": arrays, "npz_ignored": ignored, **time_meta},
+                       tracks=tracks, frames=frames)
+
+
+#: .npz keys of a pose's track and frame (``clips``: as ``dataset build`` writes)
+TIME_KEYS = ("tracks", "clips", "frames")
+
+
+def _npz_time(arrays, n, path):
+    """``tracks`` (or ``clips``) and ``frames`` of `arrays`, checked (n,), and
+    the meta that writes them back under the names read (they stay in
+    `arrays`, the extra arrays written back, as CSV keeps its columns)."""
+    key = "tracks" if "tracks" in arrays else "clips"
+    tracks, frames = arrays.get(key), arrays.get("frames")
+    for name, arr in ((key, tracks), ("frames", frames)):
+        if arr is not None and arr.shape != (n,):
+            raise FileFormatError(f"{path}: {name!r} must have shape ({n},), got {arr.shape}")
+    if tracks is not None:
+        tracks = _ids_text(tracks, path) if tracks.dtype.kind in "SU" else tracks
+        _kind(tracks, "Uiu", path, key, "text or integers")
+    if frames is not None:
+        _kind(frames, "fiu", path, "frames", "numbers")
+    return tracks, frames, ({"track_key": key} if tracks is not None else {})
 
 
 def _ids_text(ids, path):
@@ -593,7 +622,20 @@ def _read_csv(path, threshold):
     missing = np.zeros((n, N_JOINTS), dtype=bool)
     poses, missing = _finish(poses, missing, conf, threshold)
     ids = None if ids is None else np.asarray(ids, dtype=str).reshape(n)
-    return KeypointSet(poses, missing, conf, ids, {"extra_columns": extra})
+    tracks = np.asarray([t.strip() for t in extra["track"]], dtype=str).reshape(n) \
+        if "track" in extra else None
+    frames = _frame_cells(extra["frame"], n) if "frame" in extra else None
+    return KeypointSet(poses, missing, conf, ids, {"extra_columns": extra},
+                       tracks=tracks, frames=frames)
+
+
+def _frame_cells(cells, n):
+    """A CSV ``frame`` column: int64 when every cell is an integer, else the
+    cells as text (the recovery refuses the odd rows by name)."""
+    text = [c.strip() for c in cells]
+    if all(re.fullmatch(r"[+-]?\d{1,18}", c) for c in text):
+        return np.asarray([int(c) for c in text], dtype=np.int64).reshape(n)
+    return np.asarray(text, dtype=object).reshape(n)
 
 
 def _csv_columns(header, path):
@@ -870,6 +912,7 @@ def write_keypoints(
             arrays["confidence"] = confidence
         if ids is not None:
             arrays["ids"] = ids
+        arrays.update(_time_arrays(tracks, frames, meta))
         save_npz(path, arrays)
     elif fmt == "npy":
         arr = poses if confidence is None else np.concatenate(
@@ -882,6 +925,7 @@ def write_keypoints(
     elif fmt == "csv":
         if extra_columns is None:
             extra_columns = meta.get("extra_columns") or {}
+        extra_columns = _time_columns(tracks, frames, extra_columns)
         _write_csv(path, poses, confidence, ids, extra_columns, where)
     else:
         _write_coco(path, poses, mask, ids, meta, where)
@@ -902,6 +946,26 @@ def _read_filled(meta, n):
     if flags is None or np.shape(flags) != (n, N_JOINTS):
         return np.zeros((n, N_JOINTS), dtype=bool)
     return np.asarray(flags, dtype=bool)
+
+
+def _time_arrays(tracks, frames, meta):
+    """npz arrays of a KeypointSet's tracks and frames (under the names read)."""
+    out = {}
+    if tracks is not None:
+        out[meta.get("track_key", "tracks")] = np.asarray(tracks)
+    if frames is not None:
+        frames = np.asarray(frames)
+        out["frames"] = frames if frames.dtype.kind in "fiu" else frames.astype(str)
+    return out
+
+
+def _time_columns(tracks, frames, extra_columns):
+    """CSV `extra_columns` with ``track``/``frame`` added when not there already."""
+    extra_columns = dict(extra_columns)
+    for name, values in (("track", tracks), ("frame", frames)):
+        if values is not None and name not in extra_columns:
+            extra_columns[name] = [str(v) for v in np.asarray(values).tolist()]
+    return extra_columns
 
 
 def _cell(value):

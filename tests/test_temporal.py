@@ -209,3 +209,87 @@ def test_wrong_shapes_are_argument_errors(small_dictionary):
         sparseedm.recover(np.zeros((3, 14, 2)), frames=[1, 2], dictionary=small_dictionary)
     with pytest.raises(ParameterError, match="tracks must have shape"):
         split_tracks(3, [1], [1, 2, 3])
+
+
+# -- files and the CLI -----------------------------------------------------------------
+
+
+def _video(track):
+    """Two people's rows interleaved, shuffled, with gaps: (KeypointSet, truth, mask)."""
+    from sparseedm.keypoints import KeypointSet
+
+    n = 80
+    truth = np.concatenate([track[:n], track[n:2 * n] + 250.0])
+    tracks = np.repeat(np.array(["p1", "p2"]), n)
+    frames = np.concatenate([np.arange(n), np.arange(n)])
+    mask = np.zeros(truth.shape[:2], bool)
+    mask[20:32, WRIST] = True
+    mask[n + 40:n + 60, 10] = True
+    perm = np.random.default_rng(1).permutation(2 * n)
+    poses = np.where(mask[..., None], np.nan, truth)[perm]
+    return (KeypointSet(poses, mask[perm], tracks=tracks[perm], frames=frames[perm]),
+            truth[perm], mask[perm])
+
+
+@pytest.mark.parametrize("ext", ["csv", "npz"])
+def test_files_keep_tracks_and_frames(tmp_path, track, ext):
+    from sparseedm.keypoints import read_keypoints, write_keypoints
+
+    kps, _, _ = _video(track)
+    path = write_keypoints(tmp_path / f"v.{ext}", kps)
+    back = read_keypoints(path)
+    np.testing.assert_array_equal(back.tracks.astype(str), kps.tracks)
+    np.testing.assert_array_equal(back.frames, kps.frames)
+    again = read_keypoints(write_keypoints(tmp_path / f"w.{ext}", back))
+    np.testing.assert_array_equal(again.frames, kps.frames)
+
+
+def test_npz_clips_as_dataset_build_writes_them(tmp_path, track):
+    from sparseedm.keypoints import read_keypoints, write_keypoints
+
+    path = tmp_path / "d.npz"
+    np.savez(path, poses=track[:10], clips=np.array(["c1"] * 5 + ["c2"] * 5),
+             frames=np.arange(10))
+    kps = read_keypoints(path)
+    assert kps.tracks.tolist() == ["c1"] * 5 + ["c2"] * 5 and kps.frames.tolist() == list(
+        range(10))
+    with np.load(write_keypoints(tmp_path / "o.npz", kps)) as out:
+        assert "clips" in out.files and "tracks" not in out.files
+
+
+def test_csv_frame_cells_that_are_not_integers_are_rows_not_errors(tmp_path, track,
+                                                                    small_dictionary):
+    from sparseedm.keypoints import KeypointSet, read_keypoints, write_keypoints
+
+    frames = np.array([str(i) for i in range(30)], dtype=object)
+    frames[4], frames[9] = "", "7.5"
+    poses = track[:30].copy()
+    poses[10:20, WRIST] = np.nan
+    kps = read_keypoints(write_keypoints(tmp_path / "f.csv", KeypointSet(
+        poses, np.isnan(poses).any(-1), tracks=np.zeros(30, int), frames=frames)))
+    res = sparseedm.recover(kps.poses, kps.missing, tracks=kps.tracks, frames=kps.frames,
+                            dictionary=small_dictionary, adapt=False)
+    assert res.ok.all()
+    assert "not a number" in res.reason[4] and "not an integer" in res.reason[9]
+
+
+@pytest.mark.parametrize("ext", ["csv", "npz"])
+def test_cli_uses_time_and_no_temporal_turns_it_off(tmp_path, track, small_dictionary_path,
+                                                    ext, capsys):
+    from sparseedm.cli import main
+    from sparseedm.keypoints import read_keypoints, write_keypoints
+
+    kps, truth, mask = _video(track)
+    inp = write_keypoints(tmp_path / f"v.{ext}", kps)
+    args = ["recover", str(inp), "--dictionary", str(small_dictionary_path), "--no-adapt"]
+    assert main(args + ["-o", str(tmp_path / f"t.{ext}")]) == 0
+    assert "across time" in capsys.readouterr().err
+    assert main(args + ["-o", str(tmp_path / f"p.{ext}"), "--no-temporal"]) == 0
+    assert "across time" not in capsys.readouterr().err
+    timed, per = read_keypoints(tmp_path / f"t.{ext}"), read_keypoints(tmp_path / f"p.{ext}")
+    np.testing.assert_array_equal(timed.frames, kps.frames)  # written back
+    np.testing.assert_array_equal(timed.tracks.astype(str), kps.tracks)
+    api = sparseedm.recover(kps.poses, kps.missing, dictionary=str(small_dictionary_path),
+                            adapt=False)
+    np.testing.assert_array_equal(per.poses, api.poses)  # --no-temporal: per frame, exactly
+    assert _error(timed.poses, truth, mask) < _error(per.poses, truth, mask)

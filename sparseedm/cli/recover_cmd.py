@@ -64,6 +64,11 @@ def add_parser(sub):
                    "needs the torch extra)")
     p.add_argument("--model", default=None, metavar="PATH",
                    help="FConv model .npz from `sparseedm fit-cnn` (with --method fconv)")
+    p.add_argument("--no-temporal", action="store_true",
+                   help="recover every pose on its own even when INPUT gives frames (by "
+                   "default a CSV 'frame' column or .npz 'frames' array, with 'track' / "
+                   "'tracks' for several people, turns on recovery across time: "
+                   "sparseedm.temporal)")
     p.add_argument("--save-edm", action="store_true",
                    help="also store the completed EDM vectors (see sparseedm.batch)")
     g = p.add_mutually_exclusive_group()
@@ -104,11 +109,17 @@ def run(args):
         adapt=False if args.no_adapt else (args.adapt_from or "auto"),
         save_dictionary=args.save_dictionary, self_training=args.self_training,
         ensemble=args.ensemble, joint_map=args.joint_map, filled_score=args.filled_score,
+        temporal=not args.no_temporal,
     )
     out = sys.stderr if args.quiet else sys.stdout
     ad = summary.get("adaptation")
     if ad is not None and not ad["adapted"] and ad["poses_used"] == 0:
         print(f"sparseedm recover: no adaptation: {ad['reason']}", file=sys.stderr)
+    if summary.get("temporal"):
+        t = summary["temporal"]
+        print(f"sparseedm recover: INPUT has frames: recovered across time ({t['segments']} "
+              f"track segment(s), {t['per_frame_poses']} per-frame answers); --no-temporal "
+              "turns it off", file=sys.stderr)
     print(format_summary(summary), file=out)
     if summary["refused"]:
         print(f"sparseedm recover: {summary['refused']} row(s) refused; see {summary['errors']}",

@@ -38,6 +38,8 @@ class TemporalSettings:
     ----------
     acceleration : float
         The acceleration penalty ``lam`` (the prior's full weight is 1).
+    jerk : float
+        The penalty on third differences.
     ramp_start, ramp_full : float
         Distances (frames) to the nearest observation where the prior's weight
         starts to grow and where it reaches 1.
@@ -46,6 +48,7 @@ class TemporalSettings:
     """
 
     acceleration: float = 1.0
+    jerk: float = 0.0
     ramp_start: float = 2.0
     ramp_full: float = 10.0
     inaccurate: float = 0.25
@@ -113,5 +116,6 @@ def fill_segment(values, free, prior, confidence, settings=DEFAULT_SETTINGS):
     for j in range(values.shape[1]):
         if free[:, j].any():
             filled[:, j], residual[j] = smooth_trajectory(
-                values[:, j], free[:, j], prior[:, j], weight[:, j], settings.acceleration)
+                values[:, j], free[:, j], prior[:, j], weight[:, j], settings.acceleration,
+                settings.jerk)
     return filled, weight, residual

@@ -35,68 +35,68 @@ __all__ = ["smooth_trajectory"]
 VELOCITY_RIDGE = 1e-6
 
 
-def _full_bands(T, lam, ridge):
-    """Bands (diagonal, first and second off-diagonal) of
-    ``lam * D2.T @ D2 + ridge * D1.T @ D1`` (T x T), D2 / D1 the second /
-    first differences."""
-    d0, d1, d2 = np.zeros(T), np.zeros(max(T - 1, 0)), np.zeros(max(T - 2, 0))
-    if T >= 3:
-        d0[:-2] += lam
-        d0[1:-1] += 4.0 * lam
-        d0[2:] += lam
-        d1[:-1] -= 2.0 * lam
-        d1[1:] -= 2.0 * lam
-        d2[:] = lam
-    if ridge and T >= 2:
-        d0[:-1] += ridge
-        d0[1:] += ridge
-        d1 -= ridge
-    return d0, d1, d2
+def _stencil(order):
+    """Coefficients of the `order`-th forward difference: (1 -2 1), (-1 3 -3 1)."""
+    c = np.array([1.0])
+    for _ in range(order):
+        c = np.convolve(c, [-1.0, 1.0])
+    return c
+
+
+def _full_bands(T, penalties):
+    """Bands 0 .. K of ``sum_k lam_k * Dk.T @ Dk`` (T x T) for `penalties`
+    {order k: lam_k}, Dk the k-th differences; band s holds entries (i, i+s)."""
+    K = max(penalties)
+    bands = [np.zeros(max(T - s, 0)) for s in range(K + 1)]
+    for order, lam in penalties.items():
+        if not lam or T <= order:
+            continue
+        c = _stencil(order)
+        for s in range(order + 1):
+            for a in range(order + 1 - s):
+                bands[s][a:a + T - order] += lam * c[a] * c[a + s]
+    return bands
 
 
 def _reduced_bands(free_idx, bands, weight):
-    """Upper banded form (3, n) of the Hessian restricted to `free_idx`: the
-    frames kept in order, so entries further than two frames apart vanish."""
-    d0, d1, d2 = bands
+    """Upper banded form (K+1, n) of the Hessian restricted to `free_idx`: the
+    frames kept in order, so entries more than K frames apart vanish."""
+    K = len(bands) - 1
     n = len(free_idx)
-    ab = np.zeros((3, n))
-    ab[2] = d0[free_idx] + weight[free_idx]
-    if n >= 2:
-        lo, step = free_idx[:-1], np.diff(free_idx)
-        one = d1[np.minimum(lo, len(d1) - 1)] if len(d1) else np.zeros(n - 1)
-        two = d2[np.minimum(lo, len(d2) - 1)] if len(d2) else np.zeros(n - 1)
-        ab[1, 1:] = np.where(step == 1, one, np.where(step == 2, two, 0.0))
-    if n >= 3:
-        lo, step = free_idx[:-2], free_idx[2:] - free_idx[:-2]
-        two = d2[np.minimum(lo, len(d2) - 1)] if len(d2) else np.zeros(n - 2)
-        ab[0, 2:] = np.where(step == 2, two, 0.0)
+    ab = np.zeros((K + 1, n))
+    ab[K] = bands[0][free_idx] + weight[free_idx]
+    for q in range(1, min(K, n - 1) + 1):
+        lo, step = free_idx[:-q], free_idx[q:] - free_idx[:-q]
+        vals = np.zeros(n - q)
+        for s in range(q, K + 1):
+            hit = step == s
+            if hit.any():
+                vals[hit] = bands[s][lo[hit]]
+        ab[K - q, q:] = vals
     return ab
+
+
+def _banded_times(ab, x):
+    """Symmetric upper-banded (K+1, n) matrix times x (n, k)."""
+    K = len(ab) - 1
+    y = ab[K][:, None] * x
+    for q in range(1, min(K, len(x) - 1) + 1):
+        y[q:] += ab[K - q, q:, None] * x[:-q]
+        y[:-q] += ab[K - q, q:, None] * x[q:]
+    return y
 
 
 def _bands_times(bands, x):
     """The full banded matrix of :func:`_full_bands` times x (T, k)."""
-    d0, d1, d2 = bands
-    y = d0[:, None] * x
-    if len(d1):
-        y[1:] += d1[:, None] * x[:-1]
-        y[:-1] += d1[:, None] * x[1:]
-    if len(d2):
-        y[2:] += d2[:, None] * x[:-2]
-        y[:-2] += d2[:, None] * x[2:]
+    y = bands[0][:, None] * x
+    for s, band in enumerate(bands[1:], start=1):
+        if len(band):
+            y[s:] += band[:, None] * x[:-s]
+            y[:-s] += band[:, None] * x[s:]
     return y
 
 
-def _banded_times(ab, x):
-    """Symmetric upper-banded (3, n) matrix times x (n, k)."""
-    y = ab[2][:, None] * x
-    y[1:] += ab[1, 1:, None] * x[:-1]
-    y[:-1] += ab[1, 1:, None] * x[1:]
-    y[2:] += ab[0, 2:, None] * x[:-2]
-    y[:-2] += ab[0, 2:, None] * x[2:]
-    return y
-
-
-def smooth_trajectory(values, free, prior, weight, lam):
+def smooth_trajectory(values, free, prior, weight, lam, jerk=0.0):
     """Fill the free frames of one trajectory: the exact minimiser above.
 
     Parameters
@@ -111,6 +111,8 @@ def smooth_trajectory(values, free, prior, weight, lam):
         Prior weight ``w_t >= 0``, read at free frames.
     lam : float
         Acceleration penalty, > 0.
+    jerk : float, default 0
+        Penalty on third differences (the same form, one band wider).
 
     Returns
     -------
@@ -143,7 +145,7 @@ def smooth_trajectory(values, free, prior, weight, lam):
         x[free_idx] = np.nan
         return x, np.nan
     ridge = VELOCITY_RIDGE * lam if anchors < 2 else 0.0
-    bands = _full_bands(len(x), lam, ridge)
+    bands = _full_bands(len(x), {1: ridge, 2: lam, 3: jerk})
     ab = _reduced_bands(free_idx, bands, w)
     b = w[:, None] * np.where(w[:, None] > 0, prior, 0.0) - _bands_times(bands, x)
     b = b[free_idx]

@@ -102,7 +102,7 @@ def split_tracks(n, tracks, frames):
     Examples
     --------
     >>> lay = split_tracks(5, ["a", "b", "a", "b", "a"], [2, 0, 1, 1, 2.5])
-    >>> [s.tolist() for s in lay.segments], lay.reason[4]
+    >>> [s.tolist() for s in lay.segments], str(lay.reason[4])
     ([[2, 0], [1, 3]], 'frame number 2.5 is not an integer')
     """
     values, reason = _frame_numbers(frames, n)

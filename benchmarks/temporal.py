@@ -1,0 +1,136 @@
+"""Speed of the default video path (issue 23 item 5): frames/s on a 10,000-frame file.
+
+    python -m benchmarks.temporal [--frames 10000] [--out benchmarks/results-temporal.json]
+
+The file: CMU ASF/AMC clips of the data folder at 30 frames/s, one fixed seeded
+camera per clip, the clips one after another as tracks (``track`` = clip),
+until --frames rows; 1-3 joints per clip lose contiguous runs of 3-90 frames
+(about a sixth of the joint-frames missing, protocol A's mix). Written as a
+CSV with ``track`` and ``frame`` columns and read back, so the timed rows are
+what a user runs end to end:
+
+* ``sparseedm recover video.csv`` defaults: time used, adaptation "auto"
+  (:func:`sparseedm.batch.recover_file`, reading and writing included);
+* the same with ``--no-temporal``: per-frame recovery with the default
+  adaptation;
+* per-frame :func:`sparseedm.recover` with ``adapt=False`` on the poses in memory;
+* the temporal model with ``adapt=False`` on the poses in memory;
+* a cubic spline (:func:`sparseedm.temporal.fillers.fill_cubic`) per track.
+
+Every row in the same run, single process; the machine and its load are recorded.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+import sparseedm
+from sparseedm.batch import recover_file
+from sparseedm.cameras import Cameras, project, sample_cameras
+from sparseedm.dataset import find_mocap_files
+from sparseedm.keypoints import KeypointSet, write_keypoints
+from sparseedm.mocap import load_mocap
+from sparseedm.temporal.fillers import fill_cubic
+
+
+def build_video(data_dir, n_frames, seed=0):
+    """(poses with NaN, missing, tracks, frames) of about `n_frames` rows."""
+    rng = np.random.default_rng(seed)
+    files = sorted(find_mocap_files([Path(data_dir) / "cmu-mocap"]))
+    chunks, tracks, frames, total = [], [], [], 0
+    for i, path in enumerate(files):
+        poses3d, info = load_mocap(path, return_info=True)
+        poses3d = poses3d[::max(1, round(info["frame_rate"] / 30))][:n_frames - total]
+        cam = sample_cameras(1, targets=poses3d.reshape(-1, 3).mean(0), distance=(6, 9),
+                             random_state=i)
+        many = Cameras(*(np.repeat(a, len(poses3d), 0) for a in (cam.R, cam.t, cam.f, cam.c)))
+        try:
+            chunks.append(project(poses3d, many))
+        except sparseedm.exceptions.PoseError:
+            continue
+        tracks += [path.stem] * len(poses3d)
+        frames += list(range(len(poses3d)))
+        total += len(poses3d)
+        if total >= n_frames:
+            break
+    poses = np.concatenate(chunks)
+    missing = np.zeros(poses.shape[:2], bool)
+    tracks = np.array(tracks)
+    for clip in np.unique(tracks):
+        rows = np.flatnonzero(tracks == clip)
+        for j in rng.choice(14, rng.integers(1, 4), replace=False):
+            t = int(rng.integers(0, 30))
+            while t < len(rows):
+                gap = int(rng.choice([3, 10, 30, 90]))
+                missing[rows[t:t + gap], j] = True
+                t += gap + int(rng.integers(gap, 4 * gap + 1))
+    poses[missing] = np.nan
+    return poses, missing, tracks, np.array(frames)
+
+
+def timed(func):
+    t0 = time.perf_counter()
+    out = func()
+    return out, time.perf_counter() - t0
+
+
+def run(data_dir, n_frames):
+    poses, missing, tracks, frames = build_video(data_dir, n_frames)
+    n = len(poses)
+    rows = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        inp = write_keypoints(Path(tmp) / "video.csv", KeypointSet(
+            poses, missing, tracks=tracks, frames=frames))
+        sparseedm.recover(poses[:50], missing[:50], adapt=False)  # JIT warm-up
+        for name, kw in (("file: default video path (time, adapt auto)", {}),
+                         ("file: --no-temporal (per frame, adapt auto)",
+                          dict(temporal=False))):
+            s, sec = timed(lambda: recover_file(inp, Path(tmp) / "out.csv", **kw))
+            rows[name] = dict(seconds=round(sec, 2), frames_per_second=round(n / sec, 1),
+                              adapted=(s["adaptation"] or {}).get("adapted"),
+                              temporal=s.get("temporal"))
+    res, sec = timed(lambda: sparseedm.recover(poses, missing, adapt=False))
+    rows["api: per-frame recover(adapt=False)"] = dict(seconds=round(sec, 2),
+                                                       frames_per_second=round(n / sec, 1))
+    res, sec = timed(lambda: sparseedm.recover(poses, missing, tracks=tracks, frames=frames,
+                                               adapt=False))
+    rows["api: temporal recover(frames=..., adapt=False)"] = dict(
+        seconds=round(sec, 2), frames_per_second=round(n / sec, 1),
+        per_frame_poses=res.per_frame_poses)
+
+    def splines():
+        for clip in np.unique(tracks):
+            r = tracks == clip
+            fill_cubic(poses[r], missing[r], frames[r])
+
+    _, sec = timed(splines)
+    rows["cubic spline per track (fill_cubic)"] = dict(seconds=round(sec, 2),
+                                                       frames_per_second=round(n / sec, 1))
+    return dict(frames=n, tracks=int(len(np.unique(tracks))),
+                missing_fraction=round(float(missing.mean()), 3),
+                machine=f"{platform.platform()}, {os.cpu_count()} cores",
+                load_average=[round(x, 2) for x in os.getloadavg()], rows=rows)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data-dir", default="../shared/data")
+    ap.add_argument("--frames", type=int, default=10_000)
+    ap.add_argument("--out", default=None)
+    args = ap.parse_args(argv)
+    out = run(args.data_dir, args.frames)
+    print(json.dumps(out, indent=1))
+    if args.out:
+        Path(args.out).write_text(json.dumps(out, indent=1) + "\n")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,259 @@
+"""Choose the temporal model's settings (sparseedm.temporal.model) on validation sequences.
+
+    python dictionaries/select_temporal.py --data-dir ../shared/data \\
+        --out dictionaries/selection_temporal.json            # grid on validation
+    python dictionaries/select_temporal.py --data-dir ../shared/data --test \\
+        --out dictionaries/selection_temporal_test.json      # the README's table
+
+Directions (dictionary learned on one source, sequences from another):
+
+* ``cmu->bandai``: the shipped default (all CMU ASF/AMC) on Bandai-Namco clips;
+* ``cmu0103->daz``: the shipped ``cmu-k2000`` (CMU subjects 01-03) on the CMU
+  Daz-rig BVH clips (dance, martial arts: motions 01-03 never show).
+
+Clips of each source, sorted, are split by index as select_adaptation.py does:
+``i % 3 == 1`` validation (the grid runs here), ``i % 3 == 2`` test (scored
+only with ``--test``, after the choice, with the chosen settings). Every clip
+is brought to 30 frames/s and cut into sequences of at most --length frames,
+each seen by ONE fixed seeded camera (6-9 m from the sequence's mean joint).
+
+Masks (seeded, per sequence): for a gap length L in 3 / 10 / 30 / 90 frames,
+1-3 joints each lose runs of L frames (starts at least L apart, inside the
+sequence: 2-40 % of a joint's frames); ``ends``: 1-3 joints hidden from a
+clip's first or last 10-90 frames (a spline can only hold the last value).
+Figure: mean 2D error of the hidden joints as % of the body's pixel height
+(the truth's mean vertical extent), per bin. Every sequence is one call, as a
+user with one video would make: ``recover(adapt="auto")`` does not adapt on
+so few frames, so the per-frame answers use the dictionary as shipped.
+
+Per-frame answers are computed once per (sequence, mask) for every frame with
+a hidden joint (a frame's answer does not depend on the others); each
+setting then runs only the temporal model on them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import json
+import platform
+import time
+from pathlib import Path
+
+import numpy as np
+from scipy.interpolate import Akima1DInterpolator, CubicSpline
+
+import sparseedm
+from sparseedm.cameras import Cameras, project, sample_cameras
+from sparseedm.dataset import find_mocap_files
+from sparseedm.mocap import load_mocap
+from sparseedm.temporal.model import TemporalSettings, fill_segment
+
+GAPS = (3, 10, 30, 90)
+BINS = tuple(str(g) for g in GAPS) + ("ends",)
+DIRECTIONS = {
+    "cmu->bandai": ("bandai-namco-1", "cmu-all-k2000"),
+    "cmu0103->daz": ("cmu-bvh-daz", "cmu-k2000"),
+}
+GRID = dict(acceleration=(3.0, 30.0, 300.0, 3000.0), jerk=(0.0, 30.0, 300.0, 3000.0),
+            ramp_start=(1.0, 3.0, 6.0), ramp_full=(12.0, 30.0, 90.0))
+
+
+def sequences(folder, part, length, max_sequences):
+    """30 fps 2D sequences (T, 14, 2) of the clips of `part` (1: validation, 2: test)."""
+    files = sorted(find_mocap_files([folder]))
+    out = []
+    for i, path in enumerate(files):
+        if i % 3 != part:
+            continue
+        poses3d, info = load_mocap(path, return_info=True)
+        step = max(1, int(round(info.get("frame_rate", 30.0) / 30.0)))
+        poses3d = poses3d[::step]
+        for s in range(0, len(poses3d) - 30, length):
+            seq = poses3d[s:s + length]
+            cam = sample_cameras(1, targets=seq.reshape(-1, 3).mean(0), distance=(6.0, 9.0),
+                                 height=(1.0, 2.0), random_state=len(out))
+            many = Cameras(R=np.repeat(cam.R, len(seq), 0), t=np.repeat(cam.t, len(seq), 0),
+                           f=np.repeat(cam.f, len(seq)), c=np.repeat(cam.c, len(seq), 0))
+            try:
+                out.append(project(seq, many))
+            except sparseedm.exceptions.PoseError:
+                continue
+    rng = np.random.default_rng(0)
+    if len(out) > max_sequences:
+        out = [out[i] for i in sorted(rng.choice(len(out), max_sequences, replace=False))]
+    return out
+
+
+def gap_mask(T, gap, rng):
+    """1-3 joints losing runs of `gap` frames inside the sequence."""
+    mask = np.zeros((T, 14), bool)
+    for j in rng.choice(14, rng.integers(1, 4), replace=False):
+        t = int(rng.integers(1, 1 + gap))
+        while t + gap < T - 1:
+            mask[t:t + gap, j] = True
+            t += gap + int(rng.integers(gap, 4 * gap + 1))
+    return mask
+
+
+def end_mask(T, rng):
+    """1-3 joints hidden from the first or last 10-90 frames."""
+    mask = np.zeros((T, 14), bool)
+    for j in rng.choice(14, rng.integers(1, 4), replace=False):
+        k = int(rng.integers(10, min(90, T // 2) + 1))
+        if rng.random() < 0.5:
+            mask[:k, j] = True
+        else:
+            mask[T - k:, j] = True
+    return mask
+
+
+def cases(seqs, seed=0):
+    """(bin, truth, mask) for every sequence and bin."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for truth in seqs:
+        for g in GAPS:
+            if len(truth) > 2 * g + 4:
+                out.append((str(g), truth, gap_mask(len(truth), g, rng)))
+        out.append(("ends", truth, end_mask(len(truth), rng)))
+    return out
+
+
+def spline_fill(kind, poses, mask):
+    """Linear / cubic / Akima through each joint's observed frames; ends hold."""
+    out = poses.copy()
+    for j in np.flatnonzero(mask.any(0)):
+        obs = np.flatnonzero(~mask[:, j])
+        hid = np.flatnonzero(mask[:, j])
+        if len(obs) < 2:
+            out[hid, j] = poses[obs, j] if len(obs) else np.nan
+            continue
+        inside = (hid > obs[0]) & (hid < obs[-1])
+        if kind == "linear" or len(obs) < 4:
+            vals = np.stack([np.interp(hid, obs, poses[obs, j, k]) for k in range(2)], -1)
+        else:
+            f = (CubicSpline if kind == "cubic" else Akima1DInterpolator)(obs, poses[obs, j])
+            vals = np.where(inside[:, None], f(np.clip(hid, obs[0], obs[-1])),
+                            poses[np.where(hid < obs[0], obs[0], obs[-1]), j])
+        out[hid, j] = vals
+    return out
+
+
+def error(filled, truth, mask):
+    """Mean error of the hidden joints, % of the body's pixel height."""
+    height = np.ptp(truth[..., 1], axis=1).mean()
+    return 100 * np.linalg.norm(filled - truth, axis=-1)[mask].mean() / height
+
+
+def per_frame(case_list, dictionary):
+    """Per-frame answers of every frame with a hidden joint (cached per case)."""
+    out = []
+    for _, truth, mask in case_list:
+        rows = mask.any(1)
+        res = sparseedm.recover(truth[rows], mask[rows], dictionary=dictionary, adapt=False)
+        prior = np.full_like(truth, np.nan)
+        prior[rows] = res.poses
+        conf = np.zeros(len(truth))
+        conf[rows] = np.select([res.status == "recovered", res.status == "inaccurate"],
+                               [1.0, 0.25], 0.0)
+        out.append((prior, conf))
+    return out
+
+
+def temporal_fill(truth, mask, prior, conf, settings):
+    values = np.where(mask[..., None], 0.0, truth)
+    return fill_segment(values, mask, prior, conf, settings)[0]
+
+
+def table(case_list, fills):
+    """{method: {bin: error}} plus 'all' (mean over every hidden joint-frame)."""
+    out = {}
+    for name, filled in fills.items():
+        row, num, den = {}, 0.0, 0
+        for b in BINS:
+            errs = [error(f, t, m) for (bb, t, m), f in zip(case_list, filled) if bb == b]
+            row[b] = round(float(np.mean(errs)), 3) if errs else None
+        for (bb, t, m), f in zip(case_list, filled):
+            h = np.ptp(t[..., 1], axis=1).mean()
+            num += (100 * np.linalg.norm(f - t, axis=-1)[m] / h).sum()
+            den += int(m.sum())
+        row["all"] = round(num / den, 3)
+        out[name] = row
+    return out
+
+
+def score(case_list, answers, settings):
+    filled = [temporal_fill(t, m, p, c, settings) for (_, t, m), (p, c) in
+              zip(case_list, answers)]
+    return table(case_list, {"temporal": filled})["temporal"]
+
+
+def objective(row, best):
+    """Worst ratio to the best baseline over the bins (the issue's goal is <= 0.8)."""
+    return max(row[b] / best[b] for b in BINS)
+
+
+def baselines(case_list, answers):
+    fills = {k: [spline_fill(k, t, m) for _, t, m in case_list]
+             for k in ("linear", "cubic", "akima")}
+    fills["per_frame"] = [np.where(m[..., None], p, t) for (_, t, m), (p, _) in
+                          zip(case_list, answers)]
+    return table(case_list, fills)
+
+
+def run_direction(name, args, part):
+    folder, dict_name = DIRECTIONS[name]
+    t0 = time.time()
+    seqs = sequences(Path(args.data_dir) / folder, part, args.length, args.max_sequences)
+    case_list = cases(seqs)
+    answers = per_frame(case_list, dict_name)
+    base = baselines(case_list, answers)
+    best = {b: min(base[k][b] for k in ("linear", "cubic", "akima")) for b in BINS}
+    out = dict(sequences=len(seqs), frames=int(sum(len(s) for s in seqs)),
+               cases=len(case_list), baselines=base, best_spline=best)
+    if part == 1:
+        grid = {}
+        for a, j, s, f in itertools.product(*GRID.values()):
+            row = score(case_list, answers, TemporalSettings(a, j, s, f))
+            grid[f"acceleration={a} jerk={j} ramp_start={s} ramp_full={f}"] = row
+        out["grid"] = grid
+    else:
+        out["temporal"] = score(case_list, answers, TemporalSettings())
+    out["seconds"] = round(time.time() - t0, 1)
+    print(name, json.dumps({k: v for k, v in out.items() if k != "grid"}), flush=True)
+    return out
+
+
+def choose(results):
+    """The setting whose worst ratio to the best spline, over bins and directions, is least."""
+    keys = next(iter(results.values()))["grid"]
+    worst = {k: max(objective(r["grid"][k], r["best_spline"]) for r in results.values())
+             for k in keys}
+    return min(worst, key=worst.get), worst
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data-dir", default="../shared/data")
+    ap.add_argument("--out", required=True)
+    ap.add_argument("--length", type=int, default=200)
+    ap.add_argument("--max-sequences", type=int, default=40)
+    ap.add_argument("--test", action="store_true", help="score the test clips (after the choice)")
+    args = ap.parse_args(argv)
+    part = 2 if args.test else 1
+    results = {name: run_direction(name, args, part) for name in DIRECTIONS}
+    record = dict(split="test" if args.test else "validation", length=args.length,
+                  max_sequences=args.max_sequences, machine=platform.platform(),
+                  directions=results)
+    if not args.test:
+        chosen, worst = choose(results)
+        record["chosen"] = chosen
+        record["worst_ratio"] = {k: round(v, 3) for k, v in sorted(worst.items(),
+                                                                  key=lambda kv: kv[1])}
+        print("chosen", chosen, round(worst[chosen], 3))
+    Path(args.out).write_text(json.dumps(record, indent=1) + "\n")
+
+
+if __name__ == "__main__":
+    main()
