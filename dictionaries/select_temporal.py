@@ -21,6 +21,8 @@ Masks (seeded, per sequence): for a gap length L in 3 / 10 / 30 / 90 frames,
 1-3 joints each lose runs of L frames (starts at least L apart, inside the
 sequence: 2-40 % of a joint's frames); ``ends``: 1-3 joints hidden from a
 clip's first or last 10-90 frames (a spline can only hold the last value).
+Baselines: the gap fillers of :mod:`sparseedm.temporal.fillers` (linear,
+cubic, Akima, PCA gap filling; clip ends held) and the per-frame answer.
 Figure: mean 2D error of the hidden joints as % of the body's pixel height
 (the truth's mean vertical extent), per bin. Every sequence is one call, as a
 user with one video would make: ``recover(adapt="auto")`` does not adapt on
@@ -41,12 +43,11 @@ import time
 from pathlib import Path
 
 import numpy as np
-from scipy.interpolate import Akima1DInterpolator, CubicSpline
-
 import sparseedm
 from sparseedm.cameras import Cameras, project, sample_cameras
 from sparseedm.dataset import find_mocap_files
 from sparseedm.mocap import load_mocap
+from sparseedm.temporal.fillers import fill_akima, fill_cubic, fill_linear, fill_pca
 from sparseedm.temporal.model import TemporalSettings, fill_segment
 
 GAPS = (3, 10, 30, 90)
@@ -120,26 +121,6 @@ def cases(seqs, seed=0):
     return out
 
 
-def spline_fill(kind, poses, mask):
-    """Linear / cubic / Akima through each joint's observed frames; ends hold."""
-    out = poses.copy()
-    for j in np.flatnonzero(mask.any(0)):
-        obs = np.flatnonzero(~mask[:, j])
-        hid = np.flatnonzero(mask[:, j])
-        if len(obs) < 2:
-            out[hid, j] = poses[obs, j] if len(obs) else np.nan
-            continue
-        inside = (hid > obs[0]) & (hid < obs[-1])
-        if kind == "linear" or len(obs) < 4:
-            vals = np.stack([np.interp(hid, obs, poses[obs, j, k]) for k in range(2)], -1)
-        else:
-            f = (CubicSpline if kind == "cubic" else Akima1DInterpolator)(obs, poses[obs, j])
-            vals = np.where(inside[:, None], f(np.clip(hid, obs[0], obs[-1])),
-                            poses[np.where(hid < obs[0], obs[0], obs[-1]), j])
-        out[hid, j] = vals
-    return out
-
-
 def error(filled, truth, mask):
     """Mean error of the hidden joints, % of the body's pixel height."""
     height = np.ptp(truth[..., 1], axis=1).mean()
@@ -190,16 +171,63 @@ def score(case_list, answers, settings):
 
 
 def objective(row, best):
-    """Worst ratio to the best baseline over the bins (the issue's goal is <= 0.8)."""
+    """Worst ratio to the best gap filler (linear, cubic, Akima, PCA) over the bins
+    (the issue's goal: <= 0.8 in every bin)."""
     return max(row[b] / best[b] for b in BINS)
 
 
+FILLERS = {"linear": fill_linear, "cubic": fill_cubic, "akima": fill_akima, "pca": fill_pca}
+
+
 def baselines(case_list, answers):
-    fills = {k: [spline_fill(k, t, m) for _, t, m in case_list]
-             for k in ("linear", "cubic", "akima")}
+    fills = {k: [f(np.where(m[..., None], np.nan, t), m, np.arange(len(t)))
+                 for _, t, m in case_list] for k, f in FILLERS.items()}
     fills["per_frame"] = [np.where(m[..., None], p, t) for (_, t, m), (p, _) in
                           zip(case_list, answers)]
     return table(case_list, fills)
+
+
+def adapt_one_clip(case_list, dictionary, min_poses):
+    """Per case, the per-frame answers with the dictionary adapted on that
+    sequence alone (its complete frames, then self-training on the observed
+    joints of the others, guarded as recover(adapt="auto") does, only with
+    `min_poses` complete frames required), and how many were adopted."""
+    from sparseedm.adaptation import run_adaptation, self_train
+    from sparseedm.dictionary import load_dictionary
+
+    base = load_dictionary(dictionary)
+    answers, adopted = [], 0
+    for _, truth, mask in case_list:
+        poses = np.where(mask[..., None], np.nan, truth)
+        res = run_adaptation(base, poses, mask, min_poses=min_poses, random_state=0)
+        res = self_train(base, res, poses, mask, poses, mask, random_state=0)
+        adopted += bool(res.adapted)
+        answers.append(per_frame([(None, truth, mask)], res.dictionary)[0])
+    return answers, adopted
+
+
+def run_adaptation_arm(name, args, settings):
+    """Item 3 of the issue: does adapting on one clip help? Cold vs adapted
+    per-frame answers under the chosen temporal settings, 30 / 90 / ends bins."""
+    folder, dict_name = DIRECTIONS[name]
+    seqs = sequences(Path(args.data_dir) / folder, 1, args.length, args.adapt_sequences)
+    case_list = [c for c in cases(seqs) if c[0] in ("30", "90", "ends")]
+    cold = per_frame(case_list, dict_name)
+    t0 = time.time()
+    out = {}
+    for m in args.min_poses:
+        warm, adopted = adapt_one_clip(case_list, dict_name, m)
+        out[f"min_poses={m}"] = dict(
+            adopted=adopted, cases=len(case_list),
+            temporal=score(case_list, warm, settings),
+            per_frame=table(case_list, {"p": [np.where(mm[..., None], p, t) for (_, t, mm), (
+                p, _) in zip(case_list, warm)]})["p"])
+    out["cold"] = dict(temporal=score(case_list, cold, settings), per_frame=table(
+        case_list, {"p": [np.where(mm[..., None], p, t) for (_, t, mm), (p, _) in
+                          zip(case_list, cold)]})["p"])
+    out["seconds"] = round(time.time() - t0, 1)
+    print(name, "adaptation", json.dumps(out), flush=True)
+    return out
 
 
 def run_direction(name, args, part):
@@ -209,9 +237,9 @@ def run_direction(name, args, part):
     case_list = cases(seqs)
     answers = per_frame(case_list, dict_name)
     base = baselines(case_list, answers)
-    best = {b: min(base[k][b] for k in ("linear", "cubic", "akima")) for b in BINS}
+    best = {b: min(base[k][b] for k in FILLERS) for b in BINS + ("all",)}
     out = dict(sequences=len(seqs), frames=int(sum(len(s) for s in seqs)),
-               cases=len(case_list), baselines=base, best_spline=best)
+               cases=len(case_list), baselines=base, best_filler=best)
     if part == 1:
         grid = {}
         for a, j, s, f in itertools.product(*GRID.values()):
@@ -226,11 +254,27 @@ def run_direction(name, args, part):
 
 
 def choose(results):
-    """The setting whose worst ratio to the best spline, over bins and directions, is least."""
+    """The setting whose error over all hidden joint-frames, as a ratio to the best
+    single gap filler of its direction, is least in the worse direction (the
+    issue's overall goal). The worst ratio over the bins is recorded beside it:
+    no setting brings it under 1 on cmu->bandai, where PCA gap filling wins the
+    30 / 90 / ends bins (see the README), so it cannot choose."""
     keys = next(iter(results.values()))["grid"]
-    worst = {k: max(objective(r["grid"][k], r["best_spline"]) for r in results.values())
+    overall = {k: max(r["grid"][k]["all"] / r["best_filler"]["all"] for r in results.values())
+               for k in keys}
+    worst = {k: max(objective(r["grid"][k], r["best_filler"]) for r in results.values())
              for k in keys}
-    return min(worst, key=worst.get), worst
+    return min(overall, key=overall.get), overall, worst
+
+
+def choice(results):
+    """The choice and both criteria, for the JSON record."""
+    chosen, overall, worst = choose(results)
+    return dict(chosen=chosen,
+                overall_ratio={k: round(v, 3) for k, v in sorted(overall.items(),
+                                                                 key=lambda kv: kv[1])},
+                worst_bin_ratio={k: round(v, 3) for k, v in sorted(worst.items(),
+                                                                   key=lambda kv: kv[1])})
 
 
 def main(argv=None):
@@ -240,18 +284,25 @@ def main(argv=None):
     ap.add_argument("--length", type=int, default=200)
     ap.add_argument("--max-sequences", type=int, default=40)
     ap.add_argument("--test", action="store_true", help="score the test clips (after the choice)")
+    ap.add_argument("--adapt", action="store_true",
+                    help="item 3: one clip's adaptation, cold vs adapted, on validation")
+    ap.add_argument("--adapt-sequences", type=int, default=15)
+    ap.add_argument("--min-poses", type=int, nargs="+", default=[30, 100])
     args = ap.parse_args(argv)
+    if args.adapt:
+        out = {name: run_adaptation_arm(name, args, TemporalSettings()) for name in DIRECTIONS}
+        Path(args.out).write_text(json.dumps(dict(split="validation", experiment=
+                                                  "one-clip adaptation", directions=out),
+                                              indent=1) + "\n")
+        return
     part = 2 if args.test else 1
     results = {name: run_direction(name, args, part) for name in DIRECTIONS}
     record = dict(split="test" if args.test else "validation", length=args.length,
                   max_sequences=args.max_sequences, machine=platform.platform(),
                   directions=results)
     if not args.test:
-        chosen, worst = choose(results)
-        record["chosen"] = chosen
-        record["worst_ratio"] = {k: round(v, 3) for k, v in sorted(worst.items(),
-                                                                  key=lambda kv: kv[1])}
-        print("chosen", chosen, round(worst[chosen], 3))
+        record.update(choice(results))
+        print("chosen", record["chosen"])
     Path(args.out).write_text(json.dumps(record, indent=1) + "\n")
 
 
