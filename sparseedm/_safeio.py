@@ -52,7 +52,7 @@ import numpy as np
 
 from .exceptions import FileFormatError, PickledDataError
 
-__all__ = ["load_npy", "load_npz", "text_lines", "load_json", "MAX_LINE_BYTES",
+__all__ = ["load_npy", "load_npz", "text_lines", "regular_file", "require_file", "available_memory", "load_json", "MAX_LINE_BYTES",
            "MAX_JSON_BYTES", "MAX_JSON_DEPTH", "MAX_INT_DIGITS"]
 
 #: longest line a text reader accepts (a keypoint CSV row is ~1 kB)
@@ -72,7 +72,7 @@ def _regular_file(path, what):
     """The size of `path`, which must be a regular file."""
     try:
         st = os.stat(path)
-    except FileNotFoundError:
+    except (FileNotFoundError, NotADirectoryError):
         raise FileNotFoundError(f"{path}: no such file") from None
     except OSError as exc:
         raise FileFormatError(f"{what} cannot be opened ({exc.strerror})") from None
@@ -81,6 +81,31 @@ def _regular_file(path, what):
     if not stat.S_ISREG(st.st_mode):
         raise FileFormatError(f"{what} is not a regular file (a device, pipe or socket)")
     return st.st_size
+
+
+def regular_file(path, what=None) -> int:
+    """The size of `path`; a missing path raises FileNotFoundError, a folder,
+    device, pipe or socket a FileFormatError saying which (never "missing").
+
+    Examples
+    --------
+    >>> regular_file("/dev/null", "dictionary /dev/null")
+    Traceback (most recent call last):
+    ...
+    sparseedm.exceptions.FileFormatError: dictionary /dev/null is not a regular file (a device, pipe or socket)
+    """
+    return _regular_file(path, what or str(path))
+
+
+def require_file(path, what, error):
+    """:func:`regular_file` raising `error` (e.g. DictionaryError) for a path that
+    is missing ("no such <what> file") or not a regular file (which it is)."""
+    try:
+        return regular_file(path, f"{what} {path}")
+    except FileNotFoundError:
+        raise error(f"{path}: no such {what} file") from None
+    except FileFormatError as exc:
+        raise error(str(exc)) from None
 
 
 def _read_header(f, what):
@@ -130,6 +155,11 @@ def _free_memory():
     except (OSError, ValueError, IndexError):
         pass
     return None
+
+
+def available_memory():
+    """Memory this machine has available now, in bytes (Linux's MemAvailable), or None."""
+    return _free_memory()
 
 
 def _check_size(shape, dtype, available, what, max_bytes, in_memory=True):

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import errno
+import os
 from importlib import resources
 from pathlib import Path
 
@@ -25,7 +27,14 @@ def resolve_shipped(name_or_path, package: str, default: str, error, what: str) 
     if name_or_path is None or name_or_path == "default":
         name_or_path = default
     path = Path(name_or_path)
-    if path.suffix == ".npz" or path.exists() or "/" in str(name_or_path):
+    try:
+        exists = os.path.lexists(path)
+        if len(os.fsencode(path.name)) > 255:
+            raise OSError(errno.ENAMETOOLONG, "File name too long")
+    except OSError as exc:  # a 5000-character name
+        raise error(f"{str(name_or_path)[:60]}...: not a {what} name or path "
+                    f"({exc.strerror})") from None
+    if path.suffix == ".npz" or exists or "/" in str(name_or_path):
         return path
     res = resources.files(package) / f"{name_or_path}.npz"
     if not res.is_file():

@@ -44,7 +44,7 @@ import numpy as np
 from .exceptions import ParameterError
 
 __all__ = ["Interval", "Options", "validate_params", "check_poses", "check_mask",
-           "ALPHA", "ALPHA_MIN", "ALPHA_MAX", "N_JOBS", "CHUNK_SIZE", "PATH", "BOOLEAN", "THRESHOLD", "usable_jobs"]
+           "ALPHA", "ALPHA_MIN", "ALPHA_MAX", "N_JOBS", "CHUNK_SIZE", "PATH", "BOOLEAN", "THRESHOLD", "usable_jobs", "unmask"]
 
 
 class Interval:
@@ -218,6 +218,32 @@ def check_poses(poses, caller, name="poses"):
                              f"(dtype {arr.dtype})")
     with np.errstate(over="ignore"):
         return arr.astype(np.float64, copy=False)
+
+
+def unmask(poses, missing, caller):
+    """A masked array's masked joints made missing (``np.ma``: mask = missing).
+
+    A joint with any masked coordinate gets NaN coordinates and, when a
+    `missing` mask is given, is added to it. Anything else comes back as given.
+
+    Examples
+    --------
+    >>> p = np.ma.array([[[1.0, 2.0], [3.0, 4.0]]], mask=[[[False, False], [True, False]]])
+    >>> poses, missing = unmask(p, None, "f")
+    >>> poses.tolist(), missing
+    ([[[1.0, 2.0], [nan, nan]]], None)
+    """
+    if not isinstance(poses, np.ma.MaskedArray):
+        return poses, missing
+    masked = np.ma.getmaskarray(poses)
+    data = check_poses(np.ma.getdata(poses), caller)
+    hidden = masked.any(axis=-1) if data.ndim >= 2 else masked
+    data = np.where(hidden[..., None] if data.ndim >= 2 else hidden, np.nan, data)
+    if missing is not None:
+        mask = check_mask(missing, caller)
+        if mask.shape == hidden.shape:
+            missing = mask | hidden
+    return data, missing
 
 
 def check_mask(missing, caller, name="missing"):

@@ -65,7 +65,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._validation import validate_params
+from ._validation import check_mask, check_poses, unmask, validate_params
 from .dictionary import Dictionary, load_dictionary
 from .edm import pose_to_vector
 from .exceptions import PoseError, SparseEDMError
@@ -561,15 +561,17 @@ class AdaptationResult:
 
 
 def _complete_input(poses, missing):
-    """The complete rows of user poses (NaN or `missing` mark occlusions)."""
-    poses = np.asarray(poses, dtype=float)
+    """The complete rows of user poses (NaN, `missing` or a masked array's mask mark
+    occlusions); refused as recover() refuses them (strings, complex, objects...)."""
+    poses, missing = unmask(poses, missing, "adapt")
+    poses = check_poses(poses, "adapt")
     if poses.ndim == 2:
         poses = poses[None]
     if poses.ndim != 3 or poses.shape[-1] != 2:
         raise PoseError(f"adaptation poses must have shape (n, N, 2), got {poses.shape}")
     ok = np.isfinite(poses).all(axis=(-1, -2))
     if missing is not None:
-        mask = np.asarray(missing, dtype=bool)
+        mask = check_mask(missing, "adapt")
         if mask.ndim == 1:
             mask = mask[None]
         if mask.shape != poses.shape[:2]:

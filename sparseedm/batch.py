@@ -75,16 +75,16 @@ from numbers import Integral, Real
 from ._atomic import atomic_path, check_paths, is_stream
 from ._validation import (ALPHA, BOOLEAN, CHUNK_SIZE, N_JOBS, PATH, Interval, Options,
                           validate_params)
-from .dictionary import Dictionary, _resolve, load_dictionary
+from .dictionary import Dictionary, _resolve, check_gram_memory, load_dictionary
 from ._safeio import resolved
 from .exceptions import FileFormatError, OutputPathError, SparseEDMError
 from .formats import FILLED_SCORE
 from .formats import FORMATS as FOLDER_OR_TABLE_FORMATS
 from .keypoints import (N_JOINTS, _EXTENSIONS, _finish, _format_of, _np_load,
-                        read_keypoints, write_keypoints)
+                        npy_confidence, read_keypoints, write_keypoints)
 from .keypoints import output_format as keypoint_output_format
 from .normalize import REPRESENTATIONS
-from .recovery import STATUSES, _OK, recover
+from .recovery import STATUSES, _OK, check_options_apply, recover
 from .skeleton import JOINT_NAMES
 from .solvers import get_solver
 
@@ -169,7 +169,7 @@ class _NpySource:
     def chunk(self, start, stop):
         block = np.asarray(self.arr[start:stop], dtype=float)
         poses = block[..., :2]
-        conf = block[..., 2] if block.shape[-1] == 3 else None
+        conf = npy_confidence(block, str(self.path), start) if block.shape[-1] == 3 else None
         missing = np.zeros(poses.shape[:2], dtype=bool)
         return _finish(poses, missing, conf, self.threshold)
 
@@ -296,6 +296,8 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
         scheduler=scheduler, method=method, save_dictionary=save_dictionary,
         self_training=self_training, ensemble=ensemble, joint_map=joint_map,
         filled_score=filled_score, temporal=temporal), _PARAMS)
+    check_options_apply("recover_file", method=method, model=model, backend=backend,
+                        scheduler=scheduler, adapt=adapt, ensemble=ensemble)
     if method == "fconv" and ensemble > 1:
         raise SparseEDMError("ensemble averages adapted dictionaries: it needs "
                              "method='sparse'")
@@ -333,6 +335,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
         check_paths(inputs, outputs)
     if not isinstance(dictionary, Dictionary):
         dictionary = load_dictionary(dictionary)
+    check_gram_memory(dictionary)
     try:
         solver = get_solver(solver)  # one instance: its per-pattern caches serve every chunk
     except ImportError as exc:

@@ -63,6 +63,8 @@ __all__ = ["build_dataset", "load_dataset", "find_mocap_files", "clip_metadata",
 
 #: frame_step=None keeps about this many frames per second
 TARGET_FPS = 40.0
+#: most virtual cameras per pose build_dataset takes (bounds the arrays it allocates)
+MAX_CAMERAS_PER_POSE = 1000
 
 #: key -> (dtype kind, shape with "n" for the pose axis)
 SCHEMA = {
@@ -97,6 +99,9 @@ def find_mocap_files(paths) -> list[Path]:
                                 if q.is_file() and q.suffix.lower() in MOCAP_SUFFIXES))
         elif p.is_file():
             found.append(p)
+        elif os.path.lexists(p):
+            raise FileFormatError(f"{p} is not a regular file or a folder (a device, pipe "
+                                  "or socket, or a broken link)")
         else:
             raise FileNotFoundError(f"no such file or folder: {p}")
     seen, out = set(), []
@@ -242,7 +247,7 @@ def build_dataset(
         output=output, cameras_per_pose=cameras_per_pose, frame_step=frame_step,
         progress=progress, return_report=return_report, camera_options=camera_options), {
         "output": ["path", None],
-        "cameras_per_pose": [Interval(Integral, 1, None)],
+        "cameras_per_pose": [Interval(Integral, 1, MAX_CAMERAS_PER_POSE)],
         "frame_step": [Interval(Integral, 1, None), None],
         "progress": ["boolean"], "return_report": ["boolean"],
         "camera_options": [dict, None]})
@@ -282,10 +287,10 @@ def build_dataset(
             continue
         kept = np.repeat(poses[idx], cameras_per_pose, axis=0)
         frames = np.repeat(idx, cameras_per_pose)
-        cams = sample_cameras(targets=kept.mean(axis=1), random_state=rng, **cam_opts)
-        try:
+        try:  # a clip far off (root at 1e200) puts a camera along the up axis
+            cams = sample_cameras(targets=kept.mean(axis=1), random_state=rng, **cam_opts)
             p2d = project(kept, cams)
-        except SparseEDMError as exc:
+        except (SparseEDMError, ValueError, FloatingPointError) as exc:
             warnings.warn(f"skipping {path}: {_skip_reason(path, exc)}", stacklevel=2)
             skipped.append((str(path), _skip_reason(path, exc)))
             read -= 1
@@ -294,7 +299,10 @@ def build_dataset(
     if not parts:
         raise SparseEDMError(
             f"no poses built: {len(files)} motion file(s) found, {len(skipped)} skipped"
-        )
+            + (f", {n_tpose} T-pose frame(s) dropped (a clip's first or last frames with "
+               "both arms straight and level are its calibration pose; --keep-tpose keeps "
+               "them)"
+               if n_tpose else ""))
     n_each = [p[0].shape[0] for p in parts]
 
     def strings(key):
@@ -339,7 +347,7 @@ def _auto_step(frame_rate):
 
 def _check_output(path):
     """A dataset is an .npz: refuse other names (numpy would add ".npz" to them)."""
-    if Path(path).suffix.lower() != ".npz":
+    if Path(path).suffix != ".npz":  # ".NPZ" too: the rule every other output follows
         raise OutputPathError(
             f"{path}: a dataset is written as an .npz archive; give an output name "
             "ending in .npz")

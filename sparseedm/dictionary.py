@@ -29,7 +29,7 @@ import numpy as np
 
 from . import __version__
 from ._atomic import save_npz
-from ._safeio import load_npz_file, parse_meta
+from ._safeio import available_memory, load_npz_file, parse_meta, require_file
 from ._shipped import resolve_shipped, shipped_names
 from ._validation import ALPHA_MAX, ALPHA_MIN, Interval, validate_params
 from .edm import num_joints_from_dim
@@ -37,6 +37,7 @@ from .exceptions import DictionaryError, PoseError
 from .skeleton import JOINT_NAMES
 
 __all__ = ["Dictionary", "load_dictionary", "available_dictionaries", "check_layout",
+           "check_gram_memory",
            "DEFAULT_DICTIONARY"]
 
 FORMAT_VERSION = 1
@@ -280,6 +281,25 @@ def _check_meta(meta, where):
         raise DictionaryError(f"{where}: metadata provenance 'files' must be strings")
 
 
+def check_gram_memory(dictionary):
+    """Refuse a dictionary whose (k, k) Gram matrix, which recovery and adaptation
+    build, would take more than half the memory available (a DictionaryError
+    naming the sizes), before anything is allocated.
+
+    Examples
+    --------
+    >>> check_gram_memory(Dictionary(np.eye(91)[:3]))
+    """
+    k = dictionary.n_components
+    need = 8 * k * k
+    free = available_memory()
+    if free is not None and need > free // 2:
+        raise DictionaryError(
+            f"the dictionary's {k} atoms need a {need / 2**30:.1f} GiB Gram matrix (k x k) "
+            f"and {free / 2**30:.1f} GiB of memory is available: use a dictionary with "
+            f"fewer atoms (the shipped ones have 2000)")
+
+
 def available_dictionaries() -> list[str]:
     """Names of the dictionaries shipped with the package ("default" included)."""
     return shipped_names("sparseedm.dictionaries", DEFAULT_DICTIONARY)
@@ -311,8 +331,7 @@ def load_dictionary(name_or_path=None, *, n_joints=None) -> Dictionary:
                     {"name_or_path": ["path", None],
                      "n_joints": [Interval(Integral, 1, None), None]})
     path = _resolve(name_or_path)
-    if not path.is_file():
-        raise DictionaryError(f"{path}: no such dictionary file")
+    require_file(path, "dictionary", DictionaryError)
     arrays, names = load_npz_file(path, ("components", "joint_names", "meta"),
                                   error=DictionaryError, kind="dictionary",
                                   max_bytes=_MAX_BYTES)
@@ -329,6 +348,10 @@ def load_dictionary(name_or_path=None, *, n_joints=None) -> Dictionary:
     if len(set(joint_names.tolist())) != len(joint_names) or not all(joint_names.tolist()):
         raise DictionaryError(f"{path}: joint_names must be distinct, non-empty names")
     meta = parse_meta(meta_text, path, error=DictionaryError, parse_int=_parse_int)
+    if isinstance(meta, dict) and "kind" in meta and "alpha_recover" not in meta:
+        raise DictionaryError(f"{path}: a {str(meta['kind'])[:40]} file, not a dictionary "
+                              "(a lifter goes to `sparseedm lift --lifter`, an FConv model "
+                              "to --model)")
     if meta.get("format_version") != FORMAT_VERSION:
         raise DictionaryError(
             f"{path}: dictionary format {meta.get('format_version')!r}, this sparseedm "

@@ -143,7 +143,7 @@ from pathlib import Path
 import numpy as np
 
 from ._atomic import atomic_path, save_npy, save_npz
-from ._safeio import load_json, load_npy, load_npz, text_lines
+from ._safeio import MAX_LINE_BYTES, load_json, load_npy, load_npz, text_lines
 from . import formats
 from ._validation import Interval, check_poses, validate_params
 from .exceptions import FileFormatError, PoseError
@@ -549,12 +549,29 @@ def _ids_text(ids, path):
     return ids.astype(str)
 
 
+def npy_confidence(block, where, first_row=0):
+    """The third column of an (n, 14, 3) pose array: confidences in [0, 1].
+
+    Anything else (x, y, z poses: z in metres or pixels, negative...) is
+    refused, naming the pose and joint: it would silently hide joints.
+    """
+    conf = np.asarray(block[..., 2], dtype=float)
+    bad = np.isfinite(conf) & ((conf < 0) | (conf > 1))
+    if bad.any():
+        i, j = np.argwhere(bad)[0]
+        raise FileFormatError(
+            f"{where}: an (n, {block.shape[1]}, 3) array is x, y, confidence, but pose "
+            f"{first_row + i}, joint {j} has confidence {conf[i, j]:g} (confidences lie in "
+            "[0, 1]); for x, y, z poses save poses[..., :2]")
+    return conf.copy()
+
+
 def _read_npy(path, threshold):
     arr = _np_load(path)
     _kind(arr, "fiu", path, "the array", "real numbers")
     arr = _check_pose_array(arr, str(path))
     poses = arr[..., :2]
-    confidence = arr[..., 2].copy() if arr.shape[-1] == 3 else None
+    confidence = npy_confidence(arr, str(path)) if arr.shape[-1] == 3 else None
     missing = np.zeros(poses.shape[:2], dtype=bool)
     poses, missing = _finish(poses, missing, confidence, threshold)
     return KeypointSet(poses, missing, confidence, None, {})
@@ -581,6 +598,8 @@ def _parse_float(text, path, line, column):
 
 
 def _read_csv(path, threshold):
+    # a field may fill a line (text_lines caps those); the csv module's own cap is 128 KiB
+    csv.field_size_limit(max(csv.field_size_limit(), MAX_LINE_BYTES))
     lines = (text for _, text in text_lines(path))
     reader = csv.reader(lines)
     try:

@@ -38,10 +38,10 @@ from joblib import Parallel, delayed, parallel_config
 from threadpoolctl import threadpool_limits
 
 from ._validation import (ALPHA, BOOLEAN, CHUNK_SIZE, N_JOBS, Interval, Options,
-                          check_mask, check_poses, usable_jobs, validate_params)
-from .dictionary import Dictionary, check_layout, load_dictionary
+                          check_mask, check_poses, unmask, usable_jobs, validate_params)
+from .dictionary import Dictionary, check_gram_memory, check_layout, load_dictionary
 from .edm import observed_entries, vector_to_edm
-from .exceptions import PoseError, SparseEDMError
+from .exceptions import ParameterError, PoseError, SparseEDMError
 from .normalize import MIN_OBSERVED_JOINTS, REPRESENTATIONS, represent
 from .placement import WEIGHT_POWER, place_missing_joints
 from .skeleton import SKELETON_14
@@ -201,9 +201,25 @@ _PARAMS = {
 _TINY = np.finfo(float).tiny
 
 
+def check_options_apply(caller, *, method, model, backend, scheduler, adapt, ensemble):
+    """Refuse options that would be silently ignored (a ParameterError naming them)."""
+    if method == "sparse" and model is not None:
+        raise ParameterError(f"{caller}: model is the FConv network of method='fconv'; "
+                             "method='sparse' codes with dictionary=")
+    if scheduler is not None and backend != "dask":
+        raise ParameterError(f"{caller}: scheduler is a Dask address: it needs "
+                             "backend='dask' (--backend dask)")
+    if ensemble > 1 and (adapt is False or adapt is None):
+        raise ParameterError(f"{caller}: ensemble={ensemble} averages adapted "
+                             "dictionaries: it needs adaptation (drop adapt=False / "
+                             "--no-adapt)")
+
+
 def _validate(poses, missing, n_joints, caller="recover", model="dictionary"):
     """Poses (n, N, 2) as floats, the missing mask and the rows with a bad
-    observed coordinate; whole-input problems raise, naming `caller`/`model`."""
+    observed coordinate; whole-input problems raise, naming `caller`/`model`.
+    A masked array's masked joints are missing."""
+    poses, missing = unmask(poses, missing, caller)
     poses = check_poses(poses, caller)
     if poses.ndim == 2:
         poses = poses[None]
@@ -427,6 +443,8 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         n_jobs=n_jobs, chunk_size=chunk_size, positive=positive, progress=progress,
         backend=backend, scheduler=scheduler, method=method, self_training=self_training,
         ensemble=ensemble, temporal=temporal), _PARAMS)
+    check_options_apply("recover", method=method, model=model, backend=backend,
+                        scheduler=scheduler, adapt=adapt, ensemble=ensemble)
     if frames is not None and temporal:
         return _recover_in_time(poses, missing, tracks, frames, method, dict(
             dictionary=dictionary, alpha=alpha, representation=representation, solver=solver,
@@ -442,6 +460,9 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
 
         return recover_fconv(poses, missing, model=model, representation=representation,
                              chunk_size=chunk_size, progress=progress)
+    if not isinstance(dictionary, Dictionary):
+        dictionary = load_dictionary(dictionary)
+    check_gram_memory(dictionary)
     adaptations, members = [], [dictionary]
     if adapt is not False:
         from .ensemble import adapt_members
@@ -552,7 +573,7 @@ def _chunk_tasks(rows, chunk_size, n_jobs, backend=None):
     """`rows` cut into consecutive tasks: at most `chunk_size` each, and enough
     of them to keep every worker busy (:func:`_min_tasks`); none when `rows` is
     empty. Shared by recover() and the dictionary lifter."""
-    n = len(rows)
+    n, chunk_size = len(rows), int(chunk_size)  # np.uint64(7): -n // it overflows
     n_tasks = max(-(-n // chunk_size), _min_tasks(n_jobs, backend, n))
     return [t for t in np.array_split(rows, max(1, min(n_tasks, n))) if len(t)]
 

@@ -295,3 +295,221 @@ def test_dictionary_meta_outside_its_closed_set_is_refused(tmp_path, small_dicti
     np.savez(path, **arrays)
     with pytest.raises(DictionaryError, match=f"metadata '{field}' must be"):
         load_dictionary(path)
+
+
+def test_masked_array_mask_is_missing(occluded, small_dictionary):
+    from sparseedm import recover
+
+    full = np.nan_to_num(occluded, nan=50.0)          # hidden values where joints were missing
+    masked = np.ma.array(full, mask=np.repeat(np.isnan(occluded), 1, axis=-1))
+    res = recover(masked, dictionary=small_dictionary, adapt=False)
+    ref = recover(occluded, dictionary=small_dictionary, adapt=False)
+    assert np.array_equal(res.missing, np.isnan(occluded).any(axis=-1))
+    assert np.array_equal(res.status, ref.status) and "complete" not in set(ref.status[
+        np.isnan(occluded).any(axis=(1, 2))])
+    np.testing.assert_allclose(res.poses, ref.poses, atol=1e-9)
+
+
+def test_masked_array_lifted_as_missing(occluded):
+    from sparseedm import lift
+
+    full = np.nan_to_num(occluded[:3], nan=50.0)
+    res = lift(np.ma.array(full, mask=np.isnan(occluded[:3])))
+    ref = lift(occluded[:3])
+    assert np.array_equal(res.status, ref.status)
+
+
+def test_xyz_npy_is_not_read_as_confidence(tmp_path, cmu_poses, capsys):
+    xyz = np.concatenate([cmu_poses[:5], -np.ones((5, 14, 1))], axis=-1)
+    path = tmp_path / "xyz.npy"
+    np.save(path, xyz)
+    from sparseedm.exceptions import FileFormatError
+
+    with pytest.raises(FileFormatError, match=r"x, y, confidence.*pose 0, joint 0.*-1"):
+        read_keypoints(path)
+    code = main(["recover", str(path), "-o", str(tmp_path / "o.npy"), "--no-adapt", "-q"])
+    assert code == 2 and "x, y, confidence" in capsys.readouterr().err
+    assert not (tmp_path / "o.npy").exists()
+
+
+@pytest.mark.parametrize("command, ext, fmt", [("recover", "csv", "npy"),
+                                               ("recover", "npz", "csv"),
+                                               ("lift", "csv", "json")])
+def test_extension_and_format_never_disagree(tmp_path, good_csv, command, ext, fmt, capsys):
+    out = tmp_path / f"o.{ext}"
+    code = main([command, str(good_csv), "-o", str(out), "--format", fmt, "--quiet"]
+                + (["--no-adapt"] if command == "recover" else []))
+    assert code == 2 and not out.exists()
+    assert "its extension says" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--scheduler", "tcp://127.0.0.1:1"], "needs backend='dask'"),
+    (["--no-adapt", "--ensemble", "3"], "needs adaptation"),
+])
+def test_options_that_cannot_apply_are_refused(tmp_path, good_csv, small_dictionary_path,
+                                               extra, message, capsys):
+    out = tmp_path / "o.csv"
+    code = main(["recover", str(good_csv), "-o", str(out), "--dictionary",
+                 str(small_dictionary_path), "--quiet", *extra])
+    assert code == 2 and not out.exists() and message in capsys.readouterr().err
+
+
+def test_api_cases_become_parameter_errors(occluded, small_dictionary, tmp_path):
+    from sparseedm import adapt, lift, load_dictionary, recover
+    from sparseedm.exceptions import DictionaryError, ParameterError
+
+    res = recover(occluded[:3], dictionary=small_dictionary, chunk_size=np.uint64(7),
+                  adapt=False)
+    assert len(res.status) == 3
+    with pytest.raises(ParameterError, match="lifter"):
+        lift(occluded[:2], lifter=small_dictionary)
+    with pytest.raises(ParameterError, match="lifter"):
+        lift(occluded[:2], lifter=123)
+    with pytest.raises(DictionaryError, match="not a dictionary name or path"):
+        load_dictionary("x" * 5000)
+    with pytest.raises(ParameterError, match="model"):
+        recover(occluded[:2], dictionary=small_dictionary, model="m.npz", adapt=False)
+    for bad in (occluded.astype(str), occluded.astype(complex),
+                occluded.astype(object).tolist() + [["x"]]):
+        with pytest.raises(ParameterError, match="adapt"):
+            adapt(small_dictionary, bad)
+
+
+def test_files_that_are_not_files_are_named(tmp_path, good_csv, capsys):
+    from sparseedm import load_dictionary
+    from sparseedm.exceptions import DictionaryError
+
+    fifo = tmp_path / "d.npz"
+    os.mkfifo(fifo)
+    with pytest.raises(DictionaryError, match="not a regular file"):
+        load_dictionary(fifo)
+    with pytest.raises(DictionaryError, match="is a directory"):
+        load_dictionary(tmp_path)
+    assert main(["recover", str(good_csv), "-o", str(tmp_path / "o.csv"), "--dictionary",
+                 str(fifo), "--quiet"]) == 2
+    assert "not a regular file" in capsys.readouterr().err
+
+
+def test_lifter_given_as_dictionary_says_so(tmp_path, good_csv, capsys):
+    from sparseedm.lifting.base import _resolve
+
+    code = main(["recover", str(good_csv), "-o", str(tmp_path / "o.csv"), "--dictionary",
+                 str(_resolve(None)), "--quiet"])
+    assert code == 2 and "lifter file, not a dictionary" in capsys.readouterr().err
+
+
+def test_csv_line_limit_is_the_documented_one(tmp_path, occluded):
+    from sparseedm._safeio import MAX_LINE_BYTES
+
+    path = tmp_path / "long.csv"
+    write_keypoints(path, occluded[:2], ids=["a" * 200_000, "b"])
+    kps = read_keypoints(path)                      # 200 kB in one field: under 1 MiB
+    assert kps.ids[0] == "a" * 200_000 and MAX_LINE_BYTES == 1 << 20
+
+
+# --------------------------------------------------------------------------
+# motion capture and dataset builds
+
+
+def _one_frame_bvh(fixtures_dir, root=None, bom=False):
+    lines = (fixtures_dir / "cmu_02_01_short.bvh").read_text().splitlines()
+    motion = next(i for i, line in enumerate(lines) if line.startswith("MOTION"))
+    frame = lines[motion + 3].split()
+    if root is not None:
+        frame[:3] = [root] * 3
+    text = "\n".join(lines[:motion + 1] + ["Frames: 1", lines[motion + 2], " ".join(frame)])
+    return ("\ufeff" if bom else "") + text + "\n"
+
+
+def test_folder_build_skips_a_clip_far_off_and_keeps_the_rest(tmp_path, fixtures_dir,
+                                                              capsys):
+    folder = tmp_path / "clips"
+    folder.mkdir()
+    (folder / "good.bvh").write_bytes((fixtures_dir / "cmu_02_01_short.bvh").read_bytes())
+    (folder / "far.bvh").write_text(_one_frame_bvh(fixtures_dir, root="1e200"))
+    out = tmp_path / "set.npz"
+    code = main(["dataset", "build", str(folder), "-o", str(out)])
+    assert code == 1 and out.exists()
+    assert "skipped" in capsys.readouterr().out
+    with np.load(out) as z:
+        assert len(z["poses3d"]) > 0
+        assert {c.rsplit("/", 1)[-1] for c in z["clips"].tolist()} == {"good"}
+
+
+def test_bvh_with_a_bom_reads(tmp_path, fixtures_dir):
+    from sparseedm.mocap import load_mocap
+
+    path = tmp_path / "bom.bvh"
+    path.write_text(_one_frame_bvh(fixtures_dir, bom=True), encoding="utf-8")
+    assert load_mocap(path).shape == (1, 14, 3)
+
+
+def test_counts_are_bounded_before_allocating(tmp_path, fixtures_dir, capsys):
+    out = tmp_path / "set.npz"
+    code = main(["dataset", "build", str(fixtures_dir / "cmu_02_01_short.bvh"), "-o", str(out),
+                 "--cameras-per-pose", "100000000", "--quiet"])
+    assert code == 2 and not out.exists() and "cameras_per_pose" in capsys.readouterr().err
+
+
+def test_dataset_output_extension_is_exact(tmp_path, fixtures_dir):
+    out = tmp_path / "o.NPZ"
+    assert main(["dataset", "build", str(fixtures_dir / "cmu_02_01_short.bvh"), "-o", str(out),
+                 "--quiet"]) == 2
+    assert not out.exists()
+
+
+def test_inspect_a_pipe_or_device_is_bounded_and_named(tmp_path, capsys):
+    fifo = tmp_path / "walk.bvh"
+    os.mkfifo(fifo)
+    assert main(["dataset", "inspect", str(fifo)]) == 2
+    assert "not a regular file" in capsys.readouterr().err
+    assert stat.S_ISFIFO(os.lstat(fifo).st_mode)
+    if os.geteuid() == 0:
+        zero = tmp_path / "zero.bvh"
+        os.mknod(zero, 0o666 | stat.S_IFCHR, os.makedev(1, 5))   # like /dev/zero
+        assert main(["dataset", "inspect", str(zero)]) == 2
+        assert "not a regular file" in capsys.readouterr().err
+        assert main(["dataset", "build", str(zero), "-o", str(tmp_path / "o.npz")]) == 2
+        assert "not a regular file" in capsys.readouterr().err
+
+
+def test_write_map_is_json_by_name(tmp_path, fixtures_dir, capsys):
+    out = tmp_path / "map.toml"
+    assert main(["dataset", "inspect", str(fixtures_dir / "cmu_02_01_short.bvh"),
+                 "--write-map", str(out)]) == 2
+    assert not out.exists() and "ending in .json" in capsys.readouterr().err
+
+
+def test_forced_implausible_units_warn_under_quiet_and_exit_1(tmp_path, fixtures_dir, capsys):
+    out = tmp_path / "set.npz"
+    code = main(["dataset", "build", str(fixtures_dir / "cmu_02_01_short.bvh"), "-o", str(out),
+                 "--units", "mm", "--quiet"])
+    err = capsys.readouterr().err
+    assert code == 1 and "--units mm gives implausible poses" in err
+
+
+def test_no_poses_names_the_tpose_rule(tmp_path, fixtures_dir, monkeypatch, capsys):
+    import sparseedm.dataset
+    from sparseedm.mocap import load_mocap
+
+    def one_tpose_frame(path, **kw):
+        poses, info = load_mocap(path, **kw)
+        info["tpose_frames"] = np.arange(len(poses))
+        return poses, info
+
+    monkeypatch.setattr(sparseedm.dataset, "load_mocap", one_tpose_frame)
+    code = main(["dataset", "build", str(fixtures_dir / "cmu_02_01_short.bvh"), "-o",
+                 str(tmp_path / "o.npz"), "--quiet"])
+    assert code == 2 and "T-pose frame(s) dropped" in capsys.readouterr().err
+
+
+def test_gram_matrix_checked_against_memory(small_dictionary, occluded, monkeypatch):
+    import sparseedm.dictionary
+    from sparseedm import recover
+    from sparseedm.exceptions import DictionaryError
+
+    k = small_dictionary.n_components
+    monkeypatch.setattr(sparseedm.dictionary, "available_memory", lambda: 8 * k * k)
+    with pytest.raises(DictionaryError, match=f"{k} atoms need a .* GiB Gram matrix"):
+        recover(occluded[:2], dictionary=small_dictionary, adapt=False)

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 import warnings
 
 
@@ -90,18 +91,30 @@ def run(args) -> int:
             print(f"  skipped {path}: {reason}")
         for _, problem in report["warnings"]:
             print(f"  warning: {problem}")
-    return 1 if report["skipped"] else 0
+    forced = args.units != "auto" and report["warnings"]
+    if forced:  # a unit the user chose that makes no person: said even with --quiet
+        print(f"sparseedm dataset build: --units {args.units} gives implausible poses in "
+              f"{len(report['warnings'])} clip(s): {report['warnings'][0][1]}",
+              file=sys.stderr)
+    return 1 if report["skipped"] or forced else 0
 
 
 def run_inspect(args) -> int:
     """Print what the loader makes of one file; exit code 0 (1 if implausible)."""
     import json
 
+    from pathlib import Path
+
     from .._atomic import atomic_path, check_paths
+    from ..exceptions import OutputPathError
     from ..mocap import load_mocap, plausibility
     from ..mocap.rigs import joint_map_to_json
 
     if args.write_map:
+        if Path(args.write_map).suffix.lower() != ".json":
+            raise OutputPathError(
+                f"--write-map {args.write_map}: the map is written as JSON; give a name "
+                "ending in .json (--joint-map reads a .toml name as TOML)")
         check_paths([("motion file", args.path), ("--joint-map", args.joint_map)],
                     [("--write-map", args.write_map)])
     poses, info = load_mocap(args.path, units=args.units, joint_map=args.joint_map,

@@ -51,7 +51,7 @@ import numpy as np
 
 from .. import __version__
 from .._atomic import save_npz
-from .._safeio import load_npz, load_npz_file, parse_meta
+from .._safeio import load_npz, load_npz_file, parse_meta, require_file
 from .._shipped import resolve_shipped, shipped_names
 from ..edm import pose_to_vector
 from ..exceptions import DictionaryError, PoseError, SparseEDMError
@@ -312,8 +312,7 @@ def load_lifter(name_or_path=None, *, n_joints=None):
     else:
         path = _resolve(name_or_path)
         where = str(path)
-        if not path.is_file():
-            raise LifterError(f"{path}: no such lifter file")
+        require_file(path, "lifter", LifterError)
         # the bounded reader: declared sizes checked before anything is decompressed
         arrays, _ = load_npz_file(path, list, error=LifterError, kind="lifter",
                                   max_bytes=_MAX_BYTES)

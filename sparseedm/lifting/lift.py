@@ -23,7 +23,7 @@ from ..recovery import STATUSES as RECOVERY_STATUSES
 from ..recovery import _validate, screen_poses
 from .._validation import N_JOBS, Options, validate_params
 from ..normalize import REPRESENTATIONS, normalize, represent
-from .base import load_lifter, rms
+from .base import Lifter, load_lifter, rms
 from .mds import reconstruct
 from .metrics import pelvis
 
@@ -128,8 +128,9 @@ def lift(poses, missing=None, *, lifter=None, n_jobs=1, representation="average"
     True
     """
     t0 = time.perf_counter()
-    validate_params("lift", dict(representation=representation, n_jobs=n_jobs),
-                    {"representation": [Options(REPRESENTATIONS)], "n_jobs": N_JOBS})
+    validate_params("lift", dict(representation=representation, n_jobs=n_jobs, lifter=lifter),
+                    {"representation": [Options(REPRESENTATIONS)], "n_jobs": N_JOBS,
+                     "lifter": [Lifter, "path", None]})
     lifter = load_lifter(lifter)
     if adapt is not None:
         from .adaptation import adapt_lifter

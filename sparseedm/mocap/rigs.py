@@ -53,7 +53,10 @@ from pathlib import Path
 
 import numpy as np
 
+from .._safeio import regular_file
 from ..exceptions import FileFormatError, SparseEDMError
+
+_MAX_MAP_BYTES = 16 << 20  # a joint map is a few kB
 from ..skeleton import JOINT_NAMES, SKELETON_14
 
 __all__ = [
@@ -429,7 +432,11 @@ def read_joint_map(source) -> dict:
         path = Path(source)
         where = str(path)
         try:
+            if regular_file(path, f"joint map {where}") > _MAX_MAP_BYTES:
+                raise FileFormatError(f"{where}: over {_MAX_MAP_BYTES >> 20} MiB; not a joint map")
             data = path.read_bytes()
+        except FileNotFoundError:
+            raise FileFormatError(f"{where}: no such joint map file") from None
         except OSError as exc:
             raise FileFormatError(f"{where}: cannot read the joint map ({exc.strerror})") from None
         try:
