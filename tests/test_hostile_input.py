@@ -513,3 +513,31 @@ def test_gram_matrix_checked_against_memory(small_dictionary, occluded, monkeypa
     monkeypatch.setattr(sparseedm.dictionary, "available_memory", lambda: 8 * k * k)
     with pytest.raises(DictionaryError, match=f"{k} atoms need a .* GiB Gram matrix"):
         recover(occluded[:2], dictionary=small_dictionary, adapt=False)
+
+
+def test_stdout_output_keeps_the_summary_off_the_data(tmp_path, good_csv,
+                                                      small_dictionary_path):
+    import subprocess
+    import sys
+
+    code = ("import sys; from sparseedm.cli import main; sys.exit(main(sys.argv[1:]))")
+    run = subprocess.run([sys.executable, "-c", code, "recover", str(good_csv), "-o",
+                          "/dev/stdout", "--dictionary", str(small_dictionary_path),
+                          "--no-adapt", "--format", "csv"],
+                         capture_output=True, cwd=tmp_path, timeout=600)
+    assert run.returncode in (0, 1), run.stderr
+    (tmp_path / "copy.csv").write_bytes(run.stdout)
+    assert len(read_keypoints(tmp_path / "copy.csv")) == N      # only the CSV on stdout
+    assert b"wrote /dev/stdout" in run.stderr
+
+
+def test_lift_n_jobs_past_the_machine(occluded):
+    from sparseedm import lift
+
+    res = lift(occluded[:4], n_jobs=100000)
+    assert np.array_equal(res.status, lift(occluded[:4]).status)
+
+
+def test_model_and_training_file_folders_are_named(tmp_path, capsys):
+    assert main(["fit", str(tmp_path), "-o", str(tmp_path / "d.npz")]) == 2
+    assert "is a directory" in capsys.readouterr().err

@@ -35,9 +35,13 @@ def load_npz(path, what, required, optional=()):
     from .._safeio import load_npz as load_bounded
     from ..exceptions import FileFormatError
 
+    from .._safeio import regular_file
+
     path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"no such {what} file: {path}")
+    try:
+        regular_file(path, f"{what} file {path}")  # a folder or device: said so
+    except FileNotFoundError:
+        raise FileNotFoundError(f"no such {what} file: {path}") from None
     arrays, names = load_bounded(path, (*required, *optional),
                                  what=f"{path}: not a readable .npz:")
     lacking = [k for k in required if k not in arrays]

@@ -111,12 +111,12 @@ def run_inspect(args) -> int:
     from ..mocap.rigs import joint_map_to_json
 
     if args.write_map:
+        check_paths([("motion file", args.path), ("--joint-map", args.joint_map)],
+                    [("--write-map", args.write_map)])
         if Path(args.write_map).suffix.lower() != ".json":
             raise OutputPathError(
                 f"--write-map {args.write_map}: the map is written as JSON; give a name "
                 "ending in .json (--joint-map reads a .toml name as TOML)")
-        check_paths([("motion file", args.path), ("--joint-map", args.joint_map)],
-                    [("--write-map", args.write_map)])
     poses, info = load_mocap(args.path, units=args.units, joint_map=args.joint_map,
                              return_info=True)
     problems = plausibility(poses, height=info["height"], name=args.path)

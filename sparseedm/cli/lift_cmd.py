@@ -39,13 +39,14 @@ def add_parser(sub):
 
 
 def run(args):
+    from .._atomic import is_stream
     from ..lifting.io import lift_file
 
     s = lift_file(args.input, args.output, lifter=args.lifter, n_jobs=args.jobs,
                   output_format=args.format, errors_path=args.errors,
                   confidence_threshold=args.confidence_threshold,
                   representation=args.representation)
-    out = sys.stderr if args.quiet else sys.stdout
+    out = sys.stderr if args.quiet or is_stream(args.output) else sys.stdout  # -o /dev/stdout
     rate = f"{s['poses_per_second']:,.0f} poses/s" if s["poses_per_second"] else "-"
     counts = ", ".join(f"{k} {v}" for k, v in s["status"].items()) or "none"
     print(f"wrote {s['output']}\nposes: {s['poses']}  rows refused: {s['refused']}  "

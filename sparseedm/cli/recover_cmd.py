@@ -92,6 +92,7 @@ def add_parser(sub):
 
 
 def run(args):
+    from .._atomic import is_stream
     from ..batch import recover_file
     from ..exceptions import SparseEDMError
 
@@ -111,7 +112,7 @@ def run(args):
         ensemble=args.ensemble, joint_map=args.joint_map, filled_score=args.filled_score,
         temporal=not args.no_temporal,
     )
-    out = sys.stderr if args.quiet else sys.stdout
+    out = sys.stderr if args.quiet or is_stream(args.output) else sys.stdout  # -o /dev/stdout
     ad = summary.get("adaptation")
     if ad is not None and not ad["adapted"] and ad["poses_used"] == 0:
         print(f"sparseedm recover: no adaptation: {ad['reason']}", file=sys.stderr)

@@ -28,7 +28,7 @@ import numpy as np
 
 from .. import __version__
 from .._atomic import save_npz
-from .._safeio import load_npz_file, parse_meta
+from .._safeio import load_npz_file, parse_meta, require_file
 from ..edm import triu_indices
 from ..exceptions import ModelError
 from ..normalize import REPRESENTATIONS
@@ -215,8 +215,7 @@ def load_model(path, *, n_joints=None, representation=None, kind=None) -> FConvM
     else:
         path = Path(path)
         where = str(path)
-        if not path.is_file():
-            raise ModelError(f"{path}: no such model file")
+        require_file(path, "model", ModelError)  # a folder or device is named as such
         # the bounded reader: sizes checked before anything is decompressed
         arrays, _ = load_npz_file(
             path, lambda names: ["meta"] + [k for k in names if k.startswith(_PREFIX)],
