@@ -44,7 +44,7 @@ import numpy as np
 from .exceptions import ParameterError
 
 __all__ = ["Interval", "Options", "validate_params", "check_poses", "check_mask",
-           "ALPHA", "ALPHA_MIN", "ALPHA_MAX", "N_JOBS", "CHUNK_SIZE", "PATH", "BOOLEAN", "THRESHOLD", "usable_jobs", "unmask"]
+           "ALPHA", "ALPHA_MIN", "ALPHA_MAX", "ENSEMBLE", "MAX_ENSEMBLE", "N_JOBS", "CHUNK_SIZE", "PATH", "BOOLEAN", "THRESHOLD", "usable_jobs", "unmask"]
 
 
 class Interval:
@@ -149,6 +149,9 @@ def validate_params(caller, params, constraints):
 ALPHA_MIN, ALPHA_MAX = 1e-6, 100.0
 #: constraints shared by several functions
 ALPHA = [Interval(Real, ALPHA_MIN, ALPHA_MAX)]
+#: most members an ensemble takes: each is a whole adapted dictionary in memory
+MAX_ENSEMBLE = 64
+ENSEMBLE = [Interval(Integral, 1, MAX_ENSEMBLE)]
 N_JOBS = [Interval(Integral, None, -1), Interval(Integral, 1, None), None]
 CHUNK_SIZE = [Interval(Integral, 1, None)]
 PATH = ["path"]

@@ -73,7 +73,7 @@ import numpy as np
 from numbers import Integral, Real
 
 from ._atomic import atomic_path, check_paths, is_stream
-from ._validation import (ALPHA, BOOLEAN, CHUNK_SIZE, N_JOBS, PATH, Interval, Options,
+from ._validation import (ALPHA, BOOLEAN, ENSEMBLE, CHUNK_SIZE, N_JOBS, PATH, Interval, Options,
                           validate_params)
 from .dictionary import Dictionary, _resolve, check_gram_memory, load_dictionary
 from ._safeio import resolved
@@ -423,7 +423,7 @@ _PARAMS = {
     "method": [Options(("sparse", "fconv"))],
     "save_dictionary": PATH + [None],
     "self_training": [Interval(Integral, 0, None), None],
-    "ensemble": [Interval(Integral, 1, None)],
+    "ensemble": ENSEMBLE,
     "temporal": BOOLEAN,
 }
 

@@ -52,7 +52,7 @@ from pathlib import Path
 import numpy as np
 
 from ._atomic import atomic_path
-from ._validation import ALPHA, N_JOBS, Interval, check_poses, validate_params
+from ._validation import ALPHA, ENSEMBLE, N_JOBS, Interval, check_poses, validate_params
 from .baselines import BASELINES, fit_baseline, mean_fill
 from .dictionary import Dictionary, load_dictionary
 from .edm import pose_to_vector
@@ -92,7 +92,7 @@ _PARAMS = {
     "alpha_recover": ALPHA,
     "n_examples": [Interval(Integral, 0, None)],
     "self_training": [Interval(Integral, 0, None), None],
-    "ensemble": [Interval(Integral, 1, None)],
+    "ensemble": ENSEMBLE,
 }
 
 

@@ -189,6 +189,16 @@ def check_params(n_components, alpha, batch_size=1, n_passes=1, caller="fit", *,
         "random_state": [Interval(numbers.Integral, 0, None), None],
         "n_jobs": N_JOBS,
     })
+    from ._safeio import available_memory
+    from .exceptions import ParameterError
+
+    free = available_memory()
+    need = 3 * 8 * int(n_components) ** 2  # A (k x k), its Gram and a working copy
+    if free is not None and need > free:
+        raise ParameterError(
+            f"{caller}: n_components={n_components} needs about {need / 2**30:.1f} GiB for "
+            f"the k x k statistics and {free / 2**30:.1f} GiB is available; the shipped "
+            "dictionaries have 2000 atoms")
 
 
 class OnlineDictionaryLearning:

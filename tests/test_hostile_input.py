@@ -541,3 +541,26 @@ def test_lift_n_jobs_past_the_machine(occluded):
 def test_model_and_training_file_folders_are_named(tmp_path, capsys):
     assert main(["fit", str(tmp_path), "-o", str(tmp_path / "d.npz")]) == 2
     assert "is a directory" in capsys.readouterr().err
+
+
+def test_debug_after_a_nested_command(tmp_path, monkeypatch, capsys):
+    import sparseedm.dataset
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("boom")
+
+    monkeypatch.setattr(sparseedm.dataset, "build_dataset", broken)
+    argv = ["dataset", "build", str(tmp_path), "-o", str(tmp_path / "o.npz"), "--debug"]
+    assert main(argv) == 3
+    assert "Traceback" in capsys.readouterr().err
+
+
+def test_ensemble_and_atom_counts_bounded(occluded, small_dictionary, tmp_path, monkeypatch):
+    from sparseedm import recover
+    from sparseedm.exceptions import ParameterError
+    from sparseedm.learning import check_params
+
+    with pytest.raises(ParameterError, match="ensemble"):
+        recover(occluded[:2], dictionary=small_dictionary, ensemble=100000)
+    with pytest.raises(ParameterError, match="n_components=10000000 needs about"):
+        check_params(10_000_000, 0.1)

@@ -49,11 +49,20 @@ def build_parser() -> argparse.ArgumentParser:
                 raise
             continue  # a command not built yet
         module.add_parser(sub)
-    for command in sub.choices.values():  # --debug after the command's name too
-        command.epilog = command.epilog or _EPILOG
-        command.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
-                             help="print the traceback of an internal error (exit code 3)")
+    _add_debug(parser)
     return parser
+
+
+def _add_debug(parser):
+    """``--debug`` after every (nested) command's name too, and the exit codes in its help."""
+    for action in parser._actions:
+        if not isinstance(action, argparse._SubParsersAction):
+            continue
+        for command in action.choices.values():
+            command.epilog = command.epilog or _EPILOG
+            command.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                                 help="print the traceback of an internal error (exit code 3)")
+            _add_debug(command)
 
 
 def main(argv=None) -> int:
