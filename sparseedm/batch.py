@@ -73,8 +73,8 @@ import numpy as np
 from numbers import Integral, Real
 
 from ._atomic import atomic_path, check_paths, is_stream
-from ._validation import (ALPHA, BOOLEAN, ENSEMBLE, CHUNK_SIZE, N_JOBS, PATH, Interval, Options,
-                          validate_params)
+from ._validation import (ALPHA, BOOLEAN, CHUNK_SIZE, ENSEMBLE, N_JOBS, PATH, Interval,
+                          Options, validate_params)
 from .dictionary import Dictionary, _resolve, check_gram_memory, load_dictionary
 from ._safeio import resolved
 from .exceptions import FileFormatError, OutputPathError, SparseEDMError

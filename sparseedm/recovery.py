@@ -37,7 +37,7 @@ import numpy as np
 from joblib import Parallel, delayed, parallel_config
 from threadpoolctl import threadpool_limits
 
-from ._validation import (ALPHA, BOOLEAN, ENSEMBLE, CHUNK_SIZE, N_JOBS, Interval, Options,
+from ._validation import (ALPHA, BOOLEAN, CHUNK_SIZE, ENSEMBLE, N_JOBS, Interval, Options,
                           check_mask, check_poses, unmask, usable_jobs, validate_params)
 from .dictionary import Dictionary, check_gram_memory, check_layout, load_dictionary
 from .edm import observed_entries, vector_to_edm
