@@ -35,6 +35,14 @@ gives 34,434 CMU ASF/AMC poses (25,926 from subjects 01-03), 17,711 CMU Daz
 BVH poses and 31,914 Bandai-Namco poses per camera. T-pose frames at the start
 or end of a clip (:func:`sparseedm.mocap.rigs.tpose_frames`) are dropped
 first unless ``keep_tpose``.
+
+Video sequences: ``camera="clip"`` views a whole clip through ONE seeded
+camera (a tripod: its target is the clip's mean joint, its horizontal
+distance the sampled one plus the farthest any joint of the clip gets from
+that target, so the performer never walks into it) and, with
+``frame_step=None``, keeps about :data:`VIDEO_FPS` frames per second (every
+4th frame of CMU's 120 fps); :mod:`sparseedm.temporal.sequences` cuts such a
+file into sequences.
 """
 
 from __future__ import annotations
@@ -53,18 +61,20 @@ from ._atomic import check_paths, save_npz
 from ._safeio import load_npz
 from ._validation import Interval, Options, validate_params
 from .cameras import project, sample_cameras
-from .exceptions import FileFormatError, OutputPathError, SparseEDMError
+from .exceptions import FileFormatError, OutputPathError, ParameterError, SparseEDMError
 from .mocap import MOCAP_SUFFIXES, load_mocap, plausibility, read_joint_map
 from .mocap.rigs import UNITS
 from .skeleton import JOINT_NAMES
 
 __all__ = ["build_dataset", "load_dataset", "find_mocap_files", "clip_metadata",
-           "SCHEMA", "TARGET_FPS"]
+           "SCHEMA", "TARGET_FPS", "VIDEO_FPS"]
 
 #: frame_step=None keeps about this many frames per second
 TARGET_FPS = 40.0
 #: most virtual cameras per pose build_dataset takes (bounds the arrays it allocates)
 MAX_CAMERAS_PER_POSE = 1000
+#: ... and this many with camera="clip" (video sequences)
+VIDEO_FPS = 30.0
 
 #: key -> (dtype kind, shape with "n" for the pose axis)
 SCHEMA = {
@@ -190,6 +200,7 @@ def build_dataset(
     units="auto",
     joint_map=None,
     keep_tpose=False,
+    camera="pose",
 ):
     """Build a training set of 2D/3D poses from motion-capture files.
 
@@ -224,6 +235,11 @@ def build_dataset(
     keep_tpose : bool
         Keep T-pose frames (:func:`sparseedm.mocap.rigs.tpose_frames`);
         by default they are dropped before subsampling.
+    camera : {"pose", "clip"}
+        ``"pose"``: every kept pose gets its own `cameras_per_pose` cameras
+        (a training set). ``"clip"``: one fixed camera per clip, frames at
+        about :data:`VIDEO_FPS` (video sequences, see the module docstring);
+        `cameras_per_pose` must then be 1.
 
     Returns
     -------
@@ -251,8 +267,12 @@ def build_dataset(
         "frame_step": [Interval(Integral, 1, None), None],
         "progress": ["boolean"], "return_report": ["boolean"],
         "camera_options": [dict, None]})
-    validate_params("build_dataset", dict(units=units, keep_tpose=keep_tpose), {
-        "units": [Options(("auto", *UNITS))], "keep_tpose": ["boolean"]})
+    validate_params("build_dataset", dict(units=units, keep_tpose=keep_tpose, camera=camera), {
+        "units": [Options(("auto", *UNITS))], "keep_tpose": ["boolean"],
+        "camera": [Options(("pose", "clip"))]})
+    if camera == "clip" and cameras_per_pose != 1:
+        raise ParameterError("build_dataset: camera='clip' views each clip through one "
+                             f"camera; cameras_per_pose must be 1, got {cameras_per_pose}")
     validate_params("build_dataset", dict(random_state=random_state), {
         "random_state": [Interval(Integral, 0, None), np.random.Generator, None]})
     cameras_per_pose = int(cameras_per_pose)
@@ -276,7 +296,8 @@ def build_dataset(
         for problem in plausibility(poses, height=info.get("height"), name=str(path)):
             warnings.warn(problem, stacklevel=2)
             problems.append((str(path), problem))
-        step = int(frame_step) if frame_step is not None else _auto_step(info.get("frame_rate"))
+        step = int(frame_step) if frame_step is not None else _auto_step(
+            info.get("frame_rate"), VIDEO_FPS if camera == "clip" else TARGET_FPS)
         keep = np.arange(poses.shape[0])
         if not keep_tpose and len(info.get("tpose_frames", ())):
             keep = np.setdiff1d(keep, info["tpose_frames"])
@@ -288,7 +309,10 @@ def build_dataset(
         kept = np.repeat(poses[idx], cameras_per_pose, axis=0)
         frames = np.repeat(idx, cameras_per_pose)
         try:  # a clip far off (root at 1e200) puts a camera along the up axis
-            cams = sample_cameras(targets=kept.mean(axis=1), random_state=rng, **cam_opts)
+            if camera == "clip":
+                cams = _clip_camera(kept, rng, cam_opts)
+            else:
+                cams = sample_cameras(targets=kept.mean(axis=1), random_state=rng, **cam_opts)
             p2d = project(kept, cams)
         except (SparseEDMError, ValueError, FloatingPointError) as exc:
             warnings.warn(f"skipping {path}: {_skip_reason(path, exc)}", stacklevel=2)
@@ -339,10 +363,23 @@ def _skip_reason(path, exc):
     return reason
 
 
-def _auto_step(frame_rate):
+def _auto_step(frame_rate, fps=TARGET_FPS):
     if frame_rate is None or not np.isfinite(frame_rate) or frame_rate <= 0:
         return 1
-    return max(1, int(round(frame_rate / TARGET_FPS)))
+    return max(1, int(round(frame_rate / fps)))
+
+
+def _clip_camera(poses, rng, options):
+    """One camera for a whole clip (n, 14, 3), repeated n times: aimed at the clip's
+    mean joint, its distance range pushed out by the clip's horizontal reach."""
+    target = poses.reshape(-1, 3).mean(axis=0)
+    up = {"x": 0, "y": 1, "z": 2}.get(str(options.get("up", "y")).lower(), 1)
+    flat = np.delete(poses.reshape(-1, 3) - target, up, axis=1)
+    reach = float(np.linalg.norm(flat, axis=1).max())
+    opts = dict(options)
+    opts["distance"] = np.asarray(opts.get("distance", (3.0, 6.0)), dtype=float) + reach
+    cam = sample_cameras(1, targets=target, random_state=rng, **opts)
+    return cam[np.zeros(poses.shape[0], int)]
 
 
 def _check_output(path):

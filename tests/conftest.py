@@ -22,6 +22,21 @@ def shared_data():
     return SHARED_DATA
 
 
+@pytest.fixture
+def mocap_dir(tmp_path, fixtures_dir):
+    """A folder with a CMU subject (02.asf + 02_01.amc) and a BVH in a sub-folder."""
+    import shutil
+
+    subj = tmp_path / "mocap" / "02"
+    subj.mkdir(parents=True)
+    shutil.copy(fixtures_dir / "cmu_02.asf", subj / "02.asf")
+    shutil.copy(fixtures_dir / "cmu_02_01_short.amc", subj / "02_01.amc")
+    other = tmp_path / "mocap" / "bvh"
+    other.mkdir()
+    shutil.copy(fixtures_dir / "cmu_02_01_short.bvh", other / "walk_take.bvh")
+    return tmp_path / "mocap"
+
+
 # --------------------------------------------------------------------------
 # Recovery: real poses and a small dictionary learned from them (no ../shared)
 

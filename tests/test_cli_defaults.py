@@ -12,6 +12,7 @@ from sparseedm.evaluation import evaluate
 from sparseedm.learning import fit_dictionary_file
 from sparseedm.lifting.evaluation import evaluate_lifting
 from sparseedm.lifting.io import lift_file
+from sparseedm.temporal.evaluation import evaluate_video
 
 
 def api(func, name):
@@ -33,6 +34,9 @@ CASES = [  # (command line, option dest, API function, its parameter)
         ("jobs", evaluate, "n_jobs"),
         ("self_training", evaluate, "self_training"),
         ("ensemble", evaluate, "ensemble")]),
+    (["evaluate", "--protocol", "gaps", "--data", "s.npz", "-o", "rep"], [
+        ("seed", evaluate_video, "random_state"),
+        ("gap_lengths", evaluate_video, "gap_lengths")]),
     (["evaluate-lift", "--data", "t.npz", "-o", "rep"], [
         ("max_train", evaluate_lifting, "max_train"),
         ("seed", evaluate_lifting, "seed"),
@@ -42,18 +46,25 @@ CASES = [  # (command line, option dest, API function, its parameter)
         ("jobs", lift_file, "n_jobs")]),
     (["dataset", "build", "mocap", "-o", "d.npz"], [
         ("cameras_per_pose", build_dataset, "cameras_per_pose"),
-        ("seed", build_dataset, "random_state")]),
+        ("seed", build_dataset, "random_state"),
+        ("camera_per", build_dataset, "camera")]),
     (["fit", "t.npz", "-o", "d.npz"], [
         ("atoms", fit_dictionary_file, "n_components"),
         ("seed", fit_dictionary_file, "random_state")]),
 ]
 
 
-@pytest.mark.parametrize("argv,pairs", CASES, ids=[c[0][0] for c in CASES])
+@pytest.mark.parametrize("argv,pairs", CASES, ids=[" ".join(c[0][:3]) for c in CASES])
 def test_cli_defaults_are_the_apis(argv, pairs):
     args = build_parser().parse_args(argv)
     for dest, func, name in pairs:
         assert getattr(args, dest) == api(func, name), (argv[0], dest)
+
+
+def test_video_evaluation_methods_are_the_apis():
+    from sparseedm.cli._evaluate_video import VIDEO_METHODS
+
+    assert tuple(VIDEO_METHODS.split(",")) == api(evaluate_video, "methods")
 
 
 @pytest.mark.parametrize("init", [None, "default"])

@@ -84,19 +84,6 @@ def test_camera_options_and_errors():
 
 
 # ---------------------------------------------------------------- builder
-@pytest.fixture
-def mocap_dir(tmp_path, fixtures_dir):
-    """A folder with a CMU subject (02.asf + 02_01.amc) and a BVH in a sub-folder."""
-    subj = tmp_path / "mocap" / "02"
-    subj.mkdir(parents=True)
-    shutil.copy(fixtures_dir / "cmu_02.asf", subj / "02.asf")
-    shutil.copy(fixtures_dir / "cmu_02_01_short.amc", subj / "02_01.amc")
-    other = tmp_path / "mocap" / "bvh"
-    other.mkdir()
-    shutil.copy(fixtures_dir / "cmu_02_01_short.bvh", other / "walk_take.bvh")
-    return tmp_path / "mocap"
-
-
 def test_build_dataset_schema(mocap_dir, tmp_path):
     out = tmp_path / "train.npz"
     data, report = build_dataset(mocap_dir, out, cameras_per_pose=2, frame_step=5,

@@ -26,6 +26,10 @@ def add_parser(subparsers) -> None:
     build.add_argument("--frame-step", type=_positive, default=None, metavar="S",
                        help="keep every S-th frame (default: about 40 frames/s of motion)")
     build.add_argument("--seed", type=int, default=0, metavar="N", help="camera seed (default 0)")
+    build.add_argument("--camera-per", choices=("pose", "clip"), default="pose",
+                       help="pose (default): a camera per kept pose, a training set; clip: "
+                       "one fixed camera per clip at about 30 frames/s, video sequences "
+                       "for `sparseedm evaluate --protocol`")
     build.add_argument("--quiet", action="store_true", help="no progress bar or summary")
     _rig_options(build)
     build.add_argument("--keep-tpose", action="store_true",
@@ -80,6 +84,7 @@ def run(args) -> int:
             cameras_per_pose=args.cameras_per_pose, frame_step=args.frame_step,
             random_state=args.seed, progress=not args.quiet, return_report=True,
             units=args.units, joint_map=args.joint_map, keep_tpose=args.keep_tpose,
+            camera=args.camera_per,
         )
     if not args.quiet:
         n_labels = len(set(data["labels"].tolist()))

@@ -9,6 +9,7 @@ import numpy as np
 
 
 from ..exceptions import FileFormatError, SparseEDMError
+from . import _evaluate_video
 from ._common import add_adaptation_rounds, load_npz
 
 
@@ -28,8 +29,9 @@ def add_parser(sub):
     p.add_argument("--train", default=None,
                    help="training .npz (poses2d) for the knn, iterative and nearest baselines "
                    "and for --sweep-atoms")
-    p.add_argument("--methods", default="sparse,mean-fill,knn,iterative,nearest",
-                   help="comma-separated methods (default all)")
+    p.add_argument("--methods", default=None,
+                   help="comma-separated methods (default all: sparse,mean-fill,knn,iterative,"
+                   "nearest; with --protocol: linear,cubic,akima,pca,sparse)")
     p.add_argument("--counts", default="1,2,3,mix", help="occlusion counts (default 1,2,3,mix)")
     p.add_argument("--representations", default="average,zero",
                    help="occlusion representations (default average,zero)")
@@ -66,6 +68,7 @@ def add_parser(sub):
         "with --adapt-from/--adapt-clips: average K adapted dictionaries (seeds 0..K-1) in "
         "the 'sparse-adapted' row (default 1)")
     p.add_argument("-o", "--output", required=True, help="report directory")
+    _evaluate_video.add_arguments(p)
     p.set_defaults(func=run)
 
 
@@ -114,7 +117,9 @@ def run(args):
     from ..dictionary import load_dictionary
     from ..evaluation import _check_methods, evaluate, sweep_atoms
 
-    methods = _split(args.methods)
+    if args.protocol:
+        return _evaluate_video.run(args, _split(args.methods or _evaluate_video.VIDEO_METHODS))
+    methods = _split(args.methods or "sparse,mean-fill,knn,iterative,nearest")
     if args.fconv_model and "fconv" not in methods:
         methods = methods[:1] + ("fconv",) + methods[1:]
     methods = _check_methods(methods)

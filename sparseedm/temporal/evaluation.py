@@ -1,0 +1,391 @@
+"""Video evaluation: gap fillers scored on mocap sequences under the video protocols.
+
+:func:`evaluate_video` hides joints of each :class:`~sparseedm.temporal.sequences.Sequence`
+by a protocol of :mod:`sparseedm.temporal.protocols`, asks every method (a gap
+filler, :mod:`sparseedm.temporal.fillers`) to fill them, track by track, and
+scores the 2D error of each filled joint-frame as a percentage of the body's
+pixel height (:func:`~sparseedm.temporal.sequences.body_height`, the median
+head-top to ankle-midpoint distance of the sequence's true poses).
+
+Protocols:
+
+``"gaps"`` (A)
+    For each gap length of `gap_lengths` separately, a seeded
+    :func:`~sparseedm.temporal.protocols.gap_mask`; results are grouped by
+    gap length (``"gap 10"``).
+``"self-occlusion"`` (B)
+    :func:`~sparseedm.temporal.protocols.self_occlusion_mask` from the
+    sequence's 3D joints and camera, or-ed with seeded short dropouts;
+    results grouped by run length (:data:`~sparseedm.temporal.protocols.RUN_BINS`).
+
+Each group is also split by whether the run touches a clip end (``"end"``,
+``"inside"``, ``"all"``), and an ``"overall"`` group pools every hidden
+joint-frame. Masks are seeded by `random_state` and the clip's id, so a
+sequence gets the same mask whatever else is evaluated with it.
+
+A filler may return NaN where it has nothing to go on (a joint never observed
+in the track): such joint-frames are counted as the method's ``unfilled``, and
+every method's ``error`` is taken over the joint-frames that all the methods
+evaluated together filled (``scored``), so that the rows compare the same
+joint-frames; ``error_own`` is each method's error over all it filled.
+
+Examples
+--------
+>>> from sparseedm.temporal.fillers import fill_linear
+>>> from sparseedm.temporal.sequences import Sequence
+>>> from sparseedm.cameras import sample_cameras
+>>> T = 60
+>>> p = np.zeros((T, 14, 2)); p[:, :, 0] = np.arange(T)[:, None]; p[:, 13, 1] = 100.0
+>>> seq = Sequence("c", np.arange(T), p, np.zeros((T, 14, 3)), sample_cameras(1))
+>>> report = evaluate_video([seq], {"linear": fill_linear}, "gaps", gap_lengths=(10,))
+>>> row = report.row("linear", "gap 10", "inside")
+>>> row["error"]  # a straight-line motion: linear interpolation is exact inside
+0.0
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import time
+import zlib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .._atomic import atomic_path
+from ..dictionary import Dictionary, load_dictionary
+from ..exceptions import ParameterError
+from ..skeleton import SKELETON_14
+from .fillers import FILLERS, sparse_filler
+from .protocols import (GAP_LENGTHS, RUN_BINS, dropout_mask, gap_mask, run_bin, run_lengths,
+                        self_occlusion_mask)
+from .sequences import Sequence, load_sequences
+
+__all__ = ["evaluate_video", "VideoReport", "protocol_masks", "resolve_methods",
+           "plot_fill", "PROTOCOLS", "DEFAULT_METHODS"]
+
+PROTOCOLS = ("gaps", "self-occlusion")
+#: methods evaluated when none are named
+DEFAULT_METHODS = ("linear", "cubic", "akima", "pca", "sparse")
+_ENDS = ("all", "end", "inside")
+
+
+def resolve_methods(methods, dictionary=None):
+    """``{name: filler}`` from names of :data:`~sparseedm.temporal.fillers.FILLERS`,
+    a dict of fillers, or a mix of names and ``(name, filler)`` pairs.
+
+    ``"sparse"`` uses `dictionary` (None: the shipped default).
+
+    Examples
+    --------
+    >>> list(resolve_methods(["linear", ("mine", lambda p, m, f: p)]))
+    ['linear', 'mine']
+    >>> resolve_methods(["spline"])
+    Traceback (most recent call last):
+    ...
+    sparseedm.exceptions.ParameterError: evaluate_video: unknown method 'spline'; known: linear, cubic, akima, pca, sparse, or a (name, filler) pair
+    """
+    items = methods.items() if isinstance(methods, dict) else methods
+    out = {}
+    for item in items:
+        if isinstance(item, str):
+            if item not in FILLERS:
+                raise ParameterError(f"evaluate_video: unknown method {item!r}; known: "
+                                     f"{', '.join(FILLERS)}, or a (name, filler) pair")
+            name, fill = item, FILLERS[item]
+            if item == "sparse" and dictionary is not None:
+                fill = sparse_filler(dictionary if isinstance(dictionary, Dictionary)
+                                     else load_dictionary(dictionary))
+        else:
+            name, fill = item
+        out[str(name)] = fill
+    return out
+
+
+def _seed(random_state, clip, *extra):
+    return np.random.default_rng([int(random_state), zlib.crc32(clip.encode()), *extra])
+
+
+def protocol_masks(sequence, protocol, *, gap_lengths=GAP_LENGTHS, random_state=0):
+    """``{condition: missing (T, 14)}`` of one sequence under a protocol.
+
+    Conditions are ``"gap L"`` per gap length (``"gaps"``) or the one
+    ``"self-occlusion"`` mask. Seeded by `random_state` and the clip id. A
+    callable `protocol` is your own: ``protocol(sequence)`` returns the dict.
+
+    Examples
+    --------
+    >>> from sparseedm.cameras import sample_cameras
+    >>> seq = Sequence("c", np.arange(50), np.zeros((50, 14, 2)), np.zeros((50, 14, 3)),
+    ...                sample_cameras(1))
+    >>> sorted(protocol_masks(seq, "gaps", gap_lengths=(3, 10)))
+    ['gap 10', 'gap 3']
+    """
+    if callable(protocol):
+        return {str(k): np.asarray(v, dtype=bool) for k, v in protocol(sequence).items()}
+    if protocol not in PROTOCOLS:
+        raise ParameterError(f"evaluate_video: protocol must be one of {', '.join(PROTOCOLS)}; "
+                             f"got {protocol!r}")
+    T = len(sequence)
+    if protocol == "gaps":
+        return {f"gap {L}": gap_mask(T, L, random_state=_seed(random_state, sequence.clip, L))
+                for L in gap_lengths}
+    cam = sequence.camera
+    hidden = self_occlusion_mask(sequence.poses3d, cam.R[0], cam.t[0], cam.f[0], cam.c[0])
+    drops = dropout_mask(T, random_state=_seed(random_state, sequence.clip))
+    return {"self-occlusion": hidden | drops}
+
+
+@dataclass
+class VideoReport:
+    """What :func:`evaluate_video` returns.
+
+    Attributes
+    ----------
+    protocol : str
+    rows : list of dict
+        One per (method, group, end): ``method``, ``group`` (``"gap 10"``, a
+        run-length bin such as ``"6-15"``, or ``"overall"``), ``end``
+        (``"all"``, ``"end"``, ``"inside"``), ``n`` (hidden joint-frames),
+        ``error`` (mean 2D error of the filled ones, % of body height; NaN
+        when none), ``median``, ``unfilled`` (joint-frames the method left NaN).
+    seconds : dict
+        Each method's total fill time.
+    settings : dict
+        The protocol's settings: sequences, frames, clips, seed, conditions,
+        gap lengths, hidden fraction, filled_frames (frames each method
+        filled: frames times conditions).
+    """
+
+    protocol: str
+    rows: list
+    seconds: dict
+    settings: dict = field(default_factory=dict)
+
+    def row(self, method, group, end="all"):
+        """The row of `method`, `group` and `end` (KeyError if absent)."""
+        for r in self.rows:
+            if (r["method"], r["group"], r["end"]) == (method, group, end):
+                return r
+        raise KeyError((method, group, end))
+
+    @property
+    def methods(self):
+        return list(dict.fromkeys(r["method"] for r in self.rows))
+
+    @property
+    def groups(self):
+        return list(dict.fromkeys(r["group"] for r in self.rows))
+
+    def table(self, end="all"):
+        """A Markdown table: one row per method, one column per group (error %)."""
+        groups = self.groups
+        lines = ["| method | " + " | ".join(groups) + " | frames/s |",
+                 "|---|" + "---|" * (len(groups) + 1)]
+        frames = self.settings.get("filled_frames", 0)
+        for m in self.methods:
+            cells = []
+            for g in groups:
+                try:
+                    r = self.row(m, g, end)
+                except KeyError:
+                    cells.append("")
+                    continue
+                cell = "" if r["n"] == 0 else f"{r['error']:.2f}"
+                if r["unfilled"]:
+                    cell += f" ({r['unfilled'] / r['n']:.0%} unfilled)"
+                elif r["scored"] < r["n"]:
+                    cell += f" [{r['error_own']:.2f} on all {r['n']}]"
+                cells.append(cell)
+            speed = frames / self.seconds[m] if self.seconds.get(m) else float("nan")
+            lines.append(f"| {m} | " + " | ".join(cells) + f" | {speed:,.0f} |")
+        counts = [self.row(self.methods[0], g, end) for g in groups] if self.methods else []
+        lines.append("| hidden (scored) joint-frames | " + " | ".join(
+            f"{r['n']}" + (f" ({r['scored']})" if r["scored"] < r["n"] else "")
+            for r in counts) + " | |")
+        return "\n".join(lines)
+
+    def to_json(self):
+        return json.dumps({"protocol": self.protocol, "settings": self.settings,
+                           "seconds": self.seconds, "rows": self.rows}, indent=1,
+                          allow_nan=True)
+
+    def to_csv(self):
+        buf = io.StringIO()
+        keys = ("method", "group", "end", "n", "scored", "error", "median", "error_own",
+                "unfilled")
+        writer = csv.DictWriter(buf, fieldnames=keys, lineterminator="\n")
+        writer.writeheader()
+        for r in self.rows:
+            writer.writerow({k: r[k] for k in keys})
+        return buf.getvalue()
+
+    def write(self, json_path=None, csv_path=None):
+        """Write the report as JSON and/or CSV, atomically."""
+        for path, text in ((json_path, self.to_json), (csv_path, self.to_csv)):
+            if path is not None:
+                with atomic_path(path) as tmp:
+                    Path(tmp).write_text(text(), encoding="utf-8")
+
+
+def evaluate_video(sequences, methods=DEFAULT_METHODS, protocol="gaps", *,
+                   gap_lengths=GAP_LENGTHS, random_state=0, dictionary=None):
+    """Score gap fillers on sequences under a video protocol.
+
+    Parameters
+    ----------
+    sequences : list of Sequence, or path
+        Sequences (:mod:`sparseedm.temporal.sequences`), or a dataset .npz
+        built with one camera per clip.
+    methods : sequence of str or (name, filler), or dict
+        Names of :data:`~sparseedm.temporal.fillers.FILLERS` (default
+        linear, cubic, akima, pca, sparse) and/or your own fillers.
+    protocol : {"gaps", "self-occlusion"} or callable
+        A callable ``protocol(sequence) -> {condition: missing (T, 14)}`` is
+        your own protocol; its results are grouped by run length, as
+        ``"self-occlusion"``'s.
+    gap_lengths : tuple of int, default (3, 10, 30, 90)
+        Protocol A's gap lengths.
+    random_state : int, default 0
+        Seed of the masks (with each clip's id).
+    dictionary : Dictionary, str or path, optional
+        The ``"sparse"`` method's dictionary (None: the shipped default).
+
+    Returns
+    -------
+    VideoReport
+    """
+    if isinstance(sequences, (str, Path)):
+        sequences = load_sequences(sequences)
+    sequences = list(sequences)
+    if not sequences:
+        raise ParameterError("evaluate_video: no sequences to evaluate (a sequence file "
+                             "keeps clips of 31 to 300 frames; are its clips shorter?)")
+    fillers = resolve_methods(methods, dictionary)
+    records = {m: [] for m in fillers}  # (group, at_end, error or NaN)
+    seconds = dict.fromkeys(fillers, 0.0)
+    hidden = total = filled_frames = 0
+    conditions = []
+    for seq in sequences:
+        truth, height = seq.poses2d, seq.height
+        for condition, missing in protocol_masks(seq, protocol, gap_lengths=gap_lengths,
+                                                 random_state=random_state).items():
+            conditions.append(condition)
+            lengths, at_end = run_lengths(missing)
+            groups = np.full(lengths.shape, condition) if protocol == "gaps" \
+                else run_bin(lengths)
+            given = np.where(missing[..., None], np.nan, truth)
+            hidden += int(missing.sum())
+            total += missing.size
+            filled_frames += len(seq)
+            for name, fill in fillers.items():
+                start = time.perf_counter()
+                filled = fill(given, missing, seq.frames)
+                seconds[name] += time.perf_counter() - start
+                err = np.linalg.norm(filled - truth, axis=-1) / height * 100.0
+                records[name].append((groups[missing], at_end[missing], err[missing]))
+    rows = _rows(records, protocol, gap_lengths)
+    settings = {"sequences": len(sequences), "frames": int(sum(len(s) for s in sequences)),
+                "clips": sorted({s.clip.split("#")[0] for s in sequences}),
+                "random_state": int(random_state), "conditions": sorted(set(conditions)),
+                "hidden_fraction": hidden / total if total else 0.0,
+                "filled_frames": filled_frames}
+    if protocol == "gaps":
+        settings["gap_lengths"] = [int(L) for L in gap_lengths]
+    name = protocol if isinstance(protocol, str) else getattr(protocol, "__name__", "custom")
+    return VideoReport(name, rows, seconds, settings)
+
+
+def _rows(records, protocol, gap_lengths):
+    order = [f"gap {L}" for L in gap_lengths] if protocol == "gaps" else \
+        [label for _, _, label in RUN_BINS]
+    first = next(iter(records.values()), [])
+    groups = np.concatenate([p[0] for p in first]) if first else np.array([], str)
+    ends = np.concatenate([p[1] for p in first]) if first else np.array([], bool)
+    errs = {name: np.concatenate([p[2] for p in parts]) if parts else np.array([])
+            for name, parts in records.items()}
+    common = np.logical_and.reduce([np.isfinite(e) for e in errs.values()]) if errs else \
+        np.array([], bool)
+    rows = []
+    for name, err in errs.items():
+        for group in order + ["overall"]:
+            in_group = np.ones(err.shape, bool) if group == "overall" else groups == group
+            for end in _ENDS:
+                sel = in_group & {"all": True, "end": ends, "inside": ~ends}[end]
+                rows.append(_summary(name, group, end, err[sel], common[sel]))
+    return rows
+
+
+def _summary(method, group, end, errs, common):
+    own = errs[np.isfinite(errs)]
+    scored = errs[common]
+
+    def mean(e):
+        return float(e.mean()) if e.size else float("nan")
+
+    return {"method": method, "group": group, "end": end, "n": int(errs.size),
+            "scored": int(scored.size), "error": mean(scored),
+            "median": float(np.median(scored)) if scored.size else float("nan"),
+            "error_own": mean(own), "unfilled": int(errs.size - own.size)}
+
+
+def plot_fill(sequence, methods=DEFAULT_METHODS, protocol="gaps", joint="left_wrist", *,
+              condition=None, gap_lengths=GAP_LENGTHS, random_state=0, dictionary=None,
+              path=None):
+    """One joint's filled trajectory against the truth over time, per method.
+
+    Two panels (image x and y against the frame number): the true
+    trajectory, the hidden frames shaded, and each method's values in them.
+    Needs matplotlib (``pip install sparseedm[plot]``), imported here.
+
+    Parameters
+    ----------
+    sequence : Sequence
+    methods, protocol, gap_lengths, random_state, dictionary
+        As :func:`evaluate_video` (the same masks).
+    joint : str or int, default "left_wrist"
+    condition : str, optional
+        Which mask of the protocol (``"gap 30"``); default the last one.
+    path : path, optional
+        Save the figure there (PNG, atomically).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    import matplotlib
+
+    if path is not None:
+        matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    j = SKELETON_14.index(joint) if isinstance(joint, str) else int(joint)
+    masks = protocol_masks(sequence, protocol, gap_lengths=gap_lengths, random_state=random_state)
+    missing = masks[condition if condition is not None else list(masks)[-1]]
+    given = np.where(missing[..., None], np.nan, sequence.poses2d)
+    fig, axes = plt.subplots(2, 1, sharex=True, figsize=(9, 5))
+    t = sequence.frames
+    for k, ax in enumerate(axes):
+        ax.plot(t, sequence.poses2d[:, j, k], color="black", lw=2, label="truth")
+        for name, fill in resolve_methods(methods, dictionary).items():
+            values = fill(given, missing, t)[:, j, k]
+            ax.plot(t, np.where(missing[:, j], values, np.nan), lw=1.2, label=name)
+        for start, stop in _spans(missing[:, j]):
+            ax.axvspan(t[start], t[stop - 1], color="0.9", zorder=0)
+        ax.set_ylabel(("x", "y")[k] + " (px)")
+    axes[0].set_title(f"{sequence.clip}: {SKELETON_14.joint_names[j]}, hidden frames shaded")
+    axes[0].legend(fontsize=8, ncol=3)
+    axes[1].set_xlabel("frame")
+    fig.tight_layout()
+    if path is not None:
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, format="png", dpi=110)
+    return fig
+
+
+def _spans(flags):
+    edges = np.diff(np.concatenate([[0], flags.astype(np.int8), [0]]))
+    return zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1))

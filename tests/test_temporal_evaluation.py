@@ -1,0 +1,210 @@
+"""The video evaluation (sparseedm.temporal.evaluation): its table computed by hand
+on a tiny case, its protocols wired, its files and figure written."""
+
+import json
+
+import numpy as np
+import pytest
+
+from sparseedm.cameras import sample_cameras
+from sparseedm.exceptions import ParameterError
+from sparseedm.temporal.evaluation import evaluate_video, plot_fill, protocol_masks
+from sparseedm.temporal.fillers import fill_linear
+from sparseedm.temporal.protocols import GAP_LENGTHS
+from sparseedm.temporal.sequences import Sequence
+
+T = 10
+
+
+def walker():
+    """Every joint moves 10 px per frame in x; head top at y 0, ankles at y 100 and
+    x +-10 around the others: the body's height is 100 px in every frame."""
+    p = np.zeros((T, 14, 2))
+    p[:, :, 0] = 10.0 * np.arange(T)[:, None]
+    p[:, :, 1] = 5.0 * np.arange(14)
+    p[:, 0, 1] = 0.0
+    p[:, [10, 13], 1] = 100.0
+    p[:, 10, 0] -= 10
+    p[:, 13, 0] += 10
+    return Sequence("walker", np.arange(T), p, np.zeros((T, 14, 3)), sample_cameras(1))
+
+
+def hand_protocol(sequence):
+    m = np.zeros((T, 14), bool)
+    m[0:2, 4] = True   # run of 2 at the clip start
+    m[3:10, 7] = True  # run of 7 to the clip end
+    m[4:6, 9] = True   # run of 2 inside
+    return {"hand": m}
+
+
+def offset(poses, missing, frames):
+    """Fills a joint 5 px off (3, 4) on even frames, 10 px off (0, 10) on odd ones."""
+    truth = walker().poses2d
+    shift = np.where((np.asarray(frames) % 2 == 0)[:, None], [3.0, 4.0], [0.0, 10.0])
+    return np.where(missing[..., None], truth + shift[:, None, :], poses)
+
+
+def offset_but_not_7(poses, missing, frames):
+    out = offset(poses, missing, frames)
+    out[missing[:, 7], 7] = np.nan
+    return out
+
+
+def test_the_table_by_hand():
+    report = evaluate_video([walker()], {"offset": offset, "linear": fill_linear},
+                            hand_protocol)
+    row = report.row
+    # offset: joint 4 frames 0, 1 -> 5, 10 %; joint 9 frames 4, 5 -> 5, 10 %;
+    # joint 7 frames 3..9 -> 10, 5, 10, 5, 10, 5, 10 %
+    assert row("offset", "1-5")["error"] == pytest.approx(7.5)
+    assert row("offset", "1-5", "end")["error"] == pytest.approx(7.5)
+    assert row("offset", "1-5", "inside")["n"] == 2
+    assert row("offset", "6-15")["error"] == pytest.approx(55 / 7)
+    assert row("offset", "6-15", "inside")["n"] == 0
+    assert np.isnan(row("offset", "6-15", "inside")["error"])
+    assert row("offset", "overall")["error"] == pytest.approx(85 / 11)
+    assert row("offset", "overall")["n"] == 11
+    assert row("offset", "16-45")["n"] == 0
+    # linear on this straight-line motion: exact inside; at the start joint 4 holds
+    # frame 2's x (20) at frames 0, 1 (truth 0, 10): 20 and 10 px; at the end joint 7
+    # holds frame 2's x (20) against 30..90: 10, 20, ..., 70 px
+    assert row("linear", "1-5", "inside")["error"] == 0.0
+    assert row("linear", "1-5", "end")["error"] == pytest.approx(15.0)
+    assert row("linear", "6-15")["error"] == pytest.approx(40.0)
+    assert row("linear", "overall")["error"] == pytest.approx((30 + 280) / 11)
+    assert report.settings["hidden_fraction"] == pytest.approx(11 / 140)
+
+
+def test_a_method_that_leaves_joints_unfilled():
+    report = evaluate_video([walker()], {"offset": offset, "partial": offset_but_not_7},
+                            hand_protocol)
+    row = report.row
+    assert row("partial", "6-15")["unfilled"] == 7 and row("offset", "6-15")["unfilled"] == 0
+    assert row("offset", "6-15")["scored"] == 0 and np.isnan(row("offset", "6-15")["error"])
+    assert row("offset", "6-15")["error_own"] == pytest.approx(55 / 7)
+    # overall: both scored on the 4 joint-frames both filled
+    assert row("offset", "overall")["scored"] == 4
+    assert row("partial", "overall")["error"] == row("offset", "overall")["error"] == 7.5
+    assert "unfilled" in report.table()
+
+
+def test_gap_protocol_groups_by_gap_length_and_is_seeded():
+    seq = Sequence("w", np.arange(200), np.cumsum(np.ones((200, 14, 2)), axis=0),
+                   np.zeros((200, 14, 3)), sample_cameras(1))
+    seq.poses2d[:, 0, 1] -= 100  # a body height
+    a = evaluate_video([seq], ["linear"], "gaps", random_state=3)
+    b = evaluate_video([seq], ["linear"], "gaps", random_state=3)
+    assert json.dumps(a.rows) == json.dumps(b.rows)
+    other = evaluate_video([seq], ["linear"], "gaps", random_state=4)
+    assert json.dumps(a.rows) != json.dumps(other.rows)
+    assert a.groups == [f"gap {L}" for L in GAP_LENGTHS] + ["overall"]
+    masks = protocol_masks(seq, "gaps", random_state=3)
+    for L in GAP_LENGTHS:
+        assert a.row("linear", f"gap {L}")["n"] == masks[f"gap {L}"].sum()
+        assert a.row("linear", f"gap {L}", "inside")["error"] < 1e-9  # a straight line
+
+
+def test_self_occlusion_protocol_uses_the_camera():
+    from sparseedm.cameras import look_at
+
+    X = np.zeros((40, 14, 3))
+    X[:, [2, 5, 11, 8]] = [[-0.2, 1.4, 0], [0.2, 1.4, 0], [0.15, 0.9, 0], [-0.15, 0.9, 0]]
+    X[:, [0, 1, 3, 6, 7, 9, 10, 12, 13]] = [2.0, 1.0, 0.0]
+    X[:, 4] = [0.0, 1.15, 0.3]
+    X[10:20, 4, 2] = -0.3  # the right wrist goes behind the back for 10 frames
+    eye = np.array([0.0, 1.2, 4.0])
+    R = look_at(eye, [0.0, 1.2, 0.0])
+    from sparseedm.cameras import Cameras, project
+
+    cam = Cameras(R, -np.einsum("nij,nj->ni", R, eye[None]), np.array([1000.0]),
+                  np.array([[500.0, 500.0]]))
+    p2 = project(X, cam[np.zeros(40, int)])
+    seq = Sequence("b", np.arange(40), p2, X, cam)
+    m = protocol_masks(seq, "self-occlusion")["self-occlusion"]
+    assert m[10:20, 4].all()
+    assert m[:, 4].sum() < 20  # in front of the chest it shows (but for dropouts)
+    assert 0.05 <= m.mean() - 10 / 560 < 0.07  # + 5 % dropouts
+
+
+def test_bad_arguments_are_named():
+    with pytest.raises(ParameterError, match="protocol"):
+        evaluate_video([walker()], ["linear"], "occlusion")
+    with pytest.raises(ParameterError, match="unknown method 'splines'"):
+        evaluate_video([walker()], ["splines"], "gaps")
+
+
+def test_report_files_and_figure(tmp_path):
+    pytest.importorskip("matplotlib")
+    report = evaluate_video([walker()], {"offset": offset}, hand_protocol)
+    report.write(tmp_path / "r.json", tmp_path / "r.csv")
+    saved = json.loads((tmp_path / "r.json").read_text())
+    assert saved["rows"] == json.loads(json.dumps(report.rows))
+    assert (tmp_path / "r.csv").read_text().splitlines()[0].startswith("method,group,end,n")
+    fig = plot_fill(walker(), {"offset": offset, "linear": fill_linear}, hand_protocol,
+                    "left_wrist", path=tmp_path / "f.png")
+    assert (tmp_path / "f.png").stat().st_size > 1000
+    labels = [line.get_label() for line in fig.axes[0].lines]
+    assert labels == ["truth", "offset", "linear"]
+
+
+@pytest.fixture
+def sequence_file(tmp_path, fixtures_dir):
+    """A one-camera-per-clip .npz of two 60-frame clips: the CMU fixture walk played
+    forwards and back (3D), seen through one seeded camera per clip."""
+    from sparseedm.cameras import project
+    from sparseedm.dataset import save_dataset
+    from sparseedm.mocap import load_mocap
+    from sparseedm.skeleton import JOINT_NAMES
+
+    walk = load_mocap(fixtures_dir / "cmu_02_01_short.bvh")
+    loop = np.concatenate([walk, walk[::-1], walk])[:60]
+    poses3d = np.concatenate([loop, loop + [0.3, 0, 0]])
+    cams = sample_cameras(2, targets=poses3d.reshape(2, -1, 3).mean(axis=1), random_state=1)
+    rows = np.repeat([0, 1], 60)
+    n = len(rows)
+    data = {"poses2d": project(poses3d, cams[rows]), "poses3d": poses3d,
+            "labels": np.repeat(["walk"], n), "clips": np.repeat(["a", "b"], 60),
+            "styles": np.repeat([""], n), "subjects": np.repeat(["02"], n),
+            "frames": np.tile(np.arange(60) * 4, 2), "joint_names": np.array(JOINT_NAMES),
+            **{k: v[rows] for k, v in cams.as_dict().items()}}
+    path = tmp_path / "seq.npz"
+    save_dataset(path, data)
+    return path
+
+
+def test_cli_video_protocol(sequence_file, tmp_path, capsys):
+    from sparseedm.cli import main
+
+    out = tmp_path / "rep"
+    argv = ["evaluate", "--protocol", "gaps", "--data", str(sequence_file), "--methods",
+            "linear,akima", "--gap-lengths", "3,10", "-o", str(out)]
+    assert main(argv) == 0
+    printed = capsys.readouterr().out
+    assert "| linear |" in printed and "gap 10" in printed and "gap 30" not in printed
+    saved = json.loads((out / "video.json").read_text())
+    ref = evaluate_video(str(sequence_file), ["linear", "akima"], "gaps", gap_lengths=(3, 10))
+    assert json.dumps(saved["rows"]) == json.dumps(ref.rows)
+    assert (out / "video.csv").is_file()
+
+
+def test_cli_video_bad_options(sequence_file, tmp_path, capsys):
+    from sparseedm.cli import main
+
+    base = ["evaluate", "--data", str(sequence_file), "-o", str(tmp_path / "r")]
+    assert main(base + ["--protocol", "gaps", "--methods", "spline"]) == 2
+    assert "unknown method 'spline'" in capsys.readouterr().err
+    assert main(base + ["--protocol", "gaps", "--plot-joint", "nose"]) == 2
+    assert "--plot-joint must be one of" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(base + ["--protocol", "gaps", "--gap-lengths", "3,x"])
+
+
+def test_cli_video_figure(sequence_file, tmp_path):
+    pytest.importorskip("matplotlib")
+    from sparseedm.cli import main
+
+    out = tmp_path / "rep"
+    assert main(["evaluate", "--protocol", "self-occlusion", "--data", str(sequence_file),
+                 "--methods", "linear,pca", "--plot-joint", "left_wrist", "--plot-clip", "b",
+                 "-o", str(out)]) == 0
+    assert (out / "fill_left_wrist.png").stat().st_size > 1000
