@@ -20,8 +20,11 @@ held-out figures. Each split evaluates at most ``--max-sequences`` seeded
 sequences (the per-frame recovery dominates the time).
 
 Add a method under test with ``--method NAME=module:function`` (a gap filler,
-``fill(poses, missing, frames) -> filled``; repeatable), e.g. the temporal
-model once it exists.
+``fill(poses, missing, frames) -> filled``; repeatable; bound to the source's
+dictionary when it takes ``dictionary=``), e.g. the temporal model::
+
+    nice python benchmarks/video_protocols.py --methods akima \
+        --method temporal=sparseedm.temporal.recover:recover_track -o results-video-temporal.json
 
 Run from the project root (nothing from Bandai is written but these scores)::
 
@@ -31,7 +34,9 @@ Run from the project root (nothing from Bandai is written but these scores)::
 from __future__ import annotations
 
 import argparse
+import functools
 import importlib
+import inspect
 import json
 import os
 import platform
@@ -82,21 +87,34 @@ def extra_method(text):
     return name, getattr(importlib.import_module(module), attr)
 
 
+def with_dictionary(fill, dictionary):
+    """`fill` bound to the source's dictionary when it takes one (``dictionary=`` or
+    ``**kwargs``), so a method under test uses the same dictionary as "sparse"."""
+    params = inspect.signature(fill).parameters.values()
+    if any(p.name == "dictionary" or p.kind is p.VAR_KEYWORD for p in params):
+        return functools.partial(fill, dictionary=dictionary)
+    return fill
+
+
 def run(args):
+    from sparseedm.dictionary import load_dictionary
     from sparseedm.temporal.evaluation import evaluate_video
 
     results = {"machine": {"python": platform.python_version(), "cpus": os.cpu_count(),
                            "load_start": os.getloadavg()},
-               "settings": {"max_sequences": args.max_sequences, "seed": args.seed},
+               "settings": {"max_sequences": args.max_sequences, "seed": args.seed,
+                            "argv": sys.argv[1:]},
                "runs": []}
     for source in args.sources:
         for split in ("validation", "test"):
             seqs = sequences(source, split, args.max_sequences, args.seed)
-            methods = ["linear", "cubic", "akima", "pca", "sparse"] + list(args.method)
+            dictionary = load_dictionary(DICTIONARY[source])
+            methods = list(args.methods) + [(name, with_dictionary(fill, dictionary))
+                                            for name, fill in args.method]
             for protocol in ("gaps", "self-occlusion"):
                 start = time.perf_counter()
                 report = evaluate_video(seqs, methods, protocol, random_state=args.seed,
-                                        dictionary=DICTIONARY[source])
+                                        dictionary=dictionary)
                 print(f"\n{source} {split} {protocol}: {report.settings['sequences']} "
                       f"sequences, {report.settings['frames']} frames, "
                       f"{report.settings['hidden_fraction']:.1%} hidden "
@@ -111,6 +129,21 @@ def run(args):
     if args.output:
         Path(args.output).write_text(json.dumps(results, indent=1) + "\n")
         print(f"wrote {args.output}")
+
+
+def merge(many):
+    """One results dict whose runs hold the rows of every file (first file first;
+    a method already there is not added again)."""
+    runs = {}
+    for results in many:
+        for run in results["runs"]:
+            key = (run["source"], run["split"], run["protocol"])
+            if key not in runs:
+                runs[key] = dict(run, rows=list(run["rows"]))
+                continue
+            have = {r["method"] for r in runs[key]["rows"]}
+            runs[key]["rows"] += [r for r in run["rows"] if r["method"] not in have]
+    return {"runs": list(runs.values())}
 
 
 def summary(results, end="all"):
@@ -155,14 +188,20 @@ def main(argv=None):
     p.add_argument("--sources", default="bandai,cmu", type=lambda s: s.split(","))
     p.add_argument("--max-sequences", type=int, default=12)
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--methods", default="linear,cubic,akima,pca,sparse",
+                   type=lambda s: [m for m in s.split(",") if m],
+                   help="built-in methods (default linear,cubic,akima,pca,sparse); keep one "
+                   "of the splines beside a method run alone, so rows are scored on the "
+                   "same joint-frames as a full run")
     p.add_argument("--method", action="append", default=[], type=extra_method,
                    metavar="NAME=module:function", help="another gap filler to evaluate")
-    p.add_argument("--summary", default=None, metavar="JSON",
-                   help="only print the tables of a results file")
+    p.add_argument("--summary", nargs="+", default=None, metavar="JSON",
+                   help="only print the tables of results files (their rows merged)")
     args = p.parse_args(argv)
     if args.summary:
-        print(summary(json.loads(Path(args.summary).read_text())))
-        print(summary(json.loads(Path(args.summary).read_text()), end="end"))
+        results = merge([json.loads(Path(f).read_text()) for f in args.summary])
+        print(summary(results))
+        print(summary(results, end="end"))
         return 0
     if not DATA.is_dir():
         sys.exit(f"needs the real motion capture in {DATA}")

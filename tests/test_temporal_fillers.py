@@ -155,3 +155,19 @@ def test_sparse_filler_fills_from_the_other_joints(cmu_poses, small_dictionary):
     np.testing.assert_allclose(out, direct)
     assert np.abs(out - truth)[missing].max() > 0  # filled, not copied from the truth
     assert set(FILLERS) == {"linear", "cubic", "akima", "pca", "sparse"}
+
+
+def test_pca_without_complete_frames_falls_back_to_em_pca():
+    rng = np.random.default_rng(6)
+    T = 150
+    t = np.linspace(0, 4 * np.pi, T)
+    basis = np.stack([np.sin(t), np.cos(1.7 * t)], axis=1)  # rank 2
+    truth = (basis @ (rng.normal(size=(2, 28)) * 40) + 300).reshape(T, 14, 2)
+    missing = np.zeros((T, 14), bool)
+    missing[np.arange(T), rng.integers(0, 14, T)] = True  # one joint per frame: none complete
+    missing[np.arange(T), rng.integers(0, 14, T)] = True
+    assert missing.any(axis=1).all()
+    given = np.where(missing[..., None], np.nan, truth)
+    err_pca = np.abs(fill_pca(given, missing, np.arange(T)) - truth)[missing]
+    err_linear = np.abs(fill_linear(given, missing, np.arange(T)) - truth)[missing]
+    assert err_pca.mean() < 0.05 * err_linear.mean()

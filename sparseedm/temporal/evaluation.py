@@ -372,9 +372,10 @@ def plot_fill(sequence, methods=DEFAULT_METHODS, protocol="gaps", joint="left_wr
         ax.plot(t, sequence.poses2d[:, j, k], color="black", lw=2, label="truth")
         for name, fill in resolve_methods(methods, dictionary).items():
             values = fill(given, missing, t)[:, j, k]
-            ax.plot(t, np.where(missing[:, j], values, np.nan), lw=1.2, label=name)
+            ax.plot(t, np.where(missing[:, j], values, np.nan), lw=1.2, marker=".",
+                    markersize=4, label=name)
         for start, stop in _spans(missing[:, j]):
-            ax.axvspan(t[start], t[stop - 1], color="0.9", zorder=0)
+            ax.axvspan(t[start] - 0.5, t[stop - 1] + 0.5, color="0.9", zorder=0)
         ax.set_ylabel(("x", "y")[k] + " (px)")
     axes[0].set_title(f"{sequence.clip}: {SKELETON_14.joint_names[j]}, hidden frames shaded")
     axes[0].legend(fontsize=8, ncol=3)
