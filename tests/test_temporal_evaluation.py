@@ -131,6 +131,15 @@ def test_bad_arguments_are_named():
         evaluate_video([walker()], ["linear"], "occlusion")
     with pytest.raises(ParameterError, match="unknown method 'splines'"):
         evaluate_video([walker()], ["splines"], "gaps")
+    with pytest.raises(ParameterError, match="cannot import"):
+        evaluate_video([walker()], ["sparseedm.nothing:fill"], "gaps")
+
+
+def test_a_filler_named_by_module_and_function():
+    a = evaluate_video([walker()], ["sparseedm.temporal.fillers:fill_linear"], hand_protocol)
+    b = evaluate_video([walker()], ["linear"], hand_protocol)
+    assert a.methods == ["fill_linear"]
+    assert json.dumps([r["error"] for r in a.rows]) == json.dumps([r["error"] for r in b.rows])
 
 
 def test_report_files_and_figure(tmp_path):

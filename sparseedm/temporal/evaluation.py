@@ -46,6 +46,7 @@ Examples
 from __future__ import annotations
 
 import csv
+import importlib
 import io
 import json
 import time
@@ -77,24 +78,32 @@ def resolve_methods(methods, dictionary=None):
     """``{name: filler}`` from names of :data:`~sparseedm.temporal.fillers.FILLERS`,
     a dict of fillers, or a mix of names and ``(name, filler)`` pairs.
 
-    ``"sparse"`` uses `dictionary` (None: the shipped default).
+    ``"sparse"`` uses `dictionary` (None: the shipped default). A name
+    ``"module:function"`` imports that filler (e.g. a temporal model under
+    test: ``sparseedm.temporal.recover:recover_track``); its row is named
+    after the function.
 
     Examples
     --------
     >>> list(resolve_methods(["linear", ("mine", lambda p, m, f: p)]))
     ['linear', 'mine']
+    >>> list(resolve_methods(["sparseedm.temporal.fillers:fill_akima"]))
+    ['fill_akima']
     >>> resolve_methods(["spline"])
     Traceback (most recent call last):
     ...
-    sparseedm.exceptions.ParameterError: evaluate_video: unknown method 'spline'; known: linear, cubic, akima, pca, sparse, or a (name, filler) pair
+    sparseedm.exceptions.ParameterError: evaluate_video: unknown method 'spline'; known: linear, cubic, akima, pca, sparse, module:function, or a (name, filler) pair
     """
     items = methods.items() if isinstance(methods, dict) else methods
     out = {}
     for item in items:
-        if isinstance(item, str):
+        if isinstance(item, str) and ":" in item:
+            name, fill = _import_filler(item)
+        elif isinstance(item, str):
             if item not in FILLERS:
                 raise ParameterError(f"evaluate_video: unknown method {item!r}; known: "
-                                     f"{', '.join(FILLERS)}, or a (name, filler) pair")
+                                     f"{', '.join(FILLERS)}, module:function, or a (name, "
+                                     "filler) pair")
             name, fill = item, FILLERS[item]
             if item == "sparse" and dictionary is not None:
                 fill = sparse_filler(dictionary if isinstance(dictionary, Dictionary)
@@ -103,6 +112,18 @@ def resolve_methods(methods, dictionary=None):
             name, fill = item
         out[str(name)] = fill
     return out
+
+
+def _import_filler(text):
+    module, _, attr = text.partition(":")
+    try:
+        fill = getattr(importlib.import_module(module), attr)
+    except (ImportError, AttributeError, ValueError) as exc:
+        raise ParameterError(f"evaluate_video: method {text!r}: cannot import it ({exc})") \
+            from None
+    if not callable(fill):
+        raise ParameterError(f"evaluate_video: method {text!r} is not a function")
+    return attr, fill
 
 
 def _seed(random_state, clip, *extra):
