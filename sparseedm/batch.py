@@ -39,10 +39,16 @@ Every output holds, per row, ``status`` (one of
 
 Refused rows are written back as they were read (observed joints kept, the
 missing ones NaN / missing), so row i of the output is always row i of the
-input. Detector confidences are not written to csv/npz/npy outputs: a
-recovered joint has no detector confidence, and one of 0 would make readers
-treat it as missing again (COCO output keeps the original document, with
-``v = 1`` for recovered keypoints).
+input. Detector confidences are not written to csv/npz/npy outputs. Every
+output flags the joints this run filled (and those the input already flagged):
+``<joint>_filled`` columns in CSV, a ``filled`` (n, 14) array in ``.npz`` (and
+in the ``.status.npz`` sidecar of ``.npy`` and DeepLabCut outputs), the
+``"sparseedm"`` object's ``filled`` list in the JSON formats, a ``filled``
+coords column in DeepLabCut tables; where the format keeps scores (COCO
+``v``, OpenPose ``c``, MMPose ``keypoint_scores``, DeepLabCut ``likelihood``)
+a filled joint's score is ``filled_score`` (default 0: below every threshold,
+never a detection's), and COCO's ``num_keypoints`` counts the keypoints with
+``v > 0`` again. Readers read flagged joints as present.
 
 ``save_edm=True`` also stores the completed EDM vectors (normalised units,
 ``edm_vectors`` (n, 91)) with their normalisation ``center`` (n, 2) and
@@ -78,7 +84,7 @@ from ._validation import (ALPHA, BOOLEAN, CHUNK_SIZE, ENSEMBLE, N_JOBS, PATH, In
 from .dictionary import Dictionary, _resolve, check_gram_memory, load_dictionary
 from ._safeio import resolved
 from .exceptions import FileFormatError, OutputPathError, SparseEDMError
-from .formats import FILLED_SCORE
+from .formats import FILLED_SCORE, count_below, default_threshold, threshold_line
 from .formats import FORMATS as FOLDER_OR_TABLE_FORMATS
 from .keypoints import (N_JOINTS, _EXTENSIONS, _finish, _format_of, _np_load,
                         npy_confidence, read_keypoints, write_keypoints)
@@ -130,6 +136,10 @@ class _MemorySource:
     def chunk(self, start, stop):
         return self.kps.poses[start:stop], self.kps.missing[start:stop]
 
+    def below(self, threshold):
+        """Joints scored below `threshold` (None: the file has no scores)."""
+        return count_below(self.kps.confidence, threshold)
+
     def close(self):
         pass
 
@@ -165,6 +175,13 @@ class _NpySource:
         self.ids = None
         self.meta = {}
         self.tracks = self.frames = None  # a .npy holds poses only
+
+    def below(self, threshold, chunk_size=1 << 20):
+        """Joints scored below `threshold` (None: no confidence column), chunk by chunk."""
+        if self.arr.shape[-1] != 3:
+            return None
+        return sum(count_below(np.asarray(self.arr[s:s + chunk_size, :, 2], dtype=float),
+                               threshold) for s in range(0, self.n, chunk_size))
 
     def chunk(self, start, stop):
         block = np.asarray(self.arr[start:stop], dtype=float)
@@ -208,7 +225,7 @@ def _is_folder(out_path, out_fmt):
 def recover_file(input, output, *, dictionary=None, alpha=None, representation="average",
                  solver="fast", n_jobs=1, chunk_size=50_000, output_format=None,
                  errors_path=None, progress=False, save_edm=False,
-                 confidence_threshold=0.0, backend=None, scheduler=None,
+                 confidence_threshold=None, backend=None, scheduler=None,
                  method="sparse", model=None, adapt="auto", save_dictionary=None,
                  self_training=None, ensemble=1, joint_map=None,
                  filled_score=FILLED_SCORE, temporal=True):
@@ -239,8 +256,11 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
         A tqdm progress bar over poses.
     save_edm : bool, default False
         Also store the completed EDM vectors (see the module docstring).
-    confidence_threshold : float, default 0.0
-        Joints whose confidence is below it count as missing.
+    confidence_threshold : float, optional
+        Joints whose confidence is below it count as missing (and are
+        recovered). Default: the input format's
+        (:data:`sparseedm.formats.DEFAULT_THRESHOLDS`). The summary gives the
+        threshold and how many scored joints fell below it.
     method, model
         ``method="fconv"`` with an FConv ``model`` file (see
         :func:`sparseedm.recover`); the model is loaded and checked first.
@@ -279,7 +299,9 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
         ``seconds``, ``poses_per_second``, ``status`` (counts per status),
         ``output``, ``format``, ``errors`` (the errors file, or None),
         ``sidecars`` (other files written), ``adaptation`` (what adaptation
-        did, :meth:`AdaptationResult.summary`, or None) and ``adaptation_line``.
+        did, :meth:`AdaptationResult.summary`, or None), ``adaptation_line``,
+        ``confidence_threshold`` (the one used), ``below_threshold`` (scored
+        joints below it; None when the file has no scores) and ``threshold_line``.
 
     Raises
     ------
@@ -347,8 +369,11 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
 
         model = load_model(model, representation=representation, kind="recover")
 
-    source = _NpySource(in_path, confidence_threshold) if in_fmt == "npy" else \
-        _MemorySource(in_path, in_fmt, confidence_threshold, joint_map)
+    threshold = default_threshold(in_fmt) if confidence_threshold is None else \
+        confidence_threshold
+    source = _NpySource(in_path, threshold) if in_fmt == "npy" else \
+        _MemorySource(in_path, in_fmt, threshold, joint_map)
+    below = source.below(threshold)
     if out_fmt == "openpose" and not _is_folder(out_path, out_fmt) and \
             source.meta.get("openpose_folder"):
         source.close()
@@ -369,6 +394,10 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
                        backend, scheduler, method, model, filled_score, time_axis)
     finally:
         source.close()
+    summary["confidence_threshold"] = threshold
+    summary["below_threshold"] = below
+    summary["threshold_line"] = threshold_line(threshold, confidence_threshold is not None,
+                                               in_fmt, summary["below_threshold"])
     summary["adaptation"] = adaptation.summary() if adaptation is not None else None
     summary["ensemble"] = len(members)
     summary["adaptation_line"] = adaptation.line() if adaptation is not None else None
@@ -415,7 +444,7 @@ _PARAMS = {
     "alpha": ALPHA + [None], "representation": [Options(REPRESENTATIONS)],
     "n_jobs": N_JOBS, "chunk_size": CHUNK_SIZE,
     "errors_path": PATH + [None], "progress": BOOLEAN, "save_edm": BOOLEAN,
-    "confidence_threshold": [Interval(Real, None, None)],
+    "confidence_threshold": [Interval(Real, None, None), None],
     "joint_map": PATH + [None],
     "filled_score": [Interval(Real, None, None)],
     "backend": [Options(("loky", "threading", "multiprocessing", "dask")), None],
@@ -444,6 +473,7 @@ def _run(source, in_fmt, out_path, out_fmt, errors_path, members, alpha,
     gap = np.full(n, np.nan)
     n_active = np.zeros(n, dtype=np.int64)
     fallback = np.zeros(n, dtype=bool)
+    flags = np.zeros((n, N_JOINTS), dtype=bool)  # joints filled by this run
     recovered_joints = 0
     edm = None
     if save_edm:
@@ -497,6 +527,7 @@ def _run(source, in_fmt, out_path, out_fmt, errors_path, members, alpha,
                 gap[start:stop] = res.gap
                 n_active[start:stop] = res.n_active
                 fallback[start:stop] = res.fallback
+                flags[start:stop] = missing & ok[:, None] & np.isfinite(res.poses).all(axis=-1)
                 recovered_joints += int(res.missing[np.isin(res.status, ("recovered", "inaccurate"))].sum())
                 if edm is not None:
                     edm["edm_vectors"][start:stop] = res.vectors
@@ -509,10 +540,13 @@ def _run(source, in_fmt, out_path, out_fmt, errors_path, members, alpha,
         fields = {"status": status, "reason": reason, "objective": objective, "gap": gap,
                   "n_active": n_active}
         ids = source.ids
+        kps = getattr(source, "kps", None)
+        if kps is not None and kps.filled is not None:
+            flags |= kps.filled & np.isfinite(filled).all(axis=-1)  # flagged in the input
         _write_output(out_tmp, out_fmt, filled, ids, source.meta, in_fmt, fields, edm,
-                      filled_score, getattr(source, "kps", None))
+                      filled_score, kps, flags)
         if "status" in sidecars:
-            extra = dict(fields)
+            extra = dict(fields, filled=flags)
             if ids is not None:
                 extra["ids"] = ids
             if edm is not None:
@@ -547,10 +581,11 @@ def _run(source, in_fmt, out_path, out_fmt, errors_path, members, alpha,
 
 
 def _write_output(tmp, fmt, filled, ids, meta, in_fmt, fields, edm,
-                  filled_score=FILLED_SCORE, kps=None):
+                  filled_score=FILLED_SCORE, kps=None, flags=None):
+    flagged = dict(filled=flags, filled_score=filled_score)
     if fmt in FOLDER_OR_TABLE_FORMATS:  # status in each person's "sparseedm" object
-        write_keypoints(tmp, filled, format=fmt, ids=ids, meta=meta,
-                        filled_score=filled_score, row_fields=fields,
+        write_keypoints(tmp, filled, format=fmt, ids=ids, meta=meta, row_fields=fields,
+                        **flagged,
                         tracks=None if kps is None else kps.tracks,
                         frames=None if kps is None else kps.frames)
         return
@@ -564,7 +599,8 @@ def _write_output(tmp, fmt, filled, ids, meta, in_fmt, fields, edm,
         extra.update(fields)
         if edm is not None:
             extra.update(edm)
-        write_keypoints(tmp, filled, format="npz", ids=ids, meta={"npz_extra": extra})
+        write_keypoints(tmp, filled, format="npz", ids=ids, meta={"npz_extra": extra},
+                        **flagged)
     elif fmt == "csv":
         extra = dict(meta.get("extra_columns") or {}) if in_fmt == "csv" else {}
         extra.update({
@@ -574,10 +610,10 @@ def _write_output(tmp, fmt, filled, ids, meta, in_fmt, fields, edm,
             "gap": [_num(v) for v in fields["gap"]],
             "n_active": fields["n_active"],
         })
-        write_keypoints(tmp, filled, format="csv", ids=ids, extra_columns=extra)
+        write_keypoints(tmp, filled, format="csv", ids=ids, extra_columns=extra, **flagged)
     else:  # coco: the original document (or a results list), status in "sparseedm"
         write_keypoints(tmp, filled, format="coco", ids=ids,
-                        meta=meta if in_fmt == "coco" else None)
+                        meta=meta if in_fmt == "coco" else None, **flagged)
         with open(tmp, encoding="utf-8") as f:
             doc = json.load(f)
         anns = doc["annotations"] if isinstance(doc, dict) else doc

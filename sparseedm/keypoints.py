@@ -1,4 +1,5 @@
-"""Read and write users' 2D keypoints: ``.npz``/``.npy``, CSV and COCO-style JSON.
+"""Read and write users' 2D keypoints: ``.npz``/``.npy``, CSV, COCO-style JSON, and
+(through :mod:`sparseedm.formats`) OpenPose, MMPose and DeepLabCut output.
 
 Every reader returns one in-memory form, a :class:`KeypointSet`:
 
@@ -21,7 +22,9 @@ In every format a joint is missing when any of its coordinates is NaN (or an
 empty CSV cell), when the file marks it missing (the ``missing`` array of an
 ``.npz``, COCO visibility ``v = 0``), when its confidence is not positive
 (0, negative or NaN: "not detected" in COCO and OpenPose alike), or when its
-confidence is below ``confidence_threshold`` (default 0: no extra threshold).
+confidence is below ``confidence_threshold`` (default: the format's,
+:data:`sparseedm.formats.DEFAULT_THRESHOLDS`: 0.3 for COCO, 0 for the array
+and CSV formats).
 Missing joints are read as NaN; their coordinates are not kept in ``poses``.
 
 Array files
@@ -81,7 +84,7 @@ left_knee, right_knee, left_ankle, right_ankle). ``v`` is the COCO visibility
 (0 = not labelled, 1 = labelled but occluded, 2 = visible) in ground truth,
 or a per-keypoint detector score in results files (next to the annotation's
 ``score``); either way it is the joint's ``confidence``, and ``v <= 0`` (or
-``v < confidence_threshold``) is missing. ``ids`` are ``str(image_id)``
+``v < confidence_threshold``, by default 0.3) is missing. ``ids`` are ``str(image_id)``
 (``""`` when absent).
 
 Mapping COCO-17 onto the 14 joints:
@@ -101,18 +104,42 @@ its ``neck`` and ``head_top`` are used instead of the derived ones, so a file
 written here reads back to the same poses.
 
 Writing COCO JSON with the ``meta`` of a COCO read writes the original
-document back with, per annotation, the limb keypoints that were missing and
-are now recovered filled in as ``[x, y, 1]``; all other keypoints and all
-other fields (``image_id``, ``score``, ``num_keypoints``, ...) are untouched.
-Neck and head top are not COCO keypoints, so they go into an extra field::
+document back with, per annotation, the limb keypoints that were missing (or
+below the threshold) and are now recovered filled in as ``[x, y, s]``, ``s``
+the filled score (``filled_score``, default 0: below every threshold, so a
+filled joint never reads as a detection); ``num_keypoints``, where present,
+counts the keypoints with ``v > 0`` again; all other keypoints and fields
+(``image_id``, ``score``, ``track_id``, ...) are untouched. Neck and head top
+are not COCO keypoints, so they go into an extra field, with the 14-joint names
+of the joints filled::
 
     "sparseedm": {"neck": [x, y] or null, "head_top": [x, y] or null,
                   "filled": ["left_wrist", ...]}
 
+A reader reads the joints listed in ``filled`` as present (and flagged in
+``KeypointSet.filled``), whatever their score.
+
 Without COCO ``meta`` a results-style list is written: one annotation per
 pose with ``image_id`` (the id, as int when it is one), ``category_id`` 1,
-the limb keypoints (``v = 2`` when present, ``[0, 0, 0]`` when missing),
-head keypoints ``[0, 0, 0]``, and the ``"sparseedm"`` field.
+the limb keypoints (``v = 2`` when present, the filled score when filled,
+``[0, 0, 0]`` when missing), head keypoints ``[0, 0, 0]``, and the
+``"sparseedm"`` field.
+
+Filled flags
+------------
+Every format says which joints sparseedm filled (``filled=`` of
+:func:`write_keypoints`; by default the joints a read had missing that the
+poses now hold): CSV ``<joint>_filled`` columns (1/0, all 14 or none),
+``.npz`` a ``filled`` (n, 14) bool array, COCO the ``"sparseedm"`` field, the
+detector formats as :mod:`sparseedm.formats` describes. ``.npy`` cannot hold
+them (``sparseedm recover`` puts them in its ``.status.npz`` sidecar).
+
+PoseTrack, OpenPose, MMPose, DeepLabCut
+---------------------------------------
+COCO annotations with ``track_id`` fill ``tracks`` and ``frames``
+(:mod:`sparseedm.formats.posetrack`); the detector formats are read and
+written by :mod:`sparseedm.formats`, which :func:`read_keypoints` and
+:func:`write_keypoints` dispatch to.
 
 Examples
 --------
@@ -168,6 +195,8 @@ RESULT_FIELDS = ("status", "reason", "objective", "gap", "n_active", "edm_vector
                  "center", "scale")
 _EXTENSIONS = {".npz": "npz", ".npy": "npy", ".csv": "csv", ".json": "coco"}
 _H5 = (".h5", ".hdf5", ".hdf")
+#: CSV column suffixes of the joint columns
+_SUFFIXES = ("x", "y", "conf", "filled")
 
 N_JOINTS = SKELETON_14.num_joints
 
@@ -178,8 +207,6 @@ COCO_KEYPOINTS = (
     "left_wrist", "right_wrist", "left_hip", "right_hip",
     "left_knee", "right_knee", "left_ankle", "right_ankle",
 )
-_COCO_HEAD = (0, 1, 2, 3, 4)
-_COCO_LS, _COCO_RS = 5, 6
 #: 14-joint index -> COCO-17 index, for the joints copied directly.
 COCO_TO_14 = {
     SKELETON_14.index(name): COCO_KEYPOINTS.index(name)
@@ -189,7 +216,7 @@ COCO_TO_14 = {
 _NECK = SKELETON_14.index("neck")
 _HEAD_TOP = SKELETON_14.index("head_top")
 #: head_top = H + HEAD_TOP_FACTOR * (H - neck), H = mean of present head keypoints.
-HEAD_TOP_FACTOR = 0.8
+HEAD_TOP_FACTOR = formats.HEAD_TOP_FACTOR
 
 
 @dataclass
@@ -340,6 +367,15 @@ def _finish(poses, missing, confidence, threshold):
     return poses, missing
 
 
+def _keep_filled(raw, poses, missing, filled):
+    """Joints a file flags as filled by sparseedm: present with the file's
+    coordinates, whatever their score (a filled score is below any threshold)."""
+    if filled is None:
+        return poses, missing
+    keep = filled & np.isfinite(raw).all(axis=-1)
+    return np.where(keep[..., None], raw, poses), missing & ~keep
+
+
 def _check_pose_array(poses, where):
     poses = np.asarray(poses, dtype=float)
     if poses.ndim == 2:
@@ -371,7 +407,7 @@ def _optional(arr, n, name, where, dtype):
 # reading
 
 
-def read_keypoints(path, *, format=None, confidence_threshold=0.0, joint_map=None):
+def read_keypoints(path, *, format=None, confidence_threshold=None, joint_map=None):
     """Read 2D keypoints into a :class:`KeypointSet`.
 
     Parameters
@@ -382,9 +418,11 @@ def read_keypoints(path, *, format=None, confidence_threshold=0.0, joint_map=Non
         Default: told from the path (:func:`sparseedm.formats.detect`: a
         folder is OpenPose, ``.h5`` DeepLabCut, a ``.json`` by its content,
         else the extension; ``.json`` is COCO).
-    confidence_threshold : float, default 0.0
+    confidence_threshold : float, optional
         Joints whose confidence is below it are missing (joints with a
-        confidence <= 0 are always missing).
+        confidence <= 0 are always missing). Default: the format's,
+        :data:`sparseedm.formats.DEFAULT_THRESHOLDS` (DeepLabCut 0.6, MMPose
+        and COCO 0.3, OpenPose 0.05, npz/npy/CSV 0).
     joint_map : str or path-like, optional
         DeepLabCut only: the joints map file (:mod:`sparseedm.formats.deeplabcut`).
 
@@ -421,13 +459,17 @@ def read_keypoints(path, *, format=None, confidence_threshold=0.0, joint_map=Non
         _READ_PARAMS)
     path = Path(path)
     fmt = _format_of(path, format)
+    if confidence_threshold is None:
+        confidence_threshold = formats.default_threshold(fmt)
     if fmt in formats.FORMATS:
         kps = _from_parsed(formats.read(fmt, path, joint_map=joint_map), confidence_threshold)
     else:
         reader = {"npz": _read_npz, "npy": _read_npy, "csv": _read_csv, "coco": _read_coco}
         kps = reader[fmt](path, confidence_threshold)
     kps.meta["format"] = fmt
+    kps.meta["confidence_threshold"] = confidence_threshold
     kps.meta.setdefault("read_missing", kps.missing.copy())
+    kps.meta["read_filled"] = kps.filled
     return kps
 
 
@@ -435,11 +477,8 @@ def _from_parsed(parsed, threshold):
     """A KeypointSet from a :class:`sparseedm.formats.Parsed`: thresholds applied,
     the joints the file flags as filled kept present."""
     poses, missing = _finish(parsed.poses, ~parsed.present, parsed.confidence, threshold)
-    if parsed.filled is not None:
-        keep = parsed.filled & ~np.isnan(parsed.poses).any(axis=-1)
-        poses = np.where(keep[..., None], parsed.poses, poses)
-        missing = missing & ~keep
-    parsed.meta.update(read_missing=missing, read_filled=parsed.filled)
+    poses, missing = _keep_filled(parsed.poses, poses, missing, parsed.filled)
+    parsed.meta.update(read_missing=missing)
     return KeypointSet(poses, missing, parsed.confidence, parsed.ids, parsed.meta,
                        tracks=parsed.tracks, frames=parsed.frames, filled=parsed.filled)
 
@@ -471,7 +510,7 @@ def _read_npz(path, threshold):
         if f.read(4) != _ZIP_MAGIC:
             raise FileFormatError(f"{path}: expected an .npz archive, found no zip archive "
                                   "(a single .npy array?)")
-    known = ("poses", "missing", "confidence", "ids") + TIME_KEYS + RESULT_FIELDS
+    known = ("poses", "missing", "confidence", "ids", "filled") + TIME_KEYS + RESULT_FIELDS
     arrays, names = load_npz(path, known)
     if "poses" not in arrays:
         raise FileFormatError(
@@ -487,12 +526,8 @@ def _read_npz(path, threshold):
             "put confidences in a separate 'confidence' array"
         )
     n = len(poses)
-    missing = arrays.pop("missing", None)
-    if missing is not None:
-        _kind(missing, "biu", path, "missing", "booleans (or 0/1)")
-        if missing.dtype.kind != "b" and not np.isin(missing, (0, 1)).all():
-            raise FileFormatError(f"{path}: 'missing' must hold booleans (or 0/1)")
-        missing = _optional(missing, n, "missing", path, bool)
+    missing, filled = (_flags(arrays.pop(key, None), n, key, path)
+                       for key in ("missing", "filled"))
     confidence = arrays.pop("confidence", None)
     if confidence is not None:
         _kind(confidence, "fiu", path, "confidence", "real numbers")
@@ -508,12 +543,14 @@ def _read_npz(path, threshold):
         del arrays[key]
     if missing is None:
         missing = np.zeros((n, N_JOINTS), dtype=bool)
+    raw = poses
     poses, missing = _finish(poses, missing, confidence, threshold)
-    ignored = sorted(set(names) - set(arrays) - {"poses", "missing", "confidence", "ids"}
-                     - set(TIME_KEYS))
+    poses, missing = _keep_filled(raw, poses, missing, filled)
+    ignored = sorted(set(names) - set(arrays) - {"poses", "missing", "confidence", "ids",
+                                                 "filled"} - set(TIME_KEYS))
     return KeypointSet(poses, missing, confidence, ids,
                        {"npz_extra": arrays, "npz_ignored": ignored, **time_meta},
-                       tracks=tracks, frames=frames)
+                       tracks=tracks, frames=frames, filled=filled)
 
 
 #: .npz keys of a pose's track and frame (``clips``: as ``dataset build`` writes)
@@ -535,6 +572,16 @@ def _npz_time(arrays, n, path):
     if frames is not None:
         _kind(frames, "fiu", path, "frames", "numbers")
     return tracks, frames, ({"track_key": key} if tracks is not None else {})
+
+
+def _flags(arr, n, name, path):
+    """An (n, 14) boolean array of an .npz (``missing``, ``filled``), or None."""
+    if arr is None:
+        return None
+    _kind(arr, "biu", path, name, "booleans (or 0/1)")
+    if arr.dtype.kind != "b" and not np.isin(arr, (0, 1)).all():
+        raise FileFormatError(f"{path}: {name!r} must hold booleans (or 0/1)")
+    return _optional(arr, n, name, path, bool)
 
 
 def _ids_text(ids, path):
@@ -627,6 +674,7 @@ def _read_csv(path, threshold):
     n = len(rows)
     poses = np.full((n, N_JOINTS, 2), np.nan)
     conf = np.full((n, N_JOINTS), np.nan) if columns["conf"] else None
+    filled = np.zeros((n, N_JOINTS), dtype=bool) if columns["filled"] else None
     ids = [] if "id" in columns else None
     extra = {name: [] for name in columns["extra"]}
     for r, (line, fields) in enumerate(rows):
@@ -634,18 +682,22 @@ def _read_csv(path, threshold):
             poses[r, j, axis] = _parse_float(fields[c], path, line, header[c])
         for j, c in columns["conf"].items():
             conf[r, j] = _parse_float(fields[c], path, line, header[c])
+        for j, c in columns["filled"].items():
+            filled[r, j] = _parse_flag(fields[c], path, line, header[c])
         if ids is not None:
             ids.append(fields[columns["id"]].strip())
         for name, c in columns["extra"].items():
             extra[name].append(fields[c])
     missing = np.zeros((n, N_JOINTS), dtype=bool)
+    raw = poses
     poses, missing = _finish(poses, missing, conf, threshold)
+    poses, missing = _keep_filled(raw, poses, missing, filled)
     ids = None if ids is None else np.asarray(ids, dtype=str).reshape(n)
     tracks = np.asarray([t.strip() for t in extra["track"]], dtype=str).reshape(n) \
         if "track" in extra else None
     frames = _frame_cells(extra["frame"], n) if "frame" in extra else None
     return KeypointSet(poses, missing, conf, ids, {"extra_columns": extra},
-                       tracks=tracks, frames=frames)
+                       tracks=tracks, frames=frames, filled=filled)
 
 
 def _frame_cells(cells, n):
@@ -657,10 +709,18 @@ def _frame_cells(cells, n):
     return np.asarray(text, dtype=object).reshape(n)
 
 
+def _parse_flag(text, path, line, column):
+    text = text.strip()
+    if text not in ("", "0", "1"):
+        raise FileFormatError(f"{path}, line {line}, column {column!r}: {text[:20]!r} is "
+                              "not a filled flag (1, 0 or empty)")
+    return text == "1"
+
+
 def _csv_columns(header, path):
     """Map header names to column indices, with clear errors."""
-    xy, conf, extra = {}, {}, {}
-    out = {"xy": xy, "conf": conf, "extra": extra}
+    xy, conf, filled, extra = {}, {}, {}, {}
+    out = {"xy": xy, "conf": conf, "filled": filled, "extra": extra}
     seen = set()
     for c, name in enumerate(header):
         if name in seen:
@@ -670,7 +730,7 @@ def _csv_columns(header, path):
             out["id"] = c
             continue
         stem, _, suffix = name.rpartition("_")
-        if stem and suffix in ("x", "y", "conf"):
+        if stem and suffix in _SUFFIXES:
             if stem not in JOINT_NAMES:
                 raise FileFormatError(
                     f"{path}, line 1: column {name!r} names an unknown joint "
@@ -679,6 +739,8 @@ def _csv_columns(header, path):
             j = JOINT_NAMES.index(stem)
             if suffix == "conf":
                 conf[j] = c
+            elif suffix == "filled":
+                filled[j] = c
             else:
                 xy[(j, "xy".index(suffix))] = c
         else:
@@ -692,12 +754,13 @@ def _csv_columns(header, path):
             f"{path}, line 1: missing column(s) {', '.join(absent)}; a keypoint CSV "
             "needs <joint>_x and <joint>_y for all 14 joints"
         )
-    if conf and len(conf) != N_JOINTS:
-        absent = [f"{JOINT_NAMES[j]}_conf" for j in range(N_JOINTS) if j not in conf]
-        raise FileFormatError(
-            f"{path}, line 1: <joint>_conf columns must be given for all 14 joints "
-            f"or none; missing {', '.join(absent)}"
-        )
+    for kind, cols in (("conf", conf), ("filled", filled)):
+        if cols and len(cols) != N_JOINTS:
+            absent = [f"{JOINT_NAMES[j]}_{kind}" for j in range(N_JOINTS) if j not in cols]
+            raise FileFormatError(
+                f"{path}, line 1: <joint>_{kind} columns must be given for all 14 joints "
+                f"or none; missing {', '.join(absent)}"
+            )
     return out
 
 
@@ -748,9 +811,7 @@ def _read_coco(path, threshold):
                 f"{where}: 'image_id' must be an integer or a string, got "
                 f"{type(image_id).__name__}")
         ids.append("" if image_id is None else str(image_id))
-        extra = ann.get("sparseedm")
-        if isinstance(extra, dict):
-            stored[a] = extra
+        stored[a] = formats.read_extra(ann, where)  # the neck / head top / filled written here
     if not np.isfinite(coco).all():
         a = int(np.argwhere(~np.isfinite(coco))[0][0])
         raise FileFormatError(f"{path}: annotation {a}: non-finite keypoint value")
@@ -759,19 +820,15 @@ def _read_coco(path, threshold):
     coco_missing = ~(v > 0)
     if threshold is not None:
         coco_missing |= v < threshold
+    filled = np.zeros((n, N_JOINTS), dtype=bool)
+    for a, (_, joints) in stored.items():
+        filled[a, joints] = True
+        for j in joints:  # flagged filled: present whatever its score
+            if j in COCO_TO_14:
+                coco_missing[a, COCO_TO_14[j]] = False
     poses, missing, conf = _coco_to_14(xy, v, coco_missing)
-    for a, extra in stored.items():
-        for j, key in ((_NECK, "neck"), (_HEAD_TOP, "head_top")):
-            value = extra.get(key)
-            if value is None:
-                continue
-            if (not isinstance(value, list) or len(value) != 2
-                    or not all(isinstance(x, (int, float)) and not isinstance(x, bool)
-                               and math.isfinite(x) for x in value)):
-                raise FileFormatError(
-                    f"{path}: annotation {a}: 'sparseedm.{key}' must be [x, y] "
-                    "(two finite numbers) or null"
-                )
+    for a, (points, _) in stored.items():
+        for j, value in points.items():
             poses[a, j] = value
             missing[a, j] = False
     if posetrack.uses_posetrack_order(doc):  # PoseTrack's own head_top keypoint
@@ -782,35 +839,14 @@ def _read_coco(path, threshold):
     tracks, frames = posetrack.tracks_and_frames(doc, anns, path)
     meta = {"coco_document": doc, "coco_missing": coco_missing}
     return KeypointSet(poses, missing, conf, np.asarray(ids, dtype=str).reshape(n), meta,
-                       tracks=tracks, frames=frames)
+                       tracks=tracks, frames=frames, filled=filled if filled.any() else None)
 
 
 def _coco_to_14(xy, v, coco_missing):
-    n = len(xy)
-    poses = np.full((n, N_JOINTS, 2), np.nan)
-    conf = np.zeros((n, N_JOINTS))
-    for j, c in COCO_TO_14.items():
-        poses[:, j] = xy[:, c]
-        conf[:, j] = v[:, c]
-    neck_ok = ~(coco_missing[:, _COCO_LS] | coco_missing[:, _COCO_RS])
-    neck = (xy[:, _COCO_LS] + xy[:, _COCO_RS]) / 2
-    poses[:, _NECK] = neck
-    conf[:, _NECK] = np.minimum(v[:, _COCO_LS], v[:, _COCO_RS])
-    head_present = ~coco_missing[:, _COCO_HEAD]                  # (n, 5)
-    n_head = head_present.sum(axis=1)
-    head_sum = np.where(head_present[..., None], xy[:, _COCO_HEAD], 0.0).sum(axis=1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        head_centre = head_sum / n_head[:, None]
-    poses[:, _HEAD_TOP] = head_centre + HEAD_TOP_FACTOR * (head_centre - neck)
-    head_v = np.where(head_present, v[:, _COCO_HEAD], np.inf).min(axis=1)
-    conf[:, _HEAD_TOP] = np.where(n_head > 0, np.minimum(head_v, conf[:, _NECK]), 0.0)
-    missing = np.zeros((n, N_JOINTS), dtype=bool)
-    for j, c in COCO_TO_14.items():
-        missing[:, j] = coco_missing[:, c]
-    missing[:, _NECK] = ~neck_ok
-    missing[:, _HEAD_TOP] = ~neck_ok | (n_head == 0)
-    poses = np.where(missing[..., None], np.nan, poses)
-    return poses, missing, conf
+    """COCO-17 onto the 14 joints by the rule of the module docstring (its one home:
+    :func:`sparseedm.formats.to_14`, which the detector formats share)."""
+    poses, present, conf = formats.to_14(xy, v, ~coco_missing, formats.COCO_17)
+    return poses, ~present, conf
 
 
 # --------------------------------------------------------------------------
@@ -918,10 +954,10 @@ def write_keypoints(
     if ids is not None:
         ids = _optional(np.asarray(ids).astype(str), n, "ids", where, str)
 
+    if filled is None:
+        filled = _newly_filled(poses, meta) | _read_filled(meta, n)
+    filled = _optional(filled, n, "filled", where, bool) & ~mask
     if fmt in formats.FORMATS:
-        if filled is None:
-            filled = _newly_filled(poses, meta) | _read_filled(meta, n)
-        filled = _optional(filled, n, "filled", where, bool) & ~mask
         rows = formats.Rows(poses, filled, confidence, ids, tracks, frames, filled_score)
         formats.write(fmt, path, rows, meta, filled_score=filled_score, row_fields=row_fields)
     elif fmt == "npz":
@@ -932,6 +968,8 @@ def write_keypoints(
         if ids is not None:
             arrays["ids"] = ids
         arrays.update(_time_arrays(tracks, frames, meta))
+        if filled.any():
+            arrays["filled"] = filled
         save_npz(path, arrays)
     elif fmt == "npy":
         arr = poses if confidence is None else np.concatenate(
@@ -945,9 +983,10 @@ def write_keypoints(
         if extra_columns is None:
             extra_columns = meta.get("extra_columns") or {}
         extra_columns = _time_columns(tracks, frames, extra_columns)
-        _write_csv(path, poses, confidence, ids, extra_columns, where)
+        _write_csv(path, poses, confidence, ids, extra_columns, where,
+                   filled if filled.any() else None)
     else:
-        _write_coco(path, poses, mask, ids, meta, where)
+        _write_coco(path, poses, mask, ids, meta, where, filled, filled_score)
     return path
 
 
@@ -991,17 +1030,19 @@ def _cell(value):
     return "" if math.isnan(value) else repr(float(value))
 
 
-def _write_csv(path, poses, confidence, ids, extra_columns, where):
+def _write_csv(path, poses, confidence, ids, extra_columns, where, filled=None):
     n = len(poses)
     header = [] if ids is None else ["id"]
     header += [f"{name}_{a}" for name in JOINT_NAMES for a in "xy"]
     if confidence is not None:
         header += [f"{name}_conf" for name in JOINT_NAMES]
+    if filled is not None:
+        header += [f"{name}_filled" for name in JOINT_NAMES]
     extras = []
     for name, values in extra_columns.items():
         name = str(name)
         stem, _, suffix = name.rpartition("_")
-        if name in header or name == "id" or (stem and suffix in ("x", "y", "conf")):
+        if name in header or name == "id" or (stem and suffix in _SUFFIXES):
             raise FileFormatError(
                 f"{where}: extra column {name!r} clashes with the keypoint columns"
             )
@@ -1021,6 +1062,8 @@ def _write_csv(path, poses, confidence, ids, extra_columns, where):
                 row += [_cell(v) for v in poses[r].ravel()]
                 if confidence is not None:
                     row += [_cell(v) for v in confidence[r]]
+                if filled is not None:
+                    row += ["1" if f else "0" for f in filled[r]]
                 row += ["" if col[r] is None else str(col[r]) for col in extras]
                 writer.writerow(row)
 
@@ -1029,7 +1072,7 @@ def _xy_or_none(p):
     return None if np.isnan(p).any() else [float(p[0]), float(p[1])]
 
 
-def _write_coco(path, poses, mask, ids, meta, where):
+def _write_coco(path, poses, mask, ids, meta, where, filled, filled_score):
     n = len(poses)
     fresh = meta.get("coco_document") is None
     if not fresh:
@@ -1044,7 +1087,6 @@ def _write_coco(path, poses, mask, ids, meta, where):
             coco_missing = [[not (ann["keypoints"][3 * k + 2] > 0) for k in range(17)]
                             for ann in anns]
         coco_missing = np.asarray(coco_missing, dtype=bool).reshape(n, 17)
-        v_new = 1  # recovered, not labelled
     else:
         anns = []
         for r in range(n):
@@ -1056,19 +1098,20 @@ def _write_coco(path, poses, mask, ids, meta, where):
             })
         doc = anns
         coco_missing = np.ones((n, 17), dtype=bool)
-        v_new = 2  # nothing known about these joints: plain keypoints
     for r, ann in enumerate(anns):
         kp = list(ann["keypoints"])
-        filled = []
         for j, c in sorted(COCO_TO_14.items(), key=lambda item: item[1]):
             if coco_missing[r, c] and not mask[r, j]:
-                kp[3 * c: 3 * c + 3] = [float(poses[r, j, 0]), float(poses[r, j, 1]), v_new]
-                filled.append(COCO_KEYPOINTS[c])
+                # recovered: the filled score; a fresh file's plain keypoints: v = 2
+                v = filled_score if filled[r, j] or not fresh else 2
+                kp[3 * c: 3 * c + 3] = [float(poses[r, j, 0]), float(poses[r, j, 1]), v]
         ann["keypoints"] = kp
+        if "num_keypoints" in ann:
+            ann["num_keypoints"] = sum(1 for k in range(17) if kp[3 * k + 2] > 0)
         ann["sparseedm"] = {
             "neck": _xy_or_none(poses[r, _NECK]),
             "head_top": _xy_or_none(poses[r, _HEAD_TOP]),
-            "filled": [] if fresh else filled,
+            "filled": [JOINT_NAMES[j] for j in np.flatnonzero(filled[r])],
         }
     with atomic_path(path) as tmp:
         with open(tmp, "w", encoding="utf-8") as f:

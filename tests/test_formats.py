@@ -243,6 +243,32 @@ def test_mmpose_scores_above_one_are_kept_negative_refused(tmp_path):
         read_keypoints(path)
 
 
+def test_low_detector_scores_are_recovered_with_the_default_threshold(tmp_path,
+                                                                      small_dictionary):
+    """Issue 24: occluded joints scored 0.02-0.2 (not 0) are recovered by default."""
+    summary = recover_file(F / "mmpose_predictions.json", tmp_path / "o.json",
+                           dictionary=small_dictionary, adapt=False)
+    assert summary["recovered_joints"] == 4
+    doc = json.loads((tmp_path / "o.json").read_text())
+    inst = doc["instance_info"][1]["instances"][0]
+    assert sorted(inst["sparseedm"]["filled"]) == ["left_elbow", "left_wrist"]
+    assert inst["keypoint_scores"][9] == 0.0 and inst["keypoint_scores"][7] == 0.0
+
+
+def test_cli_summary_names_the_threshold(tmp_path, capsys, small_dictionary_path):
+    from sparseedm.cli import main
+
+    args = ["--dictionary", str(small_dictionary_path), "--no-adapt", "-q"]
+    assert main(["recover", str(F / "mmpose_predictions.json"), "-o",
+                 str(tmp_path / "a.json")] + args) == 0
+    out = capsys.readouterr().err  # -q: the summary goes to stderr
+    assert "confidence threshold 0.3 (the mmpose default): 4 scored joints below it" in out
+    assert main(["recover", str(F / "dlc.csv"), "-o", str(tmp_path / "b.csv"),
+                 "--joint-map", str(MAP), "--confidence-threshold", "0.05"] + args) == 0
+    out = capsys.readouterr().err
+    assert "confidence threshold 0.05 (given): the file has scores, none below it" in out
+
+
 # --------------------------------------------------------------------------
 # DeepLabCut
 
@@ -366,3 +392,72 @@ def test_detect_tells_formats_apart(tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert read_keypoints(coco).meta["format"] == "coco"
+
+
+# --------------------------------------------------------------------------
+# filled flags and scores in the formats of sparseedm.keypoints
+
+
+def _coco_results(tmp_path):
+    """A COCO results file from the MMPose fixture: occluded joints scored 0.02-0.2."""
+    doc = json.loads((F / "mmpose_predictions.json").read_text())
+    anns = []
+    for entry in doc["instance_info"]:
+        inst = entry["instances"][0]
+        kp = [v for (x, y), s in zip(inst["keypoints"], inst["keypoint_scores"])
+              for v in (x, y, s)]
+        anns.append({"image_id": entry["frame_id"], "category_id": 1, "keypoints": kp,
+                     "score": 0.9, "num_keypoints": 17})
+    path = tmp_path / "results.json"
+    path.write_text(json.dumps(anns))
+    return path
+
+
+def test_coco_low_scores_recovered_by_default_and_never_look_detected(tmp_path,
+                                                                      small_dictionary):
+    src = _coco_results(tmp_path)
+    summary = recover_file(src, tmp_path / "o.json", dictionary=small_dictionary,
+                           adapt=False)
+    assert summary["recovered_joints"] == 4 and summary["below_threshold"] == 4
+    anns = json.loads((tmp_path / "o.json").read_text())
+    lw = 9  # COCO left_wrist: scored 0.02 in frame 1, now filled with score 0
+    assert anns[0]["keypoints"][3 * lw + 2] == 0.0 and anns[0]["num_keypoints"] == 16
+    assert anns[0]["sparseedm"]["filled"] == ["left_wrist"]
+    back = read_keypoints(tmp_path / "o.json")
+    assert not back.missing.any() and back.filled.sum() == 4
+    again = recover_file(tmp_path / "o.json", tmp_path / "o2.json",
+                         dictionary=small_dictionary, adapt=False)
+    assert again["recovered_joints"] == 0  # flagged joints are read as present
+    assert json.loads((tmp_path / "o2.json").read_text())[0]["sparseedm"]["filled"] == \
+        ["left_wrist"]
+
+
+@pytest.mark.parametrize("ext", [".csv", ".npz", ".json"])
+def test_filled_flags_in_csv_npz_and_fresh_coco(ext, tmp_path, small_dictionary):
+    k = read_keypoints(F / "mmpose_predictions.json")
+    src = tmp_path / "in.csv"
+    write_keypoints(src, k.poses, ids=k.ids, filled=np.zeros(k.missing.shape, bool))
+    out = tmp_path / f"out{ext}"
+    recover_file(src, out, dictionary=small_dictionary, adapt=False, filled_score=0.05)
+    back = read_keypoints(out)
+    np.testing.assert_array_equal(back.filled, k.missing)
+    assert not back.missing.any()
+    if ext == ".json":
+        anns = json.loads(out.read_text())
+        assert anns[0]["keypoints"][3 * 9 + 2] == 0.05   # --filled-score
+        assert anns[0]["keypoints"][3 * 10 + 2] == 2      # a plain keypoint
+
+
+def test_csv_filled_column_rules(tmp_path):
+    k = read_keypoints(F / "mmpose_predictions.json")
+    p = tmp_path / "f.csv"
+    write_keypoints(p, np.nan_to_num(k.poses), filled=k.missing)
+    text = p.read_text()
+    assert "left_wrist_filled" in text.splitlines()[0]
+    np.testing.assert_array_equal(read_keypoints(p).filled, k.missing)
+    lines = text.splitlines()
+    lines[1] = lines[1][:-1] + "7"
+    p.write_text("\n".join(lines) + "\n")
+    with pytest.raises(FileFormatError, match=r"line 2, column 'left_ankle_filled': '7' "
+                       r"is not a filled flag"):
+        read_keypoints(p)

@@ -339,9 +339,10 @@ def test_coco_results_scores_and_threshold(tmp_path):
     path = tmp_path / "res.json"
     path.write_text(json.dumps([{"image_id": 1, "category_id": 1,
                                  "keypoints": _coco_kp(points), "score": 0.8}]))
-    assert not read_keypoints(path).missing.any()
-    kps = read_keypoints(path, confidence_threshold=0.5)
-    assert kps.missing[0].tolist() == [j == J("right_knee") for j in range(14)]
+    assert not read_keypoints(path, confidence_threshold=0).missing.any()
+    for threshold in (None, 0.5):  # COCO's default, 0.3 (sparseedm.formats), or given
+        kps = read_keypoints(path, confidence_threshold=threshold)
+        assert kps.missing[0].tolist() == [j == J("right_knee") for j in range(14)]
     assert kps.confidence[0, J("right_knee")] == pytest.approx(0.2)
 
 
@@ -365,7 +366,8 @@ def test_coco_write_back_fills_missing_limbs(tmp_path):
     for key in ("image_id", "id", "category_id", "area", "num_keypoints"):
         assert ann[key] == anns[0][key]
     c = COCO_KEYPOINTS.index("left_wrist")
-    assert ann["keypoints"][3 * c: 3 * c + 3] == [146.5, 201.25, 1]
+    assert ann["keypoints"][3 * c: 3 * c + 3] == [146.5, 201.25, 0.0]  # the filled score
+    assert ann["num_keypoints"] == 15   # v > 0: the filled joint is no detection
     c = COCO_KEYPOINTS.index("right_ankle")
     assert ann["keypoints"][3 * c: 3 * c + 3] == [0, 0, 0]   # still missing
     # untouched keypoints: exactly the originals

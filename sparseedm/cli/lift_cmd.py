@@ -32,8 +32,9 @@ def add_parser(sub):
                    help="errors file (default OUTPUT stem + .errors.csv)")
     p.add_argument("--representation", choices=("average", "zero"), default="average",
                    help="how an MLP lifter sees occluded joints (default average)")
-    p.add_argument("--confidence-threshold", type=float, default=0.0, metavar="T",
-                   help="joints with a confidence below T count as missing (default 0)")
+    p.add_argument("--confidence-threshold", type=float, default=None, metavar="T",
+                   help="joints with a confidence below T count as missing (default: the "
+                   "input format's, as for recover)")
     add_quiet(p)
     p.set_defaults(func=run)
 

@@ -44,8 +44,11 @@ def add_parser(sub):
                    help="output format (default: from OUTPUT's extension, else INPUT's)")
     p.add_argument("--errors", default=None, metavar="FILE",
                    help="errors file listing refused rows (default OUTPUT stem + .errors.csv)")
-    p.add_argument("--confidence-threshold", type=float, default=0.0, metavar="T",
-                   help="joints with a confidence below T count as missing (default 0)")
+    p.add_argument("--confidence-threshold", type=float, default=None, metavar="T",
+                   help="joints with a confidence below T count as missing and are "
+                   "recovered (default: the input format's: DeepLabCut 0.6 (its pcutoff), "
+                   "MMPose and COCO 0.3, OpenPose 0.05, csv/npz/npy 0; see "
+                   "sparseedm.formats)")
     p.add_argument("--joint-map", default=None, metavar="FILE",
                    help="DeepLabCut input: JSON file naming the body part of each of the "
                    "14 joints ({\"joints\": {\"head_top\": \"head\", ...}})")
@@ -140,6 +143,8 @@ def format_summary(s) -> str:
         f"time: {s['seconds']:.2f} s  ({rate})",
         f"status: {counts}",
     ]
+    if s.get("threshold_line"):
+        lines.append(s["threshold_line"])
     if s.get("fallbacks"):
         lines.append(f"solver fallbacks to Clarabel: {s['fallbacks']}")
     if s.get("sidecars"):

@@ -42,13 +42,16 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+import numpy as np
+
 from .._safeio import load_json
 from ..exceptions import FileFormatError
 from . import deeplabcut, mmpose, openpose, posetrack
-from ._base import Parsed, Rows
+from ._base import COCO_17, HEAD_TOP_FACTOR, Parsed, Rows, read_extra, to_14
 
 __all__ = ["FORMATS", "DEFAULT_THRESHOLDS", "FILLED_SCORE", "detect", "read", "write",
-           "default_threshold", "Parsed", "Rows", "deeplabcut", "mmpose", "openpose",
+           "default_threshold", "count_below", "threshold_line", "read_extra", "to_14",
+           "COCO_17", "HEAD_TOP_FACTOR", "Parsed", "Rows", "deeplabcut", "mmpose", "openpose",
            "posetrack"]
 
 #: formats read and written by this subpackage
@@ -72,6 +75,35 @@ def default_threshold(fmt):
     0.6
     """
     return DEFAULT_THRESHOLDS.get(fmt, 0.0)
+
+
+def count_below(confidence, threshold):
+    """Joints scored above 0 but below `threshold` (read as missing by the threshold).
+
+    >>> count_below(np.array([[0.0, 0.1, 0.5, np.nan]]), 0.3)
+    1
+    """
+    if confidence is None:
+        return None
+    with np.errstate(invalid="ignore"):
+        return int(((confidence > 0) & (confidence < threshold)).sum())
+
+
+def threshold_line(threshold, given, fmt, below):
+    """The summary line of ``sparseedm recover`` about the confidence threshold.
+
+    >>> threshold_line(0.3, False, "mmpose", 4)
+    'confidence threshold 0.3 (the mmpose default): 4 scored joints below it read as missing'
+    >>> threshold_line(0.3, False, "coco", 0)
+    'confidence threshold 0.3 (the coco default): the file has scores, none below it'
+    """
+    where = "given" if given else f"the {fmt} default"
+    head = f"confidence threshold {threshold:g} ({where})"
+    if below is None:
+        return f"{head}: the file has no scores"
+    if below == 0:
+        return f"{head}: the file has scores, none below it"
+    return f"{head}: {below} scored joints below it read as missing"
 
 
 def detect(path):

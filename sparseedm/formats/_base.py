@@ -89,6 +89,8 @@ COCO17 = ("nose", "left_eye", "right_eye", "left_ear", "right_ear",
           "left_shoulder", "right_shoulder", "left_elbow", "right_elbow",
           "left_wrist", "right_wrist", "left_hip", "right_hip",
           "left_knee", "right_knee", "left_ankle", "right_ankle")
+#: the COCO-17 layout (COCO results / ground truth, MMPose's COCO models)
+COCO_17 = Layout("COCO-17", COCO17)
 
 
 @dataclass

@@ -42,14 +42,13 @@ import numpy as np
 
 from ..exceptions import FileFormatError
 from . import _base
-from ._base import COCO17, EXTRA_KEY, Layout, Person
+from ._base import COCO17, COCO_17, EXTRA_KEY, Layout, Person
 
 __all__ = ["COCO_17", "HALPE_26", "HALPE_136", "COCO_WHOLEBODY", "LAYOUTS", "read",
            "write", "is_mmpose"]
 
 _HALPE_EXTRA = ("head", "neck", "hip", "left_big_toe", "right_big_toe", "left_small_toe",
                 "right_small_toe", "left_heel", "right_heel")
-COCO_17 = Layout("COCO-17", COCO17)
 HALPE_26 = Layout("Halpe-26", COCO17 + _HALPE_EXTRA, neck="neck", head_top="head")
 HALPE_136 = Layout("Halpe-136", HALPE_26.keypoints + tuple(f"face_or_hand_{i}"
                                                            for i in range(110)),
@@ -113,17 +112,16 @@ def _instance(inst, where, frame):
 
 def read(path, doc):
     """Read an MMPose document (already loaded by the bounded reader)."""
-    people, counts = [], []
+    people = []
     for fid, instances in _frames_of(doc, path):
         for i, inst in enumerate(instances):
             people.append(_instance(inst, f"{path}: frame {fid}, instance {i}", fid))
-        counts.append(len(instances))
     sizes = {len(p.xy) for p in people}
     if len(sizes) > 1:
         raise FileFormatError(f"{path}: instances of different layouts "
                               f"({', '.join(LAYOUTS[s].name for s in sorted(sizes))})")
     layout = LAYOUTS[sizes.pop()] if sizes else COCO_17
-    meta = {"mmpose_document": doc, "layout": layout.name, "mmpose_counts": counts}
+    meta = {"mmpose_document": doc, "layout": layout.name}
     frames = np.asarray([p.frame for p in people], dtype=np.int64)
     return _base.assemble(people, layout, meta, tracks=_base.person_tracks(people),
                           frames=frames)

@@ -95,8 +95,11 @@ def write_poses3d(path, result, ids=None, output_format=None):
 
 
 def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, errors_path=None,
-              confidence_threshold=0.0, representation="average"):
+              confidence_threshold=None, representation="average"):
     """Read 2D keypoints, lift them, write 3D poses and an errors file; return a summary.
+
+    `confidence_threshold`: joints scored below it are missing; default the
+    input format's (:data:`sparseedm.formats.DEFAULT_THRESHOLDS`).
 
     Nothing the run reads is ever written, and no output overwrites another:
     the paths are checked (:func:`sparseedm._atomic.check_paths`) before any work.
