@@ -122,8 +122,8 @@ A reader reads the joints listed in ``filled`` as present (and flagged in
 Without COCO ``meta`` a results-style list is written: one annotation per
 pose with ``image_id`` (the id, as int when it is one), ``category_id`` 1,
 the limb keypoints (``v = 2`` when present, the filled score when filled,
-``[0, 0, 0]`` when missing), head keypoints ``[0, 0, 0]``, and the
-``"sparseedm"`` field.
+``[0, 0, 0]`` when missing), head keypoints ``[0, 0, 0]``, the ``"sparseedm"``
+field, and ``track_id`` when the poses have tracks.
 
 Filled flags
 ------------
@@ -986,7 +986,7 @@ def write_keypoints(
         _write_csv(path, poses, confidence, ids, extra_columns, where,
                    filled if filled.any() else None)
     else:
-        _write_coco(path, poses, mask, ids, meta, where, filled, filled_score)
+        _write_coco(path, poses, mask, ids, meta, where, filled, filled_score, tracks)
     return path
 
 
@@ -1072,7 +1072,7 @@ def _xy_or_none(p):
     return None if np.isnan(p).any() else [float(p[0]), float(p[1])]
 
 
-def _write_coco(path, poses, mask, ids, meta, where, filled, filled_score):
+def _write_coco(path, poses, mask, ids, meta, where, filled, filled_score, tracks=None):
     n = len(poses)
     fresh = meta.get("coco_document") is None
     if not fresh:
@@ -1096,6 +1096,9 @@ def _write_coco(path, poses, mask, ids, meta, where, filled, filled_score):
                 "category_id": 1,
                 "keypoints": [0.0] * 51,
             })
+            if tracks is not None:  # PoseTrack's person over time
+                t = np.asarray(tracks)[r]
+                anns[-1]["track_id"] = int(t) if np.asarray(t).dtype.kind in "iu" else str(t)
         doc = anns
         coco_missing = np.ones((n, 17), dtype=bool)
     for r, ann in enumerate(anns):

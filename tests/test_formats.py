@@ -461,3 +461,14 @@ def test_csv_filled_column_rules(tmp_path):
     with pytest.raises(FileFormatError, match=r"line 2, column 'left_ankle_filled': '7' "
                        r"is not a filled flag"):
         read_keypoints(p)
+
+
+def test_tracks_written_back_by_formats_without_a_document(tmp_path):
+    k = read_keypoints(F / "dlc_multi.csv", joint_map=MAP)
+    for name in ("c.json", "m.json"):
+        out = tmp_path / name
+        write_keypoints(out, k.poses, tracks=k.tracks, frames=k.frames,
+                        format="coco" if name == "c.json" else "mmpose")
+        back = read_keypoints(out)
+        assert back.tracks.tolist() == k.tracks.tolist()
+    assert read_keypoints(tmp_path / "m.json").frames.tolist() == k.frames.tolist()
