@@ -21,9 +21,11 @@ Keys are the 14 joint names of :data:`~sparseedm.skeleton.JOINT_NAMES`; a
 value is a body part of the table's header or null (not tracked: the joint
 is always missing, except a null ``neck``, which is the midpoint of the two
 shoulders, as in the COCO rule). A joint left out counts as null. Without a
-map, the table's body parts must be the 14 joint names themselves. A map
+map, the table's body parts must be the 14 joint names themselves (else an
+error names the file, its first body parts and ``--joint-map``). A map
 naming a body part the header lacks, or a key that is not a joint, is an
-error naming the map file and the key.
+error naming the map file and the key; body parts of the header the map does
+not name (a tail, a nose) are not read, and are written back unchanged.
 
 Rows: one pose per frame (per frame and individual, frame-major, for
 multi-animal tables); ``ids`` are the table's index (the frame number, or an
