@@ -688,7 +688,8 @@ BAD_FILE_ARGS = [
     ("n_jobs", 0), ("chunk_size", 0), ("chunk_size", -1), ("chunk_size", 1.5),
     ("errors_path", 7), ("progress", 1), ("save_edm", "yes"),
     ("confidence_threshold", "0.5"), ("confidence_threshold", float("nan")),
-    ("confidence_threshold", None), ("backend", "bogus"), ("scheduler", 1),
+    ("filled_score", "0"), ("joint_map", 3),  # confidence_threshold None: the format's
+    ("backend", "bogus"), ("scheduler", 1),
 ]
 
 
