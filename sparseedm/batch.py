@@ -301,7 +301,9 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
         ``sidecars`` (other files written), ``adaptation`` (what adaptation
         did, :meth:`AdaptationResult.summary`, or None), ``adaptation_line``,
         ``confidence_threshold`` (the one used), ``below_threshold`` (scored
-        joints below it; None when the file has no scores) and ``threshold_line``.
+        joints below it; None when the file has no scores), ``threshold_line``
+        and ``skipped_files`` ((file, reason) of the bad frame files an
+        OpenPose folder skipped).
 
     Raises
     ------
@@ -395,6 +397,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
     finally:
         source.close()
     summary["confidence_threshold"] = threshold
+    summary["skipped_files"] = list(source.meta.get("skipped") or [])
     summary["below_threshold"] = below
     summary["threshold_line"] = threshold_line(threshold, confidence_threshold is not None,
                                                in_fmt, summary["below_threshold"])

@@ -472,3 +472,19 @@ def test_tracks_written_back_by_formats_without_a_document(tmp_path):
         back = read_keypoints(out)
         assert back.tracks.tolist() == k.tracks.tolist()
     assert read_keypoints(tmp_path / "m.json").frames.tolist() == k.frames.tolist()
+
+
+def test_cli_lists_skipped_frame_files(tmp_path, capsys, small_dictionary_path):
+    from sparseedm.cli import main
+
+    d = tmp_path / "frames"
+    shutil.copytree(F / "openpose", d)
+    (d / "video_000000000009_keypoints.json").write_text('{"people": [')
+    with pytest.warns(UserWarning, match="skipped"):
+        code = main(["recover", str(d), "-o", str(tmp_path / "out"), "-q", "--no-adapt",
+                     "--dictionary", str(small_dictionary_path)])
+    assert code == 0
+    err = capsys.readouterr().err
+    assert "skipped " + str(d / "video_000000000009_keypoints.json") + ": invalid or " \
+        "truncated JSON" in err
+    assert len(list((tmp_path / "out").iterdir())) == 4

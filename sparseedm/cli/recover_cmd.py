@@ -145,6 +145,8 @@ def format_summary(s) -> str:
     ]
     if s.get("threshold_line"):
         lines.append(s["threshold_line"])
+    for name, reason in s.get("skipped_files", []):
+        lines.append(f"skipped {reason}")
     if s.get("fallbacks"):
         lines.append(f"solver fallbacks to Clarabel: {s['fallbacks']}")
     if s.get("sidecars"):

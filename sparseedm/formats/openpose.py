@@ -163,7 +163,7 @@ def read(path):
     if not files:
         why = f"; first: {skipped[0][1]}" if skipped else ""
         raise FileFormatError(f"{path}: no readable OpenPose frame files (*.json){why}")
-    for name, msg in skipped:
+    for name, msg in skipped:  # sparseedm recover lists them in its summary too
         warnings.warn(f"skipped {msg}", stacklevel=3)
     return _parsed(people, files, {"openpose_folder": True, "skipped": skipped,
                                    "ignored": ignored}, path)
