@@ -477,7 +477,7 @@ def test_outputs_never_overwrite_inputs(case, tmp_path, csv_input, small_diction
 ])
 def test_training_and_inspect_commands_never_overwrite_their_input(args, tmp_path, capsys):
     if args[0] == "fit-cnn":
-        pytest.importorskip("torch")
+        pytest.importorskip("torch", reason="needs the [torch] extra")
     train = tmp_path / "train.npz"
     train.write_bytes((FIXTURES / "cmu_poses.npz").read_bytes())
     bvh = tmp_path / "clip.bvh"

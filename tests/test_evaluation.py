@@ -178,7 +178,7 @@ def test_cli_end_to_end(split, tmp_path, capsys):
 
 
 def test_cli_figures(split, tmp_path):
-    pytest.importorskip("matplotlib")
+    pytest.importorskip("matplotlib", reason="needs the [plot] extra")
     d = split["dir"]
     out = tmp_path / "report"
     assert main(["evaluate", "--dictionary", str(d / "dict.npz"), "--data",

@@ -29,7 +29,7 @@ def test_core_never_imports_torch():
     subprocess.run([sys.executable, "-c", code], check=True)
 
 
-torch = pytest.importorskip("torch")
+torch = pytest.importorskip("torch", reason="needs the [torch] extra")
 
 from sparseedm import recover  # noqa: E402
 from sparseedm.fconv import FConvModel, fit_fconv, fit_lifter, lift, load_model  # noqa: E402

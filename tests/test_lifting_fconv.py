@@ -42,7 +42,7 @@ def test_application_table_skips_fconv_rows_without_torch_or_models(monkeypatch)
     assert list(lifters) == ["x"] and "PyTorch is not installed" in notes[0]
 
 
-torch = pytest.importorskip("torch")
+torch = pytest.importorskip("torch", reason="needs the [torch] extra")
 
 from tests.test_fconv import one_thread  # noqa: E402,F401  (autouse: torch on 1 thread)
 from tests.test_lifting import _arrays, data, split  # noqa: E402,F401  (fixture poses, clip split)
