@@ -3,8 +3,8 @@
 ``python -m benchmarks [--quick]`` runs :mod:`benchmarks.fit` (dictionary
 learning: ours vs SPAMS ``trainDL`` vs scikit-learn) and
 :mod:`benchmarks.recovery` (lasso recovery: our fast and Clarabel paths vs
-SPAMS ``lasso``, scikit-learn ``sparse_encode``, naive cvxpy), and rewrites the
-tables in ``benchmarks/README.md``.
+SPAMS ``lasso``, scikit-learn ``sparse_encode``, naive cvxpy) and prints the
+tables; with ``--write-docs`` it also rewrites them in ``benchmarks/README.md``.
 
 This module holds what both share: the CMU data and its by-clip split, the
 alphas, machine and version facts, and table formatting.
@@ -31,8 +31,17 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 CMU_RAW = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "cmu-mocap"
-#: where a prebuilt CMU training set may already be (same command, same seed)
-CMU_CANDIDATES = (Path("/tmp/work/cmu_train.npz"), Path("/tmp/bench/cmu.npz"))
+
+
+def cache_dir() -> Path:
+    """The user's cache folder for sparseedm: ``$XDG_CACHE_HOME/sparseedm``, else
+    ``~/.cache/sparseedm`` (not a fixed temporary path others can write)."""
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "sparseedm"
+
+
+#: where the benchmarks' CMU training set is built once (same command, same seed)
+CMU_CACHE = "benchmarks-cmu_train.npz"
 SELECTION = ROOT / "dictionaries" / "selection.json"
 SHIPPED_K2000 = ROOT / "dictionaries" / "cmu-k2000.npz"
 DEFAULT_ALPHA_TRAIN = 0.2
@@ -48,11 +57,8 @@ def load_cmu():
 
     The set is ``sparseedm dataset build /work/shared/data/cmu-mocap --seed 0``.
     """
-    for p in CMU_CANDIDATES:
-        if p.is_file():
-            break
-    else:
-        p = CMU_CANDIDATES[-1]
+    p = cache_dir() / CMU_CACHE
+    if not p.is_file():
         p.parent.mkdir(parents=True, exist_ok=True)
         log(f"building the CMU training set into {p} (about 20 s)")
         subprocess.run([sys.executable, "-m", "sparseedm", "dataset", "build", str(CMU_RAW),

@@ -1,4 +1,4 @@
-"""``python -m benchmarks.adaptation [--quick] [--no-write]``: time of dictionary
+"""``python -m benchmarks.adaptation [--quick] [--write-docs]``: time of dictionary
 adaptation on 5,000 complete poses (issue "Learn from the user's own poses", item 6),
 against its peers measured in the same run.
 
@@ -138,7 +138,9 @@ def main(argv=None):
     ap = argparse.ArgumentParser(prog="python -m benchmarks.adaptation",
                                  description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="500 poses: a smoke test")
-    ap.add_argument("--no-write", action="store_true", help="print only")
+    ap.add_argument("--write-docs", action="store_true",
+                    help="also rewrite its block of benchmarks/README.md and its results "
+                    "JSON (tracked files); default: print only")
     args = ap.parse_args(argv)
     meta = dict(date=time.strftime("%Y-%m-%d %H:%M %Z"), machine=machine(),
                 versions=versions(), loadavg_start=loadavg(), quick=args.quick)
@@ -146,7 +148,7 @@ def main(argv=None):
     meta["loadavg_end"] = loadavg()
     text = render(res, meta)
     print(text)
-    if not args.no_write and not args.quick:
+    if args.write_docs and not args.quick:
         write_block("ADAPTATION", "Adaptation speed (benchmarks/adaptation.py)", text)
         (HERE_README.parent / "results-adaptation.json").write_text(
             json.dumps(dict(meta=meta, **res), indent=1, default=str))

@@ -1,7 +1,7 @@
 """FConv (sparseedm.fconv, torch extra): training time, CPU inference speed beside the
 sparse path, and the paper's Table 1 experiment with the 2D -> 3D network.
 
-    python -m benchmarks.fconv [--quick] [--cross DATASET.npz] [--no-write]
+    python -m benchmarks.fconv [--quick] [--cross DATASET.npz] [--write-docs]
 
 * **Training**: :func:`sparseedm.fconv.fit_fconv` (defaults: 'average', channels
   (32, 64), batch 256, Adam 1e-3, at most ``--epochs`` epochs, patience 4) on the
@@ -194,7 +194,7 @@ def main(argv=None):
     ap.add_argument("--cross", default=None, help="another source's dataset .npz (poses2d, "
                     "poses3d) for the Table 1 test, e.g. a Bandai-Namco build")
     ap.add_argument("--no-table1", action="store_true", help="skip the 2D -> 3D experiment")
-    ap.add_argument("--no-write", action="store_true", help="print only")
+    ap.add_argument("--write-docs", action="store_true", help="also rewrite its block of benchmarks/README.md and its results JSON (tracked files); default: print only")
     args = ap.parse_args(argv)
     cfg = QUICK if args.quick else FULL
     t0 = time.time()
@@ -228,7 +228,7 @@ def main(argv=None):
     res["minutes"] = (time.time() - t0) / 60
     text = render(res)
     print(text)
-    if not args.no_write:
+    if args.write_docs:
         write_block("FCONV", "FConv (torch extra)", text)
         (HERE / ("results-fconv-quick.json" if args.quick else "results-fconv.json")).write_text(
             json.dumps(res, indent=1, default=str))

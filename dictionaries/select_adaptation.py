@@ -123,7 +123,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data-dir", default="../shared/data")
     ap.add_argument("--work", default="/tmp/select_adaptation")
-    ap.add_argument("--out", default="dictionaries/selection_adaptation.json")
+    ap.add_argument("--out", default="selection_adaptation.json")
     ap.add_argument("--n-adapt", type=int, default=3000)
     ap.add_argument("--n-score", type=int, default=600)
     ap.add_argument("--directions", default="cmu->bandai,bandai->cmu,cmu->daz")

@@ -88,6 +88,7 @@ def main(argv=None):
             if args.sweep_atoms and name == "cmu-bandai" else []
         run("evaluate", "--dictionary", d, "--data", work / "test.npz",
             "--train", work / "train.npz", "--max-poses", args.max_poses, "--seed", 0,
+            "--max-train", 20000,
             "-o", work / f"report-{name}", *extra)
         print(f"report: {work / f'report-{name}' / 'report.md'}")
 

@@ -43,7 +43,7 @@ def inner_split(data, tr, seed=1, frac=0.2):
 def main(argv=None):
     ap = argparse.ArgumentParser()
     ap.add_argument("train")
-    ap.add_argument("-o", "--output", default="lifters/selection_decoder.json")
+    ap.add_argument("-o", "--output", default="selection_decoder.json")
     ap.add_argument("--max-train", type=int, default=15000)
     ap.add_argument("--max-val", type=int, default=1500)
     args = ap.parse_args(argv)

@@ -60,7 +60,7 @@ def judge(lifter, data, val, mask):
 def main(argv=None):
     ap = argparse.ArgumentParser()
     ap.add_argument("train")
-    ap.add_argument("-o", "--output", default="lifters/selection.json")
+    ap.add_argument("-o", "--output", default="selection.json")
     ap.add_argument("--max-train", type=int, default=15000)
     ap.add_argument("--max-val", type=int, default=1500)
     ap.add_argument("--stage", type=int, default=0, help="0 = both stages")

@@ -65,6 +65,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import _progress
 from ._validation import check_mask, check_poses, unmask, validate_params
 from .dictionary import Dictionary, load_dictionary
 from .edm import pose_to_vector
@@ -681,6 +682,9 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
         n_extra = len(extra)
         train = np.concatenate([train, extra])
     alpha_train = adaptation_alpha(dictionary) if alpha is None else alpha
+    if reuse is None:  # self_train's rounds say their own line
+        _progress.say(f"adapting the dictionary on {len(train):,} complete poses, "
+                      f"{len(held):,} held back to check it (seed {random_state})")
     t_step = time.perf_counter()
     X = _vectors(train)
     comps = adapt_vectors(dictionary.components, X, alpha_train, passes=passes, stats=stats,
@@ -818,7 +822,9 @@ def self_train(dictionary, result, adapt_poses, adapt_missing, poses, missing, *
     if len(inc) < MIN_SELF_TRAINING_POSES:
         return result
     current, history = result, []
-    for r in range(int(rounds)):
+    for r in _progress.steps(range(int(rounds)), f"self-training on {len(inc):,} incomplete "
+                             f"poses, up to {int(rounds)} rounds (seed {random_state})",
+                             total=int(rounds), unit="round"):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             rec = _recover(inc, mask, dictionary=current.dictionary, n_jobs=n_jobs)

@@ -78,7 +78,9 @@ import numpy as np
 
 from numbers import Integral, Real
 
+from . import _progress
 from ._atomic import atomic_path, check_paths, is_stream
+from ._extras import require as require_extra
 from ._validation import (ALPHA, BOOLEAN, CHUNK_SIZE, ENSEMBLE, N_JOBS, PATH, Interval,
                           Options, validate_params)
 from .dictionary import Dictionary, _resolve, check_gram_memory, load_dictionary
@@ -325,6 +327,10 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
     if method == "fconv" and ensemble > 1:
         raise SparseEDMError("ensemble averages adapted dictionaries: it needs "
                              "method='sparse'")
+    if backend == "dask":  # extras checked before the adaptation's minutes
+        require_extra("dask", "backend='dask'")
+    if method == "fconv":
+        require_extra("torch", "method='fconv'")
     in_path, out_path = Path(input), Path(output)
     errors_path = default_errors_path(out_path) if errors_path is None else Path(errors_path)
     if not in_path.exists():
@@ -504,6 +510,9 @@ def _run(source, in_fmt, out_path, out_fmt, errors_path, members, alpha,
             filled = np.empty((n, N_JOINTS, 2))
 
         temporal_summary = None
+        if not progress:  # else the bar says it
+            _progress.say(f"recovering {n:,} poses" + (
+                f" with each of {len(members)} dictionaries" if len(members) > 1 else ""))
         bar = tqdm(total=n, disable=not progress, unit="pose", desc="recover",
                    dynamic_ncols=True)
         with bar:

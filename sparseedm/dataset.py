@@ -284,7 +284,7 @@ def build_dataset(
     cam_opts = dict(camera_options or {})
     if joint_map is not None:
         joint_map = read_joint_map(joint_map)
-    parts, skipped, read, n_tpose, problems = [], [], 0, 0, []
+    parts, skipped, read, n_tpose, problems, chosen = [], [], 0, 0, [], []
     for path in _progress(files, len(files), progress, "dataset"):
         try:
             poses, info = load_mocap(path, units=units, joint_map=joint_map, return_info=True)
@@ -293,6 +293,8 @@ def build_dataset(
             warnings.warn(f"skipping {path}: {_skip_reason(path, exc)}", stacklevel=2)
             skipped.append((str(path), _skip_reason(path, exc)))
             continue
+        chosen.append({"path": str(path), "rig": info.get("rig"), "units": info.get("units"),
+                       "height": info.get("height"), "frames": int(poses.shape[0])})
         for problem in plausibility(poses, height=info.get("height"), name=str(path)):
             warnings.warn(problem, stacklevel=2)
             problems.append((str(path), problem))
@@ -350,7 +352,7 @@ def build_dataset(
         save_dataset(output, data)
     if return_report:
         report = {"files": read, "skipped": skipped, "poses": int(data["poses3d"].shape[0]),
-                  "tpose_frames": n_tpose, "warnings": problems}
+                  "tpose_frames": n_tpose, "warnings": problems, "chosen": chosen}
         return data, report
     return data
 

@@ -27,6 +27,7 @@ import numpy as np
 from joblib import Parallel, delayed, effective_n_jobs
 from threadpoolctl import threadpool_limits
 
+from . import _progress
 from .adaptation import resolve_adaptation
 from .edm import observed_entries
 
@@ -68,7 +69,14 @@ def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
             return [d], []
         dictionaries, adaptations = [d], [res]
         if int(n_members) <= 1 or not res.adapted:
+            if int(n_members) > 1:
+                _progress.say(f"ensemble: seed 0's adaptation was not adopted ({res.reason}): "
+                              f"the other {int(n_members) - 1} members are not fitted, the "
+                              "base dictionary recovers alone")
             return dictionaries, adaptations  # seed 0 not adopted: too few poses, or base better
+        more = int(n_members) - 1
+        _progress.say(f"ensemble: adapting {more} more "
+                      + ("dictionary (seed 1)" if more == 1 else f"dictionaries (seeds 1..{more})"))
         # The other seeds side by side, one thread each: a member's own steps use a
         # second thread poorly (1.2x), two members at once ran 1.37x faster than one
         # after the other with 2 threads, with bit-identical atoms (2 cores, 400 poses).
@@ -81,10 +89,13 @@ def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
                                             random_state=seed, warn=False,
                                             self_training=self_training)
                 for seed in range(1, int(n_members)))
-    for d, res in rest:
+    for seed, (d, res) in enumerate(rest, start=1):
         if res is not None and res.adapted:  # else this seed's guard kept the base:
             dictionaries.append(d)           # not a member to average
             adaptations.append(res)
+        else:
+            _progress.say(f"ensemble: member seed {seed} dropped: "
+                          f"{res.reason if res is not None else 'not adapted'}")
     return dictionaries, adaptations
 
 

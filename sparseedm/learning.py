@@ -35,6 +35,7 @@ import numba
 import numpy as np
 from scipy import sparse
 
+from . import _progress
 from .exceptions import DictionaryError, SparseEDMError
 from .solvers.fast import lars_lasso_gram
 
@@ -128,6 +129,7 @@ def update_dictionary(components, A, B, X=None, random_state=None):
     """
     C = np.ascontiguousarray(components)
     used = np.ones(C.shape[0], dtype=np.bool_)
+    _progress.jit(_bcd_pass, "dictionary learning")
     _bcd_pass(C, np.ascontiguousarray(A), np.ascontiguousarray(B), used)
     components[:] = C
     n_unused = int((~used).sum())

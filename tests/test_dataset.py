@@ -2,6 +2,7 @@
 
 import json
 import shutil
+import warnings
 import zipfile
 
 import numpy as np
@@ -88,7 +89,9 @@ def test_build_dataset_schema(mocap_dir, tmp_path):
     out = tmp_path / "train.npz"
     data, report = build_dataset(mocap_dir, out, cameras_per_pose=2, frame_step=5,
                                  progress=False, return_report=True)
+    chosen = report.pop("chosen")
     assert report == {"files": 2, "skipped": [], "poses": 16, "tpose_frames": 0, "warnings": []}
+    assert len(chosen) == 2 and all(c["height"] > 1 and c["units"] and c["rig"] for c in chosen)
     with np.load(out, allow_pickle=False) as npz:
         assert set(npz.files) == set(SCHEMA)
         assert npz["labels"].dtype.kind == "U"
@@ -204,6 +207,10 @@ def test_cli_build(mocap_dir, tmp_path, capsys):
     assert code == 0
     printed = capsys.readouterr().out
     assert "read 2 file(s), skipped 0" in printed and "wrote 12 poses" in printed
+    per_file = [line for line in printed.splitlines() if ": rig " in line]
+    assert len(per_file) == 2  # the rig, units and height chosen for each file
+    assert all(", units " in line and ", height " in line and " m, " in line
+               for line in per_file)
     data = load_dataset(out)
     assert len(data["labels"]) == 12
     ref = build_dataset(mocap_dir, cameras_per_pose=3, frame_step=10, random_state=7, progress=False)
@@ -212,10 +219,15 @@ def test_cli_build(mocap_dir, tmp_path, capsys):
 
 def test_cli_partial_and_bad_input(mocap_dir, tmp_path, capsys):
     (mocap_dir / "bvh" / "broken.bvh").write_text("HIERARCHY\n")
-    with pytest.warns(UserWarning):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a refusal is a printed line, not a Python warning
         code = main(["dataset", "build", str(mocap_dir), "-o", str(tmp_path / "p.npz")])
     assert code == 1
-    assert "skipped 1" in capsys.readouterr().out
+    printed = capsys.readouterr()
+    assert "skipped 1" in printed.out
+    skipped = [line for line in printed.out.splitlines() if "broken.bvh" in line]
+    assert len(skipped) == 1 and skipped[0].startswith("  skipped ")
+    assert "Warning" not in printed.err and "broken.bvh" not in printed.err
     code = main(["dataset", "build", str(mocap_dir), "-o", str(tmp_path / "q.npz"), "--quiet"])
     assert code == 1 and capsys.readouterr().out == ""
     code = main(["dataset", "build", str(tmp_path / "nowhere"), "-o", str(tmp_path / "r.npz")])

@@ -17,7 +17,7 @@ import importlib
 import sys
 import traceback
 
-from .. import __version__
+from .. import __version__, _progress
 from ..exceptions import SparseEDMError
 
 #: sub-command modules, in the order ``sparseedm --help`` lists them
@@ -73,8 +73,13 @@ def main(argv=None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return EXIT_BAD_INPUT
+    # long stages say what they are doing on stderr (a bar on a terminal) unless --quiet
+    _progress.enable(not getattr(args, "quiet", False))
     try:
         return int(args.func(args) or 0)
+    except BrokenPipeError:  # e.g. `sparseedm info default | head`: the reader has enough
+        _silence_stdout()
+        return 0
     except (SparseEDMError, OSError) as exc:  # bad input, or a file that cannot be made
         print(f"sparseedm {args.command}: error: {_one_line(exc)}", file=sys.stderr)
         return EXIT_BAD_INPUT
@@ -83,6 +88,8 @@ def main(argv=None) -> int:
         return EXIT_INTERRUPTED
     except Exception as exc:  # noqa: BLE001 - a bug must never read as rows refused
         return _internal_error(args, exc)
+    finally:
+        _progress.enable(False)
 
 
 def _one_line(exc) -> str:
@@ -99,6 +106,18 @@ def _internal_error(args, exc) -> int:
                                                " with the output of --debug"),
           file=sys.stderr)
     return EXIT_INTERNAL
+
+
+def _silence_stdout():
+    """Point stdout at /dev/null, so that the interpreter's final flush into the
+    closed pipe does not print a second BrokenPipeError."""
+    import os
+
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):  # no real stdout (e.g. captured): nothing to flush
+        pass
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -76,9 +76,10 @@ def run(args) -> int:
     """Build the dataset; exit code 0, or 1 if some files were skipped."""
     from ..dataset import build_dataset
 
-    with warnings.catch_warnings():
-        if args.quiet:
-            warnings.simplefilter("ignore")
+    # skipped files and implausible poses come back in the report and are printed
+    # below as one line each, not as Python warnings with their source line
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
         data, report = build_dataset(
             args.paths, args.output,
             cameras_per_pose=args.cameras_per_pose, frame_step=args.frame_step,
@@ -87,6 +88,15 @@ def run(args) -> int:
             camera=args.camera_per,
         )
     if not args.quiet:
+        for f in report["chosen"]:
+            height = f"{f['height']:.2f} m" if f["height"] is not None else "unknown"
+            print(f"  {f['path']}: rig {f['rig']}, units {f['units']}, height {height}, "
+                  f"{f['frames']} frames")
+        reported = {f"skipping {p}: {r}" for p, r in report["skipped"]} | {
+            w for _, w in report["warnings"]}
+        for w in caught:
+            if str(w.message) not in reported:
+                print(f"  warning: {w.message}")
         n_labels = len(set(data["labels"].tolist()))
         print(f"read {report['files']} file(s), skipped {len(report['skipped'])}; "
               f"wrote {report['poses']} poses ({n_labels} labels) to {args.output}")

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import sys
 
+from ._common import add_quiet
+
 
 def add_parser(sub):
     p = sub.add_parser(
@@ -44,6 +46,7 @@ def add_parser(sub):
     p.add_argument("--seed", type=int, default=0, help="occlusion seed (default 0)")
     p.add_argument("--jobs", type=int, default=1, help="threads for the lasso")
     p.add_argument("-o", "--output", required=True, help="report directory")
+    add_quiet(p)
     p.set_defaults(func=run)
 
 

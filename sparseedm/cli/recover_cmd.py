@@ -34,7 +34,9 @@ def add_parser(sub):
     p.add_argument("--alpha", type=float, default=None,
                    help="lasso penalty (default: the dictionary's recommended alpha)")
     p.add_argument("--jobs", type=int, default=1, metavar="N",
-                   help="worker processes (-1: all cores; default 1)")
+                   help="parallel workers (-1: all cores; default 1): threads with the "
+                   "default fast solver (its kernels release the GIL), processes with "
+                   "--solver clarabel, or --backend's")
     p.add_argument("--representation", choices=("average", "zero"), default="average",
                    help="occlusion representation (default average)")
     p.add_argument("--solver", choices=("fast", "clarabel"), default="fast",

@@ -46,6 +46,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import _progress
 from .._atomic import atomic_path
 from ..baselines import fit_baseline
 from ..exceptions import SparseEDMError
@@ -230,6 +231,8 @@ def evaluate_lifting(lifters, test, *, dictionary=None, train_poses2d=None,
         else:
             for p in pipelines:
                 if p in IMPUTERS:
+                    _progress.say(f"fitting the {p} imputer on at most {max_train:,} of "
+                                  f"{len(train_poses2d):,} training poses (seeded sample)")
                     imputers[p] = fit_baseline(p, train_poses2d, max_train=max_train,
                                                random_state=seed)
     rows, per_action, examples = [], [], {}
@@ -240,7 +243,10 @@ def evaluate_lifting(lifters, test, *, dictionary=None, train_poses2d=None,
             if pipe not in RETRAINED and (pipe != "joint" or lifter.codes_observed_only)]
     jobs += [(lf.method, lf, pipe) for pipe, rep in RETRAINED.items()
              if pipe in pipelines for lf in [retrained[rep]]]
-    for lname, lifter, pipe in jobs:
+    for lname, lifter, pipe in _progress.steps(jobs, f"lifting {n:,} test poses through "
+                                               f"{len(jobs)} lifter/pipeline pairs",
+                                               total=len(jobs), unit="pipeline"):
+        _progress.say(f"evaluating lifter {lname}, pipeline {pipe}")
         for count in (["none"] if pipe == "complete" else counts):
             mask = none_mask if pipe == "complete" else masks[count]
             t0 = time.perf_counter()

@@ -41,6 +41,8 @@ from itertools import combinations
 import numba
 import numpy as np
 
+from .. import _progress
+
 __all__ = ["classical_mds", "smacof", "align_to_image", "tetra_volumes",
            "ChiralityPrior", "reconstruct"]
 
@@ -121,6 +123,7 @@ def smacof(edm, init, *, max_iter=30, tol=1e-4):
     edm = np.ascontiguousarray(edm, dtype=float)
     Y = np.array(init, dtype=float)
     Y -= Y.mean(axis=-2, keepdims=True)
+    _progress.jit(_smacof_batch, "3D lifting")
     _smacof_batch(edm, Y, int(max_iter), float(tol))
     return Y - Y.mean(axis=-2, keepdims=True)
 

@@ -39,6 +39,7 @@ from collections import OrderedDict
 import numba
 import numpy as np
 
+from .. import _progress
 from .base import BaseSolver, OPTIMAL
 
 __all__ = ["FastSolver", "lars_lasso_gram"]
@@ -377,6 +378,7 @@ def lars_lasso_gram(G, DtX, alpha, *, positive=False, max_steps=500, rank=None):
     steps = np.zeros(DtX.shape[0], dtype=np.int64)
     kernel = _lars_batch if len(DtX) >= _PARALLEL_MIN else _lars_batch_serial
     rank = G.shape[0] if rank is None else min(int(rank), G.shape[0])
+    _progress.jit(kernel, "dictionary learning")
     kernel(G, DtX, float(alpha), bool(positive), int(max_steps), rank, coef, steps)
     return coef, steps
 
@@ -446,7 +448,9 @@ def lars_lasso_masked(G, D, X, observed, alpha, *, positive=False, max_steps=500
         return coef, steps
     args = (G, D, np.ascontiguousarray(D.T), X, miss, n_miss, alpha, bool(positive),
             int(max_steps), coef, steps)
-    if numba.get_num_threads() == 1:
+    serial = numba.get_num_threads() == 1
+    _progress.jit(_lars_masked_batch_serial if serial else _lars_masked_batch, "recovery")
+    if serial:
         # e.g. a joblib worker thread: numba's parallel launches would
         # serialise across threads (measured: 2 jobs at 0.8 cores)
         _lars_masked_batch_serial(*args)

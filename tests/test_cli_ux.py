@@ -1,0 +1,84 @@
+"""Command-line behaviour a user meets first: closed pipes, early extra checks, progress."""
+
+import io
+import sys
+
+import numpy as np
+import pytest
+
+from sparseedm import _progress
+from sparseedm.cli import build_parser, main
+
+
+class ClosedPipe(io.StringIO):
+    """A stdout whose reader has gone (`... | head`)."""
+
+    def write(self, text):
+        raise BrokenPipeError(32, "Broken pipe")
+
+
+def test_closed_pipe_ends_quietly(monkeypatch, capsys):
+    monkeypatch.setattr(sys, "stdout", ClosedPipe())
+    assert main(["info", "default"]) == 0
+    assert capsys.readouterr().err == ""
+
+
+def test_recover_jobs_help_says_threads():
+    sub = next(a for a in build_parser()._actions if a.dest == "command")
+    jobs = next(a for a in sub.choices["recover"]._actions if a.dest == "jobs")
+    assert "threads" in jobs.help and "worker processes" not in jobs.help
+
+
+def test_dask_backend_without_the_extra_fails_before_any_work(monkeypatch, tmp_path,
+                                                               capsys):
+    import sparseedm._extras as extras
+    import sparseedm.batch as batch
+
+    monkeypatch.setattr(extras, "have", lambda extra: extra != "dask")
+    monkeypatch.setattr(batch, "_adapt", lambda *a, **k: pytest.fail("adapted before the check"))
+    src = tmp_path / "in.npy"
+    np.save(src, np.ones((3, 14, 2)))
+    out = tmp_path / "out.npy"
+    assert main(["recover", str(src), "-o", str(out), "--backend", "dask"]) == 2
+    assert "needs distributed (the sparseedm[dask] extra)" in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_progress_lines_on_stderr_and_none_with_quiet(cmu_poses, small_dictionary_path,
+                                                      tmp_path, capsys):
+    rng = np.random.default_rng(0)
+    poses = np.concatenate([cmu_poses, cmu_poses + rng.normal(0, 1, cmu_poses.shape)])
+    poses[rng.random(len(poses)) < 0.3, 3] = np.nan
+    src = tmp_path / "in.npy"
+    np.save(src, poses)
+    args = ["recover", str(src), "--dictionary", str(small_dictionary_path),
+            "--self-training", "1"]
+    assert main(args + ["-o", str(tmp_path / "a.npy")]) == 0
+    err = capsys.readouterr().err
+    assert "sparseedm: adapting the dictionary on" in err
+    assert f"sparseedm: recovering {len(poses):,} poses" in err
+    assert main(args + ["-o", str(tmp_path / "b.npy"), "--quiet"]) == 0
+    assert "sparseedm: " not in capsys.readouterr().err
+    assert not _progress.enabled()  # main() turns it off again: the API stays silent
+
+
+def test_ensemble_names_each_dropped_member(monkeypatch, capsys):
+    import sparseedm.ensemble as ens
+    from sparseedm.adaptation import AdaptationResult
+
+    def fake(dictionary, poses, missing, adapt, *, random_state, **kw):
+        adopted = random_state != 2
+        return dictionary, AdaptationResult(
+            dictionary=dictionary, adapted=adopted,
+            reason="better" if adopted else "the adapted dictionary was not better")
+
+    monkeypatch.setattr(ens, "resolve_adaptation", fake)
+    _progress.enable(True)
+    try:
+        members, _ = ens.adapt_members("d", None, None, "auto", 4)
+    finally:
+        _progress.enable(False)
+    assert len(members) == 3
+    err = capsys.readouterr().err
+    assert "ensemble: member seed 2 dropped: the adapted dictionary was not better" in err
+    assert "seed 1 dropped" not in err and "seed 3 dropped" not in err
