@@ -46,31 +46,66 @@ def _save(fig, path):
     return path
 
 
-def _draw_skeleton(ax, pose, color, missing=None, label=None, style="-"):
+#: bone colours by side (the person's left and right, as in SKELETON_14)
+SIDE_COLORS = {"left": "tab:blue", "right": "tab:red", "centre": "0.25"}
+
+
+def bone_side(bone, skeleton=SKELETON_14):
+    """``"left"``, ``"right"`` or ``"centre"``: the side of the bone's child joint.
+
+    >>> bone_side((1, 5)), bone_side((1, 2)), bone_side((1, 0))
+    ('left', 'right', 'centre')
+    """
+    child = bone[1]
+    if child in skeleton.joints_left:
+        return "left"
+    return "right" if child in skeleton.joints_right else "centre"
+
+
+def side_legend(fig, extra=(), ncol=None):
+    """A legend for the side colours (and `extra` (handle, label) pairs) below the panels,
+    off the skeletons."""
+    from matplotlib.lines import Line2D
+
+    items = [(Line2D([], [], color=c, lw=2), f"{s} side") for s, c in SIDE_COLORS.items()
+             if s != "centre"] + list(extra)
+    fig.legend([h for h, _ in items], [t for _, t in items], loc="lower center",
+               ncol=ncol or len(items), fontsize=8, frameon=False, bbox_to_anchor=(0.5, 0.0))
+
+
+def _draw_bones(ax, pose, *, sided=True, color="0.7", style="-", lw=1.8):
+    """The bones of `pose` (N, 2): coloured by side (:data:`SIDE_COLORS`), or all `color`."""
     for a, b in SKELETON_14.bones():
-        ax.plot(pose[[a, b], 0], pose[[a, b], 1], style, color=color, lw=1.5)
-    ax.plot(pose[:, 0], pose[:, 1], "o", color=color, ms=3, label=label)
-    if missing is not None and missing.any():
-        ax.plot(pose[missing, 0], pose[missing, 1], "x", color="red", ms=9, mew=2)
+        c = SIDE_COLORS[bone_side((a, b))] if sided else color
+        ax.plot(pose[[a, b], 0], pose[[a, b], 1], style, color=c, lw=lw)
 
 
 def plot_poses(gt, missing, recovered, path, titles=None):
-    """Input (occluded joints marked x), recovered and ground truth, one panel per pose.
+    """Recovered poses over their ground truth, one panel per pose, left/right coloured.
 
-    Image axes: x right, y down.
+    The recovered skeleton's bones are coloured by side (the person's left and
+    right), the ground truth is dotted grey underneath, the observed joints
+    (the input) are black dots and the recovered occluded joints orange crosses.
+    The legend sits below the panels, off the skeletons. Image axes: x right,
+    y down.
     """
+    from matplotlib.lines import Line2D
+
     gt = np.asarray(gt, float)
     recovered = np.asarray(recovered, float)
     missing = np.asarray(missing, bool)
     k = len(gt)
-    fig = _figure(3.2 * k, 4.2)
+    fig = _figure(3.0 * k, 4.6)
     for i in range(k):
         ax = fig.add_subplot(1, k, i + 1)
-        observed = np.where(missing[i][:, None], np.nan, gt[i])
-        _draw_skeleton(ax, gt[i], "0.7", label="ground truth", style="--")
+        _draw_bones(ax, gt[i], sided=False, color="0.65", style=":", lw=1.5)
         if np.isfinite(recovered[i]).all():
-            _draw_skeleton(ax, recovered[i], "tab:blue", missing[i], label="recovered")
-        _draw_skeleton(ax, observed, "k", label="input (observed)")
+            _draw_bones(ax, recovered[i])
+            m = missing[i]
+            ax.plot(recovered[i][m, 0], recovered[i][m, 1], "x", color="darkorange", ms=9,
+                    mew=2.2)
+        obs = gt[i][~missing[i]]
+        ax.plot(obs[:, 0], obs[:, 1], "o", color="k", ms=3)
         ax.set_aspect("equal")
         ax.margins(0.15)
         ax.invert_yaxis()  # image axes: y down
@@ -78,8 +113,12 @@ def plot_poses(gt, missing, recovered, path, titles=None):
         ax.set_yticks([])
         if titles is not None:
             ax.set_title(titles[i], fontsize=9)
-        if i == 0:
-            ax.legend(fontsize=7, loc="lower left")
+    fig.subplots_adjust(bottom=0.16)
+    side_legend(fig, [
+        (Line2D([], [], color="0.65", ls=":", lw=1.5), "ground truth"),
+        (Line2D([], [], color="k", marker="o", ls="", ms=3), "observed joint (input)"),
+        (Line2D([], [], color="darkorange", marker="x", ls="", ms=8, mew=2),
+         "recovered occluded joint")])
     return _save(fig, path)
 
 

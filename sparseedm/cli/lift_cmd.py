@@ -18,15 +18,18 @@ def add_parser(sub):
         "CMU-learned coupled dictionary, which codes only the observed joints' distances, "
         "so occluded poses need no separate recovery). Writes x, y, z per joint in metres "
         "(pelvis at the origin, camera axes, size from the lifter's body-size prior) "
-        "with a status per row to OUTPUT (.csv, .npz or .json); refused rows go to an "
-        "errors file. Exit code 0: all rows lifted; 1: some refused; 2: bad input.",
+        "with a status per row to OUTPUT (.csv, .npz or .json), or as OpenSim marker "
+        "trajectories (.trc: one frame per pose, y up); refused rows go to an "
+        "errors file. --plot draws a few lifted poses. "
+        "Exit code 0: all rows lifted; 1: some refused; 2: bad input.",
     )
     p.add_argument("input", help="keypoints: .csv, .npz, .npy or COCO-style .json")
-    p.add_argument("-o", "--output", required=True, help="3D output: .csv, .npz or .json")
+    p.add_argument("-o", "--output", required=True,
+                   help="3D output: .csv, .npz, .json or .trc (OpenSim)")
     p.add_argument("--lifter", default=None, metavar="NAME|PATH",
                    help="shipped lifter name or lifter .npz (default: the shipped default)")
     p.add_argument("--jobs", type=int, default=1, metavar="N", help="threads (default 1)")
-    p.add_argument("--format", choices=("csv", "npz", "json"), default=None,
+    p.add_argument("--format", choices=("csv", "npz", "json", "trc"), default=None,
                    help="output format (default: from OUTPUT's extension)")
     p.add_argument("--errors", default=None, metavar="FILE",
                    help="errors file (default OUTPUT stem + .errors.csv)")
@@ -35,6 +38,11 @@ def add_parser(sub):
     p.add_argument("--confidence-threshold", type=float, default=None, metavar="T",
                    help="joints with a confidence below T count as missing (default: the "
                    "input format's, as for recover)")
+    p.add_argument("--rate", type=float, default=30.0, metavar="HZ",
+                   help="frames per second written to a .trc output (default 30)")
+    p.add_argument("--plot", default=None, metavar="PNG",
+                   help="also draw the first 4 lifted poses from the front and the side, "
+                   "left/right coloured (needs matplotlib: pip install 'sparseedm[plot]')")
     add_quiet(p)
     p.set_defaults(func=run)
 
@@ -46,13 +54,15 @@ def run(args):
     s = lift_file(args.input, args.output, lifter=args.lifter, n_jobs=args.jobs,
                   output_format=args.format, errors_path=args.errors,
                   confidence_threshold=args.confidence_threshold,
-                  representation=args.representation)
+                  representation=args.representation, rate=args.rate, plot=args.plot)
     out = sys.stderr if args.quiet or is_stream(args.output) else sys.stdout  # -o /dev/stdout
     rate = f"{s['poses_per_second']:,.0f} poses/s" if s["poses_per_second"] else "-"
     counts = ", ".join(f"{k} {v}" for k, v in s["status"].items()) or "none"
     print(f"wrote {s['output']}\nposes: {s['poses']}  rows refused: {s['refused']}  "
           f"ambiguous depth reflections: {s['ambiguous_reflection']}\n"
           f"time: {s['seconds']:.2f} s  ({rate})\nstatus: {counts}", file=out)
+    if s.get("plot"):
+        print(f"figure: {s['plot']}", file=out)
     if s["refused"]:
         print(f"sparseedm lift: {s['refused']} row(s) refused; see {s['errors']}",
               file=sys.stderr)

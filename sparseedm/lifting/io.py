@@ -13,7 +13,14 @@ Input: any keypoint file :func:`sparseedm.keypoints.read_keypoints` reads
            ``status``, ``reason``, ``chirality_margin``, ``joint_names`` and
            ``ids`` when the input had them;
 ``.json``  a list of ``{"id", "status", "reason", "joints": {name: [x, y, z] or
-           null}}``.
+           null}}``;
+``.trc``   OpenSim's marker-trajectory format (:mod:`sparseedm.lifting.trc`): one
+           frame per pose at ``rate`` frames per second, one marker per joint,
+           metres, turned to y up; refused poses as empty fields.
+
+With ``plot``, a PNG of a few lifted poses from two viewpoints
+(:func:`sparseedm.lifting.plotting.plot_lifted`; needs the ``plot`` extra,
+checked before any work).
 
 Refused rows (see :data:`sparseedm.lifting.STATUSES`) are listed in an errors
 file ``<output stem>.errors.csv`` (``row,id,status,reason``), as
@@ -29,16 +36,19 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import _progress
 from .._atomic import atomic_path, check_paths, save_npz
+from .._extras import require as require_extra
 from ..batch import _write_errors, default_errors_path
-from ..exceptions import FileFormatError
+from ..exceptions import FileFormatError, SparseEDMError
 from ..keypoints import read_keypoints
 from ..skeleton import JOINT_NAMES
 from .lift import lift
+from .trc import write_trc
 
 __all__ = ["lift_file", "write_poses3d", "OUTPUT_FORMATS"]
 
-OUTPUT_FORMATS = {".csv": "csv", ".npz": "npz", ".json": "json"}
+OUTPUT_FORMATS = {".csv": "csv", ".npz": "npz", ".json": "json", ".trc": "trc"}
 
 
 def _num(v):
@@ -53,13 +63,14 @@ def _output_format(path, output_format):
                               "(or drop the format)")
     fmt = output_format or by_name
     if fmt not in OUTPUT_FORMATS.values():
-        raise FileFormatError(f"{path}: cannot tell the output format; use .csv, .npz or "
-                              ".json or pass --format")
+        raise FileFormatError(f"{path}: cannot tell the output format; use .csv, .npz, "
+                              ".json or .trc or pass --format")
     return fmt
 
 
-def write_poses3d(path, result, ids=None, output_format=None):
-    """Write a :class:`~sparseedm.lifting.LiftResult` atomically (format from the extension)."""
+def write_poses3d(path, result, ids=None, output_format=None, rate=30.0):
+    """Write a :class:`~sparseedm.lifting.LiftResult` atomically (format from the extension;
+    `rate`: frames per second of a .trc)."""
     path = Path(path)
     fmt = _output_format(path, output_format)
     n = len(result.status)
@@ -72,6 +83,8 @@ def write_poses3d(path, result, ids=None, output_format=None):
                             reason=result.reason.astype(str),
                             chirality_margin=result.chirality_margin, ids=ids,
                             joint_names=np.array(JOINT_NAMES)))
+    elif fmt == "trc":
+        write_trc(path, P, rate=rate)
     elif fmt == "csv":
         with atomic_path(path) as tmp, open(tmp, "w", newline="", encoding="utf-8") as f:
             w = csv.writer(f)
@@ -95,7 +108,7 @@ def write_poses3d(path, result, ids=None, output_format=None):
 
 
 def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, errors_path=None,
-              confidence_threshold=None, representation="average"):
+              confidence_threshold=None, representation="average", rate=30.0, plot=None):
     """Read 2D keypoints, lift them, write 3D poses and an errors file; return a summary.
 
     `confidence_threshold`: joints scored below it are missing; default the
@@ -103,20 +116,39 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
 
     Nothing the run reads is ever written, and no output overwrites another:
     the paths are checked (:func:`sparseedm._atomic.check_paths`) before any work.
+    `rate` is a .trc output's frames per second; `plot` a PNG path for a few
+    lifted poses (matplotlib checked first). The summary's ``plot`` is the
+    figure written, or None.
     """
     errors = Path(errors_path) if errors_path else default_errors_path(output)
     _output_format(output, output_format)
+    if not float(rate) > 0:
+        raise SparseEDMError(f"the .trc frame rate must be > 0, got {rate}")
+    if plot is not None:
+        require_extra("plot", "--plot")
     inputs = [("input", input)]
     if isinstance(lifter, (str, os.PathLike)) and (Path(lifter).suffix == ".npz"
                                                     or os.path.lexists(lifter)):
         inputs.append(("lifter", lifter))  # whatever its name: a file the run reads
-    check_paths(inputs, [("output", output), ("errors file", errors)])
+    check_paths(inputs, [("output", output), ("errors file", errors), ("plot", plot)])
     kps = read_keypoints(input, confidence_threshold=confidence_threshold)
+    _progress.say(f"lifting {len(kps.poses):,} poses to 3D")
     result = lift(kps.poses, kps.missing, lifter=lifter, n_jobs=n_jobs,
                   representation=representation)
-    write_poses3d(output, result, kps.ids, output_format)
+    write_poses3d(output, result, kps.ids, output_format, rate=rate)
     refused = ~result.ok
     _write_errors(errors, refused, kps.ids, result.status, result.reason)
     summary = result.summary()
-    summary.update(output=str(output), errors=str(errors) if refused.any() else None)
+    summary.update(output=str(output), errors=str(errors) if refused.any() else None,
+                   plot=str(_plot(plot, result, kps.ids)) if plot is not None else None)
     return summary
+
+
+def _plot(path, result, ids, k=4):
+    """The first `k` lifted poses drawn to `path` (front and side views)."""
+    from .plotting import plot_lifted
+
+    rows = np.flatnonzero(result.ok)[:k]
+    ids = np.arange(len(result.status)).astype(str) if ids is None else np.asarray(ids, str)
+    return plot_lifted(result.poses3d[rows], path, titles=[str(ids[r]) for r in rows],
+                       missing=result.missing[rows])

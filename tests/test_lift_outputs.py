@@ -1,0 +1,84 @@
+"""`sparseedm lift` outputs one can look at and use elsewhere: TRC files and --plot."""
+
+import numpy as np
+import pytest
+
+from sparseedm.cli import main
+from sparseedm.lifting.trc import read_trc, write_trc
+from sparseedm.skeleton import JOINT_NAMES
+
+
+def test_trc_header_and_rows_follow_the_format(tmp_path):
+    poses = np.random.default_rng(0).normal(size=(3, 14, 3))
+    poses[1] = np.nan  # a refused pose
+    path = write_trc(tmp_path / "p.trc", poses, rate=50)
+    lines = path.read_text().split("\n")
+    assert lines[0].split("\t") == ["PathFileType", "4", "(X/Y/Z)", "p.trc"]
+    head = dict(zip(lines[1].split("\t"), lines[2].split("\t")))
+    assert head == {"DataRate": "50", "CameraRate": "50", "NumFrames": "3", "NumMarkers": "14",
+                    "Units": "m", "OrigDataRate": "50", "OrigDataStartFrame": "1",
+                    "OrigNumFrames": "3"}
+    names = lines[3].split("\t")
+    assert names[:2] == ["Frame#", "Time"]
+    assert [n for n in names[2:] if n] == list(JOINT_NAMES)
+    assert names.index("neck") - names.index("head_top") == 3  # X, Y, Z columns each
+    assert lines[4].split("\t")[2:5] == ["X1", "Y1", "Z1"]
+    rows = [line.split("\t") for line in lines[6:] if line]
+    assert [r[0] for r in rows] == ["1", "2", "3"]
+    assert [float(r[1]) for r in rows] == [0.0, 0.02, 0.04]
+    assert all(len(r) == 2 + 42 for r in rows)
+    assert rows[1][2:] == [""] * 42
+    # y up: camera y (down) is negated
+    assert float(rows[0][3]) == pytest.approx(-poses[0, 0, 1], abs=1e-6)
+    back = read_trc(path)
+    np.testing.assert_allclose(back["poses"], poses, atol=1e-6)
+    assert back["rate"] == 50 and back["units"] == "m" and back["markers"] == list(JOINT_NAMES)
+
+
+def test_lift_writes_a_trc_that_parses_back(fixtures_dir, tmp_path, capsys):
+    out = tmp_path / "poses.trc"
+    csv_out = tmp_path / "poses.csv"
+    src = str(fixtures_dir.parents[1] / "examples" / "occluded_poses.csv")
+    assert main(["lift", src, "-o", str(out), "--rate", "25", "-q"]) == 0
+    assert main(["lift", src, "-o", str(csv_out), "-q"]) == 0
+    trc = read_trc(out)
+    assert len(trc["poses"]) == 50 and trc["rate"] == 25
+    np.testing.assert_allclose(trc["times"], np.arange(50) / 25, atol=1e-6)
+    import csv
+
+    with open(csv_out, newline="") as f:
+        rows = list(csv.DictReader(f))
+    from_csv = np.array([[[float(r[f"{j}_{a}"]) for a in "xyz"] for j in JOINT_NAMES]
+                         for r in rows])
+    np.testing.assert_allclose(trc["poses"], from_csv, atol=1e-6)
+    head, ankle = JOINT_NAMES.index("head_top"), JOINT_NAMES.index("left_ankle")
+    up = -trc["poses"][..., 1]  # what TRC's y holds
+    assert (up[:, head] > up[:, ankle]).mean() > 0.9
+
+
+def test_lift_refuses_a_bad_rate_before_any_work(tmp_path, capsys):
+    assert main(["lift", "missing.csv", "-o", str(tmp_path / "p.trc"), "--rate", "0"]) == 2
+    assert "frame rate must be > 0" in capsys.readouterr().err
+
+
+def test_lift_plot(fixtures_dir, tmp_path, capsys):
+    pytest.importorskip("matplotlib", reason="needs the [plot] extra")
+    src = str(fixtures_dir.parents[1] / "examples" / "occluded_poses.csv")
+    png = tmp_path / "poses.png"
+    assert main(["lift", src, "-o", str(tmp_path / "p.csv"), "--plot", str(png)]) == 0
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert f"figure: {png}" in capsys.readouterr().out
+
+
+def test_lift_plot_without_matplotlib_fails_before_work(monkeypatch, fixtures_dir, tmp_path,
+                                                        capsys):
+    import sparseedm._extras as extras
+    import sparseedm.lifting.io as io
+
+    monkeypatch.setattr(extras, "have", lambda extra: extra != "plot")
+    monkeypatch.setattr(io, "lift", lambda *a, **k: pytest.fail("lifted before the check"))
+    src = str(fixtures_dir.parents[1] / "examples" / "occluded_poses.csv")
+    out = tmp_path / "p.csv"
+    assert main(["lift", src, "-o", str(out), "--plot", str(tmp_path / "x.png")]) == 2
+    assert "--plot needs matplotlib (the sparseedm[plot] extra)" in capsys.readouterr().err
+    assert not out.exists()
