@@ -91,6 +91,8 @@ def run(data_dir, n_frames):
             poses, missing, tracks=tracks, frames=frames))
         sparseedm.recover(poses[:50], missing[:50], adapt=False)  # JIT warm-up
         for name, kw in (("file: default video path (time, adapt auto)", {}),
+                         ("file: time, adapt auto, --self-training 0",
+                          dict(self_training=0)),
                          ("file: --no-temporal (per frame, adapt auto)",
                           dict(temporal=False))):
             s, sec = timed(lambda: recover_file(inp, Path(tmp) / "out.csv", **kw))
