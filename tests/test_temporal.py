@@ -293,3 +293,14 @@ def test_cli_uses_time_and_no_temporal_turns_it_off(tmp_path, track, small_dicti
                             adapt=False)
     np.testing.assert_array_equal(per.poses, api.poses)  # --no-temporal: per frame, exactly
     assert _error(timed.poses, truth, mask) < _error(per.poses, truth, mask)
+
+
+def test_a_runaway_per_frame_answer_gets_no_weight():
+    from sparseedm.temporal.recover import _runaway
+
+    pose = np.array([[0.0, 0.0], [10.0, 0.0], [0.0, 10.0], [10.0, 10.0]])[None]
+    mask = np.array([[False, False, False, True]])
+    assert not _runaway(pose, mask)[0]
+    far = pose.copy()
+    far[0, 3] = [500.0, 500.0]  # 35 extents away
+    assert _runaway(far, mask)[0]

@@ -39,6 +39,10 @@ SOURCES = {
     "per_frame": "filled by the per-frame pose model alone (the row is outside any track)",
     "": "not filled (the row was refused)",
 }
+#: a per-frame answer that places a joint further than this many times the
+#: observed joints' extent from their centre gets no weight (a runaway
+#: placement; the per-frame path's rare silent outliers, README's video results)
+RUNAWAY_EXTENTS = 3.0
 #: relative residual of a trajectory's banded solve above which its rows are
 #: 'inaccurate' instead of 'recovered'
 RESIDUAL_TOL = 1e-8
@@ -163,11 +167,24 @@ def _per_frame(poses, mask, need, members, settings, kwargs):
         for key in _PER_FRAME_KEYS:
             fields[key][rows] = getattr(res, key)
         full[rows] = res.poses
-        confidence[rows] = _confidence(res.status, settings)
+        confidence[rows] = _confidence(res.status, settings) * ~_runaway(
+            res.poses, mask[rows])
         alpha = res.alpha
     if alpha is None:
         alpha = members[0].alpha_recover
     return _PerFrame(full, confidence, fields, rows, float(alpha))
+
+
+def _runaway(filled, mask):
+    """Rows (n,) whose filled joints lie further than :data:`RUNAWAY_EXTENTS`
+    extents of the observed joints from their centre."""
+    with np.errstate(invalid="ignore"):
+        obs = np.where(mask[..., None], np.nan, filled)
+        center = np.nanmean(obs, axis=1)
+        extent = np.nanmax(np.nanmax(obs, axis=1) - np.nanmin(obs, axis=1), axis=1)
+        dist = np.linalg.norm(filled - center[:, None, :], axis=-1)
+        far = np.where(mask, dist, 0.0) > RUNAWAY_EXTENTS * extent[:, None]
+    return far.any(axis=1)
 
 
 def recover_temporal(poses, missing=None, *, tracks=None, frames, dictionary=None,
