@@ -45,8 +45,9 @@ GOAL_SECONDS = 10.0
 def run(quick=False):
     import sparseedm
     from sparseedm.adaptation import (DEFAULT_PASSES, SELF_TRAINING_MAX_POSES,
-                                      SELF_TRAINING_ROUNDS, _vectors, adapt_vectors,
-                                      adaptation_alpha, run_adaptation, self_train)
+                                      SELF_TRAINING_ROUNDS, adapt_vectors,
+                                      adaptation_alpha, pose_vectors as _vectors,
+                                      run_adaptation, self_train)
     from sparseedm.baselines import fit_baseline
     from sparseedm.learning import OnlineDictionaryLearning
     from sparseedm.metrics import random_occlusion

@@ -60,7 +60,7 @@ def profile(n=2000):
             if path.endswith(suffix) and func in names:
                 cum[stage] = cum.get(stage, 0.0) + ct
     total = next(ct for (path, _, func), (_, _, _, ct, _) in stats.items()
-                 if path.endswith("recovery.py") and func == "_recover")
+                 if path.endswith("_recovery_kernel.py") and func == "recover_sparse")
     cum["other (validation, grouping, tasks, merge, assembly)"] = total - sum(cum.values())
     return dict(n=n, wall=wall, total=total, stages=cum)
 

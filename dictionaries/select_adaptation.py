@@ -63,7 +63,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sparseedm.adaptation import _vectors, adapt_vectors, masked_error, run_adaptation
+from sparseedm.adaptation import adapt_vectors, masked_error, pose_vectors as _vectors, run_adaptation
 from sparseedm.dictionary import Dictionary, load_dictionary
 
 def build(data_dir, work, name, seed):

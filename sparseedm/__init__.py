@@ -13,8 +13,7 @@ See README.md for the tour; the modules, one per idea:
 - :mod:`sparseedm.lifting`    lift(): 2D poses -> 3D (coupled dictionary or MLP, then MDS)
 """
 
-__version__ = "0.1.0"
-
+from ._version import __version__
 from .dictionary import Dictionary, load_dictionary  # noqa: E402
 from .recovery import OcclusionRecoverer, RecoveryResult, recover  # noqa: E402
 from .adaptation import adapt  # noqa: E402

@@ -62,16 +62,20 @@ from __future__ import annotations
 import time
 import warnings
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
 from . import _progress
+from ._parallel import numba_threads
+from ._recovery_kernel import RECOVER_PARAMS, recover_members, recover_sparse
 from ._validation import check_mask, check_poses, unmask, validate_params
 from .dictionary import Dictionary, load_dictionary
 from .edm import pose_to_vector
 from .exceptions import PoseError, SparseEDMError
-from .learning import (OnlineDictionaryLearning, iter_batches, sparse_code,
-                       _numba_threads)
+from .learning import (OnlineDictionaryLearning, complete_pose_vectors, iter_batches,
+                       load_training_poses, poses_sha256, sparse_code)
+from .metrics import err_ave, occlusion_masks
 from .normalize import normalize
 from .skeleton import SKELETON_14
 
@@ -79,7 +83,7 @@ __all__ = ["adapt", "run_adaptation", "adapt_vectors", "AdaptationResult",
            "usable_rows", "duplicate_rows", "reconstruction_error", "outlier_rows",
            "swapped_rows", "filter_poses", "holdout_blocks", "resolve_adaptation",
            "masked_error", "guard_masks", "sample_complete", "sample_stream", "fine_tune_file",
-           "evaluate_adaptation", "self_train", "MIN_COMPLETE_POSES", "ADAPTED_ALPHA_TRAIN",
+           "self_train", "MIN_COMPLETE_POSES", "ADAPTED_ALPHA_TRAIN",
            "adaptation_alpha", "STATS", "SELF_TRAINING_ROUNDS"]
 
 #: Fewest complete poses (after filtering) that ``adapt="auto"`` adapts on;
@@ -246,18 +250,18 @@ def swapped_rows(poses, components, alpha, *, skeleton=SKELETON_14, ratio=0.5, e
     names = skeleton.joint_names
     arms = [(a, b) for a, b in pairs if any(k in names[a] for k in ("shoulder", "elbow", "wrist"))]
     legs = [p for p in pairs if p not in arms]
-    base = reconstruction_error(_vectors(poses), components, alpha) if errors is None \
+    base = reconstruction_error(pose_vectors(poses), components, alpha) if errors is None \
         else np.asarray(errors, dtype=float)
     groups = [g for g in (arms, legs) if g]
     if not groups:
         return np.zeros(len(poses), dtype=bool)
     # the arms- and the legs-exchanged poses coded in one batch
-    err = reconstruction_error(np.vstack([_vectors(_swap(poses, g)) for g in groups]),
+    err = reconstruction_error(np.vstack([pose_vectors(_swap(poses, g)) for g in groups]),
                                components, alpha).reshape(len(groups), len(poses))
     return (err < ratio * base).any(axis=0)
 
 
-def _vectors(poses):
+def pose_vectors(poses):
     normed, _, _ = normalize(poses)
     return pose_to_vector(normed)
 
@@ -283,7 +287,7 @@ def filter_poses(poses, dictionary, *, outlier_factor=3.0, swap_ratio=0.5):
     keep = usable_rows(poses)
     counts = {"incomplete": int((~keep).sum())}
     idx = np.flatnonzero(keep)
-    X = _vectors(poses[idx])
+    X = pose_vectors(poses[idx])
     dup = duplicate_rows(X)
     counts["duplicate"] = int(dup.sum())
     idx, X = idx[~dup], X[~dup]
@@ -431,8 +435,6 @@ def guard_masks(n_poses, n_joints, n_patterns=None, random_state=0):
     >>> len(np.unique(m, axis=0)) <= 10, sorted(set(m.sum(axis=1).tolist())) <= [1, 2, 3]
     (True, True)
     """
-    from .evaluation import occlusion_masks
-
     if n_patterns is None or n_patterns >= n_poses:
         return occlusion_masks(n_poses, n_joints, ("mix",), random_state)["mix"]
     patterns = occlusion_masks(n_patterns, n_joints, ("mix",), random_state)["mix"]
@@ -448,15 +450,14 @@ def masked_error(dictionary, poses, *, random_state=0, alpha=None, n_jobs=1, n_p
     with `n_patterns`, that many patterns shared round the poses (faster).
     Every dictionary compared on the same poses sees the same occlusions.
     """
-    from .metrics import err_ave
-    from .recovery import recover
-
+    validate_params("recover", dict(dictionary=dictionary, alpha=alpha, n_jobs=n_jobs),
+                    RECOVER_PARAMS)
     poses = np.asarray(poses, dtype=float)
     mask = guard_masks(len(poses), poses.shape[1], n_patterns, random_state)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        res = recover(np.where(mask[..., None], np.nan, poses), mask, dictionary=dictionary,
-                      alpha=alpha, adapt=False, n_jobs=n_jobs)
+        res = recover_members(np.where(mask[..., None], np.nan, poses), mask, [dictionary], [],
+                              alpha=alpha, n_jobs=n_jobs)
     e = err_ave(res.vectors * res.scale[:, None], pose_to_vector(poses))
     e = e[res.ok & np.isfinite(e)]
     return float(e.mean()) if len(e) else float("nan")
@@ -686,7 +687,7 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
         _progress.say(f"adapting the dictionary on {len(train):,} complete poses, "
                       f"{len(held):,} held back to check it (seed {random_state})")
     t_step = time.perf_counter()
-    X = _vectors(train)
+    X = pose_vectors(train)
     comps = adapt_vectors(dictionary.components, X, alpha_train, passes=passes, stats=stats,
                           memory=memory, replay=replay, batch_size=batch_size,
                           random_state=random_state, n_jobs=n_jobs)
@@ -711,7 +712,7 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
     t_step = time.perf_counter()
     guard_kw = dict(random_state=random_state, n_jobs=n_jobs,
                     n_patterns=max(1, len(held) // GUARD_POSES_PER_PATTERN))
-    with _numba_threads(n_jobs):
+    with numba_threads(n_jobs):
         e0 = (reuse.err_base if reuse is not None and np.isfinite(reuse.err_base)
               else masked_error(dictionary, held, **guard_kw))
         e1 = masked_error(candidate, held, **guard_kw)
@@ -813,8 +814,6 @@ def self_train(dictionary, result, adapt_poses, adapt_missing, poses, missing, *
     >>> self_train(d, res, None, None, np.zeros((3, 14, 2)), None) is res
     True
     """
-    from .recovery import _recover
-
     if rounds <= 0 or not result.adapted or poses is None:
         return result
     t0 = time.perf_counter()
@@ -827,7 +826,7 @@ def self_train(dictionary, result, adapt_poses, adapt_missing, poses, missing, *
                              total=int(rounds), unit="round"):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            rec = _recover(inc, mask, dictionary=current.dictionary, n_jobs=n_jobs)
+            rec = recover_sparse(inc, mask, dictionary=current.dictionary, n_jobs=n_jobs)
         filled = rec.poses[rec.status == "recovered"]
         new = run_adaptation(dictionary, adapt_poses, adapt_missing, extra=filled,
                              random_state=random_state, n_jobs=n_jobs, reuse=result)
@@ -975,12 +974,8 @@ def fine_tune_file(train_path, output, init="default", *, passes=DEFAULT_PASSES,
     -------
     Dictionary
     """
-    from pathlib import Path
-
-    from .learning import _load_training_poses, _sha256, complete_pose_vectors
-
     base = init if isinstance(init, Dictionary) else load_dictionary(init)
-    poses = _load_training_poses(train_path)
+    poses = load_training_poses(train_path)
     X, ok = complete_pose_vectors(poses)
     if len(X) == 0:
         raise SparseEDMError(f"{train_path}: no complete poses to fine-tune on")
@@ -992,7 +987,7 @@ def fine_tune_file(train_path, output, init="default", *, passes=DEFAULT_PASSES,
                           replay=replay, batch_size=batch_size, random_state=random_state,
                           n_jobs=n_jobs)
     prov = {
-        "files": [Path(train_path).name], "n_poses": int(len(X)), "sha256": _sha256(poses),
+        "files": [Path(train_path).name], "n_poses": int(len(X)), "sha256": poses_sha256(poses),
         "sha256_of": "poses2d float64 values", "seed": random_state, "passes": passes,
         "batch_size": batch_size, "fine_tuned_from": dict(base.provenance or {}),
         "stats": stats,
@@ -1003,76 +998,3 @@ def fine_tune_file(train_path, output, init="default", *, passes=DEFAULT_PASSES,
                    positive_code=base.positive_code, provenance=prov)
     d.save(output)
     return d
-
-
-# --------------------------------------------------------------------------
-# the evaluation protocol
-
-def evaluate_adaptation(dictionary, test_poses2d, adapt_poses2d, *,
-                        methods=("sparse", "mean-fill", "knn", "iterative", "nearest"),
-                        counts=("mix",), representations=("average",), random_state=0,
-                        n_jobs=1, max_poses=None, max_train=20000, alpha=None, fconv_models=(),
-                        self_training=SELF_TRAINING_ROUNDS, ensemble=1, **adapt_kwargs):
-    """:func:`sparseedm.evaluation.evaluate` with the adaptation protocol.
-
-    The dictionary (learned on source A) is evaluated cold (``sparse``) and
-    adapted (``sparse-adapted``): ``recover(..., adapt=adapt_poses2d)`` on each
-    occluded test set, i.e. :func:`run_adaptation` on `adapt_poses2d` (the
-    dictionary the guard chose) followed by :func:`self_train` on the occluded
-    test poses (their observed joints; `self_training` rounds, default
-    ``SELF_TRAINING_ROUNDS``; with non-default adaptation settings in
-    `adapt_kwargs` the row is the adaptation alone); the baselines that need
-    training poses are fitted on the same adaptation poses. `test_poses2d` should come from other
-    clips of the adaptation poses' source (complete poses, occluded by the
-    protocol's seeded masks). `fconv_models` are passed to ``evaluate`` (FConv
-    rows, not adapted). ``ensemble=K`` averages K adapted dictionaries in the
-    ``sparse-adapted`` row (:mod:`sparseedm.ensemble`).
-
-    Returns
-    -------
-    EvaluationReport
-        Rows for ``sparse``, ``sparse-adapted`` and the baselines; the notes
-        and ``settings["adaptation"]`` say what adaptation did.
-    """
-    from .evaluation import _PARAMS, evaluate
-
-    validate_params("evaluate_adaptation", {"self_training": self_training,
-                                            "ensemble": ensemble}, _PARAMS)
-    if ensemble > 1 and adapt_kwargs:
-        raise SparseEDMError("ensemble runs recover()'s default adaptation: it cannot be "
-                             f"combined with adaptation settings ({', '.join(adapt_kwargs)})")
-    self_training = SELF_TRAINING_ROUNDS if self_training is None else self_training
-    if not isinstance(dictionary, Dictionary):
-        dictionary = load_dictionary(dictionary)
-    adapt_poses2d = np.asarray(adapt_poses2d, dtype=float)
-    common = dict(counts=counts, representations=representations, random_state=random_state,
-                  n_jobs=n_jobs, max_poses=max_poses, alpha=alpha)
-    report = evaluate(dictionary, test_poses2d, train_poses2d=adapt_poses2d, methods=methods,
-                      max_train=max_train, fconv_models=fconv_models, **common)
-    res = run_adaptation(dictionary, adapt_poses2d, random_state=random_state, n_jobs=n_jobs,
-                         **adapt_kwargs)
-    report.notes.append(res.line().replace("adaptation:", "sparse-adapted:", 1))
-    report.settings["adaptation"] = res.summary()
-    if "sparse" in methods:
-        if (self_training or ensemble > 1) and res.adapted and not adapt_kwargs:
-            # the protocol as recover() runs it: adapt, then self-train on the test inputs
-            adapted = evaluate(dictionary, test_poses2d, methods=("sparse",),
-                               adapt=adapt_poses2d, self_training=self_training,
-                               ensemble=ensemble, **common)
-            report.notes.extend(n for n in adapted.notes
-                                if "self-training" in n or "ensemble of" in n)
-        else:
-            adapted = evaluate(res.dictionary, test_poses2d, methods=("sparse",), **common)
-        rows = []
-        for r in report.rows:
-            rows.append(r)
-            if r["method"] == "sparse":
-                twin = adapted.table(method="sparse", representation=r["representation"],
-                                     count=r["count"])[0]
-                rows.append(dict(twin, method="sparse-adapted",
-                                 note="" if res.adapted else "guard kept the base dictionary"))
-        report.rows = rows
-        for (m, rep, c), e in adapted.per_pose.items():
-            report.per_pose[("sparse-adapted", rep, c)] = e
-        report.settings["methods"] = list(report.settings["methods"]) + ["sparse-adapted"]
-    return report

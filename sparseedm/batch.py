@@ -83,16 +83,17 @@ from ._atomic import atomic_path, check_paths, is_stream
 from ._extras import require as require_extra
 from ._validation import (ALPHA, BOOLEAN, CHUNK_SIZE, ENSEMBLE, N_JOBS, PATH, Interval,
                           Options, validate_params)
-from .dictionary import Dictionary, _resolve, check_gram_memory, load_dictionary
+from .dictionary import Dictionary, dictionary_path, check_gram_memory, load_dictionary
 from ._safeio import resolved
 from .exceptions import FileFormatError, OutputPathError, SparseEDMError
 from .formats import FILLED_SCORE, count_below, default_threshold, threshold_line
 from .formats import FORMATS as FOLDER_OR_TABLE_FORMATS
-from .keypoints import (N_JOINTS, _EXTENSIONS, _finish, _format_of, _np_load,
+from .keypoints import (N_JOINTS, EXTENSIONS, finish_missing, format_of, load_single_npy,
                         npy_confidence, read_keypoints, write_keypoints)
 from .keypoints import output_format as keypoint_output_format
+from ._recovery_base import OK_STATUSES
 from .normalize import REPRESENTATIONS
-from .recovery import STATUSES, _OK, check_options_apply, recover
+from .recovery import STATUSES, check_options_apply, recover
 from .skeleton import JOINT_NAMES
 from .solvers import get_solver
 
@@ -157,7 +158,7 @@ class _NpySource:
     def __init__(self, path, threshold):
         self.path = path
         self.threshold = threshold
-        arr = _np_load(path, mmap_mode="r")
+        arr = load_single_npy(path, mmap_mode="r")
         if isinstance(arr, np.lib.npyio.NpzFile):
             arr.close()
             raise FileFormatError(f"{path}: expected a single .npy array, found an .npz archive")
@@ -190,7 +191,7 @@ class _NpySource:
         poses = block[..., :2]
         conf = npy_confidence(block, str(self.path), start) if block.shape[-1] == 3 else None
         missing = np.zeros(poses.shape[:2], dtype=bool)
-        return _finish(poses, missing, conf, self.threshold)
+        return finish_missing(poses, missing, conf, self.threshold)
 
     def close(self):
         mm = getattr(self.arr, "base", None)
@@ -202,10 +203,10 @@ class _NpySource:
 
 def _output_format(out_path, in_fmt, output_format):
     ext = out_path.suffix.lower()
-    named = ext in _EXTENSIONS or ext in (".h5", ".hdf5", ".hdf")
+    named = ext in EXTENSIONS or ext in (".h5", ".hdf5", ".hdf")
     if output_format is None:
         return keypoint_output_format(out_path, None, in_fmt) if named else in_fmt
-    fmt = _format_of(out_path, output_format)
+    fmt = format_of(out_path, output_format)
     by_name = keypoint_output_format(out_path, None, fmt) if named else None
     if by_name is not None and by_name != fmt:
         raise OutputPathError(
@@ -335,13 +336,13 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
     errors_path = default_errors_path(out_path) if errors_path is None else Path(errors_path)
     if not in_path.exists():
         raise FileNotFoundError(f"{in_path}: no such file")
-    in_fmt = _format_of(in_path, None)
+    in_fmt = format_of(in_path, None)
     out_fmt = _output_format(out_path, in_fmt, output_format)
     # nothing the run reads is ever written, and no output overwrites another
     inputs = [("input", in_path)]
     if not isinstance(dictionary, Dictionary):
         with contextlib.suppress(SparseEDMError):
-            inputs.append(("dictionary", _resolve(dictionary)))
+            inputs.append(("dictionary", dictionary_path(dictionary)))
     if isinstance(adapt, (str, os.PathLike)) and adapt != "auto":
         inputs.append(("adaptation poses", Path(adapt)))
     if isinstance(model, (str, os.PathLike)):
@@ -572,8 +573,8 @@ def _run(source, in_fmt, out_path, out_fmt, errors_path, members, alpha,
             filled.flush()
             del filled
 
-        refused = ~np.isin(status, _OK)
-        _write_errors(errors_path, refused, ids, status, reason)
+        refused = ~np.isin(status, OK_STATUSES)
+        write_errors(errors_path, refused, ids, status, reason)
     seconds = time.perf_counter() - t0
     counts = {s: int((status == s).sum()) for s in STATUSES}
     return {
@@ -649,7 +650,7 @@ def _json_num(v):
     return None if math.isnan(v) else float(v)
 
 
-def _write_errors(path, refused, ids, status, reason):
+def write_errors(path, refused, ids, status, reason):
     if not refused.any():
         _remove_stale_errors(path)
         return

@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__
+from ._version import __version__
 from ._atomic import save_npz
 from ._safeio import available_memory, load_npz_file, parse_meta, require_file
 from ._shipped import resolve_shipped, shipped_names
@@ -305,9 +305,13 @@ def available_dictionaries() -> list[str]:
     return shipped_names("sparseedm.dictionaries", DEFAULT_DICTIONARY)
 
 
-def _resolve(name_or_path):
+def dictionary_path(name_or_path):
     return resolve_shipped(name_or_path, "sparseedm.dictionaries", DEFAULT_DICTIONARY,
                            DictionaryError, "dictionary")
+
+
+#: the name before issue 22 made it public (tests and code in flight use it)
+_resolve = dictionary_path
 
 
 def load_dictionary(name_or_path=None, *, n_joints=None) -> Dictionary:
@@ -330,7 +334,7 @@ def load_dictionary(name_or_path=None, *, n_joints=None) -> Dictionary:
     validate_params("load_dictionary", dict(name_or_path=name_or_path, n_joints=n_joints),
                     {"name_or_path": ["path", None],
                      "n_joints": [Interval(Integral, 1, None), None]})
-    path = _resolve(name_or_path)
+    path = dictionary_path(name_or_path)
     require_file(path, "dictionary", DictionaryError)
     arrays, names = load_npz_file(path, ("components", "joint_names", "meta"),
                                   error=DictionaryError, kind="dictionary",

@@ -23,13 +23,12 @@ from __future__ import annotations
 
 import warnings
 
-import numpy as np
 from joblib import Parallel, delayed, effective_n_jobs
 from threadpoolctl import threadpool_limits
 
 from . import _progress
 from .adaptation import resolve_adaptation
-from .edm import observed_entries
+from ._recovery_base import combine
 
 __all__ = ["adapt_members", "combine"]
 
@@ -97,68 +96,3 @@ def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
             _progress.say(f"ensemble: member seed {seed} dropped: "
                           f"{res.reason if res is not None else 'not adapted'}")
     return dictionaries, adaptations
-
-
-#: a row's status in the ensemble: the first of these any member gave it
-_PRECEDENCE = ("solver_failed", "inaccurate")
-
-
-def combine(results):
-    """One :class:`~sparseedm.recovery.RecoveryResult` from members' results on the same poses.
-
-    Filled poses and EDM vectors are the means over the members. A row's
-    status is the members' common status; where they differ, a solver failure
-    of any member fails the row (its joints and vectors NaN, as a failed row of
-    one recovery), else an uncertified ("inaccurate") answer of any member is
-    reported; the reason is that member's. Objective, gap and active atoms are the first
-    member's (each member's certificate is of its own lasso); ``fallback`` is
-    true if any member fell back to Clarabel. ``seconds`` is the members' sum.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> import sparseedm
-    >>> pose = np.array([[50, 10], [50, 30], [35, 32], [30, 55], [28, 78],
-    ...                  [65, 32], [70, 55], [72, 78], [40, 80], [40, 115],
-    ...                  [40, 150], [60, 80], [60, 115], [60, 150]], float)
-    >>> pose[4] = np.nan
-    >>> one = sparseedm.recover(pose, adapt=False)
-    >>> both = combine([one, one])
-    >>> bool(np.allclose(both.poses, one.poses, equal_nan=True)), both.status.tolist()
-    (True, ['recovered'])
-    """
-    results = list(results)
-    first = results[0]
-    if len(results) == 1:
-        return first
-    ok = np.stack([r.ok for r in results])  # (members, n)
-    with np.errstate(invalid="ignore"):  # rows not usable in every member are set below
-        poses = np.mean([r.poses for r in results], axis=0)
-        vectors = np.mean([r.vectors for r in results], axis=0)
-    # what every member keeps as given stays bit for bit (a mean of equal floats
-    # need not be that float): the observed joints and their distances
-    observed = ~first.missing
-    poses = np.where(observed[..., None], first.poses, poses)
-    vectors = np.where(observed_entries(first.missing), first.vectors, vectors)
-    # object arrays: a member's longer status or reason must not be cut to the
-    # first member's string width
-    status = first.status.astype(object)
-    reason = first.reason.astype(object)
-    for bad in _PRECEDENCE[::-1]:  # the first of _PRECEDENCE wins
-        for r in results[::-1]:
-            hit = r.status == bad
-            status[hit] = r.status[hit]
-            reason[hit] = r.reason[hit]
-    unusable = ~ok.all(axis=0)  # refused by the screening (all members) or failed
-    poses[unusable] = np.nan
-    vectors[unusable] = np.nan
-    refused = ~ok[0]  # refused rows come back as one recovery returns them
-    poses[refused] = first.poses[refused]
-    vectors[refused] = first.vectors[refused]
-    return type(first)(
-        poses=poses, vectors=vectors, missing=first.missing, center=first.center,
-        scale=first.scale, objective=first.objective, gap=first.gap, n_active=first.n_active,
-        status=status.astype(str), reason=reason.astype(str),
-        fallback=np.any([r.fallback for r in results], axis=0), alpha=first.alpha,
-        seconds=float(sum(r.seconds for r in results)), adaptation=first.adaptation,
-        dictionary=first.dictionary, members=len(results))

@@ -58,12 +58,14 @@ from .baselines import BASELINES, fit_baseline, mean_fill
 from .dictionary import Dictionary, load_dictionary
 from .edm import pose_to_vector
 from .exceptions import DictionaryError, ParameterError, PoseError, SparseEDMError
-from .metrics import err_ave, joint_error, random_occlusion
+from .metrics import check_counts, err_ave, joint_error, occlusion_masks
 from .normalize import REPRESENTATIONS
+from ._recovery_kernel import recover_members
+from .adaptation import SELF_TRAINING_ROUNDS, run_adaptation
 from .ensemble import adapt_members
-from .recovery import _recover_members, recover
+from .recovery import recover
 
-__all__ = ["evaluate", "sweep_atoms", "occlusion_masks", "torso_size",
+__all__ = ["evaluate", "evaluate_adaptation", "sweep_atoms", "occlusion_masks", "torso_size",
            "EvaluationReport", "METHODS", "OPTIONAL_METHODS", "RESULT_COLUMNS"]
 
 #: every method evaluate knows, in table order
@@ -72,7 +74,6 @@ METHODS = ("sparse",) + tuple(BASELINES)
 OPTIONAL_METHODS = ("fconv",)
 #: methods whose output does not depend on the occlusion representation
 _REP_INDEPENDENT = ("knn", "iterative", "nearest")
-_COUNT_KEYS = {1: 1, 2: 2, 3: 3, "mix": 0}
 
 RESULT_COLUMNS = (
     "method", "representation", "count", "n_poses", "n_failed",
@@ -97,20 +98,7 @@ _PARAMS = {
 }
 
 
-def _check_counts(counts):
-    out = []
-    for c in counts:
-        c = str(c).lower()
-        if c == "mix":
-            out.append("mix")
-        elif c in ("1", "2", "3"):
-            out.append(int(c))
-        else:
-            raise SparseEDMError(f"unknown occlusion count {c!r}; use 1, 2, 3 or mix")
-    return tuple(out)
-
-
-def _check_methods(methods):
+def check_methods(methods):
     methods = tuple(methods)
     known = METHODS + OPTIONAL_METHODS
     unknown = [m for m in methods if m not in known]
@@ -119,28 +107,6 @@ def _check_methods(methods):
             f"unknown method(s) {', '.join(map(repr, unknown))}; known: {', '.join(known)}"
         )
     return methods
-
-
-def occlusion_masks(n_poses, n_joints, counts=(1, 2, 3, "mix"), random_state=0):
-    """The protocol's seeded masks, one (n_poses, n_joints) array per count.
-
-    Each count's seed is ``(random_state, count)``: the same masks whatever
-    other counts or methods are run.
-
-    Examples
-    --------
-    >>> m = occlusion_masks(5, 14, (2, "mix"), random_state=0)
-    >>> m[2].sum(axis=1).tolist()
-    [2, 2, 2, 2, 2]
-    >>> bool((m["mix"] == occlusion_masks(5, 14, ("mix",), 0)["mix"]).all())
-    True
-    """
-    out = {}
-    for c in _check_counts(counts):
-        seed = None if random_state is None else np.random.SeedSequence(
-            [int(random_state), _COUNT_KEYS[c]])
-        out[c] = random_occlusion(n_poses, n_joints, c, random_state=np.random.default_rng(seed))
-    return out
 
 
 def torso_size(poses, joint_names):
@@ -403,7 +369,7 @@ def _recover_adapted(inputs, mask, dictionary, adapt, cache, *, self_training, e
     if "adapted" not in cache:
         cache["adapted"] = adapt_members(dictionary, inputs, mask, adapt, ensemble,
                                          n_jobs=n_jobs, self_training=self_training)
-    return _recover_members(inputs, mask, *cache["adapted"], n_jobs=n_jobs, **kw)
+    return recover_members(inputs, mask, *cache["adapted"], n_jobs=n_jobs, **kw)
 
 
 def evaluate(dictionary, test_poses2d, *, train_poses2d=None, labels=None,
@@ -465,8 +431,8 @@ def evaluate(dictionary, test_poses2d, *, train_poses2d=None, labels=None,
         dictionary=dictionary, random_state=random_state, n_jobs=n_jobs,
         max_poses=max_poses, max_train=max_train, alpha=alpha, n_examples=n_examples,
         self_training=self_training, ensemble=ensemble), _PARAMS)
-    methods = _check_methods(methods)
-    counts = _check_counts(counts)
+    methods = check_methods(methods)
+    counts = check_counts(counts)
     for r in representations:
         if r not in REPRESENTATIONS:
             raise SparseEDMError(f"unknown representation {r!r}; use one of {REPRESENTATIONS}")
@@ -711,3 +677,74 @@ def sweep_atoms(train_poses2d, test_poses2d, atoms=(100, 250, 500, 1000, 2000), 
                     "ms_per_pose": 1000 * res.seconds / len(test), "fit_seconds": fit_s,
                     "note": ""})
     return out
+
+
+# --------------------------------------------------------------------------
+# the adaptation evaluation protocol (moved here from sparseedm.adaptation)
+
+def evaluate_adaptation(dictionary, test_poses2d, adapt_poses2d, *,
+                        methods=("sparse", "mean-fill", "knn", "iterative", "nearest"),
+                        counts=("mix",), representations=("average",), random_state=0,
+                        n_jobs=1, max_poses=None, max_train=20000, alpha=None, fconv_models=(),
+                        self_training=SELF_TRAINING_ROUNDS, ensemble=1, **adapt_kwargs):
+    """:func:`sparseedm.evaluation.evaluate` with the adaptation protocol.
+
+    The dictionary (learned on source A) is evaluated cold (``sparse``) and
+    adapted (``sparse-adapted``): ``recover(..., adapt=adapt_poses2d)`` on each
+    occluded test set, i.e. :func:`run_adaptation` on `adapt_poses2d` (the
+    dictionary the guard chose) followed by :func:`self_train` on the occluded
+    test poses (their observed joints; `self_training` rounds, default
+    ``SELF_TRAINING_ROUNDS``; with non-default adaptation settings in
+    `adapt_kwargs` the row is the adaptation alone); the baselines that need
+    training poses are fitted on the same adaptation poses. `test_poses2d` should come from other
+    clips of the adaptation poses' source (complete poses, occluded by the
+    protocol's seeded masks). `fconv_models` are passed to ``evaluate`` (FConv
+    rows, not adapted). ``ensemble=K`` averages K adapted dictionaries in the
+    ``sparse-adapted`` row (:mod:`sparseedm.ensemble`).
+
+    Returns
+    -------
+    EvaluationReport
+        Rows for ``sparse``, ``sparse-adapted`` and the baselines; the notes
+        and ``settings["adaptation"]`` say what adaptation did.
+    """
+    validate_params("evaluate_adaptation", {"self_training": self_training,
+                                            "ensemble": ensemble}, _PARAMS)
+    if ensemble > 1 and adapt_kwargs:
+        raise SparseEDMError("ensemble runs recover()'s default adaptation: it cannot be "
+                             f"combined with adaptation settings ({', '.join(adapt_kwargs)})")
+    self_training = SELF_TRAINING_ROUNDS if self_training is None else self_training
+    if not isinstance(dictionary, Dictionary):
+        dictionary = load_dictionary(dictionary)
+    adapt_poses2d = np.asarray(adapt_poses2d, dtype=float)
+    common = dict(counts=counts, representations=representations, random_state=random_state,
+                  n_jobs=n_jobs, max_poses=max_poses, alpha=alpha)
+    report = evaluate(dictionary, test_poses2d, train_poses2d=adapt_poses2d, methods=methods,
+                      max_train=max_train, fconv_models=fconv_models, **common)
+    res = run_adaptation(dictionary, adapt_poses2d, random_state=random_state, n_jobs=n_jobs,
+                         **adapt_kwargs)
+    report.notes.append(res.line().replace("adaptation:", "sparse-adapted:", 1))
+    report.settings["adaptation"] = res.summary()
+    if "sparse" in methods:
+        if (self_training or ensemble > 1) and res.adapted and not adapt_kwargs:
+            # the protocol as recover() runs it: adapt, then self-train on the test inputs
+            adapted = evaluate(dictionary, test_poses2d, methods=("sparse",),
+                               adapt=adapt_poses2d, self_training=self_training,
+                               ensemble=ensemble, **common)
+            report.notes.extend(n for n in adapted.notes
+                                if "self-training" in n or "ensemble of" in n)
+        else:
+            adapted = evaluate(res.dictionary, test_poses2d, methods=("sparse",), **common)
+        rows = []
+        for r in report.rows:
+            rows.append(r)
+            if r["method"] == "sparse":
+                twin = adapted.table(method="sparse", representation=r["representation"],
+                                     count=r["count"])[0]
+                rows.append(dict(twin, method="sparse-adapted",
+                                 note="" if res.adapted else "guard kept the base dictionary"))
+        report.rows = rows
+        for (m, rep, c), e in adapted.per_pose.items():
+            report.per_pose[("sparse-adapted", rep, c)] = e
+        report.settings["methods"] = list(report.settings["methods"]) + ["sparse-adapted"]
+    return report

@@ -193,7 +193,7 @@ FORMATS = ("npz", "npy", "csv", "coco") + formats.FORMATS
 #: Per-row result arrays of :func:`sparseedm.batch.recover_file` an ``.npz`` keeps.
 RESULT_FIELDS = ("status", "reason", "objective", "gap", "n_active", "edm_vectors",
                  "center", "scale")
-_EXTENSIONS = {".npz": "npz", ".npy": "npy", ".csv": "csv", ".json": "coco"}
+EXTENSIONS = {".npz": "npz", ".npy": "npy", ".csv": "csv", ".json": "coco"}
 _H5 = (".h5", ".hdf5", ".hdf")
 #: CSV column suffixes of the joint columns
 _SUFFIXES = ("x", "y", "conf", "filled")
@@ -299,7 +299,7 @@ class KeypointSet:
 # shared helpers
 
 
-def _format_of(path: Path, format):
+def format_of(path: Path, format):
     if format is not None:
         fmt = {"json": "coco", "posetrack": "coco", "deeplabcut": "dlc"}.get(format, format)
         if fmt not in FORMATS:
@@ -311,13 +311,13 @@ def _format_of(path: Path, format):
     if detected is not None:
         return detected
     ext = path.suffix.lower()
-    if ext not in _EXTENSIONS:
+    if ext not in EXTENSIONS:
         raise FileFormatError(
             f"{path}: cannot tell the keypoint format from the extension {ext!r}; "
-            f"use {', '.join(_EXTENSIONS)}, .h5 (DeepLabCut), a folder (OpenPose) or "
+            f"use {', '.join(EXTENSIONS)}, .h5 (DeepLabCut), a folder (OpenPose) or "
             f"pass format= (one of {FORMATS})"
         )
-    return _EXTENSIONS[ext]
+    return EXTENSIONS[ext]
 
 
 def output_format(path, format=None, read_format=None):
@@ -333,18 +333,18 @@ def output_format(path, format=None, read_format=None):
     """
     path = Path(path)
     if format is not None:
-        return _format_of(path, format)
+        return format_of(path, format)
     ext = path.suffix.lower()
     suits = {"openpose": ("", ".json"), "mmpose": (".json",), "dlc": (".csv",) + _H5}
     if ext in suits.get(read_format, ()):
         return read_format
     if ext in _H5:
         return "dlc"
-    if ext not in _EXTENSIONS:
+    if ext not in EXTENSIONS:
         raise FileFormatError(
             f"{path}: cannot tell the keypoint format from the extension {ext!r}; "
-            f"use {', '.join(_EXTENSIONS)}, .h5 or pass format= (one of {FORMATS})")
-    return _EXTENSIONS[ext]
+            f"use {', '.join(EXTENSIONS)}, .h5 or pass format= (one of {FORMATS})")
+    return EXTENSIONS[ext]
 
 
 def _joint_count_error(where, n_joints):
@@ -355,7 +355,7 @@ def _joint_count_error(where, n_joints):
     )
 
 
-def _finish(poses, missing, confidence, threshold):
+def finish_missing(poses, missing, confidence, threshold):
     """Combine every missing source, blank the missing joints."""
     missing = missing | np.isnan(poses).any(axis=-1)
     if confidence is not None:
@@ -458,7 +458,7 @@ def read_keypoints(path, *, format=None, confidence_threshold=None, joint_map=No
         path=path, confidence_threshold=confidence_threshold, joint_map=joint_map),
         _READ_PARAMS)
     path = Path(path)
-    fmt = _format_of(path, format)
+    fmt = format_of(path, format)
     if confidence_threshold is None:
         confidence_threshold = formats.default_threshold(fmt)
     if fmt in formats.FORMATS:
@@ -476,7 +476,7 @@ def read_keypoints(path, *, format=None, confidence_threshold=None, joint_map=No
 def _from_parsed(parsed, threshold):
     """A KeypointSet from a :class:`sparseedm.formats.Parsed`: thresholds applied,
     the joints the file flags as filled kept present."""
-    poses, missing = _finish(parsed.poses, ~parsed.present, parsed.confidence, threshold)
+    poses, missing = finish_missing(parsed.poses, ~parsed.present, parsed.confidence, threshold)
     poses, missing = _keep_filled(parsed.poses, poses, missing, parsed.filled)
     parsed.meta.update(read_missing=missing)
     return KeypointSet(poses, missing, parsed.confidence, parsed.ids, parsed.meta,
@@ -491,7 +491,7 @@ _READ_PARAMS = {
 _ZIP_MAGIC = b"PK\x03\x04"
 
 
-def _np_load(path, mmap_mode=None):
+def load_single_npy(path, mmap_mode=None):
     """One ``.npy`` array, bounded (:func:`sparseedm._safeio.load_npy`): pickles
     refused, every failure a FileFormatError."""
     with open(path, "rb") as f:
@@ -544,7 +544,7 @@ def _read_npz(path, threshold):
     if missing is None:
         missing = np.zeros((n, N_JOINTS), dtype=bool)
     raw = poses
-    poses, missing = _finish(poses, missing, confidence, threshold)
+    poses, missing = finish_missing(poses, missing, confidence, threshold)
     poses, missing = _keep_filled(raw, poses, missing, filled)
     ignored = sorted(set(names) - set(arrays) - {"poses", "missing", "confidence", "ids",
                                                  "filled"} - set(TIME_KEYS))
@@ -614,13 +614,13 @@ def npy_confidence(block, where, first_row=0):
 
 
 def _read_npy(path, threshold):
-    arr = _np_load(path)
+    arr = load_single_npy(path)
     _kind(arr, "fiu", path, "the array", "real numbers")
     arr = _check_pose_array(arr, str(path))
     poses = arr[..., :2]
     confidence = npy_confidence(arr, str(path)) if arr.shape[-1] == 3 else None
     missing = np.zeros(poses.shape[:2], dtype=bool)
-    poses, missing = _finish(poses, missing, confidence, threshold)
+    poses, missing = finish_missing(poses, missing, confidence, threshold)
     return KeypointSet(poses, missing, confidence, None, {})
 
 
@@ -690,7 +690,7 @@ def _read_csv(path, threshold):
             extra[name].append(fields[c])
     missing = np.zeros((n, N_JOINTS), dtype=bool)
     raw = poses
-    poses, missing = _finish(poses, missing, conf, threshold)
+    poses, missing = finish_missing(poses, missing, conf, threshold)
     poses, missing = _keep_filled(raw, poses, missing, filled)
     ids = None if ids is None else np.asarray(ids, dtype=str).reshape(n)
     tracks = np.asarray([t.strip() for t in extra["track"]], dtype=str).reshape(n) \
@@ -1119,3 +1119,11 @@ def _write_coco(path, poses, mask, ids, meta, where, filled, filled_score, track
     with atomic_path(path) as tmp:
         with open(tmp, "w", encoding="utf-8") as f:
             json.dump(doc, f)
+
+
+# the private names these helpers had before issue 22 made them public (the
+# batch reader shares them), kept for code written against the old names
+_EXTENSIONS = EXTENSIONS
+_finish = finish_missing
+_format_of = format_of
+_np_load = load_single_npy

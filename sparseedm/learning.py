@@ -37,6 +37,7 @@ from scipy import sparse
 
 from . import _progress
 from .exceptions import DictionaryError, SparseEDMError
+from ._parallel import numba_threads
 from .solvers.fast import lars_lasso_gram
 
 __all__ = [
@@ -296,7 +297,7 @@ class OnlineDictionaryLearning:
 
     def _step(self, X_batch):
         A, B = self.inner_stats_
-        with _numba_threads(self.n_jobs):
+        with numba_threads(self.n_jobs):
             obj = minibatch_step(
                 X_batch, self.components_, A, B, self.alpha,
                 positive=self.positive_code, beta=self._beta(),
@@ -352,21 +353,6 @@ def iter_batches(n_samples, batch_size, n_passes=1, random_state=None, start=0):
         yield perm[i * batch_size:(i + 1) * batch_size]
 
 
-class _numba_threads:
-    def __init__(self, n_jobs):
-        self.n_jobs = n_jobs
-
-    def __enter__(self):
-        self.old = numba.get_num_threads()
-        if self.n_jobs is not None:
-            n = numba.config.NUMBA_NUM_THREADS
-            want = n if self.n_jobs < 0 else min(int(self.n_jobs), n)
-            numba.set_num_threads(max(want, 1))
-
-    def __exit__(self, *exc):
-        numba.set_num_threads(self.old)
-
-
 # --------------------------------------------------------------------------
 # Streaming fit over a pose file, with checkpoints and resume
 # --------------------------------------------------------------------------
@@ -387,7 +373,7 @@ def complete_pose_vectors(poses2d):
     return pose_to_vector(normed), ok
 
 
-def _sha256(poses):
+def poses_sha256(poses):
     """sha256 of the training poses' float64 values (C order): the same poses
     give the same hash however the file was zipped (zip headers hold times)."""
     import hashlib
@@ -395,7 +381,7 @@ def _sha256(poses):
     return hashlib.sha256(np.ascontiguousarray(poses, dtype=np.float64).tobytes()).hexdigest()
 
 
-def _load_training_poses(path):
+def load_training_poses(path):
     from .exceptions import FileFormatError
 
     from ._safeio import load_npz
@@ -456,7 +442,7 @@ def fit_dictionary_file(train_path, output, *, n_components=2000, alpha=1.6,
     checkpoint = Path(checkpoint) if checkpoint else output.with_suffix(".ckpt.npz")
     check_paths([("training file", train_path)],
                 [("output", output), ("checkpoint", checkpoint)])
-    poses = _load_training_poses(train_path)
+    poses = load_training_poses(train_path)
     ok = np.isfinite(poses).all(axis=(-1, -2))
     ok &= np.ptp(np.nan_to_num(poses, posinf=0, neginf=0), axis=1).max(axis=1) > 0
     if (~ok).any():
@@ -504,7 +490,7 @@ def fit_dictionary_file(train_path, output, *, n_components=2000, alpha=1.6,
     provenance = {
         "files": [Path(train_path).name],
         "n_poses": int(len(index)),
-        "sha256": _sha256(poses),
+        "sha256": poses_sha256(poses),
         "sha256_of": "poses2d float64 values",
         "seed": random_state,
         "passes": n_passes,

@@ -6,6 +6,10 @@
   off-diagonal entries of ``|E_f - E_gt| / E_gt * 100``.
 * :func:`joint_error` is the per-joint Euclidean error of recovered
   coordinates, in the pose's own units (pixels for image keypoints).
+* :func:`occlusion_masks` gives the evaluation protocol's seeded masks, one
+  array per count (moved here from :mod:`sparseedm.evaluation`, which
+  re-exports it, so adaptation's guard uses the protocol without importing
+  the evaluation above it).
 """
 
 from __future__ import annotations
@@ -13,9 +17,10 @@ from __future__ import annotations
 import numpy as np
 
 from .edm import num_joints_from_dim
-from .exceptions import PoseError
+from .exceptions import PoseError, SparseEDMError
 
-__all__ = ["OCCLUSION_COUNTS", "random_occlusion", "err_ave", "err_entries", "joint_error"]
+__all__ = ["OCCLUSION_COUNTS", "random_occlusion", "occlusion_masks", "check_counts", "err_ave",
+           "err_entries", "joint_error"]
 
 #: The protocol's settings: 1, 2, 3 occluded joints and their Mix.
 OCCLUSION_COUNTS = (1, 2, 3, "mix")
@@ -134,3 +139,43 @@ def joint_error(poses_f, poses_gt, missing=None):
     if missing is not None:
         err = np.where(np.asarray(missing, dtype=bool), err, np.nan)
     return err
+
+
+#: each count's seed key in the protocol's masks (:func:`occlusion_masks`)
+_COUNT_KEYS = {1: 1, 2: 2, 3: 3, "mix": 0}
+
+
+def check_counts(counts):
+    """The occlusion counts as the protocol keys them (1, 2, 3, "mix"); unknown ones raise."""
+    out = []
+    for c in counts:
+        c = str(c).lower()
+        if c == "mix":
+            out.append("mix")
+        elif c in ("1", "2", "3"):
+            out.append(int(c))
+        else:
+            raise SparseEDMError(f"unknown occlusion count {c!r}; use 1, 2, 3 or mix")
+    return tuple(out)
+
+
+def occlusion_masks(n_poses, n_joints, counts=(1, 2, 3, "mix"), random_state=0):
+    """The protocol's seeded masks, one (n_poses, n_joints) array per count.
+
+    Each count's seed is ``(random_state, count)``: the same masks whatever
+    other counts or methods are run.
+
+    Examples
+    --------
+    >>> m = occlusion_masks(5, 14, (2, "mix"), random_state=0)
+    >>> m[2].sum(axis=1).tolist()
+    [2, 2, 2, 2, 2]
+    >>> bool((m["mix"] == occlusion_masks(5, 14, ("mix",), 0)["mix"]).all())
+    True
+    """
+    out = {}
+    for c in check_counts(counts):
+        seed = None if random_state is None else np.random.SeedSequence(
+            [int(random_state), _COUNT_KEYS[c]])
+        out[c] = random_occlusion(n_poses, n_joints, c, random_state=np.random.default_rng(seed))
+    return out

@@ -28,7 +28,7 @@ def have_matplotlib() -> bool:
     return True
 
 
-def _figure(width, height):
+def new_figure(width, height):
     try:
         from matplotlib.backends.backend_agg import FigureCanvasAgg
         from matplotlib.figure import Figure
@@ -39,7 +39,7 @@ def _figure(width, height):
     return fig
 
 
-def _save(fig, path):
+def save_figure(fig, path):
     path = Path(path)
     with atomic_path(path) as tmp:
         fig.savefig(tmp, format="png", bbox_inches="tight")
@@ -95,7 +95,7 @@ def plot_poses(gt, missing, recovered, path, titles=None):
     recovered = np.asarray(recovered, float)
     missing = np.asarray(missing, bool)
     k = len(gt)
-    fig = _figure(3.0 * k, 4.6)
+    fig = new_figure(3.0 * k, 4.6)
     for i in range(k):
         ax = fig.add_subplot(1, k, i + 1)
         _draw_bones(ax, gt[i], sided=False, color="0.65", style=":", lw=1.5)
@@ -119,13 +119,13 @@ def plot_poses(gt, missing, recovered, path, titles=None):
         (Line2D([], [], color="k", marker="o", ls="", ms=3), "observed joint (input)"),
         (Line2D([], [], color="darkorange", marker="x", ls="", ms=8, mew=2),
          "recovered occluded joint")])
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_sweep(sweep, path):
     """Fig. 5: Mix Err_ave and recovery time per pose vs the number of atoms."""
     pts = [r for r in sweep if np.isfinite(r["err_ave_mix"])]
-    fig = _figure(5.5, 3.8)
+    fig = new_figure(5.5, 3.8)
     ax = fig.add_subplot(1, 1, 1)
     k = [r["atoms"] for r in pts]
     ax.plot(k, [r["err_ave_mix"] for r in pts], "o-", color="tab:blue")
@@ -135,7 +135,7 @@ def plot_sweep(sweep, path):
     ax2.plot(k, [r["ms_per_pose"] for r in pts], "s--", color="tab:orange")
     ax2.set_ylabel("recovery time (ms / pose)", color="tab:orange")
     ax.set_title("Error and time vs number of atoms")
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_error_by_count(rows, path, representation="average"):
@@ -143,7 +143,7 @@ def plot_error_by_count(rows, path, representation="average"):
     rows = [r for r in rows if r["representation"] == representation]
     methods = list(dict.fromkeys(r["method"] for r in rows))
     counts = list(dict.fromkeys(str(r["count"]) for r in rows))
-    fig = _figure(1.6 + 1.3 * len(counts), 3.8)
+    fig = new_figure(1.6 + 1.3 * len(counts), 3.8)
     ax = fig.add_subplot(1, 1, 1)
     width = 0.8 / max(len(methods), 1)
     x = np.arange(len(counts))
@@ -157,7 +157,7 @@ def plot_error_by_count(rows, path, representation="average"):
     ax.set_ylabel("Err_ave (%)")
     ax.set_title(f"Err_ave by occlusion count ({representation})")
     ax.legend(fontsize=7)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def report_figures(report, directory):

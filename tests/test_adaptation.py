@@ -7,9 +7,10 @@ import numpy as np
 import pytest
 
 import sparseedm
-from sparseedm.adaptation import (MIN_COMPLETE_POSES, _vectors, adapt_vectors,
+from sparseedm.adaptation import (MIN_COMPLETE_POSES, adapt_vectors,
                                   duplicate_rows, filter_poses, holdout_blocks, masked_error,
-                                  run_adaptation, sample_complete, swapped_rows)
+                                  pose_vectors as _vectors, run_adaptation, sample_complete,
+                                  swapped_rows)
 from sparseedm.batch import recover_file
 from sparseedm.cli import main
 from sparseedm.dictionary import Dictionary, load_dictionary

@@ -113,7 +113,7 @@ def test_cli_recover_ensemble(tmp_path, cmu_poses, shifted, capsys):
 
 
 def test_evaluate_adaptation_with_an_ensemble(cmu_poses, shifted):
-    from sparseedm.adaptation import evaluate_adaptation
+    from sparseedm.evaluation import evaluate_adaptation
 
     order = np.random.default_rng(5).permutation(len(cmu_poses))
     adapt_on, test = cmu_poses[np.sort(order[:260])], cmu_poses[np.sort(order[260:320])]

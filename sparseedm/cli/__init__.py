@@ -17,7 +17,8 @@ import importlib
 import sys
 import traceback
 
-from .. import __version__, _progress
+from .. import _progress
+from .._version import __version__
 from ..exceptions import SparseEDMError
 
 #: sub-command modules, in the order ``sparseedm --help`` lists them

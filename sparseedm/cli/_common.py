@@ -77,3 +77,8 @@ def channels(text):
     if len(out) != 2 or min(out) < 1:
         raise SparseEDMError(f"--channels must be two positive integers, got {text!r}")
     return out
+
+
+def split_list(text):
+    """The items of a comma-separated option value, stripped, empty ones dropped."""
+    return tuple(t.strip() for t in text.split(",") if t.strip())

@@ -10,7 +10,7 @@ import numpy as np
 
 from ..exceptions import FileFormatError, SparseEDMError
 from . import _evaluate_video
-from ._common import add_adaptation_rounds, add_quiet, load_npz
+from ._common import add_adaptation_rounds, add_quiet, load_npz, split_list
 
 
 def add_parser(sub):
@@ -77,10 +77,6 @@ def add_parser(sub):
     p.set_defaults(func=run)
 
 
-def _split(text):
-    return tuple(t.strip() for t in text.split(",") if t.strip())
-
-
 def _load(path, what):
     """poses2d and, if present, labels from an .npz (not every dataset key is needed)."""
     arrays, files = load_npz(path, what, ("poses2d",), ("labels",))
@@ -120,16 +116,16 @@ def _split_clips(path, poses, labels, k):
 
 def run(args):
     from ..dictionary import load_dictionary
-    from ..evaluation import _check_methods, evaluate, sweep_atoms
+    from ..evaluation import check_methods, evaluate, sweep_atoms
 
     if args.protocol:
-        return _evaluate_video.run(args, _split(args.methods or _evaluate_video.VIDEO_METHODS))
-    methods = _split(args.methods or "sparse,mean-fill,knn,iterative,nearest")
+        return _evaluate_video.run(args, split_list(args.methods or _evaluate_video.VIDEO_METHODS))
+    methods = split_list(args.methods or "sparse,mean-fill,knn,iterative,nearest")
     if args.fconv_model and "fconv" not in methods:
         methods = methods[:1] + ("fconv",) + methods[1:]
-    methods = _check_methods(methods)
+    methods = check_methods(methods)
     try:  # checked before the hour of evaluation that precedes the sweep
-        atoms = tuple(int(a) for a in _split(args.sweep_atoms or ""))
+        atoms = tuple(int(a) for a in split_list(args.sweep_atoms or ""))
     except ValueError:
         raise SparseEDMError(f"--sweep-atoms must be comma-separated integers, got "
                              f"{args.sweep_atoms!r}") from None
@@ -153,11 +149,11 @@ def run(args):
     elif args.adapt_clips:
         test, labels, adapt_poses = _split_clips(args.data, test, labels, args.adapt_clips)
     if adapt_poses is not None:
-        from ..adaptation import evaluate_adaptation
+        from ..evaluation import evaluate_adaptation
 
         report = evaluate_adaptation(
-            dictionary, test, adapt_poses, methods=methods, counts=_split(args.counts),
-            representations=_split(args.representations), random_state=args.seed,
+            dictionary, test, adapt_poses, methods=methods, counts=split_list(args.counts),
+            representations=split_list(args.representations), random_state=args.seed,
             n_jobs=args.jobs, max_poses=args.max_poses, max_train=args.max_train,
             alpha=args.alpha, fconv_models=args.fconv_model,
             ensemble=args.ensemble,
@@ -165,7 +161,7 @@ def run(args):
     else:
         report = evaluate(
             dictionary, test, train_poses2d=train, labels=labels, methods=methods,
-            counts=_split(args.counts), representations=_split(args.representations),
+            counts=split_list(args.counts), representations=split_list(args.representations),
             random_state=args.seed, n_jobs=args.jobs, max_poses=args.max_poses,
             max_train=args.max_train, alpha=args.alpha, fconv_models=args.fconv_model,
         )

@@ -52,9 +52,9 @@ def add_parser(sub):
 
 def run(args):
     from ..dataset import load_dataset
-    from ..evaluation import _check_counts
+    from ..metrics import check_counts
     from ..lifting import load_lifter
-    from .evaluate_cmd import _split
+    from ._common import split_list
     from ..lifting.evaluation import evaluate_lifting
 
     lifters = {"dictionary": load_lifter(args.lifter)}
@@ -69,8 +69,8 @@ def run(args):
                  if path}
     test = load_dataset(args.data)
     train = load_dataset(args.train)["poses2d"] if args.train else None
-    counts = _check_counts(_split(args.counts))
-    pipes = _split(args.pipelines) if args.pipelines else None
+    counts = check_counts(split_list(args.counts))
+    pipes = split_list(args.pipelines) if args.pipelines else None
     report = evaluate_lifting(lifters, test, dictionary=args.dictionary, train_poses2d=train,
                               counts=counts, pipelines=pipes, max_poses=args.max_poses,
                               seed=args.seed, n_jobs=args.jobs, max_train=args.max_train,

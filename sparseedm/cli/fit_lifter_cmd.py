@@ -75,14 +75,14 @@ def run(args):
 
     from ..dataset import load_dataset
     from ..exceptions import SparseEDMError
-    from ..learning import _sha256
+    from ..learning import poses_sha256
     from ..lifting import fit_lifter
-    from ..lifting.base import LIFTERS, _lifter_class
+    from ..lifting.base import LIFTERS, lifter_class
     from ..lifting.defaults import DEFAULTS
 
     from .._atomic import check_paths
 
-    _lifter_class(args.method, "--method")  # refuses unknown methods, naming the known
+    lifter_class(args.method, "--method")  # refuses unknown methods, naming the known
     check_paths([("training file", args.train)], [("output", args.output)])
     opts = {"dictionary": _DICT_OPTS, "mlp": _MLP_OPTS, "fconv": _FCONV_OPTS}[args.method]
     params = dict(DEFAULTS.get(args.method, {}))
@@ -107,7 +107,7 @@ def run(args):
     if len(idx) < 10:
         raise SparseEDMError(f"{args.train}: {len(idx)} training poses are too few")
     t0 = time.perf_counter()
-    prov = {"files": [Path(args.train).name], "sha256": _sha256(data["poses2d"][idx]),
+    prov = {"files": [Path(args.train).name], "sha256": poses_sha256(data["poses2d"][idx]),
             "sha256_of": "poses2d float64 values", "seed": args.seed}
     clips = data["clips"][idx] if "clips" in data else None
     lifter = fit_lifter(data["poses2d"][idx], data["poses3d"][idx], data["camera_R"][idx],

@@ -12,9 +12,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..recovery import _screen, _validate
+from .._recovery_base import screen, validate_poses
 from .model import load_model
-from .training import _NetworkShell, fit_lifter
+from .training import NetworkShell, fit_lifter
 
 __all__ = ["lift", "FConvLifter"]
 
@@ -48,9 +48,9 @@ def lift(model, poses2d, missing=None, *, batch_size=4096):
     (3, 91)
     """
     model = load_model(model, kind="lift")
-    poses, mask, bad_coord = _validate(poses2d, missing, model.n_joints, caller="lift",
+    poses, mask, bad_coord = validate_poses(poses2d, missing, model.n_joints, caller="lift",
                                        model="model")
-    status, _, _, _, vectors, _, _, _ = _screen(poses, mask, bad_coord, model.representation)
+    status, _, _, _, vectors, _, _, _ = screen(poses, mask, bad_coord, model.representation)
     ok = np.isin(status, ("recovered", "complete"))
     out = np.full(vectors.shape, np.nan)
     if ok.any():
@@ -58,7 +58,7 @@ def lift(model, poses2d, missing=None, *, batch_size=4096):
     return out
 
 
-class FConvLifter(_NetworkShell):
+class FConvLifter(NetworkShell):
     """scikit-learn-style shell: ``fit(X2d, y3d)`` trains, ``predict(X2d)`` lifts.
 
     ``__init__`` stores the arguments of :func:`~sparseedm.fconv.fit_lifter`

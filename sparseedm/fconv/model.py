@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import __version__
+from .._version import __version__
 from .._atomic import save_npz
 from .._safeio import load_npz_file, parse_meta, require_file
 from ..edm import triu_indices
@@ -44,7 +44,7 @@ FORMAT_VERSION = 1
 #: what a model maps: its input -> its output
 KINDS = {"recover": "occluded 2D EDM -> complete 2D EDM (normalised units)",
          "lift": "2D EDM (normalised units) -> 3D EDM (metres)"}
-_PREFIX = "param."
+PARAM_PREFIX = "param."
 
 
 @dataclass
@@ -128,7 +128,7 @@ class FConvModel:
         with torch.inference_mode():
             for start in range(0, len(X), batch_size):
                 x = torch.from_numpy(X[start:start + batch_size])
-                M = _to_matrix(torch, x, N, iu, ju).contiguous(memory_format=torch.channels_last)
+                M = to_matrix(torch, x, N, iu, ju).contiguous(memory_format=torch.channels_last)
                 y = net(M)[:, 0, iu, ju]
                 out[start:start + batch_size] = y.clamp_min(0).double().numpy()
         return out
@@ -138,7 +138,7 @@ class FConvModel:
         path = Path(path)
         if path.suffix != ".npz":
             raise ModelError(f"{path}: a model file must end in .npz")
-        arrays = {_PREFIX + k: v for k, v in self.params.items()}
+        arrays = {PARAM_PREFIX + k: v for k, v in self.params.items()}
         arrays["meta"] = np.array(json.dumps(self.meta, sort_keys=True), dtype=np.str_)
         return save_npz(path, arrays, compressed=True)
 
@@ -155,7 +155,7 @@ class FConvModel:
         return "\n".join(lines)
 
 
-def _to_matrix(torch, x, N, iu, ju):
+def to_matrix(torch, x, N, iu, ju):
     """(b, m) upper-triangle vectors -> (b, 1, N, N) symmetric matrices."""
     M = x.new_zeros((x.shape[0], N, N))
     M[:, iu, ju] = x
@@ -218,12 +218,12 @@ def load_model(path, *, n_joints=None, representation=None, kind=None) -> FConvM
         require_file(path, "model", ModelError)  # a folder or device is named as such
         # the bounded reader: sizes checked before anything is decompressed
         arrays, _ = load_npz_file(
-            path, lambda names: ["meta"] + [k for k in names if k.startswith(_PREFIX)],
+            path, lambda names: ["meta"] + [k for k in names if k.startswith(PARAM_PREFIX)],
             error=ModelError, kind="model", max_bytes=_MAX_BYTES)
         if "meta" not in arrays:
             raise ModelError(f"{path}: not a sparseedm FConv model (no 'meta' array)")
         meta = parse_meta(arrays.pop("meta"), path, error=ModelError)
-        params = {k[len(_PREFIX):]: v for k, v in arrays.items()}
+        params = {k[len(PARAM_PREFIX):]: v for k, v in arrays.items()}
         for name, value in params.items():
             if value.dtype != np.float32:
                 raise ModelError(f"{path}: parameter {name} must be float32, got {value.dtype}")

@@ -69,7 +69,7 @@ def spatial_sizes(n_joints, kernel=3):
     return sizes
 
 
-def _output_paddings(n_joints, kernel):
+def output_paddings(n_joints, kernel):
     s = spatial_sizes(n_joints, kernel)
     pads = []
     for src, dst in ((s[2], s[1]), (s[1], s[0])):
@@ -104,7 +104,7 @@ def build_network(n_joints, channels=(32, 64), kernel=3, symmetrize=False):
     nn = torch.nn
     c1, c2 = (int(c) for c in channels)
     k, pad = int(kernel), int(kernel) // 2
-    op1, op2 = _output_paddings(n_joints, k)
+    op1, op2 = output_paddings(n_joints, k)
 
     class FConv(nn.Module):
         def __init__(self):

@@ -1,11 +1,11 @@
 """``recover(..., method="fconv")``: the FConv network in place of the lasso.
 
 Each usable pose is screened and represented exactly as on the sparse path
-(:func:`sparseedm.recovery._screen`: same statuses, same
+(:func:`sparseedm._recovery_base.screen`: same statuses, same
 :func:`~sparseedm.normalize.represent` vectors); the network maps the
 occluded EDM vector to a complete one; the Eq. 10 merge keeps the observed
 entries and takes the occluded ones from the network; the occluded joints are
-placed from their recovered distances (:func:`sparseedm.recovery._place`).
+placed from their recovered distances (:func:`sparseedm._recovery_base.place_occluded`).
 Nothing is certified, so ``objective`` and ``gap`` are NaN and ``alpha`` NaN.
 """
 
@@ -18,7 +18,7 @@ import numpy as np
 from ..edm import observed_entries
 from ..exceptions import SparseEDMError
 from ..normalize import REPRESENTATIONS
-from ..recovery import RecoveryResult, _place, _screen, _validate
+from .._recovery_base import RecoveryResult, place_occluded, screen, validate_poses
 from .model import load_model
 
 __all__ = ["recover_fconv"]
@@ -43,8 +43,8 @@ def recover_fconv(poses, missing=None, *, model=None, representation="average",
     shape = np.shape(poses)
     if len(shape) >= 2 and shape[-2] != model.n_joints:
         load_model(model, n_joints=shape[-2])  # names the model and both joint counts
-    poses, mask, bad_coord = _validate(poses, missing, model.n_joints)
-    status, reason, _, clean, vectors, center, scale, filled = _screen(
+    poses, mask, bad_coord = validate_poses(poses, missing, model.n_joints)
+    status, reason, _, clean, vectors, center, scale, filled = screen(
         poses, mask, bad_coord, representation)
     todo = np.flatnonzero(status == "recovered")
     if len(todo):
@@ -54,7 +54,7 @@ def recover_fconv(poses, missing=None, *, model=None, representation="average",
         reason[todo] = "FConv network (not certified)"
     # unweighted placement, as when FConv was set up: the residual weights of
     # sparseedm.placement were chosen on the sparse method's answers
-    _place(poses, clean, mask, vectors, center, scale, status, reason, filled, weight_power=0.0)
+    place_occluded(poses, clean, mask, vectors, center, scale, status, reason, filled, weight_power=0.0)
     n = len(poses)
     return RecoveryResult(
         poses=filled, vectors=vectors, missing=mask, center=center, scale=scale,

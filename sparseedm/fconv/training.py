@@ -1,6 +1,6 @@
 """Training FConv networks: seeded Adam on mini-batches, early stopping by clip.
 
-Two tasks share one training loop (:func:`_fit_network`):
+Two tasks share one training loop (:func:`fit_network`):
 
 * :func:`fit_fconv` -- the paper's recovery network: the input is the
   occluded pose's EDM vector under the 'zero' or 'average' representation,
@@ -26,12 +26,14 @@ import time
 
 import numpy as np
 
+from .._validation import Options, validate_params
 from ..edm import pose_to_vector, triu_indices
 from ..exceptions import PoseError, SparseEDMError
 from ..normalize import REPRESENTATIONS, represent
 from ..skeleton import JOINT_NAMES
 from .model import FConvModel
 from .network import build_network, require_torch
+from .recover import recover_fconv
 
 __all__ = ["fit_fconv", "fit_lifter", "split_by_clip", "occlusion_range", "FConvRecoverer"]
 
@@ -153,7 +155,7 @@ def fit_fconv(poses2d, clips=None, *, representation="average", occluded=(1, 3),
     >>> model.kind, model.representation, model.meta["training"]["epochs"]
     ('recover', 'zero', 2)
     """
-    _check_representation(representation)
+    check_representation(representation)
     poses = _check_training_poses(poses2d, "training poses", 2, batch_size)
     N = poses.shape[1]
 
@@ -162,7 +164,7 @@ def fit_fconv(poses2d, clips=None, *, representation="average", occluded=(1, 3),
                               representation)
 
     meta = {"kind": "recover", "occluded": list(occluded)}
-    return _fit_network(pairs, len(poses), N, clips, meta, representation=representation,
+    return fit_network(pairs, len(poses), N, clips, meta, representation=representation,
                         channels=channels, kernel=kernel, symmetrize=symmetrize,
                         batch_size=batch_size, max_epochs=max_epochs, patience=patience,
                         tol=tol, learning_rate=learning_rate, random_state=random_state,
@@ -187,7 +189,7 @@ def fit_lifter(poses2d, poses3d, clips=None, *, representation="average", occlud
     FConvModel
         ``kind == "lift"``.
     """
-    _check_representation(representation)
+    check_representation(representation)
     p2 = _check_training_poses(poses2d, "training 2D poses", 2, batch_size)
     p3 = _check_training_poses(poses3d, "training 3D poses", 3, batch_size)
     if p2.shape[:2] != p3.shape[:2]:
@@ -200,7 +202,7 @@ def fit_lifter(poses2d, poses3d, clips=None, *, representation="average", occlud
         return represent(p2[rows], mask, representation)[0], target3d[rows]
 
     meta = {"kind": "lift", "occluded": list(occluded), "output_units": "3D pose units (metres)"}
-    return _fit_network(pairs, len(p2), N, clips, meta, representation=representation,
+    return fit_network(pairs, len(p2), N, clips, meta, representation=representation,
                         channels=channels, kernel=kernel, symmetrize=symmetrize,
                         batch_size=batch_size, max_epochs=max_epochs, patience=patience,
                         tol=tol, learning_rate=learning_rate, random_state=random_state,
@@ -208,20 +210,20 @@ def fit_lifter(poses2d, poses3d, clips=None, *, representation="average", occlud
                         provenance=provenance)
 
 
-def _check_representation(representation):
+def check_representation(representation):
     if representation not in REPRESENTATIONS:
         raise SparseEDMError(f"unknown representation {representation!r}; use one of "
                              f"{REPRESENTATIONS}")
 
 
-def _fit_network(pairs, n, N, clips, meta, *, representation, channels, kernel, symmetrize,
+def fit_network(pairs, n, N, clips, meta, *, representation, channels, kernel, symmetrize,
                  batch_size, max_epochs, patience, tol, learning_rate, random_state, device,
                  progress, max_train, provenance):
     """The shared loop. ``pairs(rows, rng) -> (X, Y)`` builds one epoch's vectors."""
     torch = require_torch()
     from tqdm.auto import tqdm
 
-    from .model import _to_matrix
+    from .model import to_matrix
 
     seed = int(random_state or 0)
     val, split_note = split_by_clip(clips, n, seed)
@@ -247,8 +249,8 @@ def _fit_network(pairs, n, N, clips, meta, *, representation, channels, kernel, 
     iu, ju = (torch.from_numpy(a.copy()).to(dev) for a in triu_indices(N))
 
     def tensors(X, Y):
-        x = _to_matrix(torch, torch.as_tensor(X, dtype=torch.float32, device=dev), N, iu, ju)
-        y = _to_matrix(torch, torch.as_tensor(Y, dtype=torch.float32, device=dev), N, iu, ju)
+        x = to_matrix(torch, torch.as_tensor(X, dtype=torch.float32, device=dev), N, iu, ju)
+        y = to_matrix(torch, torch.as_tensor(Y, dtype=torch.float32, device=dev), N, iu, ju)
         return x, y
 
     xv, yv = tensors(*pairs(val_rows, np.random.default_rng([seed, 1])))
@@ -297,7 +299,7 @@ def _fit_network(pairs, n, N, clips, meta, *, representation, channels, kernel, 
     return FConvModel(best_state, meta)
 
 
-class _NetworkShell:
+class NetworkShell:
     """Stores the training arguments shared by the estimator shells."""
 
     def __init__(self, *, representation="average", occluded=None, channels=(32, 64),
@@ -324,7 +326,7 @@ class _NetworkShell:
                     random_state=self.random_state, device=self.device)
 
 
-class FConvRecoverer(_NetworkShell):
+class FConvRecoverer(NetworkShell):
     """scikit-learn-style shell: ``fit`` trains :func:`fit_fconv`, ``transform`` recovers.
 
     ``__init__`` only stores the arguments of :func:`fit_fconv` (``occluded=None``
@@ -347,8 +349,10 @@ class FConvRecoverer(_NetworkShell):
 
     def transform(self, X, missing=None):
         """Filled poses (n, N, 2); the last RecoveryResult is ``result_``."""
-        from ..recovery import recover
-
-        self.result_ = recover(X, missing, method="fconv", model=self.model_,
-                               representation=self.representation)
+        # what recover(X, missing, method="fconv", model=..., representation=...) runs,
+        # called here directly: the dispatcher sits above this package
+        validate_params("recover", {"representation": self.representation},
+                        {"representation": [Options(REPRESENTATIONS)]})
+        self.result_ = recover_fconv(X, missing, model=self.model_,
+                                     representation=self.representation, chunk_size=2048)
         return self.result_.poses

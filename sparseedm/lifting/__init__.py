@@ -31,8 +31,8 @@ def fit_lifter(poses2d, poses3d, camera_R, camera_t, camera_f, *, method="dictio
     `clips` (optional, one name per pose) lets ``fconv`` hold out whole clips
     for early stopping; the other methods ignore it.
     """
-    from .base import _lifter_class
+    from .base import lifter_class
 
-    cls = _lifter_class(method, "fit_lifter")
+    cls = lifter_class(method, "fit_lifter")
     return cls(**params).fit_poses(poses2d, poses3d, camera_R, camera_t, camera_f,
                                    provenance=provenance, clips=clips)

@@ -52,7 +52,7 @@ import copy
 
 import numpy as np
 
-from ..adaptation import _vectors, adapt_vectors, duplicate_rows, usable_rows
+from ..adaptation import adapt_vectors, duplicate_rows, pose_vectors, usable_rows
 from ..exceptions import PoseError
 from .base import LifterError, load_lifter
 
@@ -140,14 +140,13 @@ def masked_error_2d(lifter, poses2d, *, random_state=0, n_jobs=1):
     """Mean Mix Err_ave (%) of the 2D EDMs a dictionary lifter completes from occluded poses.
 
     The only score 3D-free poses allow: the protocol's seeded Mix masks
-    (:func:`sparseedm.evaluation.occlusion_masks`) occlude complete 2D poses,
+    (:func:`sparseedm.metrics.occlusion_masks`) occlude complete 2D poses,
     the lifter codes the observed entries and its 2D half (``vectors2d``) is
     compared with the true 2D EDM in the same normalisation. It says how well
     the 2D half fits the poses, not how well they lift.
     """
     from ..edm import pose_to_vector
-    from ..evaluation import occlusion_masks
-    from ..metrics import err_ave
+    from ..metrics import err_ave, occlusion_masks
     from ..normalize import normalize, represent
 
     poses2d = np.asarray(poses2d, float)
@@ -217,7 +216,7 @@ def adapt_lifter(lifter, complete_poses2d, *, method=DEFAULT_LIFT_ADAPT["method"
     if poses.ndim != 3 or poses.shape[1:] != (lifter.n_joints, 2):
         raise PoseError(f"complete_poses2d must be (n, {lifter.n_joints}, 2), got {poses.shape}")
     poses = poses[usable_rows(poses)]
-    X2 = _vectors(poses) if len(poses) else np.zeros((0, lifter.components_.shape[1] // 2))
+    X2 = pose_vectors(poses) if len(poses) else np.zeros((0, lifter.components_.shape[1] // 2))
     X2 = X2[~duplicate_rows(X2)]
     if len(X2) == 0:
         raise PoseError("complete_poses2d: no usable complete pose to adapt on")

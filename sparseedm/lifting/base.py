@@ -49,7 +49,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import __version__
+from .._version import __version__
 from .._atomic import save_npz
 from .._safeio import load_npz, load_npz_file, parse_meta, require_file
 from .._shipped import resolve_shipped, shipped_names
@@ -130,7 +130,7 @@ def rms(vectors):
     return np.sqrt((np.asarray(vectors, float) ** 2).mean(axis=-1))
 
 
-def _check_pairs(X2, X3):
+def check_pairs(X2, X3):
     X2 = np.asarray(X2, float)
     X3 = np.asarray(X3, float)
     if X2.ndim != 2 or X2.shape != X3.shape:
@@ -169,7 +169,7 @@ class Lifter:
     # -- fitting -----------------------------------------------------------
     def fit(self, X2, X3):
         """Learn the 2D -> 3D map from paired EDM vectors (n, M)."""
-        self._fit(*_check_pairs(X2, X3))
+        self._fit(*check_pairs(X2, X3))
         return self
 
     def fit_poses(self, poses2d, poses3d, camera_R, camera_t, camera_f, *, provenance=None,
@@ -263,7 +263,7 @@ class Lifter:
         raise NotImplementedError
 
 
-def _lifter_class(method, where):
+def lifter_class(method, where):
     if method not in LIFTERS:
         raise LifterError(
             f"{where}: lifter method {method!r} is not available in this sparseedm "
@@ -332,7 +332,7 @@ def load_lifter(name_or_path=None, *, n_joints=None):
         n_quads = N * (N - 1) * (N - 2) * (N - 3) // 24
         if chir.dtype.kind != "f" or chir.shape != (n_quads,) or not np.isfinite(chir).all():
             raise LifterError(f"{path}: chirality must be {n_quads} finite floats for {N} joints")
-        cls = _lifter_class(meta.get("method"), path)
+        cls = lifter_class(meta.get("method"), path)
         try:
             lifter = cls._from_arrays(arrays, dict(meta.get("params", {})), where)
             lifter.size_prior_ = float(meta["size_prior"])

@@ -43,11 +43,11 @@ import numpy as np
 from joblib import Parallel, delayed
 from threadpoolctl import threadpool_limits
 
+from .._parallel import chunk_tasks
 from .._validation import usable_jobs
 from ..edm import num_joints_from_dim, observed_entries
 from ..learning import OnlineDictionaryLearning
 from ..solvers import get_solver
-from ..recovery import _chunk_tasks
 from .base import Lifter, LifterError
 
 __all__ = ["DictionaryLifter"]
@@ -189,7 +189,7 @@ class DictionaryLifter(Lifter):
         alpha = self.alpha_lift * observed.sum(axis=1) / m
         # pattern-sorted rows in tasks as recover() cuts them: a share per worker,
         # none under the compiled kernel's size
-        tasks = _chunk_tasks(np.lexsort(mask.T[::-1]), chunk_size, n_jobs)
+        tasks = chunk_tasks(np.lexsort(mask.T[::-1]), chunk_size, n_jobs)
         D2 = C[:, :m].T
 
         def run(rows):

@@ -4,7 +4,7 @@ Wraps the FConv network of :mod:`sparseedm.fconv` (two convolutions, two
 deconvolutions on the N x N EDM; :mod:`sparseedm.fconv.network` states the
 reading of the layer sizes) and trains it with that package's seeded loop
 (Adam, mini-batches, early stopping on held-out clips,
-:func:`sparseedm.fconv.training._fit_network`). torch is imported only when
+:func:`sparseedm.fconv.training.fit_network`). torch is imported only when
 the network is trained or run; loading and describing a file need no torch.
 
 3D units: the lifter's normalisation, not metres
@@ -48,9 +48,9 @@ import numpy as np
 
 from ..edm import num_joints_from_dim, observed_entries
 from ..exceptions import SparseEDMError
-from ..fconv.model import _PREFIX  # numpy only: torch loads lazily
+from ..fconv.model import PARAM_PREFIX  # numpy only: torch loads lazily
 from ..normalize import represent
-from .base import Lifter, LifterError, _check_pairs
+from .base import Lifter, LifterError, check_pairs
 
 __all__ = ["FConvNetLifter"]
 
@@ -109,7 +109,7 @@ class FConvNetLifter(Lifter):
         self._train(lambda rows, rng: (X2[rows], X3[rows]), X2.shape, None)
 
     def _fit_from_poses(self, X2, X3, poses2d, clips):
-        X2, X3 = _check_pairs(X2, X3)
+        X2, X3 = check_pairs(X2, X3)
         poses2d = np.asarray(poses2d, float)
         from ..fconv.training import occlusion_range
 
@@ -123,15 +123,15 @@ class FConvNetLifter(Lifter):
 
     def _train(self, pairs, shape, clips):
         from ..fconv.network import require_torch
-        from ..fconv.training import _check_representation, _fit_network
+        from ..fconv.training import check_representation, fit_network
 
         require_torch()  # names the extra when torch is absent
-        _check_representation(self.representation)
+        check_representation(self.representation)
         n, m = shape
         N = num_joints_from_dim(m)
         meta = {"kind": "lift", "occluded": list(self.occluded),
                 "output_units": f"3D EDM in the lifter's {self.normalization!r} normalisation"}
-        self.model_ = _fit_network(
+        self.model_ = fit_network(
             pairs, n, N, clips, meta, representation=self.representation,
             channels=self.channels, kernel=self.kernel, symmetrize=self.symmetrize,
             batch_size=self.batch_size, max_epochs=self.max_epochs, patience=self.patience,
@@ -182,11 +182,11 @@ class FConvNetLifter(Lifter):
                 f"'{self.representation}' input, trained on {occ}{ep}")
 
     def _arrays(self):
-        return {_PREFIX + k: v for k, v in self.model_.params.items()}
+        return {PARAM_PREFIX + k: v for k, v in self.model_.params.items()}
 
     @classmethod
     def _from_arrays(cls, arrays, params, where):
-        weights = {k[len(_PREFIX):]: v for k, v in arrays.items() if k.startswith(_PREFIX)}
+        weights = {k[len(PARAM_PREFIX):]: v for k, v in arrays.items() if k.startswith(PARAM_PREFIX)}
         if not weights:
             raise LifterError(f"{where}: no network weights (param.* arrays)")
         for name, v in weights.items():
@@ -216,9 +216,9 @@ class FConvNetLifter(Lifter):
                 "channels": list(self.channels), "kernel": self.kernel,
                 "symmetrize": self.symmetrize, "occluded": list(self.occluded)}
         try:
-            from ..fconv.network import _output_paddings
+            from ..fconv.network import output_paddings
 
-            _output_paddings(n_joints, self.kernel)
+            output_paddings(n_joints, self.kernel)
             self.model_ = FConvModel(weights, meta)
         except (ModelError, SparseEDMError) as exc:
             raise LifterError(f"{where}: network weights do not fit {n_joints} joints "

@@ -39,7 +39,7 @@ import numpy as np
 from .. import _progress
 from .._atomic import atomic_path, check_paths, save_npz
 from .._extras import require as require_extra
-from ..batch import _write_errors, default_errors_path
+from ..batch import write_errors, default_errors_path
 from ..exceptions import FileFormatError, SparseEDMError
 from ..keypoints import read_keypoints
 from ..skeleton import JOINT_NAMES
@@ -137,7 +137,7 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
                   representation=representation)
     write_poses3d(output, result, kps.ids, output_format, rate=rate)
     refused = ~result.ok
-    _write_errors(errors, refused, kps.ids, result.status, result.reason)
+    write_errors(errors, refused, kps.ids, result.status, result.reason)
     summary = result.summary()
     summary.update(output=str(output), errors=str(errors) if refused.any() else None,
                    plot=str(_plot(plot, result, kps.ids)) if plot is not None else None)

@@ -19,8 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..edm import vector_to_edm
-from ..recovery import STATUSES as RECOVERY_STATUSES
-from ..recovery import _validate, screen_poses
+from .._recovery_base import STATUSES as RECOVERY_STATUSES
+from .._recovery_base import screen_poses, validate_poses
 from .._validation import N_JOBS, Options, validate_params
 from ..normalize import REPRESENTATIONS, normalize, represent
 from .base import Lifter, load_lifter, rms
@@ -136,7 +136,7 @@ def lift(poses, missing=None, *, lifter=None, n_jobs=1, representation="average"
         from .adaptation import adapt_lifter
         lifter = adapt_lifter(lifter, adapt, n_jobs=n_jobs)
     N = lifter.n_joints
-    poses, mask, bad = _validate(poses, missing, N, caller="lift", model="lifter")
+    poses, mask, bad = validate_poses(poses, missing, N, caller="lift", model="lifter")
     n = len(poses)
     m = N * (N - 1) // 2
     status, reason, n_obs, clean = screen_poses(poses, mask, bad)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..plotting import _figure, _save
+from ..plotting import new_figure, save_figure
 from ..skeleton import SKELETON_14
 
 __all__ = ["plot_poses3d", "plot_lifted", "VIEWS"]
@@ -19,7 +19,7 @@ def plot_poses3d(truth, lifted, path, titles=None, missing=None):
     truth = np.asarray(truth, float)
     lifted = np.asarray(lifted, float)
     k = len(truth)
-    fig = _figure(3.6 * k, 4.4)
+    fig = new_figure(3.6 * k, 4.4)
     for i in range(k):
         ax = fig.add_subplot(1, k, i + 1, projection="3d")
         for pose, color, style in ((truth[i], "0.6", "--"), (lifted[i], "tab:blue", "-")):
@@ -43,7 +43,7 @@ def plot_poses3d(truth, lifted, path, titles=None, missing=None):
             ax.set_title(titles[i], fontsize=8)
     fig.suptitle("grey dashed: truth; blue: lifted (at the size prior); red x: occluded joints",
                  fontsize=9)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 #: the two viewpoints of plot_lifted: (title, horizontal axis, its label); up is vertical
@@ -80,7 +80,7 @@ def plot_lifted(poses3d, path, titles=None, missing=None):
 
     P = np.asarray(poses3d, float)
     k = max(len(P), 1)
-    fig = _figure(2.4 * k + 0.6, 6.2)
+    fig = new_figure(2.4 * k + 0.6, 6.2)
     lim = np.nanmax(np.abs(P)) * 1.1 if np.isfinite(P).any() else 1.0
     for i in range(len(P)):
         up = -P[i, :, 1]
@@ -105,4 +105,4 @@ def plot_lifted(poses3d, path, titles=None, missing=None):
     fig.subplots_adjust(bottom=0.14, hspace=0.45, wspace=0.3)
     side_legend(fig, [(Line2D([], [], color="darkorange", marker="x", ls="", mew=2),
                        "joint occluded in the 2D input")])
-    return _save(fig, path)
+    return save_figure(fig, path)

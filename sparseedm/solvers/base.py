@@ -16,10 +16,15 @@ With residual r = x - D c, the point theta = r / max(1, ||D^T r||_inf / alpha)
     gap = P(c) - (0.5 ||x||^2 - 0.5 ||x - theta||^2) >= P(c) - P(c*) >= 0,
 
 so the gap is an upper bound on the sub-optimality of c: a certificate.
+
+The registry of backends by name (:func:`get_solver`, :data:`SOLVERS`) lives here
+too, at the end: the fallback solver is found through it, and the package
+``__init__`` only re-exports it.
 """
 
 from __future__ import annotations
 
+import importlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -265,8 +270,6 @@ class BaseSolver:
 
     def _fall_back(self, result, bad, D, X, alpha, positive, key):
         """Re-solve the uncertified rows with the fallback solver, in place."""
-        from . import get_solver
-
         backup = (get_solver(self.fallback, tol=self.tol) if isinstance(self.fallback, str)
                   else get_solver(self.fallback))
         res = backup.solve(D, X[bad], alpha, positive=positive, key=key)
@@ -288,3 +291,54 @@ def _pattern_groups(observed, alpha):
     bounds = np.flatnonzero(np.diff(inverse[order])) + 1
     for rows in np.split(order, bounds):
         yield rows, observed[rows[0]]
+
+
+#: name -> (module, class); modules are imported lazily by :func:`get_solver`.
+_REGISTRY = {
+    "clarabel": ("sparseedm.solvers.clarabel", "ClarabelSolver"),
+    "cvxpy-naive": ("sparseedm.solvers.reference", "NaiveCvxpySolver"),
+    "fast": ("sparseedm.solvers.fast", "FastSolver"),
+}
+
+#: Names :func:`get_solver` accepts.
+SOLVERS = tuple(_REGISTRY)
+
+
+def get_solver(name_or_instance="clarabel", **kwargs):
+    """A solver from its name, or the given :class:`BaseSolver` unchanged.
+
+    Parameters
+    ----------
+    name_or_instance : str or BaseSolver
+        One of :data:`SOLVERS`, or an instance (returned as is; passing
+        keyword arguments with an instance is an error).
+    **kwargs
+        Passed to the solver's constructor (e.g. ``tol``).
+
+    Raises
+    ------
+    SparseEDMError
+        Unknown name (the message lists the known ones), or a backend whose
+        module cannot be imported.
+    """
+    if isinstance(name_or_instance, BaseSolver):
+        if kwargs:
+            raise SparseEDMError(
+                "solver options cannot be applied to an existing solver instance; "
+                f"got {sorted(kwargs)} with {type(name_or_instance).__name__}"
+            )
+        return name_or_instance
+    if not isinstance(name_or_instance, str) or name_or_instance not in _REGISTRY:
+        raise SparseEDMError(
+            f"unknown solver {name_or_instance!r}; known solvers: " + ", ".join(SOLVERS)
+        )
+    module_name, class_name = _REGISTRY[name_or_instance]
+    try:
+        module = importlib.import_module(module_name)
+        cls = getattr(module, class_name)
+    except (ImportError, AttributeError) as exc:
+        raise SparseEDMError(
+            f"solver {name_or_instance!r} is not available: cannot import "
+            f"{module_name}.{class_name} ({exc})"
+        ) from exc
+    return cls(**kwargs)

@@ -22,11 +22,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .._recovery_base import RecoveryResult, screen_poses, validate_poses
+from .._recovery_kernel import recover_members
 from ..dictionary import Dictionary, load_dictionary
 from ..edm import pose_to_vector
 from ..ensemble import adapt_members
 from ..normalize import normalize
-from ..recovery import RecoveryResult, _recover_members, _validate, screen_poses
 from .model import DEFAULT_SETTINGS, fill_segment, needs_prior
 from .tracks import split_tracks
 
@@ -163,7 +164,7 @@ def _per_frame(poses, mask, need, members, settings, kwargs):
     rows = np.flatnonzero(need)
     alpha = kwargs.get("alpha")
     if len(rows):
-        res = _recover_members(poses[rows], mask[rows], members, [], **kwargs)
+        res = recover_members(poses[rows], mask[rows], members, [], **kwargs)
         for key in _PER_FRAME_KEYS:
             fields[key][rows] = getattr(res, key)
         full[rows] = res.poses
@@ -219,7 +220,7 @@ def recover_temporal(poses, missing=None, *, tracks=None, frames, dictionary=Non
     settings = DEFAULT_SETTINGS if settings is None else settings
     if not isinstance(dictionary, Dictionary):
         dictionary = load_dictionary(dictionary)
-    poses, mask, bad_coord = _validate(poses, missing, dictionary.n_joints)
+    poses, mask, bad_coord = validate_poses(poses, missing, dictionary.n_joints)
     refusal, why, _, _ = screen_poses(poses, mask, bad_coord)
     # rows whose observed coordinates cannot be used are absent from time too
     usable = ~np.isin(refusal, ("invalid_coordinates", "out_of_range"))

@@ -1,0 +1,362 @@
+"""The low pieces every recovery path shares: statuses, the result, screening, placement.
+
+One step below the recovery methods (scikit-learn's ``_base`` habit): the
+sparse kernel (:mod:`sparseedm._recovery_kernel`), the FConv path
+(:mod:`sparseedm.fconv.recover`), ensembles (:func:`combine`) and lifting
+(:func:`screen_poses`, :data:`STATUSES`) all import from here, and this module
+imports nothing above the geometry, the dictionary format and validation.
+
+- :data:`STATUSES`, :data:`OK_STATUSES`  the per-pose statuses and the usable ones
+- :class:`RecoveryResult`                what every recovery path returns
+- :func:`validate_poses`                 poses and mask checked, bad rows flagged
+- :func:`screen_poses`, :func:`screen`   why a pose cannot be used; the usable ones represented
+- :func:`place_occluded`                 occluded joints placed from recovered distances
+- :func:`combine`                        one result from several members' results
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+
+from ._validation import check_mask, check_poses, unmask
+from .dictionary import Dictionary
+from .edm import observed_entries, vector_to_edm
+from .exceptions import PoseError
+from .normalize import MIN_OBSERVED_JOINTS, represent
+from .placement import WEIGHT_POWER, place_missing_joints
+
+__all__ = ["STATUSES", "OK_STATUSES", "RecoveryResult", "Screened", "Screening",
+           "validate_poses", "screen_poses", "screen", "place_occluded", "combine"]
+
+#: Per-pose statuses and what they mean.
+STATUSES = {
+    "recovered": "occluded joints recovered; the lasso optimum is certified by its duality gap",
+    "inaccurate": "recovered, but the solver could not certify optimality (gap above tolerance)",
+    "complete": "no joint was missing: returned unchanged",
+    "solver_failed": "the solver failed on this pose; nothing recovered",
+    "too_few_observed": f"fewer than {MIN_OBSERVED_JOINTS} observed joints",
+    "invalid_coordinates": "an observed coordinate is infinite, or NaN where the mask says observed",
+    "degenerate": "all observed joints coincide: the pose cannot be normalised",
+    "out_of_range": "the observed joints' extent overflows float64 or is subnormal: rescale them",
+    "empty_code": "the lasso chose no atom (alpha too large for this pose): nothing recovered",
+}
+#: statuses of the poses that came back usable
+OK_STATUSES = ("recovered", "inaccurate", "complete")
+
+
+@dataclass
+class RecoveryResult:
+    """What :func:`sparseedm.recover` returns; every array has the poses' leading axis n.
+
+    Attributes
+    ----------
+    poses : ndarray (n, N, 2)
+        Filled poses in the caller's frame: observed joints exactly as given,
+        occluded ones placed from the recovered distances (NaN where the pose
+        was refused).
+    vectors : ndarray (n, N(N-1)/2)
+        Completed EDM vectors after the Eq. 10 merge, in normalised units.
+    missing : ndarray of bool (n, N)
+    center, scale : ndarray (n, 2), (n,)
+        The normalisation: pixel distances are ``vectors * scale``.
+    objective, gap : ndarray (n,)
+        Lasso objective and duality gap of the full observed sub-problem
+        (NaN where no lasso was solved).
+    n_active : ndarray of int (n,)
+        Non-zero atoms in the code.
+    status : ndarray of str (n,)
+        One of :data:`STATUSES`; ``reason`` says more for refused poses.
+    reason : ndarray of str (n,)
+    fallback : ndarray of bool (n,)
+        The fast solver handed this pose to Clarabel.
+    alpha : float
+        The unscaled alpha used.
+    seconds : float
+        Wall time of the call.
+    adaptation : AdaptationResult or None
+        What ``adapt`` did (:mod:`sparseedm.adaptation`); None with ``adapt=False``.
+    dictionary : Dictionary
+        The dictionary the poses were recovered with (the adapted one when
+        adaptation was used): ``res.dictionary.save(path)`` keeps it. For an
+        ensemble, the first member's.
+    members : int
+        Dictionaries averaged (``recover(ensemble=K)``, :mod:`sparseedm.ensemble`).
+    """
+
+    poses: np.ndarray
+    vectors: np.ndarray
+    missing: np.ndarray
+    center: np.ndarray
+    scale: np.ndarray
+    objective: np.ndarray
+    gap: np.ndarray
+    n_active: np.ndarray
+    status: np.ndarray
+    reason: np.ndarray
+    fallback: np.ndarray
+    alpha: float
+    seconds: float = 0.0
+    adaptation: object = None
+    dictionary: Dictionary | None = None
+    members: int = 1
+
+    @property
+    def edms(self) -> np.ndarray:
+        """Completed EDMs (n, N, N), normalised units."""
+        return vector_to_edm(self.vectors)
+
+    @property
+    def edms_pixels(self) -> np.ndarray:
+        """Completed EDMs (n, N, N) in the caller's units."""
+        return vector_to_edm(self.vectors * self.scale[:, None])
+
+    @property
+    def ok(self) -> np.ndarray:
+        """True for poses that came back usable (recovered or complete)."""
+        return np.isin(self.status, OK_STATUSES)
+
+    @property
+    def adapted(self) -> bool:
+        """True when the poses were recovered with a dictionary adapted to them."""
+        return bool(self.adaptation is not None and self.adaptation.adapted)
+
+    def summary(self) -> dict:
+        """Counts a person reads at the end of a batch."""
+        counts = {s: int((self.status == s).sum()) for s in STATUSES}
+        out = {
+            "poses": int(len(self.status)),
+            "recovered_joints": int(self.missing[np.isin(self.status, ("recovered", "inaccurate"))].sum()),
+            "refused": int((~self.ok).sum()),
+            "fallbacks": int(self.fallback.sum()),
+            "seconds": round(self.seconds, 3),
+            "poses_per_second": round(len(self.status) / self.seconds, 1) if self.seconds else None,
+            "status": {k: v for k, v in counts.items() if v},
+        }
+        if self.adaptation is not None:
+            out["adaptation"] = self.adaptation.summary()
+        if self.members > 1:
+            out["ensemble"] = self.members
+        return out
+
+
+#: the smallest extent a pose may have: below it 1/extent overflows or loses bits
+_TINY = np.finfo(float).tiny
+
+
+
+def validate_poses(poses, missing, n_joints, caller="recover", model="dictionary"):
+    """Poses (n, N, 2) as floats, the missing mask and the rows with a bad
+    observed coordinate; whole-input problems raise, naming `caller`/`model`.
+    A masked array's masked joints are missing."""
+    poses, missing = unmask(poses, missing, caller)
+    poses = check_poses(poses, caller)
+    if poses.ndim == 2:
+        poses = poses[None]
+    if poses.ndim != 3 or poses.shape[-1] != 2:
+        raise PoseError(f"poses must have shape (n, N, 2), got {np.shape(poses)}")
+    if poses.shape[1] != n_joints:
+        raise PoseError(
+            f"poses have {poses.shape[1]} joints but the {model} is for {n_joints}"
+        )
+    nan = np.isnan(poses).any(axis=-1)
+    if missing is None:
+        mask = nan
+        bad_coord = np.isinf(poses).any(axis=-1).any(axis=-1)
+    else:
+        mask = check_mask(missing, caller)
+        if mask.ndim == 1:
+            mask = mask[None]
+        if mask.shape != poses.shape[:2]:
+            raise PoseError(f"missing must have shape {poses.shape[:2]}, got {mask.shape}")
+        bad_coord = ((~np.isfinite(poses)).any(axis=-1) & ~mask).any(axis=-1)
+    return poses, mask, bad_coord
+
+
+class Screening(NamedTuple):
+    """What :func:`screen_poses` returns (a tuple, so it unpacks as before)."""
+
+    status: np.ndarray
+    reason: np.ndarray
+    n_obs: np.ndarray
+    clean: np.ndarray
+
+
+class Screened(NamedTuple):
+    """What :func:`screen` returns (a tuple, so it unpacks as before): the
+    statuses, and the usable poses' vectors and normalisation under one
+    representation; `filled` holds the complete poses as given, NaN elsewhere."""
+
+    status: np.ndarray
+    reason: np.ndarray
+    n_obs: np.ndarray
+    clean: np.ndarray
+    vectors: np.ndarray
+    center: np.ndarray
+    scale: np.ndarray
+    filled: np.ndarray
+
+
+def screen_poses(poses, mask, bad_coord):
+    """Why each pose cannot be used, before any solving: shared by every path.
+
+    Returns ``(status, reason, n_obs, clean)``: `status` is ``""`` for a usable
+    pose and a refusal of :data:`STATUSES` otherwise (``invalid_coordinates``,
+    ``too_few_observed``, ``degenerate``, ``out_of_range``); `clean` is the poses
+    with missing joints at 0. Used by :func:`recover`, the FConv path and
+    :func:`sparseedm.lift`.
+    """
+    n, N = mask.shape
+    status = np.full(n, "", dtype=object)
+    reason = np.full(n, "", dtype=object)
+    n_obs = (~mask).sum(axis=1)
+    status[bad_coord] = "invalid_coordinates"
+    reason[bad_coord] = "an observed joint has a NaN or infinite coordinate"
+    few = ~bad_coord & (n_obs < MIN_OBSERVED_JOINTS)
+    status[few] = "too_few_observed"
+    reason[few] = [f"{k} observed joints, at least {MIN_OBSERVED_JOINTS} needed" for k in n_obs[few]]
+    clean = np.where(mask[..., None], 0.0, poses)
+    with np.errstate(invalid="ignore", over="ignore"):  # inf - inf on refused rows
+        lo = np.where(mask[..., None], np.inf, poses).min(axis=1)
+        hi = np.where(mask[..., None], -np.inf, poses).max(axis=1)
+        widest = (hi - lo).max(axis=1)  # -inf for a pose with no observed joint
+        # the 'average' fill sums the observed coordinates: that must not overflow
+        total = np.abs(clean).sum(axis=1).max(axis=1)
+    degenerate = (status == "") & ~(widest > 0)
+    status[degenerate] = "degenerate"
+    reason[degenerate] = "all observed joints coincide"
+    huge = (status == "") & ~(np.isfinite(widest) & np.isfinite(total))
+    status[huge] = "out_of_range"
+    reason[huge] = ("the observed joints span more than float64 can hold (extent or sum "
+                    "overflows); rescale the coordinates")
+    tiny = (status == "") & (widest / 2 < _TINY)
+    status[tiny] = "out_of_range"
+    reason[tiny] = [f"the observed joints span only {w:.3g} (a subnormal extent); rescale "
+                    "the coordinates" for w in widest[tiny]]
+    return Screening(status, reason, n_obs, clean)
+
+
+def screen(poses, mask, bad_coord, representation):
+    """Statuses of every pose, and the usable ones' vectors under `representation`.
+
+    Shared by the sparse path and the FConv path (:mod:`sparseedm.fconv`).
+    """
+    n, N = mask.shape
+    status, reason, n_obs, clean = screen_poses(poses, mask, bad_coord)
+    status[status == ""] = "recovered"
+    complete = (status == "recovered") & (n_obs == N)
+    status[complete] = "complete"
+    reason[complete] = "no joint missing"
+
+    vectors = np.full((n, N * (N - 1) // 2), np.nan)
+    center = np.full((n, 2), np.nan)
+    scale = np.full(n, np.nan)
+    filled = np.full_like(poses, np.nan)
+    usable = np.isin(status, ("recovered", "complete"))
+    if usable.any():
+        T, c, s = represent(clean[usable], mask[usable], representation)
+        vectors[usable], center[usable], scale[usable] = T, c, s
+        filled[complete] = poses[complete]
+    return Screened(status, reason, n_obs, clean, vectors, center, scale, filled)
+
+
+def place_occluded(poses, clean, mask, vectors, center, scale, status, reason, filled, certified=None,
+           weight_power=WEIGHT_POWER):
+    """Place the occluded joints of recovered poses into `filled`, batched by count.
+
+    `weight_power`: the placement's residual weights (chosen on the sparse
+    method's answers; the FConv path keeps unweighted placement).
+
+    No row stays recovered unless what it returns (its joints, its distances
+    and, where given, ``certified``: a finite objective and gap) is finite:
+    such rows become ``solver_failed``.
+    """
+    N = mask.shape[1]
+    n_obs = (~mask).sum(axis=1)
+    placed_rows = np.flatnonzero(np.isin(status, ("recovered", "inaccurate")))
+    for count in np.unique(N - n_obs[placed_rows]):
+        rows = placed_rows[N - n_obs[placed_rows] == count]
+        normed = (clean[rows] - center[rows, None, :]) / scale[rows, None, None]
+        P = place_missing_joints(normed, vector_to_edm(vectors[rows]), mask[rows],
+                                 weight_power=weight_power)
+        out = poses[rows].copy()
+        with np.errstate(over="ignore", invalid="ignore"):
+            out[mask[rows]] = (P * scale[rows, None, None]
+                               + center[rows, None, :]).reshape(-1, 2)
+        filled[rows] = out
+    placed = np.isin(status, ("recovered", "inaccurate"))
+    finite = np.isfinite(filled).all(axis=(1, 2)) & np.isfinite(vectors).all(axis=1)
+    if certified is not None:
+        finite &= certified
+    broken = placed & ~finite
+    status[broken] = "solver_failed"
+    reason[broken] = "the recovered distances or joints are not finite"
+    filled[broken] = np.nan
+    vectors[broken] = np.nan
+
+
+#: a row's status in the ensemble: the first of these any member gave it
+_PRECEDENCE = ("solver_failed", "inaccurate")
+
+
+def combine(results):
+    """One :class:`RecoveryResult` from members' results on the same poses.
+
+    Filled poses and EDM vectors are the means over the members. A row's
+    status is the members' common status; where they differ, a solver failure
+    of any member fails the row (its joints and vectors NaN, as a failed row of
+    one recovery), else an uncertified ("inaccurate") answer of any member is
+    reported; the reason is that member's. Objective, gap and active atoms are the first
+    member's (each member's certificate is of its own lasso); ``fallback`` is
+    true if any member fell back to Clarabel. ``seconds`` is the members' sum.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import sparseedm
+    >>> pose = np.array([[50, 10], [50, 30], [35, 32], [30, 55], [28, 78],
+    ...                  [65, 32], [70, 55], [72, 78], [40, 80], [40, 115],
+    ...                  [40, 150], [60, 80], [60, 115], [60, 150]], float)
+    >>> pose[4] = np.nan
+    >>> one = sparseedm.recover(pose, adapt=False)
+    >>> both = combine([one, one])
+    >>> bool(np.allclose(both.poses, one.poses, equal_nan=True)), both.status.tolist()
+    (True, ['recovered'])
+    """
+    results = list(results)
+    first = results[0]
+    if len(results) == 1:
+        return first
+    ok = np.stack([r.ok for r in results])  # (members, n)
+    with np.errstate(invalid="ignore"):  # rows not usable in every member are set below
+        poses = np.mean([r.poses for r in results], axis=0)
+        vectors = np.mean([r.vectors for r in results], axis=0)
+    # what every member keeps as given stays bit for bit (a mean of equal floats
+    # need not be that float): the observed joints and their distances
+    observed = ~first.missing
+    poses = np.where(observed[..., None], first.poses, poses)
+    vectors = np.where(observed_entries(first.missing), first.vectors, vectors)
+    # object arrays: a member's longer status or reason must not be cut to the
+    # first member's string width
+    status = first.status.astype(object)
+    reason = first.reason.astype(object)
+    for bad in _PRECEDENCE[::-1]:  # the first of _PRECEDENCE wins
+        for r in results[::-1]:
+            hit = r.status == bad
+            status[hit] = r.status[hit]
+            reason[hit] = r.reason[hit]
+    unusable = ~ok.all(axis=0)  # refused by the screening (all members) or failed
+    poses[unusable] = np.nan
+    vectors[unusable] = np.nan
+    refused = ~ok[0]  # refused rows come back as one recovery returns them
+    poses[refused] = first.poses[refused]
+    vectors[refused] = first.vectors[refused]
+    return type(first)(
+        poses=poses, vectors=vectors, missing=first.missing, center=first.center,
+        scale=first.scale, objective=first.objective, gap=first.gap, n_active=first.n_active,
+        status=status.astype(str), reason=reason.astype(str),
+        fallback=np.any([r.fallback for r in results], axis=0), alpha=first.alpha,
+        seconds=float(sum(r.seconds for r in results)), adaptation=first.adaptation,
+        dictionary=first.dictionary, members=len(results))

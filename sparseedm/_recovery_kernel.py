@@ -1,0 +1,179 @@
+"""The sparse recovery kernel: the lasso on each pose's observed entries, merged (Eq. 10).
+
+:func:`recover_sparse` runs one dictionary over a batch of poses (screening
+and placement from :mod:`sparseedm._recovery_base`; rows sorted by missing
+pattern, chunked over joblib workers by :mod:`sparseedm._parallel`);
+:func:`recover_members` runs it once per dictionary of an ensemble and
+combines the answers. Below adaptation (whose guard and self-training call
+it) and below the :func:`sparseedm.recover` dispatcher.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import time
+from numbers import Integral
+
+import numpy as np
+from joblib import Parallel, delayed, parallel_config
+from threadpoolctl import threadpool_limits
+
+from ._parallel import chunk_tasks, dask_client
+from ._recovery_base import RecoveryResult, combine, place_occluded, screen, validate_poses
+from ._validation import (ALPHA, BOOLEAN, CHUNK_SIZE, ENSEMBLE, N_JOBS, Interval, Options,
+                          usable_jobs)
+from .dictionary import Dictionary, check_layout, load_dictionary
+from .edm import observed_entries
+from .normalize import REPRESENTATIONS
+from .skeleton import SKELETON_14
+from .solvers import SOLVERS, BaseSolver, get_solver
+from .solvers.fast import FastSolver
+
+__all__ = ["recover_sparse", "recover_members", "solve_chunk", "RECOVER_PARAMS"]
+
+#: constraints of recover()'s arguments (see sparseedm._validation)
+RECOVER_PARAMS = {
+    "dictionary": [Dictionary, "path", None],
+    "alpha": ALPHA + [None],
+    "representation": [Options(REPRESENTATIONS)],
+    "solver": [Options(SOLVERS), BaseSolver],
+    "n_jobs": N_JOBS,
+    "chunk_size": CHUNK_SIZE,
+    "positive": ["boolean", None],
+    "progress": BOOLEAN,
+    "backend": [Options(("loky", "threading", "multiprocessing", "dask")), None],
+    "scheduler": ["path", None],
+    "method": [Options(("sparse", "fconv"))],
+    "self_training": [Interval(Integral, 0, None), None],
+    "ensemble": ENSEMBLE,
+    "temporal": BOOLEAN,
+}
+
+
+
+def solve_chunk(solver, components, X, observed, alpha_eff, positive, key, threads=None):
+    """One task: the lasso of every row on its observed entries, merged (Eq. 10)."""
+    if threads is not None:  # one thread per joblib worker: no oversubscription
+        import numba
+
+        numba.set_num_threads(threads)
+    res = solver.solve_masked(components.T, X, observed, alpha_eff, positive=positive,
+                              key=key)
+    # T_re = c D row by row over the few atoms used: a row's answer must not
+    # depend on which rows share its chunk (a batched product rounds differently)
+    T_re = np.empty_like(X)
+    n_active = np.empty(len(X), dtype=int)
+    for i, c in enumerate(res.coef):
+        nz = np.flatnonzero(c)
+        T_re[i] = c[nz] @ components[nz]
+        n_active[i] = len(nz)
+    merged = np.where(observed, X, T_re)  # Eq. 10
+    return merged, res.objective, res.gap, res.status, n_active, res.fallback
+
+
+def recover_members(poses, missing, members, adaptations, **kwargs):
+    """The poses recovered with each of `members` (dictionaries), combined
+    (:func:`~sparseedm._recovery_base.combine`: one member's result as it is), with
+    what `adaptations` (:func:`sparseedm.ensemble.adapt_members`'s, or empty)
+    did and took; `kwargs` as :func:`recover`'s recovery settings."""
+    # the work is many small BLAS calls beside numba's threads: BLAS threads
+    # would only spin against them (measured 2x slower), so BLAS gets one.
+    with threadpool_limits(1, user_api="blas"):
+        res = combine([recover_sparse(poses, missing, dictionary=d, **kwargs) for d in members])
+    if adaptations:
+        res.adaptation = adaptations[0]
+        res.seconds += sum(a.seconds for a in adaptations)
+    return res
+
+
+def recover_sparse(poses, missing=None, *, dictionary=None, alpha=None,
+             representation="average", solver="fast", n_jobs=1, chunk_size=2048,
+             positive=None, progress=False, backend=None, scheduler=None):
+    t0 = time.perf_counter()
+    if not isinstance(dictionary, Dictionary):
+        dictionary = load_dictionary(dictionary)
+    if dictionary.n_joints == SKELETON_14.num_joints:  # 14-joint poses come in SKELETON_14 order
+        check_layout(dictionary)
+    alpha = dictionary.alpha_recover if alpha is None else alpha
+    positive = dictionary.positive_code if positive is None else bool(positive)
+    solver = get_solver(solver)
+    N = dictionary.n_joints
+    poses, mask, bad_coord = validate_poses(poses, missing, N)
+    n = len(poses)
+    m = dictionary.n_features
+    components = dictionary.components
+    status, reason, n_obs, clean, vectors, center, scale, filled = screen(
+        poses, mask, bad_coord, representation)
+    objective = np.full(n, np.nan)
+    gap = np.full(n, np.nan)
+    n_active = np.zeros(n, dtype=int)
+    fallback = np.zeros(n, dtype=bool)
+
+    todo = np.flatnonzero(status == "recovered")
+    dict_key = hashlib.sha1(np.ascontiguousarray(components).tobytes()).hexdigest()
+    # rows sorted by missing pattern (a backend that works per pattern sees
+    # whole groups), cut into chunks; each row is solved on its observed entries
+    order = np.lexsort(mask[todo].T[::-1])
+    todo = todo[order]
+    observed = observed_entries(mask[todo])
+    m_obs = observed.sum(axis=1)
+    alpha_eff = alpha * (m_obs / m if dictionary.alpha_scaling == "entries"
+                         else np.ones(len(m_obs)))
+    tasks = chunk_tasks(np.arange(len(todo)), chunk_size, n_jobs, backend)
+    results = _run_tasks(solver, components, vectors[todo], observed, alpha_eff, tasks,
+                         positive, dict_key, n_jobs, progress, backend, scheduler)
+    for t, (merged, obj, g, st, act, fb) in zip(tasks, results):
+        chunk = todo[t]
+        vectors[chunk] = merged
+        objective[chunk], gap[chunk], n_active[chunk], fallback[chunk] = obj, g, act, fb
+        status[chunk] = np.where(st == "optimal", "recovered",
+                                 np.where(st == "failed", "solver_failed", "inaccurate"))
+    empty = np.zeros(n, dtype=bool)
+    empty[todo] = n_active[todo] == 0
+    empty &= np.isin(status, ("recovered", "inaccurate"))
+    status[empty] = "empty_code"  # every distance would come back 0: not an answer
+    reason[empty] = (f"the lasso chose no atom at alpha {alpha:g}: lower alpha (the "
+                     f"dictionary recommends {dictionary.alpha_recover:g})")
+    failed = (status == "solver_failed") | empty
+    reason[status == "solver_failed"] = "solver status not optimal"
+    vectors[failed] = np.nan
+    reason[status == "inaccurate"] = "duality gap above tolerance"
+
+    place_occluded(poses, clean, mask, vectors, center, scale, status, reason, filled,
+           certified=np.isfinite(objective) & np.isfinite(gap))
+    return RecoveryResult(
+        poses=filled, vectors=vectors, missing=mask, center=center, scale=scale,
+        objective=objective, gap=gap, n_active=n_active,
+        status=status.astype(str), reason=reason.astype(str), fallback=fallback,
+        alpha=float(alpha), seconds=time.perf_counter() - t0, dictionary=dictionary,
+    )
+
+
+def _run_tasks(solver, components, X, observed, alpha_eff, tasks, positive, key, n_jobs,
+               progress, backend=None, scheduler=None):
+    if not tasks:
+        return []
+    from tqdm.auto import tqdm
+
+    distributed = backend == "dask"
+    if not distributed and n_jobs is not None:
+        n_jobs = usable_jobs(n_jobs, len(tasks))  # --jobs 100000 runs what can run
+    threads = None if (n_jobs in (None, 1) and not distributed) else 1
+    calls = (
+        delayed(solve_chunk)(solver, components, X[t], observed[t], alpha_eff[t], positive,
+                              key, threads)
+        for t in tasks
+    )
+    bar = dict(total=len(tasks), disable=not progress, unit="chunk", desc="recover")
+    if distributed:
+        with dask_client(scheduler):
+            with parallel_config(backend="dask"):
+                return list(tqdm(Parallel(n_jobs=-1, return_as="generator")(calls), **bar))
+    if n_jobs in (None, 1) and backend is None:
+        return [f(*args, **kw) for f, args, kw in tqdm(calls, **bar)]
+    if backend is None and isinstance(solver, FastSolver):
+        # its kernels release the GIL: threads share one Gram cache and skip
+        # process start-up (measured 1.2x the throughput of loky processes)
+        backend = "threading"
+    parallel = Parallel(n_jobs=n_jobs, return_as="generator", backend=backend)
+    return list(tqdm(parallel(calls), **bar))
