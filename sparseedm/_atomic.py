@@ -35,7 +35,8 @@ from pathlib import Path
 
 from .exceptions import OutputPathError
 
-__all__ = ["atomic_path", "check_paths", "is_stream", "save_npz", "save_npy", "remove_leftovers", "TEMP_MARK"]
+__all__ = ["atomic_path", "check_paths", "is_stream", "save_npz", "save_npy",
+           "remove_leftovers", "TEMP_MARK"]
 
 #: every temporary file's name holds this (see the module docstring)
 TEMP_MARK = ".sparseedm-tmp-"

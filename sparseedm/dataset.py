@@ -278,7 +278,12 @@ def build_dataset(
     cameras_per_pose = int(cameras_per_pose)
     if output is not None:
         _check_output(output)
-        check_paths([], [("output", output)])
+        # every file the build reads is an input, whatever its name (a joint map x.npz)
+        inputs = [("motion path", p) for p in
+                  ([paths] if isinstance(paths, (str, os.PathLike)) else list(paths))]
+        if isinstance(joint_map, (str, os.PathLike)):
+            inputs.append(("joint map", joint_map))
+        check_paths(inputs, [("output", output)])
     files = find_mocap_files(paths)
     rng = np.random.default_rng(random_state)
     cam_opts = dict(camera_options or {})

@@ -564,3 +564,13 @@ def test_ensemble_and_atom_counts_bounded(occluded, small_dictionary, tmp_path, 
         recover(occluded[:2], dictionary=small_dictionary, ensemble=100000)
     with pytest.raises(ParameterError, match="n_components=10000000 needs about"):
         check_params(10_000_000, 0.1)
+
+
+def test_dataset_joint_map_is_an_input_whatever_its_name(tmp_path, fixtures_dir, capsys):
+    joint_map = tmp_path / "map.npz"          # a JSON joint map under an .npz name
+    joint_map.write_text('{"joints": {}}')
+    before = joint_map.read_bytes()
+    code = main(["dataset", "build", str(fixtures_dir / "cmu_02_01_short.bvh"), "-o",
+                 str(joint_map), "--joint-map", str(joint_map), "--quiet"])
+    assert code == 2 and joint_map.read_bytes() == before
+    assert "refusing to overwrite" in capsys.readouterr().err
