@@ -9,6 +9,11 @@ occluded joints) best match the EDM, by least squares:
 2. a few damped Gauss-Newton steps on all occluded joints of the pose together,
    over the residuals ``||p_j - q_i|| - d_ij`` and ``||p_j - p_l|| - d_jl``,
    each weighted by its target distance ``d`` to the power ``weight_power``.
+   A step is taken only where it lowers that cost (else halved, or not
+   taken), and a start is first pulled into the disc the joint can reach from
+   the anchors: nearly collinear observed joints make the linearisation
+   ill-posed, and without these guards a joint could land hundreds of body
+   sizes away while its pose read as recovered.
 
 The weight (default ``d``: long distances count more) was chosen on validation
 poses (``dictionaries/README.md``, "Placement weighting"): against unweighted
@@ -96,11 +101,22 @@ def place_missing_joints(poses, edm, missing, n_iter=10, weight_power=WEIGHT_POW
     d_mo = edm[rows[:, :, None], miss[:, :, None], obs[:, None, :]]  # (n, M, a)
     d_mm = edm[rows[:, :, None], miss[:, :, None], miss[:, None, :]]  # (n, M, M)
     P = np.stack([_trilaterate(anchors, d_mo[:, j]) for j in range(M)], axis=1)
+    P = _within_reach(P, anchors, d_mo)
     iu, ju = np.triu_indices(M, 1)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         w_mo = np.maximum(d_mo, 1e-12) ** weight_power
         w_mm = np.maximum(d_mm[:, iu, ju], 1e-12) ** weight_power
     eye = np.arange(M)
+
+    def cost(P):
+        r_mo = np.linalg.norm(P[:, :, None, :] - anchors[:, None, :, :], axis=-1) - d_mo
+        c = (w_mo * r_mo**2).sum(axis=(1, 2))
+        if M > 1:
+            dd = np.linalg.norm(P[:, iu] - P[:, ju], axis=-1)
+            c = c + (w_mm * (dd - d_mm[:, iu, ju]) ** 2).sum(axis=1)
+        return c
+
+    current = cost(P)
     for _ in range(n_iter):
         diff = P[:, :, None, :] - anchors[:, None, :, :]  # (n, M, a, 2)
         dist = np.linalg.norm(diff, axis=-1)
@@ -129,5 +145,51 @@ def place_missing_joints(poses, edm, missing, n_iter=10, weight_power=WEIGHT_POW
             damp = 1e-6 * np.trace(H, axis1=1, axis2=2) / (2 * M) + 1e-12
         H = H + damp[:, None, None] * np.eye(2 * M)
         step = np.linalg.solve(H, g.reshape(n, 2 * M, 1))[..., 0]
-        P = P - step.reshape(n, M, 2)
+        P, current = _descend(P, step.reshape(n, M, 2), current, cost)
     return P
+
+
+def _within_reach(P, anchors, d_mo):
+    """Starts pulled into the disc a joint can reach from every anchor.
+
+    A joint at distance d_i from anchor q_i lies within d_i + ||q_i - c|| of
+    the anchors' centroid c. Nearly collinear anchors make the linearised
+    trilateration ill-posed across their line, and its start can land
+    anywhere; such a start is moved back onto that disc's edge.
+    """
+    c = anchors.mean(axis=1)  # (n, 2)
+    spread = np.linalg.norm(anchors - c[:, None], axis=-1)  # (n, a)
+    reach = (d_mo + spread[:, None, :]).max(axis=-1)  # (n, M)
+    off = P - c[:, None, :]
+    dist = np.linalg.norm(off, axis=-1)
+    bad = ~np.isfinite(dist) | (dist > reach)
+    if not bad.any():
+        return P
+    with np.errstate(divide="ignore", invalid="ignore"):
+        scaled = c[:, None, :] + off * (reach / dist)[..., None]
+    scaled = np.where(np.isfinite(scaled), scaled, c[:, None, :])
+    return np.where(bad[..., None], scaled, P)
+
+
+def _descend(P, step, current, cost, halvings=6):
+    """Take the Gauss-Newton `step` where it lowers the cost, else a fraction.
+
+    A pose whose full step raises its weighted residual (a near-singular
+    system, as from nearly collinear anchors) backtracks by halving, and stays
+    where it is if no fraction helps; the others take the full step, as plain
+    Gauss-Newton does.
+    """
+    t = np.ones(len(P))
+    todo = np.ones(len(P), bool)
+    new_P, new_cost = P.copy(), current.copy()
+    for _ in range(halvings + 1):
+        with np.errstate(invalid="ignore", over="ignore"):
+            trial = P - t[:, None, None] * step
+            c = cost(trial)
+        ok = todo & np.isfinite(c) & (c <= current * (1 + 1e-9) + 1e-300)
+        new_P[ok], new_cost[ok] = trial[ok], c[ok]
+        todo &= ~ok
+        if not todo.any():
+            break
+        t[todo] *= 0.5
+    return new_P, new_cost

@@ -34,3 +34,31 @@ def test_the_weights_matter_only_when_the_distances_disagree(cmu_poses):
     scale = np.ptp(poses, axis=1).max(axis=1)[:, None, None]
     assert (np.abs(a - truth) / scale).mean() < 0.05
     assert (np.abs(b - truth) / scale).mean() < 0.05
+
+
+def test_nearly_collinear_anchors_stay_within_reach():
+    # Observed joints on (almost) one line make the linearised trilateration
+    # ill-posed across it; with noisy distances the start and plain
+    # Gauss-Newton used to throw joints hundreds of body sizes away (a video
+    # benchmark found one 'recovered' pose thousands of heights off).
+    from sparseedm.edm import pose_to_edm
+    from sparseedm.placement import place_missing_joints
+
+    rng = np.random.default_rng(1)
+    worst = 0.0
+    for _ in range(300):
+        pose = rng.normal(0, 1, (14, 2))
+        obs = rng.choice(14, 8, replace=False)
+        pose[obs, 0] = rng.normal(0, 10.0 ** rng.uniform(-8, -3), 8)
+        miss = np.ones(14, bool)
+        miss[obs] = False
+        edm = pose_to_edm(pose[None])[0]
+        noisy = edm * (1 + rng.normal(0, 0.05, edm.shape))
+        noisy = (noisy + noisy.T) / 2
+        np.fill_diagonal(noisy, 0)
+        placed = place_missing_joints(pose[None], noisy[None], miss[None])[0]
+        anchors = pose[obs]
+        c = anchors.mean(axis=0)
+        reach = (noisy[np.ix_(miss, obs)] + np.linalg.norm(anchors - c, axis=1)).max(axis=1)
+        worst = max(worst, float((np.linalg.norm(placed - c, axis=1) / reach).max()))
+    assert worst <= 1.0 + 1e-9
