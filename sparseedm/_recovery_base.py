@@ -29,7 +29,8 @@ from .normalize import MIN_OBSERVED_JOINTS, represent
 from .placement import WEIGHT_POWER, place_missing_joints
 
 __all__ = ["STATUSES", "OK_STATUSES", "RecoveryResult", "Screened", "Screening",
-           "validate_poses", "screen_poses", "screen", "place_occluded", "combine"]
+           "validate_poses", "screen_poses", "screen", "place_occluded", "combine",
+           "SCREENING_REFUSALS", "status_counts", "poses_per_second"]
 
 #: Per-pose statuses and what they mean.
 STATUSES = {
@@ -45,6 +46,26 @@ STATUSES = {
 }
 #: statuses of the poses that came back usable
 OK_STATUSES = ("recovered", "inaccurate", "complete")
+#: the refusals :func:`screen_poses` gives, before any solving (every path shares them)
+SCREENING_REFUSALS = ("too_few_observed", "invalid_coordinates", "degenerate", "out_of_range")
+
+
+def status_counts(status, statuses):
+    """How many rows have each of `statuses`, in its order, those present only: the
+    one count behind :meth:`RecoveryResult.summary` and ``LiftResult.summary``.
+
+    Examples
+    --------
+    >>> status_counts(np.array(["complete", "degenerate", "complete"]), STATUSES)
+    {'complete': 2, 'degenerate': 1}
+    """
+    counts = {s: int((status == s).sum()) for s in statuses}
+    return {k: v for k, v in counts.items() if v}
+
+
+def poses_per_second(n, seconds):
+    """The rate a summary reports (None when no time was measured)."""
+    return round(n / seconds, 1) if seconds else None
 
 
 @dataclass
@@ -125,15 +146,14 @@ class RecoveryResult:
 
     def summary(self) -> dict:
         """Counts a person reads at the end of a batch."""
-        counts = {s: int((self.status == s).sum()) for s in STATUSES}
         out = {
             "poses": int(len(self.status)),
             "recovered_joints": int(self.missing[np.isin(self.status, ("recovered", "inaccurate"))].sum()),
             "refused": int((~self.ok).sum()),
             "fallbacks": int(self.fallback.sum()),
             "seconds": round(self.seconds, 3),
-            "poses_per_second": round(len(self.status) / self.seconds, 1) if self.seconds else None,
-            "status": {k: v for k, v in counts.items() if v},
+            "poses_per_second": poses_per_second(len(self.status), self.seconds),
+            "status": status_counts(self.status, STATUSES),
         }
         if self.adaptation is not None:
             out["adaptation"] = self.adaptation.summary()

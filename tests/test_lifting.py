@@ -169,6 +169,17 @@ def test_an_overflowing_row_is_refused_and_the_rest_lifted(data, dict_lifter):
     assert "rescale" in res.reason[1] and np.isfinite(res.poses3d[[0, 2]]).all()
 
 
+def test_summary_counts_every_status_lift_gives(data, dict_lifter):
+    """summary() counts each row under its status: out_of_range rows were lost
+    while lifting kept its own copy of recovery's statuses (issue 22)."""
+    poses = data["poses2d"][:3].copy()
+    poses[1] = np.where(np.arange(14)[:, None] % 2, 1.5e308, -1.5e308)  # extent overflows
+    poses[2] = np.nan  # no observed joint
+    summary = lift(poses, lifter=dict_lifter).summary()
+    assert summary["status"] == {"lifted": 1, "too_few_observed": 1, "out_of_range": 1}
+    assert sum(summary["status"].values()) == summary["poses"] == 3
+
+
 def test_lift_refuses_other_joint_counts(dict_lifter):
     with pytest.raises(PoseError, match="13 joints but the lifter is for 14"):
         lift(np.zeros((2, 13, 2)), lifter=dict_lifter)

@@ -20,7 +20,8 @@ import numpy as np
 
 from ..edm import vector_to_edm
 from .._recovery_base import STATUSES as RECOVERY_STATUSES
-from .._recovery_base import screen_poses, validate_poses
+from .._recovery_base import (SCREENING_REFUSALS, poses_per_second, screen_poses,
+                              status_counts, validate_poses)
 from .._validation import N_JOBS, Options, validate_params
 from ..normalize import REPRESENTATIONS, normalize, represent
 from .base import Lifter, load_lifter, rms
@@ -29,13 +30,14 @@ from .metrics import pelvis
 
 __all__ = ["lift", "LiftResult", "STATUSES", "poses_from_vectors"]
 
-#: Per-pose statuses and what they mean (refusals as in :data:`sparseedm.recovery.STATUSES`).
+#: Per-pose statuses and what they mean: lifting's own, then the refusals it shares
+#: with recovery (:data:`sparseedm.recovery.STATUSES`), every screening refusal
+#: included: derived, so a new one is counted here too (out_of_range was lost).
 STATUSES = {
     "lifted": "lifted from a complete 2D pose",
     "lifted_occluded": "lifted from the observed joints of an occluded 2D pose",
     "inaccurate": "lifted, but the lasso optimum is not certified (gap above tolerance)",
-    **{k: RECOVERY_STATUSES[k] for k in ("solver_failed", "too_few_observed",
-                                         "invalid_coordinates", "degenerate")},
+    **{k: RECOVERY_STATUSES[k] for k in ("solver_failed",) + SCREENING_REFUSALS},
 }
 _OK = ("lifted", "lifted_occluded", "inaccurate")
 
@@ -76,14 +78,13 @@ class LiftResult:
         return np.isin(self.status, _OK)
 
     def summary(self):
-        counts = {s: int((self.status == s).sum()) for s in STATUSES}
         return {
             "poses": int(len(self.status)),
             "refused": int((~self.ok).sum()),
             "ambiguous_reflection": int((self.chirality_margin[self.ok] < 1).sum()),
             "seconds": round(self.seconds, 3),
-            "poses_per_second": round(len(self.status) / self.seconds, 1) if self.seconds else None,
-            "status": {k: v for k, v in counts.items() if v},
+            "poses_per_second": poses_per_second(len(self.status), self.seconds),
+            "status": status_counts(self.status, STATUSES),
         }
 
 
