@@ -60,7 +60,7 @@ def _load(path, need3d):
 def run(args):
     from .._atomic import check_paths
     from ..fconv.network import require_torch
-    from ..fconv.training import fit_fconv, fit_lifter
+    from ..fconv.training import fit_edm_lifter, fit_fconv
 
     torch = require_torch()
     if args.threads:
@@ -79,8 +79,8 @@ def run(args):
         model = fit_fconv(data["poses2d"], data.get("clips"),
                           occluded=occluded_range(args.occluded, (1, 3)), **common)
     else:
-        model = fit_lifter(data["poses2d"], data["poses3d"], data.get("clips"),
-                           occluded=occluded_range(args.occluded, (0, 0)), **common)
+        model = fit_edm_lifter(data["poses2d"], data["poses3d"], data.get("clips"),
+                               occluded=occluded_range(args.occluded, (0, 0)), **common)
     model.save(args.output)
     t = model.meta["training"]
     print(f"wrote {args.output}: {args.task} model, {t['epochs']} epochs on {t['n_train']} "

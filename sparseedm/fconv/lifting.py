@@ -1,9 +1,13 @@
 """2D -> 3D: DMR's distance-matrix regression with the FConv layers.
 
-:func:`lift` maps 2D poses (pixels, occluded joints as NaN or a mask) to 3D
-EDM vectors in the training 3D units (metres for :mod:`sparseedm.dataset`
-files) with a ``kind="lift"`` model from :func:`~sparseedm.fconv.fit_lifter`;
-:class:`FConvLifter` is its scikit-learn-style shell. Turning a 3D EDM into
+:func:`lift_edm_vectors` maps 2D poses (pixels, occluded joints as NaN or a
+mask) to 3D EDM vectors in the training 3D units (metres for
+:mod:`sparseedm.dataset` files) with a ``kind="lift"`` model from
+:func:`~sparseedm.fconv.fit_edm_lifter`; :class:`FConvEDMLifter` is its
+scikit-learn-style shell. (Metric 3D joints and a ``LiftResult`` come from
+:func:`sparseedm.lift`, whose ``fconv`` lifter, :mod:`sparseedm.lifting.fconv`,
+wraps this network.) The names before issue 22, ``lift`` and ``FConvLifter``,
+stay as aliases. Turning a 3D EDM into
 joint coordinates (multidimensional scaling) is left to the caller, e.g. the
 3D lifting module, which can wrap these.
 """
@@ -14,12 +18,12 @@ import numpy as np
 
 from .._recovery_base import screen, validate_poses
 from .model import load_model
-from .training import NetworkShell, fit_lifter
+from .training import NetworkShell, fit_edm_lifter
 
-__all__ = ["lift", "FConvLifter"]
+__all__ = ["lift_edm_vectors", "FConvEDMLifter", "lift", "FConvLifter"]
 
 
-def lift(model, poses2d, missing=None, *, batch_size=4096):
+def lift_edm_vectors(model, poses2d, missing=None, *, batch_size=4096):
     """3D EDM vectors (n, N(N-1)/2) predicted from 2D poses.
 
     Parameters
@@ -42,9 +46,9 @@ def lift(model, poses2d, missing=None, *, batch_size=4096):
     >>> import numpy as np
     >>> rng = np.random.default_rng(0)
     >>> p3 = rng.normal(size=(64, 14, 3)); p2 = p3[..., :2] * 100
-    >>> from sparseedm.fconv import fit_lifter
-    >>> m = fit_lifter(p2, p3, channels=(4, 8), batch_size=16, max_epochs=1)
-    >>> lift(m, p2[:3]).shape
+    >>> from sparseedm.fconv import fit_edm_lifter
+    >>> m = fit_edm_lifter(p2, p3, channels=(4, 8), batch_size=16, max_epochs=1)
+    >>> lift_edm_vectors(m, p2[:3]).shape
     (3, 91)
     """
     model = load_model(model, kind="lift")
@@ -58,19 +62,24 @@ def lift(model, poses2d, missing=None, *, batch_size=4096):
     return out
 
 
-class FConvLifter(NetworkShell):
+class FConvEDMLifter(NetworkShell):
     """scikit-learn-style shell: ``fit(X2d, y3d)`` trains, ``predict(X2d)`` lifts.
 
-    ``__init__`` stores the arguments of :func:`~sparseedm.fconv.fit_lifter`
+    ``__init__`` stores the arguments of :func:`~sparseedm.fconv.fit_edm_lifter`
     (``occluded=None`` means its default, complete inputs); the trained model
     is ``model_``; :meth:`predict` returns 3D EDM vectors.
     """
 
     def fit(self, X, y, clips=None):
         """X: 2D poses (n, N, 2); y: their 3D poses (n, N, 3)."""
-        self.model_ = fit_lifter(X, y, clips, **self._options((0, 0)))
+        self.model_ = fit_edm_lifter(X, y, clips, **self._options((0, 0)))
         return self
 
     def predict(self, X, missing=None):
         """3D EDM vectors (n, N(N-1)/2) of 2D poses X."""
-        return lift(self.model_, X, missing)
+        return lift_edm_vectors(self.model_, X, missing)
+
+
+# the names before issue 22
+lift = lift_edm_vectors
+FConvLifter = FConvEDMLifter

@@ -9,7 +9,7 @@ Two tasks share one training loop (:func:`fit_network`):
   (the observed joints' bounding box), so its output is read as the sparse
   path's recovered vector is. Every epoch draws fresh masks of 1-3 occluded
   joints per pose (the protocol's Mix).
-* :func:`fit_lifter` -- DMR's 2D -> 3D regression with the same network: the
+* :func:`fit_edm_lifter` (old name ``fit_lifter``) -- DMR's 2D -> 3D regression with the same network: the
   input is the 2D EDM (optionally occluded, same representations), the target
   the 3D pose's EDM in metres.
 
@@ -35,7 +35,8 @@ from .model import FConvModel
 from .network import build_network, require_torch
 from .recover import recover_fconv
 
-__all__ = ["fit_fconv", "fit_lifter", "split_by_clip", "occlusion_range", "FConvRecoverer"]
+__all__ = ["fit_fconv", "fit_edm_lifter", "fit_lifter", "split_by_clip", "occlusion_range",
+           "FConvRecoverer"]
 
 
 def split_by_clip(clips, n_poses, random_state=0):
@@ -172,16 +173,18 @@ def fit_fconv(poses2d, clips=None, *, representation="average", occluded=(1, 3),
                         provenance=provenance)
 
 
-def fit_lifter(poses2d, poses3d, clips=None, *, representation="average", occluded=(0, 0),
+def fit_edm_lifter(poses2d, poses3d, clips=None, *, representation="average", occluded=(0, 0),
                channels=(32, 64), kernel=3, symmetrize=False, batch_size=256, max_epochs=30,
                patience=4, tol=1e-3, learning_rate=1e-3, random_state=0, device="cpu",
                progress=False, max_train=None, provenance=None):
-    """Train the 2D -> 3D EDM network (DMR's regression) with the FConv layers.
+    """Train the 2D -> 3D EDM network (DMR's regression) with the FConv layers: an
+    FConvModel mapping 2D poses to 3D EDM vectors (not a :class:`~sparseedm.lifting.Lifter`;
+    ``sparseedm.lifting.fit_lifter(method="fconv")`` wraps this network into one).
 
     The input is the 2D pose's EDM vector (normalised, under `representation`,
     with 0 occluded joints by default, or a fresh count from `occluded` per
     pose and epoch); the target the 3D pose's EDM vector in its own units
-    (metres for :mod:`sparseedm.dataset` files). :func:`sparseedm.fconv.lift`
+    (metres for :mod:`sparseedm.dataset` files). :func:`sparseedm.fconv.lift_edm_vectors`
     applies the result. Other parameters as :func:`fit_fconv`.
 
     Returns
@@ -209,6 +212,10 @@ def fit_lifter(poses2d, poses3d, clips=None, *, representation="average", occlud
                         device=device, progress=progress, max_train=max_train,
                         provenance=provenance)
 
+
+
+#: the name before issue 22 (``sparseedm.lifting.fit_lifter`` returns a Lifter; this an FConvModel)
+fit_lifter = fit_edm_lifter
 
 def check_representation(representation):
     if representation not in REPRESENTATIONS:

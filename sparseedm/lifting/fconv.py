@@ -9,7 +9,7 @@ the network is trained or run; loading and describing a file need no torch.
 
 3D units: the lifter's normalisation, not metres
 -----------------------------------------------
-:func:`sparseedm.fconv.fit_lifter` regresses 3D EDMs in metres. Here the
+:func:`sparseedm.fconv.fit_edm_lifter` regresses 3D EDMs in metres. Here the
 target is the 3D EDM vector in the *lifter base's* normalisation
 (:func:`sparseedm.lifting.base.training_pairs`; ``"tied"`` by default: the
 camera-frame pose times ``f / (Z s)``, the units of the normalised 2D input).
@@ -68,7 +68,7 @@ class FConvNetLifter(Lifter):
     channels, kernel, symmetrize
         The architecture (:mod:`sparseedm.fconv.network`).
     batch_size, max_epochs, patience, learning_rate
-        The training loop (:func:`sparseedm.fconv.fit_lifter`).
+        The training loop (:func:`sparseedm.fconv.fit_edm_lifter`).
     normalization : {"tied", "unit"}
         The 3D EDM units the network regresses (see the module docstring).
     random_state : int
