@@ -372,6 +372,18 @@ def _recover_adapted(inputs, mask, dictionary, adapt, cache, *, self_training, e
     return recover_members(inputs, mask, *cache["adapted"], n_jobs=n_jobs, **kw)
 
 
+def _check_applies(adapt, self_training, ensemble):
+    """Refuse `ensemble` / `self_training` when there is no adaptation to apply them to."""
+    if adapt is False or adapt is None:
+        if ensemble > 1:
+            raise ParameterError(f"ensemble={ensemble} averages adapted dictionaries: it "
+                                 "needs adapt= (complete poses to adapt on); without "
+                                 "adaptation leave ensemble at 1")
+        if self_training:
+            raise ParameterError(f"self_training={self_training} rounds run after an "
+                                 "adaptation: they need adapt= (complete poses to adapt on)")
+
+
 def evaluate(dictionary, test_poses2d, *, train_poses2d=None, labels=None,
              methods=("sparse", "mean-fill", "knn", "iterative", "nearest"),
              counts=(1, 2, 3, "mix"), representations=("average", "zero"),
@@ -433,6 +445,7 @@ def evaluate(dictionary, test_poses2d, *, train_poses2d=None, labels=None,
         self_training=self_training, ensemble=ensemble), _PARAMS)
     methods = check_methods(methods)
     counts = check_counts(counts)
+    _check_applies(adapt, self_training, ensemble)
     for r in representations:
         if r not in REPRESENTATIONS:
             raise SparseEDMError(f"unknown representation {r!r}; use one of {REPRESENTATIONS}")

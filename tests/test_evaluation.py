@@ -221,3 +221,13 @@ def test_report_without_matplotlib(split, tmp_path, monkeypatch):
     assert "pip install sparseedm[plot]" in message
     assert sorted(p.name for p in written) == ["per_action.csv", "report.md", "results.csv"]
     assert "pip install sparseedm[plot]" in (tmp_path / "r" / "report.md").read_text()
+
+
+@pytest.mark.parametrize("kwargs", [dict(ensemble=3), dict(self_training=2)])
+def test_evaluate_refuses_adaptation_options_without_adaptation(kwargs):
+    # issue 25: an option that cannot apply refuses instead of being ignored
+    from sparseedm.exceptions import ParameterError
+
+    poses = np.random.default_rng(0).normal(size=(5, 14, 2))
+    with pytest.raises(ParameterError, match="need"):
+        evaluate("default", poses, methods=("sparse",), counts=(1,), **kwargs)
