@@ -143,7 +143,7 @@ def test_a_filler_named_by_module_and_function():
 
 
 def test_report_files_and_figure(tmp_path):
-    pytest.importorskip("matplotlib")
+    pytest.importorskip("matplotlib", reason="needs the [plot] extra")
     report = evaluate_video([walker()], {"offset": offset}, hand_protocol)
     report.write(tmp_path / "r.json", tmp_path / "r.csv")
     saved = json.loads((tmp_path / "r.json").read_text())
@@ -209,7 +209,7 @@ def test_cli_video_bad_options(sequence_file, tmp_path, capsys):
 
 
 def test_cli_video_figure(sequence_file, tmp_path):
-    pytest.importorskip("matplotlib")
+    pytest.importorskip("matplotlib", reason="needs the [plot] extra")
     from sparseedm.cli import main
 
     out = tmp_path / "rep"
