@@ -1119,11 +1119,3 @@ def _write_coco(path, poses, mask, ids, meta, where, filled, filled_score, track
     with atomic_path(path) as tmp:
         with open(tmp, "w", encoding="utf-8") as f:
             json.dump(doc, f)
-
-
-# the private names these helpers had before issue 22 made them public (the
-# batch reader shares them), kept for code written against the old names
-_EXTENSIONS = EXTENSIONS
-_finish = finish_missing
-_format_of = format_of
-_np_load = load_single_npy
