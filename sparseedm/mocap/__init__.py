@@ -12,8 +12,10 @@ for the formats.
 
 from __future__ import annotations
 
+from numbers import Real
 from pathlib import Path
 
+from .._validation import Interval, validate_params
 from ..exceptions import FileFormatError
 from ._text import MAX_FILE_BYTES
 from .asf_amc import find_asf, load_asf_amc, parse_amc, parse_asf, write_cmu_bvh
@@ -61,10 +63,6 @@ def load_mocap(path, *, scale=None, units="auto", joint_map=None, return_info=Fa
     ...
     sparseedm.exceptions.FileFormatError: walk.c3d: unsupported motion-capture file type '.c3d' (expected .bvh or .amc)
     """
-    from numbers import Real
-
-    from .._validation import Interval, validate_params
-
     validate_params("load_mocap", dict(path=path, scale=scale, return_info=return_info),
                     {"path": ["path"], "scale": [Interval(Real, 0, None, closed="neither"), None],
                      "return_info": ["boolean"]})

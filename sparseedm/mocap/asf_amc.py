@@ -43,10 +43,13 @@ from pathlib import Path
 
 import numpy as np
 
+from .._atomic import atomic_path
 from ..exceptions import FileFormatError
 from ..skeleton import JOINT_NAMES
 from ._text import read_text
+from . import rigs
 from .bvh import rotation_matrices
+from .rigs import read_joint_map
 
 __all__ = [
     "ASFBone",
@@ -204,33 +207,9 @@ def parse_asf(source, *, name=None) -> ASFSkeleton:
             continue
         key = tokens[0].lower()
         if section == ":units":
-            if key == "length":
-                try:
-                    skel.length_unit = float(tokens[1])
-                except (IndexError, ValueError):
-                    fail(lineno, "':units length' needs a number")
-                if skel.length_unit <= 0:
-                    fail(lineno, "':units length' must be positive")
-            elif key == "angle":
-                unit = tokens[1].lower() if len(tokens) > 1 else ""
-                if unit not in ("deg", "rad"):
-                    fail(lineno, f"unknown angle unit {unit!r} (expected deg or rad)")
-                skel.angle_unit = unit
+            _units_line(skel, key, tokens, lineno, fail)
         elif section == ":root":
-            if key == "order":
-                skel.root_order = tuple(t.upper() for t in tokens[1:])
-                bad = [t for t in skel.root_order if t not in {"TX", "TY", "TZ", "RX", "RY", "RZ"}]
-                if bad:
-                    fail(lineno, f"unknown root channel {bad[0]!r}")
-            elif key == "axis":
-                if len(tokens) < 2 or not re.fullmatch("[XYZ]{3}", tokens[1].upper()):
-                    fail(lineno, "root 'axis' needs an order like XYZ")
-                skel.root_axis = tokens[1].upper()
-            elif key in ("position", "orientation"):
-                vals = _floats(tokens[1:], path, lineno, f"root {key}")
-                if vals.shape != (3,):
-                    fail(lineno, f"root {key} needs 3 numbers")
-                setattr(skel, f"root_{key}", vals)
+            _root_line(skel, key, tokens, path, lineno, fail)
         elif section == ":bonedata":
             if key == "begin":
                 if bone is not None:
@@ -239,55 +218,12 @@ def parse_asf(source, *, name=None) -> ASFSkeleton:
             elif key == "end":
                 if bone is None:
                     fail(lineno, "'end' without 'begin'")
-                for need in ("name", "direction", "length"):
-                    if need not in bone:
-                        fail(lineno, f"bone block starting at line {bone['line']} has no {need!r}")
-                if bone["name"] in bones:
-                    fail(bone["line"], f"bone {bone['name']!r} defined twice")
-                if len(bone["limits"]) not in (0, len(bone.get("dof", ()))):
-                    fail(lineno, f"bone {bone['name']!r} has {len(bone['limits'])} limits for "
-                         f"{len(bone.get('dof', ()))} dofs")
-                bones[bone["name"]] = ASFBone(
-                    name=bone["name"], direction=bone["direction"], length=bone["length"],
-                    axis=bone.get("axis", np.zeros(3)), axis_order=bone.get("axis_order", "XYZ"),
-                    dof=bone.get("dof", ()), limits=bone["limits"],
-                )
-                bone_lines[bone["name"]] = bone["line"]
+                _close_bone(bone, bones, bone_lines, lineno, fail)
                 bone = None
             elif bone is None:
                 fail(lineno, f"{tokens[0]!r} outside a 'begin ... end' bone block")
-            elif key == "id":
-                pass
-            elif key == "name":
-                if len(tokens) < 2:
-                    fail(lineno, "'name' needs a bone name")
-                bone["name"] = tokens[1]
-            elif key == "direction":
-                d = _floats(tokens[1:], path, lineno, "direction")
-                if d.shape != (3,):
-                    fail(lineno, "direction needs 3 numbers")
-                bone["direction"] = d
-            elif key == "length":
-                v = _floats(tokens[1:], path, lineno, "length")
-                if v.shape != (1,) or v[0] < 0:
-                    fail(lineno, "length needs one non-negative number")
-                bone["length"] = float(v[0])
-            elif key == "axis":
-                if len(tokens) != 5 or not re.fullmatch("[XYZ]{3}", tokens[4].upper()):
-                    fail(lineno, "axis needs 3 angles and an order like XYZ")
-                bone["axis"] = _floats(tokens[1:4], path, lineno, "axis")
-                bone["axis_order"] = tokens[4].upper()
-            elif key == "dof":
-                dof = tuple(t.lower() for t in tokens[1:])
-                bad = [t for t in dof if t not in ("rx", "ry", "rz", "tx", "ty", "tz", "l")]
-                if bad:
-                    fail(lineno, f"unknown dof {bad[0]!r}")
-                bone["dof"] = dof
-            elif key in ("limits", "bodymass", "cofmass") or key.startswith("("):
-                if key == "limits" or key.startswith("("):
-                    bone["limits"].append(line)
             else:
-                fail(lineno, f"unexpected {tokens[0]!r} in a bone block")
+                _bone_line(bone, key, tokens, line, path, lineno, fail)
         elif section == ":hierarchy":
             if key == "begin":
                 in_begin = True
@@ -311,7 +247,100 @@ def parse_asf(source, *, name=None) -> ASFSkeleton:
         fail(end, "no :bonedata section")
     if ":hierarchy" not in sections:
         fail(end, "no :hierarchy section (file truncated?)")
-    # parents-first order from the root
+    skel.order = _bone_order(bones, parents, bone_lines, fail)
+    return skel
+
+
+def _units_line(skel, key, tokens, lineno, fail):
+    """A line of the :units section, into `skel`."""
+    if key == "length":
+        try:
+            skel.length_unit = float(tokens[1])
+        except (IndexError, ValueError):
+            fail(lineno, "':units length' needs a number")
+        if skel.length_unit <= 0:
+            fail(lineno, "':units length' must be positive")
+    elif key == "angle":
+        unit = tokens[1].lower() if len(tokens) > 1 else ""
+        if unit not in ("deg", "rad"):
+            fail(lineno, f"unknown angle unit {unit!r} (expected deg or rad)")
+        skel.angle_unit = unit
+
+
+def _root_line(skel, key, tokens, path, lineno, fail):
+    """A line of the :root section, into `skel`."""
+    if key == "order":
+        skel.root_order = tuple(t.upper() for t in tokens[1:])
+        bad = [t for t in skel.root_order if t not in {"TX", "TY", "TZ", "RX", "RY", "RZ"}]
+        if bad:
+            fail(lineno, f"unknown root channel {bad[0]!r}")
+    elif key == "axis":
+        if len(tokens) < 2 or not re.fullmatch("[XYZ]{3}", tokens[1].upper()):
+            fail(lineno, "root 'axis' needs an order like XYZ")
+        skel.root_axis = tokens[1].upper()
+    elif key in ("position", "orientation"):
+        vals = _floats(tokens[1:], path, lineno, f"root {key}")
+        if vals.shape != (3,):
+            fail(lineno, f"root {key} needs 3 numbers")
+        setattr(skel, f"root_{key}", vals)
+
+
+def _bone_line(bone, key, tokens, line, path, lineno, fail):
+    """A line inside a bone's ``begin ... end`` block, into `bone` (a dict)."""
+    if key == "id":
+        pass
+    elif key == "name":
+        if len(tokens) < 2:
+            fail(lineno, "'name' needs a bone name")
+        bone["name"] = tokens[1]
+    elif key == "direction":
+        d = _floats(tokens[1:], path, lineno, "direction")
+        if d.shape != (3,):
+            fail(lineno, "direction needs 3 numbers")
+        bone["direction"] = d
+    elif key == "length":
+        v = _floats(tokens[1:], path, lineno, "length")
+        if v.shape != (1,) or v[0] < 0:
+            fail(lineno, "length needs one non-negative number")
+        bone["length"] = float(v[0])
+    elif key == "axis":
+        if len(tokens) != 5 or not re.fullmatch("[XYZ]{3}", tokens[4].upper()):
+            fail(lineno, "axis needs 3 angles and an order like XYZ")
+        bone["axis"] = _floats(tokens[1:4], path, lineno, "axis")
+        bone["axis_order"] = tokens[4].upper()
+    elif key == "dof":
+        dof = tuple(t.lower() for t in tokens[1:])
+        bad = [t for t in dof if t not in ("rx", "ry", "rz", "tx", "ty", "tz", "l")]
+        if bad:
+            fail(lineno, f"unknown dof {bad[0]!r}")
+        bone["dof"] = dof
+    elif key in ("limits", "bodymass", "cofmass") or key.startswith("("):
+        if key == "limits" or key.startswith("("):
+            bone["limits"].append(line)
+    else:
+        fail(lineno, f"unexpected {tokens[0]!r} in a bone block")
+
+
+def _close_bone(bone, bones, bone_lines, lineno, fail):
+    """A bone block's ``end``: the bone checked and added to `bones`."""
+    for need in ("name", "direction", "length"):
+        if need not in bone:
+            fail(lineno, f"bone block starting at line {bone['line']} has no {need!r}")
+    if bone["name"] in bones:
+        fail(bone["line"], f"bone {bone['name']!r} defined twice")
+    if len(bone["limits"]) not in (0, len(bone.get("dof", ()))):
+        fail(lineno, f"bone {bone['name']!r} has {len(bone['limits'])} limits for "
+             f"{len(bone.get('dof', ()))} dofs")
+    bones[bone["name"]] = ASFBone(
+        name=bone["name"], direction=bone["direction"], length=bone["length"],
+        axis=bone.get("axis", np.zeros(3)), axis_order=bone.get("axis_order", "XYZ"),
+        dof=bone.get("dof", ()), limits=bone["limits"],
+    )
+    bone_lines[bone["name"]] = bone["line"]
+
+
+def _bone_order(bones, parents, bone_lines, fail):
+    """The bones parents-first from the root; a bone not reached fails."""
     children: dict[str, list] = {}
     for child, parent in parents.items():
         children.setdefault(parent, []).append(child)
@@ -323,8 +352,7 @@ def parse_asf(source, *, name=None) -> ASFSkeleton:
     unreached = [b for b in bones if b not in order]
     if unreached:
         fail(bone_lines[unreached[0]], f"bone {unreached[0]!r} is not connected to the root in :hierarchy")
-    skel.order = order
-    return skel
+    return order
 
 
 def parse_amc(source, skeleton: ASFSkeleton, *, name=None):
@@ -503,8 +531,6 @@ def asf_joint_bones(skeleton: ASFSkeleton, joint_map=None) -> dict:
     FileFormatError
         A bone that is missing, or a joint-map rule other than a bone name.
     """
-    from .rigs import read_joint_map
-
     lower = {b.lower(): b for b in skeleton.bones}
     wanted = dict(JOINT_BONES)
     if joint_map is not None:
@@ -572,8 +598,6 @@ def load_asf_amc(asf, amc, *, scale=None, units="auto", joint_map=None, return_i
     ...
     sparseedm.exceptions.FileFormatError: .../07_01.amc: no skeleton file 07.asf beside it
     """
-    from . import rigs
-
     if units is None or units == "auto":
         units = (rigs.read_joint_map(joint_map)["units"] if joint_map is not None else None) \
             or "auto"
@@ -630,8 +654,6 @@ def write_cmu_bvh(skeleton: ASFSkeleton, motion, path, *, degrees=True, frame_ti
     same 14 joints as :func:`load_asf_amc`.
     """
     from scipy.spatial.transform import Rotation
-
-    from .._atomic import atomic_path
 
     root = motion["root"]
     n = root.shape[0]

@@ -187,17 +187,18 @@ def parse_bvh(source, *, name=None) -> BVHData:
     (['Hips'], (2, 6), 2.0)
     """
     lines, path = read_text(source, name)
+    joints, n_channels, i = _parse_hierarchy(lines, path)
+    motion, frame_time = _parse_motion(lines, i, n_channels, path)
+    return BVHData(joints=joints, motion=motion, frame_time=frame_time, path=path)
+
+
+def _parse_hierarchy(lines, path):
+    """The HIERARCHY section: ``(joints, n_channels, index of the line after MOTION)``."""
 
     def fail(lineno, msg):
         raise FileFormatError(f"{path}, line {lineno}: {msg}")
 
-    # --- tokenise the hierarchy, keeping line numbers ---------------------
-    i = 0
-    while i < len(lines) and not lines[i].strip():
-        i += 1
-    if i >= len(lines) or lines[i].split()[0].upper() != "HIERARCHY":
-        fail(i + 1, "expected 'HIERARCHY' at the start of a BVH file")
-    i += 1
+    i = _after_hierarchy_keyword(lines, fail)
     joints: list[BVHJoint] = []
     stack: list[int] = []  # joint indices; -2 marks an End Site block
     pending = None  # ("joint", name) or ("end",) waiting for "{"
@@ -240,21 +241,11 @@ def parse_bvh(source, *, name=None) -> BVHData:
             if not stack:
                 fail(lineno, "unbalanced '}'")
             top = stack.pop()
-            if top >= 0 and joints[top].offset is None:
-                fail(lineno, f"joint {joints[top].name!r} has no OFFSET")
-            if top == -2 and joints[_last_joint(stack)].end_sites[-1] is None:
-                fail(lineno, "End Site has no OFFSET")
+            _check_offset_given(joints, stack, top, lambda msg: fail(lineno, msg))
         elif key == "OFFSET":
             if not stack:
                 fail(lineno, "OFFSET outside a joint block")
-            try:
-                offset = np.array([float(v) for v in tokens[1:]])
-            except ValueError:
-                fail(lineno, f"OFFSET values are not numbers: {' '.join(tokens[1:])!r}")
-            if offset.shape != (3,):
-                fail(lineno, f"OFFSET needs 3 numbers, got {len(tokens) - 1}")
-            if not np.all(np.isfinite(offset)):
-                fail(lineno, "OFFSET values must be finite numbers")
+            offset = _offset(tokens, lambda msg: fail(lineno, msg))
             if stack[-1] == -2:
                 joints[_last_joint(stack)].end_sites[-1] = offset
             else:
@@ -262,16 +253,8 @@ def parse_bvh(source, *, name=None) -> BVHData:
         elif key == "CHANNELS":
             if not stack or stack[-1] < 0:
                 fail(lineno, "CHANNELS outside a joint block")
-            try:
-                count = int(tokens[1])
-            except (IndexError, ValueError):
-                fail(lineno, "CHANNELS needs a channel count")
-            chans = tuple(tokens[2:])
-            if len(chans) != count:
-                fail(lineno, f"CHANNELS says {count} channels but lists {len(chans)}")
-            for ch in chans:
-                if ch.capitalize() not in _VALID_CHANNELS:
-                    fail(lineno, f"unknown channel {ch!r}")
+            chans = _channels(tokens, lambda msg: fail(lineno, msg))
+            count = len(chans)
             joint = joints[stack[-1]]
             joint.channels = tuple(ch.capitalize() for ch in chans)
             joint.channel_index = n_channels
@@ -287,6 +270,61 @@ def parse_bvh(source, *, name=None) -> BVHData:
         fail(len(lines), "no MOTION section (file truncated?)")
     if not joints:
         fail(motion_line, "no joints in the HIERARCHY section")
+    return joints, n_channels, i
+
+
+def _after_hierarchy_keyword(lines, fail):
+    """Index of the line after the leading ``HIERARCHY`` (blank lines skipped)."""
+    i = 0
+    while i < len(lines) and not lines[i].strip():
+        i += 1
+    if i >= len(lines) or lines[i].split()[0].upper() != "HIERARCHY":
+        fail(i + 1, "expected 'HIERARCHY' at the start of a BVH file")
+    return i + 1
+
+
+def _check_offset_given(joints, stack, top, fail):
+    """A closed block (`top`: a joint index, or -2 for an End Site inside the joint
+    on `stack`) had its OFFSET; `fail(msg)` raises naming the line."""
+    if top >= 0 and joints[top].offset is None:
+        fail(f"joint {joints[top].name!r} has no OFFSET")
+    if top == -2 and joints[_last_joint(stack)].end_sites[-1] is None:
+        fail("End Site has no OFFSET")
+
+
+def _offset(tokens, fail):
+    """An OFFSET line's three finite numbers; `fail(msg)` raises naming the line."""
+    try:
+        offset = np.array([float(v) for v in tokens[1:]])
+    except ValueError:
+        fail(f"OFFSET values are not numbers: {' '.join(tokens[1:])!r}")
+    if offset.shape != (3,):
+        fail(f"OFFSET needs 3 numbers, got {len(tokens) - 1}")
+    if not np.all(np.isfinite(offset)):
+        fail("OFFSET values must be finite numbers")
+    return offset
+
+
+def _channels(tokens, fail):
+    """A CHANNELS line's channel names (as written); `fail(msg)` raises naming the line."""
+    try:
+        count = int(tokens[1])
+    except (IndexError, ValueError):
+        fail("CHANNELS needs a channel count")
+    chans = tuple(tokens[2:])
+    if len(chans) != count:
+        fail(f"CHANNELS says {count} channels but lists {len(chans)}")
+    for ch in chans:
+        if ch.capitalize() not in _VALID_CHANNELS:
+            fail(f"unknown channel {ch!r}")
+    return chans
+
+
+def _parse_motion(lines, i, n_channels, path):
+    """The MOTION section from line index `i`: ``(motion (frames, channels), frame_time)``."""
+
+    def fail(lineno, msg):
+        raise FileFormatError(f"{path}, line {lineno}: {msg}")
 
     # --- MOTION header ------------------------------------------------------
     def header(prefix):
@@ -342,7 +380,7 @@ def parse_bvh(source, *, name=None) -> BVHData:
     if not np.all(np.isfinite(motion)):
         k = int(np.flatnonzero(~np.isfinite(motion).all(axis=1))[0])
         fail(first + k + 1, "non-finite channel value")
-    return BVHData(joints=joints, motion=motion, frame_time=frame_time, path=path)
+    return motion, frame_time
 
 
 def _last_joint(stack):
