@@ -21,7 +21,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ._validation import check_mask, check_poses, unmask
+from ._validation import check_mask, check_pose_shape, check_poses, unmask
 from .dictionary import Dictionary
 from .edm import observed_entries, vector_to_edm
 from .exceptions import PoseError
@@ -175,12 +175,7 @@ def validate_poses(poses, missing, n_joints, caller="recover", model="dictionary
     poses = check_poses(poses, caller)
     if poses.ndim == 2:
         poses = poses[None]
-    if poses.ndim != 3 or poses.shape[-1] != 2:
-        raise PoseError(f"poses must have shape (n, N, 2), got {np.shape(poses)}")
-    if poses.shape[1] != n_joints:
-        raise PoseError(
-            f"poses have {poses.shape[1]} joints but the {model} is for {n_joints}"
-        )
+    check_pose_shape(poses, n_joints=n_joints, model=model)
     nan = np.isnan(poses).any(axis=-1)
     if missing is None:
         mask = nan

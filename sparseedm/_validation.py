@@ -41,10 +41,11 @@ from numbers import Integral, Real
 
 import numpy as np
 
-from .exceptions import ParameterError
+from .exceptions import ParameterError, PoseError
 
-__all__ = ["Interval", "Options", "validate_params", "check_poses", "check_mask",
-           "ALPHA", "ALPHA_MIN", "ALPHA_MAX", "ENSEMBLE", "MAX_ENSEMBLE", "N_JOBS", "CHUNK_SIZE", "PATH", "BOOLEAN", "THRESHOLD", "usable_jobs", "unmask"]
+__all__ = ["Interval", "Options", "validate_params", "check_poses", "check_pose_shape",
+           "check_mask", "ALPHA", "ALPHA_MIN", "ALPHA_MAX", "ENSEMBLE", "MAX_ENSEMBLE", "N_JOBS",
+           "CHUNK_SIZE", "PATH", "BOOLEAN", "THRESHOLD", "usable_jobs", "unmask"]
 
 
 class Interval:
@@ -247,6 +248,30 @@ def unmask(poses, missing, caller):
         if mask.shape == hidden.shape:
             missing = mask | hidden
     return data, missing
+
+
+def check_pose_shape(poses, name="poses", *, dim=2, n_joints=None, model="dictionary"):
+    """Refuse an array that is not `dim`-D poses (n, N, dim), or not `n_joints`
+    joints: the one shape rule of recovery, evaluation, the baselines, the cameras
+    and FConv training.
+
+    Raises :class:`~sparseedm.exceptions.PoseError` naming `name` (and the
+    `model` the joint count is for).
+
+    Examples
+    --------
+    >>> check_pose_shape(np.zeros((3, 14, 2)), n_joints=14)
+    >>> check_pose_shape(np.zeros((3, 14)), "test poses")
+    Traceback (most recent call last):
+    ...
+    sparseedm.exceptions.PoseError: test poses must have shape (n, N, 2), got (3, 14)
+    """
+    if poses.ndim != 3 or poses.shape[-1] != dim:
+        raise PoseError(f"{name} must have shape (n, N, {dim}), got {poses.shape}")
+    if n_joints is not None and poses.shape[1] != n_joints:
+        raise PoseError(
+            f"{name} have {poses.shape[1]} joints but the {model} is for {n_joints}"
+        )
 
 
 def check_mask(missing, caller, name="missing"):

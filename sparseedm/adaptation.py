@@ -76,7 +76,7 @@ from .exceptions import PoseError, SparseEDMError
 from .learning import (OnlineDictionaryLearning, complete_pose_vectors, iter_batches,
                        load_training_poses, poses_sha256, sparse_code)
 from .metrics import err_ave, occlusion_masks
-from .normalize import normalize
+from .normalize import normalize, usable_rows
 from .skeleton import SKELETON_14
 
 __all__ = ["adapt", "run_adaptation", "adapt_vectors", "AdaptationResult",
@@ -144,25 +144,6 @@ GUARD_POSES_PER_PATTERN = 12
 
 # --------------------------------------------------------------------------
 # filters: small pure functions over poses / vectors
-
-def usable_rows(poses):
-    """True for poses with every coordinate finite and a non-zero extent.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> p = np.ones((3, 14, 2)); p[:, 0] = 0; p[1, 3, 0] = np.nan; p[2] = 5.0
-    >>> usable_rows(p).tolist()
-    [True, False, False]
-    """
-    poses = np.asarray(poses, dtype=float)
-    ok = np.isfinite(poses).all(axis=(-1, -2))
-    finite = np.where(np.isfinite(poses), poses, 0.0)
-    with np.errstate(over="ignore", invalid="ignore"):  # the extents recover() refuses
-        span = np.ptp(finite, axis=-2).max(axis=-1)
-        total = np.abs(finite).sum(axis=-2).max(axis=-1)
-    return ok & np.isfinite(span) & np.isfinite(total) & (span / 2 >= np.finfo(float).tiny)
-
 
 def duplicate_rows(X, decimals=9):
     """True for rows that repeat an earlier row (after rounding to `decimals`).

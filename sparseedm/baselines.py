@@ -41,6 +41,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._validation import check_pose_shape
 from .edm import observed_entries, pose_to_vector, vector_to_edm
 from .exceptions import SparseEDMError
 from .learning import complete_pose_vectors
@@ -126,8 +127,7 @@ def mean_fill(poses, missing, representation="average"):
 
 def _complete_training(train_poses2d, max_train, random_state):
     train = np.asarray(train_poses2d, dtype=float)
-    if train.ndim != 3 or train.shape[-1] != 2:
-        raise SparseEDMError(f"training poses must have shape (n, N, 2), got {train.shape}")
+    check_pose_shape(train, "training poses")
     _, ok = complete_pose_vectors(train)
     train = train[ok]
     if len(train) == 0:

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._validation import check_pose_shape
 from .exceptions import PoseError
 
 __all__ = ["Cameras", "sample_cameras", "project", "look_at"]
@@ -228,8 +229,7 @@ def project(points3d, cameras: Cameras) -> np.ndarray:
             [600., 450.]]])
     """
     pts = np.asarray(points3d, dtype=float)
-    if pts.ndim != 3 or pts.shape[-1] != 3:
-        raise PoseError(f"points3d must have shape (n, N, 3), got {pts.shape}")
+    check_pose_shape(pts, "points3d", dim=3)
     if pts.shape[0] != len(cameras):
         raise PoseError(f"{pts.shape[0]} poses for {len(cameras)} cameras")
     cam = np.einsum("nij,nkj->nki", cameras.R, pts) + cameras.t[:, None, :]

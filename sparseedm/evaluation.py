@@ -53,16 +53,19 @@ import numpy as np
 
 from . import _progress
 from ._atomic import atomic_path
-from ._validation import ALPHA, ENSEMBLE, N_JOBS, Interval, check_poses, validate_params
+from ._validation import (ALPHA, ENSEMBLE, N_JOBS, Interval, check_pose_shape, check_poses,
+                          validate_params)
 from .baselines import BASELINES, fit_baseline, mean_fill
 from .dictionary import Dictionary, load_dictionary
 from .edm import pose_to_vector
 from .exceptions import DictionaryError, ParameterError, PoseError, SparseEDMError
+from .fconv.model import load_model
 from .metrics import check_counts, err_ave, joint_error, occlusion_masks
-from .normalize import REPRESENTATIONS
+from .normalize import REPRESENTATIONS, usable_rows
 from ._recovery_kernel import recover_members
 from .adaptation import SELF_TRAINING_ROUNDS, run_adaptation
 from .ensemble import adapt_members
+from .learning import OnlineDictionaryLearning, complete_pose_vectors
 from .recovery import recover
 
 __all__ = ["evaluate", "evaluate_adaptation", "sweep_atoms", "occlusion_masks", "torso_size",
@@ -191,6 +194,31 @@ class EvaluationReport:
                     ("label", "method", "representation", "n_poses", "err_ave_mean"))
 
     def to_markdown(self, figures=()) -> str:
+        out = self._protocol_lines()
+        if self.notes:
+            out += ["## Skipped / notes", ""] + [f"- {n}" for n in self.notes] + [""]
+        out += ["## Results", ""]
+        cols = ("method", "representation", "count", "n_poses", "n_failed", "err_ave_mean",
+                "err_ave_var", "err_ave_p95", "err_ave_filled", "joint_err_px",
+                "joint_err_torso", "poses_per_s")
+        heads = ("method", "repr.", "occluded", "poses", "failed", "Err_ave %", "var",
+                 "p95 %", "filled-pose Err_ave %", "joint px", "joint/torso", "poses/s")
+        out += _md_table(self.rows, cols, heads) + [""]
+        out += self._failure_lines()
+        if self.per_action:
+            out += self._per_action_lines()
+        if self.sweep:
+            out += ["## Error and time vs number of atoms (Fig. 5)", ""]
+            out += _md_table(self.sweep, ("atoms", "err_ave_mix", "ms_per_pose", "fit_seconds",
+                                          "note"),
+                             ("atoms", "Mix Err_ave %", "ms / pose", "fit s", "note")) + [""]
+        if figures:
+            out += ["## Figures", ""] + [f"![{Path(f).stem}]({Path(f).name})" for f in figures]
+            out += [""]
+        return "\n".join(out)
+
+    def _protocol_lines(self):
+        """The report's title and protocol section."""
         s = self.settings
         out = [
             "# sparseedm evaluation",
@@ -227,16 +255,11 @@ class EvaluationReport:
             "listed under both. Only mean-fill differs between them.",
             "",
         ]
-        if self.notes:
-            out += ["## Skipped / notes", ""] + [f"- {n}" for n in self.notes] + [""]
-        out += ["## Results", ""]
-        cols = ("method", "representation", "count", "n_poses", "n_failed", "err_ave_mean",
-                "err_ave_var", "err_ave_p95", "err_ave_filled", "joint_err_px",
-                "joint_err_torso", "poses_per_s")
-        heads = ("method", "repr.", "occluded", "poses", "failed", "Err_ave %", "var",
-                 "p95 %", "filled-pose Err_ave %", "joint px", "joint/torso", "poses/s")
-        out += _md_table(self.rows, cols, heads) + [""]
-        out += [
+        return out
+
+    def _failure_lines(self):
+        """Where it fails: poses with an extreme joint occluded vs the others."""
+        out = [
             "## Where it fails",
             "",
             "Poses whose highest or lowest joint in image y is occluded (the observed "
@@ -252,30 +275,25 @@ class EvaluationReport:
         fail_rows = [r for r in self.rows
                      if r["representation"] == first or r["method"] == "mean-fill"]
         out += _md_table(fail_rows, cols, heads) + [""]
-        if self.per_action:
-            out += ["## Per action (Mix, representation average)", "",
-                    "Mean Err_ave % per label."]
-            methods = list(dict.fromkeys(r["method"] for r in self.per_action))
-            labels = list(dict.fromkeys(r["label"] for r in self.per_action))
-            wide = []
-            for lab in labels:
-                row = {"label": lab}
-                for r in self.per_action:
-                    if r["label"] == lab and r["representation"] == "average":
-                        row[r["method"]] = r["err_ave_mean"]
-                        row["n_poses"] = r["n_poses"]
-                wide.append(row)
-            out += [""] + _md_table(wide, ["label", "n_poses"] + methods,
-                                    ["label", "poses"] + methods) + [""]
-        if self.sweep:
-            out += ["## Error and time vs number of atoms (Fig. 5)", ""]
-            out += _md_table(self.sweep, ("atoms", "err_ave_mix", "ms_per_pose", "fit_seconds",
-                                          "note"),
-                             ("atoms", "Mix Err_ave %", "ms / pose", "fit s", "note")) + [""]
-        if figures:
-            out += ["## Figures", ""] + [f"![{Path(f).stem}]({Path(f).name})" for f in figures]
-            out += [""]
-        return "\n".join(out)
+        return out
+
+    def _per_action_lines(self):
+        """Mean Err_ave per action label (Mix, representation average)."""
+        out = ["## Per action (Mix, representation average)", "",
+               "Mean Err_ave % per label."]
+        methods = list(dict.fromkeys(r["method"] for r in self.per_action))
+        labels = list(dict.fromkeys(r["label"] for r in self.per_action))
+        wide = []
+        for lab in labels:
+            row = {"label": lab}
+            for r in self.per_action:
+                if r["label"] == lab and r["representation"] == "average":
+                    row[r["method"]] = r["err_ave_mean"]
+                    row["n_poses"] = r["n_poses"]
+            wide.append(row)
+        out += [""] + _md_table(wide, ["label", "n_poses"] + methods,
+                                ["label", "poses"] + methods) + [""]
+        return out
 
     def write(self, directory, *, figures=True):
         """Write report.md, results.csv, per_action.csv (and PNGs) into `directory`.
@@ -340,20 +358,13 @@ def _stat(x, fn):
 
 def _check_poses(poses, name, n_joints):
     poses = np.asarray(poses, dtype=float)
-    if poses.ndim != 3 or poses.shape[-1] != 2:
-        raise PoseError(f"{name} must have shape (n, N, 2), got {poses.shape}")
+    check_pose_shape(poses, name)
     if poses.shape[1] != n_joints:
         raise DictionaryError(
             f"the dictionary is for {n_joints} joints ({n_joints * (n_joints - 1) // 2} "
             f"distances) but {name} have {poses.shape[1]} joints"
         )
     return poses
-
-
-def _complete_rows(poses):
-    ok = np.isfinite(poses).all(axis=(1, 2))
-    span = np.ptp(np.where(np.isfinite(poses), poses, 0), axis=1).max(axis=1)
-    return ok & (span > 0)
 
 
 def _recover_adapted(inputs, mask, dictionary, adapt, cache, *, self_training, ensemble,
@@ -452,57 +463,13 @@ def evaluate(dictionary, test_poses2d, *, train_poses2d=None, labels=None,
     if not isinstance(dictionary, Dictionary):
         dictionary = load_dictionary(dictionary)
     N = dictionary.n_joints
-    gt = _check_poses(test_poses2d, "test poses", N)
-    notes = []
-    if labels is not None:
-        labels = np.asarray(labels).astype(str)
-        if labels.shape != (len(gt),):
-            raise PoseError(f"labels must have shape ({len(gt)},), got {labels.shape}")
-    ok = _complete_rows(gt)
-    if not ok.all():
-        notes.append(f"{int((~ok).sum())} of {len(gt)} test poses are incomplete or "
-                     "degenerate and were left out (the ground truth must be complete)")
-    index = np.flatnonzero(ok)
-    if max_poses is not None and len(index) > max_poses:
-        rng = np.random.default_rng([int(random_state or 0), 5])
-        index = np.sort(rng.choice(index, int(max_poses), replace=False))
-        notes.append(f"evaluated a seeded subsample of {len(index)} test poses")
-    if len(index) == 0:
-        raise PoseError("no complete test poses to evaluate")
-    gt = gt[index]
-    labels = labels[index] if labels is not None else None
-    if labels is None:
-        notes.append("no labels: per-action table skipped")
-
-    if train_poses2d is None:
-        need = [m for m in methods if BASELINES.get(m)]
-        if need:
-            notes.append(f"no training poses: skipped {', '.join(need)} (they need --train)")
-            methods = tuple(m for m in methods if m not in need)
-    fconv = {}
-    if "fconv" in methods:
-        fconv = _load_fconv(fconv_models or (), N)
-        if not fconv:
-            notes.append("no FConv model: skipped fconv (it needs --fconv-model)")
-            methods = tuple(m for m in methods if m != "fconv")
-        for rep, model in fconv.items():
-            t = model.meta.get("training", {})
-            notes.append(f"fconv {rep}: trained on {t.get('n_train', '?')} poses, "
-                         f"{t.get('epochs', '?')} epochs, "
-                         f"{'with' if model.symmetrize else 'without'} symmetrisation")
-    fitted = {}
-    for m in methods:
-        if BASELINES.get(m):
-            train = _check_poses(train_poses2d, "training poses", N)
-            sampled = max_train is not None and len(train) > max_train
-            _progress.say(f"fitting the {m} baseline on " + (
-                f"a seeded sample of {max_train:,} of the {len(train):,} training poses"
-                if sampled else f"{len(train):,} training poses"))
-            fitted[m] = fit_baseline(m, train, max_train=max_train,
-                                     random_state=random_state)
-            notes.append(f"{m}: fitted on {fitted[m].n_train_} complete training poses"
-                         + (f" (a seeded sample of the {len(train)} given, --max-train)"
-                            if sampled else "") + f" in {fitted[m].fit_seconds_:.2f} s")
+    gt, labels, notes = _test_set(test_poses2d, labels, N, max_poses, random_state)
+    methods, fconv, more = _available_methods(methods, train_poses2d, fconv_models, N)
+    notes += more
+    fitted, more = _fit_baselines(methods, train_poses2d, N, max_train, random_state)
+    notes += more
+    runner = _Runner(dictionary, fitted, fconv, alpha=alpha, solver=solver, n_jobs=n_jobs,
+                     adapt=adapt, self_training=self_training, ensemble=ensemble)
 
     n = len(gt)
     masks = occlusion_masks(n, N, counts, random_state)
@@ -510,16 +477,7 @@ def evaluate(dictionary, test_poses2d, *, train_poses2d=None, labels=None,
     torso = torso_size(gt, dictionary.joint_names)
     if not np.isfinite(torso).any():
         notes.append("joint names lack neck/hips: joint/torso column is empty")
-
-    if "sparse" in methods:  # one-time compilation and set-up out of the timings
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            warm = np.where(masks[counts[0]][:1, :, None], np.nan, gt[:1])
-            recover(warm, masks[counts[0]][:1], dictionary=dictionary, alpha=alpha,
-                    solver=solver, adapt=False)
-    for rep, model in fconv.items():  # torch import and first call out of the timings
-        recover(np.where(masks[counts[0]][:1, :, None], np.nan, gt[:1]), masks[counts[0]][:1],
-                method="fconv", model=model, representation=rep)
+    runner.warm_up(methods, gt[:1], masks[counts[0]][:1])
 
     rows, per_pose, per_action, examples = [], {}, [], {}
     sparse_vectors = {}
@@ -530,72 +488,18 @@ def evaluate(dictionary, test_poses2d, *, train_poses2d=None, labels=None,
         cache, adapted = {}, {}
         for m in methods:
             for rep in representations:
-                note = ""
                 if m == "fconv" and rep not in fconv:
                     continue
-                if not (m in _REP_INDEPENDENT and m in cache):
-                    _progress.say(f"evaluating {m} ({rep}) on {len(gt):,} poses, occluded "
-                                  f"joints: {c}")
-                if m in _REP_INDEPENDENT and m in cache:
-                    res = cache[m]
-                    note = "reads observed joints only: same as the other representation"
-                elif m == "sparse":
-                    with warnings.catch_warnings():
-                        warnings.simplefilter("ignore")
-                        res = _recover_adapted(inputs, mask, dictionary, adapt, adapted,
-                                               alpha=alpha, representation=rep,
-                                               solver=solver, n_jobs=n_jobs,
-                                               self_training=self_training,
-                                               ensemble=ensemble)
-                    if res.adaptation is not None:
-                        notes.append(f"sparse, {c} missing, {rep}: {res.adaptation.line()}")
-                    if res.members > 1:
-                        notes.append(f"sparse, {c} missing, {rep}: the mean of an ensemble of "
-                                     f"{res.members} adapted dictionaries (sparseedm.ensemble)")
+                res, note, more = runner.run(m, rep, c, inputs, mask, cache, adapted)
+                notes += more
+                if m == "sparse":
                     sparse_vectors[(c, rep)] = res.vectors
-                elif m == "fconv":
-                    res = recover(inputs, mask, method="fconv", model=fconv[rep],
-                                  representation=rep)
-                elif m == "mean-fill":
-                    res = mean_fill(inputs, mask, rep)
-                else:
-                    res = fitted[m].complete(inputs, mask)
-                    cache[m] = res
-                good = res.ok
-                with np.errstate(invalid="ignore"):
-                    e = err_ave(res.vectors * res.scale[:, None], gt_vec)
-                e = np.where(good, e, np.nan)
-                # the same metric on the EDM of the filled poses (the joints a
-                # user gets: the occluded ones placed from the completed EDM)
-                with np.errstate(invalid="ignore", divide="ignore"):
-                    e_filled = np.where(good, err_ave(pose_to_vector(res.poses), gt_vec), np.nan)
-                je = joint_error(res.poses, gt, mask)
-                with warnings.catch_warnings():
-                    warnings.simplefilter("ignore", RuntimeWarning)
-                    je_pose = np.nanmean(je, axis=1)
-                je_pose = np.where(good, je_pose, np.nan)
+                scores, e = _scores(res, gt, gt_vec, mask, torso, extreme)
                 per_pose[(m, rep, c)] = e
-                rows.append({
-                    "method": m, "representation": rep, "count": c, "n_poses": n,
-                    "n_failed": int((~good).sum()),
-                    "err_ave_mean": _stat(e, np.mean),
-                    "err_ave_var": _stat(e, np.var),
-                    "err_ave_p95": _stat(e, lambda x: np.percentile(x, 95)),
-                    "err_ave_filled": _stat(e_filled, np.mean),
-                    "joint_err_px": _stat(je_pose, np.mean),
-                    "joint_err_torso": _stat(je_pose / torso, np.mean),
-                    "poses_per_s": n / res.seconds if res.seconds > 0 else float("nan"),
-                    "n_extreme": int(extreme.sum()),
-                    "err_ave_extreme": _stat(e[extreme], np.mean),
-                    "err_ave_other": _stat(e[~extreme], np.mean),
-                    "note": note,
-                })
+                rows.append({"method": m, "representation": rep, "count": c, "n_poses": n,
+                             **scores, "note": note})
                 if c == "mix" and labels is not None:
-                    for lab in dict.fromkeys(labels):
-                        sel = labels == lab
-                        per_action.append({"label": lab, "method": m, "representation": rep,
-                                           "n_poses": int(sel.sum()),
-                                           "err_ave_mean": _stat(e[sel], np.mean)})
+                    per_action.extend(_per_action(labels, e, m, rep))
                 if m == "sparse" and rep == representations[0] and (
                         c == "mix" or not examples):
                     k = min(n_examples, n)
@@ -619,10 +523,177 @@ def evaluate(dictionary, test_poses2d, *, train_poses2d=None, labels=None,
                             notes=notes, settings=settings)
 
 
+def _test_set(test_poses2d, labels, n_joints, max_poses, random_state):
+    """The complete test poses evaluated (a seeded subsample with `max_poses`),
+    their labels, and notes saying what was left out."""
+    notes = []
+    gt = _check_poses(test_poses2d, "test poses", n_joints)
+    if labels is not None:
+        labels = np.asarray(labels).astype(str)
+        if labels.shape != (len(gt),):
+            raise PoseError(f"labels must have shape ({len(gt)},), got {labels.shape}")
+    ok = usable_rows(gt)
+    if not ok.all():
+        notes.append(f"{int((~ok).sum())} of {len(gt)} test poses are incomplete or "
+                     "degenerate and were left out (the ground truth must be complete)")
+    index = np.flatnonzero(ok)
+    if max_poses is not None and len(index) > max_poses:
+        rng = np.random.default_rng([int(random_state or 0), 5])
+        index = np.sort(rng.choice(index, int(max_poses), replace=False))
+        notes.append(f"evaluated a seeded subsample of {len(index)} test poses")
+    if len(index) == 0:
+        raise PoseError("no complete test poses to evaluate")
+    gt = gt[index]
+    labels = labels[index] if labels is not None else None
+    if labels is None:
+        notes.append("no labels: per-action table skipped")
+    return gt, labels, notes
+
+
+def _available_methods(methods, train_poses2d, fconv_models, n_joints):
+    """The methods that can run (those lacking training poses or a model are
+    skipped), the FConv models by representation, and notes on both."""
+    notes = []
+    if train_poses2d is None:
+        need = [m for m in methods if BASELINES.get(m)]
+        if need:
+            notes.append(f"no training poses: skipped {', '.join(need)} (they need --train)")
+            methods = tuple(m for m in methods if m not in need)
+    fconv = {}
+    if "fconv" in methods:
+        fconv = _load_fconv(fconv_models or (), n_joints)
+        if not fconv:
+            notes.append("no FConv model: skipped fconv (it needs --fconv-model)")
+            methods = tuple(m for m in methods if m != "fconv")
+        for rep, model in fconv.items():
+            t = model.meta.get("training", {})
+            notes.append(f"fconv {rep}: trained on {t.get('n_train', '?')} poses, "
+                         f"{t.get('epochs', '?')} epochs, "
+                         f"{'with' if model.symmetrize else 'without'} symmetrisation")
+    return methods, fconv, notes
+
+
+def _fit_baselines(methods, train_poses2d, n_joints, max_train, random_state):
+    """The baselines among `methods` that need training poses, fitted on them,
+    and a note on each fit."""
+    fitted, notes = {}, []
+    for m in methods:
+        if BASELINES.get(m):
+            train = _check_poses(train_poses2d, "training poses", n_joints)
+            sampled = max_train is not None and len(train) > max_train
+            _progress.say(f"fitting the {m} baseline on " + (
+                f"a seeded sample of {max_train:,} of the {len(train):,} training poses"
+                if sampled else f"{len(train):,} training poses"))
+            fitted[m] = fit_baseline(m, train, max_train=max_train,
+                                     random_state=random_state)
+            notes.append(f"{m}: fitted on {fitted[m].n_train_} complete training poses"
+                         + (f" (a seeded sample of the {len(train)} given, --max-train)"
+                            if sampled else "") + f" in {fitted[m].fit_seconds_:.2f} s")
+    return fitted, notes
+
+
+@dataclass
+class _Runner:
+    """Runs one method on one count's occluded inputs, as :func:`evaluate` asks."""
+
+    dictionary: Dictionary
+    fitted: dict
+    fconv: dict
+    alpha: float = None
+    solver: object = "fast"
+    n_jobs: int = 1
+    adapt: object = False
+    self_training: int = None
+    ensemble: int = 1
+
+    def warm_up(self, methods, gt, mask):
+        """One-time compilation, set-up and torch import out of the timings."""
+        if "sparse" in methods:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                recover(np.where(mask[:, :, None], np.nan, gt), mask,
+                        dictionary=self.dictionary, alpha=self.alpha, solver=self.solver,
+                        adapt=False)
+        for rep, model in self.fconv.items():
+            recover(np.where(mask[:, :, None], np.nan, gt), mask, method="fconv", model=model,
+                    representation=rep)
+
+    def run(self, m, rep, c, inputs, mask, cache, adapted):
+        """``(result, row note, report notes)`` of method `m` under representation
+        `rep`: the representation-independent baselines are run once per count
+        (kept in `cache`), the adapted dictionaries made once per count (kept in
+        the cache `adapted`)."""
+        if m in _REP_INDEPENDENT and m in cache:
+            return (cache[m], "reads observed joints only: same as the other representation",
+                    [])
+        _progress.say(f"evaluating {m} ({rep}) on {len(inputs):,} poses, occluded joints: {c}")
+        notes = []
+        if m == "sparse":
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                res = _recover_adapted(inputs, mask, self.dictionary, self.adapt, adapted,
+                                       alpha=self.alpha, representation=rep,
+                                       solver=self.solver, n_jobs=self.n_jobs,
+                                       self_training=self.self_training,
+                                       ensemble=self.ensemble)
+            if res.adaptation is not None:
+                notes.append(f"sparse, {c} missing, {rep}: {res.adaptation.line()}")
+            if res.members > 1:
+                notes.append(f"sparse, {c} missing, {rep}: the mean of an ensemble of "
+                             f"{res.members} adapted dictionaries (sparseedm.ensemble)")
+        elif m == "fconv":
+            res = recover(inputs, mask, method="fconv", model=self.fconv[rep],
+                          representation=rep)
+        elif m == "mean-fill":
+            res = mean_fill(inputs, mask, rep)
+        else:
+            res = self.fitted[m].complete(inputs, mask)
+            cache[m] = res
+        return res, "", notes
+
+
+def _scores(res, gt, gt_vec, mask, torso, extreme):
+    """A result row's numbers (:data:`RESULT_COLUMNS` from ``n_failed`` to
+    ``err_ave_other``) and the per-pose Err_ave (NaN where the pose failed)."""
+    good = res.ok
+    n = len(gt)
+    with np.errstate(invalid="ignore"):
+        e = err_ave(res.vectors * res.scale[:, None], gt_vec)
+    e = np.where(good, e, np.nan)
+    # the same metric on the EDM of the filled poses (the joints a
+    # user gets: the occluded ones placed from the completed EDM)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        e_filled = np.where(good, err_ave(pose_to_vector(res.poses), gt_vec), np.nan)
+    je = joint_error(res.poses, gt, mask)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        je_pose = np.nanmean(je, axis=1)
+    je_pose = np.where(good, je_pose, np.nan)
+    return {
+        "n_failed": int((~good).sum()),
+        "err_ave_mean": _stat(e, np.mean),
+        "err_ave_var": _stat(e, np.var),
+        "err_ave_p95": _stat(e, lambda x: np.percentile(x, 95)),
+        "err_ave_filled": _stat(e_filled, np.mean),
+        "joint_err_px": _stat(je_pose, np.mean),
+        "joint_err_torso": _stat(je_pose / torso, np.mean),
+        "poses_per_s": n / res.seconds if res.seconds > 0 else float("nan"),
+        "n_extreme": int(extreme.sum()),
+        "err_ave_extreme": _stat(e[extreme], np.mean),
+        "err_ave_other": _stat(e[~extreme], np.mean),
+    }, e
+
+
+def _per_action(labels, e, m, rep):
+    """The per-action rows (Mix) of one method and representation."""
+    return [{"label": lab, "method": m, "representation": rep,
+             "n_poses": int((labels == lab).sum()),
+             "err_ave_mean": _stat(e[labels == lab], np.mean)}
+            for lab in dict.fromkeys(labels)]
+
+
 def _load_fconv(models, n_joints):
     """representation -> FConvModel, one per representation."""
-    from .fconv.model import load_model
-
     out = {}
     for item in models:
         model = load_model(item, n_joints=n_joints, kind="recover")
@@ -649,8 +720,6 @@ def sweep_atoms(train_poses2d, test_poses2d, atoms=(100, 250, 500, 1000, 2000), 
     list of dict
         ``atoms, err_ave_mix, ms_per_pose, fit_seconds, note`` per size.
     """
-    from .learning import OnlineDictionaryLearning, complete_pose_vectors
-
     validate_params("sweep_atoms", dict(
         random_state=random_state, n_jobs=n_jobs, max_poses=max_poses, alpha=alpha,
         alpha_recover=alpha_recover), _PARAMS)
@@ -658,7 +727,7 @@ def sweep_atoms(train_poses2d, test_poses2d, atoms=(100, 250, 500, 1000, 2000), 
         raise ParameterError(f"sweep_atoms: atoms must be integers >= 1, got {atoms!r}")
     X, _ = complete_pose_vectors(check_poses(train_poses2d, "sweep_atoms", "train_poses2d"))
     test = check_poses(test_poses2d, "sweep_atoms", "test_poses2d")
-    test = test[_complete_rows(test)]
+    test = test[usable_rows(test)]
     if max_poses is not None and len(test) > max_poses:
         rng = np.random.default_rng([int(random_state or 0), 5])
         test = test[np.sort(rng.choice(len(test), int(max_poses), replace=False))]

@@ -29,15 +29,26 @@ SPAMS' convention; the paper's lambda is ``2 * alpha``).
 
 from __future__ import annotations
 
+import hashlib
+import json
 import numbers
+import warnings
+from pathlib import Path
 
 import numba
 import numpy as np
 from scipy import sparse
 
 from . import _progress
-from .exceptions import DictionaryError, SparseEDMError
+from ._atomic import check_paths, save_npz
 from ._parallel import numba_threads
+from ._safeio import available_memory, load_npz
+from ._validation import ALPHA, N_JOBS, Interval, validate_params
+from .dictionary import Dictionary
+from .exceptions import DictionaryError, FileFormatError, ParameterError, SparseEDMError
+from .edm import pose_to_vector
+from .normalize import normalize, usable_rows
+from .skeleton import JOINT_NAMES
 from .solvers.fast import lars_lasso_gram
 
 __all__ = [
@@ -180,8 +191,6 @@ def init_dictionary(X, n_components, random_state=None):
 def check_params(n_components, alpha, batch_size=1, n_passes=1, caller="fit", *,
                  random_state=None, n_jobs=None):
     """Refuse bad hyper-parameters up front, not after an hour."""
-    from ._validation import ALPHA, N_JOBS, Interval, validate_params
-
     validate_params(caller, dict(n_components=n_components, alpha=alpha,
                                  batch_size=batch_size, n_passes=n_passes,
                                  random_state=random_state, n_jobs=n_jobs), {
@@ -192,9 +201,6 @@ def check_params(n_components, alpha, batch_size=1, n_passes=1, caller="fit", *,
         "random_state": [Interval(numbers.Integral, 0, None), None],
         "n_jobs": N_JOBS,
     })
-    from ._safeio import available_memory
-    from .exceptions import ParameterError
-
     free = available_memory()
     need = 3 * 8 * int(n_components) ** 2  # A (k x k), its Gram and a working copy
     if free is not None and need > free:
@@ -363,12 +369,8 @@ def complete_pose_vectors(poses2d):
     Rows with NaN/inf coordinates or zero extent are left out (fitting needs
     complete poses); the boolean mask says which rows were kept.
     """
-    from .normalize import normalize
-    from .edm import pose_to_vector
-
     poses2d = np.asarray(poses2d, dtype=float)
-    ok = np.isfinite(poses2d).all(axis=(-1, -2))
-    ok &= np.ptp(np.nan_to_num(poses2d, posinf=0, neginf=0), axis=1).max(axis=1) > 0
+    ok = usable_rows(poses2d)
     normed, _, _ = normalize(poses2d[ok])
     return pose_to_vector(normed), ok
 
@@ -376,16 +378,10 @@ def complete_pose_vectors(poses2d):
 def poses_sha256(poses):
     """sha256 of the training poses' float64 values (C order): the same poses
     give the same hash however the file was zipped (zip headers hold times)."""
-    import hashlib
-
     return hashlib.sha256(np.ascontiguousarray(poses, dtype=np.float64).tobytes()).hexdigest()
 
 
 def load_training_poses(path):
-    from .exceptions import FileFormatError
-
-    from ._safeio import load_npz
-
     arrays, names = load_npz(path, ("poses2d",), what=f"{path}: cannot read training file:")
     if "poses2d" not in arrays:
         raise FileFormatError(
@@ -418,17 +414,6 @@ def fit_dictionary_file(train_path, output, *, n_components=2000, alpha=1.6,
     -------
     Dictionary
     """
-    import warnings
-    from pathlib import Path
-
-    from tqdm.auto import tqdm
-
-    from .dictionary import Dictionary
-    from .skeleton import JOINT_NAMES
-
-    from ._atomic import check_paths
-    from ._validation import ALPHA, validate_params
-
     check_params(n_components, alpha, batch_size, n_passes, caller="fit_dictionary_file",
                  random_state=random_state, n_jobs=n_jobs)
     validate_params("fit_dictionary_file", dict(train_path=train_path, output=output,
@@ -443,8 +428,7 @@ def fit_dictionary_file(train_path, output, *, n_components=2000, alpha=1.6,
     check_paths([("training file", train_path)],
                 [("output", output), ("checkpoint", checkpoint)])
     poses = load_training_poses(train_path)
-    ok = np.isfinite(poses).all(axis=(-1, -2))
-    ok &= np.ptp(np.nan_to_num(poses, posinf=0, neginf=0), axis=1).max(axis=1) > 0
+    ok = usable_rows(poses)
     if (~ok).any():
         warnings.warn(
             f"{train_path}: skipped {int((~ok).sum())} of {len(poses)} poses that are "
@@ -472,21 +456,7 @@ def fit_dictionary_file(train_path, output, *, n_components=2000, alpha=1.6,
         pick = np.sort(rng.choice(index, n_components, replace=False))
         X0, _ = complete_pose_vectors(poses[pick])
         est._init_state(components=X0 / np.linalg.norm(X0, axis=1, keepdims=True))
-    per_pass = -(-len(index) // batch_size)
-    total = int(np.ceil(n_passes * per_pass))
-    bar = tqdm(total=total, initial=start, disable=not progress, unit="batch",
-               desc="fit", dynamic_ncols=True)
-    try:
-        for b, batch in enumerate(iter_batches(len(index), batch_size, n_passes,
-                                               random_state, start=start), start=start):
-            X, _ = complete_pose_vectors(poses[index[np.sort(batch)]])
-            obj = est._step(X)
-            bar.update(1)
-            bar.set_postfix(objective=f"{obj:.4g}", refresh=False)
-            if (b + 1) % checkpoint_every == 0 and b + 1 < total:
-                _save_checkpoint(checkpoint, est, params)
-    finally:
-        bar.close()
+    _fit_batches(est, poses, index, start, checkpoint, checkpoint_every, params, progress)
     provenance = {
         "files": [Path(train_path).name],
         "n_poses": int(len(index)),
@@ -512,11 +482,31 @@ def fit_dictionary_file(train_path, output, *, n_components=2000, alpha=1.6,
     return dictionary
 
 
+def _fit_batches(est, poses, index, start, checkpoint, checkpoint_every, params, progress):
+    """The mini-batch steps of :func:`fit_dictionary_file` over ``poses[index]``
+    from batch `start`, the learner's state checkpointed every `checkpoint_every`."""
+    from tqdm.auto import tqdm
+
+    batch_size, n_passes = params["batch_size"], params["n_passes"]
+    per_pass = -(-len(index) // batch_size)
+    total = int(np.ceil(n_passes * per_pass))
+    bar = tqdm(total=total, initial=start, disable=not progress, unit="batch",
+               desc="fit", dynamic_ncols=True)
+    try:
+        for b, batch in enumerate(iter_batches(len(index), batch_size, n_passes,
+                                               params["random_state"], start=start),
+                                 start=start):
+            X, _ = complete_pose_vectors(poses[index[np.sort(batch)]])
+            obj = est._step(X)
+            bar.update(1)
+            bar.set_postfix(objective=f"{obj:.4g}", refresh=False)
+            if (b + 1) % checkpoint_every == 0 and b + 1 < total:
+                _save_checkpoint(checkpoint, est, params)
+    finally:
+        bar.close()
+
+
 def _save_checkpoint(path, est, params):
-    import json
-
-    from ._atomic import save_npz
-
     A, B = est.inner_stats_
     save_npz(path, dict(components=est.components_, A=A, B=B,
                         n_steps=np.array(est.n_steps_), objective=np.array(est.objective_),
@@ -524,10 +514,6 @@ def _save_checkpoint(path, est, params):
 
 
 def _load_checkpoint(path, est, params):
-    import json
-
-    from ._safeio import load_npz
-
     try:
         ck, _ = load_npz(path, ("components", "A", "B", "n_steps", "objective", "params"))
         saved = json.loads(str(ck["params"]))

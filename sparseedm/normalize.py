@@ -43,6 +43,7 @@ __all__ = [
     "REPRESENTATIONS",
     "MIN_OBSERVED_JOINTS",
     "missing_mask",
+    "usable_rows",
     "normalize",
     "denormalize",
     "represent",
@@ -51,6 +52,27 @@ __all__ = [
 REPRESENTATIONS = ("average", "zero")
 #: Fewer observed joints than this leave too little of the EDM to code.
 MIN_OBSERVED_JOINTS = 3
+
+
+def usable_rows(poses):
+    """True for poses with every coordinate finite and a non-zero extent: the one rule
+    for a usable complete pose (adaptation, learning, evaluation and the lifter
+    adaptation all keep these rows; the extents it refuses are those recover() refuses).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> p = np.ones((3, 14, 2)); p[:, 0] = 0; p[1, 3, 0] = np.nan; p[2] = 5.0
+    >>> usable_rows(p).tolist()
+    [True, False, False]
+    """
+    poses = np.asarray(poses, dtype=float)
+    ok = np.isfinite(poses).all(axis=(-1, -2))
+    finite = np.where(np.isfinite(poses), poses, 0.0)
+    with np.errstate(over="ignore", invalid="ignore"):  # the extents recover() refuses
+        span = np.ptp(finite, axis=-2).max(axis=-1)
+        total = np.abs(finite).sum(axis=-2).max(axis=-1)
+    return ok & np.isfinite(span) & np.isfinite(total) & (span / 2 >= np.finfo(float).tiny)
 
 
 def missing_mask(poses, missing=None, *, confidence=None, threshold=0.0):

@@ -149,6 +149,20 @@ def test_baselines_without_train_are_skipped(split):
     assert any("per-action" in n for n in rep.notes)
 
 
+def test_test_poses_recover_refuses_are_left_out(split):
+    """The test set keeps the poses normalize.usable_rows keeps (issue 22's one
+    rule): a pose whose extent overflows float64 is left out with a note, as a
+    NaN one is, instead of being counted as a failed recovery."""
+    test = split["test"][:6].copy()
+    test[1] = np.where(np.arange(14)[:, None] % 2, 1.5e308, -1.5e308)  # extent overflows
+    test[4, 2] = np.nan
+    rep = evaluate(split["dictionary"], test, methods=("sparse",), counts=(1,),
+                   representations=("average",))
+    assert rep.settings["n_poses"] == 4
+    assert [r["n_failed"] for r in rep.rows] == [0]
+    assert any("2 of 6 test poses are incomplete or degenerate" in n for n in rep.notes)
+
+
 def test_errors(split):
     with pytest.raises(SparseEDMError, match="known: sparse, mean-fill, knn"):
         evaluate(split["dictionary"], split["test"][:5], methods=("sparse", "magic"))

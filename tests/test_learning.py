@@ -210,3 +210,15 @@ def test_fit_and_info_cli(train_file, tmp_path, capsys):
     assert main(["fit", str(train_file), "-o", str(out), "--atoms", "0", "-q"]) == 2
     assert main(["fit", str(train_file), "-o", str(out), "--alpha", "-1", "-q"]) == 2
     assert main(["info", str(train_file)]) == 2
+
+
+def test_complete_pose_vectors_keeps_what_recover_accepts():
+    """One usable-pose rule (normalize.usable_rows, issue 22): besides NaN/inf and
+    zero extent, training leaves out the poses whose extent overflows float64 or is
+    subnormal, the ones recover() refuses as out_of_range (normalize() used to
+    raise a PoseError on them, stopping the fit)."""
+    base = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]] + [[0.5, 0.5]] * 11)
+    poses = np.stack([base, base * 1.7e308, base * 1e-308, base * 0.0, base * 3.0])
+    X, ok = complete_pose_vectors(poses)
+    assert ok.tolist() == [True, False, False, False, True]
+    assert X.shape == (2, 91) and np.isfinite(X).all()

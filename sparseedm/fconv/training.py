@@ -26,7 +26,7 @@ import time
 
 import numpy as np
 
-from .._validation import Options, validate_params
+from .._validation import Options, check_pose_shape, validate_params
 from ..edm import pose_to_vector, triu_indices
 from ..exceptions import PoseError, SparseEDMError
 from ..normalize import REPRESENTATIONS, represent
@@ -90,8 +90,7 @@ def occlusion_range(n_poses, n_joints, occluded, rng):
 
 def _check_training_poses(poses, name, dim, batch_size):
     poses = np.asarray(poses, dtype=float)
-    if poses.ndim != 3 or poses.shape[-1] != dim:
-        raise PoseError(f"{name} must have shape (n, N, {dim}), got {poses.shape}")
+    check_pose_shape(poses, name, dim=dim)
     bad = ~np.isfinite(poses).all(axis=(1, 2))
     if bad.any():
         rows = np.flatnonzero(bad)

@@ -52,8 +52,9 @@ import copy
 
 import numpy as np
 
-from ..adaptation import adapt_vectors, duplicate_rows, pose_vectors, usable_rows
+from ..adaptation import adapt_vectors, duplicate_rows, pose_vectors
 from ..exceptions import PoseError
+from ..normalize import usable_rows
 from .base import LifterError, load_lifter
 
 __all__ = ["adapt_lifter", "adapt_vectors_2d", "reweight_atoms", "masked_error_2d", "METHODS",
