@@ -54,6 +54,7 @@ import sys
 import warnings
 from numbers import Integral
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -259,31 +260,11 @@ def build_dataset(
     SparseEDMError
         If no file gives any pose.
     """
-    validate_params("build_dataset", dict(
-        output=output, cameras_per_pose=cameras_per_pose, frame_step=frame_step,
-        progress=progress, return_report=return_report, camera_options=camera_options), {
-        "output": ["path", None],
-        "cameras_per_pose": [Interval(Integral, 1, MAX_CAMERAS_PER_POSE)],
-        "frame_step": [Interval(Integral, 1, None), None],
-        "progress": ["boolean"], "return_report": ["boolean"],
-        "camera_options": [dict, None]})
-    validate_params("build_dataset", dict(units=units, keep_tpose=keep_tpose, camera=camera), {
-        "units": [Options(("auto", *UNITS))], "keep_tpose": ["boolean"],
-        "camera": [Options(("pose", "clip"))]})
-    if camera == "clip" and cameras_per_pose != 1:
-        raise ParameterError("build_dataset: camera='clip' views each clip through one "
-                             f"camera; cameras_per_pose must be 1, got {cameras_per_pose}")
-    validate_params("build_dataset", dict(random_state=random_state), {
-        "random_state": [Interval(Integral, 0, None), np.random.Generator, None]})
+    _check_build_params(output, cameras_per_pose, frame_step, progress, return_report,
+                        camera_options, units, keep_tpose, camera, random_state)
     cameras_per_pose = int(cameras_per_pose)
     if output is not None:
-        _check_output(output)
-        # every file the build reads is an input, whatever its name (a joint map x.npz)
-        inputs = [("motion path", p) for p in
-                  ([paths] if isinstance(paths, (str, os.PathLike)) else list(paths))]
-        if isinstance(joint_map, (str, os.PathLike)):
-            inputs.append(("joint map", joint_map))
-        check_paths(inputs, [("output", output)])
+        _check_build_paths(paths, output, joint_map)
     files = find_mocap_files(paths)
     rng = np.random.default_rng(random_state)
     cam_opts = dict(camera_options or {})
@@ -303,30 +284,17 @@ def build_dataset(
         for problem in plausibility(poses, height=info.get("height"), name=str(path)):
             warnings.warn(problem, stacklevel=2)
             problems.append((str(path), problem))
-        step = int(frame_step) if frame_step is not None else _auto_step(
-            info.get("frame_rate"), VIDEO_FPS if camera == "clip" else TARGET_FPS)
-        keep = np.arange(poses.shape[0])
-        if not keep_tpose and len(info.get("tpose_frames", ())):
-            keep = np.setdiff1d(keep, info["tpose_frames"])
-            n_tpose += poses.shape[0] - keep.size
-        idx = keep[::step]
+        idx, dropped = _kept_frames(poses.shape[0], info, frame_step, camera, keep_tpose)
+        n_tpose += dropped
         read += 1
         if idx.size == 0:
             continue
-        kept = np.repeat(poses[idx], cameras_per_pose, axis=0)
-        frames = np.repeat(idx, cameras_per_pose)
         try:  # a clip far off (root at 1e200) puts a camera along the up axis
-            if camera == "clip":
-                cams = _clip_camera(kept, rng, cam_opts)
-            else:
-                cams = sample_cameras(targets=kept.mean(axis=1), random_state=rng, **cam_opts)
-            p2d = project(kept, cams)
+            parts.append(_view_clip(poses, idx, meta, cameras_per_pose, camera, rng, cam_opts))
         except (SparseEDMError, ValueError, FloatingPointError) as exc:
             warnings.warn(f"skipping {path}: {_skip_reason(path, exc)}", stacklevel=2)
             skipped.append((str(path), _skip_reason(path, exc)))
             read -= 1
-            continue
-        parts.append((kept, p2d, frames, cams, meta))
     if not parts:
         raise SparseEDMError(
             f"no poses built: {len(files)} motion file(s) found, {len(skipped)} skipped"
@@ -334,25 +302,7 @@ def build_dataset(
                "both arms straight and level are its calibration pose; --keep-tpose keeps "
                "them)"
                if n_tpose else ""))
-    n_each = [p[0].shape[0] for p in parts]
-
-    def strings(key):
-        return np.repeat(np.array([p[4][key] for p in parts], dtype=str), n_each)
-
-    data = {
-        "poses2d": np.concatenate([p[1] for p in parts]),
-        "poses3d": np.concatenate([p[0] for p in parts]),
-        "labels": strings("label"),
-        "clips": strings("clip"),
-        "styles": strings("style"),
-        "subjects": strings("subject"),
-        "frames": np.concatenate([p[2] for p in parts]).astype(np.int64),
-        "camera_R": np.concatenate([p[3].R for p in parts]),
-        "camera_t": np.concatenate([p[3].t for p in parts]),
-        "camera_f": np.concatenate([p[3].f for p in parts]),
-        "camera_c": np.concatenate([p[3].c for p in parts]),
-        "joint_names": np.array(JOINT_NAMES, dtype=str),
-    }
+    data = _concatenate(parts)
     if output is not None:
         save_dataset(output, data)
     if return_report:
@@ -360,6 +310,94 @@ def build_dataset(
                   "tpose_frames": n_tpose, "warnings": problems, "chosen": chosen}
         return data, report
     return data
+
+
+def _check_build_params(output, cameras_per_pose, frame_step, progress, return_report,
+                        camera_options, units, keep_tpose, camera, random_state):
+    """:func:`build_dataset`'s argument constraints (a ParameterError naming one)."""
+    validate_params("build_dataset", dict(
+        output=output, cameras_per_pose=cameras_per_pose, frame_step=frame_step,
+        progress=progress, return_report=return_report, camera_options=camera_options), {
+        "output": ["path", None],
+        "cameras_per_pose": [Interval(Integral, 1, MAX_CAMERAS_PER_POSE)],
+        "frame_step": [Interval(Integral, 1, None), None],
+        "progress": ["boolean"], "return_report": ["boolean"],
+        "camera_options": [dict, None]})
+    validate_params("build_dataset", dict(units=units, keep_tpose=keep_tpose, camera=camera), {
+        "units": [Options(("auto", *UNITS))], "keep_tpose": ["boolean"],
+        "camera": [Options(("pose", "clip"))]})
+    if camera == "clip" and cameras_per_pose != 1:
+        raise ParameterError("build_dataset: camera='clip' views each clip through one "
+                             f"camera; cameras_per_pose must be 1, got {cameras_per_pose}")
+    validate_params("build_dataset", dict(random_state=random_state), {
+        "random_state": [Interval(Integral, 0, None), np.random.Generator, None]})
+
+
+def _check_build_paths(paths, output, joint_map):
+    """The output is a usable .npz path that overwrites no file the build reads."""
+    _check_output(output)
+    # every file the build reads is an input, whatever its name (a joint map x.npz)
+    inputs = [("motion path", p) for p in
+              ([paths] if isinstance(paths, (str, os.PathLike)) else list(paths))]
+    if isinstance(joint_map, (str, os.PathLike)):
+        inputs.append(("joint map", joint_map))
+    check_paths(inputs, [("output", output)])
+
+
+def _kept_frames(n_frames, info, frame_step, camera, keep_tpose):
+    """The frame indices a clip keeps (T-pose frames dropped unless `keep_tpose`,
+    then every `frame_step`-th), and how many T-pose frames were dropped."""
+    step = int(frame_step) if frame_step is not None else _auto_step(
+        info.get("frame_rate"), VIDEO_FPS if camera == "clip" else TARGET_FPS)
+    keep = np.arange(n_frames)
+    if not keep_tpose and len(info.get("tpose_frames", ())):
+        keep = np.setdiff1d(keep, info["tpose_frames"])
+    return keep[::step], n_frames - keep.size
+
+
+class _ClipPart(NamedTuple):
+    """One clip's share of the dataset: its kept 3D poses (repeated per camera),
+    their 2D views, frame indices, cameras and :func:`clip_metadata`."""
+
+    poses3d: np.ndarray
+    poses2d: np.ndarray
+    frames: np.ndarray
+    cameras: object
+    meta: dict
+
+
+def _view_clip(poses, idx, meta, cameras_per_pose, camera, rng, cam_opts):
+    """A clip's frames `idx` seen through its virtual cameras, as a :class:`_ClipPart`."""
+    kept = np.repeat(poses[idx], cameras_per_pose, axis=0)
+    frames = np.repeat(idx, cameras_per_pose)
+    if camera == "clip":
+        cams = _clip_camera(kept, rng, cam_opts)
+    else:
+        cams = sample_cameras(targets=kept.mean(axis=1), random_state=rng, **cam_opts)
+    return _ClipPart(kept, project(kept, cams), frames, cams, meta)
+
+
+def _concatenate(parts):
+    """The dataset's arrays from each clip's :class:`_ClipPart`."""
+    n_each = [p.poses3d.shape[0] for p in parts]
+
+    def strings(key):
+        return np.repeat(np.array([p.meta[key] for p in parts], dtype=str), n_each)
+
+    return {
+        "poses2d": np.concatenate([p.poses2d for p in parts]),
+        "poses3d": np.concatenate([p.poses3d for p in parts]),
+        "labels": strings("label"),
+        "clips": strings("clip"),
+        "styles": strings("style"),
+        "subjects": strings("subject"),
+        "frames": np.concatenate([p.frames for p in parts]).astype(np.int64),
+        "camera_R": np.concatenate([p.cameras.R for p in parts]),
+        "camera_t": np.concatenate([p.cameras.t for p in parts]),
+        "camera_f": np.concatenate([p.cameras.f for p in parts]),
+        "camera_c": np.concatenate([p.cameras.c for p in parts]),
+        "joint_names": np.array(JOINT_NAMES, dtype=str),
+    }
 
 
 def _skip_reason(path, exc):
