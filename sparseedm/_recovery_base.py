@@ -30,7 +30,7 @@ from .placement import WEIGHT_POWER, place_missing_joints
 
 __all__ = ["STATUSES", "OK_STATUSES", "RecoveryResult", "Screened", "Screening",
            "validate_poses", "screen_poses", "screen", "place_occluded", "combine",
-           "SCREENING_REFUSALS", "status_counts", "poses_per_second"]
+           "SCREENING_REFUSALS", "status_counts", "poses_per_second", "recovery_summary"]
 
 #: Per-pose statuses and what they mean.
 STATUSES = {
@@ -66,6 +66,27 @@ def status_counts(status, statuses):
 def poses_per_second(n, seconds):
     """The rate a summary reports (None when no time was measured)."""
     return round(n / seconds, 1) if seconds else None
+
+
+def recovery_summary(status, recovered_joints, fallback, seconds):
+    """The counts a person reads at the end of a recovery: one home for
+    :meth:`RecoveryResult.summary` and :func:`sparseedm.batch.recover_file`.
+
+    Examples
+    --------
+    >>> recovery_summary(np.array(["recovered", "degenerate"]), 3, np.zeros(2, bool), 0.5)
+    {'poses': 2, 'recovered_joints': 3, 'refused': 1, 'fallbacks': 0, 'seconds': 0.5, \
+'poses_per_second': 4.0, 'status': {'recovered': 1, 'degenerate': 1}}
+    """
+    return {
+        "poses": int(len(status)),
+        "recovered_joints": int(recovered_joints),
+        "refused": int((~np.isin(status, OK_STATUSES)).sum()),
+        "fallbacks": int(np.sum(fallback)),
+        "seconds": round(seconds, 3),
+        "poses_per_second": poses_per_second(len(status), seconds),
+        "status": status_counts(status, STATUSES),
+    }
 
 
 @dataclass
@@ -146,15 +167,8 @@ class RecoveryResult:
 
     def summary(self) -> dict:
         """Counts a person reads at the end of a batch."""
-        out = {
-            "poses": int(len(self.status)),
-            "recovered_joints": int(self.missing[np.isin(self.status, ("recovered", "inaccurate"))].sum()),
-            "refused": int((~self.ok).sum()),
-            "fallbacks": int(self.fallback.sum()),
-            "seconds": round(self.seconds, 3),
-            "poses_per_second": poses_per_second(len(self.status), self.seconds),
-            "status": status_counts(self.status, STATUSES),
-        }
+        recovered = self.missing[np.isin(self.status, ("recovered", "inaccurate"))].sum()
+        out = recovery_summary(self.status, recovered, self.fallback, self.seconds)
         if self.adaptation is not None:
             out["adaptation"] = self.adaptation.summary()
         if self.members > 1:

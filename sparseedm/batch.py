@@ -72,6 +72,7 @@ import csv
 import json
 import math
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -83,15 +84,18 @@ from ._atomic import atomic_path, check_paths, is_stream
 from ._extras import require as require_extra
 from ._validation import (ALPHA, BOOLEAN, CHUNK_SIZE, ENSEMBLE, N_JOBS, PATH, Interval,
                           Options, validate_params)
+from .adaptation import sample_stream
 from .dictionary import Dictionary, dictionary_path, check_gram_memory, load_dictionary
 from ._safeio import resolved
+from .ensemble import adapt_members
 from .exceptions import FileFormatError, OutputPathError, SparseEDMError
+from .fconv.model import load_model
 from .formats import FILLED_SCORE, count_below, default_threshold, threshold_line
 from .formats import FORMATS as FOLDER_OR_TABLE_FORMATS
 from .keypoints import (N_JOINTS, EXTENSIONS, finish_missing, format_of, load_single_npy,
                         npy_confidence, read_keypoints, write_keypoints)
 from .keypoints import output_format as keypoint_output_format
-from ._recovery_base import OK_STATUSES
+from ._recovery_base import OK_STATUSES, combine, recovery_summary
 from .normalize import REPRESENTATIONS
 from .recovery import STATUSES, check_options_apply, recover
 from .skeleton import JOINT_NAMES
@@ -337,33 +341,10 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
     if not in_path.exists():
         raise FileNotFoundError(f"{in_path}: no such file")
     in_fmt = format_of(in_path, None)
-    out_fmt = _output_format(out_path, in_fmt, output_format)
-    # nothing the run reads is ever written, and no output overwrites another
-    inputs = [("input", in_path)]
-    if not isinstance(dictionary, Dictionary):
-        with contextlib.suppress(SparseEDMError):
-            inputs.append(("dictionary", dictionary_path(dictionary)))
-    if isinstance(adapt, (str, os.PathLike)) and adapt != "auto":
-        inputs.append(("adaptation poses", Path(adapt)))
-    if isinstance(model, (str, os.PathLike)):
-        inputs.append(("model", Path(model)))
-    outputs = [("output", out_path), ("errors file", errors_path),
-               ("saved dictionary", save_dictionary)]
-    if out_fmt in ("npy", "dlc"):
-        outputs.append(("status sidecar", _sidecar(out_path, "status")))
-    elif save_edm and out_fmt != "npz":
-        outputs.append(("edm sidecar", _sidecar(out_path, "edm")))
-    if save_dictionary is not None and Path(save_dictionary).suffix != ".npz":
-        raise OutputPathError(f"saved dictionary {save_dictionary}: a dictionary file must "
-                              "end in .npz")
-    if _is_folder(out_path, out_fmt):  # a folder output may exist (an earlier run)
-        for label, path in inputs:
-            if resolved(path) == resolved(out_path):
-                raise OutputPathError(f"output {out_path} is the {label} {path}: refusing "
-                                      "to overwrite it")
-        check_paths(inputs, [("output", out_path / "frame.json")] + outputs[1:])
-    else:
-        check_paths(inputs, outputs)
+    outputs = _Outputs(in_fmt, out_path, _output_format(out_path, in_fmt, output_format),
+                       errors_path, save_edm, filled_score)
+    _check_run_paths(outputs, in_path, dictionary, adapt, model, save_dictionary)
+    out_fmt = outputs.out_fmt
     if not isinstance(dictionary, Dictionary):
         dictionary = load_dictionary(dictionary)
     check_gram_memory(dictionary)
@@ -374,8 +355,6 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
     except ValueError as exc:
         raise SparseEDMError(str(exc)) from None
     if method == "fconv":  # checked before anything is read or written
-        from .fconv.model import load_model
-
         model = load_model(model, representation=representation, kind="recover")
 
     threshold = default_threshold(in_fmt) if confidence_threshold is None else \
@@ -396,11 +375,11 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
         else:
             members, adaptation = [dictionary], None
         in_time = temporal and method == "sparse" and source.frames is not None
-        time_axis = (source.tracks, source.frames) if in_time else None
-        summary = _run(source, in_fmt, out_path, out_fmt, errors_path, members, alpha,
-                       representation, solver, n_jobs,
-                       max(source.n, 1) if in_time else chunk_size, progress, save_edm, t0,
-                       backend, scheduler, method, model, filled_score, time_axis)
+        recovery = _Recovery(members, alpha, representation, solver, n_jobs, backend,
+                             scheduler, method, model,
+                             (source.tracks, source.frames) if in_time else None)
+        summary = _run(source, outputs, recovery,
+                       max(source.n, 1) if in_time else chunk_size, progress, t0)
     finally:
         source.close()
     summary["confidence_threshold"] = threshold
@@ -416,15 +395,39 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
     return summary
 
 
+def _check_run_paths(outputs, in_path, dictionary, adapt, model, save_dictionary):
+    """Nothing the run reads is ever written, and no output overwrites another."""
+    out_path = outputs.out_path
+    inputs = [("input", in_path)]
+    if not isinstance(dictionary, Dictionary):
+        with contextlib.suppress(SparseEDMError):
+            inputs.append(("dictionary", dictionary_path(dictionary)))
+    if isinstance(adapt, (str, os.PathLike)) and adapt != "auto":
+        inputs.append(("adaptation poses", Path(adapt)))
+    if isinstance(model, (str, os.PathLike)):
+        inputs.append(("model", Path(model)))
+    written = [("output", out_path), ("errors file", outputs.errors_path),
+               ("saved dictionary", save_dictionary)]
+    written += [(f"{name} sidecar", path) for name, path in outputs.sidecars().items()]
+    if save_dictionary is not None and Path(save_dictionary).suffix != ".npz":
+        raise OutputPathError(f"saved dictionary {save_dictionary}: a dictionary file must "
+                              "end in .npz")
+    if _is_folder(out_path, outputs.out_fmt):  # a folder output may exist (an earlier run)
+        for label, path in inputs:
+            if resolved(path) == resolved(out_path):
+                raise OutputPathError(f"output {out_path} is the {label} {path}: refusing "
+                                      "to overwrite it")
+        check_paths(inputs, [("output", out_path / "frame.json")] + written[1:])
+    else:
+        check_paths(inputs, written)
+
+
 def _adapt(source, dictionary, adapt, chunk_size, threshold, n_jobs, self_training,
            ensemble=1):
     """The dictionaries to recover with (one unless an ensemble is asked for) and
     the first one's AdaptationResult: adapted on the file's complete poses or
     on other poses, then self-trained on the file's incomplete poses (bounded
     seeded samples of both, one pass over the source), or as given."""
-    from .adaptation import sample_stream
-    from .ensemble import adapt_members
-
     if adapt is False or adapt is None:
         return [dictionary], None
     chunks = (source.chunk(s, min(s + chunk_size, source.n))
@@ -467,130 +470,179 @@ _PARAMS = {
 }
 
 
-def _run(source, in_fmt, out_path, out_fmt, errors_path, members, alpha,
-         representation, solver, n_jobs, chunk_size, progress, save_edm, t0,
-         backend=None, scheduler=None, method="sparse", model=None,
-         filled_score=FILLED_SCORE, time_axis=None):
-    from tqdm.auto import tqdm
+@dataclass
+class _Recovery:
+    """How every chunk is recovered: the members (one dictionary unless an
+    ensemble) and :func:`recover`'s settings; `time_axis` (tracks, frames) sends
+    the poses, one chunk, to temporal recovery."""
 
-    from .ensemble import combine
+    members: list
+    alpha: object
+    representation: str
+    solver: object
+    n_jobs: object
+    backend: object
+    scheduler: object
+    method: str
+    model: object
+    time_axis: tuple = None
 
-    dictionary = members[0]
-    n = source.n
-    status = np.empty(n, dtype=f"<U{max(map(len, STATUSES))}")
-    reason = np.empty(n, dtype=object)
-    objective = np.full(n, np.nan)
-    gap = np.full(n, np.nan)
-    n_active = np.zeros(n, dtype=np.int64)
-    fallback = np.zeros(n, dtype=bool)
-    flags = np.zeros((n, N_JOINTS), dtype=bool)  # joints filled by this run
-    recovered_joints = 0
-    edm = None
-    if save_edm:
-        m = dictionary.n_features
-        edm = {"edm_vectors": np.full((n, m), np.nan), "center": np.full((n, 2), np.nan),
-               "scale": np.full(n, np.nan)}
+    def __call__(self, poses, missing):
+        """One chunk's RecoveryResult (the members' answers combined)."""
+        in_time = {} if self.time_axis is None else dict(  # time_axis: one chunk
+            tracks=self.time_axis[0], frames=self.time_axis[1])
+        return combine([recover(poses, missing, dictionary=d, alpha=self.alpha,
+                                representation=self.representation, solver=self.solver,
+                                n_jobs=self.n_jobs, backend=self.backend,
+                                scheduler=self.scheduler, method=self.method,
+                                model=self.model, adapt=False, **in_time)
+                        for d in self.members])
 
+
+@dataclass
+class _Outputs:
+    """Where a run writes and in which formats."""
+
+    in_fmt: str
+    out_path: Path
+    out_fmt: str
+    errors_path: Path
+    save_edm: bool
+    filled_score: float = FILLED_SCORE
+
+    def sidecars(self):
+        """name -> path of the sidecar file this output format needs (if any)."""
+        if self.out_fmt in ("npy", "dlc"):
+            return {"status": _sidecar(self.out_path, "status")}
+        if self.save_edm and self.out_fmt != "npz":
+            return {"edm": _sidecar(self.out_path, "edm")}
+        return {}
+
+
+class _Columns:
+    """The per-row results of every chunk, gathered for the outputs."""
+
+    def __init__(self, n, n_features, save_edm):
+        self.status = np.empty(n, dtype=f"<U{max(map(len, STATUSES))}")
+        self.reason = np.empty(n, dtype=object)
+        self.objective = np.full(n, np.nan)
+        self.gap = np.full(n, np.nan)
+        self.n_active = np.zeros(n, dtype=np.int64)
+        self.fallback = np.zeros(n, dtype=bool)
+        self.flags = np.zeros((n, N_JOINTS), dtype=bool)  # joints filled by this run
+        self.recovered_joints = 0
+        self.edm = None
+        if save_edm:
+            self.edm = {"edm_vectors": np.full((n, n_features), np.nan),
+                        "center": np.full((n, 2), np.nan), "scale": np.full(n, np.nan)}
+
+    def put(self, rows, res, missing):
+        """Keep what `res` (a RecoveryResult of the poses whose `missing` mask is
+        given) says of `rows` (a slice)."""
+        self.status[rows] = res.status
+        self.reason[rows] = res.reason
+        self.objective[rows] = res.objective
+        self.gap[rows] = res.gap
+        self.n_active[rows] = res.n_active
+        self.fallback[rows] = res.fallback
+        self.flags[rows] = missing & res.ok[:, None] & np.isfinite(res.poses).all(axis=-1)
+        self.recovered_joints += int(
+            res.missing[np.isin(res.status, ("recovered", "inaccurate"))].sum())
+        if self.edm is not None:
+            self.edm["edm_vectors"][rows] = res.vectors
+            self.edm["center"][rows] = res.center
+            self.edm["scale"][rows] = res.scale
+
+    def fields(self):
+        """The :data:`STATUS_FIELDS` columns, reasons as strings."""
+        reason = self.reason.astype(str) if len(self.reason) else np.zeros(0, dtype="<U1")
+        return {"status": self.status, "reason": reason, "objective": self.objective,
+                "gap": self.gap, "n_active": self.n_active}
+
+
+def _run(source, outputs, recovery, chunk_size, progress, t0):
+    """Recover `source` chunk by chunk into `outputs`, atomically; the summary."""
+    n, out_path, out_fmt = source.n, outputs.out_path, outputs.out_fmt
+    columns = _Columns(n, recovery.members[0].n_features, outputs.save_edm)
+    sidecars = outputs.sidecars()
     with contextlib.ExitStack() as stack:
         # the temporary file gets the format's extension whatever the output's
         # name: numpy would otherwise append ".npz" / ".npy" to it
         out_tmp = out_path if _is_folder(out_path, out_fmt) else stack.enter_context(
             atomic_path(out_path, suffix=_SUFFIX.get(out_fmt, out_path.suffix or ".tmp")))
-        sidecars = {}
-        if out_fmt in ("npy", "dlc"):
-            sidecars["status"] = _sidecar(out_path, "status")
-        elif save_edm and out_fmt != "npz":
-            sidecars["edm"] = _sidecar(out_path, "edm")
         side_tmp = {k: stack.enter_context(atomic_path(p, suffix=".npz"))
                     for k, p in sidecars.items()}
-
         if out_fmt == "npy" and n > 0:  # streamed straight to disk
             filled = np.lib.format.open_memmap(out_tmp, mode="w+", dtype=np.float64,
                                                shape=(n, N_JOINTS, 2))
         else:
             filled = np.empty((n, N_JOINTS, 2))
-
-        temporal_summary = None
-        if not progress:  # else the bar says it
-            _progress.say(f"recovering {n:,} poses" + (
-                f" with each of {len(members)} dictionaries" if len(members) > 1 else ""))
-        bar = tqdm(total=n, disable=not progress, unit="pose", desc="recover",
-                   dynamic_ncols=True)
-        with bar:
-            for start in range(0, n, chunk_size):
-                stop = min(start + chunk_size, n)
-                poses, missing = source.chunk(start, stop)
-                in_time = {} if time_axis is None else dict(  # time_axis: one chunk
-                    tracks=time_axis[0], frames=time_axis[1])
-                res = combine([recover(poses, missing, dictionary=d, alpha=alpha,
-                                       representation=representation, solver=solver,
-                                       n_jobs=n_jobs, backend=backend, scheduler=scheduler,
-                                       method=method, model=model, adapt=False, **in_time)
-                               for d in members])
-                temporal_summary = res.summary().get("temporal")
-                ok = res.ok
-                # refused rows are written back as read, a joint with an infinite
-                # coordinate as missing (as the CSV writer does: no format gets an inf)
-                bad = ~np.isfinite(poses).all(axis=-1, keepdims=True)
-                filled[start:stop] = np.where(ok[:, None, None], res.poses,
-                                              np.where(bad, np.nan, poses))
-                status[start:stop] = res.status
-                reason[start:stop] = res.reason
-                objective[start:stop] = res.objective
-                gap[start:stop] = res.gap
-                n_active[start:stop] = res.n_active
-                fallback[start:stop] = res.fallback
-                flags[start:stop] = missing & ok[:, None] & np.isfinite(res.poses).all(axis=-1)
-                recovered_joints += int(res.missing[np.isin(res.status, ("recovered", "inaccurate"))].sum())
-                if edm is not None:
-                    edm["edm_vectors"][start:stop] = res.vectors
-                    edm["center"][start:stop] = res.center
-                    edm["scale"][start:stop] = res.scale
-                del res
-                bar.update(stop - start)
-
-        reason = reason.astype(str) if n else np.zeros(0, dtype="<U1")
-        fields = {"status": status, "reason": reason, "objective": objective, "gap": gap,
-                  "n_active": n_active}
-        ids = source.ids
+        temporal_summary = _recover_chunks_into(filled, columns, source, recovery,
+                                                chunk_size, progress)
+        fields = columns.fields()
+        flags = columns.flags
         kps = getattr(source, "kps", None)
         if kps is not None and kps.filled is not None:
             flags |= kps.filled & np.isfinite(filled).all(axis=-1)  # flagged in the input
-        _write_output(out_tmp, out_fmt, filled, ids, source.meta, in_fmt, fields, edm,
-                      filled_score, kps, flags)
-        if "status" in sidecars:
-            extra = dict(fields, filled=flags)
-            if ids is not None:
-                extra["ids"] = ids
-            if edm is not None:
-                extra.update(edm)
-            with open(side_tmp["status"], "wb") as f:
-                np.savez(f, **extra)
-        if "edm" in sidecars:
-            with open(side_tmp["edm"], "wb") as f:
-                np.savez(f, **edm)
+        _write_output(out_tmp, out_fmt, filled, source.ids, source.meta, outputs.in_fmt,
+                      fields, columns.edm, outputs.filled_score, kps, flags)
+        _write_sidecars(side_tmp, dict(fields, filled=flags), source.ids, columns.edm)
         if isinstance(filled, np.memmap):
             filled.flush()
             del filled
+        refused = ~np.isin(columns.status, OK_STATUSES)
+        write_errors(outputs.errors_path, refused, source.ids, columns.status,
+                     fields["reason"])
+    summary = recovery_summary(columns.status, columns.recovered_joints, columns.fallback,
+                               time.perf_counter() - t0)
+    return dict(summary, output=str(out_path), format=out_fmt,
+                errors=str(outputs.errors_path) if refused.any() else None,
+                sidecars=[str(p) for p in sidecars.values()], temporal=temporal_summary)
 
-        refused = ~np.isin(status, OK_STATUSES)
-        write_errors(errors_path, refused, ids, status, reason)
-    seconds = time.perf_counter() - t0
-    counts = {s: int((status == s).sum()) for s in STATUSES}
-    return {
-        "poses": int(n),
-        "recovered_joints": recovered_joints,
-        "refused": int(refused.sum()),
-        "fallbacks": int(fallback.sum()),
-        "seconds": round(seconds, 3),
-        "poses_per_second": round(n / seconds, 1) if seconds > 0 else None,
-        "status": {k: v for k, v in counts.items() if v},
-        "output": str(out_path),
-        "format": out_fmt,
-        "errors": str(errors_path) if refused.any() else None,
-        "sidecars": [str(p) for p in sidecars.values()],
-        "temporal": temporal_summary,
-    }
+
+def _recover_chunks_into(filled, columns, source, recovery, chunk_size, progress):
+    """Each chunk of `source` recovered, written into `filled` (the poses) and
+    `columns` (the rest); the last chunk's temporal summary (None without one)."""
+    from tqdm.auto import tqdm
+
+    n = source.n
+    if not progress:  # else the bar says it
+        _progress.say(f"recovering {n:,} poses" + (
+            f" with each of {len(recovery.members)} dictionaries"
+            if len(recovery.members) > 1 else ""))
+    temporal_summary = None
+    bar = tqdm(total=n, disable=not progress, unit="pose", desc="recover", dynamic_ncols=True)
+    with bar:
+        for start in range(0, n, chunk_size):
+            stop = min(start + chunk_size, n)
+            poses, missing = source.chunk(start, stop)
+            res = recovery(poses, missing)
+            temporal_summary = res.summary().get("temporal")
+            # refused rows are written back as read, a joint with an infinite
+            # coordinate as missing (as the CSV writer does: no format gets an inf)
+            bad = ~np.isfinite(poses).all(axis=-1, keepdims=True)
+            filled[start:stop] = np.where(res.ok[:, None, None], res.poses,
+                                          np.where(bad, np.nan, poses))
+            columns.put(slice(start, stop), res, missing)
+            del res
+            bar.update(stop - start)
+    return temporal_summary
+
+
+def _write_sidecars(side_tmp, fields, ids, edm):
+    """The status sidecar (a .npy / DeepLabCut output's fields, ids, EDMs) or the
+    EDM sidecar, into the temporary paths `side_tmp` (name -> path)."""
+    if "status" in side_tmp:
+        extra = dict(fields)
+        if ids is not None:
+            extra["ids"] = ids
+        if edm is not None:
+            extra.update(edm)
+        with open(side_tmp["status"], "wb") as f:
+            np.savez(f, **extra)
+    if "edm" in side_tmp:
+        with open(side_tmp["edm"], "wb") as f:
+            np.savez(f, **edm)
 
 
 def _write_output(tmp, fmt, filled, ids, meta, in_fmt, fields, edm,
