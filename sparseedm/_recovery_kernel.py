@@ -10,7 +10,6 @@ it) and below the :func:`sparseedm.recover` dispatcher.
 
 from __future__ import annotations
 
-import hashlib
 import time
 from numbers import Integral
 
@@ -18,6 +17,7 @@ import numpy as np
 from joblib import Parallel, delayed, parallel_config
 from threadpoolctl import threadpool_limits
 
+from ._coding import atoms_key, pattern_order
 from ._parallel import chunk_tasks, dask_client
 from ._recovery_base import RecoveryResult, combine, place_occluded, screen, validate_poses
 from ._validation import (ALPHA, BOOLEAN, CHUNK_SIZE, ENSEMBLE, N_JOBS, Interval, Options,
@@ -110,10 +110,10 @@ def recover_sparse(poses, missing=None, *, dictionary=None, alpha=None,
     fallback = np.zeros(n, dtype=bool)
 
     todo = np.flatnonzero(status == "recovered")
-    dict_key = hashlib.sha1(np.ascontiguousarray(components).tobytes()).hexdigest()
+    dict_key = atoms_key(components)
     # rows sorted by missing pattern (a backend that works per pattern sees
     # whole groups), cut into chunks; each row is solved on its observed entries
-    order = np.lexsort(mask[todo].T[::-1])
+    order = pattern_order(mask[todo])
     todo = todo[order]
     observed = observed_entries(mask[todo])
     m_obs = observed.sum(axis=1)

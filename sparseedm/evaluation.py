@@ -51,7 +51,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import _progress
+from . import _progress, plotting
 from ._atomic import atomic_path
 from ._validation import (ALPHA, ENSEMBLE, N_JOBS, Interval, check_pose_shape, check_poses,
                           validate_params)
@@ -305,11 +305,7 @@ class EvaluationReport:
         directory.mkdir(parents=True, exist_ok=True)
         written, figs, message = [], [], None
         if figures:
-            try:
-                from . import plotting
-            except ImportError:  # pragma: no cover - plotting itself has no hard deps
-                plotting = None
-            if plotting is not None and plotting.have_matplotlib():
+            if plotting.have_matplotlib():
                 figs = plotting.report_figures(self, directory)
             else:
                 message = ("figures skipped: matplotlib is not installed "

@@ -54,7 +54,8 @@ def lift_edm_vectors(model, poses2d, missing=None, *, batch_size=4096):
     model = load_model(model, kind="lift")
     poses, mask, bad_coord = validate_poses(poses2d, missing, model.n_joints, caller="lift",
                                        model="model")
-    status, _, _, _, vectors, _, _, _ = screen(poses, mask, bad_coord, model.representation)
+    screened = screen(poses, mask, bad_coord, model.representation)
+    status, vectors = screened.status, screened.vectors
     ok = np.isin(status, ("recovered", "complete"))
     out = np.full(vectors.shape, np.nan)
     if ok.any():

@@ -29,9 +29,10 @@ import numpy as np
 from .._validation import Options, check_pose_shape, validate_params
 from ..edm import pose_to_vector, triu_indices
 from ..exceptions import PoseError, SparseEDMError
+from ..metrics import random_occlusion
 from ..normalize import REPRESENTATIONS, represent
 from ..skeleton import JOINT_NAMES
-from .model import FConvModel
+from .model import FConvModel, to_matrix
 from .network import build_network, require_torch
 from .recover import recover_fconv
 
@@ -75,8 +76,6 @@ def occlusion_range(n_poses, n_joints, occluded, rng):
     >>> m.shape, set(m.sum(axis=1).tolist()) <= {1, 2, 3}
     ((6, 14), True)
     """
-    from ..metrics import random_occlusion
-
     lo, hi = (int(k) for k in occluded)
     if not 0 <= lo <= hi <= n_joints - 3:
         raise SparseEDMError(f"occluded={occluded!r}: need 0 <= lo <= hi <= {n_joints - 3}")
@@ -228,8 +227,6 @@ def fit_network(pairs, n, N, clips, meta, *, representation, channels, kernel, s
     """The shared loop. ``pairs(rows, rng) -> (X, Y)`` builds one epoch's vectors."""
     torch = require_torch()
     from tqdm.auto import tqdm
-
-    from .model import to_matrix
 
     seed = int(random_state or 0)
     val, split_note = split_by_clip(clips, n, seed)

@@ -15,7 +15,7 @@
 """
 
 from .base import (LIFTERS, Lifter, LifterError, available_lifters, is_lifter_file,  # noqa: F401
-                   load_lifter, training_pairs)
+                   lifter_class, load_lifter, training_pairs)
 from .adaptation import adapt_lifter  # noqa: F401
 from .lift import STATUSES, LiftResult, lift  # noqa: F401
 
@@ -31,8 +31,6 @@ def fit_lifter(poses2d, poses3d, camera_R, camera_t, camera_f, *, method="dictio
     `clips` (optional, one name per pose) lets ``fconv`` hold out whole clips
     for early stopping; the other methods ignore it.
     """
-    from .base import lifter_class
-
     cls = lifter_class(method, "fit_lifter")
     return cls(**params).fit_poses(poses2d, poses3d, camera_R, camera_t, camera_f,
                                    provenance=provenance, clips=clips)

@@ -37,12 +37,11 @@ Examples
 
 from __future__ import annotations
 
-import hashlib
-
 import numpy as np
 from joblib import Parallel, delayed
 from threadpoolctl import threadpool_limits
 
+from .._coding import atoms_key, pattern_order
 from .._parallel import chunk_tasks
 from .._validation import usable_jobs
 from ..edm import num_joints_from_dim, observed_entries
@@ -184,12 +183,12 @@ class DictionaryLifter(Lifter):
         N = num_joints_from_dim(m)
         mask = np.zeros((n, N), bool) if missing is None else np.asarray(missing, bool)
         solver = get_solver(self.solver)
-        key = (hashlib.sha1(np.ascontiguousarray(C[:, :m]).tobytes()).hexdigest(), "2d-half")
+        key = (atoms_key(C[:, :m]), "2d-half")
         observed = observed_entries(mask)
         alpha = self.alpha_lift * observed.sum(axis=1) / m
         # pattern-sorted rows in tasks as recover() cuts them: a share per worker,
         # none under the compiled kernel's size
-        tasks = chunk_tasks(np.lexsort(mask.T[::-1]), chunk_size, n_jobs)
+        tasks = chunk_tasks(pattern_order(mask), chunk_size, n_jobs)
         D2 = C[:, :m].T
 
         def run(rows):

@@ -50,6 +50,7 @@ from .. import _progress
 from .._atomic import atomic_path
 from ..baselines import fit_baseline
 from ..exceptions import SparseEDMError
+from ..fconv.model import load_model
 from ..metrics import random_occlusion
 from ..normalize import represent
 from ..recovery import recover
@@ -223,18 +224,8 @@ def evaluate_lifting(lifters, test, *, dictionary=None, train_poses2d=None,
     pipelines = list(pipelines or all_pipes)
     fconv_models, retrained = dict(fconv_models or {}), dict(retrained or {})
     lifters, pipelines = _torch_rows(lifters, pipelines, fconv_models, retrained, notes)
-    imputers = {}
-    if any(p in IMPUTERS for p in pipelines):
-        if train_poses2d is None:
-            notes.append("no training poses: the imputer pipelines were skipped")
-            pipelines = [p for p in pipelines if p not in IMPUTERS]
-        else:
-            for p in pipelines:
-                if p in IMPUTERS:
-                    _progress.say(f"fitting the {p} imputer on at most {max_train:,} of "
-                                  f"{len(train_poses2d):,} training poses (seeded sample)")
-                    imputers[p] = fit_baseline(p, train_poses2d, max_train=max_train,
-                                               random_state=seed)
+    pipelines, imputers, more = _fit_imputers(pipelines, train_poses2d, max_train, seed)
+    notes += more
     rows, per_action, examples = [], [], {}
     none_mask = np.zeros((n, N), bool)
     masks = {c: random_occlusion(n, N, c, random_state=np.random.default_rng([seed, i]))
@@ -250,33 +241,8 @@ def evaluate_lifting(lifters, test, *, dictionary=None, train_poses2d=None,
         for count in (["none"] if pipe == "complete" else counts):
             mask = none_mask if pipe == "complete" else masks[count]
             t0 = time.perf_counter()
-            if pipe in ("complete", "joint"):
-                X2, _, _ = represent(poses2d, mask, "average")
-                P, Y, margin, _ = _lift_rows(lifter, X2, poses2d, mask, mask, n_jobs)
-            elif pipe.startswith("as-is") or pipe in RETRAINED:
-                rep = RETRAINED.get(pipe) or pipe.split()[1]
-                X2, _, _ = represent(np.where(mask[..., None], np.nan, poses2d), mask, rep)
-                P, Y, margin, _ = _lift_rows(lifter, X2, poses2d, None, mask, n_jobs)
-            else:
-                occluded = np.where(mask[..., None], np.nan, poses2d)
-                if pipe == "applyspar":
-                    filled = recover(occluded, mask, dictionary=dictionary,
-                                     n_jobs=n_jobs).poses
-                elif pipe in APPLY_FCONV:
-                    rep = APPLY_FCONV[pipe]
-                    filled = recover(occluded, mask, method="fconv",
-                                     model=fconv_models[rep], representation=rep).poses
-                else:
-                    filled = imputers[pipe].complete(occluded, mask).poses
-                # a row the recovery could not fill is scored as failed (NaN):
-                # it is lifted from a stand-in (its complete pose: a valid
-                # input, whose answer is then discarded) so the batch goes on
-                good = np.isfinite(filled).all(axis=(1, 2))
-                filled = np.where(good[:, None, None], filled, poses2d)
-                X2, _, _ = represent(filled, None, "average")
-                P, Y, margin, _ = _lift_rows(lifter, X2, filled, none_mask, none_mask,
-                                             n_jobs)
-                P[~good] = np.nan
+            P, Y, margin = _lift_pipeline(pipe, lifter, poses2d, mask, dictionary,
+                                          fconv_models, imputers, n_jobs)
             sec = time.perf_counter() - t0
             sc = _score(P, Y, margin, truth_vec, truth_cam)
             # poses without a lifted answer (a recovery that failed, a refused
@@ -310,10 +276,60 @@ def evaluate_lifting(lifters, test, *, dictionary=None, train_poses2d=None,
     return LiftReport(rows, per_action, examples, settings, notes)
 
 
+def _fit_imputers(pipelines, train_poses2d, max_train, seed):
+    """The pipelines left (the imputers' dropped without training poses), the
+    imputers fitted on the training poses, and a note when they were dropped."""
+    imputers, notes = {}, []
+    if any(p in IMPUTERS for p in pipelines):
+        if train_poses2d is None:
+            notes.append("no training poses: the imputer pipelines were skipped")
+            pipelines = [p for p in pipelines if p not in IMPUTERS]
+        else:
+            for p in pipelines:
+                if p in IMPUTERS:
+                    _progress.say(f"fitting the {p} imputer on at most {max_train:,} of "
+                                  f"{len(train_poses2d):,} training poses (seeded sample)")
+                    imputers[p] = fit_baseline(p, train_poses2d, max_train=max_train,
+                                               random_state=seed)
+    return pipelines, imputers, notes
+
+
+def _lift_pipeline(pipe, lifter, poses2d, mask, dictionary, fconv_models, imputers, n_jobs):
+    """``(poses3d, vectors3d, chirality_margin)`` of one pipeline: the poses
+    occluded by `mask`, recovered (or not) as `pipe` says, then lifted."""
+    none_mask = np.zeros(mask.shape, bool)
+    if pipe in ("complete", "joint"):
+        X2, _, _ = represent(poses2d, mask, "average")
+        P, Y, margin, _ = _lift_rows(lifter, X2, poses2d, mask, mask, n_jobs)
+    elif pipe.startswith("as-is") or pipe in RETRAINED:
+        rep = RETRAINED.get(pipe) or pipe.split()[1]
+        X2, _, _ = represent(np.where(mask[..., None], np.nan, poses2d), mask, rep)
+        P, Y, margin, _ = _lift_rows(lifter, X2, poses2d, None, mask, n_jobs)
+    else:
+        occluded = np.where(mask[..., None], np.nan, poses2d)
+        if pipe == "applyspar":
+            filled = recover(occluded, mask, dictionary=dictionary,
+                             n_jobs=n_jobs).poses
+        elif pipe in APPLY_FCONV:
+            rep = APPLY_FCONV[pipe]
+            filled = recover(occluded, mask, method="fconv",
+                             model=fconv_models[rep], representation=rep).poses
+        else:
+            filled = imputers[pipe].complete(occluded, mask).poses
+        # a row the recovery could not fill is scored as failed (NaN):
+        # it is lifted from a stand-in (its complete pose: a valid
+        # input, whose answer is then discarded) so the batch goes on
+        good = np.isfinite(filled).all(axis=(1, 2))
+        filled = np.where(good[:, None, None], filled, poses2d)
+        X2, _, _ = represent(filled, None, "average")
+        P, Y, margin, _ = _lift_rows(lifter, X2, filled, none_mask, none_mask,
+                                     n_jobs)
+        P[~good] = np.nan
+    return P, Y, margin
+
+
 def _torch_rows(lifters, pipelines, fconv_models, retrained, notes):
     """Drop the rows whose models are absent, or that need torch when it is absent."""
-    from ..fconv.model import load_model
-
     have_torch = importlib.util.find_spec("torch") is not None
     for pipe, rep in APPLY_FCONV.items():
         if pipe in pipelines and rep not in fconv_models:

@@ -47,8 +47,10 @@ from __future__ import annotations
 import numpy as np
 
 from ..edm import num_joints_from_dim, observed_entries
-from ..exceptions import SparseEDMError
-from ..fconv.model import PARAM_PREFIX  # numpy only: torch loads lazily
+from ..exceptions import ModelError, SparseEDMError
+from ..fconv.model import PARAM_PREFIX, FConvModel  # numpy only: torch loads lazily
+from ..fconv.network import output_paddings, require_torch
+from ..fconv.training import check_representation, fit_network, occlusion_range
 from ..normalize import represent
 from .base import Lifter, LifterError, check_pairs
 
@@ -111,7 +113,6 @@ class FConvNetLifter(Lifter):
     def _fit_from_poses(self, X2, X3, poses2d, clips):
         X2, X3 = check_pairs(X2, X3)
         poses2d = np.asarray(poses2d, float)
-        from ..fconv.training import occlusion_range
 
         N = poses2d.shape[1]
 
@@ -122,9 +123,6 @@ class FConvNetLifter(Lifter):
         self._train(pairs, X2.shape, clips)
 
     def _train(self, pairs, shape, clips):
-        from ..fconv.network import require_torch
-        from ..fconv.training import check_representation, fit_network
-
         require_torch()  # names the extra when torch is absent
         check_representation(self.representation)
         n, m = shape
@@ -200,9 +198,6 @@ class FConvNetLifter(Lifter):
 
     def _check_dims(self, n_joints, where):
         """Build the network for `n_joints` from the loaded weights (checks every shape)."""
-        from ..exceptions import ModelError
-        from ..fconv.model import FConvModel
-
         weights = getattr(self, "_weights", None)
         if weights is None:  # a fitted lifter: its model knows its N
             if self.model_.n_joints != n_joints:
@@ -216,8 +211,6 @@ class FConvNetLifter(Lifter):
                 "channels": list(self.channels), "kernel": self.kernel,
                 "symmetrize": self.symmetrize, "occluded": list(self.occluded)}
         try:
-            from ..fconv.network import output_paddings
-
             output_paddings(n_joints, self.kernel)
             self.model_ = FConvModel(weights, meta)
         except (ModelError, SparseEDMError) as exc:

@@ -44,6 +44,7 @@ from ..exceptions import FileFormatError, SparseEDMError
 from ..keypoints import read_keypoints
 from ..skeleton import JOINT_NAMES
 from .lift import lift
+from .plotting import plot_lifted
 from .trc import write_trc
 
 __all__ = ["lift_file", "write_poses3d", "OUTPUT_FORMATS"]
@@ -146,8 +147,6 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
 
 def _plot(path, result, ids, k=4):
     """The first `k` lifted poses drawn to `path` (front and side views)."""
-    from .plotting import plot_lifted
-
     rows = np.flatnonzero(result.ok)[:k]
     ids = np.arange(len(result.status)).astype(str) if ids is None else np.asarray(ids, str)
     return plot_lifted(result.poses3d[rows], path, titles=[str(ids[r]) for r in rows],

@@ -24,6 +24,7 @@ from .._recovery_base import (SCREENING_REFUSALS, poses_per_second, screen_poses
                               status_counts, validate_poses)
 from .._validation import N_JOBS, Options, validate_params
 from ..normalize import REPRESENTATIONS, normalize, represent
+from .adaptation import adapt_lifter
 from .base import Lifter, load_lifter, rms
 from .mds import reconstruct
 from .metrics import pelvis
@@ -134,7 +135,6 @@ def lift(poses, missing=None, *, lifter=None, n_jobs=1, representation="average"
                      "lifter": [Lifter, "path", None]})
     lifter = load_lifter(lifter)
     if adapt is not None:
-        from .adaptation import adapt_lifter
         lifter = adapt_lifter(lifter, adapt, n_jobs=n_jobs)
     N = lifter.n_joints
     poses, mask, bad = validate_poses(poses, missing, N, caller="lift", model="lifter")

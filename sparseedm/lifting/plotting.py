@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..plotting import new_figure, save_figure
+from ..plotting import SIDE_COLORS, bone_side, new_figure, save_figure, side_legend
 from ..skeleton import SKELETON_14
 
 __all__ = ["plot_poses3d", "plot_lifted", "VIEWS"]
@@ -75,8 +75,6 @@ def plot_lifted(poses3d, path, titles=None, missing=None):
     Path
     """
     from matplotlib.lines import Line2D
-
-    from ..plotting import SIDE_COLORS, bone_side, side_legend
 
     P = np.asarray(poses3d, float)
     k = max(len(P), 1)
