@@ -116,7 +116,7 @@ def _split_clips(path, poses, labels, k):
 
 def run(args):
     from ..dictionary import load_dictionary
-    from ..evaluation import check_methods, evaluate, sweep_atoms
+    from ..evaluation import check_methods, evaluate
 
     if args.protocol:
         return _evaluate_video.run(args, split_list(args.methods or _evaluate_video.VIDEO_METHODS))
@@ -166,24 +166,38 @@ def run(args):
             max_train=args.max_train, alpha=args.alpha, fconv_models=args.fconv_model,
         )
     if args.sweep_atoms:
-        if train is None:
-            msg = "--sweep-atoms needs --train: sweep skipped"
-            report.notes.append(msg)
-            print(f"sparseedm evaluate: {msg}", file=sys.stderr)
-        else:
-            # the sweep's dictionaries are used as the evaluated one is
-            report.sweep = sweep_atoms(
-                train, test, atoms,
-                alpha=args.sweep_alpha if args.sweep_alpha is not None else dictionary.alpha_train,
-                alpha_recover=args.alpha if args.alpha is not None else dictionary.alpha_recover,
-                random_state=args.seed, max_poses=args.max_poses, n_jobs=args.jobs)
+        _sweep(report, args, dictionary, train, test, atoms)
+    _write_and_print(report, args, adapted=adapt_poses is not None)
+    return 0
+
+
+def _sweep(report, args, dictionary, train, test, atoms):
+    """Fig. 5's sweep over dictionary sizes into `report` (skipped, with a note,
+    without --train)."""
+    from ..evaluation import sweep_atoms
+
+    if train is None:
+        msg = "--sweep-atoms needs --train: sweep skipped"
+        report.notes.append(msg)
+        print(f"sparseedm evaluate: {msg}", file=sys.stderr)
+    else:
+        # the sweep's dictionaries are used as the evaluated one is
+        report.sweep = sweep_atoms(
+            train, test, atoms,
+            alpha=args.sweep_alpha if args.sweep_alpha is not None else dictionary.alpha_train,
+            alpha_recover=args.alpha if args.alpha is not None else dictionary.alpha_recover,
+            random_state=args.seed, max_poses=args.max_poses, n_jobs=args.jobs)
+
+
+def _write_and_print(report, args, *, adapted):
+    """The report written to --output; its Mix rows and notes on the terminal."""
     for note in report.notes:
         if note.startswith("no training poses"):
             print(f"sparseedm evaluate: {note}", file=sys.stderr)
     written, message = report.write(args.output)
     if message:
         print(f"sparseedm evaluate: {message}", file=sys.stderr)
-    if adapt_poses is not None:
+    if adapted:
         print(next(n for n in report.notes if n.startswith("sparse-adapted:")))
     mix = report.table(count="mix", representation=report.settings["representations"][0])
     for r in mix:
@@ -194,4 +208,3 @@ def run(args):
         if ": fitted on " in note:
             print(f"baseline {note}")
     print(f"wrote {len(written)} files to {args.output}/ (report.md)")
-    return 0

@@ -28,6 +28,16 @@ def add_parser(sub):
                    help="file to write, at exactly this path: the format comes from "
                    "its extension (.csv .npz .npy .json), else --format, else INPUT's; "
                    "never the input, the dictionary or the errors file")
+    _add_recovery_options(p)
+    _add_format_options(p)
+    _add_run_options(p)
+    _add_adaptation_options(p)
+    add_quiet(p)
+    p.set_defaults(func=run)
+
+
+def _add_recovery_options(p):
+    """The dictionary, alpha, workers, representation and solver."""
     p.add_argument("--dictionary", default=None, metavar="NAME|PATH",
                    help="shipped dictionary name or path to a dictionary .npz "
                    "(default: the shipped default)")
@@ -41,6 +51,10 @@ def add_parser(sub):
                    help="occlusion representation (default average)")
     p.add_argument("--solver", choices=("fast", "clarabel"), default="fast",
                    help="lasso backend (default fast: certified LARS, Clarabel fallback)")
+
+
+def _add_format_options(p):
+    """The output format, errors file, confidence threshold, joint map, filled score."""
     p.add_argument("--format", choices=("csv", "npz", "npy", "coco", "json", "openpose",
                                         "mmpose", "dlc"), default=None,
                    help="output format (default: from OUTPUT's extension, else INPUT's)")
@@ -57,6 +71,10 @@ def add_parser(sub):
     p.add_argument("--filled-score", type=float, default=0.0, metavar="S",
                    help="score written for filled joints (OpenPose, MMPose, DeepLabCut, "
                    "COCO); default 0, below every threshold")
+
+
+def _add_run_options(p):
+    """Chunks, the parallel backend, the method and model, time, EDMs."""
     p.add_argument("--chunk-size", type=int, default=50_000,
                    help="poses per chunk; bounds memory (default 50000)")
     p.add_argument("--backend", choices=("loky", "threading", "dask"), default=None,
@@ -76,6 +94,10 @@ def add_parser(sub):
                    "sparseedm.temporal)")
     p.add_argument("--save-edm", action="store_true",
                    help="also store the completed EDM vectors (see sparseedm.batch)")
+
+
+def _add_adaptation_options(p):
+    """Adaptation, its rounds and ensembles, the dictionary saved."""
     g = p.add_mutually_exclusive_group()
     g.add_argument("--no-adapt", action="store_true",
                    help="do not adapt the dictionary to INPUT's complete poses (by default "
@@ -92,8 +114,6 @@ def add_parser(sub):
     p.add_argument("--save-dictionary", default=None, metavar="FILE",
                    help="write the dictionary used (adapted or not; with --ensemble, the "
                    "first member's) to FILE (.npz)")
-    add_quiet(p)
-    p.set_defaults(func=run)
 
 
 def run(args):
