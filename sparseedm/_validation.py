@@ -252,8 +252,8 @@ def unmask(poses, missing, caller):
 
 def check_pose_shape(poses, name="poses", *, dim=2, n_joints=None, model="dictionary"):
     """Refuse an array that is not `dim`-D poses (n, N, dim), or not `n_joints`
-    joints: the one shape rule of recovery, evaluation, the baselines, the cameras
-    and FConv training.
+    joints: the one shape rule of recovery, adaptation, evaluation, the baselines,
+    the cameras and FConv training.
 
     Raises :class:`~sparseedm.exceptions.PoseError` naming `name` (and the
     `model` the joint count is for).

@@ -69,7 +69,7 @@ import numpy as np
 from . import _progress
 from ._parallel import numba_threads
 from ._recovery_kernel import RECOVER_PARAMS, recover_members, recover_sparse
-from ._validation import check_mask, check_poses, unmask, validate_params
+from ._validation import check_mask, check_pose_shape, check_poses, unmask, validate_params
 from .dictionary import Dictionary, load_dictionary
 from .edm import pose_to_vector
 from .exceptions import PoseError, SparseEDMError
@@ -550,8 +550,7 @@ def _complete_input(poses, missing):
     poses = check_poses(poses, "adapt")
     if poses.ndim == 2:
         poses = poses[None]
-    if poses.ndim != 3 or poses.shape[-1] != 2:
-        raise PoseError(f"adaptation poses must have shape (n, N, 2), got {poses.shape}")
+    check_pose_shape(poses, "adaptation poses")
     ok = np.isfinite(poses).all(axis=(-1, -2))
     if missing is not None:
         mask = check_mask(missing, "adapt")
