@@ -5,8 +5,10 @@ from __future__ import annotations
 
 import numba
 import numpy as np
+from joblib import effective_n_jobs
 
 from .exceptions import SparseEDMError
+from .solvers.fast import NUMPY_MAX
 
 __all__ = ["chunk_tasks", "min_tasks", "dask_client", "numba_threads"]
 
@@ -30,10 +32,6 @@ def min_tasks(n_jobs, backend, n_rows):
     """
     if n_jobs in (None, 1) and backend is None:
         return 1
-    from joblib import effective_n_jobs
-
-    from .solvers.fast import NUMPY_MAX
-
     return max(min(4 * max(effective_n_jobs(n_jobs), 1), n_rows // NUMPY_MAX), 1)
 
 

@@ -53,8 +53,11 @@ import copy
 import numpy as np
 
 from ..adaptation import adapt_vectors, duplicate_rows, pose_vectors
+from ..edm import pose_to_vector
 from ..exceptions import PoseError
-from ..normalize import usable_rows
+from ..learning import sparse_code
+from ..metrics import err_ave, occlusion_masks
+from ..normalize import normalize, represent, usable_rows
 from .base import LifterError, load_lifter
 
 __all__ = ["adapt_lifter", "adapt_vectors_2d", "reweight_atoms", "masked_error_2d", "METHODS",
@@ -124,8 +127,6 @@ def reweight_atoms(lifter, X2, *, gamma=0.5, alpha=REWEIGHT_ALPHA, clip=(0.1, 10
     DictionaryLifter
         Each atom ``[a_j ; b_j]`` scaled as a whole: its 2D : 3D pairing is kept.
     """
-    from ..learning import sparse_code
-
     C, m, X2 = _check(lifter, X2)
     a = lifter.alpha_lift if alpha is None else alpha
     usage = np.abs(sparse_code(X2, C[:, :m], a)).mean(axis=0)
@@ -146,10 +147,6 @@ def masked_error_2d(lifter, poses2d, *, random_state=0, n_jobs=1):
     compared with the true 2D EDM in the same normalisation. It says how well
     the 2D half fits the poses, not how well they lift.
     """
-    from ..edm import pose_to_vector
-    from ..metrics import err_ave, occlusion_masks
-    from ..normalize import normalize, represent
-
     poses2d = np.asarray(poses2d, float)
     mask = occlusion_masks(len(poses2d), poses2d.shape[1], ("mix",), random_state)["mix"]
     X2, _, _ = represent(poses2d, mask, "average")
