@@ -456,7 +456,7 @@ def fit_dictionary_file(train_path, output, *, n_components=2000, alpha=1.6,
         pick = np.sort(rng.choice(index, n_components, replace=False))
         X0, _ = complete_pose_vectors(poses[pick])
         est._init_state(components=X0 / np.linalg.norm(X0, axis=1, keepdims=True))
-    _fit_batches(est, poses, index, start, checkpoint, checkpoint_every, params, progress)
+    _fit_batches_inplace(est, poses, index, start, checkpoint, checkpoint_every, params, progress)
     provenance = {
         "files": [Path(train_path).name],
         "n_poses": int(len(index)),
@@ -482,9 +482,10 @@ def fit_dictionary_file(train_path, output, *, n_components=2000, alpha=1.6,
     return dictionary
 
 
-def _fit_batches(est, poses, index, start, checkpoint, checkpoint_every, params, progress):
+def _fit_batches_inplace(est, poses, index, start, checkpoint, checkpoint_every, params, progress):
     """The mini-batch steps of :func:`fit_dictionary_file` over ``poses[index]``
-    from batch `start`, the learner's state checkpointed every `checkpoint_every`."""
+    from batch `start`, taken by the learner `est` in place; its state is
+    checkpointed every `checkpoint_every` batches."""
     from tqdm.auto import tqdm
 
     batch_size, n_passes = params["batch_size"], params["n_passes"]

@@ -207,9 +207,9 @@ def parse_asf(source, *, name=None) -> ASFSkeleton:
             continue
         key = tokens[0].lower()
         if section == ":units":
-            _units_line(skel, key, tokens, lineno, fail)
+            _read_units_into(skel, key, tokens, lineno, fail)
         elif section == ":root":
-            _root_line(skel, key, tokens, path, lineno, fail)
+            _read_root_into(skel, key, tokens, path, lineno, fail)
         elif section == ":bonedata":
             if key == "begin":
                 if bone is not None:
@@ -218,12 +218,13 @@ def parse_asf(source, *, name=None) -> ASFSkeleton:
             elif key == "end":
                 if bone is None:
                     fail(lineno, "'end' without 'begin'")
-                _close_bone(bone, bones, bone_lines, lineno, fail)
+                closed = _closed_bone(bone, bones, lineno, fail)
+                bones[closed.name], bone_lines[closed.name] = closed, bone["line"]
                 bone = None
             elif bone is None:
                 fail(lineno, f"{tokens[0]!r} outside a 'begin ... end' bone block")
             else:
-                _bone_line(bone, key, tokens, line, path, lineno, fail)
+                _read_bone_line_into(bone, key, tokens, line, path, lineno, fail)
         elif section == ":hierarchy":
             if key == "begin":
                 in_begin = True
@@ -251,7 +252,7 @@ def parse_asf(source, *, name=None) -> ASFSkeleton:
     return skel
 
 
-def _units_line(skel, key, tokens, lineno, fail):
+def _read_units_into(skel, key, tokens, lineno, fail):
     """A line of the :units section, into `skel`."""
     if key == "length":
         try:
@@ -267,7 +268,7 @@ def _units_line(skel, key, tokens, lineno, fail):
         skel.angle_unit = unit
 
 
-def _root_line(skel, key, tokens, path, lineno, fail):
+def _read_root_into(skel, key, tokens, path, lineno, fail):
     """A line of the :root section, into `skel`."""
     if key == "order":
         skel.root_order = tuple(t.upper() for t in tokens[1:])
@@ -285,7 +286,7 @@ def _root_line(skel, key, tokens, path, lineno, fail):
         setattr(skel, f"root_{key}", vals)
 
 
-def _bone_line(bone, key, tokens, line, path, lineno, fail):
+def _read_bone_line_into(bone, key, tokens, line, path, lineno, fail):
     """A line inside a bone's ``begin ... end`` block, into `bone` (a dict)."""
     if key == "id":
         pass
@@ -321,8 +322,9 @@ def _bone_line(bone, key, tokens, line, path, lineno, fail):
         fail(lineno, f"unexpected {tokens[0]!r} in a bone block")
 
 
-def _close_bone(bone, bones, bone_lines, lineno, fail):
-    """A bone block's ``end``: the bone checked and added to `bones`."""
+def _closed_bone(bone, bones, lineno, fail):
+    """A bone block's ``end``: the bone (a dict of its lines) checked against
+    `bones` (those closed before it) and returned as an :class:`ASFBone`."""
     for need in ("name", "direction", "length"):
         if need not in bone:
             fail(lineno, f"bone block starting at line {bone['line']} has no {need!r}")
@@ -331,12 +333,11 @@ def _close_bone(bone, bones, bone_lines, lineno, fail):
     if len(bone["limits"]) not in (0, len(bone.get("dof", ()))):
         fail(lineno, f"bone {bone['name']!r} has {len(bone['limits'])} limits for "
              f"{len(bone.get('dof', ()))} dofs")
-    bones[bone["name"]] = ASFBone(
+    return ASFBone(
         name=bone["name"], direction=bone["direction"], length=bone["length"],
         axis=bone.get("axis", np.zeros(3)), axis_order=bone.get("axis_order", "XYZ"),
         dof=bone.get("dof", ()), limits=bone["limits"],
     )
-    bone_lines[bone["name"]] = bone["line"]
 
 
 def _bone_order(bones, parents, bone_lines, fail):
