@@ -48,7 +48,7 @@ from sparseedm.cameras import Cameras, project, sample_cameras
 from sparseedm.dataset import find_mocap_files
 from sparseedm.mocap import load_mocap
 from sparseedm.temporal.fillers import fill_akima, fill_cubic, fill_linear, fill_pca
-from sparseedm.temporal.model import TemporalSettings, fill_segment
+from sparseedm.temporal.model import TemporalSettings, fill_segment, prior_frames, time_filled
 
 GAPS = (3, 10, 30, 90)
 BINS = tuple(str(g) for g in GAPS) + ("ends",)
@@ -143,7 +143,12 @@ def per_frame(case_list, dictionary):
 
 
 def temporal_fill(truth, mask, prior, conf, settings):
+    """The temporal model with only the per-frame answers it would ask for
+    (:func:`~sparseedm.temporal.model.prior_frames`: every ``prior_stride``-th)."""
     values = np.where(mask[..., None], 0.0, truth)
+    asked = prior_frames(mask, settings)
+    prior = np.where(asked[:, None, None], prior, np.nan)
+    conf = np.where(asked, conf, 0.0)
     return fill_segment(values, mask, prior, conf, settings)[0]
 
 
@@ -187,23 +192,29 @@ def baselines(case_list, answers):
     return table(case_list, fills)
 
 
-def adapt_one_clip(case_list, dictionary, min_poses):
+def adapt_one_clip(case_list, dictionary, min_poses, near):
     """Per case, the per-frame answers with the dictionary adapted on that
-    sequence alone (its complete frames, then self-training on the observed
-    joints of the others, guarded as recover(adapt="auto") does, only with
-    `min_poses` complete frames required), and how many were adopted."""
+    sequence alone: its complete frames and the frames whose hidden joints
+    all lie within `near` frames of an observation, filled by time alone
+    (:func:`~sparseedm.temporal.model.time_filled`), then self-training on
+    the observed joints of the others, guarded as recover(adapt="auto") does,
+    only with `min_poses` such frames required; how many were adopted, and
+    the seconds the adaptations took."""
     from sparseedm.adaptation import run_adaptation, self_train
     from sparseedm.dictionary import load_dictionary
 
     base = load_dictionary(dictionary)
-    answers, adopted = [], 0
+    answers, adopted, seconds = [], 0, 0.0
     for _, truth, mask in case_list:
+        t0 = time.perf_counter()
         poses = np.where(mask[..., None], np.nan, truth)
-        res = run_adaptation(base, poses, mask, min_poses=min_poses, random_state=0)
-        res = self_train(base, res, poses, mask, poses, mask, random_state=0)
+        rows, filled = time_filled(np.where(mask[..., None], 0.0, truth), mask, near)
+        res = run_adaptation(base, filled[rows], None, min_poses=min_poses, random_state=0)
+        res = self_train(base, res, filled[rows], None, poses, mask, random_state=0)
+        seconds += time.perf_counter() - t0
         adopted += bool(res.adapted)
         answers.append(per_frame([(None, truth, mask)], res.dictionary)[0])
-    return answers, adopted
+    return answers, adopted, seconds
 
 
 def run_adaptation_arm(name, args, settings):
@@ -215,10 +226,11 @@ def run_adaptation_arm(name, args, settings):
     cold = per_frame(case_list, dict_name)
     t0 = time.time()
     out = {}
-    for m in args.min_poses:
-        warm, adopted = adapt_one_clip(case_list, dict_name, m)
-        out[f"min_poses={m}"] = dict(
-            adopted=adopted, cases=len(case_list),
+    for m, near in itertools.product(args.min_poses, args.near):
+        warm, adopted, sec = adapt_one_clip(case_list, dict_name, m, near)
+        print(name, m, near, adopted, round(sec, 1), flush=True)
+        out[f"min_poses={m} near={near}"] = dict(
+            adopted=adopted, cases=len(case_list), adaptation_seconds=round(sec, 1),
             temporal=score(case_list, warm, settings),
             per_frame=table(case_list, {"p": [np.where(mm[..., None], p, t) for (_, t, mm), (
                 p, _) in zip(case_list, warm)]})["p"])
@@ -227,6 +239,27 @@ def run_adaptation_arm(name, args, settings):
                           zip(case_list, cold)]})["p"])
     out["seconds"] = round(time.time() - t0, 1)
     print(name, "adaptation", json.dumps(out), flush=True)
+    return out
+
+
+def run_strides(name, args):
+    """Item 5 of the issue: the default settings with per-frame answers on every
+    s-th frame only (``prior_stride``), on validation: what skipping costs."""
+    from dataclasses import replace
+
+    folder, dict_name = DIRECTIONS[name]
+    seqs = sequences(Path(args.data_dir) / folder, 1, args.length, args.max_sequences)
+    case_list = cases(seqs)
+    answers = per_frame(case_list, dict_name)
+    base = baselines(case_list, answers)
+    best = {b: min(base[k][b] for k in FILLERS) for b in BINS + ("all",)}
+    out = dict(sequences=len(seqs), cases=len(case_list), best_filler=best, strides={})
+    for stride in args.strides:
+        settings = replace(TemporalSettings(), prior_stride=stride)
+        asked = sum(int(prior_frames(m, settings).sum()) for _, _, m in case_list)
+        out["strides"][str(stride)] = dict(score(case_list, answers, settings),
+                                           per_frame_answers=asked)
+    print(name, json.dumps(out), flush=True)
     return out
 
 
@@ -288,7 +321,18 @@ def main(argv=None):
                     help="item 3: one clip's adaptation, cold vs adapted, on validation")
     ap.add_argument("--adapt-sequences", type=int, default=15)
     ap.add_argument("--min-poses", type=int, nargs="+", default=[30, 100])
+    ap.add_argument("--near", type=int, nargs="+", default=[0],
+                    help="--adapt: frames whose hidden joints are all this close to an "
+                    "observation join the complete ones, filled by time")
+    ap.add_argument("--strides", type=int, nargs="+", default=None,
+                    help="score the default settings with these prior strides (speed)")
     args = ap.parse_args(argv)
+    if args.strides:
+        out = {name: run_strides(name, args) for name in DIRECTIONS}
+        Path(args.out).write_text(json.dumps(dict(split="validation", experiment=
+                                                  "prior stride", directions=out),
+                                              indent=1) + "\n")
+        return
     if args.adapt:
         out = {name: run_adaptation_arm(name, args, TemporalSettings()) for name in DIRECTIONS}
         Path(args.out).write_text(json.dumps(dict(split="validation", experiment=

@@ -7,8 +7,9 @@ from scipy.interpolate import CubicSpline
 import sparseedm
 from sparseedm.cameras import project, sample_cameras
 from sparseedm.exceptions import ParameterError
-from sparseedm.temporal.model import TemporalSettings, fill_segment
-from sparseedm.temporal.recover import SOURCES, TemporalResult, recover_track
+from sparseedm.temporal.model import (TemporalSettings, fill_segment, needs_prior,
+                                      prior_frames)
+from sparseedm.temporal.recover import SOURCES, TemporalResult, recover_temporal, recover_track
 from sparseedm.temporal.smoothing import smooth_trajectory
 from sparseedm.temporal.tracks import distance_to_observed, split_tracks
 
@@ -304,3 +305,65 @@ def test_a_runaway_per_frame_answer_gets_no_weight():
     far = pose.copy()
     far[0, 3] = [500.0, 500.0]  # 35 extents away
     assert _runaway(far, mask)[0]
+
+
+# -- per-frame answers on every s-th frame (speed, issue 23 item 5) ---------------------
+
+
+def test_prior_frames_thin_each_run_and_keep_its_ends():
+    rng = np.random.default_rng(0)
+    free = rng.random((200, 3)) < 0.1
+    free[20:130, 0] = True
+    free[150:, 1] = True
+    every = needs_prior(free)
+    one = TemporalSettings(prior_stride=1)
+    assert prior_frames(free, one).tolist() == every.tolist()  # every frame
+    for stride in (2, 3, 5):
+        some = prior_frames(free, TemporalSettings(prior_stride=stride))
+        assert not (some & ~every).any()  # only frames whose answer weighs
+        idx = np.flatnonzero(every)
+        ends = np.concatenate([idx[np.diff(idx, prepend=-9) != 1],
+                               idx[np.diff(idx, append=10**6) != 1]])
+        assert some[ends].all()
+        assert some.sum() <= every.sum() / stride + 2 * len(ends)
+
+
+def test_strided_answers_interpolated_where_skipped():
+    """A prior linear in time: the skipped frames' interpolated answers are the
+    ones they would have had, so the filled trajectory is the stride-1 one."""
+    T = 120
+    values = np.zeros((T, 2, 2))
+    values[:, :, 0] = np.arange(T)[:, None]
+    free = np.zeros((T, 2), bool)
+    free[10:100, 0] = True
+    prior = values + np.array([0.0, 5.0])  # the answer is off by 5 px in y
+    confidence = np.linspace(0.5, 1.0, T)
+    full, w_full, _ = fill_segment(values, free, prior, confidence,
+                                   TemporalSettings(prior_stride=1))
+    s = TemporalSettings(prior_stride=4)
+    asked = prior_frames(free, s)
+    assert asked.sum() < needs_prior(free).sum() / 3
+    thin = np.where(asked[:, None, None], prior, np.nan)
+    out, w, _ = fill_segment(values, free, thin, np.where(asked, confidence, 0.0), s)
+    np.testing.assert_allclose(out, full, atol=1e-9)
+    np.testing.assert_allclose(w, w_full, atol=1e-12)
+    # a skipped frame whose neighbour has no answer gets none (no extrapolation)
+    thin[np.flatnonzero(asked)[-1]] = np.nan
+    _, w_cut, _ = fill_segment(values, free, thin, np.where(asked, confidence, 0.0), s)
+    assert (w_cut[np.flatnonzero(asked)[-2] + 1:, 0] == 0).all()
+
+
+def test_recover_with_a_prior_stride_asks_fewer_frames(track, small_dictionary):
+    mask = np.zeros(track.shape[:2], bool)
+    mask[30:120, WRIST] = True
+    mask[-50:, 13] = True
+    frames = np.arange(len(track))
+    one = recover_temporal(track, mask, frames=frames, dictionary=small_dictionary,
+                           adapt=False, settings=TemporalSettings(prior_stride=1))
+    three = recover_temporal(track, mask, frames=frames, dictionary=small_dictionary,
+                             adapt=False, settings=TemporalSettings(prior_stride=3))
+    assert three.per_frame_poses < one.per_frame_poses / 2
+    near = distance_to_observed(mask) <= TemporalSettings().ramp_start
+    np.testing.assert_array_equal(three.prior_weight[near], 0.0)
+    np.testing.assert_array_equal(three.poses[~mask], track[~mask])
+    assert _error(three.poses, track, mask) <= 1.2 * _error(one.poses, track, mask) + 1e-3

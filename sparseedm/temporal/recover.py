@@ -3,8 +3,9 @@
 :func:`recover_temporal` is what ``sparseedm.recover(poses, frames=...)``
 runs. It screens every row as the per-frame path does, cuts the rows into
 segments (:mod:`sparseedm.temporal.tracks`), asks the per-frame sparse model
-only for the frames whose answer carries weight
-(:func:`sparseedm.temporal.model.needs_prior`), fills every segment with the
+only for the frames whose answer carries weight, every
+``settings.prior_stride``-th of them
+(:func:`sparseedm.temporal.model.prior_frames`), fills every segment with the
 temporal model (:func:`sparseedm.temporal.model.fill_segment`) and returns a
 :class:`TemporalResult` in the caller's row order. Rows that cannot be placed
 in time (see :mod:`~sparseedm.temporal.tracks`) are recovered frame by frame
@@ -28,7 +29,7 @@ from ..dictionary import Dictionary, load_dictionary
 from ..edm import pose_to_vector
 from ..ensemble import adapt_members
 from ..normalize import normalize
-from .model import DEFAULT_SETTINGS, fill_segment, needs_prior
+from .model import DEFAULT_SETTINGS, fill_segment, prior_frames
 from .tracks import split_tracks
 
 __all__ = ["recover_temporal", "recover_track", "TemporalResult", "SOURCES"]
@@ -113,7 +114,7 @@ def _plan(layout, poses, mask, usable, settings):
     need = layout.alone & usable
     for rows, off in zip(layout.segments, layout.offsets):
         _, free = _dense(rows, off, poses, mask, usable)
-        need[rows] |= needs_prior(free, settings)[off] & mask[rows].any(axis=1)
+        need[rows] |= prior_frames(free, settings)[off] & mask[rows].any(axis=1)
     return need & usable
 
 
