@@ -260,8 +260,10 @@ def build_dataset(
     SparseEDMError
         If no file gives any pose.
     """
-    _check_build_params(output, cameras_per_pose, frame_step, progress, return_report,
-                        camera_options, units, keep_tpose, camera, random_state)
+    _check_build_params(output=output, cameras_per_pose=cameras_per_pose,
+                        frame_step=frame_step, progress=progress, return_report=return_report,
+                        camera_options=camera_options, units=units, keep_tpose=keep_tpose,
+                        camera=camera, random_state=random_state)
     cameras_per_pose = int(cameras_per_pose)
     if output is not None:
         _check_build_paths(paths, output, joint_map)
@@ -312,7 +314,7 @@ def build_dataset(
     return data
 
 
-def _check_build_params(output, cameras_per_pose, frame_step, progress, return_report,
+def _check_build_params(*, output, cameras_per_pose, frame_step, progress, return_report,
                         camera_options, units, keep_tpose, camera, random_state):
     """:func:`build_dataset`'s argument constraints (a ParameterError naming one)."""
     validate_params("build_dataset", dict(
