@@ -10,7 +10,7 @@ imports nothing above the geometry, the dictionary format and validation.
 - :class:`RecoveryResult`                what every recovery path returns
 - :func:`validate_poses`                 poses and mask checked, bad rows flagged
 - :func:`screen_poses`, :func:`screen`   why a pose cannot be used; the usable ones represented
-- :func:`place_occluded`                 occluded joints placed from recovered distances
+- :func:`place_occluded_inplace`         occluded joints placed from recovered distances
 - :func:`combine`                        one result from several members' results
 """
 
@@ -29,7 +29,7 @@ from .normalize import MIN_OBSERVED_JOINTS, represent
 from .placement import WEIGHT_POWER, place_missing_joints
 
 __all__ = ["STATUSES", "OK_STATUSES", "RecoveryResult", "Screened", "Screening",
-           "validate_poses", "screen_poses", "screen", "place_occluded", "combine",
+           "validate_poses", "screen_poses", "screen", "place_occluded_inplace", "combine",
            "SCREENING_REFUSALS", "status_counts", "poses_per_second", "recovery_summary"]
 
 #: Per-pose statuses and what they mean.
@@ -291,9 +291,13 @@ def screen(poses, mask, bad_coord, representation):
     return Screened(status, reason, n_obs, clean, vectors, center, scale, filled)
 
 
-def place_occluded(poses, clean, mask, vectors, center, scale, status, reason, filled, certified=None,
-           weight_power=WEIGHT_POWER):
-    """Place the occluded joints of recovered poses into `filled`, batched by count.
+def place_occluded_inplace(poses, mask, screened, certified=None, weight_power=WEIGHT_POWER):
+    """Place the occluded joints of recovered poses, writing into `screened`.
+
+    `screened` is :func:`screen`'s record after the recovery wrote its
+    completed ``vectors`` and ``status`` into it: the joints go into its
+    ``filled`` array, batched by occluded count; its ``status``, ``reason``,
+    ``vectors`` and ``filled`` are updated in place.
 
     `weight_power`: the placement's residual weights (chosen on the sparse
     method's answers; the FConv path keeps unweighted placement).
@@ -302,6 +306,9 @@ def place_occluded(poses, clean, mask, vectors, center, scale, status, reason, f
     and, where given, ``certified``: a finite objective and gap) is finite:
     such rows become ``solver_failed``.
     """
+    clean, vectors, center, scale = (screened.clean, screened.vectors, screened.center,
+                                     screened.scale)
+    status, reason, filled = screened.status, screened.reason, screened.filled
     N = mask.shape[1]
     n_obs = (~mask).sum(axis=1)
     placed_rows = np.flatnonzero(np.isin(status, ("recovered", "inaccurate")))

@@ -19,7 +19,8 @@ from threadpoolctl import threadpool_limits
 
 from ._coding import atoms_key, pattern_order
 from ._parallel import chunk_tasks, dask_client
-from ._recovery_base import RecoveryResult, combine, place_occluded, screen, validate_poses
+from ._recovery_base import (RecoveryResult, combine, place_occluded_inplace, screen,
+                             validate_poses)
 from ._validation import (ALPHA, BOOLEAN, CHUNK_SIZE, ENSEMBLE, N_JOBS, Interval, Options,
                           usable_jobs)
 from .dictionary import Dictionary, check_layout, load_dictionary
@@ -102,8 +103,8 @@ def recover_sparse(poses, missing=None, *, dictionary=None, alpha=None,
     n = len(poses)
     m = dictionary.n_features
     components = dictionary.components
-    status, reason, n_obs, clean, vectors, center, scale, filled = screen(
-        poses, mask, bad_coord, representation)
+    screened = screen(poses, mask, bad_coord, representation)
+    status, reason, n_obs, clean, vectors, center, scale, filled = screened
     objective = np.full(n, np.nan)
     gap = np.full(n, np.nan)
     n_active = np.zeros(n, dtype=int)
@@ -139,8 +140,8 @@ def recover_sparse(poses, missing=None, *, dictionary=None, alpha=None,
     vectors[failed] = np.nan
     reason[status == "inaccurate"] = "duality gap above tolerance"
 
-    place_occluded(poses, clean, mask, vectors, center, scale, status, reason, filled,
-           certified=np.isfinite(objective) & np.isfinite(gap))
+    place_occluded_inplace(poses, mask, screened,
+                           certified=np.isfinite(objective) & np.isfinite(gap))
     return RecoveryResult(
         poses=filled, vectors=vectors, missing=mask, center=center, scale=scale,
         objective=objective, gap=gap, n_active=n_active,

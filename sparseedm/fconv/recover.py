@@ -5,7 +5,7 @@ Each usable pose is screened and represented exactly as on the sparse path
 :func:`~sparseedm.normalize.represent` vectors); the network maps the
 occluded EDM vector to a complete one; the Eq. 10 merge keeps the observed
 entries and takes the occluded ones from the network; the occluded joints are
-placed from their recovered distances (:func:`sparseedm._recovery_base.place_occluded`).
+placed from their recovered distances (:func:`sparseedm._recovery_base.place_occluded_inplace`).
 Nothing is certified, so ``objective`` and ``gap`` are NaN and ``alpha`` NaN.
 """
 
@@ -18,7 +18,7 @@ import numpy as np
 from ..edm import observed_entries
 from ..exceptions import SparseEDMError
 from ..normalize import REPRESENTATIONS
-from .._recovery_base import RecoveryResult, place_occluded, screen, validate_poses
+from .._recovery_base import RecoveryResult, place_occluded_inplace, screen, validate_poses
 from .model import load_model
 
 __all__ = ["recover_fconv"]
@@ -44,8 +44,8 @@ def recover_fconv(poses, missing=None, *, model=None, representation="average",
     if len(shape) >= 2 and shape[-2] != model.n_joints:
         load_model(model, n_joints=shape[-2])  # names the model and both joint counts
     poses, mask, bad_coord = validate_poses(poses, missing, model.n_joints)
-    status, reason, _, clean, vectors, center, scale, filled = screen(
-        poses, mask, bad_coord, representation)
+    screened = screen(poses, mask, bad_coord, representation)
+    status, reason, vectors = screened.status, screened.reason, screened.vectors
     todo = np.flatnonzero(status == "recovered")
     if len(todo):
         out = model.predict(vectors[todo], batch_size=max(1, int(chunk_size)))
@@ -54,10 +54,11 @@ def recover_fconv(poses, missing=None, *, model=None, representation="average",
         reason[todo] = "FConv network (not certified)"
     # unweighted placement, as when FConv was set up: the residual weights of
     # sparseedm.placement were chosen on the sparse method's answers
-    place_occluded(poses, clean, mask, vectors, center, scale, status, reason, filled, weight_power=0.0)
+    place_occluded_inplace(poses, mask, screened, weight_power=0.0)
     n = len(poses)
     return RecoveryResult(
-        poses=filled, vectors=vectors, missing=mask, center=center, scale=scale,
+        poses=screened.filled, vectors=vectors, missing=mask, center=screened.center,
+        scale=screened.scale,
         objective=np.full(n, np.nan), gap=np.full(n, np.nan), n_active=np.zeros(n, dtype=int),
         status=status.astype(str), reason=reason.astype(str), fallback=np.zeros(n, dtype=bool),
         alpha=float("nan"), seconds=time.perf_counter() - t0,
