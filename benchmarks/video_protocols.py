@@ -106,7 +106,7 @@ def run(args):
                             "argv": sys.argv[1:]},
                "runs": []}
     for source in args.sources:
-        for split in ("validation", "test"):
+        for split in args.splits:
             seqs = sequences(source, split, args.max_sequences, args.seed)
             dictionary = load_dictionary(DICTIONARY[source])
             methods = list(args.methods) + [(name, with_dictionary(fill, dictionary))
@@ -166,7 +166,7 @@ def summary(results, end="all"):
                 cells = []
                 for g in groups:
                     vals = []
-                    for split in ("validation", "test"):
+                    for split in args.splits:
                         x = next(x for x in pair[split]["rows"]
                                  if (x["method"], x["group"], x["end"]) == (m, g, end))
                         vals.append("–" if x["scored"] == 0 else f"{x['error']:.2f}")
@@ -188,6 +188,8 @@ def main(argv=None):
     p.add_argument("--sources", default="bandai,cmu", type=lambda s: s.split(","))
     p.add_argument("--max-sequences", type=int, default=12)
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--splits", default="validation,test", type=lambda s: s.split(","),
+                   help="e.g. 'test' alone once the settings are chosen")
     p.add_argument("--methods", default="linear,cubic,akima,pca,sparse",
                    type=lambda s: [m for m in s.split(",") if m],
                    help="built-in methods (default linear,cubic,akima,pca,sparse); keep one "

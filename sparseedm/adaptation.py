@@ -824,7 +824,7 @@ def self_train(dictionary, result, adapt_poses, adapt_missing, poses, missing, *
 
 
 def resolve_adaptation(dictionary, poses, missing, adapt, *, n_jobs=1, random_state=0,
-                       warn=True, self_training=None):
+                       warn=True, self_training=None, min_poses=MIN_COMPLETE_POSES):
     """The dictionary :func:`sparseedm.recover` should use, and what was done.
 
     `adapt` is ``"auto"`` (adapt on the complete rows of `poses`), ``False``
@@ -834,7 +834,8 @@ def resolve_adaptation(dictionary, poses, missing, adapt, *, n_jobs=1, random_st
     (``UserWarning``) when adaptation poses were given explicitly (unless
     ``warn=False``); under ``"auto"`` it is said in the result's summary only
     (small batches of incomplete poses are the common case, not a problem),
-    and ``sparseedm recover`` says it on stderr.
+    and ``sparseedm recover`` says it on stderr. `min_poses` as
+    :func:`run_adaptation` (the temporal path lowers it for one clip).
     """
     if adapt is False or adapt is None:
         return dictionary, None
@@ -849,7 +850,8 @@ def resolve_adaptation(dictionary, poses, missing, adapt, *, n_jobs=1, random_st
     else:
         source = (adapt, None)
         explicit = True
-    res = run_adaptation(dictionary, *source, n_jobs=n_jobs, random_state=random_state)
+    res = run_adaptation(dictionary, *source, n_jobs=n_jobs, random_state=random_state,
+                         min_poses=min_poses)
     if warn and explicit and not res.adapted and res.candidate is None:
         warnings.warn(f"no adaptation: {res.reason}", UserWarning, stacklevel=3)
     rounds = SELF_TRAINING_ROUNDS if self_training is None else self_training

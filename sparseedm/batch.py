@@ -99,6 +99,7 @@ from ._recovery_base import OK_STATUSES, combine, recovery_summary
 from .normalize import REPRESENTATIONS
 from .recovery import STATUSES, check_options_apply, recover
 from .skeleton import JOINT_NAMES
+from .temporal.recover import adapt_in_time
 from .solvers import get_solver
 
 __all__ = ["recover_file", "default_errors_path", "STATUS_FIELDS"]
@@ -368,13 +369,19 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
         raise FileFormatError(f"{out_path}: a folder of OpenPose frames is written as a "
                               "folder; give an output path without .json")
     try:
-        if method == "sparse":
+        in_time = temporal and method == "sparse" and source.frames is not None
+        if in_time and isinstance(adapt, str) and adapt == "auto":  # as recover(frames=)
+            members, results = adapt_in_time(
+                dictionary, *source.chunk(0, source.n), tracks=source.tracks,
+                frames=source.frames, ensemble=ensemble, n_jobs=n_jobs,
+                self_training=self_training)
+            dictionary, adaptation = members[0], results[0]
+        elif method == "sparse":
             members, adaptation = _adapt(source, dictionary, adapt, chunk_size,
                                          confidence_threshold, n_jobs, self_training, ensemble)
             dictionary = members[0]
         else:
             members, adaptation = [dictionary], None
-        in_time = temporal and method == "sparse" and source.frames is not None
         recovery = _Recovery(members, alpha, representation, solver, n_jobs, backend,
                              scheduler, method, model,
                              (source.tracks, source.frames) if in_time else None)

@@ -27,14 +27,14 @@ from joblib import Parallel, delayed, effective_n_jobs
 from threadpoolctl import threadpool_limits
 
 from . import _progress
-from .adaptation import resolve_adaptation
+from .adaptation import MIN_COMPLETE_POSES, resolve_adaptation
 from ._recovery_base import combine
 
 __all__ = ["adapt_members", "combine"]
 
 
 def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
-                  self_training=None, warn=True):
+                  self_training=None, warn=True, min_poses=MIN_COMPLETE_POSES):
     """Dictionaries adapted with seeds 0 .. n_members - 1, and what each did.
 
     Parameters
@@ -45,8 +45,9 @@ def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
     adapt : "auto" or array_like
     n_members : int
         At least 1.
-    n_jobs, self_training, warn
-        As :func:`sparseedm.adaptation.resolve_adaptation`.
+    n_jobs, self_training, warn, min_poses
+        As :func:`sparseedm.adaptation.resolve_adaptation` (`min_poses`: as
+        :func:`~sparseedm.adaptation.run_adaptation`).
 
     Returns
     -------
@@ -63,7 +64,8 @@ def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
     # restore the limit, out of order across the threads below.
     with threadpool_limits(1, user_api="blas"):
         d, res = resolve_adaptation(dictionary, poses, missing, adapt, n_jobs=n_jobs,
-                                    random_state=0, warn=warn, self_training=self_training)
+                                    random_state=0, warn=warn, self_training=self_training,
+                                    min_poses=min_poses)
         if res is None:  # adaptation off
             return [d], []
         dictionaries, adaptations = [d], [res]
@@ -86,7 +88,8 @@ def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
                 delayed(resolve_adaptation)(dictionary, poses, missing, adapt,
                                             n_jobs=1 if workers > 1 else n_jobs,
                                             random_state=seed, warn=False,
-                                            self_training=self_training)
+                                            self_training=self_training,
+                                            min_poses=min_poses)
                 for seed in range(1, int(n_members)))
     for seed, (d, res) in enumerate(rest, start=1):
         if res is not None and res.adapted:  # else this seed's guard kept the base:

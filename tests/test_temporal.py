@@ -367,3 +367,57 @@ def test_recover_with_a_prior_stride_asks_fewer_frames(track, small_dictionary):
     np.testing.assert_array_equal(three.prior_weight[near], 0.0)
     np.testing.assert_array_equal(three.poses[~mask], track[~mask])
     assert _error(three.poses, track, mask) <= 1.2 * _error(one.poses, track, mask) + 1e-3
+
+
+# -- one clip adapts (issue 23 item 3) --------------------------------------------------
+
+
+def _few_complete_frames(track):
+    mask = np.zeros(track.shape[:2], bool)
+    for j, start in ((WRIST, 0), (12, 3), (7, 5)):  # 10 of every 12 frames each
+        for s in range(start, len(track), 12):
+            mask[s:s + 10, j] = True
+    return mask
+
+
+def test_one_clip_adapts_on_its_complete_and_time_filled_frames(track, small_dictionary):
+    """Under adapt="auto" a clip of ~240 frames with few complete frames still
+    adapts: on the complete frames and those whose missing joints lie within
+    CLIP_NEAR frames of an observation (filled by time); per frame it cannot."""
+    from sparseedm.temporal.recover import CLIP_MIN_POSES, CLIP_NEAR
+
+    mask = _few_complete_frames(track)
+    complete = int((~mask.any(axis=1)).sum())
+    assert complete < CLIP_MIN_POSES
+    near = (np.where(mask, distance_to_observed(mask), 0) <= CLIP_NEAR).all(axis=1)
+    assert near.sum() >= CLIP_MIN_POSES
+    res = recover_temporal(track, mask, frames=np.arange(len(track)),
+                           dictionary=small_dictionary, self_training=0)
+    assert res.adaptation.n_given == near.sum()
+    assert res.adaptation.n_complete >= CLIP_MIN_POSES  # learned and guarded, not refused
+    assert res.adaptation.candidate is not None
+    np.testing.assert_array_equal(res.poses[~mask], track[~mask])
+    per = sparseedm.recover(track, mask, dictionary=small_dictionary, self_training=0)
+    assert not per.adaptation.adapted and per.adaptation.candidate is None
+    off = recover_temporal(track, mask, frames=np.arange(len(track)),
+                           dictionary=small_dictionary, adapt=False)
+    assert off.adaptation is None
+
+
+def test_one_clip_file_adapts_as_the_api_does(tmp_path, track, small_dictionary_path):
+    from sparseedm.batch import recover_file
+    from sparseedm.keypoints import KeypointSet, write_keypoints
+
+    mask = _few_complete_frames(track)
+    frames = np.arange(len(track))
+    path = write_keypoints(tmp_path / "clip.csv", KeypointSet(
+        np.where(mask[..., None], np.nan, track), mask, frames=frames))
+    summary = recover_file(path, tmp_path / "out.csv", dictionary=small_dictionary_path,
+                           self_training=0)
+    api = recover_temporal(track, mask, frames=frames, dictionary=small_dictionary_path,
+                           self_training=0)
+    assert summary["adaptation"]["poses_given"] == api.adaptation.n_given > 0
+    assert summary["adaptation"]["adapted"] == api.adaptation.adapted
+    per = recover_file(path, tmp_path / "per.csv", dictionary=small_dictionary_path,
+                       self_training=0, temporal=False)
+    assert per["adaptation"]["poses_given"] == len(track)  # the per-frame rule, unchanged

@@ -29,10 +29,11 @@ from ..dictionary import Dictionary, load_dictionary
 from ..edm import pose_to_vector
 from ..ensemble import adapt_members
 from ..normalize import normalize
-from .model import DEFAULT_SETTINGS, fill_segment, prior_frames
+from .model import DEFAULT_SETTINGS, fill_segment, prior_frames, time_filled
 from .tracks import split_tracks
 
-__all__ = ["recover_temporal", "recover_track", "TemporalResult", "SOURCES"]
+__all__ = ["recover_temporal", "recover_track", "adapt_in_time", "TemporalResult", "SOURCES",
+           "CLIP_NEAR", "CLIP_MIN_POSES"]
 
 #: Per-joint sources of :attr:`TemporalResult.source`.
 SOURCES = {
@@ -48,6 +49,15 @@ RUNAWAY_EXTENTS = 3.0
 #: relative residual of a trajectory's banded solve above which its rows are
 #: 'inaccurate' instead of 'recovered'
 RESIDUAL_TOL = 1e-8
+#: one clip adapts (issue 23 item 3): under ``adapt="auto"`` the dictionary is
+#: adapted on the complete rows and on the rows whose missing joints all lie
+#: within CLIP_NEAR frames of an observation, filled by time alone, once
+#: CLIP_MIN_POSES of them pass the filters (the per-frame path needs 250
+#: complete poses), then self-trained and guarded as everywhere. Chosen on
+#: validation sequences across sources (``dictionaries/select_temporal.py
+#: --adapt``, ``dictionaries/selection_temporal_adapt.json``)
+CLIP_NEAR = 3
+CLIP_MIN_POSES = 30
 
 
 @dataclass
@@ -116,6 +126,63 @@ def _plan(layout, poses, mask, usable, settings):
         _, free = _dense(rows, off, poses, mask, usable)
         need[rows] |= prior_frames(free, settings)[off] & mask[rows].any(axis=1)
     return need & usable
+
+
+def _offered(layout, poses, mask, usable, settings):
+    """What the poses offer adaptation (:data:`CLIP_NEAR`): complete rows and
+    rows whose missing joints time alone fills from close by, filled."""
+    parts = [poses[layout.alone & usable & ~mask.any(axis=1)]]
+    for rows, off in zip(layout.segments, layout.offsets):
+        values, free = _dense(rows, off, poses, mask, usable)
+        near, filled = time_filled(values, free, CLIP_NEAR, settings)
+        parts.append(filled[off][near[off] & usable[rows]])
+    return np.concatenate(parts)
+
+
+def _adapt(dictionary, poses, mask, layout, usable, adapt, ensemble, settings, kw):
+    """Members and adaptations: under "auto" on what the poses offer
+    (:func:`_offered`, at least :data:`CLIP_MIN_POSES`), else as asked."""
+    if isinstance(adapt, str) and adapt == "auto":
+        offered = _offered(layout, poses, mask, usable, settings)
+        return adapt_members(dictionary, poses, mask, offered, ensemble, warn=False,
+                             min_poses=CLIP_MIN_POSES, **kw)
+    return adapt_members(dictionary, poses, mask, adapt, ensemble, **kw)
+
+
+def _in_time(poses, missing, tracks, frames, n_joints):
+    """Validated poses, mask, screening, usable rows and the track layout."""
+    poses, mask, bad_coord = validate_poses(poses, missing, n_joints)
+    refusal, why, _, _ = screen_poses(poses, mask, bad_coord)
+    # rows whose observed coordinates cannot be used are absent from time too
+    usable = ~np.isin(refusal, ("invalid_coordinates", "out_of_range"))
+    return poses, mask, refusal, why, usable, split_tracks(len(poses), tracks, frames)
+
+
+def adapt_in_time(dictionary, poses, missing=None, *, tracks=None, frames, ensemble=1,
+                  n_jobs=1, self_training=None, settings=None):
+    """The dictionaries ``adapt="auto"`` gives poses in time, and what was done.
+
+    What :func:`recover_temporal` does first, for callers that adapt once and
+    recover later (``sparseedm recover`` on a file with frames).
+
+    Parameters
+    ----------
+    dictionary : Dictionary
+    poses, missing, tracks, frames, settings
+        As :func:`recover_temporal`.
+    ensemble, n_jobs, self_training
+        As :func:`sparseedm.ensemble.adapt_members`.
+
+    Returns
+    -------
+    members : list of Dictionary
+    adaptations : list of AdaptationResult
+    """
+    settings = DEFAULT_SETTINGS if settings is None else settings
+    poses, mask, _, _, usable, layout = _in_time(poses, missing, tracks, frames,
+                                                 dictionary.n_joints)
+    return _adapt(dictionary, poses, mask, layout, usable, "auto", ensemble, settings,
+                  dict(n_jobs=n_jobs, self_training=self_training))
 
 
 def _fill_segments(layout, poses, mask, usable, per, settings):
@@ -204,8 +271,10 @@ def recover_temporal(poses, missing=None, *, tracks=None, frames, dictionary=Non
         Frame number of each pose (integers; any order; skipped numbers are
         frames where the person was not seen).
     dictionary, adapt, self_training, ensemble
-        As :func:`sparseedm.recover`: adaptation runs on the poses' complete
-        frames as it does per frame.
+        As :func:`sparseedm.recover`; ``adapt="auto"`` adapts on the complete
+        frames and the frames whose missing joints time fills from within
+        :data:`CLIP_NEAR` frames, from :data:`CLIP_MIN_POSES` of them on (one
+        clip of a few hundred frames adapts), guarded as per frame.
     settings : TemporalSettings, optional
         The temporal model's constants; default the validated ones.
     **kwargs
@@ -221,14 +290,11 @@ def recover_temporal(poses, missing=None, *, tracks=None, frames, dictionary=Non
     settings = DEFAULT_SETTINGS if settings is None else settings
     if not isinstance(dictionary, Dictionary):
         dictionary = load_dictionary(dictionary)
-    poses, mask, bad_coord = validate_poses(poses, missing, dictionary.n_joints)
-    refusal, why, _, _ = screen_poses(poses, mask, bad_coord)
-    # rows whose observed coordinates cannot be used are absent from time too
-    usable = ~np.isin(refusal, ("invalid_coordinates", "out_of_range"))
-    layout = split_tracks(len(poses), tracks, frames)
-    members, adaptations = adapt_members(dictionary, poses, mask, adapt, ensemble,
-                                         n_jobs=kwargs.get("n_jobs", 1),
-                                         self_training=self_training)
+    poses, mask, refusal, why, usable, layout = _in_time(poses, missing, tracks, frames,
+                                                         dictionary.n_joints)
+    members, adaptations = _adapt(dictionary, poses, mask, layout, usable, adapt, ensemble,
+                                  settings, dict(n_jobs=kwargs.get("n_jobs", 1),
+                                                 self_training=self_training))
     need = _plan(layout, poses, mask, usable, settings)
     per = _per_frame(poses, mask, need, members, settings, kwargs)
     filled, weight, residual = _fill_segments(layout, poses, mask, usable, per, settings)
