@@ -370,15 +370,10 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
                               "folder; give an output path without .json")
     try:
         in_time = temporal and method == "sparse" and source.frames is not None
-        if in_time and isinstance(adapt, str) and adapt == "auto":  # as recover(frames=)
-            members, results = adapt_in_time(
-                dictionary, *source.chunk(0, source.n), tracks=source.tracks,
-                frames=source.frames, ensemble=ensemble, n_jobs=n_jobs,
-                self_training=self_training)
-            dictionary, adaptation = members[0], results[0]
-        elif method == "sparse":
+        if method == "sparse":
             members, adaptation = _adapt(source, dictionary, adapt, chunk_size,
-                                         confidence_threshold, n_jobs, self_training, ensemble)
+                                         confidence_threshold, n_jobs, self_training, ensemble,
+                                         in_time)
             dictionary = members[0]
         else:
             members, adaptation = [dictionary], None
@@ -430,13 +425,20 @@ def _check_run_paths(outputs, in_path, dictionary, adapt, model, save_dictionary
 
 
 def _adapt(source, dictionary, adapt, chunk_size, threshold, n_jobs, self_training,
-           ensemble=1):
+           ensemble=1, in_time=False):
     """The dictionaries to recover with (one unless an ensemble is asked for) and
     the first one's AdaptationResult: adapted on the file's complete poses or
     on other poses, then self-trained on the file's incomplete poses (bounded
-    seeded samples of both, one pass over the source), or as given."""
+    seeded samples of both, one pass over the source), or as given; `in_time`
+    under "auto": as recover(frames=...) adapts (the whole file, read once)."""
     if adapt is False or adapt is None:
         return [dictionary], None
+    if in_time and isinstance(adapt, str) and adapt == "auto":
+        members, results = adapt_in_time(
+            dictionary, *source.chunk(0, source.n), tracks=source.tracks,
+            frames=source.frames, ensemble=ensemble, n_jobs=n_jobs,
+            self_training=self_training)
+        return members, results[0]
     chunks = (source.chunk(s, min(s + chunk_size, source.n))
               for s in range(0, source.n, chunk_size))
     complete, partial, partial_missing = sample_stream(chunks)
