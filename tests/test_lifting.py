@@ -81,6 +81,29 @@ def test_mds_recovers_pose_up_to_rigid_motion_and_reflection(seed, n_joints, siz
     assert _procrustes_residual(Y, X) <= 1e-6 * size
 
 
+def test_small_batches_run_numpy_forms_with_the_compiled_answers():
+    # a first lift of a few poses must not wait for numba to compile (issue 26):
+    # below NUMPY_MAX poses smacof and tetra_volumes run numpy forms of the
+    # compiled loops; both must give the same poses and volumes
+    from sparseedm.lifting import mds
+
+    rng = np.random.default_rng(1)
+    n = mds.NUMPY_MAX + 44
+    X = rng.standard_normal((n, 14, 3))
+    noise = rng.uniform(0.9, 1.1, (n, 14, 14))
+    E = pose_to_edm(X) * (noise + noise.transpose(0, 2, 1)) / 2  # not Euclidean
+    init = classical_mds(E)
+    compiled = smacof(E, init, max_iter=50)
+    half = n // 2
+    small = np.concatenate([smacof(E[:half], init[:half], max_iter=50),
+                            smacof(E[half:], init[half:], max_iter=50)])
+    np.testing.assert_allclose(small, compiled, rtol=0, atol=1e-12)
+    assert np.abs(compiled - init + init.mean(axis=1, keepdims=True)).max() > 1e-3  # it moved
+    V = mds.tetra_volumes(compiled)
+    Vs = np.concatenate([mds.tetra_volumes(compiled[:half]), mds.tetra_volumes(compiled[half:])])
+    np.testing.assert_allclose(Vs, V, rtol=0, atol=1e-12)
+
+
 def test_alignment_matches_the_image_and_offers_both_reflections():
     rng = np.random.default_rng(1)
     X = rng.standard_normal((5, 14, 3))

@@ -111,6 +111,35 @@ def _smacof_batch(E, Y, max_iter, tol):
         _smacof_one(E[n], Y[n], max_iter, tol)
 
 
+#: Batches of fewer poses run the numpy forms of the compiled loops below (the
+#: same arithmetic, to round-off), chosen by size only: a first ``lift`` of a
+#: few poses then never waits for numba to compile (about 10-25 s on 2 cores).
+NUMPY_MAX = 256
+
+
+def _smacof_numpy(E, Y, max_iter, tol):
+    """`_smacof_batch` written with numpy: every pose's Guttman transform at once,
+    each pose stopping by the same rule."""
+    N = Y.shape[1]
+    iu, ju = np.triu_indices(N, 1)
+    old = np.full(len(Y), -1.0)
+    live = np.arange(len(Y))
+    for _ in range(max_iter):
+        diff = Y[live, :, None, :] - Y[live, None, :, :]  # (n, N, N, 3)
+        D = np.sqrt((diff * diff).sum(axis=-1))
+        stress = ((D[:, iu, ju] - E[live][:, iu, ju]) ** 2).sum(axis=1)
+        prev = old[live]
+        go = ~((prev >= 0.0) & (prev - stress <= tol * prev))
+        old[live] = stress
+        live, D, diff = live[go], D[go], diff[go]
+        if not len(live):
+            break
+        with np.errstate(divide="ignore", invalid="ignore"):
+            R = np.where(D > 1e-12, E[live] / D, 0.0)
+        Y[live] = (R[..., None] * diff).sum(axis=2) / N
+    return Y
+
+
 def smacof(edm, init, *, max_iter=30, tol=1e-4):
     """Stress majorisation from `init` (n, N, 3) towards the distances `edm` (n, N, N).
 
@@ -118,13 +147,26 @@ def smacof(edm, init, *, max_iter=30, tol=1e-4):
     transforms (unit weights: ``y_i <- sum_j edm_ij / d_ij (y_i - y_j) / N``,
     which never increases the stress); a pose stops when its relative stress
     decrease falls below `tol`. Compiled with numba (14 joints: tiny per-pose
-    loops numpy cannot batch well). Returns the coordinates, centred.
+    loops numpy cannot batch well) from :data:`NUMPY_MAX` poses up; smaller
+    batches run the same steps in numpy. Returns the coordinates, centred.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sparseedm.edm import pose_to_edm
+    >>> X = np.random.default_rng(0).standard_normal((2, 14, 3))
+    >>> Y = smacof(pose_to_edm(X), X + 0.1)
+    >>> bool(np.abs(pose_to_edm(Y) - pose_to_edm(X)).max() < 0.05)
+    True
     """
     edm = np.ascontiguousarray(edm, dtype=float)
     Y = np.array(init, dtype=float)
     Y -= Y.mean(axis=-2, keepdims=True)
-    _progress.jit(_smacof_batch, "3D lifting")
-    _smacof_batch(edm, Y, int(max_iter), float(tol))
+    if len(Y) < NUMPY_MAX:  # by size only: an answer must not depend on cache state
+        _smacof_numpy(edm, Y, int(max_iter), float(tol))
+    else:
+        _progress.jit(_smacof_batch, "3D lifting")
+        _smacof_batch(edm, Y, int(max_iter), float(tol))
     return Y - Y.mean(axis=-2, keepdims=True)
 
 
@@ -199,8 +241,13 @@ def tetra_volumes(poses):
     size = np.sqrt((X ** 2).sum(axis=(-1, -2)) / X.shape[-2])
     X = np.ascontiguousarray(X / np.where(size > 0, size, 1.0)[:, None, None])
     q = _quads(X.shape[-2])
-    out = np.empty((len(X), len(q)))
-    _volumes(X, q, out)
+    if len(X) < NUMPY_MAX:  # the triple products u . (v x w) in numpy (no compile)
+        a = X[:, q[:, 0]]
+        u, v, w = X[:, q[:, 1]] - a, X[:, q[:, 2]] - a, X[:, q[:, 3]] - a
+        out = np.einsum("nqk,nqk->nq", u, np.cross(v, w))
+    else:
+        out = np.empty((len(X), len(q)))
+        _volumes(X, q, out)
     return out.reshape(lead + (len(q),))
 
 
