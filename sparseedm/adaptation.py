@@ -136,6 +136,13 @@ MIN_SELF_TRAINING_POSES = 50
 #: learns from: bounds its cost (3 rounds on 5,000 poses took ~30 s on 2 cores,
 #: benchmarks/README.md); the validation and test runs used 600 and 1,200.
 SELF_TRAINING_MAX_POSES = 2000
+#: Recovery alpha of a self-training round's sample, times the current
+#: dictionary's ``alpha_recover``. A larger factor means shorter LARS paths
+#: (fewer atoms per pose) and cheaper rounds, but the filled poses feed the next
+#: round: on the validation splits (dictionaries/README.md, "Self-training
+#: cost") x 2 moved the error by -0.7 / +0.3 / +3.1 % for about a fifth less
+#: time in the rounds' recoveries, so the default stays 1 (exact as before).
+SELF_TRAINING_ALPHA_FACTOR = 1.0
 #: Held-back poses per occlusion pattern of the guard (:func:`guard_masks`):
 #: the fast solver codes a pattern's poses together through one Gram matrix
 #: once they are at least its ``gram_min`` (12).
@@ -469,7 +476,10 @@ class AdaptationResult:
         Mean Mix Err_ave (%) on the held-back poses (NaN when not measured).
     seconds : float
     step_seconds : dict
-        Seconds of each step: ``filter``, ``learning``, ``guard``.
+        Seconds of each step: ``filter``, ``learning``, ``guard``; after
+        self-training, the first adaptation's as ``first filter``, ... and each
+        round's as ``round r recovery``, ``round r learning``, ``round r
+        guard``, with the totals ``first_adaptation`` and ``self_training``.
     candidate : Dictionary or None
         The adapted dictionary even when the guard rejected it.
     settings : dict
@@ -611,91 +621,47 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
     t0 = time.perf_counter()
     if not isinstance(dictionary, Dictionary):
         dictionary = load_dictionary(dictionary)
-    if reuse is None:
-        complete, n_given = _complete_input(poses, missing)
-        if complete.shape[1] != dictionary.n_joints:
-            raise PoseError(f"adaptation poses have {complete.shape[1]} joints but the "
-                            f"dictionary is for {dictionary.n_joints}")
-    else:
-        n_given = reuse.n_given
     settings = dict(passes=passes, alpha=alpha, stats=stats, memory=memory, replay=replay,
                     batch_size=batch_size, min_poses=min_poses, max_poses=max_poses,
                     validation_fraction=validation_fraction, guard=guard, filter=filter,
                     random_state=random_state)
+    steps = {}
+    pool = (_Pool(reuse.pool, reuse.n_complete, dict(reuse.dropped), reuse.n_given)
+            if reuse is not None  # the same poses, filtered and bounded once
+            else _filtered_pool(dictionary, poses, missing, filter=filter,
+                                min_poses=min_poses, max_poses=max_poses,
+                                random_state=random_state, steps=steps))
 
     def done(reason, **kw):
         return AdaptationResult(dictionary=kw.pop("use", dictionary), reason=reason,
-                                n_given=n_given, seconds=time.perf_counter() - t0,
+                                n_given=pool.n_given, seconds=time.perf_counter() - t0,
                                 settings=settings, step_seconds=steps, **kw)
 
-    steps = {}
-    if reuse is None:
-        t_step = time.perf_counter()
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)
-            if filter:
-                rep = filter_poses(complete, dictionary)
-                keep, dropped = rep.keep, rep.counts
-            else:
-                keep = usable_rows(complete)
-                dropped = {"incomplete": int((~keep).sum())}
-        dropped["incomplete"] += n_given - len(complete)
-        steps["filter"] = time.perf_counter() - t_step
-        good = complete[keep]
-        n_complete = len(good)
-        if n_complete < min_poses:
-            return done(f"{n_complete} complete plausible poses, fewer than the {min_poses} "
-                        "needed", adapted=False, n_complete=n_complete, dropped=dropped)
-        if n_complete > max_poses:  # a seeded sample, file order kept
-            rng = np.random.default_rng([int(random_state or 0), 17])
-            good = good[np.sort(rng.choice(n_complete, max_poses, replace=False))]
-    else:  # the same poses, filtered and bounded once
-        good, n_complete, dropped = reuse.pool, reuse.n_complete, dict(reuse.dropped)
-    val = holdout_blocks(len(good), validation_fraction if guard else 0.0, random_state)
-    train, held = good[~val], good[val]
-    n_extra = 0
-    if extra is not None and len(extra):
-        extra = np.asarray(extra, dtype=float)
-        extra = extra[usable_rows(extra)]
-        if len(extra) > max_poses:
-            rng = np.random.default_rng([int(random_state or 0), 23])
-            extra = extra[np.sort(rng.choice(len(extra), max_poses, replace=False))]
-        n_extra = len(extra)
-        train = np.concatenate([train, extra])
+    if pool.poses is None:
+        return done(f"{pool.n_complete} complete plausible poses, fewer than the {min_poses} "
+                    "needed", adapted=False, n_complete=pool.n_complete, dropped=pool.dropped)
+    val = holdout_blocks(len(pool.poses), validation_fraction if guard else 0.0, random_state)
+    held = pool.poses[val]
+    train, n_extra = _with_extra(pool.poses[~val], extra, max_poses, random_state)
     alpha_train = adaptation_alpha(dictionary) if alpha is None else alpha
     if reuse is None:  # self_train's rounds say their own line
         _progress.say(f"adapting the dictionary on {len(train):,} complete poses, "
                       f"{len(held):,} held back to check it (seed {random_state})")
     t_step = time.perf_counter()
-    X = pose_vectors(train)
-    comps = adapt_vectors(dictionary.components, X, alpha_train, passes=passes, stats=stats,
-                          memory=memory, replay=replay, batch_size=batch_size,
-                          random_state=random_state, n_jobs=n_jobs)
+    comps = adapt_vectors(dictionary.components, pose_vectors(train), alpha_train,
+                          passes=passes, stats=stats, memory=memory, replay=replay,
+                          batch_size=batch_size, random_state=random_state, n_jobs=n_jobs)
     steps["learning"] = time.perf_counter() - t_step
-    prov = dict(dictionary.provenance or {})
-    prov["adaptation"] = {"poses": int(len(train)), "filled_poses": int(n_extra),
-                          "passes": passes, "stats": stats,
-                          "replay": replay, "alpha": alpha_train, "seed": random_state,
-                          "base_sha256": prov.get("sha256", "")}
-    candidate = Dictionary(
-        components=comps, joint_names=dictionary.joint_names,
-        alpha_recover=dictionary.alpha_recover * ADAPTED_ALPHA_RECOVER_FACTOR,
-        alpha_train=alpha_train,
-        alpha_scaling=dictionary.alpha_scaling, positive_code=dictionary.positive_code,
-        representation=dictionary.representation, normalization=dictionary.normalization,
-        provenance=prov,
-    )
-    kw = dict(n_complete=n_complete, n_used=len(train) - n_extra, n_validation=len(held),
-              dropped=dropped, candidate=candidate, n_extra=n_extra, pool=good)
+    candidate = _adapted_dictionary(dictionary, comps, alpha_train, dict(
+        poses=int(len(train)), filled_poses=int(n_extra), passes=passes, stats=stats,
+        replay=replay, alpha=alpha_train, seed=random_state))
+    kw = dict(n_complete=pool.n_complete, n_used=len(train) - n_extra,
+              n_validation=len(held), dropped=pool.dropped, candidate=candidate,
+              n_extra=n_extra, pool=pool.poses)
     if not guard or len(held) == 0:
         return done("unchecked: no held-back poses", adapted=True, use=candidate, **kw)
     t_step = time.perf_counter()
-    guard_kw = dict(random_state=random_state, n_jobs=n_jobs,
-                    n_patterns=max(1, len(held) // GUARD_POSES_PER_PATTERN))
-    with numba_threads(n_jobs):
-        e0 = (reuse.err_base if reuse is not None and np.isfinite(reuse.err_base)
-              else masked_error(dictionary, held, **guard_kw))
-        e1 = masked_error(candidate, held, **guard_kw)
+    e0, e1 = _guard_errors(dictionary, candidate, held, reuse, random_state, n_jobs)
     steps["guard"] = time.perf_counter() - t_step
     candidate.provenance["adaptation"].update(validation_err_base=e0, validation_err_adapted=e1)
     if e1 < e0:
@@ -703,6 +669,88 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
                     err_base=e0, err_adapted=e1, **kw)
     return done("the adapted dictionary was not better on the held-back poses",
                 adapted=False, err_base=e0, err_adapted=e1, **kw)
+
+
+@dataclass
+class _Pool:
+    """The complete poses an adaptation draws from: filtered and bounded (``poses``,
+    None when fewer than needed), how many were complete and plausible, dropped
+    per reason, and how many were given."""
+
+    poses: np.ndarray | None
+    n_complete: int
+    dropped: dict
+    n_given: int
+
+
+def _filtered_pool(dictionary, poses, missing, *, filter, min_poses, max_poses, random_state,
+                   steps):
+    """Step 1-2 of :func:`run_adaptation`: the complete rows, filtered (its time
+    recorded in ``steps["filter"]``) and bounded to a seeded sample of `max_poses`
+    (no poses when fewer than `min_poses` are left)."""
+    complete, n_given = _complete_input(poses, missing)
+    if complete.shape[1] != dictionary.n_joints:
+        raise PoseError(f"adaptation poses have {complete.shape[1]} joints but the "
+                        f"dictionary is for {dictionary.n_joints}")
+    t_step = time.perf_counter()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        if filter:
+            rep = filter_poses(complete, dictionary)
+            keep, dropped = rep.keep, rep.counts
+        else:
+            keep = usable_rows(complete)
+            dropped = {"incomplete": int((~keep).sum())}
+    dropped["incomplete"] += n_given - len(complete)
+    steps["filter"] = time.perf_counter() - t_step
+    good = complete[keep]
+    n_complete = len(good)
+    if n_complete < min_poses:
+        return _Pool(None, n_complete, dropped, n_given)
+    if n_complete > max_poses:  # a seeded sample, file order kept
+        rng = np.random.default_rng([int(random_state or 0), 17])
+        good = good[np.sort(rng.choice(n_complete, max_poses, replace=False))]
+    return _Pool(good, n_complete, dropped, n_given)
+
+
+def _with_extra(train, extra, max_poses, random_state):
+    """`train` with the usable rows of `extra` (filled poses; a seeded sample of
+    at most `max_poses`) appended, and how many were."""
+    if extra is None or not len(extra):
+        return train, 0
+    extra = np.asarray(extra, dtype=float)
+    extra = extra[usable_rows(extra)]
+    if len(extra) > max_poses:
+        rng = np.random.default_rng([int(random_state or 0), 23])
+        extra = extra[np.sort(rng.choice(len(extra), max_poses, replace=False))]
+    return np.concatenate([train, extra]), len(extra)
+
+
+def _adapted_dictionary(dictionary, components, alpha_train, record):
+    """The candidate: `dictionary`'s settings with the adapted atoms, the
+    adapted recovery alpha, and `record` under ``provenance["adaptation"]``."""
+    prov = dict(dictionary.provenance or {})
+    prov["adaptation"] = dict(record, base_sha256=prov.get("sha256", ""))
+    return Dictionary(
+        components=components, joint_names=dictionary.joint_names,
+        alpha_recover=dictionary.alpha_recover * ADAPTED_ALPHA_RECOVER_FACTOR,
+        alpha_train=alpha_train,
+        alpha_scaling=dictionary.alpha_scaling, positive_code=dictionary.positive_code,
+        representation=dictionary.representation, normalization=dictionary.normalization,
+        provenance=prov,
+    )
+
+
+def _guard_errors(dictionary, candidate, held, reuse, random_state, n_jobs):
+    """Mix Err_ave of the base and the candidate on the held-back poses (the
+    base's taken from `reuse` when it has it)."""
+    guard_kw = dict(random_state=random_state, n_jobs=n_jobs,
+                    n_patterns=max(1, len(held) // GUARD_POSES_PER_PATTERN))
+    with numba_threads(n_jobs):
+        e0 = (reuse.err_base if reuse is not None and np.isfinite(reuse.err_base)
+              else masked_error(dictionary, held, **guard_kw))
+        e1 = masked_error(candidate, held, **guard_kw)
+    return e0, e1
 
 
 def adapt(dictionary, complete_poses, *, passes=DEFAULT_PASSES, alpha=None, **kwargs):
@@ -762,7 +810,7 @@ def _incomplete_rows(poses, missing, max_poses, random_state):
 
 def self_train(dictionary, result, adapt_poses, adapt_missing, poses, missing, *,
                rounds=SELF_TRAINING_ROUNDS, max_poses=SELF_TRAINING_MAX_POSES,
-               random_state=0, n_jobs=1):
+               alpha_factor=SELF_TRAINING_ALPHA_FACTOR, random_state=0, n_jobs=1):
     """Transductive self-training after :func:`run_adaptation` (module docstring).
 
     Parameters
@@ -778,6 +826,10 @@ def self_train(dictionary, result, adapt_poses, adapt_missing, poses, missing, *
         The poses to be recovered: their incomplete rows (a seeded sample of
         at most `max_poses`) are recovered, and the filled poses learned from.
     rounds : int
+    max_poses : int
+    alpha_factor : float
+        The sample is recovered at this times the current dictionary's
+        ``alpha_recover`` (:data:`SELF_TRAINING_ALPHA_FACTOR`).
 
     Returns
     -------
@@ -800,16 +852,21 @@ def self_train(dictionary, result, adapt_poses, adapt_missing, poses, missing, *
     inc, mask = _incomplete_rows(poses, missing, max_poses, random_state)
     if len(inc) < MIN_SELF_TRAINING_POSES:
         return result
-    current, history = result, []
+    current, history, spent = result, [], {}
     for r in _progress.steps(range(int(rounds)), f"self-training on {len(inc):,} incomplete "
                              f"poses, up to {int(rounds)} rounds (seed {random_state})",
                              total=int(rounds), unit="round"):
+        t_rec = time.perf_counter()
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            rec = recover_sparse(inc, mask, dictionary=current.dictionary, n_jobs=n_jobs)
+            rec = recover_sparse(inc, mask, dictionary=current.dictionary, n_jobs=n_jobs,
+                                 alpha=current.dictionary.alpha_recover * alpha_factor)
+        spent[f"round {r + 1} recovery"] = time.perf_counter() - t_rec
         filled = rec.poses[rec.status == "recovered"]
         new = run_adaptation(dictionary, adapt_poses, adapt_missing, extra=filled,
                              random_state=random_state, n_jobs=n_jobs, reuse=result)
+        for step, secs in new.step_seconds.items():
+            spent[f"round {r + 1} {step}"] = secs
         history.append({"round": r + 1, "poses": int(len(filled)),
                         "validation_err": float(new.err_adapted),
                         "adopted": bool(new.adapted)})
@@ -817,7 +874,8 @@ def self_train(dictionary, result, adapt_poses, adapt_missing, poses, missing, *
             break
         current = new
     current.self_training = history
-    current.step_seconds = dict(current.step_seconds, first_adaptation=result.seconds,
+    first = {f"first {k}": v for k, v in result.step_seconds.items()}
+    current.step_seconds = dict(first, **spent, first_adaptation=result.seconds,
                                 self_training=time.perf_counter() - t0)
     current.seconds = result.seconds + time.perf_counter() - t0
     return current

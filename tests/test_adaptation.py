@@ -390,6 +390,25 @@ def test_a_round_the_guard_rejects_ends_self_training(cross_domain, shifted_dict
     assert [r["adopted"] for r in out.self_training] == [False]
 
 
+def test_self_training_rounds_recover_their_sample_at_their_own_alpha(cross_domain,
+                                                                     shifted_dictionary):
+    from sparseedm import adaptation
+
+    adapt_on, inputs, mask, _ = cross_domain
+    first = run_adaptation(shifted_dictionary, adapt_on)
+    assert first.adapted
+    # at an absurd alpha every code is empty: the round has no filled pose to learn from
+    none = adaptation.self_train(shifted_dictionary, first, adapt_on, None, inputs, mask,
+                                 rounds=1, alpha_factor=1e9)
+    some = adaptation.self_train(shifted_dictionary, first, adapt_on, None, inputs, mask,
+                                 rounds=1, alpha_factor=adaptation.SELF_TRAINING_ALPHA_FACTOR)
+    assert none.self_training[0]["poses"] == 0
+    assert some.self_training[0]["poses"] > 0.9 * mask.any(axis=1).sum()
+    steps = some.step_seconds
+    assert {"first learning", "round 1 recovery", "round 1 learning", "self_training"} <= set(steps)
+    assert all(v >= 0 for v in steps.values())
+
+
 def test_filled_poses_are_learned_from_but_never_held_back(cmu_poses, shifted_dictionary):
     plain = run_adaptation(shifted_dictionary, cmu_poses, min_poses=50)
     more = run_adaptation(shifted_dictionary, cmu_poses, min_poses=50,
