@@ -20,6 +20,7 @@ import os
 # user here (SPAMS' libgomp and numba's omp layer alike). Set before either loads.
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
+import argparse
 import json
 import platform
 import subprocess
@@ -52,19 +53,48 @@ def log(*args):
     print(f"[{time.strftime('%H:%M:%S')}]", *args, file=sys.stderr, flush=True)
 
 
+def built_set(raw, cache_name, what, seconds="about 20 s"):
+    """The dataset .npz of the mocap folder `raw` (``sparseedm dataset build raw
+    --seed 0``), built once into :func:`cache_dir` as `cache_name`; its path."""
+    p = cache_dir() / cache_name
+    if not p.is_file():
+        p.parent.mkdir(parents=True, exist_ok=True)
+        log(f"building the {what} into {p} ({seconds})")
+        subprocess.run([sys.executable, "-m", "sparseedm", "dataset", "build", str(raw),
+                        "-o", str(p), "--seed", "0", "--quiet"], check=True)
+    return p
+
+
 def load_cmu():
     """(poses2d, clips, path) of the CMU training set; built once if absent.
 
     The set is ``sparseedm dataset build /work/shared/data/cmu-mocap --seed 0``.
     """
-    p = cache_dir() / CMU_CACHE
-    if not p.is_file():
-        p.parent.mkdir(parents=True, exist_ok=True)
-        log(f"building the CMU training set into {p} (about 20 s)")
-        subprocess.run([sys.executable, "-m", "sparseedm", "dataset", "build", str(CMU_RAW),
-                        "-o", str(p), "--seed", "0", "--quiet"], check=True)
+    p = built_set(CMU_RAW, CMU_CACHE, "CMU training set")
     with np.load(p, allow_pickle=False) as npz:
         return npz["poses2d"], npz["clips"], p
+
+
+def bench_main(argv, *, prog, doc, quick_help, run, render, tag, heading, results):
+    """A benchmark's command line: ``--quick`` (printed only) and ``--write-docs``
+    (its block `tag` of benchmarks/README.md under `heading`, and the raw numbers
+    in `results`, a JSON file beside it)."""
+    ap = argparse.ArgumentParser(prog=prog, description=doc.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help=quick_help)
+    ap.add_argument("--write-docs", action="store_true",
+                    help="also rewrite its block of benchmarks/README.md and its results "
+                    "JSON (tracked files); default: print only")
+    args = ap.parse_args(argv)
+    meta = dict(date=time.strftime("%Y-%m-%d %H:%M %Z"), machine=machine(),
+                versions=versions(), loadavg_start=loadavg(), quick=args.quick)
+    res = run(args.quick)
+    meta["loadavg_end"] = loadavg()
+    text = render(res, meta)
+    print(text)
+    if args.write_docs and not args.quick:
+        write_block(tag, heading, text)
+        (Path(__file__).resolve().parent / results).write_text(
+            json.dumps(dict(meta=meta, **res), indent=1, default=str))
 
 
 def split_clips(clips):

@@ -26,18 +26,14 @@ benchmarks/README.md and its raw numbers to results-adaptation.json.
 
 from __future__ import annotations
 
-import argparse
-import json
 import time
 import warnings
 
-from pathlib import Path
 
 import numpy as np
 
-from . import load_cmu, loadavg, log, machine, table, versions, write_block
+from . import bench_main, load_cmu, log, table
 
-HERE_README = Path(__file__).resolve().parent / "README.md"
 
 GOAL_SECONDS = 10.0
 
@@ -136,23 +132,10 @@ def render_rows(res):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(prog="python -m benchmarks.adaptation",
-                                 description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="500 poses: a smoke test")
-    ap.add_argument("--write-docs", action="store_true",
-                    help="also rewrite its block of benchmarks/README.md and its results "
-                    "JSON (tracked files); default: print only")
-    args = ap.parse_args(argv)
-    meta = dict(date=time.strftime("%Y-%m-%d %H:%M %Z"), machine=machine(),
-                versions=versions(), loadavg_start=loadavg(), quick=args.quick)
-    res = run(args.quick)
-    meta["loadavg_end"] = loadavg()
-    text = render(res, meta)
-    print(text)
-    if args.write_docs and not args.quick:
-        write_block("ADAPTATION", "Adaptation speed (benchmarks/adaptation.py)", text)
-        (HERE_README.parent / "results-adaptation.json").write_text(
-            json.dumps(dict(meta=meta, **res), indent=1, default=str))
+    bench_main(argv, prog="python -m benchmarks.adaptation", doc=__doc__,
+               quick_help="500 poses: a smoke test", run=run, render=render,
+               tag="ADAPTATION", heading="Adaptation speed (benchmarks/adaptation.py)",
+               results="results-adaptation.json")
 
 
 if __name__ == "__main__":

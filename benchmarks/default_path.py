@@ -25,19 +25,13 @@ results-default-path.json with ``--write-docs``.
 
 from __future__ import annotations
 
-import argparse
-import json
-import subprocess
-import sys
 import time
 import warnings
-from pathlib import Path
 
 import numpy as np
 
-from . import CMU_RAW, cache_dir, loadavg, log, machine, table, versions, write_block
+from . import CMU_RAW, bench_main, built_set, log, table
 
-HERE = Path(__file__).resolve().parent
 
 GOAL_RATIO = 0.8
 BANDAI_RAW = CMU_RAW.parent / "bandai-namco-1"
@@ -45,12 +39,7 @@ BANDAI_RAW = CMU_RAW.parent / "bandai-namco-1"
 
 def load_bandai():
     """(poses2d, path) of the Bandai-Namco-1 set; built once if absent."""
-    p = cache_dir() / "benchmarks-bandai.npz"
-    if not p.is_file():
-        p.parent.mkdir(parents=True, exist_ok=True)
-        log(f"building the Bandai-Namco-1 set into {p} (about a minute)")
-        subprocess.run([sys.executable, "-m", "sparseedm", "dataset", "build", str(BANDAI_RAW),
-                        "-o", str(p), "--seed", "0", "--quiet"], check=True)
+    p = built_set(BANDAI_RAW, "benchmarks-bandai.npz", "Bandai-Namco-1 set", "about a minute")
     with np.load(p, allow_pickle=False) as npz:
         return npz["poses2d"].astype(float), p
 
@@ -161,24 +150,10 @@ def render(res, meta):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(prog="python -m benchmarks.default_path",
-                                 description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="1,200 poses: a smoke test")
-    ap.add_argument("--write-docs", action="store_true",
-                    help="also rewrite its block of benchmarks/README.md and its results "
-                    "JSON (tracked files); default: print only")
-    args = ap.parse_args(argv)
-    meta = dict(date=time.strftime("%Y-%m-%d %H:%M %Z"), machine=machine(),
-                versions=versions(), loadavg_start=loadavg(), quick=args.quick)
-    res = run(args.quick)
-    meta["loadavg_end"] = loadavg()
-    text = render(res, meta)
-    print(text)
-    if args.write_docs and not args.quick:
-        write_block("DEFAULT PATH", "The default path: recover() with adaptation "
-                    "(benchmarks/default_path.py)", text)
-        (HERE / "results-default-path.json").write_text(
-            json.dumps(dict(meta=meta, **res), indent=1, default=str))
+    bench_main(argv, prog="python -m benchmarks.default_path", doc=__doc__,
+               quick_help="1,200 poses: a smoke test", run=run, render=render,
+               tag="DEFAULT PATH", heading="The default path: recover() with adaptation "
+               "(benchmarks/default_path.py)", results="results-default-path.json")
 
 
 if __name__ == "__main__":
