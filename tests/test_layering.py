@@ -232,8 +232,6 @@ LONG_FUNCTIONS = {
     # numba kernels kept bit-identical to the speed-regression fixtures
     "solvers/fast.py:_lars_core": "numba LARS kernel",
     "solvers/fast.py:_lars_masked_numpy": "LARS kernel's numpy twin, kept line for line",
-    # the lead's to split (issue 22 item 3), with the adaptation speed work of issue 26
-    "adaptation.py:run_adaptation": "split pending",
 }
 
 
