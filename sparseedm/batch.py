@@ -100,6 +100,7 @@ from .normalize import REPRESENTATIONS
 from .recovery import STATUSES, check_options_apply, recover
 from .skeleton import JOINT_NAMES
 from .temporal.recover import adapt_in_time
+from .temporal.tracks import add_summaries, track_chunks
 from .solvers import get_solver
 
 __all__ = ["recover_file", "default_errors_path", "STATUS_FIELDS"]
@@ -296,8 +297,10 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
     temporal : bool, default True
         When the file gives each pose a frame (CSV column ``frame``, .npz
         ``frames``; with ``track``/``tracks``/``clips`` for several people),
-        recover across time (:mod:`sparseedm.temporal`), the whole file in one
-        pass; False: every pose on its own, as for a file without frames.
+        recover across time (:mod:`sparseedm.temporal`), whole tracks per call
+        (chunks of about `chunk_size` poses when each track's rows are
+        contiguous in the file; else the whole file in one pass); False: every
+        pose on its own, as for a file without frames.
         ``summary["temporal"]`` says which was used.
 
     Returns
@@ -381,7 +384,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
                              scheduler, method, model,
                              (source.tracks, source.frames) if in_time else None)
         summary = _run(source, outputs, recovery,
-                       max(source.n, 1) if in_time else chunk_size, progress, t0)
+                       chunk_size, progress, t0)
     finally:
         source.close()
     summary["confidence_threshold"] = threshold
@@ -483,7 +486,7 @@ _PARAMS = {
 class _Recovery:
     """How every chunk is recovered: the members (one dictionary unless an
     ensemble) and :func:`recover`'s settings; `time_axis` (tracks, frames) sends
-    the poses, one chunk, to temporal recovery."""
+    the poses to temporal recovery, whole tracks per chunk (:meth:`bounds`)."""
 
     members: list
     alpha: object
@@ -496,10 +499,20 @@ class _Recovery:
     model: object
     time_axis: tuple = None
 
-    def __call__(self, poses, missing):
+    def bounds(self, n, chunk_size):
+        """(start, stop) of each chunk: `chunk_size` rows, or in time whole
+        tracks of about that many rows (one chunk when a track's rows are
+        not contiguous in the file)."""
+        if self.time_axis is None:
+            return [(s, min(s + chunk_size, n)) for s in range(0, n, chunk_size)]
+        return track_chunks(self.time_axis[0], n, chunk_size)
+
+    def __call__(self, poses, missing, start=0):
         """One chunk's RecoveryResult (the members' answers combined)."""
-        in_time = {} if self.time_axis is None else dict(  # time_axis: one chunk
-            tracks=self.time_axis[0], frames=self.time_axis[1])
+        in_time = {} if self.time_axis is None else dict(  # the chunk's rows
+            tracks=None if self.time_axis[0] is None else
+            self.time_axis[0][start:start + len(poses)],
+            frames=self.time_axis[1][start:start + len(poses)])
         return combine([recover(poses, missing, dictionary=d, alpha=self.alpha,
                                 representation=self.representation, solver=self.solver,
                                 n_jobs=self.n_jobs, backend=self.backend,
@@ -611,7 +624,7 @@ def _run(source, outputs, recovery, chunk_size, progress, t0):
 
 def _recover_chunks_into(filled, columns, source, recovery, chunk_size, progress):
     """Each chunk of `source` recovered, written into `filled` (the poses) and
-    `columns` (the rest); the last chunk's temporal summary (None without one)."""
+    `columns` (the rest); the chunks' temporal summaries added (None without)."""
     from tqdm.auto import tqdm
 
     n = source.n
@@ -622,11 +635,10 @@ def _recover_chunks_into(filled, columns, source, recovery, chunk_size, progress
     temporal_summary = None
     bar = tqdm(total=n, disable=not progress, unit="pose", desc="recover", dynamic_ncols=True)
     with bar:
-        for start in range(0, n, chunk_size):
-            stop = min(start + chunk_size, n)
+        for start, stop in recovery.bounds(n, chunk_size):
             poses, missing = source.chunk(start, stop)
-            res = recovery(poses, missing)
-            temporal_summary = res.summary().get("temporal")
+            res = recovery(poses, missing, start)
+            temporal_summary = add_summaries(temporal_summary, res.summary().get("temporal"))
             # refused rows are written back as read, a joint with an infinite
             # coordinate as missing (as the CSV writer does: no format gets an inf)
             bad = ~np.isfinite(poses).all(axis=-1, keepdims=True)

@@ -421,3 +421,30 @@ def test_one_clip_file_adapts_as_the_api_does(tmp_path, track, small_dictionary_
     per = recover_file(path, tmp_path / "per.csv", dictionary=small_dictionary_path,
                        self_training=0, temporal=False)
     assert per["adaptation"]["poses_given"] == len(track)  # the per-frame rule, unchanged
+
+
+@pytest.mark.parametrize("interleaved", [False, True])
+def test_file_streams_whole_tracks(tmp_path, track, small_dictionary_path, interleaved):
+    """Chunks of whole tracks give what one pass gives, every row back; with the
+    tracks interleaved in the file, one pass."""
+    from sparseedm.batch import recover_file
+    from sparseedm.keypoints import KeypointSet, read_keypoints, write_keypoints
+
+    mask = np.zeros(track.shape[:2], bool)
+    mask[20:60, WRIST] = True
+    mask[100:103, 12] = True
+    mask[-40:, 13] = True
+    names = np.array(["a"] * 80 + ["b"] * 80 + ["c"] * (len(track) - 160))
+    frames = np.concatenate([np.arange(80), np.arange(80), np.arange(len(track) - 160)])
+    order = np.argsort(frames, kind="stable") if interleaved else np.arange(len(track))
+    path = write_keypoints(tmp_path / "v.csv", KeypointSet(
+        np.where(mask[..., None], np.nan, track)[order], mask[order],
+        tracks=names[order], frames=frames[order]))
+    out = {}
+    for size in (100, 50_000):
+        s = recover_file(path, tmp_path / f"o{size}.csv", dictionary=small_dictionary_path,
+                         adapt=False, chunk_size=size)
+        out[size] = (read_keypoints(tmp_path / f"o{size}.csv").poses, s["temporal"])
+    np.testing.assert_array_equal(out[100][0], out[50_000][0])
+    assert out[100][1] == out[50_000][1] and out[100][1]["segments"] == 3
+    assert np.isfinite(out[100][0]).all()

@@ -17,7 +17,8 @@ import numpy as np
 
 from ..exceptions import ParameterError
 
-__all__ = ["MAX_SKIP", "TrackLayout", "split_tracks", "distance_to_observed"]
+__all__ = ["MAX_SKIP", "TrackLayout", "split_tracks", "distance_to_observed",
+           "track_chunks", "add_summaries"]
 
 #: a run of more absent frame numbers than this ends a segment
 MAX_SKIP = 30
@@ -158,3 +159,47 @@ def distance_to_observed(free):
         before = np.where(k > 0, t - obs[np.maximum(k - 1, 0)], np.inf)
         out[:, j] = np.minimum(after, before)
     return out
+
+
+def track_chunks(tracks, n, chunk_size):
+    """(start, stop) row ranges of whole tracks, about `chunk_size` rows each.
+
+    Tracks are cut apart only where the file's rows change track; a track
+    longer than `chunk_size` is one chunk. When some track's rows are not
+    contiguous (tracks interleaved in the file) the whole file is one chunk,
+    so that every track is still recovered whole.
+
+    Examples
+    --------
+    >>> track_chunks(["a", "a", "b", "b", "b", "c"], 6, 3)
+    [(0, 2), (2, 5), (5, 6)]
+    >>> track_chunks(["a", "b", "a"], 3, 1)
+    [(0, 3)]
+    """
+    if n == 0:
+        return []
+    if tracks is None:
+        return [(0, n)]
+    ids = _track_ids(tracks, n)
+    starts = np.flatnonzero(np.diff(ids) != 0) + 1
+    if len(starts) + 1 != len(np.unique(ids)):  # a track comes back later
+        return [(0, n)]
+    edges = [0, *starts.tolist(), n]
+    bounds, begin = [], 0
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        if lo > begin and hi - begin > chunk_size:  # this track would overfill it
+            bounds.append((begin, lo))
+            begin = lo
+    bounds.append((begin, n))
+    return bounds
+
+
+def add_summaries(total, part):
+    """Two temporal summaries (``TemporalResult.summary()["temporal"]``) added."""
+    if total is None or part is None:
+        return part if total is None else total
+    joints = {k: total["joints"].get(k, 0) + part["joints"].get(k, 0)
+              for k in {**total["joints"], **part["joints"]}}
+    return {"segments": total["segments"] + part["segments"],
+            "per_frame_poses": total["per_frame_poses"] + part["per_frame_poses"],
+            "joints": joints}
