@@ -4,6 +4,9 @@
         --out dictionaries/selection_temporal.json            # grid on validation
     python dictionaries/select_temporal.py --data-dir ../shared/data --test \\
         --out dictionaries/selection_temporal_test.json      # the README's table
+    python dictionaries/select_temporal.py --data-dir ../shared/data --adapt-grid \\
+        --adapt-sequences 8 --out dictionaries/selection_temporal_adapt_settings.json
+        # the settings re-checked with one clip adapting (dictionaries/README.md)
 
 Directions (dictionary learned on one source, sequences from another):
 
@@ -58,6 +61,9 @@ DIRECTIONS = {
 }
 GRID = dict(acceleration=(3.0, 30.0, 300.0, 3000.0), jerk=(0.0, 30.0, 300.0, 3000.0),
             ramp_start=(1.0, 3.0, 6.0), ramp_full=(12.0, 30.0, 90.0))
+#: --adapt-grid: the settings re-chosen with one clip's adaptation on
+ADAPT_GRID = dict(acceleration=(10.0, 30.0, 100.0), jerk=(100.0, 300.0, 1000.0),
+                  ramp_start=(0.0, 3.0, 6.0), ramp_full=(10.0, 20.0, 30.0))
 
 
 def sequences(folder, part, length, max_sequences):
@@ -263,6 +269,42 @@ def run_strides(name, args):
     return out
 
 
+def run_adapt_grid(name, args):
+    """The settings' grid (:data:`ADAPT_GRID`) on per-frame answers adapted on
+    each sequence alone as recover() does by default (CLIP_MIN_POSES, CLIP_NEAR;
+    the time-filled poses it adapts on use the default penalties), every bin."""
+    from sparseedm.temporal.recover import CLIP_MIN_POSES, CLIP_NEAR
+
+    folder, dict_name = DIRECTIONS[name]
+    t0 = time.time()
+    seqs = sequences(Path(args.data_dir) / folder, 1, args.length, args.adapt_sequences)
+    case_list = cases(seqs)
+    answers, adopted, _ = adapt_one_clip(case_list, dict_name, CLIP_MIN_POSES, CLIP_NEAR)
+    base = baselines(case_list, answers)
+    out = dict(sequences=len(seqs), cases=len(case_list), adopted=adopted, baselines=base,
+               default=score(case_list, answers, TemporalSettings()),
+               default_stride1=score(case_list, answers, TemporalSettings(prior_stride=1)),
+               grid={})
+    for a, j, s, f in itertools.product(*ADAPT_GRID.values()):
+        out["grid"][f"acceleration={a} jerk={j} ramp_start={s} ramp_full={f}"] = score(
+            case_list, answers, TemporalSettings(a, j, s, f))
+    out["seconds"] = round(time.time() - t0, 1)
+    print(name, json.dumps({k: v for k, v in out.items() if k != "grid"}), flush=True)
+    return out
+
+
+def choose_settings(directions):
+    """The setting whose error over all hidden joint-frames, as a ratio to the
+    defaults', is least in the worse direction."""
+    keys = next(iter(directions.values()))["grid"]
+    ratio = {k: max(d["grid"][k]["all"] / d["default"]["all"] for d in directions.values())
+             for k in keys}
+    return dict(chosen=min(ratio, key=ratio.get),
+                criterion="max over directions of 'all' / the defaults' 'all'",
+                worst_ratio={k: round(r, 3) for k, r in sorted(ratio.items(),
+                                                                key=lambda kv: kv[1])})
+
+
 def choose_adaptation(directions):
     """The arm whose temporal error over all hidden joint-frames, as a ratio to
     not adapting ("cold"), is least in the worse direction."""
@@ -337,7 +379,20 @@ def main(argv=None):
                     "observation join the complete ones, filled by time")
     ap.add_argument("--strides", type=int, nargs="+", default=None,
                     help="score the default settings with these prior strides (speed)")
+    ap.add_argument("--adapt-grid", action="store_true",
+                    help="re-choose the settings with one clip's adaptation on (validation)")
     args = ap.parse_args(argv)
+    if args.adapt_grid:
+        from joblib import Parallel, delayed
+
+        runs = Parallel(n_jobs=len(DIRECTIONS))(delayed(run_adapt_grid)(name, args)
+                                                for name in DIRECTIONS)
+        record = dict(split="validation", experiment="settings with one-clip adaptation",
+                      machine=platform.platform(), directions=dict(zip(DIRECTIONS, runs)))
+        record.update(choose_settings(record["directions"]))
+        print("chosen", record["chosen"])
+        Path(args.out).write_text(json.dumps(record, indent=1) + "\n")
+        return
     if args.strides:
         out = {name: run_strides(name, args) for name in DIRECTIONS}
         Path(args.out).write_text(json.dumps(dict(split="validation", experiment=
