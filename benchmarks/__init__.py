@@ -75,6 +75,17 @@ def load_cmu():
         return npz["poses2d"], npz["clips"], p
 
 
+def run_line(meta, command):
+    """The first line of a benchmark's block: when, which command, the machine and
+    its load (a loaded shared machine is said to give pessimistic, noisy times)."""
+    m = meta["machine"]
+    return (f"Run: {meta['date']}, `{command}{' --quick' if meta['quick'] else ''}`; "
+            f"machine: {m['cpu']}, {m['cores']} cores; load average at start "
+            f"{meta['loadavg_start']}, at end {meta['loadavg_end']}"
+            + (" (shared machine: times are pessimistic and noisy)."
+               if meta["loadavg_start"] and meta["loadavg_start"][0] > 1.5 else "."))
+
+
 def bench_main(argv, *, prog, doc, quick_help, run, render, tag, heading, results):
     """A benchmark's command line: ``--quick`` (printed only) and ``--write-docs``
     (its block `tag` of benchmarks/README.md under `heading`, and the raw numbers

@@ -32,7 +32,7 @@ import warnings
 
 import numpy as np
 
-from . import bench_main, load_cmu, log, table
+from . import bench_main, load_cmu, log, run_line, table
 
 
 GOAL_SECONDS = 10.0
@@ -102,15 +102,10 @@ def run(quick=False):
 
 
 def render(res, meta):
-    m = meta["machine"]
     first = next(iter(res["rows"].values()))
     met = first["seconds"] <= GOAL_SECONDS
     lines = [
-        f"Run: {meta['date']}, `python -m benchmarks.adaptation"
-        f"{' --quick' if meta['quick'] else ''}`; machine: {m['cpu']}, {m['cores']} cores; "
-        f"load average at start {meta['loadavg_start']}, at end {meta['loadavg_end']}"
-        + (" (shared machine: times are pessimistic and noisy)."
-           if meta["loadavg_start"] and meta["loadavg_start"][0] > 1.5 else "."),
+        run_line(meta, "python -m benchmarks.adaptation"),
         "",
         f"- Goal: adaptation on {res['n_poses']} complete poses <= {GOAL_SECONDS:.0f} s on 2 "
         f"cores: {'**met**' if met else '**NOT met**'} ({first['seconds']:.1f} s).",

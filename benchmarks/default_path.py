@@ -30,7 +30,7 @@ import warnings
 
 import numpy as np
 
-from . import CMU_RAW, bench_main, built_set, log, table
+from . import CMU_RAW, bench_main, built_set, log, run_line, table
 
 
 GOAL_RATIO = 0.8
@@ -112,14 +112,9 @@ def run(quick=False):
 
 
 def render(res, meta):
-    m = meta["machine"]
     first = res["files"][0]
     lines = [
-        f"Run: {meta['date']}, `python -m benchmarks.default_path"
-        f"{' --quick' if meta['quick'] else ''}`; machine: {m['cpu']}, {m['cores']} cores; "
-        f"load average at start {meta['loadavg_start']}, at end {meta['loadavg_end']}"
-        + (" (shared machine: times are pessimistic and noisy)."
-           if meta["loadavg_start"] and meta["loadavg_start"][0] > 1.5 else "."),
+        run_line(meta, "python -m benchmarks.default_path"),
         "",
         f"- Goal: `recover()` with defaults >= {GOAL_RATIO}x the throughput of "
         f"`recover(adapt=False)` on the {first['n_poses']:,}-pose file: "
