@@ -55,7 +55,14 @@ def _frame_numbers(frames, n):
     reason = np.full(n, "", dtype=object)
     if arr.dtype.kind in "iu":
         return arr.astype(np.int64), reason
-    for i, v in enumerate(arr.tolist()):
+    rows = np.arange(n)
+    if arr.dtype.kind == "f":  # the usual case (CSV columns): whole numbers at once
+        f = arr.astype(float)
+        whole = np.isfinite(f) & (np.abs(f) <= 2**53)
+        whole[whole] = f[whole] == np.round(f[whole])
+        values[whole] = f[whole].astype(np.int64)
+        rows = np.flatnonzero(~whole)  # only these need a reason
+    for i, v in zip(rows, arr[rows].tolist()):
         try:
             f = float(v)
         except (TypeError, ValueError):
