@@ -603,8 +603,10 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
     filter : bool
         Drop duplicates, outliers and left/right swaps first.
     random_state : int
-    n_jobs : int
-        Threads for the coding step and the guard's recovery.
+    n_jobs : int or None
+        Threads for the coding step and the guard's recovery; None: numba's
+        (every core unless ``NUMBA_NUM_THREADS`` says otherwise), which is what
+        ``recover(n_jobs=1)`` passes, as its own compiled recovery uses them.
     extra : array_like (m, N, 2), optional
         Filled poses (e.g. recovered ones, :func:`self_train`) learned from
         besides the complete ones: never held back for the guard, not

@@ -63,7 +63,11 @@ def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
     # here for every member: the members' guards' recover() calls set and
     # restore the limit, out of order across the threads below.
     with threadpool_limits(1, user_api="blas"):
-        d, res = resolve_adaptation(dictionary, poses, missing, adapt, n_jobs=n_jobs,
+        # n_jobs=1 runs in this thread: its compiled loops (learning, guard,
+        # self-training) use numba's threads, as recover()'s kernel does (None
+        # below); a one-thread cap is for the side-by-side members further down
+        d, res = resolve_adaptation(dictionary, poses, missing, adapt,
+                                    n_jobs=None if n_jobs == 1 else n_jobs,
                                     random_state=0, warn=warn, self_training=self_training,
                                     min_poses=min_poses)
         if res is None:  # adaptation off

@@ -82,7 +82,8 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         Scaled per pose by the dictionary's ``alpha_scaling`` rule.
     representation : {"average", "zero"}
     solver : {"fast", "clarabel", "cvxpy-naive"} or a BaseSolver
-        "fast" (default) is the certified LARS path, which hands any pose it
+        "fast" (default) is the certified LARS path, which finishes any pose
+        its path leaves uncertified by feature-sign search and hands what that
         cannot certify to Clarabel; "clarabel" is cvxpy + Clarabel throughout.
     n_jobs : int, default 1
         joblib workers over chunks of poses; -1 for all cores.

@@ -30,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..exceptions import SparseEDMError
+from ._active_set import refine_rows
 
 __all__ = ["LassoResult", "BaseSolver", "lasso_objective", "duality_gap"]
 
@@ -119,13 +120,18 @@ class BaseSolver:
         Relative duality-gap tolerance: a row is "optimal" when
         ``gap <= tol * objective``.
 
-    A backend with a ``fallback`` attribute (a solver name or instance) has
-    every row the certificate rejects re-solved by that solver; those rows
-    are flagged in ``LassoResult.fallback``.
+    A backend with ``refine = True`` has every row the certificate rejects
+    finished by feature-sign search from its own answer first
+    (:mod:`._active_set`; the rows it certifies become "optimal"). A backend
+    with a ``fallback`` attribute (a solver name or instance) has every row
+    still rejected re-solved by that solver; those rows are flagged in
+    ``LassoResult.fallback``.
     """
 
     name = "base"
     fallback = None
+    #: finish rejected rows by feature-sign search before any fallback
+    refine = False
 
     def __init__(self, tol=1e-6):
         self.tol = tol
@@ -251,6 +257,8 @@ class BaseSolver:
             status == FAILED, FAILED, np.where(certified, OPTIMAL, INACCURATE)
         ).astype(object)
         result = LassoResult(coef, objective, gap, status, np.asarray(n_iter))
+        if self.refine:
+            self._refine(result, D, X, alpha, positive, observed)
         bad = result.status != OPTIMAL
         if self.fallback is not None and bad.any():
             if observed is None:
@@ -267,6 +275,23 @@ class BaseSolver:
                         getattr(result, name)[idx] = getattr(sub, name)
                     result.fallback[idx] = True
         return result
+
+    def _refine(self, result, D, X, alpha, positive, observed):
+        """Feature-sign search (:mod:`._active_set`) on the rows the certificate
+        rejected, in place; the rows it certifies become optimal."""
+        rows = np.flatnonzero(result.status == INACCURATE)
+        if not len(rows):
+            return
+        coef = refine_rows(D, X, result.coef, alpha, rows, positive=positive,
+                           observed=observed)
+        a = alpha if np.isscalar(alpha) else np.asarray(alpha)[rows]
+        objective, gap = duality_gap(D, X[rows], coef, a, positive,
+                                     None if observed is None else observed[rows])
+        ok = gap <= self.tol * np.maximum(objective, np.finfo(float).tiny)
+        idx = rows[ok]
+        result.coef[idx] = coef[ok]
+        result.objective[idx], result.gap[idx] = objective[ok], gap[ok]
+        result.status[idx] = OPTIMAL
 
     def _fall_back(self, result, bad, D, X, alpha, positive, key):
         """Re-solve the uncertified rows with the fallback solver, in place."""
