@@ -10,14 +10,15 @@ and returns an :class:`AdaptationResult` saying what happened; it is what
 
 Steps of :func:`run_adaptation`
 -------------------------------
-1. **Filter** implausible poses, each by a small pure function:
+1. **Bound** the work: at most ``max_poses`` of the complete poses, a seeded
+   sample (before the filters, which code every pose they check).
+2. **Filter** implausible poses, each by a small pure function:
    :func:`usable_rows` (NaN/inf, zero extent), :func:`duplicate_rows` (exact
    repeats, e.g. a frozen detector), :func:`reconstruction_error` +
    :func:`outlier_rows` (far-out relative residual under the base dictionary:
    detector garbage) and :func:`swapped_rows` (the arms' or the legs'
    left/right labels exchanged: the exchanged pose is explained much better;
    checked on the worst-explained quarter of the poses only, to save time).
-2. **Bound** the work: at most ``max_poses`` poses, a seeded sample.
 3. **Hold back** a validation slice (``validation_fraction``, whole
    contiguous blocks of rows, so neighbouring video frames do not leak
    across; at most 300 poses), adapt on the rest.
@@ -468,8 +469,9 @@ class AdaptationResult:
     reason : str
         Why not, or what was done, in words.
     n_given, n_complete, n_used, n_validation : int
-        Poses given; complete and plausible after filtering; adapted on;
-        held back for the guard.
+        Poses given; complete and plausible after filtering (complete poses
+        beyond the ``max_poses`` sample are not checked and are counted in);
+        adapted on; held back for the guard.
     dropped : dict
         Poses dropped per filter reason.
     err_base, err_adapted : float
@@ -687,13 +689,20 @@ class _Pool:
 
 def _filtered_pool(dictionary, poses, missing, *, filter, min_poses, max_poses, random_state,
                    steps):
-    """Step 1-2 of :func:`run_adaptation`: the complete rows, filtered (its time
-    recorded in ``steps["filter"]``) and bounded to a seeded sample of `max_poses`
-    (no poses when fewer than `min_poses` are left)."""
+    """Step 1-2 of :func:`run_adaptation`: the complete rows bounded to a seeded
+    sample of `max_poses` and filtered (its time recorded in ``steps["filter"]``;
+    no poses when fewer than `min_poses` are left). The bound comes first: the
+    filters code every pose they check with the lasso, and a sample's outliers
+    are as far out as the file's (15,000 complete poses: 4.9 s -> 1.6 s)."""
     complete, n_given = _complete_input(poses, missing)
     if complete.shape[1] != dictionary.n_joints:
         raise PoseError(f"adaptation poses have {complete.shape[1]} joints but the "
                         f"dictionary is for {dictionary.n_joints}")
+    n_unchecked = 0
+    if len(complete) > max_poses:  # a seeded sample, file order kept
+        rng = np.random.default_rng([int(random_state or 0), 17])
+        n_unchecked = len(complete) - max_poses
+        complete = complete[np.sort(rng.choice(len(complete), max_poses, replace=False))]
     t_step = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
@@ -703,16 +712,12 @@ def _filtered_pool(dictionary, poses, missing, *, filter, min_poses, max_poses, 
         else:
             keep = usable_rows(complete)
             dropped = {"incomplete": int((~keep).sum())}
-    dropped["incomplete"] += n_given - len(complete)
+    dropped["incomplete"] += n_given - len(complete) - n_unchecked
     steps["filter"] = time.perf_counter() - t_step
     good = complete[keep]
-    n_complete = len(good)
-    if n_complete < min_poses:
-        return _Pool(None, n_complete, dropped, n_given)
-    if n_complete > max_poses:  # a seeded sample, file order kept
-        rng = np.random.default_rng([int(random_state or 0), 17])
-        good = good[np.sort(rng.choice(n_complete, max_poses, replace=False))]
-    return _Pool(good, n_complete, dropped, n_given)
+    if len(good) < min_poses:
+        return _Pool(None, len(good), dropped, n_given)
+    return _Pool(good, len(good) + n_unchecked, dropped, n_given)
 
 
 def _with_extra(train, extra, max_poses, random_state):
