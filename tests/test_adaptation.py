@@ -145,6 +145,18 @@ def test_nan_inf_and_duplicates_are_ignored(cmu_poses, small_dictionary):
     assert duplicate_rows(np.zeros((0, 3))).shape == (0,)
 
 
+def test_filters_check_only_the_bounded_sample(cmu_poses, small_dictionary):
+    """More complete poses than max_poses: the seeded sample is drawn first and only
+    it is filtered (its duplicates dropped); the rest are counted in, unchecked."""
+    poses = np.concatenate([cmu_poses[:200], cmu_poses[:100]])  # 100 exact repeats
+    res = run_adaptation(small_dictionary, poses, max_poses=150, min_poses=100)
+    rows = np.sort(np.random.default_rng([0, 17]).choice(300, 150, replace=False))
+    rep = filter_poses(poses[rows], small_dictionary)  # the sample, filtered alone
+    assert res.dropped == rep.counts
+    assert 0 < res.dropped["duplicate"] < 100  # the file's 100 repeats, not all drawn
+    assert res.n_complete == rep.keep.sum() + 150
+
+
 def test_swapped_labels_are_flagged(cmu_poses, small_dictionary):
     poses = cmu_poses[::3]
     legs = [(8, 11), (9, 12), (10, 13)]
