@@ -57,7 +57,8 @@ def _sign_step(D, x, alpha, c, theta, positive):
     with np.errstate(divide="ignore", invalid="ignore"):
         t = -cur / d
     ts = np.concatenate([t[(t > 0) & (t < 1)], [1.0]])
-    objs = [_objective(DA, x, cur + s * d, alpha) for s in ts]
+    objs = [_objective(DA, x, p, alpha) if not positive or p.min() >= -1e-12 * np.abs(p).max()
+            else np.inf for p in (cur + s * d for s in ts)]  # c >= 0: no move below zero
     best = int(np.argmin(objs))
     if objs[best] > _objective(DA, x, cur, alpha):  # round-off: no move lowers it
         return None
