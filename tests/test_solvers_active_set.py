@@ -59,3 +59,12 @@ def test_rows_of_a_batch_on_their_observed_entries():
     one, done = refine_row(D[obs[1]], X[1, obs[1]], 0.05, np.zeros(D.shape[1]))
     assert done and out.shape == (1, D.shape[1])
     np.testing.assert_array_equal(out[0], one)
+
+
+def test_zero_is_recognised_as_the_answer():
+    """No atom worth its penalty: zero comes back at once, also from a wrong start."""
+    D = np.eye(3)
+    c, done = refine_row(D, np.zeros(3), 0.1, np.zeros(3))
+    assert done and not c.any()
+    c, done = refine_row(D, np.array([0.05, 0.0, 0.0]), 0.1, np.array([0.3, 0.0, 0.0]))
+    assert done and not c.any()

@@ -103,7 +103,7 @@ def refine_row(D, x, alpha, coef, *, positive=False, max_steps=MAX_STEPS):
         v[A] = -np.inf
         j = int(np.argmax(v))
         if v[j] <= alpha * (1 + KKT_TOL):
-            if settled:
+            if settled or not len(A):  # (no active atom: nothing to settle)
                 return c, True
         else:
             theta[j] = 1.0 if (positive or g[j] > 0) else -1.0
