@@ -644,6 +644,30 @@ def _parse_float(text, path, line, column):
     return value  # inf: a bad row, refused by recover()/lift(), not a bad file
 
 
+#: every character a plain number, nan/inf/infinity or a blank cell may hold: a
+#: string of only these that float() reads is one _NUMBER accepts (no "1_0", no
+#: non-ASCII digits: those characters are not here)
+_NUMBER_CHARS = frozenset("0123456789+-.eEnNaAiIfFtTyY \t\n\r\f\v")
+
+
+def _float_columns(rows, cols, path, header):
+    """The cells of columns `cols` of every row, as floats (n, len(cols)).
+
+    One check of the characters of all the cells and one conversion when they
+    are all plain numbers or blank; otherwise cell by cell with
+    :func:`_parse_float`, which names the first bad one.
+    """
+    cells = [fields[c] for _, fields in rows for c in cols]
+    if set("".join(cells)) <= _NUMBER_CHARS:
+        try:
+            return np.array([float(x) if x.strip() else math.nan for x in cells],
+                            dtype=float).reshape(len(rows), len(cols))
+        except ValueError:
+            pass  # e.g. "1e" or "+-1": the per-cell check words it
+    return np.array([[_parse_float(fields[c], path, line, header[c]) for c in cols]
+                     for line, fields in rows], dtype=float).reshape(len(rows), len(cols))
+
+
 def _read_csv(path, threshold):
     # a field may fill a line (text_lines caps those); the csv module's own cap is 128 KiB
     csv.field_size_limit(max(csv.field_size_limit(), MAX_LINE_BYTES))
@@ -677,11 +701,13 @@ def _read_csv(path, threshold):
     filled = np.zeros((n, N_JOINTS), dtype=bool) if columns["filled"] else None
     ids = [] if "id" in columns else None
     extra = {name: [] for name in columns["extra"]}
+    xy = _float_columns(rows, list(columns["xy"].values()), path, header)
+    for k, (j, axis) in enumerate(columns["xy"]):
+        poses[:, j, axis] = xy[:, k]
+    if columns["conf"]:
+        conf[:, list(columns["conf"])] = _float_columns(rows, list(columns["conf"].values()),
+                                                        path, header)
     for r, (line, fields) in enumerate(rows):
-        for (j, axis), c in columns["xy"].items():
-            poses[r, j, axis] = _parse_float(fields[c], path, line, header[c])
-        for j, c in columns["conf"].items():
-            conf[r, j] = _parse_float(fields[c], path, line, header[c])
         for j, c in columns["filled"].items():
             filled[r, j] = _parse_flag(fields[c], path, line, header[c])
         if ids is not None:
@@ -1026,8 +1052,11 @@ def _time_columns(tracks, frames, extra_columns):
     return extra_columns
 
 
-def _cell(value):
-    return "" if math.isnan(value) else repr(float(value))
+def _cells(values):
+    """Rows of CSV cells of a 2-D float array: the shortest repr that reads back
+    exactly, blank for NaN."""
+    return [["" if v != v else repr(v) for v in row] for row in np.asarray(
+        values, dtype=float).tolist()]
 
 
 def _write_csv(path, poses, confidence, ids, extra_columns, where, filled=None):
@@ -1057,11 +1086,13 @@ def _write_csv(path, poses, confidence, ids, extra_columns, where, filled=None):
         with open(tmp, "w", newline="", encoding="utf-8") as f:
             writer = csv.writer(f)
             writer.writerow(header)
+            xy = _cells(np.asarray(poses).reshape(n, 2 * N_JOINTS))
+            conf = None if confidence is None else _cells(confidence)
             for r in range(n):
                 row = [] if ids is None else [ids[r]]
-                row += [_cell(v) for v in poses[r].ravel()]
-                if confidence is not None:
-                    row += [_cell(v) for v in confidence[r]]
+                row += xy[r]
+                if conf is not None:
+                    row += conf[r]
                 if filled is not None:
                     row += ["1" if f else "0" for f in filled[r]]
                 row += ["" if col[r] is None else str(col[r]) for col in extras]

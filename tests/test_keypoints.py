@@ -459,10 +459,10 @@ def test_failed_write_leaves_target_untouched(tmp_path, monkeypatch):
 
     import sparseedm.keypoints as mod
 
-    def boom(value):
+    def boom(values):
         raise RuntimeError("disk on fire")
 
-    monkeypatch.setattr(mod, "_cell", boom)
+    monkeypatch.setattr(mod, "_cells", boom)  # fails once the temporary file is open
     with pytest.raises(RuntimeError):
         write_keypoints(path, _poses(2))
     assert path.read_text() == before
@@ -502,3 +502,39 @@ def test_infinite_values_and_bad_keypointset(tmp_path):
     np.testing.assert_array_equal(kps.poses[0], poses[0])
     with pytest.raises(SparseEDMError, match="missing must have shape"):
         KeypointSet(np.zeros((2, 14, 2)), np.zeros((2, 13), bool))
+
+
+def _csv_with_cell(tmp_path, text, row=1, column="neck_y"):
+    """A 3-pose CSV (written by write_keypoints) with one cell replaced by `text`."""
+    poses = np.arange(3 * 14 * 2, dtype=float).reshape(3, 14, 2) + 0.25
+    path = write_keypoints(tmp_path / "k.csv", KeypointSet(poses, np.zeros((3, 14), bool)))
+    lines = path.read_text().splitlines()
+    header = lines[0].split(",")
+    cells = lines[row].split(",")
+    cells[header.index(column)] = text
+    lines[row] = ",".join(cells)
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+@pytest.mark.parametrize("text, value", [
+    (" 1.5 ", 1.5), ("1e3", 1000.0), ("-.5E-1", -0.05), ("+7.", 7.0), ("nan", None),
+    ("-Infinity", -np.inf), ("", None), ("\u20031.5\u2003", 1.5),  # Unicode blanks strip
+])
+def test_csv_number_cells_read_as_before(tmp_path, text, value):
+    """The whole-block fast path and the per-cell check accept the same cells."""
+    ks = read_keypoints(_csv_with_cell(tmp_path, text))
+    got = ks.poses[0, 1, 1]
+    if value is None:
+        assert ks.missing[0, 1] and np.isnan(got)
+    else:
+        assert got == value
+    assert ks.poses[2, 13, 0] == 2 * 28 + 26 + 0.25  # the other cells as written
+
+
+@pytest.mark.parametrize("text", ["1_0", "\u0661", "\uff11", "0x10", "1e", "+-1", "1,5",
+                                  "nan1", "inf inity"])
+def test_csv_non_number_cells_are_named(tmp_path, text):
+    path = _csv_with_cell(tmp_path, f'"{text}"', row=2)
+    with pytest.raises(FileFormatError, match=r"line 3, column 'neck_y': .* is not a number"):
+        read_keypoints(path)
