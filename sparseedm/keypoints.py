@@ -175,6 +175,7 @@ from . import formats
 from ._validation import Interval, check_poses, validate_params
 from .exceptions import FileFormatError, PoseError
 from .formats import posetrack
+from .formats._base import csv_cells
 from .skeleton import JOINT_NAMES, SKELETON_14
 
 __all__ = [
@@ -1052,13 +1053,6 @@ def _time_columns(tracks, frames, extra_columns):
     return extra_columns
 
 
-def _cells(values):
-    """Rows of CSV cells of a 2-D float array: the shortest repr that reads back
-    exactly, blank for NaN."""
-    return [["" if v != v else repr(v) for v in row] for row in np.asarray(
-        values, dtype=float).tolist()]
-
-
 def _write_csv(path, poses, confidence, ids, extra_columns, where, filled=None):
     n = len(poses)
     header = [] if ids is None else ["id"]
@@ -1086,8 +1080,8 @@ def _write_csv(path, poses, confidence, ids, extra_columns, where, filled=None):
         with open(tmp, "w", newline="", encoding="utf-8") as f:
             writer = csv.writer(f)
             writer.writerow(header)
-            xy = _cells(np.asarray(poses).reshape(n, 2 * N_JOINTS))
-            conf = None if confidence is None else _cells(confidence)
+            xy = csv_cells(np.asarray(poses).reshape(n, 2 * N_JOINTS))
+            conf = None if confidence is None else csv_cells(confidence)
             for r in range(n):
                 row = [] if ids is None else [ids[r]]
                 row += xy[r]

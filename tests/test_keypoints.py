@@ -462,7 +462,7 @@ def test_failed_write_leaves_target_untouched(tmp_path, monkeypatch):
     def boom(values):
         raise RuntimeError("disk on fire")
 
-    monkeypatch.setattr(mod, "_cells", boom)  # fails once the temporary file is open
+    monkeypatch.setattr(mod, "csv_cells", boom)  # fails once the temporary file is open
     with pytest.raises(RuntimeError):
         write_keypoints(path, _poses(2))
     assert path.read_text() == before

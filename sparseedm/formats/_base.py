@@ -113,6 +113,19 @@ class Parsed:
     meta: dict = field(default_factory=dict)
 
 
+def csv_cells(values):
+    """Rows of CSV cells of a 2-D float array: the shortest repr that reads back
+    exactly, blank for NaN (the keypoint CSV and DeepLabCut's CSV writers).
+
+    Examples
+    --------
+    >>> csv_cells([[0.1, float("nan")], [2.0, -3.5]])
+    [['0.1', ''], ['2.0', '-3.5']]
+    """
+    return [["" if v != v else repr(v) for v in row] for row in np.asarray(
+        values, dtype=float).tolist()]
+
+
 def to_14(xy, score, present, layout):
     """Map (n, K, 2) keypoints with (n, K) scores onto the 14 joints.
 

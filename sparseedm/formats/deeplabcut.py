@@ -383,18 +383,14 @@ def _with_filled(names, columns, values, rows, mapping, individuals, filled_scor
     return out_cols, np.column_stack(out_vals) if out_vals else values[:, :0]
 
 
-def _cell(v):
-    return "" if math.isnan(v) else repr(float(v))
-
-
 def _write_csv(path, names, columns, index, values):
     with atomic_path(path) as tmp:
         with open(tmp, "w", newline="", encoding="utf-8") as f:
             w = csv.writer(f)
             for level, name in enumerate(names):
                 w.writerow([name] + [c[level] for c in columns])
-            for r, idx in enumerate(index):
-                w.writerow([idx] + [_cell(v) for v in values[r]])
+            for idx, cells in zip(index, _base.csv_cells(values)):
+                w.writerow([idx] + cells)
 
 
 def _write_h5(path, names, columns, index, values):
