@@ -124,11 +124,16 @@ def refine_rows(D, X, coef, alpha, rows, *, positive=False, observed=None):
     `alpha` is one value or one per row of the batch.
     """
     alpha = np.broadcast_to(np.asarray(alpha, dtype=float), (len(X),))
+    rows = np.asarray(rows)
     out = np.array(coef[rows], dtype=float)
-    for i, row in enumerate(rows):
-        if observed is None:
-            Dr, x = D, X[row]
-        else:
-            Dr, x = D[observed[row]], X[row, observed[row]]
-        out[i] = refine_row(Dr, x, float(alpha[row]), coef[row], positive=positive)[0]
+    if observed is None:
+        groups = [(np.arange(len(rows)), slice(None))]
+    else:  # each pattern's sub-dictionary sliced once
+        patterns, which = np.unique(observed[rows], axis=0, return_inverse=True)
+        groups = [(np.flatnonzero(which.ravel() == g), p) for g, p in enumerate(patterns)]
+    for pos, obs in groups:
+        Dr = D[obs]
+        for i in pos:
+            out[i] = refine_row(Dr, X[rows[i], obs], float(alpha[rows[i]]), coef[rows[i]],
+                                positive=positive)[0]
     return out

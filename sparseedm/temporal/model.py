@@ -109,8 +109,11 @@ def prior_frames(free, settings=DEFAULT_SETTINGS):
     >>> np.flatnonzero(prior_frames(free, s)).tolist()
     [11, 15, 19, 23, 27, 28]
     """
-    need = needs_prior(free, settings)
-    stride = int(settings.prior_stride)
+    return _strided(needs_prior(free, settings), int(settings.prior_stride))
+
+
+def _strided(need, stride):
+    """:func:`prior_frames` from the :func:`needs_prior` frames `need`."""
     if stride <= 1:
         return need
     idx, run = _runs(need)
@@ -132,8 +135,9 @@ def spread_prior(free, prior, confidence, settings=DEFAULT_SETTINGS):
     """
     if int(settings.prior_stride) <= 1:
         return prior, confidence
-    idx, run = _runs(needs_prior(free, settings))
-    target = ~prior_frames(free, settings)[idx]
+    need = needs_prior(free, settings)  # once: prior_frames would compute it again
+    idx, run = _runs(need)
+    target = ~_strided(need, int(settings.prior_stride))[idx]
     have = ~target & np.isfinite(prior[idx]).all(axis=(1, 2))
     src, src_run = idx[have], run[have]
     t, t_run = idx[target], run[target]
