@@ -51,7 +51,10 @@ def _sign_step(D, x, alpha, c, theta, positive):
     try:
         new = np.linalg.solve(G, b)
     except np.linalg.LinAlgError:  # more active atoms than the rank: the least-norm answer
-        new = np.linalg.lstsq(G, b, rcond=None)[0]
+        try:
+            new = np.linalg.lstsq(G, b, rcond=None)[0]
+        except np.linalg.LinAlgError:  # (SVD not converging): left to the fallback
+            return None
     cur = c[A]
     d = new - cur
     with np.errstate(divide="ignore", invalid="ignore"):
