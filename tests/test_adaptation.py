@@ -381,8 +381,8 @@ def test_self_training_off_reproduces_adaptation_alone(cross_domain, shifted_dic
     np.testing.assert_array_equal(off.poses, alone.poses)
 
 
-def test_a_round_the_guard_rejects_ends_self_training(cross_domain, shifted_dictionary,
-                                                      monkeypatch):
+def test_only_the_last_round_is_judged_and_its_rejection_keeps_the_first_adaptation(
+        cross_domain, shifted_dictionary, monkeypatch):
     import dataclasses
 
     from sparseedm import adaptation
@@ -390,16 +390,41 @@ def test_a_round_the_guard_rejects_ends_self_training(cross_domain, shifted_dict
     adapt_on, inputs, mask, _ = cross_domain
     first = run_adaptation(shifted_dictionary, adapt_on)
     real = adaptation.run_adaptation
+    guards = []
 
-    def rejecting(*args, extra=None, **kw):
-        res = real(*args, extra=extra, **kw)
-        return dataclasses.replace(res, adapted=False) if extra is not None else res
+    def rejecting(*args, extra=None, guard=True, **kw):
+        guards.append(guard)
+        res = real(*args, extra=extra, guard=guard, **kw)
+        return dataclasses.replace(res, adapted=False) if guard else res
 
     monkeypatch.setattr(adaptation, "run_adaptation", rejecting)
     out = adaptation.self_train(shifted_dictionary, first, adapt_on, None, inputs, mask,
                                 rounds=3)
+    assert guards == [False, False, True]
     assert out.dictionary is first.dictionary
-    assert [r["adopted"] for r in out.self_training] == [False]
+    assert [r["checked"] for r in out.self_training] == [False, False, True]
+    assert [r["adopted"] for r in out.self_training] == [False, False, False]
+    assert "0 of 3 rounds adopted" in out.line()
+
+
+def test_unchecked_rounds_learn_on_the_held_back_poses_too(cross_domain, shifted_dictionary,
+                                                          monkeypatch):
+    from sparseedm import adaptation
+
+    adapt_on, inputs, mask, _ = cross_domain
+    first = run_adaptation(shifted_dictionary, adapt_on)
+    real, seen = adaptation.run_adaptation, []
+    monkeypatch.setattr(adaptation, "run_adaptation",
+                        lambda *a, **kw: seen.append(real(*a, **kw)) or seen[-1])
+    out = adaptation.self_train(shifted_dictionary, first, adapt_on, None, inputs, mask,
+                                rounds=2)
+    assert first.adapted and first.n_validation > 0
+    unchecked, last = seen
+    assert unchecked.n_validation == 0 and unchecked.n_used == first.n_used + first.n_validation
+    assert np.isnan(out.self_training[0]["validation_err"])
+    # the last round is judged on the same held-back poses as the first adaptation
+    assert last.n_validation == first.n_validation and last.n_used == first.n_used
+    assert np.isfinite(last.err_adapted) and last.err_base == first.err_base
 
 
 def test_self_training_rounds_recover_their_sample_at_their_own_alpha(cross_domain,

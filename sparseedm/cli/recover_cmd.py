@@ -108,7 +108,7 @@ def _add_adaptation_options(p):
                    "format) instead of INPUT's")
     add_adaptation_rounds(
         p, "after adapting, rounds of self-training on INPUT's incomplete poses (recover a "
-        "sample, adapt again with them, guarded each round); default 3, 0 turns it off",
+        "sample, adapt again with them; the last round guarded); default 3, 0 turns it off",
         "adapt K times (seeds 0..K-1) and average the K recoveries: lower error, K times "
         "the work (default 1; sparseedm.ensemble)")
     p.add_argument("--save-dictionary", default=None, metavar="FILE",
