@@ -162,21 +162,29 @@ def test_numpy_path_walks_the_same_homotopy_as_the_compiled_one(cmu_poses, small
     np.testing.assert_allclose(numpy_coef, compiled, atol=1e-8)
 
 
+def _coherent(seed, n_signals):
+    """80 coherent non-negative unit atoms in 30 dimensions, and signals (rows) made
+    of the first six plus a little noise."""
+    rng = np.random.default_rng(seed)
+    D = np.abs(rng.standard_normal((30, 80)))
+    D /= np.linalg.norm(D, axis=0)
+    X = D[:, :6] @ rng.uniform(0.5, 1, (6, n_signals)) + 0.01 * rng.standard_normal(
+        (30, n_signals))
+    return D, X.T
+
+
 def test_refinement_finishes_a_path_cut_short_without_the_fallback():
     """Paths stopped after 2 steps are finished by feature-sign search: certified, no
     Clarabel call, the same optimum as Clarabel's; without it they fall back."""
-    rng = np.random.default_rng(3)
-    D = np.abs(rng.standard_normal((30, 80)))
-    D /= np.linalg.norm(D, axis=0)
-    X = D[:, :6] @ rng.uniform(0.5, 1, (6, 5)) + 0.01 * rng.standard_normal((30, 5))
+    D, X = _coherent(3, 5)
     for positive in (False, True):
         backup = _CountingClarabel()
-        res = FastSolver(max_steps=2, fallback=backup).solve(D, X.T, 0.01, positive=positive)
+        res = FastSolver(max_steps=2, fallback=backup).solve(D, X, 0.01, positive=positive)
         assert backup.calls == 0 and not res.fallback.any()
         assert (res.status == "optimal").all()
-        ref = get_solver("clarabel").solve(D, X.T, 0.01, positive=positive)
+        ref = get_solver("clarabel").solve(D, X, 0.01, positive=positive)
         np.testing.assert_allclose(res.objective, ref.objective, rtol=1e-6)
-        cut = FastSolver(max_steps=2, fallback=None, refine=False).solve(D, X.T, 0.01,
+        cut = FastSolver(max_steps=2, fallback=None, refine=False).solve(D, X, 0.01,
                                                                           positive=positive)
         assert (cut.status == "inaccurate").all()  # what the refinement started from
 
@@ -184,10 +192,7 @@ def test_refinement_finishes_a_path_cut_short_without_the_fallback():
 def test_refinement_on_masked_rows_keeps_the_patterns():
     """solve_masked: rows cut short on two patterns are each finished on their own
     sub-dictionary (the certificate is judged per pattern), without the fallback."""
-    rng = np.random.default_rng(5)
-    D = np.abs(rng.standard_normal((30, 80)))
-    D /= np.linalg.norm(D, axis=0)
-    X = (D[:, :6] @ rng.uniform(0.5, 1, (6, 8)) + 0.01 * rng.standard_normal((30, 8))).T
+    D, X = _coherent(5, 8)
     obs = np.ones(X.shape, bool)
     obs[::2, :4] = False  # a second pattern: four entries unobserved
     backup = _CountingClarabel()

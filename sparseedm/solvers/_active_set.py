@@ -30,17 +30,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from .base import lasso_objective
+
 __all__ = ["refine_rows", "refine_row"]
 
 #: relative slack on the optimality conditions (|d_j^T r| <= alpha (1 + KKT_TOL))
 KKT_TOL = 1e-9
 #: feature-sign steps per row before it is left to the fallback
 MAX_STEPS = 30
-
-
-def _objective(D, x, c, alpha):
-    r = x - D @ c
-    return 0.5 * (r @ r) + alpha * np.abs(c).sum()
 
 
 def _sign_step(D, x, alpha, c, theta, positive):
@@ -60,11 +57,13 @@ def _sign_step(D, x, alpha, c, theta, positive):
     with np.errstate(divide="ignore", invalid="ignore"):
         t = -cur / d
     ts = np.concatenate([t[(t > 0) & (t < 1)], [1.0]])
-    objs = [_objective(DA, x, p, alpha) if not positive or p.min() >= -1e-12 * np.abs(p).max()
-            else np.inf for p in (cur + s * d for s in ts)]  # c >= 0: no move below zero
+    points = cur + ts[:, None] * d  # every zero crossing on the way, and the solve
+    objs = lasso_objective(DA, x[None], points, alpha)
+    if positive:  # c >= 0: no move below zero
+        objs[points.min(axis=1) < -1e-12 * np.abs(points).max(axis=1)] = np.inf
     best = int(np.argmin(objs))
-    if objs[best] > _objective(DA, x, cur, alpha):  # round-off: no move lowers it
-        return None
+    if objs[best] > lasso_objective(DA, x[None], cur[None], alpha)[0]:  # round-off: no
+        return None                                                    # move lowers it
     nc = cur + ts[best] * d
     if best < len(ts) - 1:  # a coefficient reached zero there: it leaves
         nc[np.argmin(np.abs(t - ts[best]))] = 0.0

@@ -30,7 +30,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..exceptions import SparseEDMError
-from ._active_set import refine_rows
 
 __all__ = ["LassoResult", "BaseSolver", "lasso_objective", "duality_gap"]
 
@@ -120,9 +119,10 @@ class BaseSolver:
         Relative duality-gap tolerance: a row is "optimal" when
         ``gap <= tol * objective``.
 
-    A backend with ``refine = True`` has every row the certificate rejects
-    finished by feature-sign search from its own answer first
-    (:mod:`._active_set`; the rows it certifies become "optimal"). A backend
+    A backend with ``refine = True`` and a ``_refiner`` (the function that
+    finishes rows from the backend's own answer, e.g. the feature-sign search
+    of :mod:`._active_set`) has every row the certificate rejects finished by
+    it first (the rows it certifies become "optimal"). A backend
     with a ``fallback`` attribute (a solver name or instance) has every row
     still rejected re-solved by that solver; those rows are flagged in
     ``LassoResult.fallback``.
@@ -130,8 +130,11 @@ class BaseSolver:
 
     name = "base"
     fallback = None
-    #: finish rejected rows by feature-sign search before any fallback
+    #: finish rejected rows by ``_refiner`` before any fallback
     refine = False
+    #: ``_refiner(D, X, coef, alpha, rows, positive=..., observed=...)`` returns
+    #: the finished coefficients of `rows` (:func:`._active_set.refine_rows`)
+    _refiner = None
 
     def __init__(self, tol=1e-6):
         self.tol = tol
@@ -257,7 +260,7 @@ class BaseSolver:
             status == FAILED, FAILED, np.where(certified, OPTIMAL, INACCURATE)
         ).astype(object)
         result = LassoResult(coef, objective, gap, status, np.asarray(n_iter))
-        if self.refine:
+        if self.refine and self._refiner is not None:
             self._refine(result, D, X, alpha, positive, observed)
         bad = result.status != OPTIMAL
         if self.fallback is not None and bad.any():
@@ -277,13 +280,13 @@ class BaseSolver:
         return result
 
     def _refine(self, result, D, X, alpha, positive, observed):
-        """Feature-sign search (:mod:`._active_set`) on the rows the certificate
-        rejected, in place; the rows it certifies become optimal."""
+        """``_refiner`` on the rows the certificate rejected, in place; the rows
+        it certifies become optimal."""
         rows = np.flatnonzero(result.status == INACCURATE)
         if not len(rows):
             return
-        coef = refine_rows(D, X, result.coef, alpha, rows, positive=positive,
-                           observed=observed)
+        coef = self._refiner(D, X, result.coef, alpha, rows, positive=positive,
+                             observed=observed)
         a = alpha if np.isscalar(alpha) else np.asarray(alpha)[rows]
         objective, gap = duality_gap(D, X[rows], coef, a, positive,
                                      None if observed is None else observed[rows])

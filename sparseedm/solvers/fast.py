@@ -43,6 +43,7 @@ import numba
 import numpy as np
 
 from .. import _progress
+from ._active_set import refine_rows
 from .base import BaseSolver, OPTIMAL
 
 __all__ = ["FastSolver", "lars_lasso_gram"]
@@ -624,6 +625,7 @@ class FastSolver(BaseSolver):
     """
 
     name = "fast"
+    _refiner = staticmethod(refine_rows)
 
     def __init__(self, tol=1e-6, max_steps=500, cache_size=8, fallback="clarabel",
                  gram_min=12, refine=True):
