@@ -7,8 +7,8 @@ from scipy.interpolate import CubicSpline
 import sparseedm
 from sparseedm.cameras import project, sample_cameras
 from sparseedm.exceptions import ParameterError
-from sparseedm.temporal.model import (TemporalSettings, fill_segment, needs_prior,
-                                      prior_frames)
+from sparseedm.temporal.model import (TemporalSettings, coupling, fill_segment, needs_prior,
+                                      prior_frames, reference_trajectories)
 from sparseedm.temporal.recover import SOURCES, TemporalResult, recover_temporal, recover_track
 from sparseedm.temporal.smoothing import smooth_trajectory
 from sparseedm.temporal.tracks import distance_to_observed, split_tracks
@@ -90,6 +90,68 @@ def test_distance_and_weight_ramp():
     assert w[:3, 0].tolist() == [0, 0, 0] and w[6:, 0].tolist() == [1.0] * 6
     # far from the observation the answer follows the prior
     assert abs(out[-1, 0, 0] - 7.0) < 1.0 and out[0, 0, 0] == 0.0
+
+
+def _shaken(track, amplitude=0.15, period=23.0):
+    """The track with the whole body swaying sideways (a camera pan, a sway):
+    every joint shares a non-linear motion no single trajectory's spline sees."""
+    t = np.arange(len(track), dtype=float)
+    sway = amplitude * _height(track) * np.sin(2 * np.pi * t / period)
+    return track + np.stack([sway, 0.5 * sway], axis=-1)[:, None, :]
+
+
+def _no_prior(values):
+    return np.full_like(values, np.nan), np.zeros(len(values))
+
+
+def test_relative_smoothing_follows_the_body_between_observations(track):
+    truth = _shaken(track)
+    free = np.zeros(truth.shape[:2], bool)
+    for start in range(20, 220, 40):
+        free[start:start + 10, WRIST] = True
+        free[start + 15:start + 25, 12] = True
+    values = np.where(free[..., None], 0.0, truth)
+    prior, confidence = _no_prior(values)
+    alone = fill_segment(values, free, prior, confidence, TemporalSettings(relative=False))[0]
+    relative = fill_segment(values, free, prior, confidence)[0]
+    err_alone, err_relative = _error(alone, truth, free), _error(relative, truth, free)
+    assert err_relative < 0.5 * err_alone, (err_relative, err_alone)
+    np.testing.assert_array_equal(relative[~free], truth[~free])  # bit for bit
+
+
+def test_relative_false_is_each_trajectory_alone(track):
+    free = np.zeros(track.shape[:2], bool)
+    free[30:45, WRIST] = free[60:64, 0] = True
+    values = np.where(free[..., None], 0.0, track)
+    prior, confidence = _no_prior(values)
+    out = fill_segment(values, free, prior, confidence, TemporalSettings(relative=False))[0]
+    s = TemporalSettings()
+    for j in (WRIST, 0):
+        alone, _ = smooth_trajectory(values[:, j], free[:, j], prior[:, j], np.zeros(len(values)),
+                                     s.acceleration, s.jerk)
+        np.testing.assert_array_equal(out[:, j], alone)
+
+
+def test_coupling_is_zero_for_a_joint_that_ignores_its_parent():
+    rng = np.random.default_rng(0)
+    t = np.arange(200.0)
+    ref = np.zeros((200, 2, 2))
+    ref[:, 1, 0] = 5 * np.sin(t / 3)  # the parent of joint 1 shakes
+    values = np.zeros((200, 2, 2))
+    values[:, 1] = rng.normal(scale=0.01, size=(200, 2)) + 0.1 * t[:, None]  # joint 1 does not
+    free = np.zeros((200, 2), bool)
+    free[50:60, 1] = True
+    beta = coupling(values, free, ref)
+    assert beta[0] == 0.0 and beta[1] < 0.01  # joint 0: nothing free
+    values[:, 1] += 0.7 * ref[:, 1]
+    assert abs(coupling(values, free, ref)[1] - 0.7) < 0.01
+
+
+def test_reference_of_a_joint_never_anchored_is_zero():
+    filled = np.ones((5, 14, 2))
+    filled[:, 3] = np.nan  # the right elbow: nothing anchors it
+    ref = reference_trajectories(filled)
+    assert (ref[:, 4] == 0).all() and (ref[:, 3] == 1).all()  # the wrist's parent is 3
 
 
 # -- recover(frames=...) ---------------------------------------------------------------

@@ -1,0 +1,58 @@
+"""Relative smoothing (issue 23), measured on the video protocols' validation split.
+
+    python dictionaries/probe_relative.py --sources bandai,cmu --out /tmp/relative.json
+
+The temporal model with defaults (``TemporalSettings.relative`` True: each
+joint smoothed relative to its parent's trajectory) against the same model
+with every trajectory smoothed on its own (``relative=False``, the model
+before), beside the gap fillers, on the sequences of
+``benchmarks/video_protocols.py --splits validation`` (the same seeded
+sequences, masks and scored joint-frames; one clip per call, defaults, so
+each clip adapts on what it offers). Validation only: the test split is
+scored by ``benchmarks/video_protocols.py`` once the choice is made. Nothing
+from Bandai-Namco is written but the scores. Results: dictionaries/README.md,
+"Relative smoothing".
+"""
+import argparse
+import functools
+import json
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+from benchmarks.video_protocols import DICTIONARY, sequences  # noqa: E402
+from sparseedm.dictionary import load_dictionary  # noqa: E402
+from sparseedm.temporal.evaluation import evaluate_video  # noqa: E402
+from sparseedm.temporal.model import TemporalSettings  # noqa: E402
+from sparseedm.temporal.recover import recover_track  # noqa: E402
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sources", default="bandai,cmu", type=lambda s: s.split(","))
+    ap.add_argument("--max-sequences", type=int, default=30)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--out", required=True)
+    args = ap.parse_args(argv)
+    out = {"split": "validation", "max_sequences": args.max_sequences, "runs": []}
+    for source in args.sources:
+        seqs = sequences(source, "validation", args.max_sequences, args.seed)
+        dictionary = load_dictionary(DICTIONARY[source])
+        methods = ["linear", "cubic", "akima", "pca",
+                   ("temporal", functools.partial(recover_track, dictionary=dictionary)),
+                   ("temporal, relative=False", functools.partial(
+                       recover_track, dictionary=dictionary,
+                       settings=TemporalSettings(relative=False)))]
+        for protocol in ("gaps", "self-occlusion"):
+            report = evaluate_video(seqs, methods, protocol, random_state=args.seed,
+                                    dictionary=dictionary)
+            print(f"\n{source} validation {protocol}\n{report.table()}", flush=True)
+            out["runs"].append({"source": source, "protocol": protocol,
+                                "settings": report.settings, "seconds": report.seconds,
+                                "rows": report.rows})
+            Path(args.out).write_text(json.dumps(out, indent=1) + "\n")
+
+
+if __name__ == "__main__":
+    main()
