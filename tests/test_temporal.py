@@ -119,6 +119,16 @@ def test_relative_smoothing_follows_the_body_between_observations(track):
     np.testing.assert_array_equal(relative[~free], truth[~free])  # bit for bit
 
 
+def test_free_frames_may_hold_nan(track):
+    free = np.zeros(track.shape[:2], bool)
+    free[30:45, WRIST] = free[60:64, 0] = True
+    zeros = np.where(free[..., None], 0.0, track)
+    prior, confidence = _no_prior(zeros)
+    want = fill_segment(zeros, free, prior, confidence)[0]
+    got = fill_segment(np.where(free[..., None], np.nan, track), free, prior, confidence)[0]
+    np.testing.assert_array_equal(got, want)
+
+
 def test_relative_false_is_each_trajectory_alone(track):
     free = np.zeros(track.shape[:2], bool)
     free[30:45, WRIST] = free[60:64, 0] = True

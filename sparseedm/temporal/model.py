@@ -249,10 +249,12 @@ def coupling(values, free, reference):
     [1.0]
     """
     seen = ~free[:-2] & ~free[1:-1] & ~free[2:]
-    d2x = values[:-2] - 2 * values[1:-1] + values[2:]
-    d2r = reference[:-2] - 2 * reference[1:-1] + reference[2:]
-    cross = np.einsum("tnk,tnk,tn->n", d2x, d2r, seen)
-    power = np.einsum("tnk,tnk,tn->n", d2r, d2r, seen)
+    with np.errstate(invalid="ignore"):  # free frames may hold anything, NaN too
+        d2x = np.where(seen[..., None], values[:-2] - 2 * values[1:-1] + values[2:], 0.0)
+        d2r = np.where(seen[..., None], reference[:-2] - 2 * reference[1:-1] + reference[2:],
+                       0.0)
+    cross = np.einsum("tnk,tnk->n", d2x, d2r)
+    power = np.einsum("tnk,tnk->n", d2r, d2r)
     beta = np.divide(cross, power, out=np.zeros_like(power), where=power > 0)
     return np.where((seen.sum(axis=0) >= 3) & free.any(axis=0), np.clip(beta, 0.0, 1.0), 0.0)
 
