@@ -8,7 +8,8 @@ import sparseedm
 from sparseedm.cameras import project, sample_cameras
 from sparseedm.exceptions import ParameterError
 from sparseedm.temporal.model import (TemporalSettings, coupling, fill_segment, needs_prior,
-                                      prior_frames, reference_trajectories)
+                                      observation_weight, prior_frames,
+                                      reference_trajectories)
 from sparseedm.temporal.recover import SOURCES, TemporalResult, recover_temporal, recover_track
 from sparseedm.temporal.smoothing import smooth_trajectory
 from sparseedm.temporal.tracks import distance_to_observed, split_tracks
@@ -127,6 +128,38 @@ def test_free_frames_may_hold_nan(track):
     want = fill_segment(zeros, free, prior, confidence)[0]
     got = fill_segment(np.where(free[..., None], np.nan, track), free, prior, confidence)[0]
     np.testing.assert_array_equal(got, want)
+
+
+def _gappy(track):
+    free = np.zeros(track.shape[:2], bool)
+    for start in range(20, 220, 40):
+        free[start:start + 12, WRIST] = True
+        free[start + 15:start + 30, 12] = True
+    return free
+
+
+def test_clean_observations_stay_exact_anchors(track):
+    free = _gappy(track)
+    values = np.where(free[..., None], 0.0, track)
+    prior, confidence = _no_prior(values)
+    assert observation_weight(values, free) is None
+    out = fill_segment(values, free, prior, confidence)[0]
+    exact = fill_segment(values, free, prior, confidence, TemporalSettings(denoise=False))[0]
+    np.testing.assert_array_equal(out, exact)
+
+
+def test_noisy_observations_do_not_bend_the_gaps(track):
+    free = _gappy(track)
+    rng = np.random.default_rng(0)
+    noisy = track + rng.normal(scale=0.01 * _height(track), size=track.shape)
+    values = np.where(free[..., None], 0.0, noisy)
+    prior, confidence = _no_prior(values)
+    assert observation_weight(values, free) is not None
+    out = fill_segment(values, free, prior, confidence)[0]
+    exact = fill_segment(values, free, prior, confidence, TemporalSettings(denoise=False))[0]
+    ours, anchored = _error(out, track, free), _error(exact, track, free)
+    assert ours < 0.6 * anchored, (ours, anchored)
+    np.testing.assert_array_equal(out[~free], noisy[~free])  # observed: as given
 
 
 def test_relative_false_is_each_trajectory_alone(track):
