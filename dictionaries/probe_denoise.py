@@ -15,20 +15,15 @@ One clip per call with defaults (each clip adapts). Validation only. Nothing
 from Bandai-Namco is written but the scores. Results: dictionaries/README.md,
 "Noisy observations".
 """
-import argparse
 import functools
 import hashlib
-import json
 import sys
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-from benchmarks.video_protocols import DICTIONARY, sequences  # noqa: E402
-from sparseedm.dictionary import load_dictionary  # noqa: E402
-from sparseedm.temporal.evaluation import evaluate_video  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from probe_relative import parser, run  # noqa: E402
 from sparseedm.temporal.fillers import FILLERS  # noqa: E402
 from sparseedm.temporal.model import TemporalSettings  # noqa: E402
 from sparseedm.temporal.recover import recover_track  # noqa: E402
@@ -50,31 +45,19 @@ def noisy(fill, level):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--sources", default="bandai,cmu", type=lambda s: s.split(","))
+    ap = parser(__doc__)
     ap.add_argument("--noise", type=float, default=0.01)
-    ap.add_argument("--max-sequences", type=int, default=30)
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--out", required=True)
     args = ap.parse_args(argv)
-    out = {"split": "validation", "noise": args.noise, "runs": []}
-    for source in args.sources:
-        seqs = sequences(source, "validation", args.max_sequences, args.seed)
-        dictionary = load_dictionary(DICTIONARY[source])
+
+    def methods(dictionary):
         fills = {k: FILLERS[k] for k in ("linear", "cubic", "akima", "pca")}
         fills["temporal"] = functools.partial(recover_track, dictionary=dictionary)
         fills["temporal, denoise=False"] = functools.partial(
             recover_track, dictionary=dictionary, settings=TemporalSettings(denoise=False))
-        for protocol in ("gaps", "self-occlusion"):
-            methods = [(name, noisy(fill, args.noise)) for name, fill in fills.items()]
-            report = evaluate_video(seqs, methods, protocol, random_state=args.seed,
-                                    dictionary=dictionary)
-            print(f"\n{source} validation {protocol}, noise {args.noise}\n{report.table()}",
-                  flush=True)
-            out["runs"].append({"source": source, "protocol": protocol,
-                                "settings": report.settings, "seconds": report.seconds,
-                                "rows": report.rows})
-            Path(args.out).write_text(json.dumps(out, indent=1) + "\n")
+        return [(name, noisy(fill, args.noise)) for name, fill in fills.items()]
+
+    run(args, methods, {"split": "validation", "noise": args.noise, "runs": []},
+        label=f", noise {args.noise}")
 
 
 if __name__ == "__main__":

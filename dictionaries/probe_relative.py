@@ -28,30 +28,45 @@ from sparseedm.temporal.model import TemporalSettings  # noqa: E402
 from sparseedm.temporal.recover import recover_track  # noqa: E402
 
 
-def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def parser(doc):
+    """The probes' command line: --sources, --max-sequences, --seed, --out."""
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
     ap.add_argument("--sources", default="bandai,cmu", type=lambda s: s.split(","))
     ap.add_argument("--max-sequences", type=int, default=30)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", required=True)
-    args = ap.parse_args(argv)
-    out = {"split": "validation", "max_sequences": args.max_sequences, "runs": []}
+    return ap
+
+
+def run(args, methods_for, out, label=""):
+    """Score ``methods_for(dictionary)`` on each source's validation sequences
+    under both protocols; the runs go into `out`, written after each."""
     for source in args.sources:
         seqs = sequences(source, "validation", args.max_sequences, args.seed)
         dictionary = load_dictionary(DICTIONARY[source])
-        methods = ["linear", "cubic", "akima", "pca",
-                   ("temporal", functools.partial(recover_track, dictionary=dictionary)),
-                   ("temporal, relative=False", functools.partial(
-                       recover_track, dictionary=dictionary,
-                       settings=TemporalSettings(relative=False)))]
+        methods = methods_for(dictionary)
         for protocol in ("gaps", "self-occlusion"):
             report = evaluate_video(seqs, methods, protocol, random_state=args.seed,
                                     dictionary=dictionary)
-            print(f"\n{source} validation {protocol}\n{report.table()}", flush=True)
+            print(f"\n{source} validation {protocol}{label}\n{report.table()}", flush=True)
             out["runs"].append({"source": source, "protocol": protocol,
                                 "settings": report.settings, "seconds": report.seconds,
                                 "rows": report.rows})
             Path(args.out).write_text(json.dumps(out, indent=1) + "\n")
+
+
+def methods(dictionary):
+    """The gap fillers and the temporal model with and without relative smoothing."""
+    return ["linear", "cubic", "akima", "pca",
+            ("temporal", functools.partial(recover_track, dictionary=dictionary)),
+            ("temporal, relative=False", functools.partial(
+                recover_track, dictionary=dictionary, settings=TemporalSettings(relative=False)))]
+
+
+def main(argv=None):
+    args = parser(__doc__).parse_args(argv)
+    run(args, methods, {"split": "validation", "max_sequences": args.max_sequences,
+                        "runs": []})
 
 
 if __name__ == "__main__":
