@@ -105,12 +105,26 @@ def _no_prior(values):
     return np.full_like(values, np.nan), np.zeros(len(values))
 
 
+def _gappy(track, wrist=12, knee=15):
+    """Gaps every 40 frames: `wrist` frames of the right wrist, then from 15
+    frames on `knee` frames of the left knee."""
+    free = np.zeros(track.shape[:2], bool)
+    for start in range(20, 220, 40):
+        free[start:start + wrist, WRIST] = True
+        free[start + 15:start + 15 + knee, 12] = True
+    return free
+
+
+def _two_gaps(track):
+    """15 frames of the right wrist, 4 of the head top."""
+    free = np.zeros(track.shape[:2], bool)
+    free[30:45, WRIST] = free[60:64, 0] = True
+    return free
+
+
 def test_relative_smoothing_follows_the_body_between_observations(track):
     truth = _shaken(track)
-    free = np.zeros(truth.shape[:2], bool)
-    for start in range(20, 220, 40):
-        free[start:start + 10, WRIST] = True
-        free[start + 15:start + 25, 12] = True
+    free = _gappy(truth, wrist=10, knee=10)
     values = np.where(free[..., None], 0.0, truth)
     prior, confidence = _no_prior(values)
     alone = fill_segment(values, free, prior, confidence, TemporalSettings(relative=False))[0]
@@ -121,21 +135,12 @@ def test_relative_smoothing_follows_the_body_between_observations(track):
 
 
 def test_free_frames_may_hold_nan(track):
-    free = np.zeros(track.shape[:2], bool)
-    free[30:45, WRIST] = free[60:64, 0] = True
+    free = _two_gaps(track)
     zeros = np.where(free[..., None], 0.0, track)
     prior, confidence = _no_prior(zeros)
     want = fill_segment(zeros, free, prior, confidence)[0]
     got = fill_segment(np.where(free[..., None], np.nan, track), free, prior, confidence)[0]
     np.testing.assert_array_equal(got, want)
-
-
-def _gappy(track):
-    free = np.zeros(track.shape[:2], bool)
-    for start in range(20, 220, 40):
-        free[start:start + 12, WRIST] = True
-        free[start + 15:start + 30, 12] = True
-    return free
 
 
 def test_clean_observations_stay_exact_anchors(track):
@@ -163,8 +168,7 @@ def test_noisy_observations_do_not_bend_the_gaps(track):
 
 
 def test_relative_false_is_each_trajectory_alone(track):
-    free = np.zeros(track.shape[:2], bool)
-    free[30:45, WRIST] = free[60:64, 0] = True
+    free = _two_gaps(track)
     values = np.where(free[..., None], 0.0, track)
     prior, confidence = _no_prior(values)
     out = fill_segment(values, free, prior, confidence, TemporalSettings(relative=False))[0]

@@ -278,11 +278,10 @@ def coupling(values, free, reference):
     >>> coupling(values, free, ref).round(6).tolist()
     [1.0]
     """
-    seen = ~free[:-2] & ~free[1:-1] & ~free[2:]
+    seen = _observed_runs(free, 3)
     with np.errstate(invalid="ignore"):  # free frames may hold anything, NaN too
-        d2x = np.where(seen[..., None], values[:-2] - 2 * values[1:-1] + values[2:], 0.0)
-        d2r = np.where(seen[..., None], reference[:-2] - 2 * reference[1:-1] + reference[2:],
-                       0.0)
+        d2x = np.where(seen[..., None], np.diff(values, n=2, axis=0), 0.0)
+        d2r = np.where(seen[..., None], np.diff(reference, n=2, axis=0), 0.0)
     cross = np.einsum("tnk,tnk->n", d2x, d2r)
     power = np.einsum("tnk,tnk->n", d2r, d2r)
     beta = np.divide(cross, power, out=np.zeros_like(power), where=power > 0)
@@ -313,13 +312,22 @@ def observation_noise(values, free):
     T = len(values)
     if T < 6:
         return np.nan
-    seen = ~free[:-4] & ~free[1:-3] & ~free[2:-2] & ~free[3:-1] & ~free[4:]
+    seen = _observed_runs(free, 5)
     with np.errstate(invalid="ignore"):
-        d3 = values[3:] - 3 * values[2:-1] + 3 * values[1:-2] - values[:-3]
+        d3 = np.diff(values, n=3, axis=0)
         prod = (d3[:-1] * d3[1:]).sum(axis=-1)[seen]
     if prod.size < 10:
         return np.nan
     return float(np.sqrt(max(0.0, -prod.mean() / 30.0)))
+
+
+def _observed_runs(free, k):
+    """(T - k + 1, N): True at frame t where the joint is observed in frames t .. t+k-1
+    (where its (k-1)-th difference at t reads observations only)."""
+    run = ~free[:len(free) - k + 1]
+    for i in range(1, k):
+        run = run & ~free[i:len(free) - k + 1 + i]
+    return run
 
 
 def body_extent(values, free):
@@ -349,11 +357,13 @@ def observation_weight(values, free, settings=DEFAULT_SETTINGS):
     return (settings.prior_error * extent / noise) ** 2
 
 
-def _smooth_joints(values, free, prior, weight, settings):
-    """Every joint with a free frame through :func:`smooth_trajectory`."""
+def _smooth_joints(values, free, prior, weight, settings, joints=None):
+    """Every joint with a free frame (of `joints`, default all) through
+    :func:`smooth_trajectory`."""
     filled = values.copy()
     residual = np.zeros(values.shape[1])
-    for j in np.flatnonzero(free.any(axis=0)):
+    todo = free.any(axis=0) if joints is None else free.any(axis=0) & joints
+    for j in np.flatnonzero(todo):
         filled[:, j], residual[j] = smooth_trajectory(
             values[:, j], free[:, j], prior[:, j], weight[:, j], settings.acceleration,
             settings.jerk)
@@ -414,8 +424,9 @@ def fill_segment(values, free, prior, confidence, settings=DEFAULT_SETTINGS, par
     if settings.relative and parents is not None:
         ref = reference_trajectories(filled, parents)
         ref *= coupling(values, free, ref)[None, :, None]
+        # only joints with something to fill: the others were needed as references
         second, residual2 = _smooth_joints(values - ref, unknown, data - ref, data_weight,
-                                           settings)
+                                           settings, joints=free.any(axis=0))
         filled, residual = second + ref, np.maximum(residual, residual2)
     return np.where(free[..., None], filled, values), weight, residual
 

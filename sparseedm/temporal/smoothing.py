@@ -24,6 +24,8 @@ instead of extrapolating a line.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from scipy.linalg import LinAlgError, solveh_banded
 
@@ -56,6 +58,17 @@ def _full_bands(T, penalties):
             for a in range(order + 1 - s):
                 bands[s][a:a + T - order] += lam * c[a] * c[a + s]
     return bands
+
+
+@functools.lru_cache(maxsize=16)
+def _bands_for(T, ridge, lam, jerk):
+    """:func:`_full_bands` of one trajectory length and set of penalties, built
+    once: every joint of a segment, in both passes of the temporal model, has
+    the same (read-only)."""
+    bands = _full_bands(T, {1: ridge, 2: lam, 3: jerk})
+    for band in bands:
+        band.flags.writeable = False
+    return tuple(bands)
 
 
 def _reduced_bands(free_idx, bands, weight):
@@ -145,7 +158,7 @@ def smooth_trajectory(values, free, prior, weight, lam, jerk=0.0):
         x[free_idx] = np.nan
         return x, np.nan
     ridge = VELOCITY_RIDGE * lam if anchors < 2 else 0.0
-    bands = _full_bands(len(x), {1: ridge, 2: lam, 3: jerk})
+    bands = _bands_for(len(x), float(ridge), float(lam), float(jerk))
     ab = _reduced_bands(free_idx, bands, w)
     b = w[:, None] * np.where(w[:, None] > 0, prior, 0.0) - _bands_times(bands, x)
     b = b[free_idx]
