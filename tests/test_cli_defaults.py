@@ -36,7 +36,8 @@ CASES = [  # (command line, option dest, API function, its parameter)
         ("ensemble", evaluate, "ensemble")]),
     (["evaluate", "--protocol", "gaps", "--data", "s.npz", "-o", "rep"], [
         ("seed", evaluate_video, "random_state"),
-        ("gap_lengths", evaluate_video, "gap_lengths")]),
+        ("gap_lengths", evaluate_video, "gap_lengths"),
+        ("noise", evaluate_video, "noise")]),
     (["evaluate-lift", "--data", "t.npz", "-o", "rep"], [
         ("max_train", evaluate_lifting, "max_train"),
         ("seed", evaluate_lifting, "seed"),

@@ -126,6 +126,37 @@ def test_self_occlusion_protocol_uses_the_camera():
     assert 0.05 <= m.mean() - 10 / 560 < 0.07  # + 5 % dropouts
 
 
+def test_noise_jitters_what_methods_see_and_errors_stay_against_the_truth():
+    seq = Sequence("w", np.arange(200), np.cumsum(np.ones((200, 14, 2)), axis=0),
+                   np.zeros((200, 14, 3)), sample_cameras(1))
+    seq.poses2d[:, 0, 1] -= 100  # a body height of about 100 px
+    seen = {}
+
+    def truth_fill(poses, missing, frames):  # records what it is given
+        seen.setdefault("given", []).append(np.where(missing[..., None], np.nan, poses))
+        return np.where(missing[..., None], seq.poses2d, poses)
+
+    clean = evaluate_video([seq], ["linear"], "gaps", random_state=3)
+    methods = {"linear": fill_linear, "again": fill_linear, "truth": truth_fill}
+    noisy = evaluate_video([seq], methods, "gaps", random_state=3, noise=0.01)
+    assert noisy.settings["noise"] == 0.01 and clean.settings["noise"] == 0.0
+    # a straight line: exact when clean, off by the jitter when noisy
+    assert clean.row("linear", "gap 10", "inside")["error"] < 1e-9
+    assert 0.3 < noisy.row("linear", "gap 10", "inside")["error"] < 3
+    # every method sees the same noise; the truth scores 0 against the truth
+    for group in noisy.groups:
+        assert noisy.row("again", group)["error"] == noisy.row("linear", group)["error"]
+    assert noisy.row("truth", "overall")["error"] == 0.0
+    jitter = np.concatenate([(g - seq.poses2d)[np.isfinite(g)] for g in seen["given"]])
+    assert 0.8 < jitter.std() / (0.01 * seq.height) < 1.2
+
+
+@pytest.mark.parametrize("noise", [-0.1, 1.5, float("nan"), "x"])
+def test_bad_noise_is_named(noise):
+    with pytest.raises(ParameterError, match="noise must be in"):
+        evaluate_video([walker()], ["linear"], "gaps", noise=noise)
+
+
 def test_bad_arguments_are_named():
     with pytest.raises(ParameterError, match="protocol"):
         evaluate_video([walker()], ["linear"], "occlusion")
@@ -194,6 +225,11 @@ def test_cli_video_protocol(sequence_file, tmp_path, capsys):
     ref = evaluate_video(str(sequence_file), ["linear", "akima"], "gaps", gap_lengths=(3, 10))
     assert json.dumps(saved["rows"]) == json.dumps(ref.rows)
     assert (out / "video.csv").is_file()
+    assert main(argv + ["--noise", "0.01"]) == 0
+    assert "jittered by 0.01 x body height" in capsys.readouterr().out
+    saved = json.loads((out / "video.json").read_text())
+    assert saved["settings"]["noise"] == 0.01
+    assert json.dumps(saved["rows"]) != json.dumps(ref.rows)
 
 
 def test_cli_video_bad_options(sequence_file, tmp_path, capsys):
@@ -206,6 +242,9 @@ def test_cli_video_bad_options(sequence_file, tmp_path, capsys):
     assert "--plot-joint must be one of" in capsys.readouterr().err
     with pytest.raises(SystemExit):
         main(base + ["--protocol", "gaps", "--gap-lengths", "3,x"])
+    with pytest.raises(SystemExit):
+        main(base + ["--protocol", "gaps", "--noise", "2"])
+    assert "--noise: must be a fraction of the body height" in capsys.readouterr().err
 
 
 def test_cli_video_figure(sequence_file, tmp_path):

@@ -30,6 +30,18 @@ def gap_lengths(text):
     return values
 
 
+def noise_level(text):
+    """``"0.01"`` -> 0.01; a fraction of the body height in [0, 1)."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not 0 <= value < 1:  # NaN fails too
+        raise argparse.ArgumentTypeError(
+            f"must be a fraction of the body height in [0, 1), got {text!r}")
+    return value
+
+
 def add_arguments(p):
     g = p.add_argument_group(
         "video protocols", "with --protocol, --data is a sequence file (sparseedm dataset "
@@ -42,6 +54,10 @@ def add_arguments(p):
                    "short dropouts, per run length")
     g.add_argument("--gap-lengths", type=gap_lengths, default=GAP_LENGTHS, metavar="L,L,...",
                    help="gap lengths in frames (default 3,10,30,90)")
+    g.add_argument("--noise", type=noise_level, default=0.0, metavar="FRACTION",
+                   help="add seeded white noise of FRACTION x the body height to every "
+                   "observed coordinate, as a detector's jitter (0.01: a good detector; "
+                   "default 0: motion capture as projected); errors stay against the truth")
     g.add_argument("--plot-joint", default=None, metavar="JOINT",
                    help="also plot this joint's filled trajectory against the truth (needs "
                    "matplotlib), for the first sequence or --plot-clip")
@@ -66,10 +82,12 @@ def run(args, methods):
     sequences = load_sequences(args.data)
     dictionary = load_dictionary(args.dictionary) if "sparse" in methods else None
     report = evaluate_video(sequences, methods, args.protocol, gap_lengths=args.gap_lengths,
-                            random_state=args.seed, dictionary=dictionary)
+                            random_state=args.seed, dictionary=dictionary, noise=args.noise)
     s = report.settings
+    jitter = f", observed joints jittered by {args.noise:g} x body height" if args.noise else ""
     print(f"{args.protocol}: {s['sequences']} sequences, {s['frames']} frames, "
-          f"{s['hidden_fraction']:.1%} of joint-frames hidden; error in % of body height")
+          f"{s['hidden_fraction']:.1%} of joint-frames hidden{jitter}; error in % of body "
+          "height")
     print(report.table())
     print("\nruns touching a clip end:")
     print(report.table("end"))
