@@ -103,7 +103,7 @@ def run(args):
     results = {"machine": {"python": platform.python_version(), "cpus": os.cpu_count(),
                            "load_start": os.getloadavg()},
                "settings": {"max_sequences": args.max_sequences, "seed": args.seed,
-                            "argv": sys.argv[1:]},
+                            "noise": args.noise, "argv": sys.argv[1:]},
                "runs": []}
     for source in args.sources:
         for split in args.splits:
@@ -114,7 +114,7 @@ def run(args):
             for protocol in ("gaps", "self-occlusion"):
                 start = time.perf_counter()
                 report = evaluate_video(seqs, methods, protocol, random_state=args.seed,
-                                        dictionary=dictionary)
+                                        dictionary=dictionary, noise=args.noise)
                 print(f"\n{source} {split} {protocol}: {report.settings['sequences']} "
                       f"sequences, {report.settings['frames']} frames, "
                       f"{report.settings['hidden_fraction']:.1%} hidden "
@@ -195,6 +195,9 @@ def main(argv=None):
                    help="built-in methods (default linear,cubic,akima,pca,sparse); keep one "
                    "of the splines beside a method run alone, so rows are scored on the "
                    "same joint-frames as a full run")
+    p.add_argument("--noise", type=float, default=0.0, metavar="F",
+                   help="observed joints jittered by F x the body height (evaluate_video's "
+                   "noise; default 0)")
     p.add_argument("--method", action="append", default=[], type=extra_method,
                    metavar="NAME=module:function", help="another gap filler to evaluate")
     p.add_argument("--summary", nargs="+", default=None, metavar="JSON",
