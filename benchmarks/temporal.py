@@ -41,10 +41,11 @@ from sparseedm.mocap import load_mocap
 from sparseedm.temporal.fillers import fill_cubic
 
 
-def build_video(data_dir, n_frames, seed=0):
-    """(poses with NaN, missing, tracks, frames) of about `n_frames` rows."""
+def build_video(data_dir, n_frames, seed=0, folder="cmu-mocap"):
+    """(poses with NaN, missing, tracks, frames) of about `n_frames` rows from
+    the motion files under ``data_dir / folder``, in sorted order."""
     rng = np.random.default_rng(seed)
-    files = sorted(find_mocap_files([Path(data_dir) / "cmu-mocap"]))
+    files = sorted(find_mocap_files([Path(data_dir) / folder]))
     chunks, tracks, frames, total = [], [], [], 0
     for i, path in enumerate(files):
         poses3d, info = load_mocap(path, return_info=True)
