@@ -120,9 +120,12 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
     self_training : int, optional
         After an adopted adaptation, this many rounds of transductive
         self-training on the incomplete poses (recover a seeded sample of
-        them, adapt again on the complete plus the filled poses, guarded each
-        round: :func:`sparseedm.adaptation.self_train`); default
-        :data:`sparseedm.adaptation.SELF_TRAINING_ROUNDS`, 0 turns it off.
+        them, adapt again on the complete plus the filled poses; the last
+        round is guarded: :func:`sparseedm.adaptation.self_train`); default
+        :data:`sparseedm.adaptation.SELF_TRAINING_ROUNDS`, 0 turns it off
+        (with frames as well: there the rounds carry one clip's long
+        self-occlusions, dictionaries/README.md, "Self-training in the video
+        path").
     ensemble : int, default 1
         (with adaptation) Adapt this many times (seeds 0, 1, ...), recover
         with each adapted dictionary and return the mean of the filled poses
