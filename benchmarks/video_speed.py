@@ -71,7 +71,7 @@ def _api_row(poses, missing, tracks, frames, adapt, stride):
                 adapted=None if res.adaptation is None else bool(res.adaptation.adapted))
 
 
-def _file_rows(poses, missing, tracks, frames, variants, prefix=""):
+def _file_rows(poses, missing, tracks, frames, variants):
     """`recover_file` on the poses written as a CSV, once per (name, kwargs)."""
     rows = {}
     with tempfile.TemporaryDirectory() as tmp:
@@ -80,8 +80,8 @@ def _file_rows(poses, missing, tracks, frames, variants, prefix=""):
         for name, kw in variants:
             t0 = time.perf_counter()
             s = recover_file(inp, Path(tmp) / "out.csv", **kw)
-            rows[prefix + name] = _row(len(poses), time.perf_counter() - t0,
-                                       adapted=(s["adaptation"] or {}).get("adapted"))
+            rows[name] = _row(len(poses), time.perf_counter() - t0,
+                              adapted=(s["adaptation"] or {}).get("adapted"))
     return rows
 
 

@@ -39,18 +39,19 @@ from sparseedm.dictionary import load_dictionary  # noqa: E402
 from sparseedm.temporal.evaluation import protocol_masks  # noqa: E402
 from sparseedm.temporal.recover import recover_temporal, recover_track  # noqa: E402
 
-ROUNDS = [None, 0, 1]  # None: the default; --rounds replaces all but the default
+#: rounds measured: None is the default; --rounds replaces the others
+ROUNDS = (None, 0, 1)
 
 
 def _name(rounds):
     return "temporal" if rounds is None else f"temporal, self_training={rounds}"
 
 
-def methods(dictionary):
-    """The gap fillers and the temporal model at each of ROUNDS."""
+def methods(dictionary, rounds=ROUNDS):
+    """The gap fillers and the temporal model at each of `rounds`."""
     return ["linear", "cubic", "akima", "pca"] + [
         (_name(r), functools.partial(recover_track, dictionary=dictionary, self_training=r))
-        for r in ROUNDS]
+        for r in rounds]
 
 
 def whole_file(seqs, protocol):
@@ -64,20 +65,20 @@ def whole_file(seqs, protocol):
     return [np.concatenate(x) for x in zip(*parts)]
 
 
-def files(args, out):
-    """Whole-file runs of each source and protocol at each of ROUNDS."""
+def files(args, out, rounds=ROUNDS):
+    """Whole-file runs of each source and protocol at each of `rounds`."""
     for source in args.sources:
         seqs = sequences(source, "validation", 200, args.seed)
         dictionary = load_dictionary(DICTIONARY[source])
         for protocol in ("gaps", "self-occlusion"):
             P, M, T, F, H = whole_file(seqs, protocol)
-            for rounds in ROUNDS:
+            for r in rounds:
                 t0 = time.perf_counter()
                 res = recover_temporal(np.where(M[..., None], np.nan, P), M, tracks=T,
-                                       frames=F, dictionary=dictionary, self_training=rounds)
+                                       frames=F, dictionary=dictionary, self_training=r)
                 err = np.linalg.norm(res.poses - P, axis=-1) / H[:, None] * 100
                 a = res.adaptation
-                row = dict(source=source, protocol=protocol, method=_name(rounds),
+                row = dict(source=source, protocol=protocol, method=_name(r),
                            frames=len(P), sequences=len(seqs),
                            error=round(float(np.nanmean(err[M])), 4),
                            seconds=round(time.perf_counter() - t0, 1),
@@ -94,15 +95,14 @@ def main(argv=None):
     ap.add_argument("--rounds", type=lambda s: [int(r) for r in s.split(",")],
                     help="rounds to set against the default (default: 0,1)")
     args = ap.parse_args(argv)
-    if args.rounds is not None:
-        ROUNDS[1:] = args.rounds
+    rounds = ROUNDS if args.rounds is None else (None, *args.rounds)
     warnings.simplefilter("ignore")
     out = {"split": "validation", "mode": args.mode, "runs": [], "files": []}
     if args.mode == "clips":
         out["max_sequences"] = args.max_sequences
-        run(args, methods, out)
+        run(args, functools.partial(methods, rounds=rounds), out)
     else:
-        files(args, out)
+        files(args, out, rounds)
 
 
 if __name__ == "__main__":

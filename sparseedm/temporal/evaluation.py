@@ -65,7 +65,7 @@ from .protocols import (GAP_LENGTHS, RUN_BINS, dropout_mask, gap_mask, run_bin, 
                         self_occlusion_mask)
 from .sequences import Sequence, load_sequences
 
-__all__ = ["evaluate_video", "VideoReport", "protocol_masks", "observation_noise",
+__all__ = ["evaluate_video", "VideoReport", "protocol_masks", "detector_jitter",
            "resolve_methods", "plot_fill", "PROTOCOLS", "DEFAULT_METHODS"]
 
 PROTOCOLS = ("gaps", "self-occlusion")
@@ -252,20 +252,22 @@ class VideoReport:
                     Path(tmp).write_text(text(), encoding="utf-8")
 
 
-def observation_noise(sequence, level, random_state=0):
+def detector_jitter(sequence, level, random_state=0):
     """Seeded white noise (T, N, 2) of `level` x the body's pixel height.
 
     What :func:`evaluate_video` adds to the observed coordinates with
     ``noise=level`` (a detector's jitter; motion capture projected by a
     camera has none). Seeded by `random_state` and the clip id, so every
-    method, and every protocol condition, sees the same noise.
+    method, and every protocol condition, sees the same noise. (The temporal
+    model's :func:`sparseedm.temporal.model.observation_noise` estimates such
+    noise from a track.)
 
     Examples
     --------
     >>> from sparseedm.cameras import sample_cameras
     >>> p = np.zeros((400, 14, 2)); p[:, 0, 1] = -170.0    # head top 170 px above the ankles
     >>> seq = Sequence("c", np.arange(400), p, np.zeros((400, 14, 3)), sample_cameras(1))
-    >>> e = observation_noise(seq, 0.01)
+    >>> e = detector_jitter(seq, 0.01)
     >>> e.shape, round(float(e.std()), 1)
     ((400, 14, 2), 1.7)
     """
@@ -297,7 +299,7 @@ def evaluate_video(sequences, methods=DEFAULT_METHODS, protocol="gaps", *,
         The ``"sparse"`` method's dictionary (None: the shipped default).
     noise : float, default 0
         Seeded white noise of this times the body's pixel height added to
-        every observed coordinate (:func:`observation_noise`: a detector's
+        every observed coordinate (:func:`detector_jitter`: a detector's
         jitter, the same for every method); errors are still taken against
         the clean truth. 0.01 is a good detector's level.
 
@@ -325,7 +327,7 @@ def evaluate_video(sequences, methods=DEFAULT_METHODS, protocol="gaps", *,
     conditions = []
     for seq in sequences:
         truth, height = seq.poses2d, seq.height
-        observed = truth + observation_noise(seq, noise, random_state) if noise else truth
+        observed = truth + detector_jitter(seq, noise, random_state) if noise else truth
         for condition, missing in protocol_masks(seq, protocol, gap_lengths=gap_lengths,
                                                  random_state=random_state).items():
             conditions.append(condition)
