@@ -76,6 +76,72 @@ def test_guard_keeps_the_base_when_the_adapted_one_is_worse(cmu_poses, small_dic
     assert "not better" in res.reason and "kept the base" in res.line()
 
 
+def test_base_guard_error_beside_the_learning_is_the_one_worked_out_alone(
+        cmu_poses, shifted_dictionary, monkeypatch):
+    """The base dictionary's guard error is worked out in a side thread while the
+    candidate is learned: the same number as the guard's masked_error in this
+    thread, the side thread really used, and the warning filters and BLAS
+    threads as they were."""
+    import threading
+    import warnings
+
+    from threadpoolctl import threadpool_info
+
+    from sparseedm import adaptation
+    from sparseedm._recovery_kernel import compiled_solver
+
+    names = []
+    real = adaptation._guard_error
+
+    def spy(*args):
+        names.append(threading.current_thread().name)
+        return real(*args)
+
+    monkeypatch.setattr(adaptation, "_guard_error", spy)
+    filters, blas = list(warnings.filters), [i["num_threads"] for i in threadpool_info()]
+    res = run_adaptation(shifted_dictionary, cmu_poses, min_poses=50)
+    held = res.pool[holdout_blocks(len(res.pool), 0.2, random_state=0)]
+    alone = masked_error(shifted_dictionary, held, n_patterns=len(held) // 12,
+                         solver=compiled_solver())
+    assert res.err_base == alone and np.isfinite(alone)
+    assert names[0].startswith("sparseedm-guard") and names[1] == "MainThread"
+    assert warnings.filters == filters
+    assert [i["num_threads"] for i in threadpool_info()] == blas
+    assert res.step_seconds["guard"] > 0
+
+
+def test_an_error_while_learning_waits_for_the_guard_thread(cmu_poses, shifted_dictionary,
+                                                            monkeypatch):
+    """A failure in the learning is raised as it is, after the base's side thread
+    has ended, with the warning filters restored."""
+    import threading
+    import warnings
+
+    from sparseedm import adaptation
+
+    def broken(*args, **kwargs):
+        raise MemoryError("planted")
+
+    monkeypatch.setattr(adaptation, "adapt_vectors", broken)
+    filters = list(warnings.filters)
+    with pytest.raises(MemoryError, match="planted"):
+        run_adaptation(shifted_dictionary, cmu_poses, min_poses=50)
+    assert not [t for t in threading.enumerate() if t.name.startswith("sparseedm-guard")]
+    assert warnings.filters == filters
+
+
+def test_max_train_bounds_the_complete_poses_learned_from(cmu_poses, shifted_dictionary):
+    """max_train: a seeded sample of the complete training rows (the guard's
+    held-back poses unchanged); the same sample every time."""
+    full = run_adaptation(shifted_dictionary, cmu_poses, min_poses=50)
+    a = run_adaptation(shifted_dictionary, cmu_poses, min_poses=50, max_train=100)
+    b = run_adaptation(shifted_dictionary, cmu_poses, min_poses=50, max_train=100)
+    assert full.n_used > 100 and a.n_used == 100
+    assert a.n_validation == full.n_validation and a.err_base == full.err_base
+    np.testing.assert_array_equal(a.candidate.components, b.candidate.components)
+    assert not np.array_equal(a.candidate.components, full.candidate.components)
+
+
 def test_adapt_false_reproduces_todays_results_exactly(cmu_poses, small_dictionary):
     poses = cmu_poses.copy()
     missing = random_occlusion(len(poses), 14, "mix", random_state=1)

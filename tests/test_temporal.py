@@ -513,6 +513,33 @@ def test_one_clip_adapts_on_its_complete_and_time_filled_frames(track, small_dic
     assert off.adaptation is None
 
 
+def test_a_clip_that_adapts_solves_on_the_compiled_kernel(track, small_dictionary,
+                                                          monkeypatch):
+    """Once a call has learned (its learning is compiled numba), its guard, its
+    self-training rounds and its per-frame answers take the compiled LARS at any
+    batch size; without adaptation a clip's few per-frame answers keep the numpy
+    homotopy (no compilation waited for). The answers agree to round-off."""
+    from sparseedm.solvers import fast
+
+    sizes = []
+    numpy_path = fast._lars_masked_numpy
+    monkeypatch.setattr(fast, "_lars_masked_numpy",
+                        lambda *a, **k: sizes.append(1) or numpy_path(*a, **k))
+    mask = _few_complete_frames(track)
+    frames = np.arange(len(track))
+    res = recover_temporal(track, mask, frames=frames, dictionary=small_dictionary,
+                           self_training=1)
+    assert res.adaptation.candidate is not None and res.adaptation.self_training
+    assert 0 < res.per_frame_poses < fast.NUMPY_MAX and sizes == []
+    off = recover_temporal(track, mask, frames=frames, dictionary=small_dictionary,
+                           adapt=False)
+    assert len(sizes) == off.per_frame_poses > 0
+    monkeypatch.setattr(fast, "NUMPY_MAX", 0)  # the same rows on the compiled kernel
+    compiled = recover_temporal(track, mask, frames=frames, dictionary=small_dictionary,
+                                adapt=False)
+    np.testing.assert_allclose(compiled.poses, off.poses, atol=1e-6)
+
+
 def test_one_clip_file_adapts_as_the_api_does(tmp_path, track, small_dictionary_path):
     from sparseedm.batch import recover_file
     from sparseedm.keypoints import KeypointSet, write_keypoints

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._recovery_base import RecoveryResult, screen_poses, validate_poses
-from .._recovery_kernel import recover_members
+from .._recovery_kernel import compiled_solver, recover_members
 from ..dictionary import Dictionary, load_dictionary
 from ..edm import pose_to_vector
 from ..ensemble import adapt_members
@@ -296,6 +296,7 @@ def recover_temporal(poses, missing=None, *, tracks=None, frames, dictionary=Non
                                   settings, dict(n_jobs=kwargs.get("n_jobs", 1),
                                                  self_training=self_training))
     need = _plan(layout, poses, mask, usable, settings)
+    kwargs["solver"] = compiled_solver(kwargs.get("solver", "fast"), adaptations)
     per = _per_frame(poses, mask, need, members, settings, kwargs)
     filled, weight, residual = _fill_segments(layout, poses, mask, usable, per, settings)
     res = _assemble(poses, mask, refusal, why, layout, per, filled, weight, residual,
