@@ -22,9 +22,10 @@ run. The CMU clips are ones the default dictionary learned from, so there
 adaptation is rejected by its guard; users' poses are not. When the data
 folder has them, the same file built from another lab's clips
 (:data:`OTHER_LAB`, ``other_lab`` in the JSON) is timed too: with defaults,
-with ``--self-training 1`` and ``0``, and the temporal path with
-``adapt=False`` (its ratios are against that row). Speed is measured here,
-never in tests.
+with ``--self-training 1`` and ``0``, the temporal path with
+``adapt=False`` (its ratios are against that row), and its first 12 tracks
+given one clip per call, with defaults and with ``adapt=False`` (the way most
+users meet the video path). Speed is measured here, never in tests.
 """
 
 from __future__ import annotations
@@ -85,6 +86,21 @@ def _file_rows(poses, missing, tracks, frames, variants):
     return rows
 
 
+def _clip_rows(poses, missing, tracks, frames, n_clips=12):
+    """Users with one video at a time: the first `n_clips` tracks, one
+    :func:`recover_temporal` call each (defaults, then ``adapt=False``)."""
+    rows = {}
+    picked = [tracks == t for t in list(dict.fromkeys(tracks.tolist()))[:n_clips]]
+    for name, kw in (("api: one clip per call, defaults", {}),
+                     ("api: one clip per call, adapt=False", dict(adapt=False))):
+        t0 = time.perf_counter()
+        for sel in picked:
+            recover_temporal(poses[sel], missing[sel], frames=frames[sel], **kw)
+        rows[name] = _row(int(sum(s.sum() for s in picked)), time.perf_counter() - t0,
+                          clips=len(picked))
+    return rows
+
+
 def _other_lab(data_dir, n_frames, stride):
     """The default path on another lab's clips (OTHER_LAB, read from the data
     folder, never written): there adaptation is adopted and self-trains."""
@@ -95,6 +111,7 @@ def _other_lab(data_dir, n_frames, stride):
         ("file: --self-training 0", dict(self_training=0))))
     rows[f"api: temporal, adapt=False, prior_stride={stride}"] = _api_row(
         poses, missing, tracks, frames, False, stride)
+    rows.update(_clip_rows(poses, missing, tracks, frames))
     off = rows[f"api: temporal, adapt=False, prior_stride={stride}"]["seconds"]
     for r in rows.values():
         r["speed_vs_temporal_adapt_off"] = round(off / r["seconds"], 2)

@@ -3,6 +3,7 @@
     python dictionaries/probe_temporal_self_training.py clips --out /tmp/st-clips.json
     python dictionaries/probe_temporal_self_training.py files --out /tmp/st-files.json
     python dictionaries/probe_temporal_self_training.py clips --rounds 5 --out /tmp/st5.json
+    python dictionaries/probe_temporal_self_training.py files --rounds "" --caps 1000:all,1000:2000 --out /tmp/st-caps.json
 
 ``recover_temporal`` adapts on what the poses offer (complete frames and
 frames time fills from close by) and then, by default, self-trains
@@ -10,7 +11,8 @@ frames time fills from close by) and then, by default, self-trains
 per-frame path) on the per-frame recovery of the rest. On a 10,000-frame file
 of another lab's clips that is 20 of its 28 seconds. Here the temporal
 model with the default rounds is set against ``self_training=0`` and 1
-(``--rounds``: other counts):
+(``--rounds``: other counts; ``--caps``: the default rounds with fewer
+incomplete and complete poses per round, files only):
 
 * ``clips``: one clip per call with defaults, beside the gap fillers
   (:func:`probe_relative.run`: the same seeded sequences, masks and scored
@@ -35,6 +37,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from probe_relative import parser, run  # noqa: E402
 from benchmarks.video_protocols import DICTIONARY, sequences  # noqa: E402
+from sparseedm import adaptation  # noqa: E402
 from sparseedm.dictionary import load_dictionary  # noqa: E402
 from sparseedm.temporal.evaluation import protocol_masks  # noqa: E402
 from sparseedm.temporal.recover import recover_temporal, recover_track  # noqa: E402
@@ -65,20 +68,38 @@ def whole_file(seqs, protocol):
     return [np.concatenate(x) for x in zip(*parts)]
 
 
-def files(args, out, rounds=ROUNDS):
-    """Whole-file runs of each source and protocol at each of `rounds`."""
+def _caps(text):
+    """``filled:complete`` pairs, comma-separated (``all``: no bound)."""
+    return [tuple(None if v == "all" else int(v) for v in pair.split(":"))
+            for pair in text.split(",")]
+
+
+def _variants(rounds, caps):
+    """(rounds, (filled, complete) bounds of a round or None for the defaults)."""
+    return [(r, None) for r in rounds] + [(None, c) for c in caps or ()]
+
+
+def files(args, out, rounds=ROUNDS, caps=None):
+    """Whole-file runs of each source and protocol at each of `rounds`, and with
+    the defaults under each of `caps` (a round's filled and complete poses)."""
+    default = (adaptation.SELF_TRAINING_MAX_POSES, adaptation.SELF_TRAINING_MAX_COMPLETE)
     for source in args.sources:
         seqs = sequences(source, "validation", 200, args.seed)
         dictionary = load_dictionary(DICTIONARY[source])
         for protocol in ("gaps", "self-occlusion"):
             P, M, T, F, H = whole_file(seqs, protocol)
-            for r in rounds:
+            for r, cap in _variants(rounds, caps):
+                (adaptation.SELF_TRAINING_MAX_POSES,
+                 adaptation.SELF_TRAINING_MAX_COMPLETE) = cap or default
                 t0 = time.perf_counter()
                 res = recover_temporal(np.where(M[..., None], np.nan, P), M, tracks=T,
                                        frames=F, dictionary=dictionary, self_training=r)
+                (adaptation.SELF_TRAINING_MAX_POSES,
+                 adaptation.SELF_TRAINING_MAX_COMPLETE) = default
                 err = np.linalg.norm(res.poses - P, axis=-1) / H[:, None] * 100
                 a = res.adaptation
                 row = dict(source=source, protocol=protocol, method=_name(r),
+                           caps=list(cap or default),
                            frames=len(P), sequences=len(seqs),
                            error=round(float(np.nanmean(err[M])), 4),
                            seconds=round(time.perf_counter() - t0, 1),
@@ -92,8 +113,11 @@ def files(args, out, rounds=ROUNDS):
 def main(argv=None):
     ap = parser(__doc__)
     ap.add_argument("mode", choices=("clips", "files"))
-    ap.add_argument("--rounds", type=lambda s: [int(r) for r in s.split(",")],
+    ap.add_argument("--rounds", type=lambda s: [int(r) for r in s.split(",") if r],
                     help="rounds to set against the default (default: 0,1)")
+    ap.add_argument("--caps", type=_caps,
+                    help="files: the defaults with a round's filled:complete poses "
+                         "bounded, e.g. 1000:all,1000:2000")
     args = ap.parse_args(argv)
     rounds = ROUNDS if args.rounds is None else (None, *args.rounds)
     warnings.simplefilter("ignore")
@@ -102,7 +126,7 @@ def main(argv=None):
         out["max_sequences"] = args.max_sequences
         run(args, functools.partial(methods, rounds=rounds), out)
     else:
-        files(args, out, rounds)
+        files(args, out, rounds, args.caps)
 
 
 if __name__ == "__main__":
