@@ -96,6 +96,7 @@ from .keypoints import (N_JOINTS, EXTENSIONS, finish_missing, format_of, load_si
                         npy_confidence, read_keypoints, write_keypoints)
 from .keypoints import output_format as keypoint_output_format
 from ._recovery_base import OK_STATUSES, combine, recovery_summary
+from ._recovery_kernel import compiled_solver
 from .normalize import REPRESENTATIONS
 from .recovery import STATUSES, check_options_apply, recover
 from .skeleton import JOINT_NAMES
@@ -352,6 +353,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
     if not isinstance(dictionary, Dictionary):
         dictionary = load_dictionary(dictionary)
     check_gram_memory(dictionary)
+    requested = solver
     try:
         solver = get_solver(solver)  # one instance: its per-pattern caches serve every chunk
     except ImportError as exc:
@@ -380,6 +382,10 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
             dictionary = members[0]
         else:
             members, adaptation = [dictionary], None
+        if isinstance(requested, str) and adaptation is not None:
+            # a run that adapted solves on the compiled kernel at any chunk
+            # size, as recover() does (compiled_solver)
+            solver = get_solver(compiled_solver(requested, [adaptation]))
         recovery = _Recovery(members, alpha, representation, solver, n_jobs, backend,
                              scheduler, method, model,
                              (source.tracks, source.frames) if in_time else None)

@@ -557,6 +557,9 @@ def test_one_clip_file_adapts_as_the_api_does(tmp_path, track, small_dictionary_
     per = recover_file(path, tmp_path / "per.csv", dictionary=small_dictionary_path,
                        self_training=0, temporal=False)
     assert per["adaptation"]["poses_given"] == len(track)  # the per-frame rule, unchanged
+    # the same answers as the API's (both solve on the compiled kernel once adapted)
+    from sparseedm.keypoints import read_keypoints
+    np.testing.assert_array_equal(read_keypoints(tmp_path / "out.csv").poses, api.poses)
 
 
 @pytest.mark.parametrize("interleaved", [False, True])
