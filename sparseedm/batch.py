@@ -382,10 +382,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
             dictionary = members[0]
         else:
             members, adaptation = [dictionary], None
-        if isinstance(requested, str) and adaptation is not None:
-            # a run that adapted solves on the compiled kernel at any chunk
-            # size, as recover() does (compiled_solver)
-            solver = get_solver(compiled_solver(requested, [adaptation]))
+        solver = _solver_after(requested, solver, adaptation)
         recovery = _Recovery(members, alpha, representation, solver, n_jobs, backend,
                              scheduler, method, model,
                              (source.tracks, source.frames) if in_time else None)
@@ -431,6 +428,15 @@ def _check_run_paths(outputs, in_path, dictionary, adapt, model, save_dictionary
         check_paths(inputs, [("output", out_path / "frame.json")] + written[1:])
     else:
         check_paths(inputs, written)
+
+
+def _solver_after(requested, solver, adaptation):
+    """The run's solver once it has adapted: the fast one on its compiled kernel
+    at any chunk size, as recover() does (:func:`compiled_solver`), when the
+    solver was asked for by name (an instance the user gave is left as it is)."""
+    if isinstance(requested, str) and adaptation is not None:
+        return get_solver(compiled_solver(requested, [adaptation]))
+    return solver
 
 
 def _adapt(source, dictionary, adapt, chunk_size, threshold, n_jobs, self_training,
