@@ -24,6 +24,7 @@ incomplete and complete poses per round, files only):
 Validation only; nothing from Bandai-Namco is written but the scores.
 Results: dictionaries/README.md, "Self-training in the video path".
 """
+import contextlib
 import functools
 import json
 import sys
@@ -79,6 +80,18 @@ def _variants(rounds, caps):
     return [(r, None) for r in rounds] + [(None, c) for c in caps or ()]
 
 
+@contextlib.contextmanager
+def _round_caps(cap):
+    """A round's (filled, complete) bounds set for one call (recover_temporal
+    takes no such argument), restored whatever happens."""
+    saved = adaptation.SELF_TRAINING_MAX_POSES, adaptation.SELF_TRAINING_MAX_COMPLETE
+    adaptation.SELF_TRAINING_MAX_POSES, adaptation.SELF_TRAINING_MAX_COMPLETE = cap
+    try:
+        yield
+    finally:
+        adaptation.SELF_TRAINING_MAX_POSES, adaptation.SELF_TRAINING_MAX_COMPLETE = saved
+
+
 def files(args, out, rounds=ROUNDS, caps=None):
     """Whole-file runs of each source and protocol at each of `rounds`, and with
     the defaults under each of `caps` (a round's filled and complete poses)."""
@@ -89,13 +102,10 @@ def files(args, out, rounds=ROUNDS, caps=None):
         for protocol in ("gaps", "self-occlusion"):
             P, M, T, F, H = whole_file(seqs, protocol)
             for r, cap in _variants(rounds, caps):
-                (adaptation.SELF_TRAINING_MAX_POSES,
-                 adaptation.SELF_TRAINING_MAX_COMPLETE) = cap or default
                 t0 = time.perf_counter()
-                res = recover_temporal(np.where(M[..., None], np.nan, P), M, tracks=T,
-                                       frames=F, dictionary=dictionary, self_training=r)
-                (adaptation.SELF_TRAINING_MAX_POSES,
-                 adaptation.SELF_TRAINING_MAX_COMPLETE) = default
+                with _round_caps(cap or default):
+                    res = recover_temporal(np.where(M[..., None], np.nan, P), M, tracks=T,
+                                           frames=F, dictionary=dictionary, self_training=r)
                 err = np.linalg.norm(res.poses - P, axis=-1) / H[:, None] * 100
                 a = res.adaptation
                 row = dict(source=source, protocol=protocol, method=_name(r),

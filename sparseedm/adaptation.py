@@ -665,7 +665,8 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
                     "needed", adapted=False, n_complete=pool.n_complete, dropped=pool.dropped)
     val = holdout_blocks(len(pool.poses), validation_fraction if guard else 0.0, random_state)
     held = pool.poses[val]
-    train, n_extra = _with_extra(_bounded(pool.poses[~val], max_train, random_state),
+    train = pool.poses[~val]
+    train, n_extra = _with_extra(train[_sample_rows(len(train), max_train, random_state, 37)],
                                  extra, max_poses, random_state)
     alpha_train = adaptation_alpha(dictionary) if alpha is None else alpha
     if reuse is None:  # self_train's rounds say their own line
@@ -721,11 +722,8 @@ def _filtered_pool(dictionary, poses, missing, *, filter, min_poses, max_poses, 
     if complete.shape[1] != dictionary.n_joints:
         raise PoseError(f"adaptation poses have {complete.shape[1]} joints but the "
                         f"dictionary is for {dictionary.n_joints}")
-    n_unchecked = 0
-    if len(complete) > max_poses:  # a seeded sample, file order kept
-        rng = np.random.default_rng([int(random_state or 0), 17])
-        n_unchecked = len(complete) - max_poses
-        complete = complete[np.sort(rng.choice(len(complete), max_poses, replace=False))]
+    n_unchecked = max(len(complete) - max_poses, 0)
+    complete = complete[_sample_rows(len(complete), max_poses, random_state, 17)]
     t_step = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
@@ -743,12 +741,14 @@ def _filtered_pool(dictionary, poses, missing, *, filter, min_poses, max_poses, 
     return _Pool(good, len(good) + n_unchecked, dropped, n_given)
 
 
-def _bounded(poses, max_train, random_state):
-    """A seeded sample of at most `max_train` of `poses` (order kept; all when None)."""
-    if max_train is None or len(poses) <= max_train:
-        return poses
-    rng = np.random.default_rng([int(random_state or 0), 37])
-    return poses[np.sort(rng.choice(len(poses), int(max_train), replace=False))]
+def _sample_rows(n, max_rows, random_state, stream):
+    """Row indices of a seeded sample of at most `max_rows` of n rows, in their
+    order (all of them when they fit or `max_rows` is None); `stream` keeps
+    each caller's draw its own."""
+    if max_rows is None or n <= max_rows:
+        return np.arange(n)
+    rng = np.random.default_rng([int(random_state or 0), stream])
+    return np.sort(rng.choice(n, int(max_rows), replace=False))
 
 
 def _with_extra(train, extra, max_poses, random_state):
@@ -758,9 +758,7 @@ def _with_extra(train, extra, max_poses, random_state):
         return train, 0
     extra = np.asarray(extra, dtype=float)
     extra = extra[usable_rows(extra)]
-    if len(extra) > max_poses:
-        rng = np.random.default_rng([int(random_state or 0), 23])
-        extra = extra[np.sort(rng.choice(len(extra), max_poses, replace=False))]
+    extra = extra[_sample_rows(len(extra), max_poses, random_state, 23)]
     return np.concatenate([train, extra]), len(extra)
 
 
@@ -890,9 +888,7 @@ def _incomplete_rows(poses, missing, max_poses, random_state):
     poses = np.asarray(poses, dtype=float)
     mask, incomplete = _occluded(poses, missing)
     rows = np.flatnonzero(incomplete)
-    if len(rows) > max_poses:
-        rng = np.random.default_rng([int(random_state or 0), 29])
-        rows = np.sort(rng.choice(rows, max_poses, replace=False))
+    rows = rows[_sample_rows(len(rows), max_poses, random_state, 29)]
     return poses[rows], mask[rows]
 
 
