@@ -298,6 +298,7 @@ def test_bad_frames_and_tracks_per_row(track, small_dictionary):
     assert "only frame" in res.reason[39]
     for i in (3, 4, 5, 6, 8, 39):
         assert res.source[i, WRIST] == "per_frame"
+        assert res.reason[i].startswith("per frame because "), res.reason[i]
     assert set(res.source[9:38, WRIST]) == {"temporal"}
     assert set(np.unique(res.source)) <= set(SOURCES)
 

@@ -336,8 +336,9 @@ def _assemble(poses, mask, refusal, why, layout, per, filled, weight, residual, 
     source[temporal[:, None] & mask] = "temporal"
     per_ok = alone & np.isin(status, ("recovered", "inaccurate"))
     source[per_ok[:, None] & mask] = "per_frame"
-    reason[alone & (status != "")] = [f"{r}; per frame because {a}" for r, a in zip(
-        reason[alone & (status != "")], layout.reason[alone & (status != "")])]
+    said = alone & (status != "")  # a recovered row's own reason is blank
+    reason[said] = [f"{r}; per frame because {a}" if r else f"per frame because {a}"
+                    for r, a in zip(reason[said], layout.reason[said])]
     still = status == ""  # alone rows the per-frame model did not see: refused by screening
     status[still], reason[still] = refusal[still], why[still]
     _describe_filled(result, temporal | complete, out)
