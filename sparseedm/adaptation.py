@@ -87,6 +87,7 @@ from .learning import (OnlineDictionaryLearning, complete_pose_vectors, iter_bat
 from .metrics import err_ave, occlusion_masks
 from .normalize import normalize, usable_rows
 from .skeleton import SKELETON_14
+from .solvers.gram import gram_matrix
 
 __all__ = ["adapt", "run_adaptation", "adapt_vectors", "AdaptationResult",
            "usable_rows", "duplicate_rows", "reconstruction_error", "outlier_rows",
@@ -398,8 +399,12 @@ def adapt_vectors(components, X, alpha, *, passes=DEFAULT_PASSES, stats=DEFAULT_
         if not 0 < forget <= 1:
             raise SparseEDMError(f"forget must be in (0, 1], got {forget!r}")
         est._beta = lambda: float(forget)
+    # the first step codes on the base atoms: their Gram is the process's
+    # (the filter, the guard and earlier learnings from this base formed it)
+    first = [gram_matrix(est.components_.T)]
     if reinit and stats == "fresh":
-        est._step(X)  # every atom's statistics from all of X; unused atoms re-drawn from X
+        # every atom's statistics from all of X; unused atoms re-drawn from X
+        est._step(X, gram=first.pop())
     n_replay = int(round(replay * batch_size))
     if n_replay:
         if replay_vectors is None:
@@ -410,7 +415,7 @@ def adapt_vectors(components, X, alpha, *, passes=DEFAULT_PASSES, stats=DEFAULT_
         Xb = X[np.sort(batch)]
         if n_replay:
             Xb = np.vstack([Xb, replay_vectors[rng.integers(0, len(replay_vectors), n_replay)]])
-        est._step(Xb)
+        est._step(Xb, gram=first.pop() if first else None)
     out = est.components_
     return out / np.linalg.norm(out, axis=1, keepdims=True)
 

@@ -50,6 +50,7 @@ from .edm import pose_to_vector
 from .normalize import normalize, usable_rows
 from .skeleton import JOINT_NAMES
 from .solvers.fast import lars_lasso_gram
+from .solvers.gram import gram_matrix
 
 __all__ = [
     "sparse_code",
@@ -71,14 +72,15 @@ def sparse_code(X, components, alpha, *, positive=False, gram=None):
     alpha : float > 0
     positive : bool, default False
     gram : ndarray, shape (n_components, n_components), optional
-        ``components @ components.T`` if already known.
+        ``components @ components.T`` if already known; by default the
+        process's (:func:`sparseedm.solvers.gram.gram_matrix`).
 
     Returns
     -------
     code : ndarray, shape (n_samples, n_components)
     """
     if gram is None:
-        gram = components @ components.T
+        gram = gram_matrix(components.T)
     code, _ = lars_lasso_gram(gram, X @ components.T, alpha, positive=positive,
                               rank=components.shape[1])
     return code
@@ -154,13 +156,16 @@ def update_dictionary(components, A, B, X=None, random_state=None):
 
 
 def minibatch_step(X, components, A, B, alpha, *, positive=False, beta=1.0,
-                   random_state=None):
+                   random_state=None, gram=None):
     """Code one mini-batch, update A and B, then the atoms (all in place).
 
-    Returns the batch's mean lasso objective at the codes (before the atom
-    update), the quantity whose running average monitors convergence.
+    `gram`: ``components @ components.T`` when the caller has it (a learning
+    continued from a known dictionary, on its first step). Returns the
+    batch's mean lasso objective at the codes (before the atom update), the
+    quantity whose running average monitors convergence.
     """
-    gram = components @ components.T
+    if gram is None:
+        gram = components @ components.T
     code = sparse_code(X, components, alpha, positive=positive, gram=gram)
     R = X - code @ components
     objective = 0.5 * np.einsum("ij,ij->i", R, R) + alpha * np.abs(code).sum(axis=1)
@@ -301,13 +306,13 @@ class OnlineDictionaryLearning:
         base = 0 if self.random_state is None else int(self.random_state)
         return np.random.SeedSequence([base, step])
 
-    def _step(self, X_batch):
+    def _step(self, X_batch, gram=None):
         A, B = self.inner_stats_
         with numba_threads(self.n_jobs):
             obj = minibatch_step(
                 X_batch, self.components_, A, B, self.alpha,
                 positive=self.positive_code, beta=self._beta(),
-                random_state=self._seed(self.n_steps_ + 1),
+                random_state=self._seed(self.n_steps_ + 1), gram=gram,
             )
         self.n_steps_ += 1
         self.objective_.append(obj)

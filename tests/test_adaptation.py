@@ -555,3 +555,31 @@ def test_cli_self_training_flag(tmp_path, cmu_poses, shifted_dictionary_path, ca
     assert "self-training" not in lines["0"] and "self-training: " in lines["1"]
     with pytest.raises(SystemExit):
         main(["recover", str(inp), "-o", str(tmp_path / "x.npz"), "--self-training", "x"])
+
+
+def test_the_learning_starts_from_the_base_gram_the_filter_formed(cmu_poses,
+                                                                  shifted_dictionary,
+                                                                  monkeypatch):
+    """The first mini-batch codes on the base atoms with the Gram the filter
+    already formed (sparseedm.solvers.gram), and the candidate is the same to
+    the last bit as when every Gram is formed anew."""
+    from sparseedm import learning
+    from sparseedm.solvers import gram
+
+    gram.clear_gram_cache()
+    given = []
+    real = learning.minibatch_step
+
+    def spy(X, components, *args, **kwargs):
+        given.append(kwargs.get("gram"))
+        return real(X, components, *args, **kwargs)
+
+    monkeypatch.setattr(learning, "minibatch_step", spy)
+    shared = run_adaptation(shifted_dictionary, cmu_poses, min_poses=50)
+    base_gram = gram.gram_matrix(shifted_dictionary.components.T)
+    assert given[0] is base_gram and all(g is None for g in given[1:])
+    gram.clear_gram_cache()
+    monkeypatch.setattr(gram, "GRAM_CACHE_SIZE", 0)
+    alone = run_adaptation(shifted_dictionary, cmu_poses, min_poses=50)
+    np.testing.assert_array_equal(shared.candidate.components, alone.candidate.components)
+    assert (shared.err_base, shared.err_adapted) == (alone.err_base, alone.err_adapted)

@@ -48,6 +48,7 @@ import numpy as np
 from .. import _progress
 from ._active_set import refine_rows
 from .base import BaseSolver, OPTIMAL
+from .gram import gram_matrix
 
 __all__ = ["FastSolver", "lars_lasso_gram"]
 
@@ -664,7 +665,10 @@ class FastSolver(BaseSolver):
         self.__dict__.update(state)
         self._lock = threading.Lock()
 
-    def _gram(self, D, key):
+    def _gram(self, D, key, shared=False):
+        """D's Gram from this solver's cache by `key`; formed on a miss, or
+        taken from the process's (:func:`.gram.gram_matrix`) when `shared`
+        (whole dictionaries only: per-pattern Grams would crowd them out)."""
         if key is None:
             return D.T @ D
         with self._lock:  # threads of one process share the cache
@@ -672,7 +676,7 @@ class FastSolver(BaseSolver):
             if G is not None:
                 self._grams.move_to_end(key)
                 return G
-        G = D.T @ D
+        G = gram_matrix(D) if shared else D.T @ D
         with self._lock:
             self._grams[key] = G
             while len(self._grams) > self.cache_size:
@@ -682,7 +686,7 @@ class FastSolver(BaseSolver):
     def _solve_masked(self, D, X, observed, alpha, positive, key):
         # one Gram matrix for the whole dictionary, downdated per row as atoms
         # enter: no per-pattern set-up at all
-        coef, steps = lars_lasso_masked(self._gram(D, key), D, X, observed, alpha,
+        coef, steps = lars_lasso_masked(self._gram(D, key, shared=True), D, X, observed, alpha,
                                         positive=positive, max_steps=self.max_steps,
                                         numpy_max=self.numpy_max)
         return coef, np.full(X.shape[0], OPTIMAL, dtype=object), steps
