@@ -26,12 +26,13 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from benchmarks import video_protocols  # noqa: E402
 from sparseedm.dictionary import load_dictionary  # noqa: E402
+from sparseedm.metrics import joint_error  # noqa: E402
 from sparseedm.temporal.evaluation import protocol_masks  # noqa: E402
 from sparseedm.temporal.recover import recover_temporal  # noqa: E402
 
 
 def _error(res, poses, mask, height):
-    return float(np.linalg.norm(res.poses - poses, axis=-1)[mask].mean() / height * 100)
+    return float(np.nanmean(joint_error(res.poses, poses, mask)) / height * 100)
 
 
 def clip_rows(source, max_sequences):

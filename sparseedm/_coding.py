@@ -12,9 +12,9 @@ frozen in tests.
 
 from __future__ import annotations
 
-import hashlib
-
 import numpy as np
+
+from .solvers.gram import atoms_key
 
 __all__ = ["pattern_order", "atoms_key"]
 
@@ -28,8 +28,3 @@ def pattern_order(mask):
     [1, 0, 2]
     """
     return np.lexsort(mask.T[::-1])
-
-
-def atoms_key(components):
-    """A hex digest of the atoms: the key of a solver's per-dictionary caches."""
-    return hashlib.sha1(np.ascontiguousarray(components).tobytes()).hexdigest()

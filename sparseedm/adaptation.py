@@ -401,10 +401,11 @@ def adapt_vectors(components, X, alpha, *, passes=DEFAULT_PASSES, stats=DEFAULT_
         est._beta = lambda: float(forget)
     # the first step codes on the base atoms: their Gram is the process's
     # (the filter, the guard and earlier learnings from this base formed it)
-    first = [gram_matrix(est.components_.T)]
+    gram = gram_matrix(est.components_.T)
     if reinit and stats == "fresh":
         # every atom's statistics from all of X; unused atoms re-drawn from X
-        est._step(X, gram=first.pop())
+        est._step(X, gram=gram)
+        gram = None
     n_replay = int(round(replay * batch_size))
     if n_replay:
         if replay_vectors is None:
@@ -415,7 +416,8 @@ def adapt_vectors(components, X, alpha, *, passes=DEFAULT_PASSES, stats=DEFAULT_
         Xb = X[np.sort(batch)]
         if n_replay:
             Xb = np.vstack([Xb, replay_vectors[rng.integers(0, len(replay_vectors), n_replay)]])
-        est._step(Xb, gram=first.pop() if first else None)
+        est._step(Xb, gram=gram)
+        gram = None  # the atoms have moved
     out = est.components_
     return out / np.linalg.norm(out, axis=1, keepdims=True)
 

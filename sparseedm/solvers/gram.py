@@ -28,7 +28,7 @@ from collections import OrderedDict
 
 import numpy as np
 
-__all__ = ["gram_matrix", "clear_gram_cache", "GRAM_CACHE_SIZE"]
+__all__ = ["gram_matrix", "clear_gram_cache", "atoms_key", "GRAM_CACHE_SIZE"]
 
 #: Gram matrices kept (32 MB each at 2000 atoms): the base dictionary, this
 #: round's candidate and the previous ones
@@ -38,9 +38,9 @@ _GRAMS = OrderedDict()
 _LOCK = threading.Lock()
 
 
-def _content_key(D):
-    D = np.ascontiguousarray(D, dtype=np.float64)
-    return D.shape, hashlib.sha1(D.tobytes()).hexdigest()
+def atoms_key(components):
+    """A hex digest of the atoms: the key of a solver's per-dictionary caches."""
+    return hashlib.sha1(np.ascontiguousarray(components).tobytes()).hexdigest()
 
 
 def gram_matrix(D):
@@ -57,7 +57,7 @@ def gram_matrix(D):
     -------
     ndarray, shape (k, k)
     """
-    key = _content_key(D)
+    key = D.shape, atoms_key(D.T)  # D.T: the atoms as rows, as callers hold them (no copy)
     with _LOCK:  # threads of one process share the cache
         G = _GRAMS.get(key)
         if G is not None:
