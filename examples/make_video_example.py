@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sparseedm._atomic import save_npz
 from sparseedm.dataset import build_dataset
 from sparseedm.keypoints import KeypointSet, write_keypoints
 from sparseedm.temporal.evaluation import protocol_masks
@@ -56,7 +57,7 @@ def main():
     args = ap.parse_args()
     poses, missing, truth, tracks, frames = example(args.data_dir)
     write_keypoints(OUTPUT, KeypointSet(poses, missing, tracks=tracks, frames=frames))
-    np.savez_compressed(TRUTH, poses2d=truth, missing=missing)
+    save_npz(TRUTH, {"poses2d": truth, "missing": missing}, compressed=True)  # atomically
     print(f"wrote {OUTPUT}: {len(poses)} frames in {len(set(tracks))} tracks, "
           f"{int(missing.sum())} joints hidden; the truth in {TRUTH.name}")
 
