@@ -669,6 +669,62 @@ def _float_columns(rows, cols, path, header):
                      for line, fields in rows], dtype=float).reshape(len(rows), len(cols))
 
 
+#: rows of a CSV parsed into arrays at a time: the text of a block is dropped
+#: once its numbers are read, so a file of millions of rows needs the arrays'
+#: memory, not its cells' (about 4.5 GB of Python strings for a million rows)
+CSV_BLOCK_ROWS = 1 << 16
+
+
+def _csv_rows(reader, header, path):
+    """Blocks of at most :data:`CSV_BLOCK_ROWS` ``(line, fields)`` pairs, blank
+    lines skipped, a row of the wrong width refused by its line."""
+    rows = []
+    try:
+        for fields in reader:
+            if not fields or all(not x.strip() for x in fields) and len(fields) <= 1:
+                continue  # blank line
+            if len(fields) != len(header):
+                raise FileFormatError(
+                    f"{path}, line {reader.line_num}: {len(fields)} fields, "
+                    f"the header has {len(header)}"
+                )
+            rows.append((reader.line_num, fields))
+            if len(rows) == CSV_BLOCK_ROWS:
+                yield rows
+                rows = []
+    except csv.Error as exc:
+        raise FileFormatError(f"{path}, line {reader.line_num}: {exc}") from None
+    if rows:
+        yield rows
+
+
+def _csv_block(rows, columns, path, header):
+    """One block's poses (m, 14, 2), confidences, filled flags, ids and extra cells."""
+    m = len(rows)
+    poses = np.full((m, N_JOINTS, 2), np.nan)
+    xy = _float_columns(rows, list(columns["xy"].values()), path, header)
+    for k, (j, axis) in enumerate(columns["xy"]):
+        poses[:, j, axis] = xy[:, k]
+    conf = None
+    if columns["conf"]:
+        conf = np.full((m, N_JOINTS), np.nan)
+        conf[:, list(columns["conf"])] = _float_columns(rows, list(columns["conf"].values()),
+                                                        path, header)
+    filled = None
+    if columns["filled"]:
+        filled = np.zeros((m, N_JOINTS), dtype=bool)
+        for r, (line, fields) in enumerate(rows):
+            for j, c in columns["filled"].items():
+                filled[r, j] = _parse_flag(fields[c], path, line, header[c])
+    ids = [fields[columns["id"]].strip() for _, fields in rows] if "id" in columns else None
+    extra = {name: [fields[c] for _, fields in rows] for name, c in columns["extra"].items()}
+    return poses, conf, filled, ids, extra
+
+
+def _joined(parts, shape, dtype):
+    return np.concatenate(parts) if parts else np.zeros(shape, dtype=dtype)
+
+
 def _read_csv(path, threshold):
     # a field may fill a line (text_lines caps those); the csv module's own cap is 128 KiB
     csv.field_size_limit(max(csv.field_size_limit(), MAX_LINE_BYTES))
@@ -682,39 +738,15 @@ def _read_csv(path, threshold):
         raise FileFormatError(f"{path}, line 1: {exc}") from None
     header = [h.strip() for h in header]
     columns = _csv_columns(header, path)
-    rows = []
-    try:
-        for fields in reader:
-            if not fields or all(not x.strip() for x in fields) and len(fields) <= 1:
-                continue  # blank line
-            if len(fields) != len(header):
-                raise FileFormatError(
-                    f"{path}, line {reader.line_num}: {len(fields)} fields, "
-                    f"the header has {len(header)}"
-                )
-            rows.append((reader.line_num, fields))
-    except csv.Error as exc:
-        raise FileFormatError(f"{path}, line {reader.line_num}: {exc}") from None
-
-    n = len(rows)
-    poses = np.full((n, N_JOINTS, 2), np.nan)
-    conf = np.full((n, N_JOINTS), np.nan) if columns["conf"] else None
-    filled = np.zeros((n, N_JOINTS), dtype=bool) if columns["filled"] else None
-    ids = [] if "id" in columns else None
-    extra = {name: [] for name in columns["extra"]}
-    xy = _float_columns(rows, list(columns["xy"].values()), path, header)
-    for k, (j, axis) in enumerate(columns["xy"]):
-        poses[:, j, axis] = xy[:, k]
-    if columns["conf"]:
-        conf[:, list(columns["conf"])] = _float_columns(rows, list(columns["conf"].values()),
-                                                        path, header)
-    for r, (line, fields) in enumerate(rows):
-        for j, c in columns["filled"].items():
-            filled[r, j] = _parse_flag(fields[c], path, line, header[c])
-        if ids is not None:
-            ids.append(fields[columns["id"]].strip())
-        for name, c in columns["extra"].items():
-            extra[name].append(fields[c])
+    blocks = [_csv_block(rows, columns, path, header)
+              for rows in _csv_rows(reader, header, path)]
+    poses = _joined([b[0] for b in blocks], (0, N_JOINTS, 2), float)
+    n = len(poses)
+    conf = _joined([b[1] for b in blocks], (0, N_JOINTS), float) if columns["conf"] else None
+    filled = _joined([b[2] for b in blocks], (0, N_JOINTS), bool) if columns["filled"] else None
+    ids = [i for b in blocks for i in b[3]] if "id" in columns else None
+    extra = {name: [v for b in blocks for v in b[4][name]] for name in columns["extra"]}
+    del blocks
     missing = np.zeros((n, N_JOINTS), dtype=bool)
     raw = poses
     poses, missing = finish_missing(poses, missing, conf, threshold)
@@ -1080,17 +1112,27 @@ def _write_csv(path, poses, confidence, ids, extra_columns, where, filled=None):
         with open(tmp, "w", newline="", encoding="utf-8") as f:
             writer = csv.writer(f)
             writer.writerow(header)
-            xy = csv_cells(np.asarray(poses).reshape(n, 2 * N_JOINTS))
-            conf = None if confidence is None else csv_cells(confidence)
-            for r in range(n):
-                row = [] if ids is None else [ids[r]]
-                row += xy[r]
-                if conf is not None:
-                    row += conf[r]
-                if filled is not None:
-                    row += ["1" if f else "0" for f in filled[r]]
-                row += ["" if col[r] is None else str(col[r]) for col in extras]
-                writer.writerow(row)
+            flat = np.asarray(poses).reshape(n, 2 * N_JOINTS)
+            for lo in range(0, n, CSV_BLOCK_ROWS):  # the cells of one block at a time
+                hi = min(n, lo + CSV_BLOCK_ROWS)
+                writer.writerows(_csv_out_rows(lo, hi, flat, confidence, ids, filled, extras))
+
+
+def _csv_out_rows(lo, hi, flat, confidence, ids, filled, extras):
+    """The CSV rows ``lo:hi`` of :func:`_write_csv`, as lists of cells."""
+    xy = csv_cells(flat[lo:hi])
+    conf = None if confidence is None else csv_cells(np.asarray(confidence)[lo:hi])
+    out = []
+    for k, r in enumerate(range(lo, hi)):
+        row = [] if ids is None else [ids[r]]
+        row += xy[k]
+        if conf is not None:
+            row += conf[k]
+        if filled is not None:
+            row += ["1" if f else "0" for f in filled[r]]
+        row += ["" if col[r] is None else str(col[r]) for col in extras]
+        out.append(row)
+    return out
 
 
 def _xy_or_none(p):

@@ -249,6 +249,67 @@ def test_csv_non_numeric_names_line_and_column(tmp_path):
         read_keypoints(path)
 
 
+def _csv_of_every_kind(path, n=11):
+    """A CSV with ids, confidences, filled flags, a track/frame, blank lines."""
+    poses = _poses(n, seed=4)
+    poses[2, 5] = np.nan
+    poses[9, 0] = np.nan
+    conf = np.random.default_rng(5).uniform(0.5, 1, (n, 14))
+    filled = np.zeros((n, 14), dtype=bool)
+    filled[7, 3] = True
+    write_keypoints(path, poses, confidence=conf, ids=[f"f{i}" for i in range(n)],
+                    filled=filled, extra_columns={"track": ["a"] * 6 + ["b"] * (n - 6),
+                                                  "frame": [str(i) for i in range(n)]})
+    lines = path.read_text().splitlines(keepends=True)
+    path.write_text("".join(lines[:4] + ["\n"] + lines[4:8] + ["\n", "\n"] + lines[8:]))
+
+
+def test_csv_read_and_written_in_blocks_as_in_one(tmp_path, monkeypatch):
+    # a file of millions of rows is parsed CSV_BLOCK_ROWS rows at a time: with
+    # blocks of 3 rows every field comes out as with one block, blank lines
+    # and rows straddling the blocks included, and is written back the same
+    import sparseedm.keypoints as kp
+    path = tmp_path / "k.csv"
+    _csv_of_every_kind(path)
+    one = read_keypoints(path)
+    write_keypoints(tmp_path / "one.csv", one)
+    monkeypatch.setattr(kp, "CSV_BLOCK_ROWS", 3)
+    parsed, cells = [], []  # the rows each parse saw, the rows each write formatted
+    float_columns, csv_cells = kp._float_columns, kp.csv_cells
+    monkeypatch.setattr(kp, "_float_columns",
+                        lambda rows, *a: parsed.append(len(rows)) or float_columns(rows, *a))
+    monkeypatch.setattr(kp, "csv_cells", lambda v: cells.append(len(v)) or csv_cells(v))
+    blocks = read_keypoints(path)
+    write_keypoints(tmp_path / "blocks.csv", blocks)
+    assert parsed == [3, 3] * 3 + [2, 2] and cells == [3, 3] * 3 + [2, 2]  # xy, conf
+    assert len(blocks) == len(one) == 11
+    for name in ("poses", "missing", "confidence", "filled", "ids", "tracks", "frames"):
+        _assert_same(getattr(blocks, name), getattr(one, name))
+    assert blocks.meta["extra_columns"] == one.meta["extra_columns"]
+    assert (tmp_path / "blocks.csv").read_text() == (tmp_path / "one.csv").read_text()
+
+
+@pytest.mark.parametrize("what", ["width", "number", "flag"])
+def test_csv_bad_cell_in_a_later_block_names_its_line(tmp_path, monkeypatch, what):
+    import sparseedm.keypoints as kp
+    monkeypatch.setattr(kp, "CSV_BLOCK_ROWS", 3)
+    header = _header() + [f"{n}_filled" for n in JOINT_NAMES]
+    rows = [[f"r{i}"] + ["1"] * 28 + ["0"] * 14 for i in range(8)]
+    if what == "width":
+        rows[6] = rows[6][:-2]
+        match = r"line 8: 41 fields, the header has 43"
+    elif what == "number":
+        rows[6][3] = "x1"
+        match = r"line 8, column 'neck_x': 'x1' is not a number"
+    else:
+        rows[6][30] = "yes"
+        match = r"line 8, column 'neck_filled': 'yes' is not a filled flag"
+    path = tmp_path / "k.csv"
+    _write_rows(path, header, rows)
+    with pytest.raises(FileFormatError, match=match):
+        read_keypoints(path)
+
+
 def test_csv_header_errors(tmp_path):
     path = tmp_path / "k.csv"
     _write_rows(path, _header() + ["lefty_wrist_x"], [])
