@@ -79,6 +79,35 @@ def sequences(source, split, max_sequences, seed):
     return seqs
 
 
+def validation_probe(rows_of, summarise, out, sources=("bandai", "cmu")):
+    """Run a validation probe of dictionaries/: each source's rows printed as they
+    come, then ``{"split", "rows", "summary"}`` written to `out` and the summary printed."""
+    rows = []
+    for source in sources:
+        for row in rows_of(source):
+            print(json.dumps(row), flush=True)
+            rows.append(row)
+    doc = dict(split="validation", rows=rows, summary=summarise(rows))
+    Path(out).write_text(json.dumps(doc, indent=1) + "\n")
+    for line in doc["summary"]:
+        print(json.dumps(line))
+
+
+def probe_main(doc, rows_of, summarise, *, count, default, out):
+    """The command line of a validation probe: ``--data-dir``, ``--<count>``
+    (`default`) and ``--out`` (`out`), then :func:`validation_probe` with
+    ``rows_of(source, <count>)``."""
+    global DATA
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
+    ap.add_argument("--data-dir", default="../shared/data")
+    ap.add_argument(f"--{count}", type=int, default=default)
+    ap.add_argument("--out", default=out)
+    args = ap.parse_args()
+    DATA = Path(args.data_dir).resolve()
+    n = getattr(args, count.replace("-", "_"))
+    validation_probe(lambda source: rows_of(source, n), summarise, args.out)
+
+
 def extra_method(text):
     name, _, target = text.partition("=")
     module, _, attr = target.partition(":")

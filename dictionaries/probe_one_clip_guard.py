@@ -15,8 +15,6 @@ hidden joints (% of body height) either way::
 Validation only; nothing from Bandai-Namco is written but the scores.
 Results: dictionaries/README.md, "The guard on one short clip".
 """
-import argparse
-import json
 import sys
 import warnings
 from pathlib import Path
@@ -78,21 +76,8 @@ def summary(rows):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data-dir", default="../shared/data")
-    ap.add_argument("--max-sequences", type=int, default=20)
-    ap.add_argument("--out", default="dictionaries/selection_one_clip_guard.json")
-    args = ap.parse_args()
-    video_protocols.DATA = Path(args.data_dir).resolve()
-    rows = []
-    for source in ("bandai", "cmu"):
-        for row in clip_rows(source, args.max_sequences):
-            print(json.dumps(row), flush=True)
-            rows.append(row)
-    out = dict(split="validation", rows=rows, summary=summary(rows))
-    Path(args.out).write_text(json.dumps(out, indent=1) + "\n")
-    for line in out["summary"]:
-        print(json.dumps(line))
+    video_protocols.probe_main(__doc__, clip_rows, summary, count="max-sequences", default=20,
+                               out="dictionaries/selection_one_clip_guard.json")
 
 
 if __name__ == "__main__":

@@ -100,6 +100,7 @@ from ._recovery_kernel import compiled_solver
 from .normalize import REPRESENTATIONS
 from .recovery import STATUSES, check_options_apply, recover
 from .skeleton import JOINT_NAMES
+from .temporal.linking import link_tracks, needs_linking
 from .temporal.recover import adapt_in_time
 from .temporal.tracks import add_summaries, track_chunks
 from .solvers import get_solver
@@ -142,6 +143,13 @@ class _MemorySource:
         self.ids = self.kps.ids
         self.meta = self.kps.meta
         self.tracks, self.frames = self.kps.tracks, self.kps.frames
+        self.linked = None
+
+    def link(self):
+        """Track ids linked by pose (:func:`link_tracks`) for a file with frames,
+        no tracks and several poses in some frame; recovered and written with them."""
+        self.tracks = self.linked = link_tracks(self.kps.poses, self.kps.missing,
+                                                frames=self.frames)
 
     def chunk(self, start, stop):
         return self.kps.poses[start:stop], self.kps.missing[start:stop]
@@ -184,7 +192,7 @@ class _NpySource:
         self.n = len(arr)
         self.ids = None
         self.meta = {}
-        self.tracks = self.frames = None  # a .npy holds poses only
+        self.tracks = self.frames = self.linked = None  # a .npy holds poses only
 
     def below(self, threshold, chunk_size=1 << 20):
         """Joints scored below `threshold` (None: no confidence column), chunk by chunk."""
@@ -374,7 +382,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
         raise FileFormatError(f"{out_path}: a folder of OpenPose frames is written as a "
                               "folder; give an output path without .json")
     try:
-        in_time = temporal and method == "sparse" and source.frames is not None
+        in_time = _in_time(source, temporal and method == "sparse")
         if method == "sparse":
             members, adaptation = _adapt(source, dictionary, adapt, chunk_size,
                                          confidence_threshold, n_jobs, self_training, ensemble,
@@ -397,10 +405,22 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
                                                in_fmt, summary["below_threshold"])
     summary["adaptation"] = adaptation.summary() if adaptation is not None else None
     summary["ensemble"] = len(members)
+    summary["linked_tracks"] = None if source.linked is None else \
+        int(len(np.unique(source.linked)))
     summary["adaptation_line"] = adaptation.line() if adaptation is not None else None
     if save_dictionary is not None:
         summary["dictionary"] = str(dictionary.save(save_dictionary))
     return summary
+
+
+def _in_time(source, temporal):
+    """Whether `source` is recovered across time (it has frames and `temporal`);
+    a file without tracks whose frames hold several poses is linked first."""
+    if not temporal or source.frames is None:
+        return False
+    if needs_linking(source.tracks, source.frames):
+        source.link()
+    return True
 
 
 def _check_run_paths(outputs, in_path, dictionary, adapt, model, save_dictionary):
@@ -619,7 +639,7 @@ def _run(source, outputs, recovery, chunk_size, progress, t0):
         if kps is not None and kps.filled is not None:
             flags |= kps.filled & np.isfinite(filled).all(axis=-1)  # flagged in the input
         _write_output(out_tmp, out_fmt, filled, source.ids, source.meta, outputs.in_fmt,
-                      fields, columns.edm, outputs.filled_score, kps, flags)
+                      fields, columns.edm, outputs.filled_score, kps, flags, source.linked)
         _write_sidecars(side_tmp, dict(fields, filled=flags), source.ids, columns.edm)
         if isinstance(filled, np.memmap):
             filled.flush()
@@ -679,12 +699,14 @@ def _write_sidecars(side_tmp, fields, ids, edm):
 
 
 def _write_output(tmp, fmt, filled, ids, meta, in_fmt, fields, edm,
-                  filled_score=FILLED_SCORE, kps=None, flags=None):
+                  filled_score=FILLED_SCORE, kps=None, flags=None, linked=None):
+    """The output file; `linked` (the tracks :func:`link_tracks` gave a file
+    without any) is written as its tracks (a ``track`` column, ``tracks`` array)."""
     flagged = dict(filled=flags, filled_score=filled_score)
     if fmt in FOLDER_OR_TABLE_FORMATS:  # status in each person's "sparseedm" object
         write_keypoints(tmp, filled, format=fmt, ids=ids, meta=meta, row_fields=fields,
                         **flagged,
-                        tracks=None if kps is None else kps.tracks,
+                        tracks=linked if linked is not None or kps is None else kps.tracks,
                         frames=None if kps is None else kps.frames)
         return
     if fmt == "npy":
@@ -698,7 +720,7 @@ def _write_output(tmp, fmt, filled, ids, meta, in_fmt, fields, edm,
         if edm is not None:
             extra.update(edm)
         write_keypoints(tmp, filled, format="npz", ids=ids, meta={"npz_extra": extra},
-                        **flagged)
+                        tracks=linked, **flagged)
     elif fmt == "csv":
         extra = dict(meta.get("extra_columns") or {}) if in_fmt == "csv" else {}
         extra.update({
@@ -708,9 +730,10 @@ def _write_output(tmp, fmt, filled, ids, meta, in_fmt, fields, edm,
             "gap": [_num(v) for v in fields["gap"]],
             "n_active": fields["n_active"],
         })
-        write_keypoints(tmp, filled, format="csv", ids=ids, extra_columns=extra, **flagged)
+        write_keypoints(tmp, filled, format="csv", ids=ids, extra_columns=extra,
+                        tracks=linked, **flagged)
     else:  # coco: the original document (or a results list), status in "sparseedm"
-        write_keypoints(tmp, filled, format="coco", ids=ids,
+        write_keypoints(tmp, filled, format="coco", ids=ids, tracks=linked,
                         meta=meta if in_fmt == "coco" else None, **flagged)
         with open(tmp, encoding="utf-8") as f:
             doc = json.load(f)

@@ -175,7 +175,7 @@ from . import formats
 from ._validation import Interval, check_poses, validate_params
 from .exceptions import FileFormatError, PoseError
 from .formats import posetrack
-from .formats._base import csv_cells
+from .formats._base import csv_cells, track_value
 from .skeleton import JOINT_NAMES, SKELETON_14
 
 __all__ = [
@@ -1164,8 +1164,7 @@ def _write_coco(path, poses, mask, ids, meta, where, filled, filled_score, track
                 "keypoints": [0.0] * 51,
             })
             if tracks is not None:  # PoseTrack's person over time
-                t = np.asarray(tracks)[r]
-                anns[-1]["track_id"] = int(t) if np.asarray(t).dtype.kind in "iu" else str(t)
+                anns[-1]["track_id"] = track_value(np.asarray(tracks)[r])
         doc = anns
         coco_missing = np.ones((n, 17), dtype=bool)
     for r, ann in enumerate(anns):
@@ -1183,6 +1182,8 @@ def _write_coco(path, poses, mask, ids, meta, where, filled, filled_score, track
             "head_top": _xy_or_none(poses[r, _HEAD_TOP]),
             "filled": [JOINT_NAMES[j] for j in np.flatnonzero(filled[r])],
         }
+        if tracks is not None and not fresh and ann.get("track_id") is None:
+            ann["track_id"] = track_value(np.asarray(tracks)[r])  # linked, as read had none
     with atomic_path(path) as tmp:
         with open(tmp, "w", encoding="utf-8") as f:
             json.dump(doc, f)

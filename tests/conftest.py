@@ -73,3 +73,25 @@ def small_dictionary(cmu_poses):
 def small_dictionary_path(small_dictionary, tmp_path_factory):
     """`small_dictionary` saved with Dictionary.save (for --dictionary PATH)."""
     return small_dictionary.save(tmp_path_factory.mktemp("dictionary") / "small.npz")
+
+
+@pytest.fixture(scope="session")
+def track():
+    """A smooth 2D track: clip 02_05's 3D keyframes (1/3 s apart) joined by a
+    cubic spline, 10 frames per interval, seen by one fixed camera."""
+    import numpy as np
+    from scipy.interpolate import CubicSpline
+
+    from sparseedm.cameras import project, sample_cameras
+
+    with np.load(FIXTURES / "cmu_poses.npz", allow_pickle=False) as data:
+        keep = data["clips"] == "02_05"
+        keys = data["poses3d"][keep][:25]
+    t = np.arange(len(keys)) * 10.0
+    frames = np.arange(int(t[-1]) + 1)
+    poses3d = CubicSpline(t, keys, axis=0)(frames)
+    cam = sample_cameras(1, targets=keys.reshape(-1, 3).mean(0), distance=5.0,
+                         random_state=0)
+    cams = type(cam)(R=np.repeat(cam.R, len(frames), 0), t=np.repeat(cam.t, len(frames), 0),
+                     f=np.repeat(cam.f, len(frames)), c=np.repeat(cam.c, len(frames), 0))
+    return project(poses3d, cams)

@@ -5,7 +5,6 @@ import pytest
 from scipy.interpolate import CubicSpline
 
 import sparseedm
-from sparseedm.cameras import project, sample_cameras
 from sparseedm.exceptions import ParameterError
 from sparseedm.temporal.model import (TemporalSettings, coupling, fill_segment, needs_prior,
                                       observation_weight, prior_frames,
@@ -14,25 +13,7 @@ from sparseedm.temporal.recover import SOURCES, TemporalResult, recover_temporal
 from sparseedm.temporal.smoothing import smooth_trajectory
 from sparseedm.temporal.tracks import distance_to_observed, split_tracks
 
-FIXTURE = "tests/fixtures/cmu_poses.npz"
 WRIST = 4
-
-
-@pytest.fixture(scope="module")
-def track():
-    """A smooth 2D track: clip 02_05's 3D keyframes (1/3 s apart) joined by a
-    cubic spline, 10 frames per interval, seen by one fixed camera."""
-    with np.load(FIXTURE, allow_pickle=False) as data:
-        keep = data["clips"] == "02_05"
-        keys = data["poses3d"][keep][:25]
-    t = np.arange(len(keys)) * 10.0
-    frames = np.arange(int(t[-1]) + 1)
-    poses3d = CubicSpline(t, keys, axis=0)(frames)
-    cam = sample_cameras(1, targets=keys.reshape(-1, 3).mean(0), distance=5.0,
-                         random_state=0)
-    cams = type(cam)(R=np.repeat(cam.R, len(frames), 0), t=np.repeat(cam.t, len(frames), 0),
-                     f=np.repeat(cam.f, len(frames)), c=np.repeat(cam.c, len(frames), 0))
-    return project(poses3d, cams)
 
 
 def _height(poses):

@@ -141,6 +141,10 @@ def run(args):
     ad = summary.get("adaptation")
     if ad is not None and not ad["adapted"] and ad["poses_used"] == 0:
         print(f"sparseedm recover: no adaptation: {ad['reason']}", file=sys.stderr)
+    if summary.get("linked_tracks") is not None:
+        print(f"sparseedm recover: INPUT has frames, no track ids and several poses in a "
+              f"frame: linked them into {summary['linked_tracks']} track(s) by pose distance "
+              "(written back as its tracks)", file=sys.stderr)
     if summary.get("temporal"):
         t = summary["temporal"]
         print(f"sparseedm recover: INPUT has frames: recovered across time ({t['segments']} "

@@ -340,6 +340,26 @@ def person_tracks(people):
     return None
 
 
+def track_value(track):
+    """A track id as JSON writes it: an int for integer ids, else text.
+
+    Examples
+    --------
+    >>> track_value(np.int64(3)), track_value("p1")
+    (3, 'p1')
+    """
+    return int(track) if np.asarray(track).dtype.kind in "iu" else str(track)
+
+
+def linked_id(rows, r, present):
+    """The track id to write into row `r`'s document where it has none
+    (`present` False): the tracks :func:`sparseedm.temporal.linking.link_tracks`
+    gave a file without ids. None: leave the document as read."""
+    if present or rows.tracks is None:
+        return None
+    return track_value(rows.tracks[r])
+
+
 def frame_rows(frames, n):
     """Row index of each pose's frame group, for writers without a document."""
     if frames is None:

@@ -156,6 +156,9 @@ def _update(inst, rows, r, layout, filled_score, row_fields):
     inst["keypoint_scores"] = scores.tolist()
     inst[EXTRA_KEY] = _base.write_extra(rows.poses[r], rows.filled[r],
                                         _base.row_status(row_fields, r))
+    track = _base.linked_id(rows, r, inst.get("track_id") is not None)
+    if track is not None:
+        inst["track_id"] = track
 
 
 def _fresh(rows):
@@ -171,8 +174,7 @@ def _fresh(rows):
             inst = {"keypoints": xy.tolist(), "keypoint_scores": scores.tolist(),
                     EXTRA_KEY: _base.write_extra(rows.poses[r], rows.filled[r])}
             if rows.tracks is not None:
-                t = rows.tracks[r]
-                inst["track_id"] = int(t) if np.asarray(t).dtype.kind in "iu" else str(t)
+                inst["track_id"] = _base.track_value(rows.tracks[r])
             instances.append(inst)
         info.append({"frame_id": int(frame), "instances": instances})
     return {"meta_info": {"dataset_name": "coco"}, "instance_info": info}

@@ -222,6 +222,9 @@ def _updated(files, rows, meta, filled_score, row_fields):
                                                   _base.row_status(row_fields, r))
             if rows.frames is not None:
                 person[EXTRA_KEY]["frame"] = int(rows.frames[r])
+            track = _base.linked_id(rows, r, _has_id(person))
+            if track is not None:
+                person["person_id"] = [track]
             r += 1
         docs.append((f["name"], doc))
     return docs
@@ -244,6 +247,13 @@ def _fresh(rows, path):
                            EXTRA_KEY: _base.write_extra(rows.poses[r], rows.filled[r])})
         docs.append((f"{path.stem}_{frame:012d}{_SUFFIX}", {"version": 1.3, "people": people}))
     return docs, path.suffix.lower() != ".json"
+
+
+def _has_id(person):
+    """Whether an OpenPose person carries a tracking id (``person_id`` >= 0)."""
+    pid = person.get("person_id", -1)
+    pid = pid[0] if isinstance(pid, list) and len(pid) == 1 else pid
+    return _is_int(pid) and not isinstance(pid, bool) and int(pid) >= 0
 
 
 def _is_int(value):

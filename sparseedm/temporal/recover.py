@@ -29,6 +29,7 @@ from ..dictionary import Dictionary, load_dictionary
 from ..edm import pose_to_vector
 from ..ensemble import adapt_members
 from ..normalize import normalize
+from .linking import link_tracks, needs_linking
 from .model import DEFAULT_SETTINGS, fill_segment, prior_frames, time_filled
 from .tracks import split_tracks
 
@@ -78,6 +79,10 @@ class TemporalResult(RecoveryResult):
         Rows the per-frame model was asked for.
     segments : int
         Segments (one track, consecutive frames) solved.
+    linked_tracks : ndarray of int (n,) or None
+        Track ids linked by :func:`~sparseedm.temporal.linking.link_tracks`
+        when the caller gave frames without tracks and some frame holds
+        several poses; None otherwise.
 
     For rows filled by the temporal model, ``vectors``, ``center`` and
     ``scale`` describe the filled pose itself (normalised as
@@ -90,6 +95,7 @@ class TemporalResult(RecoveryResult):
     residual: np.ndarray = field(default=None)
     per_frame_poses: int = 0
     segments: int = 0
+    linked_tracks: np.ndarray = field(default=None)
 
     def summary(self) -> dict:
         """:meth:`RecoveryResult.summary` plus the temporal model's counts."""
@@ -100,6 +106,8 @@ class TemporalResult(RecoveryResult):
             "joints": {s: int((self.source == s).sum()) for s in SOURCES if s
                        and s != "observed"},
         }
+        if self.linked_tracks is not None:
+            out["temporal"]["linked_tracks"] = int(len(np.unique(self.linked_tracks)))
         return out
 
 
@@ -150,12 +158,20 @@ def _adapt(dictionary, poses, mask, layout, usable, adapt, ensemble, settings, k
 
 
 def _in_time(poses, missing, tracks, frames, n_joints):
-    """Validated poses, mask, screening, usable rows and the track layout."""
+    """Validated poses, mask, screening, usable rows and the track layout (tracks
+    linked by :func:`~sparseedm.temporal.linking.link_tracks` when none are
+    given and a frame holds several poses)."""
     poses, mask, bad_coord = validate_poses(poses, missing, n_joints)
     refusal, why, _, _ = screen_poses(poses, mask, bad_coord)
     # rows whose observed coordinates cannot be used are absent from time too
     usable = ~np.isin(refusal, ("invalid_coordinates", "out_of_range"))
-    return poses, mask, refusal, why, usable, split_tracks(len(poses), tracks, frames)
+    linked = None
+    if needs_linking(tracks, frames):  # several poses a frame and no ids: link them
+        linked = link_tracks(np.where(usable[:, None, None], poses, np.nan), mask,
+                             frames=frames)
+    layout = split_tracks(len(poses), tracks if linked is None else linked, frames)
+    layout.linked = linked
+    return poses, mask, refusal, why, usable, layout
 
 
 def adapt_in_time(dictionary, poses, missing=None, *, tracks=None, frames, ensemble=1,
@@ -266,7 +282,9 @@ def recover_temporal(poses, missing=None, *, tracks=None, frames, dictionary=Non
     poses, missing
         As :func:`sparseedm.recover`.
     tracks : array_like (n,), optional
-        Person of each pose; None: all one track.
+        Person of each pose; None: all one track, or, when some frame holds
+        several poses, the tracks :func:`~sparseedm.temporal.linking.link_tracks`
+        links them into (``TemporalResult.linked_tracks``).
     frames : array_like (n,)
         Frame number of each pose (integers; any order; skipped numbers are
         frames where the person was not seen).
@@ -346,7 +364,8 @@ def _assemble(poses, mask, refusal, why, layout, per, filled, weight, residual, 
         poses=result, missing=mask, status=status.astype(str), reason=reason.astype(str),
         alpha=per.alpha, members=members, source=source.astype(str),
         prior_weight=np.where(temporal[:, None], weight, 0.0), residual=residual,
-        per_frame_poses=len(per.rows), segments=len(layout.segments), **out)
+        per_frame_poses=len(per.rows), segments=len(layout.segments),
+        linked_tracks=layout.linked, **out)
 
 
 def _describe_filled(result, rows, out):

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..exceptions import ParameterError
 
-__all__ = ["MAX_SKIP", "TrackLayout", "split_tracks", "distance_to_observed",
+__all__ = ["MAX_SKIP", "TrackLayout", "split_tracks", "frame_numbers", "distance_to_observed",
            "track_chunks", "add_summaries"]
 
 #: a run of more absent frame numbers than this ends a segment
@@ -38,16 +38,20 @@ class TrackLayout:
         Rows recovered frame by frame, outside any segment.
     reason : ndarray of str (n,)
         Why a row is alone (``""`` for rows in a segment).
+    linked : ndarray of int (n,) or None
+        The track ids :func:`sparseedm.temporal.linking.link_tracks` gave
+        rows that came without any (None when the caller's tracks were used).
     """
 
     segments: list
     offsets: list
     alone: np.ndarray
     reason: np.ndarray
+    linked: np.ndarray = None
 
 
-def _frame_numbers(frames, n):
-    """Frames as int64 (n,) and the reason each unusable one is refused."""
+def frame_numbers(frames, n):
+    """Frames as int64 (n,) and the reason each unusable one is refused (`""` if usable)."""
     arr = np.asarray(frames)
     if arr.shape != (n,):
         raise ParameterError(f"frames must have shape ({n},) (one per pose), got {arr.shape}")
@@ -113,7 +117,7 @@ def split_tracks(n, tracks, frames):
     >>> [s.tolist() for s in lay.segments], str(lay.reason[4])
     ([[2, 0], [1, 3]], 'frame number 2.5 is not an integer')
     """
-    values, reason = _frame_numbers(frames, n)
+    values, reason = frame_numbers(frames, n)
     ids = _track_ids(tracks, n)
     good = np.flatnonzero(reason == "")
     order = good[np.lexsort((values[good], ids[good]))]

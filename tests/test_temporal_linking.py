@@ -1,0 +1,123 @@
+"""Poses without track ids linked into tracks (sparseedm.temporal.linking)."""
+
+import numpy as np
+import pytest
+
+import sparseedm
+from sparseedm.temporal.linking import MIN_COMMON_JOINTS, link_tracks, needs_linking
+
+WRIST, KNEE = 4, 8
+
+
+def _same_partition(a, b):
+    """Whether two labelings group the rows alike (labels may differ)."""
+    pairs = set(zip(np.asarray(a).tolist(), np.asarray(b).tolist()))
+    return len(pairs) == len(set(a)) == len(set(b))
+
+
+def _two_people(track, n=80, shift=(250.0, 0.0), seed=1):
+    """Two people's rows, each frame's in a seeded order, no ids: (poses, mask,
+    frames, person, truth)."""
+    shift = np.broadcast_to(np.asarray(shift, dtype=float), (n, 2))
+    truth = np.concatenate([track[:n], track[n:2 * n] + shift[:, None, :]])
+    person = np.repeat([0, 1], n)
+    frames = np.concatenate([np.arange(n), np.arange(n)])
+    mask = np.zeros(truth.shape[:2], bool)
+    mask[20:32, WRIST] = True
+    mask[n + 40:n + 60, KNEE] = True
+    order = np.lexsort((np.random.default_rng(seed).random(2 * n), frames))
+    poses = np.where(mask[..., None], np.nan, truth)
+    return poses[order], mask[order], frames[order], person[order], truth[order]
+
+
+def test_two_people_given_in_any_order_are_told_apart(track):
+    poses, mask, frames, person, _ = _two_people(track)
+    linked = link_tracks(poses, mask, frames=frames)
+    assert _same_partition(linked, person)
+    assert linked[0] == 0 and set(linked.tolist()) == {0, 1}  # numbered by first row
+
+
+def test_people_walking_across_each_other_keep_their_ids(track):
+    # two people in the same pose walk through each other's place in the image,
+    # one rightwards, one leftwards: where they overlap only the tracks'
+    # velocities tell them apart (without them every seed switched identities)
+    n = 80
+    shift = np.stack([np.linspace(-100, 100, n), np.zeros(n)], axis=1)[:, None, :]
+    truth = np.concatenate([track[:n] + shift, track[:n] - shift])
+    person, frames = np.repeat([0, 1], n), np.tile(np.arange(n), 2)
+    for seed in range(3):
+        order = np.lexsort((np.random.default_rng(seed).random(2 * n), frames))
+        linked = link_tracks(truth[order], frames=frames[order])
+        assert _same_partition(linked, person[order])
+
+
+def test_a_person_missing_for_some_frames_is_taken_up_again(track):
+    poses, mask, frames, person, _ = _two_people(track)
+    gone = (person == 1) & (frames >= 30) & (frames < 40)  # not detected for 10 frames
+    linked = link_tracks(poses[~gone], mask[~gone], frames=frames[~gone])
+    assert _same_partition(linked, person[~gone])
+    far = link_tracks(poses[~gone], mask[~gone], frames=frames[~gone], max_skip=5)
+    assert len(set(far.tolist())) == 3  # beyond max_skip it starts a new track
+
+
+def test_a_pose_far_from_every_track_starts_its_own(track):
+    poses = np.stack([track[0], track[1], track[2] + 5000.0])
+    assert link_tracks(poses, frames=[0, 1, 2]).tolist() == [0, 0, 1]
+
+
+def test_rows_that_cannot_be_linked_get_ids_of_their_own(track):
+    poses = track[:4].copy()
+    poses[2, MIN_COMMON_JOINTS - 1:] = np.nan  # too few joints to compare
+    linked = link_tracks(poses, frames=np.array([0, 1, 2, np.nan]))
+    assert linked[0] == linked[1] and len(set(linked.tolist())) == 3
+
+
+def test_needs_linking_only_without_tracks_and_with_a_shared_frame():
+    assert needs_linking(None, [3, 1, 3])
+    assert not needs_linking(None, [0, 1, 2]) and not needs_linking(["a", "b"], [0, 0])
+    assert not needs_linking(None, None)
+    assert not needs_linking(None, [0.5, 0.5, 1])  # not integers: refused per row anyway
+
+
+def test_recover_links_people_given_without_tracks(track, small_dictionary):
+    poses, mask, frames, person, truth = _two_people(track)
+    given = sparseedm.recover(poses, mask, frames=frames, dictionary=small_dictionary,
+                              adapt=False)
+    known = sparseedm.recover(poses, mask, tracks=person, frames=frames,
+                              dictionary=small_dictionary, adapt=False)
+    assert _same_partition(given.linked_tracks, person)
+    assert given.summary()["temporal"]["linked_tracks"] == 2
+    assert known.linked_tracks is None and "linked_tracks" not in known.summary()["temporal"]
+    np.testing.assert_allclose(given.poses, known.poses, rtol=0, atol=1e-9)
+    hidden = mask.any(axis=1)
+    assert (given.reason[hidden] == "filled across time by the temporal model").all()
+
+
+@pytest.mark.parametrize("ext", ["csv", "npz", "openpose", "mmpose"])
+def test_cli_links_a_file_without_tracks_and_writes_them(tmp_path, track,
+                                                         small_dictionary_path, ext, capsys):
+    # a CSV / npz with a frame column, a folder of OpenPose frames or MMPose
+    # predictions without ids: linked, and the ids written back (a track
+    # column, a tracks array, OpenPose's person_id, MMPose's track_id)
+    from sparseedm.cli import main
+    from sparseedm.keypoints import KeypointSet, read_keypoints, write_keypoints
+
+    poses, mask, frames, person, truth = _two_people(track)
+    if ext in ("openpose", "mmpose"):
+        inp = tmp_path / ("frames" if ext == "openpose" else "pred.json")
+        write_keypoints(inp, poses, mask, format=ext, frames=frames)  # rows in frame order
+    else:
+        inp = write_keypoints(tmp_path / f"v.{ext}", KeypointSet(poses, mask, frames=frames))
+    src = read_keypoints(inp)  # what the file holds (OpenPose: BODY_25's head and neck)
+    assert src.tracks is None
+    np.testing.assert_array_equal(src.frames, frames)
+    out = tmp_path / {"openpose": "out", "mmpose": "out.json"}.get(ext, f"o.{ext}")
+    assert main(["recover", str(inp), "-o", str(out), "--dictionary",
+                 str(small_dictionary_path), "--no-adapt"]) == 0
+    assert "linked them into 2 track(s)" in capsys.readouterr().err
+    back = read_keypoints(out)
+    assert _same_partition(back.tracks, person)
+    np.testing.assert_array_equal(back.frames, frames)
+    api = sparseedm.recover(src.poses, src.missing, tracks=person, frames=frames,
+                            dictionary=str(small_dictionary_path), adapt=False)
+    np.testing.assert_allclose(back.poses, api.poses, rtol=0, atol=1e-6)
