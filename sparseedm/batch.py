@@ -152,7 +152,11 @@ class _MemorySource:
                                                 frames=self.frames)
 
     def chunk(self, start, stop):
-        return self.kps.poses[start:stop], self.kps.missing[start:stop]
+        return self.select(slice(start, stop))
+
+    def select(self, rows):
+        """Poses and missing mask of `rows` (a slice or an index array)."""
+        return self.kps.poses[rows], self.kps.missing[rows]
 
     def below(self, threshold):
         """Joints scored below `threshold` (None: the file has no scores)."""
@@ -200,6 +204,10 @@ class _NpySource:
             return None
         return sum(count_below(np.asarray(self.arr[s:s + chunk_size, :, 2], dtype=float),
                                threshold) for s in range(0, self.n, chunk_size))
+
+    def select(self, rows):
+        """Poses and missing mask of `rows` (a slice: a .npy is never interleaved)."""
+        return self.chunk(rows.start, rows.stop)
 
     def chunk(self, start, stop):
         block = np.asarray(self.arr[start:stop], dtype=float)
@@ -532,19 +540,18 @@ class _Recovery:
     time_axis: tuple = None
 
     def bounds(self, n, chunk_size):
-        """(start, stop) of each chunk: `chunk_size` rows, or in time whole
-        tracks of about that many rows (one chunk when a track's rows are
-        not contiguous in the file)."""
+        """The rows of each chunk (slices or index arrays): `chunk_size` rows,
+        or in time whole tracks of about that many rows (:func:`track_chunks`)."""
         if self.time_axis is None:
-            return [(s, min(s + chunk_size, n)) for s in range(0, n, chunk_size)]
-        return track_chunks(self.time_axis[0], n, chunk_size)
+            return [slice(s, min(s + chunk_size, n)) for s in range(0, n, chunk_size)]
+        return [slice(*b) if isinstance(b, tuple) else b
+                for b in track_chunks(self.time_axis[0], n, chunk_size)]
 
-    def __call__(self, poses, missing, start=0):
+    def __call__(self, poses, missing, rows=slice(None)):
         """One chunk's RecoveryResult (the members' answers combined)."""
         in_time = {} if self.time_axis is None else dict(  # the chunk's rows
-            tracks=None if self.time_axis[0] is None else
-            self.time_axis[0][start:start + len(poses)],
-            frames=self.time_axis[1][start:start + len(poses)])
+            tracks=None if self.time_axis[0] is None else np.asarray(self.time_axis[0])[rows],
+            frames=np.asarray(self.time_axis[1])[rows])
         return combine([recover(poses, missing, dictionary=d, alpha=self.alpha,
                                 representation=self.representation, solver=self.solver,
                                 n_jobs=self.n_jobs, backend=self.backend,
@@ -592,7 +599,7 @@ class _Columns:
 
     def put(self, rows, res, missing):
         """Keep what `res` (a RecoveryResult of the poses whose `missing` mask is
-        given) says of `rows` (a slice)."""
+        given) says of `rows` (a slice or an index array)."""
         self.status[rows] = res.status
         self.reason[rows] = res.reason
         self.objective[rows] = res.objective
@@ -667,18 +674,18 @@ def _recover_chunks_into(filled, columns, source, recovery, chunk_size, progress
     temporal_summary = None
     bar = tqdm(total=n, disable=not progress, unit="pose", desc="recover", dynamic_ncols=True)
     with bar:
-        for start, stop in recovery.bounds(n, chunk_size):
-            poses, missing = source.chunk(start, stop)
-            res = recovery(poses, missing, start)
+        for rows in recovery.bounds(n, chunk_size):
+            poses, missing = source.select(rows)
+            res = recovery(poses, missing, rows)
             temporal_summary = add_summaries(temporal_summary, res.summary().get("temporal"))
             # refused rows are written back as read, a joint with an infinite
             # coordinate as missing (as the CSV writer does: no format gets an inf)
             bad = ~np.isfinite(poses).all(axis=-1, keepdims=True)
-            filled[start:stop] = np.where(res.ok[:, None, None], res.poses,
-                                          np.where(bad, np.nan, poses))
-            columns.put(slice(start, stop), res, missing)
+            filled[rows] = np.where(res.ok[:, None, None], res.poses,
+                                    np.where(bad, np.nan, poses))
+            columns.put(rows, res, missing)
             del res
-            bar.update(stop - start)
+            bar.update(len(poses))
     return temporal_summary
 
 

@@ -133,7 +133,9 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         work. Stays at one member when the adaptation is not adopted.
     tracks : array_like (n,), optional
         With `frames`: the person of each pose (any values); None means all
-        poses are one person.
+        poses are one person, or, when some frame holds several poses, the
+        tracks :func:`sparseedm.temporal.linking.link_tracks` links them
+        into (returned as ``linked_tracks``).
     frames : array_like of int (n,), optional
         Frame number of each pose: turns on temporal recovery
         (:mod:`sparseedm.temporal`), which fills each track's occluded joints

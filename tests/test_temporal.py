@@ -234,6 +234,25 @@ def test_results_independent_of_row_order(track, small_dictionary):
     assert a.segments == 2
 
 
+def test_results_with_defaults_independent_of_row_order(track, small_dictionary):
+    # with adaptation (the default) too: the clip adapts and self-trains on
+    # samples of its rows, drawn in track and frame order, not the rows' order
+    n = 120
+    poses = np.concatenate([track[:n], track[n:2 * n] + 300.0])
+    tracks = np.repeat(["left", "right"], n)
+    frames = np.concatenate([np.arange(n), np.arange(n)])
+    mask = np.zeros(poses.shape[:2], bool)
+    for j, start in ((WRIST, 5), (9, 40), (12, 70), (3, 130), (8, 170), (11, 200)):
+        mask[start:start + 25, j] = True
+    perm = np.random.default_rng(0).permutation(len(poses))
+    a = sparseedm.recover(poses, mask, tracks=tracks, frames=frames,
+                          dictionary=small_dictionary)
+    b = sparseedm.recover(poses[perm], mask[perm], tracks=tracks[perm], frames=frames[perm],
+                          dictionary=small_dictionary)
+    assert a.adaptation.adapted and a.adaptation.self_training  # the sampling ran
+    np.testing.assert_allclose(b.poses, a.poses[perm], rtol=0, atol=1e-9)
+
+
 def test_temporal_false_is_todays_output_exactly(track, small_dictionary):
     mask = np.zeros(track.shape[:2], bool)
     mask[10:40, WRIST] = True
@@ -545,9 +564,12 @@ def test_one_clip_file_adapts_as_the_api_does(tmp_path, track, small_dictionary_
 
 
 @pytest.mark.parametrize("interleaved", [False, True])
-def test_file_streams_whole_tracks(tmp_path, track, small_dictionary_path, interleaved):
+def test_file_streams_whole_tracks(tmp_path, track, small_dictionary_path, interleaved,
+                                   monkeypatch):
     """Chunks of whole tracks give what one pass gives, every row back; with the
-    tracks interleaved in the file, one pass."""
+    tracks interleaved in the file (rows in frame order), the chunks gather
+    each track's rows."""
+    import sparseedm.batch as batch
     from sparseedm.batch import recover_file
     from sparseedm.keypoints import KeypointSet, read_keypoints, write_keypoints
 
@@ -561,11 +583,14 @@ def test_file_streams_whole_tracks(tmp_path, track, small_dictionary_path, inter
     path = write_keypoints(tmp_path / "v.csv", KeypointSet(
         np.where(mask[..., None], np.nan, track)[order], mask[order],
         tracks=names[order], frames=frames[order]))
-    out = {}
+    out, calls, recover = {}, [], batch.recover
+    monkeypatch.setattr(batch, "recover", lambda p, *a, **k: calls.append(len(p)) or
+                        recover(p, *a, **k))
     for size in (100, 50_000):
         s = recover_file(path, tmp_path / f"o{size}.csv", dictionary=small_dictionary_path,
                          adapt=False, chunk_size=size)
         out[size] = (read_keypoints(tmp_path / f"o{size}.csv").poses, s["temporal"])
+    assert calls == [80, 80, len(track) - 160, len(track)]  # tracks a, b, c; then one pass
     np.testing.assert_array_equal(out[100][0], out[50_000][0])
     assert out[100][1] == out[50_000][1] and out[100][1]["segments"] == 3
     assert np.isfinite(out[100][0]).all()

@@ -91,7 +91,8 @@ def _add_run_options(p):
                    help="recover every pose on its own even when INPUT gives frames (by "
                    "default a CSV 'frame' column or .npz 'frames' array, with 'track' / "
                    "'tracks' for several people, turns on recovery across time: "
-                   "sparseedm.temporal)")
+                   "sparseedm.temporal; several people in a frame without track ids are "
+                   "linked into tracks first)")
     p.add_argument("--save-edm", action="store_true",
                    help="also store the completed EDM vectors (see sparseedm.batch)")
 

@@ -136,9 +136,11 @@ def link_tracks(poses, missing=None, *, frames, max_distance=MAX_LINK_DISTANCE,
     Returns
     -------
     ndarray of int64 (n,)
-        Track id of each pose, numbered from 0 in order of first appearance.
-        A pose with an unusable frame number or fewer than
-        :data:`MIN_COMMON_JOINTS` observed joints gets an id of its own.
+        Track id of each pose, numbered from 0 in the order the tracks start
+        (by frame; tracks starting in one frame left to right), whatever
+        the order of the rows. A pose with an unusable frame number or fewer
+        than :data:`MIN_COMMON_JOINTS` observed joints gets an id of its
+        own, after those.
 
     Examples
     --------
@@ -167,25 +169,21 @@ def link_tracks(poses, missing=None, *, frames, max_distance=MAX_LINK_DISTANCE,
         frame = int(values[group[0]])
         live = [t for t in tracks if frame - t.frame <= max_skip + 1]
         pairs = _match(_costs(live, poses[group], frame), max_distance)
-        taken = set()
         for a, b in pairs:
             ids[group[b]] = live[a].id
             live[a].update(poses[group[b]], frame)
-            taken.add(b)
-        for b in range(len(group)):
-            if b not in taken:
-                tracks.append(_Track(next_id, poses[group[b]], frame))
-                ids[group[b]] = next_id
-                next_id += 1
+        for r in _left_to_right(poses, group[ids[group] < 0]):
+            tracks.append(_Track(next_id, poses[r], frame))
+            ids[r] = next_id
+            next_id += 1
         tracks = [t for t in tracks if frame - t.frame <= max_skip + 1]
     alone = np.flatnonzero(ids < 0)
     ids[alone] = next_id + np.arange(len(alone))
-    return _first_appearance(ids)
+    return ids
 
 
-def _first_appearance(ids):
-    """Renumber ids 0, 1, ... in the order of their first row."""
-    _, first, inverse = np.unique(ids, return_index=True, return_inverse=True)
-    rank = np.empty(len(first), dtype=np.int64)
-    rank[np.argsort(first)] = np.arange(len(first))
-    return rank[inverse.reshape(-1)]
+def _left_to_right(poses, rows):
+    """`rows` by the mean x, then y, of their observed joints: new tracks are
+    numbered the same whatever order a frame's rows came in."""
+    centre = np.nanmean(poses[rows], axis=1) if len(rows) else np.zeros((0, 2))
+    return rows[np.lexsort((centre[:, 1], centre[:, 0]))]

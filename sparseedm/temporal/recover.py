@@ -138,8 +138,10 @@ def _plan(layout, poses, mask, usable, settings):
 
 def _offered(layout, poses, mask, usable, settings):
     """What the poses offer adaptation (:data:`CLIP_NEAR`): complete rows and
-    rows whose missing joints time alone fills from close by, filled."""
-    parts = [poses[layout.alone & usable & ~mask.any(axis=1)]]
+    rows whose missing joints time alone fills from close by, filled; in an
+    order that does not depend on the rows' (``layout.order``)."""
+    alone = layout.order[(layout.alone & usable & ~mask.any(axis=1))[layout.order]]
+    parts = [poses[alone]]
     for rows, off in zip(layout.segments, layout.offsets):
         values, free = _dense(rows, off, poses, mask, usable)
         near, filled = time_filled(values, free, CLIP_NEAR, settings)
@@ -150,11 +152,12 @@ def _offered(layout, poses, mask, usable, settings):
 def _adapt(dictionary, poses, mask, layout, usable, adapt, ensemble, settings, kw):
     """Members and adaptations: under "auto" on what the poses offer
     (:func:`_offered`, at least :data:`CLIP_MIN_POSES`), else as asked."""
+    order = layout.order  # self-training samples rows: the same whatever their order
     if isinstance(adapt, str) and adapt == "auto":
         offered = _offered(layout, poses, mask, usable, settings)
-        return adapt_members(dictionary, poses, mask, offered, ensemble, warn=False,
-                             min_poses=CLIP_MIN_POSES, **kw)
-    return adapt_members(dictionary, poses, mask, adapt, ensemble, **kw)
+        return adapt_members(dictionary, poses[order], mask[order], offered, ensemble,
+                             warn=False, min_poses=CLIP_MIN_POSES, **kw)
+    return adapt_members(dictionary, poses[order], mask[order], adapt, ensemble, **kw)
 
 
 def _in_time(poses, missing, tracks, frames, n_joints):

@@ -22,6 +22,7 @@ __all__ = ["MAX_SKIP", "TrackLayout", "split_tracks", "frame_numbers", "distance
 
 #: a run of more absent frame numbers than this ends a segment
 MAX_SKIP = 30
+_DUPLICATE = "its (track, frame) pair is given more than once"
 
 
 @dataclass
@@ -38,6 +39,10 @@ class TrackLayout:
         Rows recovered frame by frame, outside any segment.
     reason : ndarray of str (n,)
         Why a row is alone (``""`` for rows in a segment).
+    order : ndarray of int (n,)
+        Every row, by track and frame (rows without a usable frame number
+        after those of their track): an order that does not depend on the
+        order the rows were given in, for what samples from them.
     linked : ndarray of int (n,) or None
         The track ids :func:`sparseedm.temporal.linking.link_tracks` gave
         rows that came without any (None when the caller's tracks were used).
@@ -47,6 +52,7 @@ class TrackLayout:
     offsets: list
     alone: np.ndarray
     reason: np.ndarray
+    order: np.ndarray = None
     linked: np.ndarray = None
 
 
@@ -125,7 +131,7 @@ def split_tracks(n, tracks, frames):
     dup = np.zeros(len(order), dtype=bool)
     dup[:-1] |= same
     dup[1:] |= same
-    reason[order[dup]] = "its (track, frame) pair is given more than once"
+    reason[order[dup]] = _DUPLICATE
     order = order[~dup]
     breaks = np.flatnonzero((np.diff(ids[order]) != 0)
                             | (np.diff(values[order]) > MAX_SKIP + 1)) + 1
@@ -136,7 +142,9 @@ def split_tracks(n, tracks, frames):
         elif len(rows):
             segments.append(rows)
             offsets.append(values[rows] - values[rows[0]])
-    return TrackLayout(segments, offsets, reason != "", reason.astype(str))
+    bad = reason != ""
+    canonical = np.lexsort((np.arange(n), values, bad & (reason != _DUPLICATE), ids))
+    return TrackLayout(segments, offsets, bad, reason.astype(str), canonical)
 
 
 def distance_to_observed(free):
@@ -173,19 +181,20 @@ def distance_to_observed(free):
 
 
 def track_chunks(tracks, n, chunk_size):
-    """(start, stop) row ranges of whole tracks, about `chunk_size` rows each.
+    """Rows of whole tracks, about `chunk_size` rows a chunk.
 
-    Tracks are cut apart only where the file's rows change track; a track
-    longer than `chunk_size` is one chunk. When some track's rows are not
-    contiguous (tracks interleaved in the file) the whole file is one chunk,
-    so that every track is still recovered whole.
+    Tracks are never cut; a track longer than `chunk_size` is one chunk.
+    When every track's rows are contiguous in the file the chunks are
+    ``(start, stop)`` ranges, cut where the rows change track; when tracks
+    are interleaved (several people per frame, rows in frame order) they are
+    arrays of the rows of whole tracks, in file order.
 
     Examples
     --------
     >>> track_chunks(["a", "a", "b", "b", "b", "c"], 6, 3)
     [(0, 2), (2, 5), (5, 6)]
-    >>> track_chunks(["a", "b", "a"], 3, 1)
-    [(0, 3)]
+    >>> [c.tolist() for c in track_chunks(["a", "b", "a", "b", "c", "c"], 6, 4)]
+    [[0, 1, 2, 3], [4, 5]]
     """
     if n == 0:
         return []
@@ -194,7 +203,7 @@ def track_chunks(tracks, n, chunk_size):
     ids = _track_ids(tracks, n)
     starts = np.flatnonzero(np.diff(ids) != 0) + 1
     if len(starts) + 1 != len(np.unique(ids)):  # a track comes back later
-        return [(0, n)]
+        return _interleaved_chunks(ids, chunk_size)
     edges = [0, *starts.tolist(), n]
     bounds, begin = [], 0
     for lo, hi in zip(edges[:-1], edges[1:]):
@@ -203,6 +212,23 @@ def track_chunks(tracks, n, chunk_size):
             begin = lo
     bounds.append((begin, n))
     return bounds
+
+
+def _interleaved_chunks(ids, chunk_size):
+    """Rows (arrays, file order) of whole tracks, packed in the order the
+    tracks first appear, about `chunk_size` rows each."""
+    order = np.argsort(ids, kind="stable")
+    per_track = np.split(order, np.flatnonzero(np.diff(ids[order])) + 1)
+    per_track.sort(key=lambda rows: rows[0])
+    chunks, current, size = [], [], 0
+    for rows in per_track:
+        if current and size + len(rows) > chunk_size:
+            chunks.append(np.sort(np.concatenate(current)))
+            current, size = [], 0
+        current.append(rows)
+        size += len(rows)
+    chunks.append(np.sort(np.concatenate(current)))
+    return chunks
 
 
 def add_summaries(total, part):
