@@ -100,8 +100,7 @@ from ._recovery_kernel import compiled_solver
 from .normalize import REPRESENTATIONS
 from .recovery import STATUSES, check_options_apply, recover
 from .skeleton import JOINT_NAMES
-from .temporal.linking import link_tracks, needs_linking
-from .temporal.recover import adapt_in_time
+from .temporal.recover import adapt_in_time, linked_tracks
 from .temporal.tracks import add_summaries, track_chunks
 from .solvers import get_solver
 
@@ -146,10 +145,13 @@ class _MemorySource:
         self.linked = None
 
     def link(self):
-        """Track ids linked by pose (:func:`link_tracks`) for a file with frames,
-        no tracks and several poses in some frame; recovered and written with them."""
-        self.tracks = self.linked = link_tracks(self.kps.poses, self.kps.missing,
-                                                frames=self.frames)
+        """Track ids linked by pose, as :func:`recover` links them (:func:`linked_tracks`),
+        for a file with frames, no tracks and several poses in some frame; the
+        file is recovered and written with them."""
+        self.linked = linked_tracks(self.kps.poses, self.kps.missing, self.tracks,
+                                    self.frames)
+        if self.linked is not None:
+            self.tracks = self.linked
 
     def chunk(self, start, stop):
         return self.select(slice(start, stop))
@@ -426,8 +428,7 @@ def _in_time(source, temporal):
     a file without tracks whose frames hold several poses is linked first."""
     if not temporal or source.frames is None:
         return False
-    if needs_linking(source.tracks, source.frames):
-        source.link()
+    source.link()
     return True
 
 

@@ -29,11 +29,13 @@ from ..dictionary import Dictionary, load_dictionary
 from ..edm import pose_to_vector
 from ..ensemble import adapt_members
 from ..normalize import normalize
+from ..skeleton import SKELETON_14
 from .linking import link_tracks, needs_linking
 from .model import DEFAULT_SETTINGS, fill_segment, prior_frames, time_filled
 from .tracks import split_tracks
 
-__all__ = ["recover_temporal", "recover_track", "adapt_in_time", "TemporalResult", "SOURCES",
+__all__ = ["recover_temporal", "recover_track", "adapt_in_time", "linked_tracks",
+           "TemporalResult", "SOURCES",
            "CLIP_NEAR", "CLIP_MIN_POSES"]
 
 #: Per-joint sources of :attr:`TemporalResult.source`.
@@ -152,26 +154,52 @@ def _offered(layout, poses, mask, usable, settings):
 def _adapt(dictionary, poses, mask, layout, usable, adapt, ensemble, settings, kw):
     """Members and adaptations: under "auto" on what the poses offer
     (:func:`_offered`, at least :data:`CLIP_MIN_POSES`), else as asked."""
-    order = layout.order  # self-training samples rows: the same whatever their order
+    if adapt is False or adapt is None:
+        return adapt_members(dictionary, poses, mask, adapt, ensemble, **kw)
+    # self-training samples the rows: in track and frame order, whatever theirs
+    ordered = poses[layout.order], mask[layout.order]
     if isinstance(adapt, str) and adapt == "auto":
         offered = _offered(layout, poses, mask, usable, settings)
-        return adapt_members(dictionary, poses[order], mask[order], offered, ensemble,
-                             warn=False, min_poses=CLIP_MIN_POSES, **kw)
-    return adapt_members(dictionary, poses[order], mask[order], adapt, ensemble, **kw)
+        return adapt_members(dictionary, *ordered, offered, ensemble, warn=False,
+                             min_poses=CLIP_MIN_POSES, **kw)
+    return adapt_members(dictionary, *ordered, adapt, ensemble, **kw)
+
+
+def _screened(poses, missing, n_joints):
+    """Validated poses, mask, screening and the rows time can use."""
+    poses, mask, bad_coord = validate_poses(poses, missing, n_joints)
+    refusal, why, _, _ = screen_poses(poses, mask, bad_coord)
+    # rows whose observed coordinates cannot be used are absent from time too
+    usable = ~np.isin(refusal, ("invalid_coordinates", "out_of_range"))
+    return poses, mask, refusal, why, usable
+
+
+def _linked(poses, mask, usable, tracks, frames):
+    """The usable rows linked into tracks, or None (see :func:`linked_tracks`)."""
+    if not needs_linking(tracks, frames):
+        return None
+    return link_tracks(np.where(usable[:, None, None], poses, np.nan), mask, frames=frames)
+
+
+def linked_tracks(poses, missing, tracks, frames, n_joints=SKELETON_14.num_joints):
+    """The tracks :func:`recover_temporal` links the poses into, or None.
+
+    None when `tracks` are given or no frame holds several poses; otherwise
+    :func:`~sparseedm.temporal.linking.link_tracks` of the rows time can use
+    (what ``sparseedm recover`` links a file by, once, before its chunks).
+    """
+    if not needs_linking(tracks, frames):
+        return None
+    poses, mask, _, _, usable = _screened(poses, missing, n_joints)
+    return _linked(poses, mask, usable, tracks, frames)
 
 
 def _in_time(poses, missing, tracks, frames, n_joints):
     """Validated poses, mask, screening, usable rows and the track layout (tracks
     linked by :func:`~sparseedm.temporal.linking.link_tracks` when none are
     given and a frame holds several poses)."""
-    poses, mask, bad_coord = validate_poses(poses, missing, n_joints)
-    refusal, why, _, _ = screen_poses(poses, mask, bad_coord)
-    # rows whose observed coordinates cannot be used are absent from time too
-    usable = ~np.isin(refusal, ("invalid_coordinates", "out_of_range"))
-    linked = None
-    if needs_linking(tracks, frames):  # several poses a frame and no ids: link them
-        linked = link_tracks(np.where(usable[:, None, None], poses, np.nan), mask,
-                             frames=frames)
+    poses, mask, refusal, why, usable = _screened(poses, missing, n_joints)
+    linked = _linked(poses, mask, usable, tracks, frames)
     layout = split_tracks(len(poses), tracks if linked is None else linked, frames)
     layout.linked = linked
     return poses, mask, refusal, why, usable, layout

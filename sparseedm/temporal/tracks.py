@@ -143,7 +143,7 @@ def split_tracks(n, tracks, frames):
             segments.append(rows)
             offsets.append(values[rows] - values[rows[0]])
     bad = reason != ""
-    canonical = np.lexsort((np.arange(n), values, bad & (reason != _DUPLICATE), ids))
+    canonical = np.lexsort((values, bad & (reason != _DUPLICATE), ids))  # stable: then by row
     return TrackLayout(segments, offsets, bad, reason.astype(str), canonical)
 
 
