@@ -1,5 +1,7 @@
 """Temporal recovery (issue 23): the banded model, recover(frames=...), bad input."""
 
+import warnings
+
 import numpy as np
 import pytest
 from scipy.interpolate import CubicSpline
@@ -301,6 +303,17 @@ def test_bad_frames_and_tracks_per_row(track, small_dictionary):
         assert res.reason[i].startswith("per frame because "), res.reason[i]
     assert set(res.source[9:38, WRIST]) == {"temporal"}
     assert set(np.unique(res.source)) <= set(SOURCES)
+
+
+def test_a_row_with_nothing_observed_outside_time_warns_nothing(track, small_dictionary):
+    # a NaN frame number and no joint observed: refused per frame, quietly
+    poses, frames = track[:30].copy(), np.arange(30.0)
+    poses[7], frames[7] = np.nan, np.nan
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        res = sparseedm.recover(poses, np.isnan(poses).any(-1), frames=frames,
+                                dictionary=small_dictionary, adapt=False)
+    assert res.status[7] == "too_few_observed" and res.ok[np.arange(30) != 7].all()
 
 
 def test_rows_refused_per_frame_can_be_filled_in_time(track, small_dictionary):

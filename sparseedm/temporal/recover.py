@@ -19,6 +19,7 @@ compares every gap filler in.
 from __future__ import annotations
 
 import time
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -293,8 +294,10 @@ def _per_frame(poses, mask, need, members, settings, kwargs):
 
 def _runaway(filled, mask):
     """Rows (n,) whose filled joints lie further than :data:`RUNAWAY_EXTENTS`
-    extents of the observed joints from their centre."""
-    with np.errstate(invalid="ignore"):
+    extents of the observed joints from their centre (a refused row, all NaN:
+    never; numpy's all-NaN warnings silenced)."""
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
         obs = np.where(mask[..., None], np.nan, filled)
         center = np.nanmean(obs, axis=1)
         extent = np.nanmax(np.nanmax(obs, axis=1) - np.nanmin(obs, axis=1), axis=1)
