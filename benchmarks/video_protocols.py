@@ -79,7 +79,7 @@ def sequences(source, split, max_sequences, seed):
     return seqs
 
 
-def validation_probe(rows_of, summarise, out, sources=("bandai", "cmu")):
+def validation_probe(rows_of, summarise, out, sources=("bandai", "cmu"), split="validation"):
     """Run a validation probe of dictionaries/: each source's rows printed as they
     come, then ``{"split", "rows", "summary"}`` written to `out` and the summary printed."""
     rows = []
@@ -87,25 +87,33 @@ def validation_probe(rows_of, summarise, out, sources=("bandai", "cmu")):
         for row in rows_of(source):
             print(json.dumps(row), flush=True)
             rows.append(row)
-    doc = dict(split="validation", rows=rows, summary=summarise(rows))
+    doc = dict(split=split, rows=rows, summary=summarise(rows))
     Path(out).write_text(json.dumps(doc, indent=1) + "\n")
     for line in doc["summary"]:
         print(json.dumps(line))
 
 
-def probe_main(doc, rows_of, summarise, *, count, default, out):
+def probe_main(doc, rows_of, summarise, *, count, default, out, test_split=False):
     """The command line of a validation probe: ``--data-dir``, ``--<count>``
     (`default`) and ``--out`` (`out`), then :func:`validation_probe` with
-    ``rows_of(source, <count>)``."""
+    ``rows_of(source, <count>)``. With `test_split`, ``--split test`` measures
+    the held-out split once the settings are chosen: ``rows_of(source, <count>,
+    split)``."""
     global DATA
     ap = argparse.ArgumentParser(description=doc.splitlines()[0])
     ap.add_argument("--data-dir", default="../shared/data")
     ap.add_argument(f"--{count}", type=int, default=default)
     ap.add_argument("--out", default=out)
+    if test_split:
+        ap.add_argument("--split", choices=("validation", "test"), default="validation")
     args = ap.parse_args()
     DATA = Path(args.data_dir).resolve()
     n = getattr(args, count.replace("-", "_"))
-    validation_probe(lambda source: rows_of(source, n), summarise, args.out)
+    if not test_split:
+        validation_probe(lambda source: rows_of(source, n), summarise, args.out)
+        return
+    validation_probe(lambda source: rows_of(source, n, args.split), summarise, args.out,
+                     split=args.split)
 
 
 def extra_method(text):

@@ -43,6 +43,12 @@ def add_parser(sub):
     p.add_argument("--plot", default=None, metavar="PNG",
                    help="also draw the first 4 lifted poses from the front and the side, "
                    "left/right coloured (needs matplotlib: pip install 'sparseedm[plot]')")
+    p.add_argument("--no-temporal", action="store_true",
+                   help="lift every pose on its own even when INPUT gives frames (by "
+                   "default a CSV 'frame' column or .npz 'frames' array, with 'track' / "
+                   "'tracks' for several people, turns on lifting across time: missing 2D "
+                   "joints filled across time first, each person's depth reflections "
+                   "chosen together)")
     add_quiet(p)
     p.set_defaults(func=run)
 
@@ -54,12 +60,15 @@ def run(args):
     s = lift_file(args.input, args.output, lifter=args.lifter, n_jobs=args.jobs,
                   output_format=args.format, errors_path=args.errors,
                   confidence_threshold=args.confidence_threshold,
-                  representation=args.representation, rate=args.rate, plot=args.plot)
+                  representation=args.representation, rate=args.rate, plot=args.plot,
+                  temporal=not args.no_temporal)
     out = sys.stderr if args.quiet or is_stream(args.output) else sys.stdout  # -o /dev/stdout
     rate = f"{s['poses_per_second']:,.0f} poses/s" if s["poses_per_second"] else "-"
     counts = ", ".join(f"{k} {v}" for k, v in s["status"].items()) or "none"
+    across = (f"lifted across time: {s['filled_across_time']} pose(s) had missing 2D "
+              "joints filled across time first\n") if s["temporal"] else ""
     print(f"wrote {s['output']}\nposes: {s['poses']}  rows refused: {s['refused']}  "
-          f"ambiguous depth reflections: {s['ambiguous_reflection']}\n"
+          f"ambiguous depth reflections: {s['ambiguous_reflection']}\n{across}"
           f"time: {s['seconds']:.2f} s  ({rate})\nstatus: {counts}", file=out)
     if s.get("plot"):
         print(f"figure: {s['plot']}", file=out)

@@ -8,6 +8,8 @@
 - :mod:`.mds`         3D coordinates from a 3D EDM: MDS, SMACOF, camera alignment,
                       reflection choice
 - :mod:`.metrics`     Err_ave on 3D EDMs, MPJPE, N-MPJPE, PA-MPJPE
+- :mod:`.video`       a video's frames lifted together: 2D filled across time first,
+                      depth reflections chosen per track, 3D trajectories smoothed
 - :mod:`.lift`        :func:`lift`, the user entry point
 - :mod:`.evaluation`  the paper's application table (lifting after recovery)
 - :mod:`.adaptation`  :func:`adapt_lifter`: adapt a dictionary lifter on 3D-free

@@ -4,16 +4,17 @@ Input: any keypoint file :func:`sparseedm.keypoints.read_keypoints` reads
 (.csv, .npz, .npy, COCO .json). Output (written atomically), by extension or
 ``output_format``:
 
-``.csv``   one pose per row: ``id, <joint>_x, <joint>_y, <joint>_z`` for the 14
+``.csv``   one pose per row: ``id`` (then ``track``, ``frame`` when the input had
+           them), ``<joint>_x, <joint>_y, <joint>_z`` for the 14
            joints (metres, pelvis at the origin, camera axes: x right, y down,
            z away from the camera; empty for refused rows), then ``status``,
            ``reason``, ``chirality_margin``;
 ``.npz``   ``poses3d`` (n, 14, 3), ``vectors3d`` (n, 91) in the lifter's
            normalisation, ``scale_metric`` (n,), ``missing`` (n, 14),
            ``status``, ``reason``, ``chirality_margin``, ``joint_names`` and
-           ``ids`` when the input had them;
+           ``ids`` (``tracks``, ``frames`` when the input had them);
 ``.json``  a list of ``{"id", "status", "reason", "joints": {name: [x, y, z] or
-           null}}``;
+           null}}`` (with ``"track"``, ``"frame"`` when the input had them);
 ``.trc``   OpenSim's marker-trajectory format (:mod:`sparseedm.lifting.trc`): one
            frame per pose at ``rate`` frames per second, one marker per joint,
            metres, turned to y up; refused poses as empty fields.
@@ -21,6 +22,12 @@ Input: any keypoint file :func:`sparseedm.keypoints.read_keypoints` reads
 With ``plot``, a PNG of a few lifted poses from two viewpoints
 (:func:`sparseedm.lifting.plotting.plot_lifted`; needs the ``plot`` extra,
 checked before any work).
+
+An input with frames (a CSV ``frame`` column, an ``.npz`` ``frames`` array,
+with ``track`` / ``tracks`` for several people) is lifted across time
+(:func:`sparseedm.lifting.lift`'s `frames`): its missing 2D joints are filled
+across time first and each person's depth reflections are chosen together;
+``temporal=False`` (``--no-temporal``) lifts every row on its own.
 
 Refused rows (see :data:`sparseedm.lifting.STATUSES`) are listed in an errors
 file ``<output stem>.errors.csv`` (``row,id,status,reason``), as
@@ -69,13 +76,23 @@ def _output_format(path, output_format):
     return fmt
 
 
-def write_poses3d(path, result, ids=None, output_format=None, rate=30.0):
+def _when(tracks, frames):
+    """The (name, values) of the track and frame columns given (strings per row)."""
+    return [(name, np.asarray(v).astype(str)) for name, v in (("track", tracks),
+                                                             ("frame", frames))
+            if v is not None]
+
+
+def write_poses3d(path, result, ids=None, output_format=None, rate=30.0, *, tracks=None,
+                  frames=None):
     """Write a :class:`~sparseedm.lifting.LiftResult` atomically (format from the extension;
-    `rate`: frames per second of a .trc)."""
+    `rate`: frames per second of a .trc; `tracks`, `frames`: the input's, written
+    beside each row's id)."""
     path = Path(path)
     fmt = _output_format(path, output_format)
     n = len(result.status)
     ids = np.array([str(i) for i in range(n)]) if ids is None else np.asarray(ids, str)
+    when = _when(tracks, frames)
     P = result.poses3d
     if fmt == "npz":  # at exactly `path`, whatever its extension
         save_npz(path, dict(poses3d=P, vectors3d=result.vectors3d,
@@ -83,23 +100,29 @@ def write_poses3d(path, result, ids=None, output_format=None, rate=30.0):
                             status=result.status.astype(str),
                             reason=result.reason.astype(str),
                             chirality_margin=result.chirality_margin, ids=ids,
-                            joint_names=np.array(JOINT_NAMES)))
+                            joint_names=np.array(JOINT_NAMES),
+                            **{f"{k}s": np.asarray(v) for k, v in (("track", tracks),
+                                                                   ("frame", frames))
+                               if v is not None}))
     elif fmt == "trc":
         write_trc(path, P, rate=rate)
     elif fmt == "csv":
         with atomic_path(path) as tmp, open(tmp, "w", newline="", encoding="utf-8") as f:
             w = csv.writer(f)
-            w.writerow(["id"] + [f"{j}_{a}" for j in JOINT_NAMES for a in "xyz"]
+            w.writerow(["id"] + [k for k, _ in when]
+                       + [f"{j}_{a}" for j in JOINT_NAMES for a in "xyz"]
                        + ["status", "reason", "chirality_margin"])
             for r in range(n):
-                w.writerow([ids[r]] + [_num(v) for v in P[r].ravel()]
+                w.writerow([ids[r]] + [v[r] for _, v in when]
+                           + [_num(v) for v in P[r].ravel()]
                            + [result.status[r], result.reason[r],
                               _num(result.chirality_margin[r])])
     else:
         doc = []
         for r in range(n):
             ok = np.isfinite(P[r]).all()
-            doc.append({"id": str(ids[r]), "status": str(result.status[r]),
+            doc.append({"id": str(ids[r]), **{k: str(v[r]) for k, v in when},
+                        "status": str(result.status[r]),
                         "reason": str(result.reason[r]),
                         "joints": {j: ([float(v) for v in P[r, i]] if ok else None)
                                    for i, j in enumerate(JOINT_NAMES)}})
@@ -109,7 +132,8 @@ def write_poses3d(path, result, ids=None, output_format=None, rate=30.0):
 
 
 def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, errors_path=None,
-              confidence_threshold=None, representation="average", rate=30.0, plot=None):
+              confidence_threshold=None, representation="average", rate=30.0, plot=None,
+              temporal=True):
     """Read 2D keypoints, lift them, write 3D poses and an errors file; return a summary.
 
     `confidence_threshold`: joints scored below it are missing; default the
@@ -119,7 +143,8 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
     the paths are checked (:func:`sparseedm._atomic.check_paths`) before any work.
     `rate` is a .trc output's frames per second; `plot` a PNG path for a few
     lifted poses (matplotlib checked first). The summary's ``plot`` is the
-    figure written, or None.
+    figure written, or None; its ``temporal`` says whether time was used
+    (`temporal` and the input has frames).
     """
     errors = Path(errors_path) if errors_path else default_errors_path(output)
     _output_format(output, output_format)
@@ -133,14 +158,20 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
         inputs.append(("lifter", lifter))  # whatever its name: a file the run reads
     check_paths(inputs, [("output", output), ("errors file", errors), ("plot", plot)])
     kps = read_keypoints(input, confidence_threshold=confidence_threshold)
-    _progress.say(f"lifting {len(kps.poses):,} poses to 3D")
+    in_time = bool(temporal) and kps.frames is not None
+    _progress.say(f"lifting {len(kps.poses):,} poses to 3D"
+                  + (" across time (the input has frames: missing 2D joints filled across "
+                     "time first; --no-temporal lifts each row alone)" if in_time else ""))
     result = lift(kps.poses, kps.missing, lifter=lifter, n_jobs=n_jobs,
-                  representation=representation)
-    write_poses3d(output, result, kps.ids, output_format, rate=rate)
+                  representation=representation,
+                  **(dict(tracks=kps.tracks, frames=kps.frames) if in_time else {}))
+    write_poses3d(output, result, kps.ids, output_format, rate=rate, tracks=kps.tracks,
+                  frames=kps.frames)
     refused = ~result.ok
     write_errors(errors, refused, kps.ids, result.status, result.reason)
     summary = result.summary()
     summary.update(output=str(output), errors=str(errors) if refused.any() else None,
+                   temporal=in_time,
                    plot=str(_plot(plot, result, kps.ids)) if plot is not None else None)
     return summary
 

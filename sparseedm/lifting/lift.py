@@ -9,6 +9,11 @@
    depth reflection chosen by the lifter's chirality prior.
 4. The pose is scaled to metres by the lifter's size prior and centred on the
    pelvis; axes are the camera's (x right, y down, z away from the camera).
+
+Given ``frames`` (a video), :mod:`.video` uses time: the missing 2D joints
+are filled across time before step 1, each person's depth reflections are
+chosen together in step 3, and each joint's 3D trajectory is smoothed after
+step 4 (measured in lifters/README.md, "Video").
 """
 
 from __future__ import annotations
@@ -26,8 +31,9 @@ from .._validation import N_JOBS, Options, validate_params
 from ..normalize import REPRESENTATIONS, normalize, represent
 from .adaptation import adapt_lifter
 from .base import Lifter, load_lifter, rms
-from .mds import reconstruct
+from .mds import reflections
 from .metrics import pelvis
+from .video import choose_reflections, fill_in_time, smooth_tracks
 
 __all__ = ["lift", "LiftResult", "STATUSES", "poses_from_vectors"]
 
@@ -37,10 +43,12 @@ __all__ = ["lift", "LiftResult", "STATUSES", "poses_from_vectors"]
 STATUSES = {
     "lifted": "lifted from a complete 2D pose",
     "lifted_occluded": "lifted from the observed joints of an occluded 2D pose",
+    "lifted_filled": "lifted after its missing 2D joints were filled across time "
+                     "(sparseedm.temporal)",
     "inaccurate": "lifted, but the lasso optimum is not certified (gap above tolerance)",
     **{k: RECOVERY_STATUSES[k] for k in ("solver_failed",) + SCREENING_REFUSALS},
 }
-_OK = ("lifted", "lifted_occluded", "inaccurate")
+_OK = ("lifted", "lifted_occluded", "lifted_filled", "inaccurate")
 
 
 @dataclass
@@ -51,13 +59,19 @@ class LiftResult:
     ----------
     poses3d : (n, N, 3) metres, pelvis at the origin, camera axes (x right,
         y down, z away from the camera); NaN for refused poses
-    vectors3d : (n, M) 3D EDM vectors in the lifter's normalisation
+    vectors3d : (n, M) 3D EDM vectors in the lifter's normalisation (its
+        prediction per frame: a video's smoothing moves only poses3d)
     scale_metric : (n,) metres per normalised unit used for poses3d
     missing : (n, N) bool
     status, reason : (n,) str (see :data:`STATUSES`)
-    chirality_margin : (n,) how clearly the depth reflection was decided
-        (< 1 counts as ambiguous)
+    chirality_margin : (n,) how clearly the chirality prior decided the depth
+        reflection (< 1 counts as ambiguous; with frames the reflections of a
+        person's frames are chosen together)
     seconds : float
+    poses2d : (n, N, 2) the 2D poses lifted: the input with the joints time
+        filled (NaN where a joint was still missing)
+    filled : (n, N) bool, joints filled across time before lifting (all False
+        without frames)
     """
 
     poses3d: np.ndarray
@@ -68,6 +82,8 @@ class LiftResult:
     reason: np.ndarray
     chirality_margin: np.ndarray
     seconds: float = 0.0
+    poses2d: np.ndarray = None
+    filled: np.ndarray = None
 
     @property
     def edms3d(self):
@@ -83,13 +99,15 @@ class LiftResult:
             "poses": int(len(self.status)),
             "refused": int((~self.ok).sum()),
             "ambiguous_reflection": int((self.chirality_margin[self.ok] < 1).sum()),
+            "filled_across_time": 0 if self.filled is None else int(self.filled.any(axis=1).sum()),
             "seconds": round(self.seconds, 3),
             "poses_per_second": poses_per_second(len(self.status), self.seconds),
             "status": status_counts(self.status, STATUSES),
         }
 
 
-def lift(poses, missing=None, *, lifter=None, n_jobs=1, representation="average", adapt=None):
+def lift(poses, missing=None, *, tracks=None, frames=None, lifter=None, n_jobs=1,
+         representation="average", adapt=None, dictionary=None):
     """Lift 2D poses to 3D.
 
     Parameters
@@ -98,6 +116,13 @@ def lift(poses, missing=None, *, lifter=None, n_jobs=1, representation="average"
         Pixels (any frame: each pose is normalised); NaN marks missing joints.
     missing : array_like of bool (n, N), optional
         More missing joints (combined with NaN by "or").
+    tracks, frames : array_like (n,), optional
+        A video: `frames` (integers) turns on lifting across time, `tracks`
+        says whose pose each row is (as :func:`sparseedm.recover`). The
+        missing 2D joints are first filled across time, each track's depth
+        reflections are chosen together and its 3D trajectories smoothed
+        (:mod:`sparseedm.lifting.video`). Rows time cannot use (a bad frame
+        number, a lone frame) are lifted alone from their observed joints.
     lifter : Lifter, str or path, optional
         A loaded lifter, a shipped name, or a lifter .npz; default the
         shipped ``"default"``.
@@ -111,6 +136,9 @@ def lift(poses, missing=None, *, lifter=None, n_jobs=1, representation="average"
         lifter is first adapted on them by
         :func:`sparseedm.lifting.adaptation.adapt_lifter` with its defaults
         (measured in lifters/README.md). Default None: no adaptation.
+    dictionary : Dictionary, str or path, optional
+        With `frames`: the 2D dictionary of the fill across time (default the
+        shipped one).
 
     Returns
     -------
@@ -138,12 +166,29 @@ def lift(poses, missing=None, *, lifter=None, n_jobs=1, representation="average"
         lifter = adapt_lifter(lifter, adapt, n_jobs=n_jobs)
     N = lifter.n_joints
     poses, mask, bad = validate_poses(poses, missing, N, caller="lift", model="lifter")
+    filled, layout = np.zeros(mask.shape, bool), None
+    if frames is not None:
+        poses, filled, layout = fill_in_time(poses, mask, tracks, frames,
+                                             dictionary=dictionary, n_jobs=n_jobs)
+        mask = mask & ~filled
+    out = _lift_rows(lifter, poses, mask, bad, representation, n_jobs, layout)
+    if layout is not None:
+        smooth_tracks(out["poses3d"], layout)
+    lifted = np.isin(out["status"], ("lifted", "lifted_occluded")) & filled.any(axis=1)
+    out["status"][lifted] = "lifted_filled"
+    out["status"] = out["status"].astype(str)
+    return LiftResult(**out, missing=mask | filled, seconds=time.perf_counter() - t0,
+                      poses2d=np.where(mask[..., None], np.nan, poses), filled=filled)
+
+
+def _lift_rows(lifter, poses, mask, bad, representation, n_jobs, layout):
+    """Screen, predict and reconstruct every row: the LiftResult's per-row fields."""
+    N = lifter.n_joints
     n = len(poses)
     m = N * (N - 1) // 2
     status, reason, n_obs, clean = screen_poses(poses, mask, bad)
     status[status == ""] = "lifted"
     status[(status == "lifted") & (n_obs < N)] = "lifted_occluded"
-
     out = np.full((n, N, 3), np.nan)
     vec3 = np.full((n, m), np.nan)
     scale_metric = np.full(n, np.nan)
@@ -158,23 +203,39 @@ def lift(poses, missing=None, *, lifter=None, n_jobs=1, representation="average"
         failed = (st == "failed") | ~np.isfinite(Y).all(axis=1)
         status[rows[failed]] = "solver_failed"
         reason[rows[failed]] = "the lifter gave no finite answer"
-        good = ~failed
-        rows, Y = rows[good], Y[good]
+        rows, Y = rows[~failed], Y[~failed]
         if len(rows):
-            out[rows], margin[rows], scale_metric[rows] = poses_from_vectors(
-                lifter, Y, poses[rows], mask[rows])
+            front, back, score, scale_metric[rows] = _candidates(lifter, Y, poses[rows],
+                                                                 mask[rows])
+            flip = score < 0 if layout is None else choose_reflections(front, back, score,
+                                                                       rows, layout)
+            out[rows] = np.where(flip[:, None, None], back, front)
+            margin[rows] = np.abs(score)
             vec3[rows] = Y
-    return LiftResult(poses3d=out, vectors3d=vec3, scale_metric=scale_metric, missing=mask,
-                      status=status.astype(str), reason=reason.astype(str),
-                      chirality_margin=margin, seconds=time.perf_counter() - t0)
+    return dict(poses3d=out, vectors3d=vec3, scale_metric=scale_metric,
+                status=status.astype(object), reason=reason.astype(str),
+                chirality_margin=margin)
+
+
+def _candidates(lifter, vectors3d, poses2d, missing):
+    """Both metric reflections (pelvis at the origin), the prior's score of
+    ``front``, and metres per lifter unit."""
+    normed, _, _ = normalize(np.where(missing[..., None], np.nan, poses2d), missing)
+    front, back, score, _ = reflections(vector_to_edm(vectors3d), normed, ~missing,
+                                        lifter.chirality_)
+    k = lifter.size_prior_ / np.maximum(rms(vectors3d), 1e-12)
+
+    def metric(P):
+        return (P - pelvis(P)[:, None, :]) * k[:, None, None]
+
+    return metric(front), metric(back), score, k
 
 
 def poses_from_vectors(lifter, vectors3d, poses2d, missing):
-    """Metric 3D poses from predicted 3D EDM vectors and the 2D input (steps 3-4 above).
+    """Metric 3D poses from predicted 3D EDM vectors and the 2D input (steps 3-4 above),
+    each frame's reflection by the chirality prior's sign.
 
     Returns ``(poses3d, chirality_margin, scale_metric)``.
     """
-    normed, _, _ = normalize(np.where(missing[..., None], np.nan, poses2d), missing)
-    P, margin, _ = reconstruct(vector_to_edm(vectors3d), normed, ~missing, lifter.chirality_)
-    k = lifter.size_prior_ / np.maximum(rms(vectors3d), 1e-12)
-    return (P - pelvis(P)[:, None, :]) * k[:, None, None], margin, k
+    front, back, score, k = _candidates(lifter, vectors3d, poses2d, missing)
+    return np.where((score < 0)[:, None, None], back, front), np.abs(score), k

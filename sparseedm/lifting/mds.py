@@ -21,7 +21,9 @@ the camera's axes (x right, y down as the image, z away from the camera):
    of the C(N, 4) joint tetrahedra (odd under reflection), trained on real
    poses against their mirror images; the sign it scores higher wins. Its
    margin says how sure the choice is (``|margin| < 1`` is counted as
-   ambiguous).
+   ambiguous). In a video, :func:`reflection_path` chooses the reflections of
+   one person's frames together: the prior's odds per frame against how far
+   each choice moves the joints from the frame before (a two-state Viterbi).
 
 Examples
 --------
@@ -44,7 +46,14 @@ import numpy as np
 from .. import _progress
 
 __all__ = ["classical_mds", "smacof", "align_to_image", "tetra_volumes",
-           "ChiralityPrior", "reconstruct"]
+           "ChiralityPrior", "reflections", "reconstruct", "reflection_path",
+           "REFLECTION_SMOOTHNESS"]
+
+#: weight of the motion between consecutive frames against the chirality
+#: prior's log-odds in :func:`reflection_path`, per square metre of summed
+#: squared joint displacement per frame; chosen on validation sequences of
+#: two sources (lifters/README.md, "Video")
+REFLECTION_SMOOTHNESS = 3.0
 
 
 def classical_mds(edm, dim=3):
@@ -283,6 +292,30 @@ class ChiralityPrior:
         return tetra_volumes(poses3d) @ self.coef_
 
 
+def reflections(edm3, P, observed, chirality, *, smacof_iter=30):
+    """Both depth reflections of the poses of predicted 3D EDMs, and the prior's score.
+
+    Steps 1-3 of :func:`reconstruct`; arguments as there.
+
+    Returns
+    -------
+    front, back : ndarray (n, N, 3)
+        The two reflections (:func:`align_to_image`).
+    score : ndarray (n,)
+        The chirality prior's decision value of ``front`` (``back`` scores
+        its negative); NaN without a prior.
+    scale : ndarray (n,)
+        Weak-perspective scale from the alignment.
+    """
+    edm3 = np.clip(np.asarray(edm3, float), 0, None)
+    Y = smacof(edm3, classical_mds(edm3), max_iter=smacof_iter)
+    front, back, scale = align_to_image(Y, P, observed)
+    if chirality is None:
+        return front, back, np.full(len(front), np.nan), scale
+    coef = chirality.coef_ if isinstance(chirality, ChiralityPrior) else np.asarray(chirality)
+    return front, back, tetra_volumes(front) @ coef, scale
+
+
 def reconstruct(edm3, P, observed, chirality=None, *, smacof_iter=30):
     """3D poses in camera axes from predicted 3D EDMs and the 2D input.
 
@@ -306,12 +339,76 @@ def reconstruct(edm3, P, observed, chirality=None, *, smacof_iter=30):
     scale : ndarray (n,)
         Weak-perspective scale from the alignment.
     """
-    edm3 = np.clip(np.asarray(edm3, float), 0, None)
-    Y = smacof(edm3, classical_mds(edm3), max_iter=smacof_iter)
-    front, back, scale = align_to_image(Y, P, observed)
+    front, back, s, scale = reflections(edm3, P, observed, chirality, smacof_iter=smacof_iter)
     if chirality is None:
-        return front, np.full(len(front), np.nan), scale
-    coef = chirality.coef_ if isinstance(chirality, ChiralityPrior) else np.asarray(chirality)
-    s = tetra_volumes(front) @ coef
+        return front, s, scale
     poses = np.where((s >= 0)[:, None, None], front, back)
     return poses, np.abs(s), scale
+
+
+def reflection_path(front, back, score, frames, smoothness=REFLECTION_SMOOTHNESS):
+    """The depth reflections of one person's frames, chosen together (Viterbi).
+
+    Each frame has two candidate poses, mirror images in depth, and the
+    chirality prior's log-odds `score` that ``front`` is the real one. Chosen
+    frame by frame, a pose the prior misjudges flips in depth for a frame
+    while the person barely moved. Here the whole path is chosen at once: it
+    minimises the sum over frames of ``log(1 + exp(-/+score))`` (the prior's
+    negative log-likelihood of the chosen side) plus, between consecutive
+    frames, ``smoothness * sum_j ||p_j(t) - p_j(t-1)||^2 / (f(t) - f(t-1))``
+    (a random walk of the joints: a flip moves every joint off the depth
+    axis at once). Two states per frame, so the optimum is exact in O(T).
+
+    Parameters
+    ----------
+    front, back : ndarray (T, N, 3)
+        Candidates in metres (pelvis-centred), in frame order.
+    score : ndarray (T,)
+        Log-odds that ``front`` is the real pose.
+    frames : ndarray of int (T,)
+        Increasing frame numbers (a skipped frame weakens the link).
+    smoothness : float, default REFLECTION_SMOOTHNESS
+        0 chooses every frame by the sign of its score alone.
+
+    Returns
+    -------
+    ndarray of bool (T,)
+        True where ``back`` is chosen.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> front = rng.standard_normal((5, 14, 3)) * [0.3, 0.8, 0.2]
+    >>> front = front[:1] + 0.01 * (front - front[:1])      # a person standing still
+    >>> back = front * [1.0, 1.0, -1.0]
+    >>> score = np.array([2.0, 1.5, -0.5, 2.5, 1.0])       # frame 2 misjudged
+    >>> (score < 0).tolist(), reflection_path(front, back, score, np.arange(5)).tolist()
+    ([False, False, True, False, False], [False, False, False, False, False])
+    """
+    score = np.asarray(score, float)
+    T = len(score)
+    if T == 0:
+        return np.zeros(0, bool)
+    unary = np.stack([np.logaddexp(0.0, -score), np.logaddexp(0.0, score)], axis=1)
+    if smoothness <= 0 or T == 1:
+        return unary[:, 1] < unary[:, 0]
+    dt = np.maximum(np.diff(np.asarray(frames, float)), 1.0)
+    # mirroring is an isometry: back->back moves as far as front->front, and
+    # front->back as far as back->front
+    same = ((front[1:] - front[:-1]) ** 2).sum(axis=(1, 2))
+    cross = ((front[1:] - back[:-1]) ** 2).sum(axis=(1, 2))
+    same, cross = smoothness * same / dt, smoothness * cross / dt
+    cost = unary[0].copy()
+    came = np.zeros((T, 2), dtype=np.int8)
+    for t in range(1, T):
+        stay0, switch0 = cost[0] + same[t - 1], cost[1] + cross[t - 1]
+        stay1, switch1 = cost[1] + same[t - 1], cost[0] + cross[t - 1]
+        came[t, 0], came[t, 1] = switch0 < stay0, switch1 < stay1
+        cost = np.array([min(stay0, switch0) + unary[t, 0], min(stay1, switch1) + unary[t, 1]])
+    path = np.zeros(T, bool)
+    state = int(cost[1] < cost[0])
+    for t in range(T - 1, -1, -1):
+        path[t] = bool(state)
+        if t and came[t, state]:
+            state = 1 - state
+    return path
