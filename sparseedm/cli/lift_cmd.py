@@ -49,6 +49,9 @@ def add_parser(sub):
                    "'tracks' for several people, turns on lifting across time: missing 2D "
                    "joints filled across time first, each person's depth reflections "
                    "chosen together)")
+    p.add_argument("--chunk-size", type=int, default=50_000, metavar="N",
+                   help="poses lifted at a time (whole tracks at a time with frames); "
+                   "bounds memory (default 50000)")
     add_quiet(p)
     p.set_defaults(func=run)
 
@@ -61,7 +64,7 @@ def run(args):
                   output_format=args.format, errors_path=args.errors,
                   confidence_threshold=args.confidence_threshold,
                   representation=args.representation, rate=args.rate, plot=args.plot,
-                  temporal=not args.no_temporal)
+                  temporal=not args.no_temporal, chunk_size=args.chunk_size)
     out = sys.stderr if args.quiet or is_stream(args.output) else sys.stdout  # -o /dev/stdout
     rate = f"{s['poses_per_second']:,.0f} poses/s" if s["poses_per_second"] else "-"
     counts = ", ".join(f"{k} {v}" for k, v in s["status"].items()) or "none"

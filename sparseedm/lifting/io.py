@@ -29,6 +29,12 @@ with ``track`` / ``tracks`` for several people) is lifted across time
 across time first and each person's depth reflections are chosen together;
 ``temporal=False`` (``--no-temporal``) lifts every row on its own.
 
+Rows are lifted ``chunk_size`` at a time (whole tracks at a time with
+frames), so memory stays bounded on files of millions of poses; with frames
+the 2D dictionary is adapted once on the whole file first, as ``sparseedm
+recover`` does, and several people in a frame without track ids are linked
+once (the ids are written in the ``track`` column).
+
 Refused rows (see :data:`sparseedm.lifting.STATUSES`) are listed in an errors
 file ``<output stem>.errors.csv`` (``row,id,status,reason``), as
 ``sparseedm recover`` does.
@@ -47,10 +53,14 @@ from .. import _progress
 from .._atomic import atomic_path, check_paths, save_npz
 from .._extras import require as require_extra
 from ..batch import write_errors, default_errors_path
+from ..dictionary import load_dictionary
 from ..exceptions import FileFormatError, SparseEDMError
 from ..keypoints import read_keypoints
 from ..skeleton import JOINT_NAMES
-from .lift import lift
+from ..temporal.recover import adapt_in_time, linked_tracks
+from ..temporal.tracks import track_chunks
+from .base import load_lifter
+from .lift import LiftResult, lift
 from .plotting import plot_lifted
 from .trc import write_trc
 
@@ -133,7 +143,7 @@ def write_poses3d(path, result, ids=None, output_format=None, rate=30.0, *, trac
 
 def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, errors_path=None,
               confidence_threshold=None, representation="average", rate=30.0, plot=None,
-              temporal=True):
+              temporal=True, chunk_size=50_000):
     """Read 2D keypoints, lift them, write 3D poses and an errors file; return a summary.
 
     `confidence_threshold`: joints scored below it are missing; default the
@@ -144,12 +154,16 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
     `rate` is a .trc output's frames per second; `plot` a PNG path for a few
     lifted poses (matplotlib checked first). The summary's ``plot`` is the
     figure written, or None; its ``temporal`` says whether time was used
-    (`temporal` and the input has frames).
+    (`temporal` and the input has frames). `chunk_size` rows (whole tracks
+    with time) are lifted at a time.
     """
     errors = Path(errors_path) if errors_path else default_errors_path(output)
     _output_format(output, output_format)
     if not float(rate) > 0:
         raise SparseEDMError(f"the .trc frame rate must be > 0, got {rate}")
+    if isinstance(chunk_size, bool) or not isinstance(chunk_size, (int, np.integer)) \
+            or chunk_size < 1:
+        raise SparseEDMError(f"chunk_size must be a positive integer, got {chunk_size!r}")
     if plot is not None:
         require_extra("plot", "--plot")
     inputs = [("input", input)]
@@ -162,10 +176,9 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
     _progress.say(f"lifting {len(kps.poses):,} poses to 3D"
                   + (" across time (the input has frames: missing 2D joints filled across "
                      "time first; --no-temporal lifts each row alone)" if in_time else ""))
-    result = lift(kps.poses, kps.missing, lifter=lifter, n_jobs=n_jobs,
-                  representation=representation,
-                  **(dict(tracks=kps.tracks, frames=kps.frames) if in_time else {}))
-    write_poses3d(output, result, kps.ids, output_format, rate=rate, tracks=kps.tracks,
+    result, tracks = _lift_chunks(kps, in_time, chunk_size, lifter=load_lifter(lifter),
+                                  n_jobs=n_jobs, representation=representation)
+    write_poses3d(output, result, kps.ids, output_format, rate=rate, tracks=tracks,
                   frames=kps.frames)
     refused = ~result.ok
     write_errors(errors, refused, kps.ids, result.status, result.reason)
@@ -174,6 +187,54 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
                    temporal=in_time,
                    plot=str(_plot(plot, result, kps.ids)) if plot is not None else None)
     return summary
+
+
+def _lift_chunks(kps, in_time, chunk_size, **kw):
+    """:func:`lift` over a file's rows, `chunk_size` at a time; the whole LiftResult
+    and the tracks (linked ones when the input had none and needed them).
+
+    With time the chunks are whole tracks (:func:`~sparseedm.temporal.tracks.track_chunks`)
+    and the fill's 2D dictionary is adapted once, on every row, first."""
+    n, tracks = len(kps.poses), kps.tracks
+    if not in_time:
+        bounds = [slice(s, min(s + chunk_size, n)) for s in range(0, n, chunk_size)]
+    else:
+        linked = linked_tracks(kps.poses, kps.missing, tracks, kps.frames)
+        tracks = tracks if linked is None else linked
+        members, _ = adapt_in_time(load_dictionary(None), kps.poses, kps.missing,
+                                   tracks=tracks, frames=kps.frames, n_jobs=kw["n_jobs"])
+        kw.update(dictionary=members[0], fill_adapt=False)
+        bounds = [slice(*b) if isinstance(b, tuple) else b
+                  for b in track_chunks(tracks, n, chunk_size)]
+    if len(bounds) > 1:
+        bounds = _progress.steps(bounds, f"lifting in {len(bounds)} chunks",
+                                 total=len(bounds), unit="chunk")
+    parts = []
+    for rows in bounds:
+        when = {} if not in_time else dict(
+            frames=np.asarray(kps.frames)[rows],
+            tracks=None if tracks is None else np.asarray(tracks)[rows])
+        parts.append((rows, lift(kps.poses[rows], kps.missing[rows], **kw, **when)))
+    return _joined(parts, n), tracks
+
+
+def _joined(parts, n):
+    """One LiftResult of n rows from (rows, LiftResult) parts."""
+    if len(parts) == 1:
+        return parts[0][1]
+    first = parts[0][1]
+    out = {}
+    for name in ("poses3d", "vectors3d", "scale_metric", "missing", "status", "reason",
+                 "chirality_margin", "poses2d", "filled"):
+        a = getattr(first, name)
+        fill = np.nan if a.dtype.kind == "f" else ("" if a.dtype.kind == "U" else False)
+        out[name] = np.full((n,) + a.shape[1:], fill, dtype=object if a.dtype.kind == "U"
+                            else a.dtype)
+        for rows, part in parts:
+            out[name][rows] = getattr(part, name)
+    for name in ("status", "reason"):
+        out[name] = out[name].astype(str)
+    return LiftResult(**out, seconds=sum(part.seconds for _, part in parts))
 
 
 def _plot(path, result, ids, k=4):

@@ -107,7 +107,7 @@ class LiftResult:
 
 
 def lift(poses, missing=None, *, tracks=None, frames=None, lifter=None, n_jobs=1,
-         representation="average", adapt=None, dictionary=None):
+         representation="average", adapt=None, dictionary=None, fill_adapt="auto"):
     """Lift 2D poses to 3D.
 
     Parameters
@@ -139,6 +139,10 @@ def lift(poses, missing=None, *, tracks=None, frames=None, lifter=None, n_jobs=1
     dictionary : Dictionary, str or path, optional
         With `frames`: the 2D dictionary of the fill across time (default the
         shipped one).
+    fill_adapt : "auto", False or array_like, default "auto"
+        With `frames`: how that dictionary adapts to the poses first (as
+        :func:`sparseedm.recover`'s `adapt`; ``sparseedm lift`` adapts once
+        per file and passes False for its chunks).
 
     Returns
     -------
@@ -169,7 +173,8 @@ def lift(poses, missing=None, *, tracks=None, frames=None, lifter=None, n_jobs=1
     filled, layout = np.zeros(mask.shape, bool), None
     if frames is not None:
         poses, filled, layout = fill_in_time(poses, mask, tracks, frames,
-                                             dictionary=dictionary, n_jobs=n_jobs)
+                                             dictionary=dictionary, n_jobs=n_jobs,
+                                             adapt=fill_adapt)
         mask = mask & ~filled
     out = _lift_rows(lifter, poses, mask, bad, representation, n_jobs, layout)
     if layout is not None:

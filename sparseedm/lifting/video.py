@@ -45,7 +45,7 @@ TIME_FILL_MAX_WEIGHT = 1.0
 TRAJECTORY_SMOOTHNESS = 30.0
 
 
-def fill_in_time(poses, mask, tracks, frames, *, dictionary=None, n_jobs=1):
+def fill_in_time(poses, mask, tracks, frames, *, dictionary=None, n_jobs=1, adapt="auto"):
     """The poses with the 2D joints time fills, which joints, and the track layout.
 
     Parameters
@@ -54,8 +54,8 @@ def fill_in_time(poses, mask, tracks, frames, *, dictionary=None, n_jobs=1):
         Validated poses (coordinates at masked joints are ignored).
     mask : ndarray of bool (n, N)
         Missing joints.
-    tracks, frames, dictionary, n_jobs
-        As :func:`sparseedm.recover` with frames.
+    tracks, frames, dictionary, n_jobs, adapt
+        As :func:`sparseedm.recover` with frames (`adapt` of the 2D dictionary).
 
     Returns
     -------
@@ -69,7 +69,7 @@ def fill_in_time(poses, mask, tracks, frames, *, dictionary=None, n_jobs=1):
     """
     rec = recover_temporal(np.where(mask[..., None], np.nan, poses), mask, tracks=tracks,
                            frames=frames, dictionary=dictionary, n_jobs=n_jobs,
-                           progress=False)
+                           adapt=adapt, progress=False)
     filled = ((rec.source == "temporal") & mask & np.isfinite(rec.poses).all(axis=-1)
               & (rec.prior_weight <= TIME_FILL_MAX_WEIGHT))
     poses = np.where(filled[..., None], rec.poses, poses)
