@@ -152,6 +152,10 @@ def test_rows_time_cannot_use_are_lifted_alone_and_nothing_is_lost(video):
     for r in (5, 6, 7):
         assert not res.filled[r].any()
         assert res.status[r] == ("lifted_occluded" if missing[r].any() else "lifted")
+    assert res.reason[5] == "lifted on its own, not across time: frame number is nan"
+    assert res.reason[6] == res.reason[7] == ("lifted on its own, not across time: its "
+                                              "(track, frame) pair is given more than once")
+    assert not any("on its own" in r for r in np.delete(res.reason, [5, 6, 7]))
     assert res.ok.sum() == len(poses) - 1
     assert np.isfinite(res.poses3d[res.ok]).all()
 
@@ -202,3 +206,21 @@ def test_lift_file_works_in_bounded_chunks_of_whole_tracks(tmp_path, monkeypatch
         np.testing.assert_array_equal(b["status"], a["status"])
     with pytest.raises(SparseEDMError, match="chunk_size"):
         lift_io.lift_file(EXAMPLES / "video_clip.csv", tmp_path / "x.npz", chunk_size=0)
+
+
+@pytest.mark.parametrize("args", [["openpose"], ["mmpose_predictions.json"],
+                                  ["dlc.csv", "--joint-map", "dlc_joints.json"]])
+def test_lift_cli_reads_the_detector_files_users_have(tmp_path, fixtures_dir, args, capsys):
+    """OpenPose folders, MMPose predictions and DeepLabCut files (with their
+    joint map) are lifted as videos: their frames come through."""
+    fmt = fixtures_dir / "formats"
+    argv = [str(fmt / a) if i != 1 else a for i, a in enumerate(args)]
+    kps = read_keypoints(argv[0], joint_map=argv[2] if len(argv) > 2 else None)
+    out = tmp_path / "poses3d.csv"
+    assert main(["lift", argv[0], *argv[1:], "-o", str(out), "-q"]) == 0
+    said = capsys.readouterr()
+    assert "lifted across time" in said.out + said.err  # -q: the report goes to stderr
+    with open(out, newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert [int(r["frame"]) for r in rows] == np.asarray(kps.frames).tolist()
+    assert all(r["status"].startswith("lifted") for r in rows)

@@ -13,7 +13,7 @@ from ._common import add_quiet
 
 def add_parser(sub):
     p = sub.add_parser(
-        "lift", help="lift 2D keypoints to 3D poses (.csv, .npz, .npy, COCO .json in)",
+        "lift", help="lift 2D keypoints to 3D poses (any keypoint file recover reads)",
         description="Lift every pose in INPUT to 3D with a lifter (default: the shipped "
         "CMU-learned coupled dictionary, which codes only the observed joints' distances, "
         "so occluded poses need no separate recovery). Writes x, y, z per joint in metres "
@@ -23,7 +23,9 @@ def add_parser(sub):
         "errors file. --plot draws a few lifted poses. "
         "Exit code 0: all rows lifted; 1: some refused; 2: bad input.",
     )
-    p.add_argument("input", help="keypoints: .csv, .npz, .npy or COCO-style .json")
+    p.add_argument("input", help="keypoints: .csv, .npz, .npy, COCO-style .json, OpenPose "
+                   ".json or a folder of them, MMPose predictions .json, DeepLabCut .csv/.h5 "
+                   "(see sparseedm.formats)")
     p.add_argument("-o", "--output", required=True,
                    help="3D output: .csv, .npz, .json or .trc (OpenSim)")
     p.add_argument("--lifter", default=None, metavar="NAME|PATH",
@@ -49,6 +51,9 @@ def add_parser(sub):
                    "'tracks' for several people, turns on lifting across time: missing 2D "
                    "joints filled across time first, each person's depth reflections "
                    "chosen together)")
+    p.add_argument("--joint-map", default=None, metavar="FILE",
+                   help="DeepLabCut input: JSON file naming the body part of each of the "
+                   "14 joints ({\"joints\": {\"head_top\": \"head\", ...}})")
     p.add_argument("--chunk-size", type=int, default=50_000, metavar="N",
                    help="poses lifted at a time (whole tracks at a time with frames); "
                    "bounds memory (default 50000)")
@@ -64,7 +69,8 @@ def run(args):
                   output_format=args.format, errors_path=args.errors,
                   confidence_threshold=args.confidence_threshold,
                   representation=args.representation, rate=args.rate, plot=args.plot,
-                  temporal=not args.no_temporal, chunk_size=args.chunk_size)
+                  temporal=not args.no_temporal, chunk_size=args.chunk_size,
+                  joint_map=args.joint_map)
     out = sys.stderr if args.quiet or is_stream(args.output) else sys.stdout  # -o /dev/stdout
     rate = f"{s['poses_per_second']:,.0f} poses/s" if s["poses_per_second"] else "-"
     counts = ", ".join(f"{k} {v}" for k, v in s["status"].items()) or "none"

@@ -143,7 +143,7 @@ def write_poses3d(path, result, ids=None, output_format=None, rate=30.0, *, trac
 
 def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, errors_path=None,
               confidence_threshold=None, representation="average", rate=30.0, plot=None,
-              temporal=True, chunk_size=50_000):
+              temporal=True, chunk_size=50_000, joint_map=None):
     """Read 2D keypoints, lift them, write 3D poses and an errors file; return a summary.
 
     `confidence_threshold`: joints scored below it are missing; default the
@@ -155,7 +155,8 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
     lifted poses (matplotlib checked first). The summary's ``plot`` is the
     figure written, or None; its ``temporal`` says whether time was used
     (`temporal` and the input has frames). `chunk_size` rows (whole tracks
-    with time) are lifted at a time.
+    with time) are lifted at a time. `joint_map`: a DeepLabCut input's JSON
+    naming the body part of each joint (as ``sparseedm recover --joint-map``).
     """
     errors = Path(errors_path) if errors_path else default_errors_path(output)
     _output_format(output, output_format)
@@ -170,8 +171,10 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
     if isinstance(lifter, (str, os.PathLike)) and (Path(lifter).suffix == ".npz"
                                                     or os.path.lexists(lifter)):
         inputs.append(("lifter", lifter))  # whatever its name: a file the run reads
+    if joint_map is not None:
+        inputs.append(("joint map", joint_map))
     check_paths(inputs, [("output", output), ("errors file", errors), ("plot", plot)])
-    kps = read_keypoints(input, confidence_threshold=confidence_threshold)
+    kps = read_keypoints(input, confidence_threshold=confidence_threshold, joint_map=joint_map)
     in_time = bool(temporal) and kps.frames is not None
     _progress.say(f"lifting {len(kps.poses):,} poses to 3D"
                   + (" across time (the input has frames: missing 2D joints filled across "

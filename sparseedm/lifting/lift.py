@@ -182,6 +182,13 @@ def lift(poses, missing=None, *, tracks=None, frames=None, lifter=None, n_jobs=1
     lifted = np.isin(out["status"], ("lifted", "lifted_occluded")) & filled.any(axis=1)
     out["status"][lifted] = "lifted_filled"
     out["status"] = out["status"].astype(str)
+    if layout is not None:  # say why a row of a video was lifted on its own
+        alone = np.flatnonzero((layout.reason != "") & np.isin(out["status"], _OK))
+        reason = out["reason"].astype(object)
+        for r in alone:
+            why = f"lifted on its own, not across time: {layout.reason[r]}"
+            reason[r] = f"{reason[r]}; {why}" if reason[r] else why
+        out["reason"] = reason.astype(str)
     return LiftResult(**out, missing=mask | filled, seconds=time.perf_counter() - t0,
                       poses2d=np.where(mask[..., None], np.nan, poses), filled=filled)
 
