@@ -224,3 +224,29 @@ def test_lift_cli_reads_the_detector_files_users_have(tmp_path, fixtures_dir, ar
         rows = list(csv.DictReader(f))
     assert [int(r["frame"]) for r in rows] == np.asarray(kps.frames).tolist()
     assert all(r["status"].startswith("lifted") for r in rows)
+
+
+def test_a_video_trc_follows_the_frames_and_holds_one_person(tmp_path, capsys):
+    from sparseedm.lifting.trc import read_trc
+
+    with open(EXAMPLES / "video_clip.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    walk = [r for r in rows if r["track"] == "02_01"]
+    walk = [walk[i] for i in np.random.default_rng(0).permutation(len(walk))]  # any order
+    del walk[5]  # a frame where the person was not seen
+    one = tmp_path / "walk.csv"
+    with open(one, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(walk)
+    assert main(["lift", str(one), "-o", str(tmp_path / "walk.trc"), "-q"]) == 0
+    trc = read_trc(tmp_path / "walk.trc")
+    frames = np.sort([int(r["frame"]) for r in walk])
+    np.testing.assert_array_equal(trc["frames"], frames + 1)
+    np.testing.assert_allclose(trc["times"], frames / 30.0, atol=1e-6)
+    # several people cannot share one .trc: refused before any work, nothing written
+    capsys.readouterr()
+    out = tmp_path / "two.trc"
+    assert main(["lift", str(EXAMPLES / "video_clip.csv"), "-o", str(out), "-q"]) == 2
+    assert "a .trc file holds one person's markers" in capsys.readouterr().err
+    assert not out.exists()

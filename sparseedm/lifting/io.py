@@ -17,7 +17,9 @@ Input: any keypoint file :func:`sparseedm.keypoints.read_keypoints` reads
            null}}`` (with ``"track"``, ``"frame"`` when the input had them);
 ``.trc``   OpenSim's marker-trajectory format (:mod:`sparseedm.lifting.trc`): one
            frame per pose at ``rate`` frames per second, one marker per joint,
-           metres, turned to y up; refused poses as empty fields.
+           metres, turned to y up; refused poses as empty fields. With frame
+           numbers the rows go in frame order at their own frame and time; a
+           file of several people (tracks) is refused before any work.
 
 With ``plot``, a PNG of a few lifted poses from two viewpoints
 (:func:`sparseedm.lifting.plotting.plot_lifted`; needs the ``plot`` extra,
@@ -58,7 +60,8 @@ from ..exceptions import FileFormatError, SparseEDMError
 from ..keypoints import read_keypoints
 from ..skeleton import JOINT_NAMES
 from ..temporal.recover import adapt_in_time, linked_tracks
-from ..temporal.tracks import track_chunks
+from ..temporal.linking import needs_linking
+from ..temporal.tracks import frame_numbers, track_chunks
 from .base import load_lifter
 from .lift import LiftResult, lift
 from .plotting import plot_lifted
@@ -84,6 +87,33 @@ def _output_format(path, output_format):
         raise FileFormatError(f"{path}: cannot tell the output format; use .csv, .npz, "
                               ".json or .trc or pass --format")
     return fmt
+
+
+def _trc_order(frames, n):
+    """The rows of a .trc in frame order and their frame numbers, when every
+    row has its own usable frame number; else the rows as given (numbers None)."""
+    if frames is None:
+        return np.arange(n), None
+    values, reason = frame_numbers(frames, n)
+    if (reason != "").any() or len(np.unique(values)) != n:
+        return np.arange(n), None
+    order = np.argsort(values, kind="stable")
+    return order, values[order]
+
+
+def _one_person(kps, input, output, fmt):
+    """Refuse, before any work, a .trc output of a file with several people."""
+    if fmt != "trc":
+        return
+    several = None
+    if kps.tracks is not None and len(np.unique(np.asarray(kps.tracks).astype(str))) > 1:
+        several = f"{len(np.unique(np.asarray(kps.tracks).astype(str)))} tracks"
+    elif needs_linking(kps.tracks, kps.frames):
+        several = "several poses in one frame"
+    if several:
+        raise FileFormatError(
+            f"{output}: a .trc file holds one person's markers, and {input} has {several}; "
+            "write .csv, .npz or .json (they keep a track column), or one track per file")
 
 
 def _when(tracks, frames):
@@ -115,7 +145,8 @@ def write_poses3d(path, result, ids=None, output_format=None, rate=30.0, *, trac
                                                                    ("frame", frames))
                                if v is not None}))
     elif fmt == "trc":
-        write_trc(path, P, rate=rate)
+        order, numbers = _trc_order(frames, n)
+        write_trc(path, P[order], rate=rate, frames=numbers)
     elif fmt == "csv":
         with atomic_path(path) as tmp, open(tmp, "w", newline="", encoding="utf-8") as f:
             w = csv.writer(f)
@@ -175,6 +206,7 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
         inputs.append(("joint map", joint_map))
     check_paths(inputs, [("output", output), ("errors file", errors), ("plot", plot)])
     kps = read_keypoints(input, confidence_threshold=confidence_threshold, joint_map=joint_map)
+    _one_person(kps, input, output, _output_format(output, output_format))
     in_time = bool(temporal) and kps.frames is not None
     _progress.say(f"lifting {len(kps.poses):,} poses to 3D"
                   + (" across time (the input has frames: missing 2D joints filled across "

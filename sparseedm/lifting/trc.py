@@ -53,7 +53,7 @@ def _num(v):
     return "" if not np.isfinite(v) else f"{v:.6f}"
 
 
-def write_trc(path, poses3d, *, rate=30.0, joint_names=JOINT_NAMES):
+def write_trc(path, poses3d, *, rate=30.0, joint_names=JOINT_NAMES, frames=None):
     """Write poses (n, N, 3) in camera axes, metres, as a TRC file (atomically).
 
     Parameters
@@ -65,6 +65,10 @@ def write_trc(path, poses3d, *, rate=30.0, joint_names=JOINT_NAMES):
         Frames per second (``DataRate`` and ``CameraRate``; frame r is at r / rate s).
     joint_names : sequence of str
         Marker names, one per joint.
+    frames : array_like of int (n,), optional
+        The rows' video frame numbers (increasing): row r is written as
+        ``Frame#`` ``frames[r] + 1`` at ``frames[r] / rate`` s; default the
+        row number.
 
     Returns
     -------
@@ -76,17 +80,19 @@ def write_trc(path, poses3d, *, rate=30.0, joint_names=JOINT_NAMES):
     rate = float(rate)
     if not rate > 0:
         raise FileFormatError(f"{path}: a TRC frame rate must be > 0, got {rate}")
+    frames = np.arange(n) if frames is None else np.asarray(frames, dtype=np.int64)
     lines = [
         f"PathFileType\t4\t(X/Y/Z)\t{path.name}",
         "\t".join(_HEADER),
-        "\t".join([f"{rate:g}", f"{rate:g}", str(n), str(n_markers), "m", f"{rate:g}", "1",
-                   str(n)]),
+        "\t".join([f"{rate:g}", f"{rate:g}", str(n), str(n_markers), "m", f"{rate:g}",
+                   str(int(frames[0]) + 1 if n else 1), str(n)]),
         "\t".join(["Frame#", "Time"] + [f"{name}\t\t" for name in joint_names]).rstrip("\t"),
         "\t\t" + "\t".join(f"{a}{i + 1}" for i in range(n_markers) for a in "XYZ"),
         "",
     ]
     for r in range(n):
-        lines.append("\t".join([str(r + 1), f"{r / rate:.6f}"] + [_num(v) for v in P[r].ravel()]))
+        lines.append("\t".join([str(int(frames[r]) + 1), f"{frames[r] / rate:.6f}"]
+                               + [_num(v) for v in P[r].ravel()]))
     with atomic_path(path) as tmp:
         Path(tmp).write_text("\n".join(lines) + "\n", encoding="utf-8")
     return path
