@@ -368,9 +368,15 @@ def _streamed(path: Path, suffix):
 
 
 def save_npz(path, arrays, *, compressed=False):
-    """Write `arrays` as an ``.npz`` at exactly `path` (whatever its extension), atomically."""
+    """Write `arrays` as an ``.npz`` at exactly `path` (whatever its extension), atomically.
+
+    Never a pickle: an object array (e.g. frame numbers read as text, some
+    blank) is written as strings, which ``np.load(allow_pickle=False)`` reads.
+    """
     import numpy as np
 
+    arrays = {k: (np.asarray(v).astype(str) if np.asarray(v).dtype == object else v)
+              for k, v in arrays.items()}
     with atomic_path(path) as tmp:
         with open(tmp, "wb") as f:
             (np.savez_compressed if compressed else np.savez)(f, **arrays)

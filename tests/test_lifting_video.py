@@ -226,19 +226,26 @@ def test_lift_cli_reads_the_detector_files_users_have(tmp_path, fixtures_dir, ar
     assert all(r["status"].startswith("lifted") for r in rows)
 
 
+def _example_rows():
+    with open(EXAMPLES / "video_clip.csv", newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def _write_rows(path, rows):
+    with open(path, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    return path
+
+
 def test_a_video_trc_follows_the_frames_and_holds_one_person(tmp_path, capsys):
     from sparseedm.lifting.trc import read_trc
 
-    with open(EXAMPLES / "video_clip.csv", newline="") as f:
-        rows = list(csv.DictReader(f))
-    walk = [r for r in rows if r["track"] == "02_01"]
+    walk = [r for r in _example_rows() if r["track"] == "02_01"]
     walk = [walk[i] for i in np.random.default_rng(0).permutation(len(walk))]  # any order
     del walk[5]  # a frame where the person was not seen
-    one = tmp_path / "walk.csv"
-    with open(one, "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(walk)
+    one = _write_rows(tmp_path / "walk.csv", walk)
     assert main(["lift", str(one), "-o", str(tmp_path / "walk.trc"), "-q"]) == 0
     trc = read_trc(tmp_path / "walk.trc")
     frames = np.sort([int(r["frame"]) for r in walk])
@@ -250,3 +257,13 @@ def test_a_video_trc_follows_the_frames_and_holds_one_person(tmp_path, capsys):
     assert main(["lift", str(EXAMPLES / "video_clip.csv"), "-o", str(out), "-q"]) == 2
     assert "a .trc file holds one person's markers" in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_a_video_with_unreadable_frame_numbers_still_writes_a_pickle_free_npz(tmp_path):
+    rows = _example_rows()[:40]
+    rows[3]["frame"], rows[5]["frame"] = "nan", ""  # read as text: an object array
+    src = _write_rows(tmp_path / "v.csv", rows)
+    assert main(["lift", str(src), "-o", str(tmp_path / "out.npz"), "-q"]) == 0
+    with np.load(tmp_path / "out.npz", allow_pickle=False) as z:
+        assert z["frames"].tolist()[:6] == ["0", "1", "2", "nan", "4", ""]
+        assert z["poses3d"].shape == (40, 14, 3)
