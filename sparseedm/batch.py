@@ -728,7 +728,7 @@ def _write_output(tmp, fmt, filled, ids, meta, in_fmt, fields, edm,
         if edm is not None:
             extra.update(edm)
         write_keypoints(tmp, filled, format="npz", ids=ids, meta={"npz_extra": extra},
-                        tracks=linked, **flagged)
+                        **_time_axis(kps, linked, in_fmt, fmt), **flagged)
     elif fmt == "csv":
         extra = dict(meta.get("extra_columns") or {}) if in_fmt == "csv" else {}
         extra.update({
@@ -739,9 +739,10 @@ def _write_output(tmp, fmt, filled, ids, meta, in_fmt, fields, edm,
             "n_active": fields["n_active"],
         })
         write_keypoints(tmp, filled, format="csv", ids=ids, extra_columns=extra,
-                        tracks=linked, **flagged)
+                        **_time_axis(kps, linked, in_fmt, fmt), **flagged)
     else:  # coco: the original document (or a results list), status in "sparseedm"
-        write_keypoints(tmp, filled, format="coco", ids=ids, tracks=linked,
+        write_keypoints(tmp, filled, format="coco", ids=ids,
+                        tracks=_time_axis(kps, linked, in_fmt, fmt)["tracks"],
                         meta=meta if in_fmt == "coco" else None, **flagged)
         with open(tmp, encoding="utf-8") as f:
             doc = json.load(f)
@@ -756,6 +757,15 @@ def _write_output(tmp, fmt, filled, ids, meta, in_fmt, fields, edm,
             })
         with open(tmp, "w", encoding="utf-8") as f:
             json.dump(doc, f)
+
+
+def _time_axis(kps, linked, in_fmt, fmt):
+    """The tracks and frames an output carries: the linked tracks if any; an
+    output in another format than the input's also the input's own tracks and
+    frames (in its own format they come back with the rest of its columns)."""
+    if kps is None or in_fmt == fmt:
+        return dict(tracks=linked)
+    return dict(tracks=kps.tracks if linked is None else linked, frames=kps.frames)
 
 
 def _num(v):

@@ -267,3 +267,23 @@ def test_example_file_recovers(tmp_path, small_dictionary_path):
     assert _recover(example, out, small_dictionary_path) == 0
     kps = read_keypoints(out)
     assert len(kps) == 50 and not kps.missing.any()
+
+
+def test_a_video_keeps_its_tracks_and_frames_across_formats(tmp_path):
+    """CSV in, npz out and back: the time axis is not lost on the way."""
+    from sparseedm.keypoints import read_keypoints
+
+    from pathlib import Path
+
+    video = Path(__file__).resolve().parents[1] / "examples" / "video_clip.csv"
+    given = read_keypoints(video)
+    as_npz = tmp_path / "filled.npz"
+    assert main(["recover", str(video), "-o", str(as_npz), "-q", "--no-adapt"]) == 0
+    with np.load(as_npz, allow_pickle=False) as z:
+        np.testing.assert_array_equal(z["tracks"], given.tracks)
+        np.testing.assert_array_equal(z["frames"], given.frames)
+    back = tmp_path / "back.csv"
+    assert main(["recover", str(as_npz), "-o", str(back), "-q", "--no-adapt"]) == 0
+    again = read_keypoints(back)
+    np.testing.assert_array_equal(again.tracks, given.tracks)
+    np.testing.assert_array_equal(again.frames, given.frames)
