@@ -11,6 +11,13 @@ def add_quiet(parser):
                         help="no progress bar (it is also off when stderr is not a terminal)")
 
 
+def add_joint_map(parser):
+    """``--joint-map FILE``, as recover and lift take it (DeepLabCut input)."""
+    parser.add_argument("--joint-map", default=None, metavar="FILE",
+                        help="DeepLabCut input: JSON file naming the body part of each of "
+                        "the 14 joints ({\"joints\": {\"head_top\": \"head\", ...}})")
+
+
 def add_adaptation_rounds(parser, self_training_help, ensemble_help):
     """``--self-training ROUNDS`` and ``--ensemble K``, as recover and evaluate take them
     (defaults: the API's, None meaning ``SELF_TRAINING_ROUNDS``, and 1)."""

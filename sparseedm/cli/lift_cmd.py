@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import sys
 
-from ._common import add_quiet
+from ._common import add_joint_map, add_quiet
 
 
 def add_parser(sub):
@@ -51,9 +51,7 @@ def add_parser(sub):
                    "'tracks' for several people, turns on lifting across time: missing 2D "
                    "joints filled across time first, each person's depth reflections "
                    "chosen together)")
-    p.add_argument("--joint-map", default=None, metavar="FILE",
-                   help="DeepLabCut input: JSON file naming the body part of each of the "
-                   "14 joints ({\"joints\": {\"head_top\": \"head\", ...}})")
+    add_joint_map(p)
     p.add_argument("--chunk-size", type=int, default=50_000, metavar="N",
                    help="poses lifted at a time (whole tracks at a time with frames); "
                    "bounds memory (default 50000)")

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import sys
 
-from ._common import add_adaptation_rounds, add_quiet, show_progress
+from ._common import add_adaptation_rounds, add_joint_map, add_quiet, show_progress
 
 
 def add_parser(sub):
@@ -65,9 +65,7 @@ def _add_format_options(p):
                    "recovered (default: the input format's: DeepLabCut 0.6 (its pcutoff), "
                    "MMPose and COCO 0.3, OpenPose 0.05, csv/npz/npy 0; see "
                    "sparseedm.formats)")
-    p.add_argument("--joint-map", default=None, metavar="FILE",
-                   help="DeepLabCut input: JSON file naming the body part of each of the "
-                   "14 joints ({\"joints\": {\"head_top\": \"head\", ...}})")
+    add_joint_map(p)
     p.add_argument("--filled-score", type=float, default=0.0, metavar="S",
                    help="score written for filled joints (OpenPose, MMPose, DeepLabCut, "
                    "COCO); default 0, below every threshold")

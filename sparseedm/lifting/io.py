@@ -106,8 +106,9 @@ def _one_person(kps, input, output, fmt):
     if fmt != "trc":
         return
     several = None
-    if kps.tracks is not None and len(np.unique(np.asarray(kps.tracks).astype(str))) > 1:
-        several = f"{len(np.unique(np.asarray(kps.tracks).astype(str)))} tracks"
+    people = 0 if kps.tracks is None else len(np.unique(np.asarray(kps.tracks).astype(str)))
+    if people > 1:
+        several = f"{people} tracks"
     elif needs_linking(kps.tracks, kps.frames):
         several = "several poses in one frame"
     if several:
@@ -117,9 +118,8 @@ def _one_person(kps, input, output, fmt):
 
 
 def _when(tracks, frames):
-    """The (name, values) of the track and frame columns given (strings per row)."""
-    return [(name, np.asarray(v).astype(str)) for name, v in (("track", tracks),
-                                                             ("frame", frames))
+    """The (name, values) of the track and frame columns given."""
+    return [(name, np.asarray(v)) for name, v in (("track", tracks), ("frame", frames))
             if v is not None]
 
 
@@ -141,9 +141,7 @@ def write_poses3d(path, result, ids=None, output_format=None, rate=30.0, *, trac
                             reason=result.reason.astype(str),
                             chirality_margin=result.chirality_margin, ids=ids,
                             joint_names=np.array(JOINT_NAMES),
-                            **{f"{k}s": np.asarray(v) for k, v in (("track", tracks),
-                                                                   ("frame", frames))
-                               if v is not None}))
+                            **{f"{k}s": v for k, v in when}))
     elif fmt == "trc":
         order, numbers = _trc_order(frames, n)
         write_trc(path, P[order], rate=rate, frames=numbers)
@@ -154,7 +152,7 @@ def write_poses3d(path, result, ids=None, output_format=None, rate=30.0, *, trac
                        + [f"{j}_{a}" for j in JOINT_NAMES for a in "xyz"]
                        + ["status", "reason", "chirality_margin"])
             for r in range(n):
-                w.writerow([ids[r]] + [v[r] for _, v in when]
+                w.writerow([ids[r]] + [str(v[r]) for _, v in when]
                            + [_num(v) for v in P[r].ravel()]
                            + [result.status[r], result.reason[r],
                               _num(result.chirality_margin[r])])

@@ -128,10 +128,8 @@ def smooth_tracks(poses3d, layout, smoothness=None):
         T = int(offsets[-1]) + 1
         weight = np.zeros(T)
         weight[offsets[lifted]] = 1.0
-        prior = np.zeros((T,) + poses3d.shape[1:])
-        prior[offsets[lifted]] = poses3d[seg[lifted]]
-        for j in range(poses3d.shape[1]):
-            x, _ = smooth_trajectory(prior[:, j], np.ones(T, bool), prior[:, j], weight,
-                                     smoothness)
-            poses3d[seg[lifted], j] = x[offsets[lifted]]
+        prior = np.zeros((T, poses3d[0].size))  # every joint's coordinates, one solve
+        prior[offsets[lifted]] = poses3d[seg[lifted]].reshape(int(lifted.sum()), -1)
+        x, _ = smooth_trajectory(prior, np.ones(T, bool), prior, weight, smoothness)
+        poses3d[seg[lifted]] = x[offsets[lifted]].reshape((-1,) + poses3d.shape[1:])
     return poses3d
