@@ -16,7 +16,7 @@ imports nothing above the geometry, the dictionary format and validation.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields, replace
 from typing import NamedTuple
 
 import numpy as np
@@ -30,7 +30,8 @@ from .placement import WEIGHT_POWER, place_missing_joints
 
 __all__ = ["STATUSES", "OK_STATUSES", "RecoveryResult", "Screened", "Screening",
            "validate_poses", "screen_poses", "screen", "place_occluded_inplace", "combine",
-           "SCREENING_REFUSALS", "status_counts", "poses_per_second", "recovery_summary"]
+           "SCREENING_REFUSALS", "status_counts", "poses_per_second", "recovery_summary",
+           "take_rows"]
 
 #: Per-pose statuses and what they mean.
 STATUSES = {
@@ -165,6 +166,10 @@ class RecoveryResult:
         """True when the poses were recovered with a dictionary adapted to them."""
         return bool(self.adaptation is not None and self.adaptation.adapted)
 
+    def take(self, rows):
+        """The result of the poses `rows` only (:func:`take_rows`)."""
+        return take_rows(self, rows)
+
     def summary(self) -> dict:
         """Counts a person reads at the end of a batch."""
         recovered = self.missing[np.isin(self.status, ("recovered", "inaccurate"))].sum()
@@ -179,6 +184,14 @@ class RecoveryResult:
 #: the smallest extent a pose may have: below it 1/extent overflows or loses bits
 _TINY = np.finfo(float).tiny
 
+
+
+def take_rows(result, rows):
+    """A per-pose result dataclass (its arrays' leading axis the poses) of the
+    poses `rows` only (an index array, a slice or a bool mask): every array
+    field indexed, the other fields as they are."""
+    return replace(result, **{f.name: getattr(result, f.name)[rows] for f in fields(result)
+                              if isinstance(getattr(result, f.name), np.ndarray)})
 
 
 def validate_poses(poses, missing, n_joints, caller="recover", model="dictionary"):

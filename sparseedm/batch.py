@@ -101,7 +101,7 @@ from .normalize import REPRESENTATIONS
 from .recovery import STATUSES, check_options_apply, recover
 from .skeleton import JOINT_NAMES
 from .temporal.recover import adapt_in_time, linked_tracks
-from .temporal.tracks import add_summaries, track_chunks
+from .temporal.tracks import add_summaries, track_windows
 from .solvers import get_solver
 
 __all__ = ["recover_file", "default_errors_path", "STATUS_FIELDS"]
@@ -317,9 +317,10 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
         When the file gives each pose a frame (CSV column ``frame``, .npz
         ``frames``; with ``track``/``tracks``/``clips`` for several people),
         recover across time (:mod:`sparseedm.temporal`), whole tracks per call
-        (chunks of about `chunk_size` poses when each track's rows are
-        contiguous in the file; else the whole file in one pass); False: every
-        pose on its own, as for a file without frames.
+        (chunks of about `chunk_size` poses; a longer track in windows of about
+        `chunk_size` rows with context either side,
+        :func:`~sparseedm.temporal.tracks.track_windows`); False: every pose on
+        its own, as for a file without frames.
         ``summary["temporal"]`` says which was used.
 
     Returns
@@ -541,12 +542,13 @@ class _Recovery:
     time_axis: tuple = None
 
     def bounds(self, n, chunk_size):
-        """The rows of each chunk (slices or index arrays): `chunk_size` rows,
-        or in time whole tracks of about that many rows (:func:`track_chunks`)."""
+        """(rows, keep) of each chunk: `chunk_size` rows (a slice), or in time
+        whole tracks of about that many rows, a longer track in windows whose
+        own rows are `keep` (:func:`track_windows`; keep None: every row)."""
         if self.time_axis is None:
-            return [slice(s, min(s + chunk_size, n)) for s in range(0, n, chunk_size)]
-        return [slice(*b) if isinstance(b, tuple) else b
-                for b in track_chunks(self.time_axis[0], n, chunk_size)]
+            return [(slice(s, min(s + chunk_size, n)), None) for s in range(0, n, chunk_size)]
+        return [(slice(*b) if isinstance(b, tuple) else b, keep)
+                for b, keep in track_windows(*self.time_axis, n, chunk_size)]
 
     def __call__(self, poses, missing, rows=slice(None)):
         """One chunk's RecoveryResult (the members' answers combined)."""
@@ -675,9 +677,11 @@ def _recover_chunks_into(filled, columns, source, recovery, chunk_size, progress
     temporal_summary = None
     bar = tqdm(total=n, disable=not progress, unit="pose", desc="recover", dynamic_ncols=True)
     with bar:
-        for rows in recovery.bounds(n, chunk_size):
+        for rows, keep in recovery.bounds(n, chunk_size):
             poses, missing = source.select(rows)
             res = recovery(poses, missing, rows)
+            if keep is not None:  # a window of a long track: its own rows only
+                rows, poses, missing, res = rows[keep], poses[keep], missing[keep], res.take(keep)
             temporal_summary = add_summaries(temporal_summary, res.summary().get("temporal"))
             # refused rows are written back as read, a joint with an infinite
             # coordinate as missing (as the CSV writer does: no format gets an inf)

@@ -198,8 +198,11 @@ def test_lift_file_works_in_bounded_chunks_of_whole_tracks(tmp_path, monkeypatch
     parts = lift_io.lift_file(EXAMPLES / "video_clip.csv", tmp_path / "parts.npz",
                               temporal=temporal, chunk_size=100)
     n_rows = {t: int((kps.tracks == t).sum()) for t in np.unique(kps.tracks)}
-    # with time whole tracks (86 and 150 rows, never cut); without, 100 rows at most
-    assert sizes == (list(n_rows.values()) if temporal else [100, 100, 36])
+    # with time whole tracks: 86 rows, then the 150-row track in two windows of
+    # 75 rows of its own, each with 300 frames of context: all 150 rows;
+    # without time, 100 rows at most
+    assert sizes == ([86, 150, 150] if temporal else [100, 100, 36])
+    assert list(n_rows.values()) == [86, 150]
     assert parts["status"] == whole["status"]
     with np.load(tmp_path / "whole.npz") as a, np.load(tmp_path / "parts.npz") as b:
         np.testing.assert_allclose(b["poses3d"], a["poses3d"], rtol=0, atol=1e-6)
@@ -267,3 +270,20 @@ def test_a_video_with_unreadable_frame_numbers_still_writes_a_pickle_free_npz(tm
     with np.load(tmp_path / "out.npz", allow_pickle=False) as z:
         assert z["frames"].tolist()[:6] == ["0", "1", "2", "nan", "4", ""]
         assert z["poses3d"].shape == (40, 14, 3)
+
+
+def test_lift_says_who_is_who_when_it_links_people(track):
+    """Two people per frame without track ids: lift links them (as recover does)
+    and its result says which rows it linked into which track."""
+    n = 60
+    truth = np.concatenate([track[:n], track[n:2 * n] + [250.0, 0.0]])
+    person = np.repeat([0, 1], n)
+    frames = np.concatenate([np.arange(n), np.arange(n)])
+    order = np.lexsort((np.random.default_rng(0).random(2 * n), frames))
+    poses = truth[order].copy()
+    poses[20:30, 4] = np.nan
+    res = sparseedm.lift(poses, frames=frames[order])
+    assert res.linked_tracks is not None and res.linked_tracks.shape == (2 * n,)
+    pairs = set(zip(res.linked_tracks.tolist(), person[order].tolist()))
+    assert len(pairs) == 2  # each linked track is one person
+    assert sparseedm.lift(poses, tracks=person[order], frames=frames[order]).linked_tracks is None

@@ -607,3 +607,73 @@ def test_file_streams_whole_tracks(tmp_path, track, small_dictionary_path, inter
     np.testing.assert_array_equal(out[100][0], out[50_000][0])
     assert out[100][1] == out[50_000][1] and out[100][1]["segments"] == 3
     assert np.isfinite(out[100][0]).all()
+
+
+def test_track_windows_keep_every_row_once():
+    """A track longer than a chunk is cut by frame number into windows of about
+    a chunk's rows; each is solved with `overlap` frames of context on either
+    side and keeps its own rows: every row is kept exactly once."""
+    from sparseedm.temporal.tracks import track_windows
+
+    rng = np.random.default_rng(0)
+    frames = np.concatenate([rng.permutation(1000), np.arange(50), [np.nan, 3.5]]).astype(object)
+    tracks = np.array(["long"] * 1000 + ["short"] * 50 + ["long", "long"])
+    kept = np.zeros(len(frames), int)
+    windows = track_windows(tracks, frames, len(frames), 200, overlap=30)
+    assert len(windows) == 6  # the short track whole, the long one in five windows
+    for rows, keep in windows:
+        rows = np.arange(*rows) if isinstance(rows, tuple) else rows
+        if keep is None:
+            kept[rows] += 1
+            assert set(tracks[rows]) == {"short"}
+            continue
+        assert len(rows) == len(keep) and keep.sum() <= 202  # 200, the first 2 more
+        kept[rows[keep]] += 1
+        own = np.array([f for f in frames[rows[keep]] if f == f and f != 3.5], float)
+        ctx = np.array([f for f in frames[rows] if f == f and f != 3.5], float)
+        # the context: every frame within 30 of the window's own, nothing further
+        want = np.arange(max(own.min() - 30, 0), min(own.max() + 30, 999) + 1)
+        np.testing.assert_array_equal(np.sort(ctx), want)
+    np.testing.assert_array_equal(kept, 1)
+    # the rows without a usable frame number go with the first window
+    first_rows, first_keep = windows[0] if windows[0][1] is not None else windows[1]
+    assert {1050, 1051} <= set(first_rows[first_keep].tolist())
+
+
+def test_file_recovers_a_long_track_in_windows(tmp_path, track, small_dictionary_path,
+                                               monkeypatch):
+    """A file's track longer than chunk_size is recovered in windows: no call
+    holds much more than a chunk, every row comes back once, observed joints as
+    given, and the answers are the one pass's but for what each window
+    estimates on its own frames (the joints' coupling, the noise)."""
+    import sparseedm.batch as batch
+    import sparseedm.temporal.tracks as tracks_module
+    from sparseedm.batch import recover_file
+    from sparseedm.keypoints import KeypointSet, read_keypoints, write_keypoints
+
+    mask = np.zeros(track.shape[:2], bool)
+    mask[20:60, WRIST] = True
+    mask[50:75, 12] = True  # a gap across the first cut (frame 60)
+    mask[-40:, 13] = True
+    order = np.random.default_rng(1).permutation(len(track))  # rows in any order
+    path = write_keypoints(tmp_path / "v.csv", KeypointSet(
+        np.where(mask[..., None], np.nan, track)[order], mask[order],
+        frames=np.arange(len(track))[order]))
+    monkeypatch.setattr(tracks_module, "WINDOW_OVERLAP", 30)
+    calls, recover = [], batch.recover
+    monkeypatch.setattr(batch, "recover", lambda p, *a, **k: calls.append(len(p)) or
+                        recover(p, *a, **k))
+    out = {}
+    for size in (80, 50_000):
+        summary = recover_file(path, tmp_path / f"o{size}.csv",
+                               dictionary=small_dictionary_path, adapt=False, chunk_size=size)
+        out[size] = read_keypoints(tmp_path / f"o{size}.csv")
+        assert summary["status"]["recovered"] == int(mask.any(axis=1).sum())
+    # 241 rows in four windows of 60-61 own rows, 30 frames of context each side
+    assert calls[:-1] == [60 + 30, 60 + 60, 60 + 60, 61 + 30] and calls[-1] == len(track)
+    windows, whole = out[80].poses, out[50_000].poses
+    given = ~mask[order]
+    np.testing.assert_array_equal(windows[given], track[order][given])
+    height = np.ptp(track[..., 1], axis=1).mean()
+    assert np.abs(windows - whole).max() < 0.02 * height
+    np.testing.assert_array_equal(out[80].ids, out[50_000].ids)

@@ -123,3 +123,44 @@ def test_cli_links_a_file_without_tracks_and_writes_them(tmp_path, track,
     api = sparseedm.recover(src.poses, src.missing, tracks=person, frames=frames,
                             dictionary=str(small_dictionary_path), adapt=False)
     np.testing.assert_allclose(back.poses, api.poses, rtol=0, atol=1e-6)
+
+
+def test_a_folder_of_photos_is_not_a_video(cmu_poses, small_dictionary):
+    """Unrelated poses numbered in a row (photos IMG_4501, IMG_4502...): every
+    step jumps, so every row is answered alone, as without frames, and says why."""
+    from sparseedm.temporal.linking import JUMP_REASON
+
+    rng = np.random.default_rng(0)
+    pick = rng.choice(len(cmu_poses), 20, replace=False)
+    poses = cmu_poses[pick] * rng.uniform(0.7, 2.5, (20, 1, 1)) + rng.uniform(-300, 600, (20, 1, 2))
+    poses[:, WRIST] = np.nan
+    res = sparseedm.recover(poses, frames=np.arange(4501, 4521), dictionary=small_dictionary,
+                            adapt=False)
+    alone = sparseedm.recover(poses, dictionary=small_dictionary, adapt=False)
+    assert res.segments == 0 and (res.source[:, WRIST] == "per_frame").all()
+    assert all(JUMP_REASON in r for r in res.reason)
+    np.testing.assert_allclose(res.poses, alone.poses, rtol=0, atol=1e-9)
+
+
+def test_a_cut_in_the_video_splits_the_track(track, small_dictionary):
+    """A shot change (the person 2 body heights away from frame 100 on) cuts the
+    track: a wrist hidden across the cut is not carried from one shot to the
+    other, and the motion either side is still filled across time."""
+    from sparseedm.temporal.linking import split_at_jumps, step_distances
+    from sparseedm.temporal.tracks import split_tracks
+
+    height = np.ptp(track[..., 1], axis=1).mean()
+    truth = track.copy()
+    truth[100:] += [0.0, 2.0 * height]
+    mask = np.zeros(truth.shape[:2], bool)
+    mask[90:110, WRIST] = True
+    poses = np.where(mask[..., None], np.nan, truth)
+    steps = step_distances(poses, np.arange(len(poses)))
+    assert np.nanargmax(steps) == 99 and np.nanmax(np.delete(steps, 99)) < 0.1
+    layout = split_at_jumps(split_tracks(len(poses), None, np.arange(len(poses))), poses, mask)
+    assert [len(s) for s in layout.segments] == [100, len(track) - 100]
+    res = sparseedm.recover(poses, frames=np.arange(len(poses)), dictionary=small_dictionary,
+                            adapt=False)
+    assert res.segments == 2 and (res.source[mask] == "temporal").all()
+    err = np.linalg.norm(res.poses[mask] - truth[mask], axis=-1) / height
+    assert err.max() < 0.25  # across the cut it would be pulled a body height off

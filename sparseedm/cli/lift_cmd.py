@@ -53,7 +53,8 @@ def add_parser(sub):
                    "chosen together)")
     add_joint_map(p)
     p.add_argument("--chunk-size", type=int, default=50_000, metavar="N",
-                   help="poses lifted at a time (whole tracks at a time with frames); "
+                   help="poses lifted at a time (whole tracks at a time with frames, a "
+                   "longer track in windows); "
                    "bounds memory (default 50000)")
     add_quiet(p)
     p.set_defaults(func=run)

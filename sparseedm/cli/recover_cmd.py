@@ -141,20 +141,34 @@ def run(args):
     if ad is not None and not ad["adapted"] and ad["poses_used"] == 0:
         print(f"sparseedm recover: no adaptation: {ad['reason']}", file=sys.stderr)
     if summary.get("linked_tracks") is not None:
-        print(f"sparseedm recover: INPUT has frames, no track ids and several poses in a "
-              f"frame: linked them into {summary['linked_tracks']} track(s) by pose distance "
+        print(f"sparseedm recover: {args.input} has frames, no track ids and several poses in "
+              f"a frame: linked them into {summary['linked_tracks']} track(s) by pose distance "
               "(written back as its tracks)", file=sys.stderr)
     if summary.get("temporal"):
         t = summary["temporal"]
-        print(f"sparseedm recover: INPUT has frames: recovered across time ({t['segments']} "
-              f"track segment(s), {t['per_frame_poses']} per-frame answers); --no-temporal "
-              "turns it off", file=sys.stderr)
+        print(f"sparseedm recover: {args.input} has frames: recovered across time "
+              f"({t['segments']} track segment(s), {t['per_frame_poses']} per-frame answers)"
+              f"{_alone_note(t)}; --no-temporal turns it off", file=sys.stderr)
     print(format_summary(summary), file=out)
     if summary["refused"]:
         print(f"sparseedm recover: {summary['refused']} row(s) refused; see {summary['errors']}",
               file=sys.stderr)
         return 1
     return 0
+
+
+def _alone_note(temporal) -> str:
+    """What the rows answered frame by frame in a file with frames have in
+    common: their count and the commonest reason ("" when there are none)."""
+    alone = temporal.get("alone") or {}
+    if not alone:
+        return ""
+    why, count = max(alone.items(), key=lambda kv: kv[1])
+    note = f"; {sum(alone.values())} row(s) on their own, {count} because {why}"
+    if temporal["segments"] == 0 and why.startswith("the only frame"):
+        note += " (no two rows of a track are within 30 frame numbers: are they timestamps? " \
+                "time needs frame indices 0, 1, 2...)"
+    return note
 
 
 def format_summary(s) -> str:

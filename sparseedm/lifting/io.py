@@ -61,7 +61,7 @@ from ..keypoints import read_keypoints
 from ..skeleton import JOINT_NAMES
 from ..temporal.recover import adapt_in_time, linked_tracks
 from ..temporal.linking import needs_linking
-from ..temporal.tracks import frame_numbers, track_chunks
+from ..temporal.tracks import frame_numbers, track_windows
 from .base import load_lifter
 from .lift import LiftResult, lift
 from .plotting import plot_lifted
@@ -226,34 +226,38 @@ def _lift_chunks(kps, in_time, chunk_size, **kw):
     """:func:`lift` over a file's rows, `chunk_size` at a time; the whole LiftResult
     and the tracks (linked ones when the input had none and needed them).
 
-    With time the chunks are whole tracks (:func:`~sparseedm.temporal.tracks.track_chunks`)
-    and the fill's 2D dictionary is adapted once, on every row, first."""
+    With time the chunks are whole tracks, a longer track in windows
+    (:func:`~sparseedm.temporal.tracks.track_windows`), and the fill's 2D
+    dictionary is adapted once, on every row, first."""
     n, tracks = len(kps.poses), kps.tracks
     if not in_time:
-        bounds = [slice(s, min(s + chunk_size, n)) for s in range(0, n, chunk_size)]
+        bounds = [(slice(s, min(s + chunk_size, n)), None) for s in range(0, n, chunk_size)]
     else:
         linked = linked_tracks(kps.poses, kps.missing, tracks, kps.frames)
         tracks = tracks if linked is None else linked
         members, _ = adapt_in_time(load_dictionary(None), kps.poses, kps.missing,
                                    tracks=tracks, frames=kps.frames, n_jobs=kw["n_jobs"])
         kw.update(dictionary=members[0], fill_adapt=False)
-        bounds = [slice(*b) if isinstance(b, tuple) else b
-                  for b in track_chunks(tracks, n, chunk_size)]
+        bounds = [(slice(*b) if isinstance(b, tuple) else b, keep)
+                  for b, keep in track_windows(tracks, kps.frames, n, chunk_size)]
     if len(bounds) > 1:
         bounds = _progress.steps(bounds, f"lifting in {len(bounds)} chunks",
                                  total=len(bounds), unit="chunk")
     parts = []
-    for rows in bounds:
+    for rows, keep in bounds:
         when = {} if not in_time else dict(
             frames=np.asarray(kps.frames)[rows],
             tracks=None if tracks is None else np.asarray(tracks)[rows])
-        parts.append((rows, lift(kps.poses[rows], kps.missing[rows], **kw, **when)))
+        part = lift(kps.poses[rows], kps.missing[rows], **kw, **when)
+        if keep is not None:  # a window of a long track: its own rows only
+            rows, part = rows[keep], part.take(keep)
+        parts.append((rows, part))
     return _joined(parts, n), tracks
 
 
 def _joined(parts, n):
     """One LiftResult of n rows from (rows, LiftResult) parts."""
-    if len(parts) == 1:
+    if len(parts) == 1 and len(parts[0][1].status) == n:  # every row, in order
         return parts[0][1]
     first = parts[0][1]
     out = {}

@@ -25,7 +25,7 @@ import numpy as np
 
 from ..edm import vector_to_edm
 from .._recovery_base import STATUSES as RECOVERY_STATUSES
-from .._recovery_base import (SCREENING_REFUSALS, poses_per_second, screen_poses,
+from .._recovery_base import (SCREENING_REFUSALS, poses_per_second, screen_poses, take_rows,
                               status_counts, validate_poses)
 from .._validation import N_JOBS, Options, validate_params
 from ..normalize import REPRESENTATIONS, normalize, represent
@@ -72,6 +72,10 @@ class LiftResult:
         filled (NaN where a joint was still missing)
     filled : (n, N) bool, joints filled across time before lifting (all False
         without frames)
+    linked_tracks : (n,) int or None, the track ids the rows were linked into
+        when frames came without tracks and some frame holds several poses
+        (as ``linked_tracks`` of :func:`sparseedm.recover` with frames); None
+        otherwise
     """
 
     poses3d: np.ndarray
@@ -84,6 +88,7 @@ class LiftResult:
     seconds: float = 0.0
     poses2d: np.ndarray = None
     filled: np.ndarray = None
+    linked_tracks: np.ndarray = None
 
     @property
     def edms3d(self):
@@ -93,6 +98,11 @@ class LiftResult:
     @property
     def ok(self):
         return np.isin(self.status, _OK)
+
+    def take(self, rows):
+        """The result of the poses `rows` only (an index array, a slice or a
+        bool mask; :func:`~sparseedm._recovery_base.take_rows`)."""
+        return take_rows(self, rows)
 
     def summary(self):
         return {
@@ -190,7 +200,8 @@ def lift(poses, missing=None, *, tracks=None, frames=None, lifter=None, n_jobs=1
             reason[r] = f"{reason[r]}; {why}" if reason[r] else why
         out["reason"] = reason.astype(str)
     return LiftResult(**out, missing=mask | filled, seconds=time.perf_counter() - t0,
-                      poses2d=np.where(mask[..., None], np.nan, poses), filled=filled)
+                      poses2d=np.where(mask[..., None], np.nan, poses), filled=filled,
+                      linked_tracks=None if layout is None else layout.linked)
 
 
 def _lift_rows(lifter, poses, mask, bad, representation, n_jobs, layout):

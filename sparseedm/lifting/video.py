@@ -25,9 +25,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..temporal.recover import recover_temporal
+from ..temporal.recover import recover_temporal, time_layout
 from ..temporal.smoothing import smooth_trajectory
-from ..temporal.tracks import split_tracks
 from .mds import reflection_path
 
 __all__ = ["fill_in_time", "choose_reflections", "smooth_tracks", "TIME_FILL_MAX_WEIGHT",
@@ -64,17 +63,22 @@ def fill_in_time(poses, mask, tracks, frames, *, dictionary=None, n_jobs=1, adap
     filled : ndarray of bool (n, N)
         Joints filled (a subset of `mask`); rows time cannot use fill none.
     layout : TrackLayout
-        The tracks' segments in frame order (:func:`sparseedm.temporal.tracks.split_tracks`;
-        the linked tracks when none were given and a frame holds several poses).
+        The segments time filled the poses in
+        (:func:`sparseedm.temporal.recover.time_layout`); its ``linked``: the
+        track ids linked when none were given and a frame holds several poses.
     """
-    rec = recover_temporal(np.where(mask[..., None], np.nan, poses), mask, tracks=tracks,
+    rec_input = np.where(mask[..., None], np.nan, poses)
+    rec = recover_temporal(rec_input, mask, tracks=tracks,
                            frames=frames, dictionary=dictionary, n_jobs=n_jobs,
                            adapt=adapt, progress=False)
     filled = ((rec.source == "temporal") & mask & np.isfinite(rec.poses).all(axis=-1)
               & (rec.prior_weight <= TIME_FILL_MAX_WEIGHT))
     poses = np.where(filled[..., None], rec.poses, poses)
     linked = rec.linked_tracks
-    return poses, filled, split_tracks(len(poses), tracks if linked is None else linked, frames)
+    layout = time_layout(rec_input, mask, tracks=tracks if linked is None else linked,
+                         frames=frames)
+    layout.linked = linked
+    return poses, filled, layout
 
 
 def choose_reflections(front, back, score, rows, layout):

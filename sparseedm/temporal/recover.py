@@ -31,11 +31,11 @@ from ..edm import pose_to_vector
 from ..ensemble import adapt_members
 from ..normalize import normalize
 from ..skeleton import SKELETON_14
-from .linking import link_tracks, needs_linking
+from .linking import link_tracks, needs_linking, split_at_jumps
 from .model import DEFAULT_SETTINGS, fill_segment, prior_frames, time_filled
 from .tracks import split_tracks
 
-__all__ = ["recover_temporal", "recover_track", "adapt_in_time", "linked_tracks",
+__all__ = ["recover_temporal", "recover_track", "adapt_in_time", "linked_tracks", "time_layout",
            "TemporalResult", "SOURCES",
            "CLIP_NEAR", "CLIP_MIN_POSES"]
 
@@ -86,6 +86,10 @@ class TemporalResult(RecoveryResult):
         Track ids linked by :func:`~sparseedm.temporal.linking.link_tracks`
         when the caller gave frames without tracks and some frame holds
         several poses; None otherwise.
+    alone_reason : ndarray of str (n,)
+        Why a row was answered frame by frame instead of across time (a bad
+        frame number, the only frame of its stretch, a jump); ``""`` for the
+        rows of a segment.
 
     For rows filled by the temporal model, ``vectors``, ``center`` and
     ``scale`` describe the filled pose itself (normalised as
@@ -99,6 +103,7 @@ class TemporalResult(RecoveryResult):
     per_frame_poses: int = 0
     segments: int = 0
     linked_tracks: np.ndarray = field(default=None)
+    alone_reason: np.ndarray = field(default=None)
 
     def summary(self) -> dict:
         """:meth:`RecoveryResult.summary` plus the temporal model's counts."""
@@ -111,6 +116,10 @@ class TemporalResult(RecoveryResult):
         }
         if self.linked_tracks is not None:
             out["temporal"]["linked_tracks"] = int(len(np.unique(self.linked_tracks)))
+        if self.alone_reason is not None and (self.alone_reason != "").any():
+            why, count = np.unique(self.alone_reason[self.alone_reason != ""],
+                                   return_counts=True)
+            out["temporal"]["alone"] = dict(zip(why.tolist(), count.tolist()))
         return out
 
 
@@ -201,9 +210,25 @@ def _in_time(poses, missing, tracks, frames, n_joints):
     given and a frame holds several poses)."""
     poses, mask, refusal, why, usable = _screened(poses, missing, n_joints)
     linked = _linked(poses, mask, usable, tracks, frames)
-    layout = split_tracks(len(poses), tracks if linked is None else linked, frames)
+    layout = split_at_jumps(split_tracks(len(poses), tracks if linked is None else linked,
+                                         frames),
+                            np.where(usable[:, None, None], poses, np.nan), mask)
     layout.linked = linked
     return poses, mask, refusal, why, usable, layout
+
+
+def time_layout(poses, missing=None, *, tracks=None, frames,
+                n_joints=SKELETON_14.num_joints):
+    """The segments :func:`recover_temporal` fills the poses in: each track's
+    rows in frame order (:func:`~sparseedm.temporal.tracks.split_tracks`; the
+    tracks linked when none are given and a frame holds several poses), cut
+    where the pose jumps (:func:`~sparseedm.temporal.linking.split_at_jumps`).
+
+    Returns
+    -------
+    TrackLayout
+    """
+    return _in_time(poses, missing, tracks, frames, n_joints)[-1]
 
 
 def adapt_in_time(dictionary, poses, missing=None, *, tracks=None, frames, ensemble=1,
@@ -399,7 +424,7 @@ def _assemble(poses, mask, refusal, why, layout, per, filled, weight, residual, 
         alpha=per.alpha, members=members, source=source.astype(str),
         prior_weight=np.where(temporal[:, None], weight, 0.0), residual=residual,
         per_frame_poses=len(per.rows), segments=len(layout.segments),
-        linked_tracks=layout.linked, **out)
+        linked_tracks=layout.linked, alone_reason=layout.reason, **out)
 
 
 def _describe_filled(result, rows, out):

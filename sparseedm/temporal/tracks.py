@@ -18,11 +18,17 @@ import numpy as np
 from ..exceptions import ParameterError
 
 __all__ = ["MAX_SKIP", "TrackLayout", "split_tracks", "frame_numbers", "distance_to_observed",
-           "track_chunks", "add_summaries"]
+           "track_chunks", "track_windows", "WINDOW_OVERLAP", "add_summaries"]
 
 #: a run of more absent frame numbers than this ends a segment
 MAX_SKIP = 30
 _DUPLICATE = "its (track, frame) pair is given more than once"
+#: frames of context a window of a long track (:func:`track_windows`) is
+#: solved with on either side of its own frames: ten times the temporal
+#: model's longest reach into a gap (its prior ramp, 30 frames), more than
+#: :data:`MAX_SKIP`, so each of its rows falls in the same stretch of frames
+#: as in the whole track
+WINDOW_OVERLAP = 300
 
 
 @dataclass
@@ -214,6 +220,70 @@ def track_chunks(tracks, n, chunk_size):
     return bounds
 
 
+def track_windows(tracks, frames, n, chunk_size, overlap=None):
+    """:func:`track_chunks`, with every track longer than `chunk_size` rows
+    cut into windows, so that no chunk holds much more than `chunk_size` rows.
+
+    A long track (one person over a long video) is cut by frame number into
+    windows of about `chunk_size` rows each. A window is solved with the rows
+    of `overlap` frames on either side of its own as context, and keeps only
+    its own rows' answers: the temporal model reaches a few dozen frames into
+    a gap, so an answer differs from the whole track's only through what is
+    estimated once per stretch of frames (its joints' coupling, its noise),
+    here per window. Rows whose frame number is unusable go with the first
+    window, which answers them frame by frame as the whole track would.
+
+    Parameters
+    ----------
+    tracks : array_like (n,) or None
+    frames : array_like (n,)
+        As :func:`split_tracks`.
+    n, chunk_size : int
+    overlap : int, optional
+        Frames of context on either side of a window; default
+        :data:`WINDOW_OVERLAP`.
+
+    Returns
+    -------
+    list of (rows, keep)
+        `rows`: a ``(start, stop)`` range or an int array of rows (file
+        order), as :func:`track_chunks`; `keep`: None (keep every row's
+        answer) or a bool array over `rows`, the window's own rows.
+
+    Examples
+    --------
+    >>> w = track_windows(None, [5, 1, 2, 3, 4, 0], 6, 3, overlap=1)
+    >>> [(r.tolist(), k.tolist()) for r, k in w]
+    [([1, 2, 3, 5], [True, True, False, True]), ([0, 2, 3, 4], [True, False, True, True])]
+    """
+    overlap = WINDOW_OVERLAP if overlap is None else overlap
+    out = []
+    values, reason = frame_numbers(frames, n)
+    for bounds in track_chunks(tracks, n, chunk_size):
+        rows = np.arange(*bounds) if isinstance(bounds, tuple) else bounds
+        if len(rows) <= chunk_size:
+            out.append((bounds, None))
+        else:  # one track: track_chunks overfills a chunk with a single track only
+            out.extend(_windows(rows, values[rows], reason[rows] == "", chunk_size, overlap))
+    return out
+
+
+def _windows(rows, values, usable, chunk_size, overlap):
+    """(rows, keep) windows of one track's `rows` by frame number `values`."""
+    frames = np.unique(values[usable])
+    k = -(-int(usable.sum()) // chunk_size)
+    edges = frames[(np.arange(1, k) * len(frames)) // k]
+    edges = np.concatenate([[-np.inf], edges, [np.inf]])
+    out = []
+    for i, (lo, hi) in enumerate(zip(edges[:-1], edges[1:])):
+        own = usable & (values >= lo) & (values < hi)
+        near = usable & (values >= lo - overlap) & (values < hi + overlap)
+        if i == 0:
+            own, near = own | ~usable, near | ~usable
+        out.append((rows[near], own[near]))
+    return out
+
+
 def _interleaved_chunks(ids, chunk_size):
     """Rows (arrays, file order) of whole tracks, packed in the order the
     tracks first appear, about `chunk_size` rows each."""
@@ -235,8 +305,13 @@ def add_summaries(total, part):
     """Two temporal summaries (``TemporalResult.summary()["temporal"]``) added."""
     if total is None or part is None:
         return part if total is None else total
-    joints = {k: total["joints"].get(k, 0) + part["joints"].get(k, 0)
-              for k in {**total["joints"], **part["joints"]}}
-    return {"segments": total["segments"] + part["segments"],
-            "per_frame_poses": total["per_frame_poses"] + part["per_frame_poses"],
-            "joints": joints}
+    def added(key):
+        a, b = total.get(key) or {}, part.get(key) or {}
+        return {k: a.get(k, 0) + b.get(k, 0) for k in {**a, **b}}
+
+    out = {"segments": total["segments"] + part["segments"],
+           "per_frame_poses": total["per_frame_poses"] + part["per_frame_poses"],
+           "joints": added("joints")}
+    if "alone" in total or "alone" in part:
+        out["alone"] = added("alone")
+    return out
