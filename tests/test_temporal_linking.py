@@ -164,3 +164,30 @@ def test_a_cut_in_the_video_splits_the_track(track, small_dictionary):
     assert res.segments == 2 and (res.source[mask] == "temporal").all()
     err = np.linalg.norm(res.poses[mask] - truth[mask], axis=-1) / height
     assert err.max() < 0.25  # across the cut it would be pulled a body height off
+
+
+@pytest.mark.parametrize("wild", [1e6, 1e308])
+def test_a_wild_coordinate_stays_on_its_own_row(track, small_dictionary, wild):
+    """A detector's wild coordinate in one complete row of a track: that row is
+    answered alone, its neighbours keep their statuses and come back as
+    without it (to a few pixels near the cut), and no numpy warning leaks."""
+    import warnings
+
+    mask = np.zeros(track.shape[:2], bool)
+    mask[95:125, WRIST] = True
+    mask[150:160, KNEE] = True
+    clean = np.where(mask[..., None], np.nan, track)
+    bad = clean.copy()
+    bad[100, 1, 0] = wild  # the neck of a complete row inside the wrist's gap
+    mask_bad = mask.copy()
+    frames = np.arange(len(track))
+    ref = sparseedm.recover(clean, frames=frames, dictionary=small_dictionary, adapt=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        res = sparseedm.recover(bad, mask_bad, frames=frames, dictionary=small_dictionary,
+                                adapt=False)
+    others = np.arange(len(track)) != 100
+    np.testing.assert_array_equal(res.status[others], ref.status[others])
+    assert "jumps" in res.reason[100]  # answered alone (refused per frame at 1e308)
+    height = np.ptp(track[..., 1], axis=1).mean()
+    assert np.abs(res.poses[others] - ref.poses[others]).max() < 0.05 * height

@@ -50,7 +50,7 @@ MIN_COMMON_JOINTS = 3
 #: is not a video (a folder of photos, frame numbers that are not frames):
 #: :func:`split_at_jumps` cuts it at every row. On the video protocols'
 #: sequences (both sources and splits, 30 frames/s, clean and with 1 % of
-#: jitter) the median step is at most 0.072 and no step exceeds 0.12; 40
+#: jitter) the median step is at most 0.074 and no step exceeds 0.15; 40
 #: unrelated photos numbered in a row step 1.3 in the median
 MAX_MEDIAN_STEP = 0.25
 #: why a row cut off on both sides by :func:`split_at_jumps` is answered alone
@@ -222,29 +222,36 @@ def step_distances(poses, frames):
     Returns
     -------
     ndarray (T - 1,)
-        The mean distance of the joints observed in both rows, over the larger
-        of the two poses' extents, divided by the square root of the frames
-        between them (what :func:`link_tracks` compares with
-        :data:`MAX_LINK_DISTANCE`); NaN where the rows share fewer than
+        The mean distance of the joints observed in both rows, over the
+        smaller of the two poses' extents on those joints, divided by the
+        square root of the frames between them (as :func:`link_tracks`
+        compares with :data:`MAX_LINK_DISTANCE`; the smaller extent, so that
+        one wild coordinate, which inflates its own pose's extent, still reads
+        as a jump); NaN where the rows share fewer than
         :data:`MIN_COMMON_JOINTS` joints (nothing to judge by).
 
     Examples
     --------
     >>> a = np.zeros((14, 2)); a[:, 1] = np.arange(14.0)
-    >>> step_distances(np.stack([a, a + 0.13, a + 100]), np.array([0, 1, 2])).round(3).tolist()
-    [0.014, 10.864]
+    >>> b = a.copy(); b[1] = [1e6, 0.0]                 # one wild coordinate
+    >>> steps = step_distances(np.stack([a, a + 0.13, a + 100, b]), np.array([0, 1, 2, 3]))
+    >>> steps.round(3).tolist()
+    [0.014, 10.864, 5504.058]
     """
     poses = np.where(np.isfinite(poses).all(axis=-1, keepdims=True), poses, np.nan)
     if len(poses) < 2:
         return np.zeros(0)
     a, b = poses[:-1], poses[1:]
-    d = np.linalg.norm(a - b, axis=-1)                       # NaN unless seen in both
-    common = (~np.isnan(d)).sum(axis=-1)
-    scale = np.fmax(_extents(a), _extents(b))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        mean = np.nansum(d, axis=-1) / np.maximum(common, 1)
-        out = mean / scale / np.sqrt(np.diff(frames).astype(float))
-    return np.where((common >= MIN_COMMON_JOINTS) & (scale > 0) & np.isfinite(out), out, np.nan)
+    seen = ~np.isnan(a[..., 0]) & ~np.isnan(b[..., 0])      # (T - 1, N): in both rows
+    common = seen.sum(axis=-1)
+    with np.errstate(all="ignore"):  # a wild coordinate overflows: inf, a jump
+        d = np.where(seen, np.linalg.norm(a - b, axis=-1), 0.0)
+        scale = np.fmin(_extents(np.where(seen[..., None], a, np.nan)),
+                        _extents(np.where(seen[..., None], b, np.nan)))
+        out = d.sum(axis=-1) / np.maximum(common, 1) / scale / np.sqrt(
+            np.diff(frames).astype(float))
+    # inf: a distance beyond floating point (a wild coordinate) is a jump too
+    return np.where((common >= MIN_COMMON_JOINTS) & (scale > 0) & ~np.isnan(out), out, np.nan)
 
 
 def split_at_jumps(layout, poses, missing, max_distance=MAX_LINK_DISTANCE):
@@ -260,7 +267,7 @@ def split_at_jumps(layout, poses, missing, max_distance=MAX_LINK_DISTANCE):
     max_distance : float
         :data:`MAX_LINK_DISTANCE`: a step further than linking would join
         (:func:`step_distances`) cuts the segment (the video protocols'
-        sequences step at most 0.12). A segment whose median step is above
+        sequences step at most 0.15). A segment whose median step is above
         :data:`MAX_MEDIAN_STEP` is cut at every row.
 
     Returns
