@@ -84,7 +84,7 @@ from ._atomic import atomic_path, check_paths, is_stream
 from ._extras import require as require_extra
 from ._validation import (ALPHA, BOOLEAN, CHUNK_SIZE, ENSEMBLE, N_JOBS, PATH, Interval,
                           Options, validate_params)
-from .adaptation import sample_stream
+from .adaptation import MIN_COMPLETE_POSES, sample_stream
 from .dictionary import Dictionary, dictionary_path, check_gram_memory, load_dictionary
 from ._safeio import resolved
 from .ensemble import adapt_members
@@ -100,7 +100,7 @@ from ._recovery_kernel import compiled_solver
 from .normalize import REPRESENTATIONS
 from .recovery import STATUSES, check_options_apply, recover
 from .skeleton import JOINT_NAMES
-from .temporal.recover import adapt_in_time, linked_tracks
+from .temporal.recover import CLIP_MIN_POSES, adapt_in_time, linked_tracks, offered_poses
 from .temporal.tracks import add_summaries, track_windows
 from .solvers import get_solver
 
@@ -498,11 +498,23 @@ def _adapt(source, dictionary, adapt, chunk_size, threshold, n_jobs, self_traini
     if isinstance(adapt, str) and adapt == "auto":
         members, results = adapt_members(dictionary, poses, missing, "auto", ensemble, **kw)
     else:
-        if isinstance(adapt, (str, Path)):  # NaN where missing
-            adapt = read_keypoints(adapt, confidence_threshold=threshold).poses
+        if isinstance(adapt, (str, Path)):
+            adapt, kw["min_poses"] = _adaptation_poses(adapt, threshold)
         members, results = adapt_members(dictionary, partial, partial_missing, adapt,
                                          ensemble, **kw)
     return members, results[0]
+
+
+def _adaptation_poses(path, threshold):
+    """The poses an --adapt-from file offers (NaN where missing) and how many
+    adaptation needs: a video's (it has frames) by the rule one clip adapts by
+    (:func:`~sparseedm.temporal.recover.offered_poses`, CLIP_MIN_POSES), other
+    files' complete poses by the per-frame rule."""
+    kps = read_keypoints(path, confidence_threshold=threshold)
+    if kps.frames is None:
+        return kps.poses, MIN_COMPLETE_POSES
+    return offered_poses(kps.poses, kps.missing, tracks=kps.tracks,
+                         frames=kps.frames), CLIP_MIN_POSES
 
 
 #: constraints of recover_file()'s arguments (see sparseedm._validation)

@@ -2,6 +2,8 @@
 
 import warnings
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from scipy.interpolate import CubicSpline
@@ -677,3 +679,26 @@ def test_file_recovers_a_long_track_in_windows(tmp_path, track, small_dictionary
     height = np.ptp(track[..., 1], axis=1).mean()
     assert np.abs(windows - whole).max() < 0.02 * height
     np.testing.assert_array_equal(out[80].ids, out[50_000].ids)
+
+
+def test_adapt_from_a_video_uses_the_one_clip_rule(tmp_path, small_dictionary_path):
+    """--adapt-from a video (a file with frames) adapts by the rule one clip
+    adapts by (complete and time-completed frames, 30 of them), as the input
+    itself would; the same poses without frames need 250 complete ones."""
+    from sparseedm.batch import recover_file
+    from sparseedm.keypoints import KeypointSet, read_keypoints, write_keypoints
+
+    example = Path(__file__).resolve().parents[1] / "examples" / "video_clip.csv"
+    kps = read_keypoints(example)
+    one = kps.tracks == np.unique(kps.tracks)[1]  # 150 frames, 56 complete
+    clip = KeypointSet(kps.poses[one], kps.missing[one], tracks=kps.tracks[one],
+                       frames=kps.frames[one])
+    video = write_keypoints(tmp_path / "clip.csv", clip)
+    still = write_keypoints(tmp_path / "still.csv", KeypointSet(kps.poses[one], kps.missing[one]))
+    used = {}
+    for name, src in (("video", video), ("still", still)):
+        s = recover_file(example, tmp_path / f"out_{name}.csv",
+                         dictionary=small_dictionary_path, adapt=src, self_training=0)
+        used[name] = s["adaptation"]
+    assert used["video"]["poses_used"] > 56  # the time-completed frames count too
+    assert used["still"]["poses_used"] == 0 and "250" in used["still"]["reason"]

@@ -104,7 +104,7 @@ def _add_adaptation_options(p):
                    "on a held-back slice: sparseedm.adaptation)")
     g.add_argument("--adapt-from", default=None, metavar="FILE",
                    help="adapt on the complete poses of FILE (same source, any keypoint "
-                   "format) instead of INPUT's")
+                   "format; a video's time-completed frames too) instead of INPUT's")
     add_adaptation_rounds(
         p, "after adapting, rounds of self-training on INPUT's incomplete poses (recover a "
         "sample, adapt again with them; the last round guarded); default 3, 0 turns it off",

@@ -35,7 +35,8 @@ from .linking import link_tracks, needs_linking, split_at_jumps
 from .model import DEFAULT_SETTINGS, fill_segment, prior_frames, time_filled
 from .tracks import split_tracks
 
-__all__ = ["recover_temporal", "recover_track", "adapt_in_time", "linked_tracks", "time_layout",
+__all__ = ["recover_temporal", "recover_track", "adapt_in_time", "offered_poses",
+           "linked_tracks", "time_layout",
            "TemporalResult", "SOURCES",
            "CLIP_NEAR", "CLIP_MIN_POSES"]
 
@@ -229,6 +230,23 @@ def time_layout(poses, missing=None, *, tracks=None, frames,
     TrackLayout
     """
     return _in_time(poses, missing, tracks, frames, n_joints)[-1]
+
+
+def offered_poses(poses, missing=None, *, tracks=None, frames, settings=None):
+    """What poses with frames offer adaptation: their complete rows and the rows
+    whose missing joints time fills from within :data:`CLIP_NEAR` frames,
+    filled (what ``adapt="auto"`` adapts on; the rule wants
+    :data:`CLIP_MIN_POSES` of them). ``sparseedm recover --adapt-from`` a
+    video adapts on these.
+
+    Returns
+    -------
+    ndarray (m, N, 2)
+    """
+    settings = DEFAULT_SETTINGS if settings is None else settings
+    poses, mask, _, _, usable, layout = _in_time(poses, missing, tracks, frames,
+                                                 SKELETON_14.num_joints)
+    return _offered(layout, poses, mask, usable, settings)
 
 
 def adapt_in_time(dictionary, poses, missing=None, *, tracks=None, frames, ensemble=1,
