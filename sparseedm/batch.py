@@ -101,7 +101,7 @@ from .normalize import REPRESENTATIONS
 from .recovery import STATUSES, check_options_apply, recover
 from .skeleton import JOINT_NAMES
 from .temporal.recover import CLIP_MIN_POSES, adapt_in_time, linked_tracks, offered_poses
-from .temporal.tracks import add_summaries, track_windows
+from .temporal.tracks import add_summaries, has_time, track_windows
 from .solvers import get_solver
 
 __all__ = ["recover_file", "default_errors_path", "STATUS_FIELDS"]
@@ -425,9 +425,10 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
 
 
 def _in_time(source, temporal):
-    """Whether `source` is recovered across time (it has frames and `temporal`);
-    a file without tracks whose frames hold several poses is linked first."""
-    if not temporal or source.frames is None:
+    """Whether `source` is recovered across time (`temporal`, and it has at
+    least two distinct frames: :func:`has_time`); a file without tracks whose
+    frames hold several poses is linked first."""
+    if not temporal or not has_time(source.frames):
         return False
     source.link()
     return True

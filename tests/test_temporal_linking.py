@@ -191,3 +191,21 @@ def test_a_wild_coordinate_stays_on_its_own_row(track, small_dictionary, wild):
     assert "jumps" in res.reason[100]  # answered alone (refused per frame at 1e308)
     height = np.ptp(track[..., 1], axis=1).mean()
     assert np.abs(res.poses[others] - ref.poses[others]).max() < 0.05 * height
+
+
+def test_a_single_image_is_not_a_video(tmp_path, track, small_dictionary_path):
+    """Every pose in one frame (a single image: MMPose's image mode, COCO): the
+    file is recovered pose by pose, nothing linked, no tracks written."""
+    from sparseedm.batch import recover_file
+    from sparseedm.keypoints import KeypointSet, read_keypoints, write_keypoints
+
+    poses = np.stack([track[0], track[0] + [250.0, 0.0], track[0] + [500.0, 0.0]])
+    mask = np.zeros(poses.shape[:2], bool)
+    mask[1, WRIST] = True
+    path = write_keypoints(tmp_path / "image.csv", KeypointSet(
+        np.where(mask[..., None], np.nan, poses), mask, frames=np.zeros(3, int)))
+    summary = recover_file(path, tmp_path / "out.csv", dictionary=small_dictionary_path,
+                           adapt=False)
+    assert summary["temporal"] is None and summary.get("linked_tracks") is None
+    out = read_keypoints(tmp_path / "out.csv")
+    assert out.tracks is None and np.isfinite(out.poses).all()

@@ -61,7 +61,7 @@ from ..keypoints import read_keypoints
 from ..skeleton import JOINT_NAMES
 from ..temporal.recover import adapt_in_time, linked_tracks
 from ..temporal.linking import needs_linking
-from ..temporal.tracks import frame_numbers, track_windows
+from ..temporal.tracks import frame_numbers, has_time, track_windows
 from .base import load_lifter
 from .lift import LiftResult, lift
 from .plotting import plot_lifted
@@ -205,7 +205,7 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
     check_paths(inputs, [("output", output), ("errors file", errors), ("plot", plot)])
     kps = read_keypoints(input, confidence_threshold=confidence_threshold, joint_map=joint_map)
     _one_person(kps, input, output, _output_format(output, output_format))
-    in_time = bool(temporal) and kps.frames is not None
+    in_time = bool(temporal) and has_time(kps.frames)
     _progress.say(f"lifting {len(kps.poses):,} poses to 3D"
                   + (" across time (the input has frames: missing 2D joints filled across "
                      "time first; --no-temporal lifts each row alone)" if in_time else ""))

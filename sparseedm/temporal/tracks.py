@@ -18,7 +18,7 @@ import numpy as np
 from ..exceptions import ParameterError
 
 __all__ = ["MAX_SKIP", "TrackLayout", "split_tracks", "frame_numbers", "distance_to_observed",
-           "track_chunks", "track_windows", "WINDOW_OVERLAP", "add_summaries"]
+           "track_chunks", "track_windows", "WINDOW_OVERLAP", "add_summaries", "has_time"]
 
 #: a run of more absent frame numbers than this ends a segment
 MAX_SKIP = 30
@@ -91,6 +91,22 @@ def frame_numbers(frames, n):
         else:
             values[i] = int(f)
     return values, reason
+
+
+def has_time(frames):
+    """Whether `frames` (or None) hold at least two distinct usable frame
+    numbers: a file whose poses all share one frame (a single image, as
+    MMPose's image mode and COCO files give) is not a video.
+
+    Examples
+    --------
+    >>> has_time([0, 0, 0]), has_time([0, 1, "x"]), has_time(None)
+    (False, True, False)
+    """
+    if frames is None:
+        return False
+    values, reason = frame_numbers(frames, len(np.asarray(frames)))
+    return len(np.unique(values[reason == ""])) >= 2
 
 
 def _track_ids(tracks, n):
