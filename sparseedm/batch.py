@@ -43,8 +43,9 @@ input. Detector confidences are not written to csv/npz/npy outputs. Every
 output flags the joints this run filled (and those the input already flagged):
 ``<joint>_filled`` columns in CSV, a ``filled`` (n, 14) array in ``.npz`` (and
 in the ``.status.npz`` sidecar of ``.npy`` and DeepLabCut outputs), the
-``"sparseedm"`` object's ``filled`` list in the JSON formats, a ``filled``
-coords column in DeepLabCut tables; where the format keeps scores (COCO
+``"sparseedm"`` object's ``filled`` list in the JSON formats (a DeepLabCut
+table keeps DeepLabCut's own x, y, likelihood layout, so its flags are only in
+the sidecar); where the format keeps scores (COCO
 ``v``, OpenPose ``c``, MMPose ``keypoint_scores``, DeepLabCut ``likelihood``)
 a filled joint's score is ``filled_score`` (default 0: below every threshold,
 never a detection's), and COCO's ``num_keypoints`` counts the keypoints with

@@ -17,6 +17,7 @@ import pytest
 
 from sparseedm.batch import recover_file
 from sparseedm.exceptions import FileFormatError, OutputPathError
+from sparseedm import formats
 from sparseedm.formats import detect
 from sparseedm.keypoints import read_keypoints, write_keypoints
 from sparseedm.skeleton import JOINT_NAMES
@@ -65,7 +66,7 @@ def test_round_trip_fills_and_flags_every_occluded_joint(case, tmp_path, small_d
                            confidence_threshold=threshold, **kw)
     assert summary["refused"] == 0 and summary["recovered_joints"] == first.missing.sum()
     assert digest(src) == before, "the input was changed"
-    back = read_keypoints(out, confidence_threshold=threshold, **kw)
+    back = _read_back(out, first.meta["format"], threshold, kw)
     assert back.meta["format"] == first.meta["format"]
     assert not back.missing.any(), "every occluded joint is filled"
     np.testing.assert_array_equal(back.filled, first.missing)
@@ -78,6 +79,20 @@ def test_round_trip_fills_and_flags_every_occluded_joint(case, tmp_path, small_d
         np.testing.assert_array_equal(back.ids, first.ids)
     # filled joints carry the filled score, never a detection's
     np.testing.assert_array_equal(back.confidence[first.missing], 0.0)
+
+
+def _read_back(out, fmt, threshold, kw):
+    """An output read back; a DeepLabCut table (DeepLabCut's own layout, no room
+    for flags) with its filled joints present and flagged from the status sidecar."""
+    if fmt != "dlc":
+        return read_keypoints(out, confidence_threshold=threshold, **kw)
+    flags = np.load(out.with_name(out.stem + ".status.npz"))["filled"]
+    back = read_keypoints(out, confidence_threshold=threshold, **kw)
+    assert back.filled is None
+    np.testing.assert_array_equal(back.missing, flags)  # scored filled_score: below
+    raw = formats.read("dlc", out, joint_map=kw["joint_map"])
+    back.poses, back.missing, back.filled = raw.poses, ~raw.present, flags
+    return back
 
 
 def test_openpose_folder_round_trip_writes_the_same_files(tmp_path, small_dictionary):
@@ -322,6 +337,60 @@ def test_dlc_map_is_optional_when_parts_are_the_joint_names(tmp_path):
     write_keypoints(out, k.poses, format="dlc")
     again = read_keypoints(out)
     np.testing.assert_allclose(again.poses, k.poses)
+
+
+def _dlc_header(path, levels):
+    """The header rows of a DeepLabCut CSV, as DeepLabCut's ``read_csv(header=[0..])``
+    gives its column levels: {level name: the row's cells after the first}."""
+    rows = [line.split(",") for line in path.read_text().splitlines()[:levels]]
+    return {row[0]: row[1:] for row in rows}
+
+
+@pytest.mark.parametrize("src", ["dlc.csv", "dlc_multi.csv", "dlc.h5"])
+def test_dlc_output_keeps_deeplabcuts_own_layout(src, tmp_path, small_dictionary):
+    # DeepLabCut's make_labeled_video: df.values.reshape((nframes, -1, 3)).T and
+    # bodyparts = df.columns.get_level_values("bodyparts")[::3]
+    src = F / src
+    out = tmp_path / f"out{src.suffix}"
+    first = read_keypoints(src, joint_map=MAP)
+    recover_file(src, out, dictionary=small_dictionary, adapt=False, joint_map=MAP)
+    flags = np.load(tmp_path / "out.status.npz")["filled"]
+    np.testing.assert_array_equal(flags, first.missing)
+    assert flags.any()
+    if src.suffix == ".h5":
+        needs_pandas()
+        import pandas as pd
+
+        df_in, df = pd.read_hdf(src), pd.read_hdf(out, "df_with_missing")
+        assert list(df.columns.names) == list(df_in.columns.names)
+        assert list(df.columns) == list(df_in.columns)
+        values, bodyparts = df.values, list(df.columns.get_level_values("bodyparts")[::3])
+        parts_in = list(df_in.columns.get_level_values("bodyparts")[::3])
+    else:
+        levels = 4 if "multi" in src.name else 3
+        head, head_in = _dlc_header(out, levels), _dlc_header(src, levels)
+        assert head == head_in  # same levels, columns and order as the input
+        assert head["coords"] == ["x", "y", "likelihood"] * (len(head["coords"]) // 3)
+        values = np.loadtxt(out, delimiter=",", skiprows=levels)[:, 1:]
+        bodyparts, parts_in = head["bodyparts"][::3], head_in["bodyparts"][::3]
+    x, y, likelihood = values.reshape((len(values), -1, 3)).T
+    assert bodyparts == parts_in and x.shape[0] == len(parts_in)
+    assert np.isfinite(x).all() and np.isfinite(y).all()  # the filled joints written in
+
+
+def test_dlc_older_output_with_a_filled_column_is_still_read(tmp_path, small_dictionary):
+    lines = (F / "dlc.csv").read_text().splitlines()
+    cells = [line.split(",") for line in lines]
+    for r, row in enumerate(cells):  # a 'filled' column after head's likelihood
+        row.insert(4, {0: row[3], 1: "head", 2: "filled"}.get(r, "1" if r == 3 else "0"))
+    old = tmp_path / "old.csv"
+    old.write_text("\n".join(",".join(row) for row in cells) + "\n")
+    k = read_keypoints(old, joint_map=MAP)
+    assert k.filled[0, HEAD_TOP] and k.filled.sum() == 1
+    out = tmp_path / "new.csv"
+    recover_file(old, out, dictionary=small_dictionary, adapt=False, joint_map=MAP)
+    assert "filled" not in out.read_text().splitlines()[2]
+    assert np.load(tmp_path / "new.status.npz")["filled"][0, HEAD_TOP]
 
 
 def test_h5_without_pandas_names_the_extra(tmp_path, monkeypatch):

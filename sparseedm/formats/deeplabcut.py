@@ -35,11 +35,17 @@ in a frame is still a row (all missing). ``likelihood`` is the confidence;
 NaN coordinates or a NaN likelihood mark a missing body part; a likelihood
 outside [0, 1] is an error naming the file, row and body part.
 
-Writing back: the same table with each filled joint's ``x``, ``y`` set and its
-``likelihood`` set to ``filled_score``, and one more ``coords`` column,
-``filled`` (1 for a filled body part, else 0), after each mapped body part's
-``likelihood``. Without a DeepLabCut input, a single-animal table is written
-whose body parts are the 14 joint names (scorer ``sparseedm``).
+Writing back: DeepLabCut's own layout, so that its tools (``create_labeled_video``,
+``filterpredictions``, which take the values as ``(frames, -1, 3)``: x, y,
+likelihood per body part) read the file: the same header rows (column levels
+in ``.h5``), the same columns in the same order, with each filled joint's
+``x``, ``y`` set and its ``likelihood`` set to ``filled_score``. The table
+has no room for the filled flags: ``sparseedm recover`` writes them to its
+``<output stem>.status.npz`` sidecar (``filled``, (n, 14)). A ``filled``
+coords column of a file an earlier sparseedm wrote is still read (its flagged
+body parts as present) and is left out when the table is written back.
+Without a DeepLabCut input, a single-animal table is written whose body parts
+are the 14 joint names (scorer ``sparseedm``).
 """
 
 from __future__ import annotations
@@ -325,7 +331,7 @@ def write(path, rows, meta, filled_score, row_fields=None):
                                          meta["dlc_index"], meta["dlc_values"])
         mapping, individuals = meta["dlc_map"], meta["dlc_individuals"]
     columns, values = _with_filled(names, columns, values, rows, mapping, individuals,
-                                   filled_score)
+                                   filled_score)  # the filled flags: the status sidecar
     if path.suffix.lower() in (".h5", ".hdf5", ".hdf"):
         _write_h5(path, names, columns, index, values)
     else:
@@ -347,12 +353,13 @@ def _fresh(rows):
 
 
 def _with_filled(names, columns, values, rows, mapping, individuals, filled_score):
-    """Values with the filled joints written in, and a 'filled' column per mapped part."""
+    """The table's columns and values with the filled joints written in:
+    DeepLabCut's x, y, likelihood per body part (a ``filled`` column of an older
+    file left out)."""
     multi = len(names) == 4
     key = {((c[1], c[2], c[3]) if multi else ("", c[1], c[2])): k
            for k, c in enumerate(columns)}
     values = values.copy()
-    flags = {}
     n_ind = len(individuals)
     for i, ind in enumerate(individuals):
         sl = slice(i, len(rows.poses), n_ind)
@@ -367,20 +374,8 @@ def _with_filled(names, columns, values, rows, mapping, individuals, filled_scor
             if (ind, part, "likelihood") in key:
                 c = key[(ind, part, "likelihood")]
                 values[:, c] = np.where(fill, filled_score, values[:, c])
-            flags[(ind, part)] = fill.astype(float)
-    out_cols, out_vals = [], []
-    for k, col in enumerate(columns):
-        ind, part, coord = (col[1], col[2], col[3]) if multi else ("", col[1], col[2])
-        if coord == "filled":
-            continue
-        out_cols.append(col)
-        out_vals.append(values[:, k])
-        last = (ind, part, "likelihood") in key and coord == "likelihood" or \
-            (ind, part, "likelihood") not in key and coord == "y"
-        if last and (ind, part) in flags:
-            out_cols.append(col[:-1] + ("filled",))
-            out_vals.append(flags[(ind, part)])
-    return out_cols, np.column_stack(out_vals) if out_vals else values[:, :0]
+    keep = [k for k, col in enumerate(columns) if col[-1] != "filled"]
+    return [columns[k] for k in keep], values[:, keep]
 
 
 def _write_csv(path, names, columns, index, values):
