@@ -93,6 +93,7 @@ from .exceptions import FileFormatError, OutputPathError, SparseEDMError
 from .fconv.model import load_model
 from .formats import FILLED_SCORE, count_below, default_threshold, threshold_line
 from .formats import FORMATS as FOLDER_OR_TABLE_FORMATS
+from .formats.deeplabcut import H5_SUFFIXES, check_h5_extra
 from .keypoints import (N_JOINTS, EXTENSIONS, finish_missing, format_of, load_single_npy,
                         npy_confidence, read_keypoints, write_keypoints)
 from .keypoints import output_format as keypoint_output_format
@@ -229,7 +230,7 @@ class _NpySource:
 
 def _output_format(out_path, in_fmt, output_format):
     ext = out_path.suffix.lower()
-    named = ext in EXTENSIONS or ext in (".h5", ".hdf5", ".hdf")
+    named = ext in EXTENSIONS or ext in H5_SUFFIXES
     if output_format is None:
         return keypoint_output_format(out_path, None, in_fmt) if named else in_fmt
     fmt = format_of(out_path, output_format)
@@ -361,6 +362,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
         require_extra("dask", "backend='dask'")
     if method == "fconv":
         require_extra("torch", "method='fconv'")
+    check_h5_extra(input, output)
     in_path, out_path = Path(input), Path(output)
     errors_path = default_errors_path(out_path) if errors_path is None else Path(errors_path)
     if not in_path.exists():

@@ -195,7 +195,7 @@ FORMATS = ("npz", "npy", "csv", "coco") + formats.FORMATS
 RESULT_FIELDS = ("status", "reason", "objective", "gap", "n_active", "edm_vectors",
                  "center", "scale")
 EXTENSIONS = {".npz": "npz", ".npy": "npy", ".csv": "csv", ".json": "coco"}
-_H5 = (".h5", ".hdf5", ".hdf")
+_H5 = formats.deeplabcut.H5_SUFFIXES
 #: CSV column suffixes of the joint columns
 _SUFFIXES = ("x", "y", "conf", "filled")
 

@@ -408,6 +408,42 @@ def test_h5_without_pandas_names_the_extra(tmp_path, monkeypatch):
         read_keypoints(F / "dlc.h5", joint_map=MAP)
 
 
+def _no_dlc_extra(monkeypatch):
+    """pandas and PyTables not installed, and any reading or adapting a failure."""
+    import importlib.util
+
+    import sparseedm.batch
+    import sparseedm.lifting.io
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec",
+                        lambda name, *a: None if name in ("pandas", "tables")
+                        else real(name, *a))
+
+    def no_work(*args, **kwargs):
+        raise AssertionError("work started before the extra was checked")
+
+    for module in (sparseedm.batch, sparseedm.lifting.io):
+        monkeypatch.setattr(module, "read_keypoints", no_work)
+    monkeypatch.setattr(sparseedm.batch, "load_dictionary", no_work)
+
+
+@pytest.mark.parametrize("command,src,out", [
+    ("recover", "dlc.csv", "out.h5"), ("recover", "dlc.h5", "out.csv"),
+    ("lift", "dlc.h5", "out.csv")])
+def test_h5_without_the_extra_is_refused_before_any_work(command, src, out, tmp_path,
+                                                         monkeypatch, capsys):
+    from sparseedm.cli import main
+
+    _no_dlc_extra(monkeypatch)
+    assert main([command, str(F / src), "-o", str(tmp_path / out), "--joint-map", str(MAP),
+                 "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "reading/writing DeepLabCut .h5 files needs pandas and tables (the " \
+        "sparseedm[dlc] extra): pip install 'sparseedm[dlc]'" in err
+    assert list(tmp_path.iterdir()) == []
+
+
 # --------------------------------------------------------------------------
 # PoseTrack
 

@@ -65,7 +65,7 @@ FILLED_SCORE = 0.0
 _SNIFF_BYTES = 1 << 20
 _OPENPOSE = re.compile(rb'"people"\s*:\s*\[')
 _MMPOSE = re.compile(rb'"instance_info"\s*:|"instances"\s*:\s*\[|"keypoints"\s*:\s*\[\s*\[')
-_H5 = (".h5", ".hdf5", ".hdf")
+_H5 = deeplabcut.H5_SUFFIXES
 
 
 def default_threshold(fmt):

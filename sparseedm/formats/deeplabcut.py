@@ -57,22 +57,39 @@ from pathlib import Path
 import numpy as np
 
 from .._atomic import atomic_path
+from .._extras import EXTRAS
+from .._extras import require as require_extra
 from .._safeio import load_json, text_lines
 from ..exceptions import FileFormatError
 from ..skeleton import JOINT_NAMES
 from . import _base
 from ._base import N_JOINTS, NECK
 
-__all__ = ["read", "write", "read_joint_map", "H5_KEY", "EXTRA"]
+__all__ = ["read", "write", "read_joint_map", "check_h5_extra", "H5_KEY", "H5_SUFFIXES",
+           "EXTRA", "H5_WORK"]
 
 #: the key DeepLabCut stores its table under in ``.h5`` files
 H5_KEY = "df_with_missing"
 #: the optional dependency and the extra that installs it
-EXTRA = "pip install 'sparseedm[dlc]' (pandas and PyTables)"
+EXTRA = EXTRAS["dlc"][1]
+#: what needs it, as its errors say
+H5_WORK = "reading/writing DeepLabCut .h5 files"
+#: the extensions of DeepLabCut .h5 tables
+H5_SUFFIXES = (".h5", ".hdf5", ".hdf")
 _HDF5_MAGIC = b"\x89HDF\r\n\x1a\n"
 _COORDS = ("x", "y", "likelihood", "filled")
 #: largest table read (cells), checked before pandas loads it
 MAX_CELLS = 200_000_000
+
+
+def check_h5_extra(*paths):
+    """Refuse at once, before any work, a DeepLabCut ``.h5`` among `paths` (an
+    input or an output; None skipped) when pandas or PyTables is not installed.
+
+    >>> check_h5_extra("video1DLC.csv", None)   # a .csv needs neither
+    """
+    if any(p is not None and Path(p).suffix.lower() in H5_SUFFIXES for p in paths):
+        require_extra("dlc", H5_WORK)
 
 
 def _pandas():
@@ -80,8 +97,8 @@ def _pandas():
         import pandas as pd
         import tables  # noqa: F401  (pandas needs it for .h5)
     except ImportError as exc:
-        raise FileFormatError(f"reading DeepLabCut .h5 files needs pandas and PyTables: "
-                              f"{EXTRA} ({exc})") from None
+        raise FileFormatError(f"{H5_WORK} needs pandas and PyTables: {EXTRA} ({exc})") \
+            from None
     return pd
 
 
@@ -243,7 +260,7 @@ def _read_h5_table(path):
 def read(path, joint_map=None):
     """Read a DeepLabCut ``.csv`` or ``.h5`` table into a :class:`_base.Parsed`."""
     path = Path(path)
-    h5 = path.suffix.lower() in (".h5", ".hdf5", ".hdf")
+    h5 = path.suffix.lower() in H5_SUFFIXES
     names, columns, index, values = (_read_h5_table if h5 else _read_csv_table)(path)
     multi = len(names) == 4
     where = {}  # (individual, part, coord) -> column
@@ -332,7 +349,7 @@ def write(path, rows, meta, filled_score, row_fields=None):
         mapping, individuals = meta["dlc_map"], meta["dlc_individuals"]
     columns, values = _with_filled(names, columns, values, rows, mapping, individuals,
                                    filled_score)  # the filled flags: the status sidecar
-    if path.suffix.lower() in (".h5", ".hdf5", ".hdf"):
+    if path.suffix.lower() in H5_SUFFIXES:
         _write_h5(path, names, columns, index, values)
     else:
         _write_csv(path, names, columns, index, values)

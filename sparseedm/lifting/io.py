@@ -57,6 +57,7 @@ from .._extras import require as require_extra
 from ..batch import write_errors, default_errors_path
 from ..dictionary import load_dictionary
 from ..exceptions import FileFormatError, SparseEDMError
+from ..formats.deeplabcut import check_h5_extra
 from ..keypoints import read_keypoints
 from ..skeleton import JOINT_NAMES
 from ..temporal.recover import adapt_in_time, linked_tracks
@@ -196,6 +197,7 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
         raise SparseEDMError(f"chunk_size must be a positive integer, got {chunk_size!r}")
     if plot is not None:
         require_extra("plot", "--plot")
+    check_h5_extra(input)
     inputs = [("input", input)]
     if isinstance(lifter, (str, os.PathLike)) and (Path(lifter).suffix == ".npz"
                                                     or os.path.lexists(lifter)):
