@@ -358,11 +358,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
     if method == "fconv" and ensemble > 1:
         raise SparseEDMError("ensemble averages adapted dictionaries: it needs "
                              "method='sparse'")
-    if backend == "dask":  # extras checked before the adaptation's minutes
-        require_extra("dask", "backend='dask'")
-    if method == "fconv":
-        require_extra("torch", "method='fconv'")
-    check_h5_extra(input, output)
+    _check_extras(backend, method, input, output)
     in_path, out_path = Path(input), Path(output)
     errors_path = default_errors_path(out_path) if errors_path is None else Path(errors_path)
     if not in_path.exists():
@@ -425,6 +421,15 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
     if save_dictionary is not None:
         summary["dictionary"] = str(dictionary.save(save_dictionary))
     return summary
+
+
+def _check_extras(backend, method, input, output):
+    """The extras the run will need, checked before the adaptation's minutes."""
+    if backend == "dask":
+        require_extra("dask", "backend='dask'")
+    if method == "fconv":
+        require_extra("torch", "method='fconv'")
+    check_h5_extra(input, output)
 
 
 def _in_time(source, temporal):
