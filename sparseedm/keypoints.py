@@ -53,12 +53,16 @@ One pose per row after a header row::
 * ``<joint>_x``, ``<joint>_y`` for each of the 14 joints of
   :data:`~sparseedm.skeleton.JOINT_NAMES` (all 28 required; any order on read,
   SKELETON_14 order on write);
-* ``<joint>_conf`` (optional, for all 14 joints or for none);
+* ``<joint>_conf`` (optional, for all 14 joints or for none): the joint's
+  confidence; ``_score``, ``_confidence`` or ``_likelihood``
+  (:data:`CONF_SYNONYMS`) are read the same way, one suffix per file (a file
+  mixing them is an error);
 * ``track`` and ``frame`` (optional, video): the person and frame number of
   each pose, read into ``tracks`` (text) and ``frames`` (integers, or the
   cells as text when one is not an integer: the recovery then says which row);
   they stay extra columns too and are written back as read;
-* any other column (no ``_x``/``_y``/``_conf`` suffix, e.g. ``status``) is
+* any other column (no ``_x``/``_y``/``_conf`` suffix, e.g. ``status``; a
+  confidence synonym after a name that is not a joint, e.g. ``bbox_score``) is
   kept as text in ``meta["extra_columns"]`` and written back. A column with
   such a suffix but an unknown joint name (``lefty_wrist_x``) is an error.
 
@@ -198,6 +202,8 @@ EXTENSIONS = {".npz": "npz", ".npy": "npy", ".csv": "csv", ".json": "coco"}
 _H5 = formats.deeplabcut.H5_SUFFIXES
 #: CSV column suffixes of the joint columns
 _SUFFIXES = ("x", "y", "conf", "filled")
+#: other suffixes detectors and tools give a joint's confidence column, read as ``_conf``
+CONF_SYNONYMS = ("score", "confidence", "likelihood")
 
 N_JOINTS = SKELETON_14.num_joints
 
@@ -780,7 +786,7 @@ def _csv_columns(header, path):
     """Map header names to column indices, with clear errors."""
     xy, conf, filled, extra = {}, {}, {}, {}
     out = {"xy": xy, "conf": conf, "filled": filled, "extra": extra}
-    seen = set()
+    seen, conf_suffixes = set(), set()
     for c, name in enumerate(header):
         if name in seen:
             raise FileFormatError(f"{path}, line 1: column {name!r} appears twice")
@@ -789,7 +795,10 @@ def _csv_columns(header, path):
             out["id"] = c
             continue
         stem, _, suffix = name.rpartition("_")
-        if stem and suffix in _SUFFIXES:
+        if stem in JOINT_NAMES and suffix in CONF_SYNONYMS:  # left_wrist_score: a conf
+            conf_suffixes.add(suffix)
+            conf[JOINT_NAMES.index(stem)] = c
+        elif stem and suffix in _SUFFIXES:
             if stem not in JOINT_NAMES:
                 raise FileFormatError(
                     f"{path}, line 1: column {name!r} names an unknown joint "
@@ -797,6 +806,7 @@ def _csv_columns(header, path):
                 )
             j = JOINT_NAMES.index(stem)
             if suffix == "conf":
+                conf_suffixes.add(suffix)
                 conf[j] = c
             elif suffix == "filled":
                 filled[j] = c
@@ -813,7 +823,12 @@ def _csv_columns(header, path):
             f"{path}, line 1: missing column(s) {', '.join(absent)}; a keypoint CSV "
             "needs <joint>_x and <joint>_y for all 14 joints"
         )
-    for kind, cols in (("conf", conf), ("filled", filled)):
+    if len(conf_suffixes) > 1:
+        raise FileFormatError(
+            f"{path}, line 1: the confidence columns mix the suffixes "
+            f"{', '.join('_' + k for k in sorted(conf_suffixes))}; use one for all 14 "
+            "joints (_conf, or one of " + ", ".join("_" + k for k in CONF_SYNONYMS) + ")")
+    for kind, cols in ((next(iter(conf_suffixes), "conf"), conf), ("filled", filled)):
         if cols and len(cols) != N_JOINTS:
             absent = [f"{JOINT_NAMES[j]}_{kind}" for j in range(N_JOINTS) if j not in cols]
             raise FileFormatError(
@@ -1097,7 +1112,8 @@ def _write_csv(path, poses, confidence, ids, extra_columns, where, filled=None):
     for name, values in extra_columns.items():
         name = str(name)
         stem, _, suffix = name.rpartition("_")
-        if name in header or name == "id" or (stem and suffix in _SUFFIXES):
+        if name in header or name == "id" or (stem and suffix in _SUFFIXES) or \
+                (stem in JOINT_NAMES and suffix in CONF_SYNONYMS):
             raise FileFormatError(
                 f"{where}: extra column {name!r} clashes with the keypoint columns"
             )

@@ -329,6 +329,35 @@ def test_csv_header_errors(tmp_path):
         read_keypoints(path)
 
 
+@pytest.mark.parametrize("suffix", ["score", "confidence", "likelihood"])
+def test_csv_confidence_column_synonyms(tmp_path, suffix):
+    poses = _poses()
+    poses[:, 7] = 0.0  # a detector's "not found": 0, 0 scored 0
+    conf = np.full((3, 14), 0.9)
+    conf[:, 7] = 0.0
+    conf[1, 3] = 0.2
+    path = tmp_path / "k.csv"
+    write_keypoints(path, poses, confidence=conf, extra_columns={"bbox_score": [1, 2, 3]})
+    text = path.read_text()
+    (tmp_path / "s.csv").write_text(text.replace("_conf", f"_{suffix}"))
+    want, got = read_keypoints(path, confidence_threshold=0.3), \
+        read_keypoints(tmp_path / "s.csv", confidence_threshold=0.3)
+    np.testing.assert_array_equal(got.confidence, want.confidence)
+    np.testing.assert_array_equal(got.missing, want.missing)
+    assert got.missing[:, 7].all() and got.missing[1, 3]
+    assert list(got.meta["extra_columns"]) == ["bbox_score"]  # not a joint: an extra
+    mixed = text.replace("neck_conf", f"neck_{suffix}")
+    (tmp_path / "m.csv").write_text(mixed)
+    with pytest.raises(FileFormatError, match=rf"line 1: the confidence columns mix the "
+                       rf"suffixes _conf, _{suffix}; use one for all 14 joints"):
+        read_keypoints(tmp_path / "m.csv")
+    header = _header() + [f"neck_{suffix}"]
+    _write_rows(tmp_path / "one.csv", header, [])
+    with pytest.raises(FileFormatError, match=rf"<joint>_{suffix} columns must be given for "
+                       "all 14 joints or none"):
+        read_keypoints(tmp_path / "one.csv")
+
+
 def test_csv_extra_column_validation(tmp_path):
     with pytest.raises(FileFormatError, match="2 values for 3 poses"):
         write_keypoints(tmp_path / "k.csv", _poses(), extra_columns={"s": [1, 2]})
