@@ -466,6 +466,8 @@ def read_keypoints(path, *, format=None, confidence_threshold=None, joint_map=No
         _READ_PARAMS)
     path = Path(path)
     fmt = format_of(path, format)
+    if not path.exists():
+        raise FileNotFoundError(f"{path}: no such file")
     if confidence_threshold is None:
         confidence_threshold = formats.default_threshold(fmt)
     if fmt in formats.FORMATS:

@@ -2,6 +2,7 @@
 
 import io
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -82,3 +83,44 @@ def test_ensemble_names_each_dropped_member(monkeypatch, capsys):
     err = capsys.readouterr().err
     assert "ensemble: member seed 2 dropped: the adapted dictionary was not better" in err
     assert "seed 1 dropped" not in err and "seed 3 dropped" not in err
+
+
+# --------------------------------------------------------------------------
+# messages: the same words for the same problem, in every command
+
+
+def test_lift_and_joint_map_say_no_such_file(tmp_path, capsys):
+    dlc = str(Path(__file__).parent / "fixtures" / "formats" / "dlc.csv")
+    missing = str(tmp_path / "nothere.csv")
+    assert main(["lift", missing, "-o", str(tmp_path / "o.csv")]) == 2
+    assert capsys.readouterr().err.strip() == f"sparseedm lift: error: {missing}: no such file"
+    assert main(["recover", missing, "-o", str(tmp_path / "o.csv")]) == 2
+    assert capsys.readouterr().err.strip() == \
+        f"sparseedm recover: error: {missing}: no such file"
+    no_map = str(tmp_path / "nonexist.json")
+    for command in ("recover", "lift"):
+        assert main([command, dlc, "-o", str(tmp_path / "o.csv"), "--joint-map", no_map]) == 2
+        err = capsys.readouterr().err
+        assert err.strip() == f"sparseedm {command}: error: {no_map}: no such joints map file"
+    assert not (tmp_path / "o.csv").exists()
+
+
+def test_lift_jobs_zero_names_lift(tmp_path, capsys):
+    src = str(Path(__file__).parents[1] / "examples" / "video_clip.csv")
+    assert main(["lift", src, "-o", str(tmp_path / "o.csv"), "--jobs", "0"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("sparseedm lift: error: lift_file: n_jobs must be") and "fit:" not in err
+
+
+def test_api_warnings_are_one_line_in_the_cli_and_warnings_in_the_api(capsys):
+    import warnings
+
+    from sparseedm.cli import _warning_line
+
+    with pytest.warns(UserWarning, match="from elsewhere"), warnings.catch_warnings():
+        warnings.simplefilter("always")
+        warnings.showwarning = _warning_line("lift")
+        warnings.warn_explicit("skipped x.json: bad", UserWarning, _progress.__file__, 7)
+        warnings.warn_explicit("from elsewhere", UserWarning, "/elsewhere/lib.py", 3)
+    err = capsys.readouterr().err  # another library's warning: shown as Python shows it
+    assert err == "sparseedm lift: warning: skipped x.json: bad\n"

@@ -14,8 +14,10 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 import traceback
+import warnings
 
 from .. import _progress
 from .._version import __version__
@@ -27,6 +29,8 @@ COMMANDS = ("dataset", "fit", "info", "recover", "evaluate", "fit_cnn", "fit_lif
 
 #: exit codes (see the module docstring)
 EXIT_OK, EXIT_REFUSED_ROWS, EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
+#: the package's folder: warnings raised from inside it are shown as one line
+_PACKAGE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 _EPILOG = ("exit codes: 0 every row done; 1 some rows refused (outputs written, the errors "
            "file lists them); 2 bad input or arguments (nothing written); 3 internal error "
            "(a bug: rerun with --debug for the traceback); 130 interrupted")
@@ -77,7 +81,9 @@ def main(argv=None) -> int:
     # long stages say what they are doing on stderr (a bar on a terminal) unless --quiet
     _progress.enable(not getattr(args, "quiet", False))
     try:
-        return int(args.func(args) or 0)
+        with warnings.catch_warnings():  # the API's warnings, one clean line each
+            warnings.showwarning = _warning_line(args.command)
+            return int(args.func(args) or 0)
     except BrokenPipeError:  # e.g. `sparseedm info default | head`: the reader has enough
         _silence_stdout()
         return 0
@@ -95,6 +101,32 @@ def main(argv=None) -> int:
 
 def _one_line(exc) -> str:
     return " ".join(str(exc).split()) or type(exc).__name__
+
+
+def _warning_line(command):
+    """A :func:`warnings.showwarning` for one command's run: a warning raised
+    inside sparseedm (a skipped OpenPose frame file, ...) as one line on stderr,
+    ``sparseedm <command>: warning: <message>``, without Python's file, line
+    number and source line; any other library's as Python shows it.
+
+    >>> import io
+    >>> out = io.StringIO()
+    >>> _warning_line("recover")("skipped a.json: invalid JSON", UserWarning,
+    ...                          os.path.join(_PACKAGE, "keypoints.py"), 466, out)
+    >>> out.getvalue()
+    'sparseedm recover: warning: skipped a.json: invalid JSON\\n'
+    """
+    plain = warnings.showwarning
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        if not os.path.abspath(str(filename)).startswith(_PACKAGE + os.sep):
+            plain(message, category, filename, lineno, file, line)
+            return
+        kind = "" if category is UserWarning else f"{category.__name__}: "
+        print(f"sparseedm {command}: warning: {kind}{_one_line(message)}",
+              file=sys.stderr if file is None else file)
+
+    return show
 
 
 def _internal_error(args, exc) -> int:

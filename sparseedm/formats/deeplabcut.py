@@ -59,7 +59,7 @@ import numpy as np
 from .._atomic import atomic_path
 from .._extras import EXTRAS
 from .._extras import require as require_extra
-from .._safeio import load_json, text_lines
+from .._safeio import load_json, require_file, text_lines
 from ..exceptions import FileFormatError
 from ..skeleton import JOINT_NAMES
 from . import _base
@@ -118,6 +118,7 @@ def read_joint_map(path):
     >>> read_joint_map(p)[7]
     'wristL'
     """
+    require_file(path, "joints map", FileFormatError)
     doc = load_json(path)
     joints = doc.get("joints", doc) if isinstance(doc, dict) else None
     if not isinstance(joints, dict):

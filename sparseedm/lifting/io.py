@@ -54,6 +54,7 @@ import numpy as np
 from .. import _progress
 from .._atomic import atomic_path, check_paths, save_npz
 from .._extras import require as require_extra
+from .._validation import N_JOBS, validate_params
 from ..batch import write_errors, default_errors_path
 from ..dictionary import load_dictionary
 from ..exceptions import FileFormatError, SparseEDMError
@@ -188,6 +189,7 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
     with time) are lifted at a time. `joint_map`: a DeepLabCut input's JSON
     naming the body part of each joint (as ``sparseedm recover --joint-map``).
     """
+    validate_params("lift_file", dict(n_jobs=n_jobs), {"n_jobs": N_JOBS})  # before adapting
     errors = Path(errors_path) if errors_path else default_errors_path(output)
     _output_format(output, output_format)
     if not float(rate) > 0:
