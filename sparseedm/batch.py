@@ -93,9 +93,9 @@ from .exceptions import FileFormatError, OutputPathError, SparseEDMError
 from .fconv.model import load_model
 from .formats import FILLED_SCORE, count_below, default_threshold, threshold_line
 from .formats import FORMATS as FOLDER_OR_TABLE_FORMATS
-from .formats.deeplabcut import H5_SUFFIXES, check_h5_extra
-from .keypoints import (N_JOINTS, EXTENSIONS, finish_missing, format_of, load_single_npy,
-                        npy_confidence, read_keypoints, write_keypoints)
+from .formats.deeplabcut import H5_SUFFIXES, check_h5_extra, read_joint_map
+from .keypoints import (N_JOINTS, EXTENSIONS, check_joint_map, finish_missing, format_of,
+                        load_single_npy, npy_confidence, read_keypoints, write_keypoints)
 from .keypoints import output_format as keypoint_output_format
 from ._recovery_base import OK_STATUSES, combine, recovery_summary
 from ._recovery_kernel import compiled_solver
@@ -361,9 +361,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
     _check_extras(backend, method, input, output)
     in_path, out_path = Path(input), Path(output)
     errors_path = default_errors_path(out_path) if errors_path is None else Path(errors_path)
-    if not in_path.exists():
-        raise FileNotFoundError(f"{in_path}: no such file")
-    in_fmt = format_of(in_path, None)
+    in_fmt = _input_format(in_path, joint_map)
     outputs = _Outputs(in_fmt, out_path, _output_format(out_path, in_fmt, output_format),
                        errors_path, save_edm, filled_score)
     _check_run_paths(outputs, in_path, dictionary, adapt, model, save_dictionary)
@@ -421,6 +419,17 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
     if save_dictionary is not None:
         summary["dictionary"] = str(dictionary.save(save_dictionary))
     return summary
+
+
+def _input_format(in_path, joint_map):
+    """The input's format, once the input is known to exist and to suit `joint_map`."""
+    if not in_path.exists():
+        raise FileNotFoundError(f"{in_path}: no such file")
+    fmt = format_of(in_path, None)
+    check_joint_map(in_path, fmt, joint_map)
+    if joint_map is not None:  # a map that could never work: said before any work
+        read_joint_map(joint_map)
+    return fmt
 
 
 def _check_extras(backend, method, input, output):

@@ -177,7 +177,7 @@ from ._atomic import atomic_path, save_npy, save_npz
 from ._safeio import MAX_LINE_BYTES, load_json, load_npy, load_npz, text_lines
 from . import formats
 from ._validation import Interval, check_poses, validate_params
-from .exceptions import FileFormatError, PoseError
+from .exceptions import FileFormatError, ParameterError, PoseError
 from .formats import posetrack
 from .formats._base import csv_cells, track_value
 from .skeleton import JOINT_NAMES, SKELETON_14
@@ -468,6 +468,7 @@ def read_keypoints(path, *, format=None, confidence_threshold=None, joint_map=No
     fmt = format_of(path, format)
     if not path.exists():
         raise FileNotFoundError(f"{path}: no such file")
+    check_joint_map(path, fmt, joint_map)
     if confidence_threshold is None:
         confidence_threshold = formats.default_threshold(fmt)
     if fmt in formats.FORMATS:
@@ -480,6 +481,20 @@ def read_keypoints(path, *, format=None, confidence_threshold=None, joint_map=No
     kps.meta.setdefault("read_missing", kps.missing.copy())
     kps.meta["read_filled"] = kps.filled
     return kps
+
+
+def check_joint_map(path, fmt, joint_map):
+    """Refuse a joints map given with an input that is not a DeepLabCut table
+    (its joints are named by the format itself: the map would be ignored).
+
+    >>> check_joint_map("poses.csv", "csv", "map.json")
+    Traceback (most recent call last):
+    ...
+    sparseedm.exceptions.ParameterError: poses.csv: --joint-map (joint_map=) applies to DeepLabCut inputs only; this input's format is csv
+    """
+    if joint_map is not None and fmt != "dlc":
+        raise ParameterError(f"{path}: --joint-map (joint_map=) applies to DeepLabCut inputs "
+                             f"only; this input's format is {fmt}")
 
 
 def _from_parsed(parsed, threshold):

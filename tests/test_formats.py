@@ -305,13 +305,63 @@ def test_dlc_needs_a_map_for_its_own_part_names():
 
 def test_dlc_map_naming_an_unknown_body_part(tmp_path):
     m = tmp_path / "map.json"
-    m.write_text(json.dumps({"joints": {"left_wrist": "hand_left"}}))
+    m.write_text(json.dumps({"joints": {"left_wrist": "hand_left", "left_elbow": "elbowL",
+                                        "left_shoulder": "shoulderL"}}))
     with pytest.raises(FileFormatError, match=r"map.json: 'joints.left_wrist' names body "
                        r"part 'hand_left'"):
         read_keypoints(F / "dlc.csv", joint_map=m)
     m.write_text(json.dumps({"joints": {"left_hand": "wristL"}}))
     with pytest.raises(FileFormatError, match="'joints.left_hand' is not a joint"):
         read_keypoints(F / "dlc.csv", joint_map=m)
+
+
+@pytest.mark.parametrize("doc,match", [
+    ({"head_top": "head"}, r"the map gives 1 joint \(head_top\); a pose needs at least 3 "
+     r"observed joints .* could recover nothing; a joints map is \{\"joints\""),
+    ({}, r"the map gives 0 joints; a pose needs at least 3"),
+    ({"joints": {"head_top": "head", "right_wrist": "wristR"}},
+     r"gives 2 joints \(head_top, right_wrist\);.*nothing$"),
+    ({"joints": {"left_wrist": "wristL", "right_wrist": "wristL", "neck": "neckbase"}},
+     r"body part 'wristL' is given to both 'right_wrist' and 'left_wrist'; each joint"),
+])
+def test_dlc_map_that_can_never_work_is_refused_up_front(doc, match, tmp_path,
+                                                         monkeypatch, capsys):
+    import sparseedm.batch
+
+    m = tmp_path / "map.json"
+    m.write_text(json.dumps(doc))
+    with pytest.raises(FileFormatError, match=match):
+        read_keypoints(F / "dlc.csv", joint_map=m)
+    monkeypatch.setattr(sparseedm.batch, "load_dictionary", pytest.fail)  # no work
+    from sparseedm.cli import main
+
+    assert main(["recover", str(F / "dlc.csv"), "-o", str(tmp_path / "o.csv"),
+                 "--joint-map", str(m)]) == 2
+    assert "map.json: " in capsys.readouterr().err
+    # shoulders and a null neck: three joints (the neck is their midpoint)
+    m.write_text(json.dumps({"joints": {"left_shoulder": "shoulderL",
+                                        "right_shoulder": "shoulderR"}}))
+    assert read_keypoints(F / "dlc.csv", joint_map=m).missing[:, NECK].sum() == 0
+
+
+@pytest.mark.parametrize("command", ["recover", "lift"])
+@pytest.mark.parametrize("src", ["mmpose_predictions.json", "openpose", "plain.csv",
+                                 "poses.npy"])
+def test_joint_map_with_an_input_that_is_not_deeplabcut_is_refused(command, src, tmp_path,
+                                                                   capsys):
+    from sparseedm.cli import main
+
+    k = read_keypoints(F / "mmpose_predictions.json")
+    if src in ("plain.csv", "poses.npy"):
+        write_keypoints(tmp_path / src, k.poses)
+        path = tmp_path / src
+    else:
+        path = F / src
+    out = tmp_path / "out.csv"
+    assert main([command, str(path), "-o", str(out), "--joint-map", str(MAP), "-q"]) == 2
+    assert f"{path}: --joint-map (joint_map=) applies to DeepLabCut inputs only" in \
+        capsys.readouterr().err
+    assert not out.exists()
 
 
 def test_dlc_likelihood_rules(tmp_path):

@@ -61,6 +61,7 @@ from .._extras import EXTRAS
 from .._extras import require as require_extra
 from .._safeio import load_json, require_file, text_lines
 from ..exceptions import FileFormatError
+from ..normalize import MIN_OBSERVED_JOINTS
 from ..skeleton import JOINT_NAMES
 from . import _base
 from ._base import N_JOINTS, NECK
@@ -114,9 +115,20 @@ def read_joint_map(path):
     >>> import json, os, tempfile
     >>> p = os.path.join(tempfile.mkdtemp(), "map.json")
     >>> with open(p, "w") as f:
-    ...     json.dump({"joints": {"left_wrist": "wristL", "neck": None}}, f)
+    ...     json.dump({"joints": {"left_wrist": "wristL", "left_elbow": "elbowL",
+    ...                           "left_shoulder": "shoulderL", "neck": None}}, f)
     >>> read_joint_map(p)[7]
     'wristL'
+
+    A map that can never give 3 observed joints (the fewest a pose is recovered
+    from), or gives one body part to two joints, is refused:
+
+    >>> with open(p, "w") as f:
+    ...     json.dump({"head_top": "Head"}, f)
+    >>> read_joint_map(p)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    sparseedm.exceptions.FileFormatError: ...: the map gives 1 joint (head_top); ...
     """
     require_file(path, "joints map", FileFormatError)
     doc = load_json(path)
@@ -132,7 +144,30 @@ def read_joint_map(path):
         if part is not None and not isinstance(part, str):
             raise FileFormatError(f"{path}: 'joints.{key}' must be a body part name or null")
         out[JOINT_NAMES.index(key)] = part
+    _check_map(out, path, wrapped=isinstance(doc, dict) and "joints" in doc)
     return out
+
+
+def _check_map(mapping, path, wrapped):
+    """Refuse a map giving one body part to two joints, or fewer joints than a
+    pose is ever recovered from (a null neck counts when both shoulders are mapped)."""
+    owner = {}
+    for j, part in mapping.items():
+        if part is not None and part in owner:
+            raise FileFormatError(f"{path}: body part {part!r} is given to both "
+                                  f"'{JOINT_NAMES[owner[part]]}' and '{JOINT_NAMES[j]}'; "
+                                  "each joint needs its own body part")
+        owner.setdefault(part, j)
+    given = [JOINT_NAMES[j] for j, part in mapping.items() if part is not None]
+    if mapping[NECK] is None and {"left_shoulder", "right_shoulder"} <= set(given):
+        given.append("neck")  # the shoulders' midpoint
+    if len(given) < MIN_OBSERVED_JOINTS:
+        raise FileFormatError(
+            f"{path}: the map gives {len(given)} joint{'' if len(given) == 1 else 's'}"
+            f"{' (' + ', '.join(given) + ')' if given else ''}; a pose needs at least "
+            f"{MIN_OBSERVED_JOINTS} observed joints to be recovered, so this map could "
+            "recover nothing" + ("" if wrapped else '; a joints map is {"joints": '
+                                 '{"head_top": "<body part>", "neck": ..., ...}}'))
 
 
 def _resolve_map(joint_map, parts, path):
