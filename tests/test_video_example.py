@@ -34,6 +34,24 @@ def test_the_example_is_two_tracks_with_hidden_runs(clip):
     assert (missing.sum(axis=0) >= 50).any()     # a joint hidden for long runs
 
 
+def test_its_docs_say_what_it_holds(clip):
+    """examples/README.md and make_video_example.py's docstring: the clips as
+    ../shared/data/README.md names them (02_05 is punch/strike), each track's
+    length, and the extra a --plot command needs."""
+    kps = clip[0]
+    lengths = {t: int((kps.tracks == t).sum()) for t in ("02_01", "02_05")}
+    assert lengths == {"02_01": 86, "02_05": 150}
+    readme = (EXAMPLES / "README.md").read_text()
+    doc = (EXAMPLES / "make_video_example.py").read_text().split('"""')[1]
+    for text in (readme, doc):
+        assert "punch/strike" in text and "dance" not in text
+    assert "02_01 walk, 86 frames" in readme and "02_05 punch/strike, its first 150" in readme
+    assert "the tracks have 86 and 150" in " ".join(doc.split())
+    for line in readme.splitlines():
+        if "--plot" in line:
+            assert "[plot]" in line or "[test,plot]" in line, line
+
+
 def test_time_fills_it_better_than_a_spline_or_each_frame_alone(clip):
     """What the README says of its example, with defaults: the shipped dictionary
     (it learned from these clips; the small test dictionary of 334 poses fills
