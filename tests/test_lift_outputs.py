@@ -82,3 +82,22 @@ def test_lift_plot_without_matplotlib_fails_before_work(monkeypatch, fixtures_di
     assert main(["lift", src, "-o", str(out), "--plot", str(tmp_path / "x.png")]) == 2
     assert "--plot needs matplotlib (the sparseedm[plot] extra)" in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_lift_json_writes_integer_frames_as_numbers(fixtures_dir, tmp_path, capsys):
+    import json
+
+    lines = (fixtures_dir.parents[1] / "examples" / "video_clip.csv").read_text().splitlines()
+    src = tmp_path / "clip.csv"
+    src.write_text("\n".join(lines[:7]) + "\n")   # 6 poses with track and frame
+    out = tmp_path / "p.json"
+    assert main(["lift", str(src), "-o", str(out), "--no-temporal", "-q"]) == 0
+    doc = json.loads(out.read_text())
+    assert [row["frame"] for row in doc] == list(range(6))
+    assert all(isinstance(row["track"], str) for row in doc)
+    head = lines[0].split(",")
+    rows = [line.split(",") for line in lines[1:7]]
+    rows[2][head.index("frame")] = "2b"  # a frame that is not a number: all kept as text
+    src.write_text("\n".join(",".join(r) for r in [head] + rows) + "\n")
+    assert main(["lift", str(src), "-o", str(out), "--no-temporal", "-q"]) == 0
+    assert [row["frame"] for row in json.loads(out.read_text())][:3] == ["0", "1", "2b"]

@@ -15,7 +15,8 @@ from ._common import add_adaptation_rounds, add_joint_map, add_quiet, show_progr
 def add_parser(sub):
     p = sub.add_parser(
         "recover",
-        help="recover occluded joints in a keypoint file (.csv, .npz, .npy, COCO .json)",
+        help="recover occluded joints in a keypoint file (.csv, .npz, .npy, COCO or "
+        "MMPose .json, an OpenPose folder or .json, DeepLabCut .csv/.h5)",
         description="Fill in the missing joints of every pose in INPUT by sparse coding "
         "of its distance matrix and write them to OUTPUT, with a status per row. "
         "Rows that cannot be recovered are written back unchanged and listed in an "
@@ -25,9 +26,12 @@ def add_parser(sub):
                    ".json or a folder of them, MMPose predictions .json, DeepLabCut "
                    ".csv/.h5 (see sparseedm.formats)")
     p.add_argument("-o", "--output", required=True,
-                   help="file to write, at exactly this path: the format comes from "
-                   "its extension (.csv .npz .npy .json), else --format, else INPUT's; "
-                   "never the input, the dictionary or the errors file")
+                   help="file (or OpenPose folder) to write, at exactly this path, in "
+                   "--format, else INPUT's own format when the extension suits it "
+                   "(OpenPose: no extension for a folder, .json for one frame file; "
+                   "MMPose .json; DeepLabCut .csv or .h5), else its extension's (.csv "
+                   ".npz .npy, .json COCO, .h5 DeepLabCut), else INPUT's; never the "
+                   "input, the dictionary or the errors file")
     _add_recovery_options(p)
     _add_format_options(p)
     _add_run_options(p)

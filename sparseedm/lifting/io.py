@@ -14,7 +14,8 @@ Input: any keypoint file :func:`sparseedm.keypoints.read_keypoints` reads
            ``status``, ``reason``, ``chirality_margin``, ``joint_names`` and
            ``ids`` (``tracks``, ``frames`` when the input had them);
 ``.json``  a list of ``{"id", "status", "reason", "joints": {name: [x, y, z] or
-           null}}`` (with ``"track"``, ``"frame"`` when the input had them);
+           null}}`` (with ``"track"`` (text) and ``"frame"`` (a number when it is
+           an integer, else text) when the input had them);
 ``.trc``   OpenSim's marker-trajectory format (:mod:`sparseedm.lifting.trc`): one
            frame per pose at ``rate`` frames per second, one marker per joint,
            metres, turned to y up; refused poses as empty fields. With frame
@@ -125,6 +126,23 @@ def _when(tracks, frames):
             if v is not None]
 
 
+def _json_when(name, value):
+    """A track or frame value in a JSON output: a frame number that is an
+    integer as a JSON number, anything else as text.
+
+    >>> _json_when("frame", np.int64(12)), _json_when("frame", 3.0), _json_when("track", 1)
+    (12, 3, '1')
+    >>> _json_when("frame", "12a")
+    '12a'
+    """
+    if name == "frame" and not isinstance(value, (bool, np.bool_)):
+        if isinstance(value, (int, np.integer)):
+            return int(value)
+        if isinstance(value, (float, np.floating)) and float(value).is_integer():
+            return int(value)
+    return str(value)
+
+
 def write_poses3d(path, result, ids=None, output_format=None, rate=30.0, *, tracks=None,
                   frames=None):
     """Write a :class:`~sparseedm.lifting.LiftResult` atomically (format from the extension;
@@ -162,7 +180,7 @@ def write_poses3d(path, result, ids=None, output_format=None, rate=30.0, *, trac
         doc = []
         for r in range(n):
             ok = np.isfinite(P[r]).all()
-            doc.append({"id": str(ids[r]), **{k: str(v[r]) for k, v in when},
+            doc.append({"id": str(ids[r]), **{k: _json_when(k, v[r]) for k, v in when},
                         "status": str(result.status[r]),
                         "reason": str(result.reason[r]),
                         "joints": {j: ([float(v) for v in P[r, i]] if ok else None)
