@@ -364,7 +364,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
     in_fmt = _input_format(in_path, joint_map)
     outputs = _Outputs(in_fmt, out_path, _output_format(out_path, in_fmt, output_format),
                        errors_path, save_edm, filled_score)
-    _check_run_paths(outputs, in_path, dictionary, adapt, model, save_dictionary)
+    _check_run_paths(outputs, in_path, dictionary, adapt, model, save_dictionary, joint_map)
     out_fmt = outputs.out_fmt
     if not isinstance(dictionary, Dictionary):
         dictionary = load_dictionary(dictionary)
@@ -451,10 +451,14 @@ def _in_time(source, temporal):
     return True
 
 
-def _check_run_paths(outputs, in_path, dictionary, adapt, model, save_dictionary):
-    """Nothing the run reads is ever written, and no output overwrites another."""
+def _check_run_paths(outputs, in_path, dictionary, adapt, model, save_dictionary,
+                     joint_map=None):
+    """Nothing the run reads (the joint map too) is ever written, and no output
+    overwrites another."""
     out_path = outputs.out_path
     inputs = [("input", in_path)]
+    if joint_map is not None:
+        inputs.append(("joint map", Path(joint_map)))
     if not isinstance(dictionary, Dictionary):
         with contextlib.suppress(SparseEDMError):
             inputs.append(("dictionary", dictionary_path(dictionary)))

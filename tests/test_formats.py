@@ -284,6 +284,22 @@ def test_cli_summary_names_the_threshold(tmp_path, capsys, small_dictionary_path
     assert "confidence threshold 0.05 (given): the file has scores, none below it" in out
 
 
+@pytest.mark.parametrize("option", ["-o", "--errors"])
+def test_recover_never_writes_over_its_joint_map(tmp_path, capsys, small_dictionary_path, option):
+    from sparseedm.cli import main
+
+    joint_map = tmp_path / "map.json"
+    shutil.copy(MAP, joint_map)
+    before = joint_map.read_bytes()
+    out = ["-o", str(joint_map)] if option == "-o" else \
+        ["-o", str(tmp_path / "out.csv"), "--errors", str(joint_map)]
+    code = main(["recover", str(F / "dlc.csv"), *out, "--joint-map", str(joint_map),
+                 "--dictionary", str(small_dictionary_path), "--no-adapt", "-q"])
+    assert code == 2 and joint_map.read_bytes() == before
+    assert "is the joint map" in capsys.readouterr().err
+    assert not (tmp_path / "out.csv").exists()
+
+
 # --------------------------------------------------------------------------
 # DeepLabCut
 
