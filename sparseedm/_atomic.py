@@ -24,6 +24,8 @@ refuses any output inside the files shipped with the package.
 from __future__ import annotations
 
 import contextlib
+import ctypes
+import json
 import os
 import re
 import shutil
@@ -35,25 +37,51 @@ from pathlib import Path
 
 from .exceptions import OutputPathError
 
-__all__ = ["atomic_path", "check_paths", "is_stream", "save_npz", "save_npy",
-           "remove_leftovers", "TEMP_MARK"]
+__all__ = ["atomic_path", "atomic_folder", "check_paths", "check_folder", "is_stream",
+           "save_npz", "save_npy", "remove_leftovers", "TEMP_MARK", "FOLDER_MARK"]
 
 #: every temporary file's name holds this (see the module docstring)
 TEMP_MARK = ".sparseedm-tmp-"
+#: the file in every folder output saying what sparseedm wrote there (JSON)
+FOLDER_MARK = ".sparseedm-output"
+_MARK_MAX_BYTES = 64 << 20
 _LEFTOVER = re.compile(r"^\.(?P<name>.+)" + re.escape(TEMP_MARK) + r"(?P<pid>\d+)-")
 _SIGNALS = tuple(getattr(signal, s) for s in ("SIGTERM", "SIGHUP", "SIGINT")
                  if hasattr(signal, s))
 
-_live: set[str] = set()        # temporary files of writes in progress
+_live: set[str] = set()        # temporary files (and folders) of writes in progress
 _previous: dict = {}           # signal -> handler before ours
 _lock = threading.Lock()
 
 
+def _remove(tmp):
+    """Remove a temporary file, or a temporary folder with what it holds."""
+    if os.path.isdir(tmp) and not os.path.islink(tmp):
+        shutil.rmtree(tmp, ignore_errors=True)
+        return
+    with contextlib.suppress(OSError):
+        os.unlink(tmp)
+
+
 def _remove_live():
     for tmp in list(_live):
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
+        _remove(tmp)
         _live.discard(tmp)
+
+
+def _hold(tmp):
+    """`tmp` is removed on SIGTERM/SIGHUP/SIGINT until :func:`_release`."""
+    with _lock:
+        if not _live:
+            _install()
+        _live.add(tmp)
+
+
+def _release(tmp):
+    with _lock:
+        _live.discard(tmp)
+        if not _live:
+            _restore()
 
 
 def _on_signal(signum, frame):
@@ -121,17 +149,20 @@ def _temp_suffix(path: Path, suffix) -> str:
 
 
 def remove_leftovers(path) -> list[Path]:
-    """Remove temporary files that killed writers left beside `path`; return them."""
+    """Remove temporary files (and a folder output's temporary folders) that killed
+    writers left beside `path`; return them."""
     path = Path(path)
     removed = []
     with contextlib.suppress(OSError):
         for entry in os.scandir(path.parent):
             m = _LEFTOVER.match(entry.name)
-            if not m or m.group("name") != _temp_stem(path.name) or not entry.is_file(follow_symlinks=False):
+            if not m or m.group("name") != _temp_stem(path.name) or not (
+                    entry.is_file(follow_symlinks=False)
+                    or entry.is_dir(follow_symlinks=False)):
                 continue
             if not _pid_alive(int(m.group("pid"))):
-                with contextlib.suppress(OSError):
-                    os.unlink(entry.path)
+                _remove(entry.path)
+                if not os.path.lexists(entry.path):
                     removed.append(Path(entry.path))
     return removed
 
@@ -214,13 +245,26 @@ def _shipped(path: Path) -> bool:
     return any(real.parent == d or d in real.parents for d in _shipped_dirs())
 
 
-def _parent_ok(path: Path):
+def _parent_ok(path: Path, writable=False):
+    """Refuse `path` under a regular file and, if `writable`, in a folder (or below
+    the nearest existing one, where its folder would be made) it cannot write."""
     for parent in (path.parent, *path.parent.parents):
         if parent.exists():
             if not parent.is_dir():
                 raise OutputPathError(
                     f"{path}: cannot create it: {parent} is a file, not a directory")
+            if writable and not os.access(parent, os.W_OK | os.X_OK):
+                raise OutputPathError(
+                    f"{path}: cannot write it: the folder {parent} is not writable "
+                    "(permissions, a read-only or immutable folder)")
             return
+
+
+def _umask() -> int:
+    """The process's umask (read by setting it back)."""
+    umask = os.umask(0)
+    os.umask(umask)
+    return umask
 
 
 def check_paths(inputs=(), outputs=()):
@@ -228,7 +272,8 @@ def check_paths(inputs=(), outputs=()):
 
     Paths are compared resolved (``..``, symlinks) and, when both exist, with
     :func:`os.path.samefile` (hard links). An output that is a directory, or
-    whose parent is a regular file, is refused too.
+    whose parent is a regular file, is refused too, and so is one whose folder
+    (or nearest existing folder above it) cannot be written.
 
     Parameters
     ----------
@@ -270,7 +315,7 @@ def check_paths(inputs=(), outputs=()):
                     f"{label} {out} and {other_label} {other} are the same file: "
                     "give them different names")
         try:
-            kind, _ = _target(out)
+            kind, where = _target(out)
         except OutputPathError as exc:
             raise OutputPathError(f"{label} {exc}") from None
         if kind == "replace" and _shipped(out):
@@ -281,7 +326,144 @@ def check_paths(inputs=(), outputs=()):
             raise OutputPathError(
                 f"{label} {out}: the file name is {len(os.fsencode(out.name))} bytes; "
                 f"file systems take at most {_NAME_MAX}")
-        _parent_ok(out)
+        try:  # a device or pipe is written through: its folder need not be writable
+            _parent_ok(out)
+            _parent_ok(where, writable=kind == "replace")
+        except OutputPathError as exc:
+            raise OutputPathError(f"{label} {exc}") from None
+
+
+def _marked(path: Path):
+    """The names a folder's :data:`FOLDER_MARK` lists (what sparseedm wrote there),
+    or None without a readable mark."""
+    mark = path / FOLDER_MARK
+    try:
+        if not mark.is_file() or mark.stat().st_size > _MARK_MAX_BYTES:
+            return None
+        doc = json.loads(mark.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    files = doc.get("files") if isinstance(doc, dict) else None
+    if not isinstance(files, list) or not all(isinstance(f, str) for f in files):
+        return None
+    return set(files)
+
+
+def check_folder(path, label="output"):
+    """Refuse a folder output that would replace a folder sparseedm did not write.
+
+    A folder output (e.g. OpenPose frame files) may take the place of nothing,
+    of an empty folder, or of a folder holding the :data:`FOLDER_MARK` file
+    that sparseedm writes into each of its folder outputs and no file but the
+    ones that mark lists. Anything else (a folder of the user's files, another
+    clip's frames, an earlier output the user added to) is refused, as is a
+    folder that cannot be written. Call it before the work; :func:`atomic_folder`
+    calls it again.
+
+    Raises
+    ------
+    OutputPathError
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> d = Path(tempfile.mkdtemp())
+    >>> _ = (d / "config.json").write_text("{}")
+    >>> check_folder(d)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    sparseedm.exceptions.OutputPathError: output ... is a folder sparseedm did not write (it holds config.json): refusing to replace it; give a new or empty folder
+    """
+    path = Path(os.path.realpath(path))
+    if os.path.lexists(path) and not path.is_dir():
+        raise OutputPathError(f"{label} {path} is a file; a folder output needs a folder")
+    _parent_ok(path, writable=True)
+    if not path.is_dir():
+        return
+    if not os.access(path, os.W_OK | os.X_OK):
+        raise OutputPathError(f"{label} {path}: the folder is not writable")
+    written = _marked(path) or set()
+    with os.scandir(path) as it:
+        strangers = sorted(e.name for e in it if e.name != FOLDER_MARK and (
+            e.name not in written or not e.is_file(follow_symlinks=False)))
+    if strangers:
+        named = ", ".join(strangers[:3]) + (", ..." if len(strangers) > 3 else "")
+        why = "holds files sparseedm did not write" if written else \
+            "is a folder sparseedm did not write"
+        raise OutputPathError(f"{label} {path} {why} (it holds {named}): refusing to "
+                              "replace it; give a new or empty folder")
+
+
+_AT_FDCWD, _RENAME_EXCHANGE = -100, 2
+
+
+def _exchange(a, b) -> bool:
+    """Swap two paths in one step (Linux renameat2); False where it cannot."""
+    try:
+        renameat2 = ctypes.CDLL(None, use_errno=True).renameat2
+    except (OSError, AttributeError, TypeError):
+        return False
+    renameat2.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p,
+                          ctypes.c_uint]
+    return renameat2(_AT_FDCWD, os.fsencode(a), _AT_FDCWD, os.fsencode(b),
+                     _RENAME_EXCHANGE) == 0
+
+
+def _swap_in(tmp, path: Path):
+    """`tmp` renamed to `path`; an earlier folder at `path` ends up at `tmp` (in one
+    step where the system can) or is removed."""
+    if not os.path.lexists(path):
+        os.replace(tmp, path)
+    elif not _exchange(tmp, path):
+        old = tempfile.mkdtemp(prefix=f".{_temp_stem(path.name)}{TEMP_MARK}{os.getpid()}-",
+                               dir=path.parent)
+        os.rmdir(old)
+        os.replace(path, old)
+        os.replace(tmp, path)
+        _remove(old)
+
+
+@contextlib.contextmanager
+def atomic_folder(path, label="output"):
+    """Yield a new temporary folder beside `path`; it takes `path`'s place on success.
+
+    The folder output's counterpart of :func:`atomic_path`: :func:`check_folder`
+    first (an existing folder is replaced only if sparseedm wrote it), the
+    temporary folder named like a temporary file (removed on an exception,
+    SIGTERM, SIGHUP; a killed writer's is removed by the next write to
+    `path`), made with the umask's usual mode, and the :data:`FOLDER_MARK`
+    file listing what it holds written into it last.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> out = Path(tempfile.mkdtemp()) / "frames"
+    >>> for _ in range(2):  # the second write replaces the first
+    ...     with atomic_folder(out) as tmp:
+    ...         _ = (tmp / "0.json").write_text("{}")
+    >>> sorted(os.listdir(out))
+    ['.sparseedm-output', '0.json']
+    """
+    path = Path(os.path.realpath(path))
+    check_folder(path, label)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        remove_leftovers(path)
+        tmp = tempfile.mkdtemp(prefix=f".{_temp_stem(path.name)}{TEMP_MARK}{os.getpid()}-",
+                               dir=path.parent)
+    except OSError as exc:
+        raise OutputPathError(f"{path}: cannot write beside it ({exc.strerror})") from None
+    _hold(tmp)
+    try:
+        os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp makes 0700: give the usual mode
+        yield Path(tmp)
+        names = sorted(os.listdir(tmp))
+        with open(os.path.join(tmp, FOLDER_MARK), "w", encoding="utf-8") as f:
+            json.dump({"written_by": "sparseedm", "files": names}, f)
+        _swap_in(tmp, path)
+    finally:
+        _remove(tmp)  # after the swap: the earlier output, if any
+        _release(tmp)
 
 
 @contextlib.contextmanager
@@ -323,13 +505,8 @@ def atomic_path(path, suffix=None):
     except OSError as exc:
         raise OutputPathError(f"{path}: cannot write beside it ({exc.strerror})") from None
     os.close(fd)
-    with _lock:
-        if not _live:
-            _install()
-        _live.add(tmp)
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600: give the usual mode
+    _hold(tmp)
+    os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600: give the usual mode
     try:
         yield tmp
         os.replace(tmp, path)
@@ -338,10 +515,7 @@ def atomic_path(path, suffix=None):
             os.unlink(tmp)
         raise
     finally:
-        with _lock:
-            _live.discard(tmp)
-            if not _live:
-                _restore()
+        _release(tmp)
 
 
 @contextlib.contextmanager
@@ -350,10 +524,7 @@ def _streamed(path: Path, suffix):
     fd, tmp = tempfile.mkstemp(prefix=f"sparseedm-{os.getpid()}-",
                                suffix=_temp_suffix(path, suffix))
     os.close(fd)
-    with _lock:
-        if not _live:
-            _install()
-        _live.add(tmp)
+    _hold(tmp)
     try:
         yield tmp
         with open(tmp, "rb") as src, open(path, "wb") as dst:  # a FIFO waits for its reader
@@ -361,10 +532,7 @@ def _streamed(path: Path, suffix):
     finally:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)
-        with _lock:
-            _live.discard(tmp)
-            if not _live:
-                _restore()
+        _release(tmp)
 
 
 def save_npz(path, arrays, *, compressed=False):

@@ -81,7 +81,7 @@ import numpy as np
 from numbers import Integral, Real
 
 from . import _progress
-from ._atomic import atomic_path, check_paths, is_stream
+from ._atomic import atomic_path, check_folder, check_paths, is_stream
 from ._extras import require as require_extra
 from ._validation import (ALPHA, BOOLEAN, CHUNK_SIZE, ENSEMBLE, N_JOBS, PATH, Interval,
                           Options, validate_params)
@@ -478,6 +478,7 @@ def _check_run_paths(outputs, in_path, dictionary, adapt, model, save_dictionary
                 raise OutputPathError(f"output {out_path} is the {label} {path}: refusing "
                                       "to overwrite it")
         check_paths(inputs, [("output", out_path / "frame.json")] + written[1:])
+        check_folder(out_path)  # replaces only a folder sparseedm wrote
     else:
         check_paths(inputs, written)
 

@@ -614,6 +614,44 @@ def test_leftovers_of_a_killed_writer_are_removed_on_the_next_write(tmp_path):
     assert remove_leftovers(tmp_path / "other.csv") == [other]
 
 
+_FOLDER_WRITER = textwrap.dedent("""
+    import sys, time
+    from pathlib import Path
+    from sparseedm.formats._base import write_json_folder
+
+    def docs():  # an OpenPose folder output, stopped half-written
+        yield "a.json", {}
+        target = Path(sys.argv[1])
+        print(*(p for p in target.parent.iterdir() if p.name != target.name), flush=True)
+        time.sleep(60)
+        yield "b.json", {}
+
+    write_json_folder(sys.argv[1], docs())
+""")
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGHUP, signal.SIGKILL])
+def test_an_interrupted_folder_output_leaves_nothing_behind(sig, tmp_path):
+    from sparseedm.formats._base import write_json_folder
+
+    target = tmp_path / "out"
+    write_json_folder(target, [("old.json", {"previous": 1})])
+    with subprocess.Popen([sys.executable, "-c", _FOLDER_WRITER, str(target)],
+                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                          preexec_fn=_default_signals) as proc:
+        tmp = Path(proc.stdout.readline().strip())
+        assert tmp.is_dir() and TEMP_MARK in tmp.name
+        proc.send_signal(sig)
+        proc.communicate(timeout=30)
+    assert proc.returncode != 0
+    assert json.loads((target / "old.json").read_text()) == {"previous": 1}  # kept
+    if sig == signal.SIGKILL:                     # cannot be caught: the next write
+        assert tmp.is_dir()                       # to the same output removes it
+        write_json_folder(target, [("new.json", {})])
+        assert sorted(os.listdir(target)) == [".sparseedm-output", "new.json"]
+    assert os.listdir(tmp_path) == ["out"]
+
+
 def test_signal_handlers_are_restored(tmp_path):
     before = signal.getsignal(signal.SIGTERM)
     with atomic_path(tmp_path / "a.txt") as t:

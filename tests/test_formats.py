@@ -8,7 +8,9 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 import shutil
+import stat
 import warnings
 from pathlib import Path
 
@@ -99,7 +101,7 @@ def test_openpose_folder_round_trip_writes_the_same_files(tmp_path, small_dictio
     out = tmp_path / "op"
     recover_file(F / "openpose", out, dictionary=small_dictionary, adapt=False)
     assert sorted(p.name for p in out.iterdir()) == \
-        sorted(p.name for p in (F / "openpose").iterdir())
+        sorted([".sparseedm-output"] + [p.name for p in (F / "openpose").iterdir()])
     doc = json.loads((out / "video_000000000001_keypoints.json").read_text())
     person = doc["people"][0]
     assert person["sparseedm"]["filled"] == ["right_wrist"]
@@ -108,7 +110,7 @@ def test_openpose_folder_round_trip_writes_the_same_files(tmp_path, small_dictio
     assert person["pose_keypoints_2d"][3 * 4] != 0.0
     # a second run replaces the earlier output folder
     recover_file(F / "openpose", out, dictionary=small_dictionary, adapt=False)
-    assert len(list(out.iterdir())) == 4
+    assert len(list(out.glob("*.json"))) == 4
 
 
 def test_openpose_output_never_the_input_folder(tmp_path, small_dictionary):
@@ -125,6 +127,51 @@ def test_openpose_folder_to_one_json_is_refused_before_work(tmp_path, small_dict
         recover_file(F / "openpose", tmp_path / "x.json", dictionary=small_dictionary,
                      adapt=False)
     assert list(tmp_path.iterdir()) == []
+
+
+def _no_work(monkeypatch):
+    """Recovery that fails the test if it starts: a refusal must come first."""
+    import sparseedm.batch
+
+    def started(*a, **k):
+        raise AssertionError("the work started before the output was checked")
+
+    monkeypatch.setattr(sparseedm.batch, "_run", started)
+    monkeypatch.setattr(sparseedm.batch, "_adapt", started)
+
+
+@pytest.mark.parametrize("kind", ["user files", "another clip", "marked, then added to"])
+def test_folder_output_replaces_only_a_folder_sparseedm_wrote(tmp_path, small_dictionary,
+                                                               monkeypatch, kind):
+    out = tmp_path / "out"
+    if kind == "user files":
+        out.mkdir()
+        (out / "config.json").write_text('{"my": "settings"}')
+    elif kind == "another clip":
+        shutil.copytree(F / "openpose", out)
+    else:
+        recover_file(F / "openpose", out, dictionary=small_dictionary, adapt=False)
+        (out / "notes.json").write_text("{}")
+    before = digest(out)
+    _no_work(monkeypatch)
+    with pytest.raises(OutputPathError, match="did not write.*refusing to replace it"):
+        recover_file(F / "openpose", out, dictionary=small_dictionary, adapt=False)
+    assert digest(out) == before
+
+
+def test_folder_output_into_an_empty_folder_with_the_usual_mode(tmp_path, small_dictionary):
+    out = tmp_path / "out"
+    out.mkdir()
+    umask = os.umask(0o022)
+    try:
+        recover_file(F / "openpose", out, dictionary=small_dictionary, adapt=False)
+    finally:
+        os.umask(umask)
+    assert stat.S_IMODE(out.stat().st_mode) == 0o755  # not mkdtemp's 0700
+    assert stat.S_IMODE((out / "video_000000000001_keypoints.json").stat().st_mode) == 0o644
+    mark = json.loads((out / ".sparseedm-output").read_text())
+    assert sorted(mark["files"]) == sorted(p.name for p in out.glob("*.json"))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]  # no temporaries left
 
 
 # --------------------------------------------------------------------------
@@ -175,7 +222,7 @@ def test_openpose_people_and_tracks(tmp_path):
     assert k.tracks.tolist() == [7, 3] * 3 and k.frames.tolist() == [0, 0, 1, 1, 2, 2]
     out = tmp_path / "back"
     write_keypoints(out, k)
-    assert len(list(out.iterdir())) == 4
+    assert len(list(out.glob("*.json"))) == 4
     assert read_keypoints(out).tracks.tolist() == [7, 3] * 3
 
 
@@ -662,4 +709,4 @@ def test_cli_lists_skipped_frame_files(tmp_path, capsys, small_dictionary_path):
     assert "UserWarning" not in err and "warnings.warn" not in err and ".py:" not in err
     assert "skipped " + str(d / "video_000000000009_keypoints.json") + ": invalid or " \
         "truncated JSON" in err
-    assert len(list((tmp_path / "out").iterdir())) == 4
+    assert len(list((tmp_path / "out").glob("*.json"))) == 4

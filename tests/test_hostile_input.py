@@ -574,3 +574,46 @@ def test_dataset_joint_map_is_an_input_whatever_its_name(tmp_path, fixtures_dir,
                  str(joint_map), "--joint-map", str(joint_map), "--quiet"])
     assert code == 2 and joint_map.read_bytes() == before
     assert "refusing to overwrite" in capsys.readouterr().err
+
+
+@pytest.fixture
+def unwritable(tmp_path):
+    """A folder nobody may write in: read-only modes, or (as root, whom modes do
+    not stop) the immutable attribute; the test skips where neither holds."""
+    import subprocess
+
+    folder = tmp_path / "ro"
+    folder.mkdir()
+    if os.geteuid() != 0:
+        folder.chmod(0o555)
+    elif subprocess.run(["chattr", "+i", str(folder)], capture_output=True).returncode:
+        pytest.skip("cannot make a folder unwritable here (chattr +i refused)")
+    try:
+        yield folder
+    finally:
+        if os.geteuid() == 0:
+            subprocess.run(["chattr", "-i", str(folder)], capture_output=True)
+        folder.chmod(0o755)
+
+
+@pytest.mark.parametrize("command, name", [("recover", "out.csv"), ("recover", "frames"),
+                                           ("lift", "out.trc"), ("lift", "sub/out.csv")])
+def test_an_unwritable_output_folder_is_refused_before_any_work(
+        tmp_path, good_csv, small_dictionary_path, unwritable, monkeypatch, capsys,
+        command, name):
+    import sparseedm.batch
+    import sparseedm.lifting.io
+
+    def started(*a, **k):
+        raise AssertionError("the work started before the output was checked")
+
+    for module, fn in [(sparseedm.batch, "_adapt"), (sparseedm.batch, "_run"),
+                       (sparseedm.lifting.io, "_lift_chunks")]:
+        monkeypatch.setattr(module, fn, started)
+    extra = ["--dictionary", str(small_dictionary_path), "--format", "openpose"] \
+        if name == "frames" else ["--dictionary", str(small_dictionary_path)] \
+        if command == "recover" else []
+    code = main([command, str(good_csv), "-o", str(unwritable / name), "-q", *extra])
+    err = capsys.readouterr().err
+    assert code == 2 and f"the folder {unwritable} is not writable" in err, err
+    assert "Errno" not in err and os.listdir(unwritable) == []

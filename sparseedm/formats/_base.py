@@ -22,21 +22,17 @@ The rules of :func:`to_14` (the same as COCO-17's in :mod:`sparseedm.keypoints`)
 
 from __future__ import annotations
 
-import contextlib
 import json
 import math
-import os
 import re
-import shutil
-import tempfile
 from pathlib import Path
 from dataclasses import dataclass, field
 from numbers import Real
 
 import numpy as np
 
-from .._atomic import atomic_path
-from ..exceptions import FileFormatError, OutputPathError
+from .._atomic import atomic_folder, atomic_path
+from ..exceptions import FileFormatError
 from ..skeleton import JOINT_NAMES, SKELETON_14
 
 N_JOINTS = SKELETON_14.num_joints
@@ -428,33 +424,10 @@ def write_json_folder(path, docs):
     """A folder of JSON files ``[(name, doc), ...]``, in place at once.
 
     The files are written to a new folder beside `path`, which then takes
-    its name; a folder already at `path` is replaced only if it holds
-    nothing but ``.json`` files (an earlier output), else it is refused.
+    its name (:func:`sparseedm._atomic.atomic_folder`): a folder already at
+    `path` is replaced only if sparseedm wrote it, else it is refused.
     """
-    path = Path(path)
-    if path.exists() and not path.is_dir():
-        raise OutputPathError(f"{path} is a file; an OpenPose folder output needs a folder")
-    if path.is_dir():
-        others = [e.name for e in os.scandir(path)
-                  if not (e.is_file() and e.name.lower().endswith(".json"))]
-        if others:
-            raise OutputPathError(f"{path} holds other files ({others[0]}, ...); "
-                                  "give a new folder for the output")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.tmp-", dir=path.parent))
-    try:
+    with atomic_folder(path) as tmp:
         for name, doc in docs:
             with open(tmp / name, "w", encoding="utf-8") as f:
                 json.dump(doc, f)
-        old = None
-        if path.is_dir():
-            old = Path(tempfile.mkdtemp(prefix=f".{path.name}.old-", dir=path.parent))
-            os.rmdir(old)
-            os.replace(path, old)
-        os.replace(tmp, path)
-        if old is not None:
-            shutil.rmtree(old, ignore_errors=True)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            shutil.rmtree(tmp)
-        raise
