@@ -372,7 +372,7 @@ def check_folder(path, label="output"):
     >>> check_folder(d)  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    sparseedm.exceptions.OutputPathError: output ... is a folder sparseedm did not write (it holds config.json): refusing to replace it; give a new or empty folder
+    sparseedm.exceptions.OutputPathError: output ... did not write (it holds config.json): ...
     """
     path = Path(os.path.realpath(path))
     if os.path.lexists(path) and not path.is_dir():

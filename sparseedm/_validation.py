@@ -45,7 +45,8 @@ from .exceptions import ParameterError, PoseError
 
 __all__ = ["Interval", "Options", "validate_params", "check_poses", "check_pose_shape",
            "check_mask", "ALPHA", "ALPHA_MIN", "ALPHA_MAX", "ENSEMBLE", "MAX_ENSEMBLE", "N_JOBS",
-           "CHUNK_SIZE", "PATH", "BOOLEAN", "THRESHOLD", "usable_jobs", "unmask"]
+           "CHUNK_SIZE", "PATH", "BOOLEAN", "THRESHOLD", "SCORE", "usable_jobs",
+           "unmask"]
 
 
 class Interval:
@@ -158,6 +159,8 @@ CHUNK_SIZE = [Interval(Integral, 1, None)]
 PATH = ["path"]
 BOOLEAN = ["boolean"]
 THRESHOLD = [Interval(Real, None, None)]
+#: a confidence score a file gets (e.g. a filled joint's): every format's reader takes it
+SCORE = [Interval(Real, 0, 1)]
 
 
 def usable_jobs(n_jobs, n_tasks=None) -> int:

@@ -83,8 +83,8 @@ from numbers import Integral, Real
 from . import _progress
 from ._atomic import atomic_path, check_folder, check_paths, is_stream
 from ._extras import require as require_extra
-from ._validation import (ALPHA, BOOLEAN, CHUNK_SIZE, ENSEMBLE, N_JOBS, PATH, Interval,
-                          Options, validate_params)
+from ._validation import (ALPHA, BOOLEAN, CHUNK_SIZE, ENSEMBLE, N_JOBS, PATH, SCORE,
+                          Interval, Options, validate_params)
 from .adaptation import MIN_COMPLETE_POSES, sample_stream
 from .dictionary import Dictionary, dictionary_path, check_gram_memory, load_dictionary
 from ._safeio import resolved
@@ -548,7 +548,7 @@ _PARAMS = {
     "errors_path": PATH + [None], "progress": BOOLEAN, "save_edm": BOOLEAN,
     "confidence_threshold": [Interval(Real, None, None), None],
     "joint_map": PATH + [None],
-    "filled_score": [Interval(Real, None, None)],
+    "filled_score": SCORE,
     "backend": [Options(("loky", "threading", "multiprocessing", "dask")), None],
     "scheduler": PATH + [None],
     "method": [Options(("sparse", "fconv"))],

@@ -176,7 +176,7 @@ import numpy as np
 from ._atomic import atomic_path, save_npy, save_npz
 from ._safeio import MAX_LINE_BYTES, load_json, load_npy, load_npz, text_lines
 from . import formats
-from ._validation import Interval, check_poses, validate_params
+from ._validation import SCORE, Interval, check_poses, validate_params
 from .exceptions import FileFormatError, ParameterError, PoseError
 from .formats import posetrack
 from .formats._base import csv_cells, track_value
@@ -1012,7 +1012,8 @@ def write_keypoints(
     >>> sorted(np.load(path).files)
     ['ids', 'missing', 'poses']
     """
-    validate_params("write_keypoints", dict(path=path), {"path": _READ_PARAMS["path"]})
+    validate_params("write_keypoints", dict(path=path, filled_score=filled_score),
+                    {"path": _READ_PARAMS["path"], "filled_score": SCORE})
     path = Path(path)
     if isinstance(poses, KeypointSet) and meta is None:
         meta = poses.meta

@@ -258,6 +258,24 @@ def test_recover_file_rejects_bad_options(tmp_path, occluded, small_dictionary):
     assert sorted(os.listdir(tmp_path)) == ["in.csv"]
 
 
+@pytest.mark.parametrize("score", ["2", "-1", "1.0000001", "nan"])
+def test_filled_score_outside_0_1_is_refused(tmp_path, occluded, small_dictionary_path,
+                                             small_dictionary, score, capsys):
+    """A score the readers refuse would make the tool's own output unreadable."""
+    poses, _ = occluded
+    inp = tmp_path / "in.json"
+    write_keypoints(inp, poses, ids=_ids())
+    assert _recover(inp, tmp_path / "o.json", small_dictionary_path, "--no-adapt",
+                    "--filled-score", score) == 2
+    assert "filled_score must be a real number in [0, 1]" in capsys.readouterr().err
+    with pytest.raises(SparseEDMError, match=r"filled_score must be a real number in \[0, 1\]"):
+        recover_file(inp, tmp_path / "o.json", dictionary=small_dictionary, adapt=False,
+                     filled_score=float(score))
+    with pytest.raises(SparseEDMError, match="filled_score"):
+        write_keypoints(tmp_path / "o.json", poses, filled_score=float(score))
+    assert sorted(os.listdir(tmp_path)) == ["in.json"]
+
+
 def test_example_file_recovers(tmp_path, small_dictionary_path):
     """The README's job on the shipped example (with the small test dictionary)."""
     from pathlib import Path

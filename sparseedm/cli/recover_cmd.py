@@ -71,8 +71,8 @@ def _add_format_options(p):
                    "sparseedm.formats)")
     add_joint_map(p)
     p.add_argument("--filled-score", type=float, default=0.0, metavar="S",
-                   help="score written for filled joints (OpenPose, MMPose, DeepLabCut, "
-                   "COCO); default 0, below every threshold")
+                   help="score in [0, 1] written for filled joints (OpenPose, MMPose, "
+                   "DeepLabCut, COCO); default 0, below every threshold")
 
 
 def _add_run_options(p):
