@@ -272,6 +272,24 @@ def test_a_video_with_unreadable_frame_numbers_still_writes_a_pickle_free_npz(tm
         assert z["poses3d"].shape == (40, 14, 3)
 
 
+@pytest.mark.parametrize("ext", ["npz", "csv"])
+def test_frame_numbers_past_2_53_lift_frame_by_frame(tmp_path, ext):
+    """uint64 frames past the int64 limit (npz) or of 19 digits (csv) are refused
+    per row as too large, never an internal error."""
+    from sparseedm.keypoints import KeypointSet, write_keypoints
+
+    kps = read_keypoints(EXAMPLES / "video_clip.csv")
+    n = len(kps.poses)
+    frames = np.arange(n, dtype=np.uint64)  # npz: across the int64 limit, in one track
+    frames += np.uint64(2**63 - n // 2) if ext == "npz" else np.uint64(2**62)
+    src = write_keypoints(tmp_path / f"v.{ext}", KeypointSet(
+        kps.poses, kps.missing, ids=kps.ids, tracks=kps.tracks, frames=frames))
+    assert main(["lift", str(src), "-o", str(tmp_path / "out.npz"), "-q"]) == 0
+    back = read_keypoints(src)
+    res = sparseedm.lift(back.poses, back.missing, tracks=back.tracks, frames=back.frames)
+    assert res.ok.all() and all("too large" in r for r in res.reason), res.reason[:3]
+
+
 def test_lift_says_who_is_who_when_it_links_people(track):
     """Two people per frame without track ids: lift links them (as recover does)
     and its result says which rows it linked into which track."""

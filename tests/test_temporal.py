@@ -307,6 +307,33 @@ def test_bad_frames_and_tracks_per_row(track, small_dictionary):
     assert set(np.unique(res.source)) <= set(SOURCES)
 
 
+BIG_FRAMES = {  # 20 rows inside +-2**53 (one stretch of frames), 20 past it
+    "uint64": np.concatenate([np.arange(20, dtype=np.uint64),
+                              np.uint64(2**63) + np.arange(20, dtype=np.uint64)]),
+    "int64 limits": np.concatenate([-2**63 + np.arange(10), 2**53 - 9 + np.arange(10),
+                                    2**63 - 10 + np.arange(10)]),
+    "float": np.concatenate([np.arange(20.0), 2.0**60 + 2.0**10 * np.arange(20)]),
+    "csv text": np.array([str(i) for i in range(20)]
+                         + [str(2**62 + i) for i in range(20)], dtype=object),
+}
+
+
+@pytest.mark.parametrize("kind", BIG_FRAMES)
+def test_frame_numbers_past_2_53_are_too_large_per_row(track, small_dictionary, kind):
+    frames = BIG_FRAMES[kind]
+    big = np.array([abs(int(f)) > 2**53 for f in frames])
+    poses = track[:len(frames)].copy()
+    mask = np.zeros(poses.shape[:2], bool)
+    mask[::3, WRIST] = True
+    res = sparseedm.recover(poses, mask, frames=frames, dictionary=small_dictionary,
+                            adapt=False)
+    assert res.ok.all() and np.isfinite(res.poses).all()
+    for i in np.flatnonzero(big):
+        assert "is too large (over 2**53)" in res.reason[i], res.reason[i]
+        assert res.source[i, WRIST] in ("per_frame", "observed")
+    assert set(res.source[~big & mask[:, WRIST], WRIST]) == {"temporal"}
+
+
 def test_a_row_with_nothing_observed_outside_time_warns_nothing(track, small_dictionary):
     # a NaN frame number and no joint observed: refused per frame, quietly
     poses, frames = track[:30].copy(), np.arange(30.0)

@@ -5,8 +5,9 @@ its poses and cuts the rows into *segments*: the rows of one track in frame
 order, broken where more than :data:`MAX_SKIP` frame numbers are absent
 (nothing couples a pose to one seen seconds later). Rows that cannot join a
 segment are not dropped: they are recovered frame by frame, each with a
-reason (a frame number that is NaN, not a number or not an integer; a
-(track, frame) pair given more than once; a segment of one row).
+reason (a frame number that is NaN, not a number, not an integer or over
+2**53 in magnitude; a (track, frame) pair given more than once; a segment of
+one row).
 """
 
 from __future__ import annotations
@@ -17,8 +18,9 @@ import numpy as np
 
 from ..exceptions import ParameterError
 
-__all__ = ["MAX_SKIP", "TrackLayout", "split_tracks", "frame_numbers", "distance_to_observed",
-           "track_chunks", "track_windows", "WINDOW_OVERLAP", "add_summaries", "has_time"]
+__all__ = ["MAX_SKIP", "MAX_FRAME", "TrackLayout", "split_tracks", "frame_numbers",
+           "distance_to_observed", "track_chunks", "track_windows", "WINDOW_OVERLAP",
+           "add_summaries", "has_time"]
 
 #: a run of more absent frame numbers than this ends a segment
 MAX_SKIP = 30
@@ -62,34 +64,42 @@ class TrackLayout:
     linked: np.ndarray = None
 
 
+#: the largest frame-number magnitude used across time: every integer up to it is
+#: exact as a float, and differences of two of them never overflow int64
+MAX_FRAME = 2**53
+
+
 def frame_numbers(frames, n):
-    """Frames as int64 (n,) and the reason each unusable one is refused (`""` if usable)."""
+    """Frames as int64 (n,) and the reason each unusable one is refused (`""` if usable).
+
+    A frame number must be a whole number of magnitude at most :data:`MAX_FRAME`
+    (whatever its dtype: a larger one is refused as too large, never wrapped).
+
+    Examples
+    --------
+    >>> values, reason = frame_numbers(np.array([3, 2**63 + 5], dtype=np.uint64), 2)
+    >>> values.tolist(), reason.tolist()
+    ([3, 0], ['', 'frame number 9223372036854775813 is too large (over 2**53)'])
+    """
     arr = np.asarray(frames)
     if arr.shape != (n,):
         raise ParameterError(f"frames must have shape ({n},) (one per pose), got {arr.shape}")
     values = np.zeros(n, dtype=np.int64)
     reason = np.full(n, "", dtype=object)
-    if arr.dtype.kind in "iu":
-        return arr.astype(np.int64), reason
     rows = np.arange(n)
-    if arr.dtype.kind == "f":  # the usual case (CSV columns): whole numbers at once
-        f = arr.astype(float)
-        whole = np.isfinite(f) & (np.abs(f) <= 2**53)
-        whole[whole] = f[whole] == np.round(f[whole])
-        values[whole] = f[whole].astype(np.int64)
-        rows = np.flatnonzero(~whole)  # only these need a reason
+    if arr.dtype.kind in "iuf":  # the usual cases at once; only the others get a reason
+        if arr.dtype.kind == "u":
+            usable = arr <= MAX_FRAME
+        elif arr.dtype.kind == "i":
+            usable = (arr <= MAX_FRAME) & (arr >= -MAX_FRAME)
+        else:  # floats (CSV columns): finite whole numbers
+            f = arr.astype(float)
+            usable = np.isfinite(f) & (np.abs(f) <= MAX_FRAME)
+            usable[usable] = f[usable] == np.round(f[usable])
+        values[usable] = arr[usable].astype(np.int64)
+        rows = np.flatnonzero(~usable)
     for i, v in zip(rows, arr[rows].tolist()):
-        try:
-            f = float(v)
-        except (TypeError, ValueError):
-            reason[i] = f"frame number {v!r} is not a number"
-            continue
-        if not np.isfinite(f):
-            reason[i] = f"frame number is {f}"
-        elif f != round(f) or abs(f) > 2**53:
-            reason[i] = f"frame number {v!r} is not an integer"
-        else:
-            values[i] = int(f)
+        values[i], reason[i] = _frame_number(v)
     return values, reason
 
 
@@ -107,6 +117,24 @@ def has_time(frames):
         return False
     values, reason = frame_numbers(frames, len(np.asarray(frames)))
     return len(np.unique(values[reason == ""])) >= 2
+
+
+def _frame_number(v):
+    """One frame number's int value, or 0 and why it is refused."""
+    if isinstance(v, (int, np.integer)) and not isinstance(v, bool):
+        return (int(v), "") if abs(int(v)) <= MAX_FRAME else \
+            (0, f"frame number {v} is too large (over 2**53)")
+    try:
+        f = float(v)
+    except (TypeError, ValueError, OverflowError):
+        return 0, f"frame number {v!r} is not a number"
+    if np.isnan(f) or (np.isinf(f) and "inf" in str(v).lower()):
+        return 0, f"frame number is {f}"
+    if abs(f) > MAX_FRAME:  # "1e999" or 400 digits of text too
+        return 0, f"frame number {v!r} is too large (over 2**53)"
+    if f != round(f):
+        return 0, f"frame number {v!r} is not an integer"
+    return int(f), ""
 
 
 def _track_ids(tracks, n):
