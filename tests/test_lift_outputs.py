@@ -101,3 +101,28 @@ def test_lift_json_writes_integer_frames_as_numbers(fixtures_dir, tmp_path, caps
     src.write_text("\n".join(",".join(r) for r in [head] + rows) + "\n")
     assert main(["lift", str(src), "-o", str(out), "--no-temporal", "-q"]) == 0
     assert [row["frame"] for row in json.loads(out.read_text())][:3] == ["0", "1", "2b"]
+
+
+@pytest.mark.parametrize("src, ext", [("npy", "npz"), ("npy", "trc"), ("csv", "csv"),
+                                      ("csv", "json")])
+def test_lift_of_zero_poses_writes_an_empty_output(tmp_path, capsys, src, ext):
+    """As recover does: exit 0, an empty output (never an internal error)."""
+    inp = tmp_path / f"zero.{src}"
+    if src == "npy":
+        np.save(inp, np.zeros((0, 14, 2)))
+    else:  # a header-only CSV, with frames
+        inp.write_text(",".join(["id", "frame"] + [f"{j}_{a}" for j in JOINT_NAMES
+                                                  for a in "xy"]) + "\n")
+    out = tmp_path / f"out.{ext}"
+    assert main(["lift", str(inp), "-o", str(out), "-q"]) == 0
+    assert "poses: 0" in capsys.readouterr().err
+    if ext == "trc":
+        assert read_trc(out)["poses"].shape == (0, 14, 3)
+    elif ext == "npz":
+        with np.load(out, allow_pickle=False) as z:
+            assert z["poses3d"].shape == (0, 14, 3)
+    elif ext == "csv":
+        assert out.read_text().splitlines()[0].startswith("id,") and \
+            len(out.read_text().splitlines()) == 1  # the header alone
+    else:
+        assert out.read_text() == "[]"

@@ -227,7 +227,7 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
     check_paths(inputs, [("output", output), ("errors file", errors), ("plot", plot)])
     kps = read_keypoints(input, confidence_threshold=confidence_threshold, joint_map=joint_map)
     _one_person(kps, input, output, _output_format(output, output_format))
-    in_time = bool(temporal) and has_time(kps.frames)
+    in_time = bool(temporal) and has_time(kps.frames)  # (no poses: no time)
     _progress.say(f"lifting {len(kps.poses):,} poses to 3D"
                   + (" across time (the input has frames: missing 2D joints filled across "
                      "time first; --no-temporal lifts each row alone)" if in_time else ""))
@@ -252,8 +252,9 @@ def _lift_chunks(kps, in_time, chunk_size, **kw):
     (:func:`~sparseedm.temporal.tracks.track_windows`), and the fill's 2D
     dictionary is adapted once, on every row, first."""
     n, tracks = len(kps.poses), kps.tracks
-    if not in_time:
-        bounds = [(slice(s, min(s + chunk_size, n)), None) for s in range(0, n, chunk_size)]
+    if not in_time:  # no rows: one empty chunk (an empty output, as recover writes)
+        bounds = [(slice(s, min(s + chunk_size, n)), None)
+                  for s in range(0, max(n, 1), chunk_size)]
     else:
         linked = linked_tracks(kps.poses, kps.missing, tracks, kps.frames)
         tracks = tracks if linked is None else linked
