@@ -413,7 +413,9 @@ def fit_dictionary_file(train_path, output, *, n_components=2000, alpha=1.6,
     array itself. Every `checkpoint_every` batches the learner's whole state
     is written atomically to `checkpoint` (default ``OUTPUT.ckpt.npz``);
     ``resume=True`` continues from it and ends in the same dictionary as an
-    uninterrupted run with the same seed.
+    uninterrupted run with the same seed; a checkpoint made with other
+    settings or on other training poses (their sha256 is stored in it) is
+    refused.
 
     Returns
     -------
@@ -448,7 +450,8 @@ def fit_dictionary_file(train_path, output, *, n_components=2000, alpha=1.6,
         )
     params = dict(n_components=n_components, alpha=alpha, batch_size=batch_size,
                   n_passes=n_passes, positive_code=positive_code,
-                  random_state=random_state, n_samples=len(index))
+                  random_state=random_state, n_samples=len(index),
+                  sha256=poses_sha256(poses))  # a resume continues on the same poses
     est = OnlineDictionaryLearning(
         n_components, alpha=alpha, batch_size=batch_size, n_passes=n_passes,
         positive_code=positive_code, random_state=random_state, n_jobs=n_jobs)
@@ -465,7 +468,7 @@ def fit_dictionary_file(train_path, output, *, n_components=2000, alpha=1.6,
     provenance = {
         "files": [Path(train_path).name],
         "n_poses": int(len(index)),
-        "sha256": poses_sha256(poses),
+        "sha256": params["sha256"],
         "sha256_of": "poses2d float64 values",
         "seed": random_state,
         "passes": n_passes,
@@ -523,6 +526,11 @@ def _load_checkpoint(path, est, params):
     try:
         ck, _ = load_npz(path, ("components", "A", "B", "n_steps", "objective", "params"))
         saved = json.loads(str(ck["params"]))
+        if not isinstance(saved, dict) or saved.get("sha256") != params["sha256"]:
+            raise SparseEDMError(
+                f"{path}: checkpoint was made on other training poses (sha256 "
+                f"{str(saved.get('sha256') if isinstance(saved, dict) else None)[:12]}..., "
+                f"this file's {params['sha256'][:12]}...); rerun without --resume")
         if saved != json.loads(json.dumps(params)):
             raise SparseEDMError(
                 f"{path}: checkpoint was made with other settings {saved}; "

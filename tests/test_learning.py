@@ -198,6 +198,42 @@ def test_fit_file_skips_incomplete_and_resume_equals_uninterrupted(train_file, t
     assert not out.with_suffix(".ckpt.npz").exists()
 
 
+def test_resume_refuses_a_checkpoint_of_other_training_poses(train_file, tmp_path,
+                                                              monkeypatch):
+    """Same settings, same pose count, other poses: continuing would learn half the
+    dictionary from one file and say it came from the other."""
+    import sparseedm.learning as learning
+
+    kw = dict(n_components=30, alpha=0.05, batch_size=32, n_passes=2, random_state=1,
+              progress=False, checkpoint_every=3)
+    real_step = learning.OnlineDictionaryLearning._step
+    calls = {"n": 0}
+
+    def flaky(self, X):
+        calls["n"] += 1
+        if calls["n"] == 8:
+            raise KeyboardInterrupt
+        return real_step(self, X)
+
+    monkeypatch.setattr(learning.OnlineDictionaryLearning, "_step", flaky)
+    out = tmp_path / "d.npz"
+    with pytest.warns(UserWarning), pytest.raises(KeyboardInterrupt):
+        fit_dictionary_file(train_file, out, **kw)
+    checkpoint = out.with_suffix(".ckpt.npz")
+    with np.load(checkpoint, allow_pickle=False) as ck:  # pickle-free, hash inside
+        assert "sha256" in json.loads(str(ck["params"]))
+    monkeypatch.setattr(learning.OnlineDictionaryLearning, "_step", real_step)
+    with np.load(train_file, allow_pickle=False) as npz:
+        other = npz["poses2d"] * 1.5  # as many poses, other values
+    other_file = tmp_path / "other.npz"
+    np.savez(other_file, poses2d=other)
+    before = checkpoint.read_bytes()
+    with pytest.warns(UserWarning), pytest.raises(SparseEDMError,
+                                                  match="other training poses"):
+        fit_dictionary_file(other_file, out, resume=True, **kw)
+    assert checkpoint.read_bytes() == before and not out.exists()
+
+
 def test_fit_and_info_cli(train_file, tmp_path, capsys):
     out = tmp_path / "cli.npz"
     code = main(["fit", str(train_file), "-o", str(out), "--atoms", "25",
