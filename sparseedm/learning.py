@@ -45,7 +45,8 @@ from ._parallel import numba_threads
 from ._safeio import available_memory, load_npz
 from ._validation import ALPHA, N_JOBS, Interval, validate_params
 from .dictionary import Dictionary
-from .exceptions import DictionaryError, FileFormatError, ParameterError, SparseEDMError
+from .exceptions import (DictionaryError, FileFormatError, OutputPathError, ParameterError,
+                         SparseEDMError)
 from .edm import pose_to_vector
 from .normalize import normalize, usable_rows
 from .skeleton import JOINT_NAMES
@@ -432,6 +433,8 @@ def fit_dictionary_file(train_path, output, *, n_components=2000, alpha=1.6,
     if output.suffix != ".npz":
         raise DictionaryError(f"{output}: a dictionary file must end in .npz")
     checkpoint = Path(checkpoint) if checkpoint else output.with_suffix(".ckpt.npz")
+    if checkpoint.suffix != ".npz":
+        raise OutputPathError(f"checkpoint {checkpoint}: a checkpoint file must end in .npz")
     check_paths([("training file", train_path)],
                 [("output", output), ("checkpoint", checkpoint)])
     poses = load_training_poses(train_path)

@@ -245,6 +245,10 @@ def test_fit_and_info_cli(train_file, tmp_path, capsys):
     text = capsys.readouterr().out
     assert "25 atoms over 91 distances" in text and "333 poses" in text
     assert main(["fit", str(train_file), "-o", str(out), "--atoms", "0", "-q"]) == 2
+    assert main(["fit", str(train_file), "-o", str(out), "--checkpoint",
+                 str(tmp_path / "c.csv"), "-q"]) == 2  # .npz, as the output
+    assert "a checkpoint file must end in .npz" in capsys.readouterr().err
+    assert not (tmp_path / "c.csv").exists()
     assert main(["fit", str(train_file), "-o", str(out), "--alpha", "-1", "-q"]) == 2
     assert main(["info", str(train_file)]) == 2
 
