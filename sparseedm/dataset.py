@@ -300,6 +300,8 @@ def build_dataset(
     if not parts:
         raise SparseEDMError(
             f"no poses built: {len(files)} motion file(s) found, {len(skipped)} skipped"
+            + "".join(f"; skipped {p}: {r}" for p, r in skipped[:3])
+            + (f"; and {len(skipped) - 3} more" if len(skipped) > 3 else "")
             + (f", {n_tpose} T-pose frame(s) dropped (a clip's first or last frames with "
                "both arms straight and level are its calibration pose; --keep-tpose keeps "
                "them)"

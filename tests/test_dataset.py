@@ -142,6 +142,20 @@ def test_nothing_built_is_an_error(tmp_path):
         find_mocap_files(tmp_path / "missing")
 
 
+def test_cli_says_why_when_every_file_is_skipped(tmp_path, capsys):
+    """Every file bad: the error names each skipped file and its reason; -q as the
+    other commands take it."""
+    (tmp_path / "bad.bvh").write_text("garbage\n")
+    (tmp_path / "walk.asf").write_text(":version 1.10\n")
+    for quiet in (["-q"], []):
+        code = main(["dataset", "build", str(tmp_path / "bad.bvh"), str(tmp_path / "walk.asf"),
+                     "-o", str(tmp_path / "t.npz"), *quiet])
+        err = capsys.readouterr().err
+        assert code == 2 and "2 motion file(s) found, 2 skipped" in err
+        assert f"skipped {tmp_path / 'bad.bvh'}: line 1: expected 'HIERARCHY'" in err, err
+        assert "walk.asf" in err and not (tmp_path / "t.npz").exists()
+
+
 def test_bandai_labels_from_json(tmp_path, fixtures_dir):
     root = tmp_path / "bandai"
     (root / "cfg").mkdir(parents=True)

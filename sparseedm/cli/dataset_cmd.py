@@ -30,7 +30,8 @@ def add_parser(subparsers) -> None:
                        help="pose (default): a camera per kept pose, a training set; clip: "
                        "one fixed camera per clip at about 30 frames/s, video sequences "
                        "for `sparseedm evaluate --protocol`")
-    build.add_argument("--quiet", action="store_true", help="no progress bar or summary")
+    build.add_argument("-q", "--quiet", action="store_true",
+                       help="no progress bar or summary")
     _rig_options(build)
     build.add_argument("--keep-tpose", action="store_true",
                        help="keep T-pose frames (dropped by default)")
