@@ -134,3 +134,19 @@ def test_help_names_every_format_recover_reads_and_writes(capsys):
     out = next(a for a in sub.choices["recover"]._actions if a.dest == "output").help
     for what in (".h5", "folder", "MMPose .json", ".npy"):
         assert what in out
+
+
+@pytest.mark.parametrize("argv", [["recover", "in.csv", "-o", "-"],
+                                  ["recover", "in.csv", "-o", "o.csv", "--errors", "-"],
+                                  ["lift", "in.csv", "-o", "-"],
+                                  ["fit", "t.npz", "-o", "d.npz", "--checkpoint", "-"],
+                                  ["dataset", "build", "a.bvh", "-o", "-"]])
+def test_dash_is_not_a_file_named_dash(tmp_path, monkeypatch, capsys, argv):
+    """Outputs land at exactly the path given, and '-' would be a file called '-':
+    refused, naming /dev/stdout (and ./- for that file)."""
+    monkeypatch.chdir(tmp_path)
+    np.savetxt("in.csv", np.zeros((0, 28)))  # never read: refused first
+    assert main(argv + ["-q"]) == 2
+    err = capsys.readouterr().err
+    assert "'-' is not standard output here" in err and "/dev/stdout" in err
+    assert not (tmp_path / "-").exists()

@@ -81,6 +81,7 @@ def main(argv=None) -> int:
     # long stages say what they are doing on stderr (a bar on a terminal) unless --quiet
     _progress.enable(not getattr(args, "quiet", False))
     try:
+        _refuse_dash(args)
         with warnings.catch_warnings():  # the API's warnings, one clean line each
             warnings.showwarning = _warning_line(args.command)
             return int(args.func(args) or 0)
@@ -97,6 +98,21 @@ def main(argv=None) -> int:
         return _internal_error(args, exc)
     finally:
         _progress.enable(False)
+
+
+#: options that name a file a command writes
+_OUTPUT_OPTIONS = {"output": "-o", "errors": "--errors", "save_dictionary": "--save-dictionary",
+                   "checkpoint": "--checkpoint", "plot": "--plot", "write_map": "--write-map"}
+
+
+def _refuse_dash(args):
+    """``-o -`` is not standard output here (outputs land at exactly the path
+    given): refused rather than written to a file called ``-``."""
+    for dest, option in _OUTPUT_OPTIONS.items():
+        if getattr(args, dest, None) == "-":
+            raise SparseEDMError(f"{option} -: '-' is not standard output here; give "
+                                 f"{option} /dev/stdout to write there, or {option} ./- "
+                                 "for a file named '-'")
 
 
 def _one_line(exc) -> str:
