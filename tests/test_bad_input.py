@@ -561,18 +561,25 @@ def _default_signals():
         signal.signal(s, signal.SIG_DFL)
 
 
+def _interrupted_writer(script, target, sig):
+    """Run a writer `script` on `target`, send `sig` once it prints its temporary
+    path (checked to hold TEMP_MARK), wait for it to end; that path."""
+    with subprocess.Popen([sys.executable, "-c", script, str(target)],
+                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                          preexec_fn=_default_signals) as proc:
+        tmp = Path(proc.stdout.readline().strip())
+        assert os.path.lexists(tmp) and TEMP_MARK in tmp.name
+        proc.send_signal(sig)
+        proc.communicate(timeout=30)
+    assert proc.returncode != 0
+    return tmp
+
+
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT, signal.SIGHUP])
 def test_signals_remove_the_temporary_file(sig, tmp_path):
     target = tmp_path / "out.csv"
     target.write_text("previous")
-    with subprocess.Popen([sys.executable, "-c", _WRITER, str(target)],
-                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                          preexec_fn=_default_signals) as proc:
-        tmp = Path(proc.stdout.readline().strip())
-        assert tmp.is_file() and TEMP_MARK in tmp.name
-        proc.send_signal(sig)
-        proc.communicate(timeout=30)
-    assert proc.returncode != 0
+    assert _interrupted_writer(_WRITER, target, sig).suffix == ".csv"
     assert os.listdir(tmp_path) == ["out.csv"] and target.read_text() == "previous"
 
 
@@ -636,14 +643,7 @@ def test_an_interrupted_folder_output_leaves_nothing_behind(sig, tmp_path):
 
     target = tmp_path / "out"
     write_json_folder(target, [("old.json", {"previous": 1})])
-    with subprocess.Popen([sys.executable, "-c", _FOLDER_WRITER, str(target)],
-                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                          preexec_fn=_default_signals) as proc:
-        tmp = Path(proc.stdout.readline().strip())
-        assert tmp.is_dir() and TEMP_MARK in tmp.name
-        proc.send_signal(sig)
-        proc.communicate(timeout=30)
-    assert proc.returncode != 0
+    tmp = _interrupted_writer(_FOLDER_WRITER, target, sig)
     assert json.loads((target / "old.json").read_text()) == {"previous": 1}  # kept
     if sig == signal.SIGKILL:                     # cannot be caught: the next write
         assert tmp.is_dir()                       # to the same output removes it

@@ -166,14 +166,8 @@ def train_file(tmp_path, vectors):
     return path
 
 
-def test_fit_file_skips_incomplete_and_resume_equals_uninterrupted(train_file, tmp_path,
-                                                                    monkeypatch):
-    kw = dict(n_components=30, alpha=0.05, batch_size=32, n_passes=2, random_state=1,
-              progress=False, checkpoint_every=3)
-    with pytest.warns(UserWarning, match="skipped 1 of 334"):
-        ref = fit_dictionary_file(train_file, tmp_path / "ref.npz", **kw)
-
-    # interrupt the second run after 7 batches, then resume it
+def _interrupted_fit(train_file, out, kw, monkeypatch):
+    """fit_dictionary_file interrupted (Ctrl-C) at its 8th batch: its checkpoint kept."""
     import sparseedm.learning as learning
 
     calls = {"n": 0}
@@ -185,13 +179,24 @@ def test_fit_file_skips_incomplete_and_resume_equals_uninterrupted(train_file, t
             raise KeyboardInterrupt
         return real_step(self, X)
 
-    monkeypatch.setattr(learning.OnlineDictionaryLearning, "_step", flaky)
+    with monkeypatch.context() as m:
+        m.setattr(learning.OnlineDictionaryLearning, "_step", flaky)
+        with pytest.warns(UserWarning), pytest.raises(KeyboardInterrupt):
+            fit_dictionary_file(train_file, out, **kw)
+
+
+def test_fit_file_skips_incomplete_and_resume_equals_uninterrupted(train_file, tmp_path,
+                                                                    monkeypatch):
+    kw = dict(n_components=30, alpha=0.05, batch_size=32, n_passes=2, random_state=1,
+              progress=False, checkpoint_every=3)
+    with pytest.warns(UserWarning, match="skipped 1 of 334"):
+        ref = fit_dictionary_file(train_file, tmp_path / "ref.npz", **kw)
+
+    # interrupt the second run after 7 batches, then resume it
     out = tmp_path / "resumed.npz"
-    with pytest.warns(UserWarning), pytest.raises(KeyboardInterrupt):
-        fit_dictionary_file(train_file, out, **kw)
+    _interrupted_fit(train_file, out, kw, monkeypatch)
     assert not out.exists()
     assert out.with_suffix(".ckpt.npz").is_file()
-    monkeypatch.setattr(learning.OnlineDictionaryLearning, "_step", real_step)
     with pytest.warns(UserWarning):
         resumed = fit_dictionary_file(train_file, out, resume=True, **kw)
     np.testing.assert_array_equal(resumed.components, ref.components)
@@ -202,27 +207,13 @@ def test_resume_refuses_a_checkpoint_of_other_training_poses(train_file, tmp_pat
                                                               monkeypatch):
     """Same settings, same pose count, other poses: continuing would learn half the
     dictionary from one file and say it came from the other."""
-    import sparseedm.learning as learning
-
     kw = dict(n_components=30, alpha=0.05, batch_size=32, n_passes=2, random_state=1,
               progress=False, checkpoint_every=3)
-    real_step = learning.OnlineDictionaryLearning._step
-    calls = {"n": 0}
-
-    def flaky(self, X):
-        calls["n"] += 1
-        if calls["n"] == 8:
-            raise KeyboardInterrupt
-        return real_step(self, X)
-
-    monkeypatch.setattr(learning.OnlineDictionaryLearning, "_step", flaky)
     out = tmp_path / "d.npz"
-    with pytest.warns(UserWarning), pytest.raises(KeyboardInterrupt):
-        fit_dictionary_file(train_file, out, **kw)
+    _interrupted_fit(train_file, out, kw, monkeypatch)
     checkpoint = out.with_suffix(".ckpt.npz")
     with np.load(checkpoint, allow_pickle=False) as ck:  # pickle-free, hash inside
         assert "sha256" in json.loads(str(ck["params"]))
-    monkeypatch.setattr(learning.OnlineDictionaryLearning, "_step", real_step)
     with np.load(train_file, allow_pickle=False) as npz:
         other = npz["poses2d"] * 1.5  # as many poses, other values
     other_file = tmp_path / "other.npz"
