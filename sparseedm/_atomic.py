@@ -374,14 +374,14 @@ def check_folder(path, label="output"):
     ...
     sparseedm.exceptions.OutputPathError: output ... did not write (it holds config.json): ...
     """
-    path = Path(os.path.realpath(path))
+    given, path = path, Path(os.path.realpath(path))
     if os.path.lexists(path) and not path.is_dir():
-        raise OutputPathError(f"{label} {path} is a file; a folder output needs a folder")
+        raise OutputPathError(f"{label} {given} is a file; a folder output needs a folder")
     _parent_ok(path, writable=True)
     if not path.is_dir():
         return
     if not os.access(path, os.W_OK | os.X_OK):
-        raise OutputPathError(f"{label} {path}: the folder is not writable")
+        raise OutputPathError(f"{label} {given}: the folder is not writable")
     written = _marked(path) or set()
     with os.scandir(path) as it:
         strangers = sorted(e.name for e in it if e.name != FOLDER_MARK and (
@@ -390,7 +390,7 @@ def check_folder(path, label="output"):
         named = ", ".join(strangers[:3]) + (", ..." if len(strangers) > 3 else "")
         why = "holds files sparseedm did not write" if written else \
             "is a folder sparseedm did not write"
-        raise OutputPathError(f"{label} {path} {why} (it holds {named}): refusing to "
+        raise OutputPathError(f"{label} {given} {why} (it holds {named}): refusing to "
                               "replace it; give a new or empty folder")
 
 
@@ -444,8 +444,8 @@ def atomic_folder(path, label="output"):
     >>> sorted(os.listdir(out))
     ['.sparseedm-output', '0.json']
     """
-    path = Path(os.path.realpath(path))
     check_folder(path, label)
+    path = Path(os.path.realpath(path))
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         remove_leftovers(path)
