@@ -690,12 +690,13 @@ def _run(source, outputs, recovery, chunk_size, progress, t0):
             filled.flush()
             del filled
         refused = ~np.isin(columns.status, OK_STATUSES)
+        skipped = list(source.meta.get("skipped") or [])
         write_errors(outputs.errors_path, refused, source.ids, columns.status,
-                     fields["reason"])
+                     fields["reason"], skipped)
     summary = recovery_summary(columns.status, columns.recovered_joints, columns.fallback,
                                time.perf_counter() - t0)
     return dict(summary, output=str(out_path), format=out_fmt,
-                errors=str(outputs.errors_path) if refused.any() else None,
+                errors=str(outputs.errors_path) if refused.any() or skipped else None,
                 sidecars=[str(p) for p in sidecars.values()], temporal=temporal_summary)
 
 
@@ -815,8 +816,13 @@ def _json_num(v):
     return None if math.isnan(v) else float(v)
 
 
-def write_errors(path, refused, ids, status, reason):
-    if not refused.any():
+def write_errors(path, refused, ids, status, reason, skipped=()):
+    """The errors file: a row per refused pose (row, id, status, reason), then a
+    row per input file that could not be read at all (`skipped`: (file, why)
+    pairs, e.g. an OpenPose frame file: no row, the file as id, status
+    ``unreadable_file``); removed if an earlier run left one and there is
+    nothing to list."""
+    if not refused.any() and not len(skipped):
         _remove_stale_errors(path)
         return
     with atomic_path(path) as tmp:
@@ -825,6 +831,8 @@ def write_errors(path, refused, ids, status, reason):
             w.writerow(_ERRORS_HEADER)
             for r in np.flatnonzero(refused):
                 w.writerow([int(r), "" if ids is None else ids[r], status[r], reason[r]])
+            for name, why in skipped:
+                w.writerow(["", name, "unreadable_file", why])
 
 
 def _remove_stale_errors(path):

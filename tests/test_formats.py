@@ -701,7 +701,7 @@ def test_cli_lists_skipped_frame_files(tmp_path, capsys, small_dictionary_path):
     (d / "video_000000000009_keypoints.json").write_text('{"people": [')
     code = main(["recover", str(d), "-o", str(tmp_path / "out"), "-q", "--no-adapt",
                  "--dictionary", str(small_dictionary_path)])
-    assert code == 0
+    assert code == 1  # nothing lost silently: the file is listed, the exit code says so
     err = capsys.readouterr().err
     # the warning: one clean line, no Python source line or category
     assert "sparseedm recover: warning: skipped " + \
@@ -710,3 +710,16 @@ def test_cli_lists_skipped_frame_files(tmp_path, capsys, small_dictionary_path):
     assert "skipped " + str(d / "video_000000000009_keypoints.json") + ": invalid or " \
         "truncated JSON" in err
     assert len(list((tmp_path / "out").glob("*.json"))) == 4
+    assert "1 input file(s) unreadable; see" in err
+    errors = (tmp_path / "out.errors.csv").read_text().splitlines()
+    assert errors[0] == "row,id,status,reason" and len(errors) == 2
+    assert errors[1].startswith(",video_000000000009_keypoints.json,unreadable_file,")
+    # lift lists it the same way
+    assert main(["lift", str(d), "-o", str(tmp_path / "p.csv"), "-q", "--no-temporal"]) == 1
+    lines = (tmp_path / "p.errors.csv").read_text().splitlines()
+    assert lines[-1].startswith(",video_000000000009_keypoints.json,unreadable_file,")
+    # and a clean rerun removes the stale errors file
+    (d / "video_000000000009_keypoints.json").unlink()
+    assert main(["recover", str(d), "-o", str(tmp_path / "out"), "-q", "--no-adapt",
+                 "--dictionary", str(small_dictionary_path)]) == 0
+    assert not (tmp_path / "out.errors.csv").exists()

@@ -26,6 +26,19 @@ def add_adaptation_rounds(parser, self_training_help, ensemble_help):
     parser.add_argument("--ensemble", type=int, default=1, metavar="K", help=ensemble_help)
 
 
+def refusals_said(command, summary) -> int:
+    """The exit code of a run that wrote its outputs (1 when some rows were
+    refused or some input files could not be read, else 0), said on stderr."""
+    refused, skipped = summary["refused"], len(summary.get("skipped_files") or [])
+    if not refused and not skipped:
+        return 0
+    what = [f"{refused} row(s) refused"] if refused else []
+    what += [f"{skipped} input file(s) unreadable"] if skipped else []
+    print(f"sparseedm {command}: {' and '.join(what)}; see {summary['errors']}",
+          file=sys.stderr)
+    return 1
+
+
 def show_progress(args) -> bool:
     """Progress bars only for a person watching a terminal."""
     return not getattr(args, "quiet", False) and sys.stderr.isatty()

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import sys
 
-from ._common import add_joint_map, add_quiet
+from ._common import add_joint_map, add_quiet, refusals_said
 
 
 def add_parser(sub):
@@ -80,8 +80,4 @@ def run(args):
           f"time: {s['seconds']:.2f} s  ({rate})\nstatus: {counts}", file=out)
     if s.get("plot"):
         print(f"figure: {s['plot']}", file=out)
-    if s["refused"]:
-        print(f"sparseedm lift: {s['refused']} row(s) refused; see {s['errors']}",
-              file=sys.stderr)
-        return 1
-    return 0
+    return refusals_said("lift", s)

@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import sys
 
-from ._common import add_adaptation_rounds, add_joint_map, add_quiet, show_progress
+from ._common import (add_adaptation_rounds, add_joint_map, add_quiet, refusals_said,
+                      show_progress)
 
 
 def add_parser(sub):
@@ -154,11 +155,7 @@ def run(args):
               f"({t['segments']} track segment(s), {t['per_frame_poses']} per-frame answers)"
               f"{_alone_note(t)}; --no-temporal turns it off", file=sys.stderr)
     print(format_summary(summary), file=out)
-    if summary["refused"]:
-        print(f"sparseedm recover: {summary['refused']} row(s) refused; see {summary['errors']}",
-              file=sys.stderr)
-        return 1
-    return 0
+    return refusals_said("recover", summary)
 
 
 def _alone_note(temporal) -> str:

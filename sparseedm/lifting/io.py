@@ -236,9 +236,11 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
     write_poses3d(output, result, kps.ids, output_format, rate=rate, tracks=tracks,
                   frames=kps.frames)
     refused = ~result.ok
-    write_errors(errors, refused, kps.ids, result.status, result.reason)
+    skipped = list((kps.meta or {}).get("skipped") or [])
+    write_errors(errors, refused, kps.ids, result.status, result.reason, skipped)
     summary = result.summary()
-    summary.update(output=str(output), errors=str(errors) if refused.any() else None,
+    summary.update(output=str(output), skipped_files=skipped,
+                   errors=str(errors) if refused.any() or skipped else None,
                    temporal=in_time,
                    plot=str(_plot(plot, result, kps.ids)) if plot is not None else None)
     return summary
