@@ -305,3 +305,27 @@ def test_lift_says_who_is_who_when_it_links_people(track):
     pairs = set(zip(res.linked_tracks.tolist(), person[order].tolist()))
     assert len(pairs) == 2  # each linked track is one person
     assert sparseedm.lift(poses, tracks=person[order], frames=frames[order]).linked_tracks is None
+
+
+def test_lift_file_takes_the_2d_fill_settings_recover_takes(tmp_path):
+    """sparseedm lift --no-adapt / --dictionary / --self-training: the 2D
+    dictionary that fills a video's joints first, as lift(fill_adapt=False)
+    with it; refused where nothing is filled (no time) or contradictory."""
+    from sparseedm.lifting import io as lift_io
+
+    src = EXAMPLES / "video_clip.csv"
+    kps = read_keypoints(src)
+    lift_io.lift_file(src, tmp_path / "a.npz", adapt=False, dictionary="cmu-k2000")
+    api = sparseedm.lift(kps.poses, kps.missing, tracks=kps.tracks, frames=kps.frames,
+                         dictionary="cmu-k2000", fill_adapt=False)
+    with np.load(tmp_path / "a.npz") as z:
+        np.testing.assert_allclose(z["poses3d"], api.poses3d, rtol=0, atol=1e-9)
+    with pytest.raises(SparseEDMError, match="only fills a video"):
+        lift_io.lift_file(src, tmp_path / "b.npz", adapt=False, temporal=False)
+    with pytest.raises(SparseEDMError, match="needs adaptation"):
+        lift_io.lift_file(src, tmp_path / "b.npz", adapt=False, self_training=1)
+    assert not (tmp_path / "b.npz").exists()
+    with pytest.raises(SystemExit) as exc:  # argparse: mutually exclusive
+        main(["lift", str(src), "-o", str(tmp_path / "c.csv"), "--no-adapt",
+              "--self-training", "2"])
+    assert exc.value.code == 2

@@ -52,6 +52,16 @@ def add_parser(sub):
                    "joints filled across time first, each person's depth reflections "
                    "chosen together)")
     add_joint_map(p)
+    p.add_argument("--dictionary", default=None, metavar="NAME|PATH",
+                   help="with frames: the 2D dictionary that fills missing joints across "
+                   "time before lifting (default: the shipped default, as recover's)")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--no-adapt", action="store_true",
+                   help="with frames: do not adapt that 2D dictionary to INPUT (faster; by "
+                   "default it is adapted and guarded as recover adapts)")
+    g.add_argument("--self-training", type=int, default=None, metavar="ROUNDS",
+                   help="with frames: rounds of self-training after adapting (default 3; "
+                   "0 turns it off, the fast preset)")
     p.add_argument("--chunk-size", type=int, default=50_000, metavar="N",
                    help="poses lifted at a time (whole tracks at a time with frames, a "
                    "longer track in windows); "
@@ -69,7 +79,8 @@ def run(args):
                   confidence_threshold=args.confidence_threshold,
                   representation=args.representation, rate=args.rate, plot=args.plot,
                   temporal=not args.no_temporal, chunk_size=args.chunk_size,
-                  joint_map=args.joint_map)
+                  joint_map=args.joint_map, dictionary=args.dictionary,
+                  adapt=not args.no_adapt, self_training=args.self_training)
     out = sys.stderr if args.quiet or is_stream(args.output) else sys.stdout  # -o /dev/stdout
     rate = f"{s['poses_per_second']:,.0f} poses/s" if s["poses_per_second"] else "-"
     counts = ", ".join(f"{k} {v}" for k, v in s["status"].items()) or "none"

@@ -48,6 +48,7 @@ from __future__ import annotations
 import csv
 import json
 import os
+from numbers import Integral
 from pathlib import Path
 
 import numpy as np
@@ -55,10 +56,10 @@ import numpy as np
 from .. import _progress
 from .._atomic import atomic_path, check_paths, save_npz
 from .._extras import require as require_extra
-from .._validation import N_JOBS, validate_params
+from .._validation import BOOLEAN, N_JOBS, Interval, validate_params
 from ..batch import write_errors, default_errors_path
 from ..dictionary import load_dictionary
-from ..exceptions import FileFormatError, SparseEDMError
+from ..exceptions import FileFormatError, ParameterError, SparseEDMError
 from ..formats.deeplabcut import check_h5_extra
 from ..keypoints import read_keypoints
 from ..skeleton import JOINT_NAMES
@@ -192,7 +193,8 @@ def write_poses3d(path, result, ids=None, output_format=None, rate=30.0, *, trac
 
 def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, errors_path=None,
               confidence_threshold=None, representation="average", rate=30.0, plot=None,
-              temporal=True, chunk_size=50_000, joint_map=None):
+              temporal=True, chunk_size=50_000, joint_map=None, dictionary=None, adapt=True,
+              self_training=None):
     """Read 2D keypoints, lift them, write 3D poses and an errors file; return a summary.
 
     `confidence_threshold`: joints scored below it are missing; default the
@@ -206,6 +208,12 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
     (`temporal` and the input has frames). `chunk_size` rows (whole tracks
     with time) are lifted at a time. `joint_map`: a DeepLabCut input's JSON
     naming the body part of each joint (as ``sparseedm recover --joint-map``).
+    `dictionary`, `adapt` and `self_training` are the 2D dictionary that fills
+    a video's missing joints across time first (a shipped name, a path or a
+    Dictionary; default the shipped default), whether it is adapted to the
+    input (as ``sparseedm recover`` adapts) and its self-training rounds; they
+    apply only when time is used (an input with frames), and are refused
+    otherwise, after reading the input and before any work.
     """
     validate_params("lift_file", dict(n_jobs=n_jobs), {"n_jobs": N_JOBS})  # before adapting
     errors = Path(errors_path) if errors_path else default_errors_path(output)
@@ -224,14 +232,18 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
         inputs.append(("lifter", lifter))  # whatever its name: a file the run reads
     if joint_map is not None:
         inputs.append(("joint map", joint_map))
+    if isinstance(dictionary, (str, os.PathLike)) and (Path(dictionary).suffix == ".npz"
+                                                        or os.path.lexists(dictionary)):
+        inputs.append(("dictionary", dictionary))
     check_paths(inputs, [("output", output), ("errors file", errors), ("plot", plot)])
     kps = read_keypoints(input, confidence_threshold=confidence_threshold, joint_map=joint_map)
     _one_person(kps, input, output, _output_format(output, output_format))
     in_time = bool(temporal) and has_time(kps.frames)  # (no poses: no time)
+    fill = _fill_options(in_time, dictionary, adapt, self_training)
     _progress.say(f"lifting {len(kps.poses):,} poses to 3D"
                   + (" across time (the input has frames: missing 2D joints filled across "
                      "time first; --no-temporal lifts each row alone)" if in_time else ""))
-    result, tracks = _lift_chunks(kps, in_time, chunk_size, lifter=load_lifter(lifter),
+    result, tracks = _lift_chunks(kps, in_time, chunk_size, fill, lifter=load_lifter(lifter),
                                   n_jobs=n_jobs, representation=representation)
     write_poses3d(output, result, kps.ids, output_format, rate=rate, tracks=tracks,
                   frames=kps.frames)
@@ -246,7 +258,26 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
     return summary
 
 
-def _lift_chunks(kps, in_time, chunk_size, **kw):
+def _fill_options(in_time, dictionary, adapt, self_training):
+    """The 2D fill's settings (dictionary loaded, adapt, self_training), checked:
+    given without time (where nothing is filled) or contradictory, refused."""
+    validate_params("lift_file", dict(adapt=adapt, self_training=self_training),
+                    {"adapt": BOOLEAN, "self_training": [Interval(Integral, 0, None), None]})
+    given = [name for name, v in (("dictionary (--dictionary)", dictionary),
+                                  ("self_training (--self-training)", self_training))
+             if v is not None] + ([] if adapt else ["adapt=False (--no-adapt)"])
+    if given and not in_time:
+        raise ParameterError(f"{', '.join(given)}: the 2D dictionary only fills a video's "
+                             "missing joints across time, and this input is lifted row by "
+                             "row (no frames, or --no-temporal)")
+    if not adapt and self_training is not None:
+        raise ParameterError("self_training (--self-training) needs adaptation: it cannot "
+                             "go with adapt=False (--no-adapt)")
+    return dict(dictionary=load_dictionary(dictionary) if in_time else None, adapt=adapt,
+                self_training=self_training)
+
+
+def _lift_chunks(kps, in_time, chunk_size, fill, **kw):
     """:func:`lift` over a file's rows, `chunk_size` at a time; the whole LiftResult
     and the tracks (linked ones when the input had none and needed them).
 
@@ -260,9 +291,11 @@ def _lift_chunks(kps, in_time, chunk_size, **kw):
     else:
         linked = linked_tracks(kps.poses, kps.missing, tracks, kps.frames)
         tracks = tracks if linked is None else linked
-        members, _ = adapt_in_time(load_dictionary(None), kps.poses, kps.missing,
-                                   tracks=tracks, frames=kps.frames, n_jobs=kw["n_jobs"])
-        kw.update(dictionary=members[0], fill_adapt=False)
+        base = fill["dictionary"]
+        if fill["adapt"]:
+            base = adapt_in_time(base, kps.poses, kps.missing, tracks=tracks, frames=kps.frames,
+                                 n_jobs=kw["n_jobs"], self_training=fill["self_training"])[0][0]
+        kw.update(dictionary=base, fill_adapt=False)
         bounds = [(slice(*b) if isinstance(b, tuple) else b, keep)
                   for b, keep in track_windows(tracks, kps.frames, n, chunk_size)]
     if len(bounds) > 1:
