@@ -56,9 +56,11 @@ def test_lift_writes_a_trc_that_parses_back(fixtures_dir, tmp_path, capsys):
     assert (up[:, head] > up[:, ankle]).mean() > 0.9
 
 
-def test_lift_refuses_a_bad_rate_before_any_work(tmp_path, capsys):
-    assert main(["lift", "missing.csv", "-o", str(tmp_path / "p.trc"), "--rate", "0"]) == 2
-    assert "frame rate must be > 0" in capsys.readouterr().err
+@pytest.mark.parametrize("rate", ["0", "inf", "nan", "-3"])
+def test_lift_refuses_a_bad_rate_before_any_work(tmp_path, capsys, rate):
+    # inf wrote a .trc whose times were all 0
+    assert main(["lift", "missing.csv", "-o", str(tmp_path / "p.trc"), "--rate", rate]) == 2
+    assert "frame rate must be a finite number > 0" in capsys.readouterr().err
 
 
 def test_lift_plot(fixtures_dir, tmp_path, capsys):

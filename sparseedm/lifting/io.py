@@ -218,8 +218,8 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
     validate_params("lift_file", dict(n_jobs=n_jobs), {"n_jobs": N_JOBS})  # before adapting
     errors = Path(errors_path) if errors_path else default_errors_path(output)
     _output_format(output, output_format)
-    if not float(rate) > 0:
-        raise SparseEDMError(f"the .trc frame rate must be > 0, got {rate}")
+    if not 0 < float(rate) < np.inf:  # inf: every .trc time would be 0
+        raise SparseEDMError(f"the .trc frame rate must be a finite number > 0, got {rate}")
     if isinstance(chunk_size, bool) or not isinstance(chunk_size, (int, np.integer)) \
             or chunk_size < 1:
         raise SparseEDMError(f"chunk_size must be a positive integer, got {chunk_size!r}")
