@@ -103,6 +103,8 @@ _PARAMS = {
 
 def check_methods(methods):
     methods = tuple(methods)
+    if not methods:
+        raise SparseEDMError("no method to evaluate (the list of methods is empty)")
     known = METHODS + OPTIONAL_METHODS
     unknown = [m for m in methods if m not in known]
     if unknown:
@@ -566,6 +568,9 @@ def _available_methods(methods, train_poses2d, fconv_models, n_joints):
             notes.append(f"fconv {rep}: trained on {t.get('n_train', '?')} poses, "
                          f"{t.get('epochs', '?')} epochs, "
                          f"{'with' if model.symmetrize else 'without'} symmetrisation")
+    if not methods:  # an empty report would say nothing, with exit code 0
+        raise SparseEDMError("nothing to evaluate: " + "; ".join(n for n in notes
+                                                                if "skipped" in n))
     return methods, fconv, notes
 
 

@@ -149,6 +149,19 @@ def test_baselines_without_train_are_skipped(split):
     assert any("per-action" in n for n in rep.notes)
 
 
+@pytest.mark.parametrize("methods, why", [(("knn",), "skipped knn"),
+                                          (("knn", "nearest"), "they need --train"),
+                                          ((), "list of methods is empty")])
+def test_nothing_to_evaluate_is_refused_not_an_empty_report(split, methods, why):
+    """A hostile run: --methods knn without --train (or an empty list) exited 0
+    with an empty report; refused before any work, saying why."""
+    from sparseedm.exceptions import SparseEDMError
+
+    with pytest.raises(SparseEDMError, match=why):
+        evaluate(split["dictionary"], split["test"][:10], methods=methods, counts=(1,),
+                 representations=("average",))
+
+
 def test_test_poses_recover_refuses_are_left_out(split):
     """The test set keeps the poses normalize.usable_rows keeps (issue 22's one
     rule): a pose whose extent overflows float64 is left out with a note, as a
