@@ -56,7 +56,7 @@ import numpy as np
 from .. import _progress
 from .._atomic import atomic_path, check_paths, save_npz
 from .._extras import require as require_extra
-from .._validation import BOOLEAN, N_JOBS, Interval, validate_params
+from .._validation import BOOLEAN, CHUNK_SIZE, N_JOBS, Interval, validate_params
 from ..batch import write_errors, default_errors_path
 from ..dictionary import load_dictionary
 from ..exceptions import FileFormatError, ParameterError, SparseEDMError
@@ -215,26 +215,18 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
     apply only when time is used (an input with frames), and are refused
     otherwise, after reading the input and before any work.
     """
-    validate_params("lift_file", dict(n_jobs=n_jobs), {"n_jobs": N_JOBS})  # before adapting
+    validate_params("lift_file", dict(n_jobs=n_jobs, chunk_size=chunk_size, adapt=adapt,
+                                      self_training=self_training), _PARAMS)  # before adapting
     errors = Path(errors_path) if errors_path else default_errors_path(output)
     _output_format(output, output_format)
     if not 0 < float(rate) < np.inf:  # inf: every .trc time would be 0
         raise SparseEDMError(f"the .trc frame rate must be a finite number > 0, got {rate}")
-    if isinstance(chunk_size, bool) or not isinstance(chunk_size, (int, np.integer)) \
-            or chunk_size < 1:
-        raise SparseEDMError(f"chunk_size must be a positive integer, got {chunk_size!r}")
     if plot is not None:
         require_extra("plot", "--plot")
     check_h5_extra(input)
-    inputs = [("input", input)]
-    if isinstance(lifter, (str, os.PathLike)) and (Path(lifter).suffix == ".npz"
-                                                    or os.path.lexists(lifter)):
-        inputs.append(("lifter", lifter))  # whatever its name: a file the run reads
-    if joint_map is not None:
-        inputs.append(("joint map", joint_map))
-    if isinstance(dictionary, (str, os.PathLike)) and (Path(dictionary).suffix == ".npz"
-                                                        or os.path.lexists(dictionary)):
-        inputs.append(("dictionary", dictionary))
+    inputs = [("input", input)] + [(what, v) for what, v in (
+        ("lifter", lifter), ("joint map", joint_map), ("dictionary", dictionary))
+        if v is not None and (what == "joint map" or _names_a_file(v))]
     check_paths(inputs, [("output", output), ("errors file", errors), ("plot", plot)])
     kps = read_keypoints(input, confidence_threshold=confidence_threshold, joint_map=joint_map)
     _one_person(kps, input, output, _output_format(output, output_format))
@@ -258,11 +250,21 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
     return summary
 
 
+#: constraints of lift_file()'s arguments (see sparseedm._validation)
+_PARAMS = {"n_jobs": N_JOBS, "chunk_size": CHUNK_SIZE, "adapt": BOOLEAN,
+           "self_training": [Interval(Integral, 0, None), None]}
+
+
+def _names_a_file(value):
+    """Whether a lifter or dictionary argument names a file the run reads (a
+    path, or any name ending in .npz), not a shipped name or a loaded object."""
+    return isinstance(value, (str, os.PathLike)) and (
+        Path(value).suffix == ".npz" or os.path.lexists(value))
+
+
 def _fill_options(in_time, dictionary, adapt, self_training):
     """The 2D fill's settings (dictionary loaded, adapt, self_training), checked:
     given without time (where nothing is filled) or contradictory, refused."""
-    validate_params("lift_file", dict(adapt=adapt, self_training=self_training),
-                    {"adapt": BOOLEAN, "self_training": [Interval(Integral, 0, None), None]})
     given = [name for name, v in (("dictionary (--dictionary)", dictionary),
                                   ("self_training (--self-training)", self_training))
              if v is not None] + ([] if adapt else ["adapt=False (--no-adapt)"])
