@@ -333,6 +333,12 @@ def check_paths(inputs=(), outputs=()):
             raise OutputPathError(f"{label} {exc}") from None
 
 
+def _temp_prefix(path: Path) -> str:
+    """The start of every temporary's name beside `path` (what :data:`_LEFTOVER`
+    and :func:`remove_leftovers` recognise)."""
+    return f".{_temp_stem(path.name)}{TEMP_MARK}{os.getpid()}-"
+
+
 def _marked(path: Path):
     """The names a folder's :data:`FOLDER_MARK` lists (what sparseedm wrote there),
     or None without a readable mark."""
@@ -341,7 +347,7 @@ def _marked(path: Path):
         if not mark.is_file() or mark.stat().st_size > _MARK_MAX_BYTES:
             return None
         doc = json.loads(mark.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+    except (OSError, ValueError, RecursionError):  # RecursionError: a deeply nested mark
         return None
     files = doc.get("files") if isinstance(doc, dict) else None
     if not isinstance(files, list) or not all(isinstance(f, str) for f in files):
@@ -415,7 +421,7 @@ def _swap_in(tmp, path: Path):
     if not os.path.lexists(path):
         os.replace(tmp, path)
     elif not _exchange(tmp, path):
-        old = tempfile.mkdtemp(prefix=f".{_temp_stem(path.name)}{TEMP_MARK}{os.getpid()}-",
+        old = tempfile.mkdtemp(prefix=_temp_prefix(path),
                                dir=path.parent)
         os.rmdir(old)
         os.replace(path, old)
@@ -449,7 +455,7 @@ def atomic_folder(path, label="output"):
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         remove_leftovers(path)
-        tmp = tempfile.mkdtemp(prefix=f".{_temp_stem(path.name)}{TEMP_MARK}{os.getpid()}-",
+        tmp = tempfile.mkdtemp(prefix=_temp_prefix(path),
                                dir=path.parent)
     except OSError as exc:
         raise OutputPathError(f"{path}: cannot write beside it ({exc.strerror})") from None
@@ -499,7 +505,7 @@ def atomic_path(path, suffix=None):
     remove_leftovers(path)
     try:
         fd, tmp = tempfile.mkstemp(
-            prefix=f".{_temp_stem(path.name)}{TEMP_MARK}{os.getpid()}-",
+            prefix=_temp_prefix(path),
             suffix=_temp_suffix(path, suffix), dir=path.parent,
         )
     except OSError as exc:

@@ -569,8 +569,7 @@ def _available_methods(methods, train_poses2d, fconv_models, n_joints):
                          f"{t.get('epochs', '?')} epochs, "
                          f"{'with' if model.symmetrize else 'without'} symmetrisation")
     if not methods:  # an empty report would say nothing, with exit code 0
-        raise SparseEDMError("nothing to evaluate: " + "; ".join(n for n in notes
-                                                                if "skipped" in n))
+        raise SparseEDMError("nothing to evaluate: " + "; ".join(notes))
     return methods, fconv, notes
 
 

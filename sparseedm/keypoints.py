@@ -179,6 +179,7 @@ from . import formats
 from ._validation import SCORE, Interval, check_poses, validate_params
 from .exceptions import FileFormatError, ParameterError, PoseError
 from .formats import posetrack
+from .formats.deeplabcut import H5_SUFFIXES
 from .formats._base import csv_cells, track_value
 from .skeleton import JOINT_NAMES, SKELETON_14
 
@@ -199,11 +200,11 @@ FORMATS = ("npz", "npy", "csv", "coco") + formats.FORMATS
 RESULT_FIELDS = ("status", "reason", "objective", "gap", "n_active", "edm_vectors",
                  "center", "scale")
 EXTENSIONS = {".npz": "npz", ".npy": "npy", ".csv": "csv", ".json": "coco"}
-_H5 = formats.deeplabcut.H5_SUFFIXES
 #: CSV column suffixes of the joint columns
 _SUFFIXES = ("x", "y", "conf", "filled")
 #: other suffixes detectors and tools give a joint's confidence column, read as ``_conf``
 CONF_SYNONYMS = ("score", "confidence", "likelihood")
+_CONF_SUFFIXES = ("conf",) + CONF_SYNONYMS
 
 N_JOINTS = SKELETON_14.num_joints
 
@@ -342,10 +343,10 @@ def output_format(path, format=None, read_format=None):
     if format is not None:
         return format_of(path, format)
     ext = path.suffix.lower()
-    suits = {"openpose": ("", ".json"), "mmpose": (".json",), "dlc": (".csv",) + _H5}
+    suits = {"openpose": ("", ".json"), "mmpose": (".json",), "dlc": (".csv",) + H5_SUFFIXES}
     if ext in suits.get(read_format, ()):
         return read_format
-    if ext in _H5:
+    if ext in H5_SUFFIXES:
         return "dlc"
     if ext not in EXTENSIONS:
         raise FileFormatError(
@@ -812,7 +813,7 @@ def _csv_columns(header, path):
             out["id"] = c
             continue
         stem, _, suffix = name.rpartition("_")
-        if stem in JOINT_NAMES and suffix in CONF_SYNONYMS:  # left_wrist_score: a conf
+        if stem in JOINT_NAMES and suffix in _CONF_SUFFIXES:  # left_wrist_score: a conf
             conf_suffixes.add(suffix)
             conf[JOINT_NAMES.index(stem)] = c
         elif stem and suffix in _SUFFIXES:
@@ -822,10 +823,7 @@ def _csv_columns(header, path):
                     f"{stem!r}; joints: {', '.join(JOINT_NAMES)}"
                 )
             j = JOINT_NAMES.index(stem)
-            if suffix == "conf":
-                conf_suffixes.add(suffix)
-                conf[j] = c
-            elif suffix == "filled":
+            if suffix == "filled":
                 filled[j] = c
             else:
                 xy[(j, "xy".index(suffix))] = c

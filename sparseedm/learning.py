@@ -529,10 +529,11 @@ def _load_checkpoint(path, est, params):
     try:
         ck, _ = load_npz(path, ("components", "A", "B", "n_steps", "objective", "params"))
         saved = json.loads(str(ck["params"]))
-        if not isinstance(saved, dict) or saved.get("sha256") != params["sha256"]:
+        sha = saved.get("sha256") if isinstance(saved, dict) else None
+        if sha != params["sha256"]:
             raise SparseEDMError(
                 f"{path}: checkpoint was made on other training poses (sha256 "
-                f"{str(saved.get('sha256') if isinstance(saved, dict) else None)[:12]}..., "
+                f"{str(sha)[:12]}..., "
                 f"this file's {params['sha256'][:12]}...); rerun without --resume")
         if saved != json.loads(json.dumps(params)):
             raise SparseEDMError(

@@ -65,7 +65,6 @@ FILLED_SCORE = 0.0
 _SNIFF_BYTES = 1 << 20
 _OPENPOSE = re.compile(rb'"people"\s*:\s*\[')
 _MMPOSE = re.compile(rb'"instance_info"\s*:|"instances"\s*:\s*\[|"keypoints"\s*:\s*\[\s*\[')
-_H5 = deeplabcut.H5_SUFFIXES
 
 
 def default_threshold(fmt):
@@ -115,7 +114,7 @@ def detect(path):
     if path.is_dir():
         return "openpose"
     ext = path.suffix.lower()
-    if ext in _H5:
+    if ext in deeplabcut.H5_SUFFIXES:
         return "dlc"
     if ext not in (".csv", ".json") or not path.is_file():
         return None

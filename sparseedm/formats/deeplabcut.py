@@ -79,6 +79,8 @@ H5_WORK = "reading/writing DeepLabCut .h5 files"
 H5_SUFFIXES = (".h5", ".hdf5", ".hdf")
 _HDF5_MAGIC = b"\x89HDF\r\n\x1a\n"
 _COORDS = ("x", "y", "likelihood", "filled")
+#: the shoulders, whose midpoint is the neck when a map leaves the neck out
+_LS, _RS = JOINT_NAMES.index("left_shoulder"), JOINT_NAMES.index("right_shoulder")
 #: largest table read (cells), checked before pandas loads it
 MAX_CELLS = 200_000_000
 
@@ -159,7 +161,7 @@ def _check_map(mapping, path, wrapped):
                                   "each joint needs its own body part")
         owner.setdefault(part, j)
     given = [JOINT_NAMES[j] for j, part in mapping.items() if part is not None]
-    if mapping[NECK] is None and {"left_shoulder", "right_shoulder"} <= set(given):
+    if _neck_from_map(mapping):
         given.append("neck")  # the shoulders' midpoint
     if len(given) < MIN_OBSERVED_JOINTS:
         raise FileFormatError(
@@ -358,11 +360,15 @@ def _likelihood(column, path, index, part):
     return column
 
 
+def _neck_from_map(mapping):
+    """Whether the map leaves the neck out and gives both shoulders: the neck is
+    then their midpoint (:func:`_neck_from_shoulders`)."""
+    return mapping[NECK] is None and mapping[_LS] is not None and mapping[_RS] is not None
+
+
 def _neck_from_shoulders(poses, present, conf, mapping):
-    if mapping[NECK] is not None:
-        return
-    ls, rs = JOINT_NAMES.index("left_shoulder"), JOINT_NAMES.index("right_shoulder")
-    if mapping[ls] is None or mapping[rs] is None:
+    ls, rs = _LS, _RS
+    if not _neck_from_map(mapping):
         return
     both = present[:, ls] & present[:, rs]
     poses[:, NECK] = (poses[:, ls] + poses[:, rs]) / 2
