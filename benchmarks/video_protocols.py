@@ -163,6 +163,7 @@ def run(args):
                                         "seconds": report.seconds, "rows": report.rows})
     results["machine"]["load_end"] = os.getloadavg()
     print("\n" + summary(results))
+    print("\n" + intervals(results))
     if args.output:
         Path(args.output).write_text(json.dumps(results, indent=1) + "\n")
         print(f"wrote {args.output}")
@@ -203,7 +204,7 @@ def summary(results, end="all"):
                 cells = []
                 for g in groups:
                     vals = []
-                    for split in args.splits:
+                    for split in ("validation", "test"):
                         x = next(x for x in pair[split]["rows"]
                                  if (x["method"], x["group"], x["end"]) == (m, g, end))
                         vals.append("–" if x["scored"] == 0 else f"{x['error']:.2f}")
@@ -216,6 +217,40 @@ def summary(results, end="all"):
                 counts.append(" / ".join(f"{x['scored']}" for x in n))
             out.append("| scored joint-frames | " + " | ".join(counts) + " |")
             out.append("")
+    return "\n".join(out)
+
+
+#: the gap fillers the goals are stated against (issue 23)
+PEERS = ("linear", "cubic", "akima", "pca")
+
+
+def intervals(results, method="temporal", peers=PEERS, level=0.9):
+    """Markdown tables, one per protocol: `method`'s error over the best of
+    `peers` per run and group, with its bootstrap interval over the
+    sequences (sparseedm.temporal.evaluation.ratio_interval)."""
+    from sparseedm.temporal.evaluation import ratio_interval
+
+    out = [f"{method} / best of {', '.join(peers)}: ratio [{level:.0%} interval, clips "
+           "resampled] (clips scored)"]
+    for protocol in ("gaps", "self-occlusion"):
+        runs = [r for r in results["runs"] if r["protocol"] == protocol
+                and method in {x["method"] for x in r["rows"]}
+                and "sequence_sums" in r["rows"][0]]
+        if not runs:
+            continue
+        groups = list(dict.fromkeys(x["group"] for x in runs[0]["rows"]))
+        out += ["", "| run | " + " | ".join(groups) + " |", "|---|" + "---|" * len(groups)]
+        for run in runs:
+            names = {x["method"] for x in run["rows"]}
+            cells = []
+            for g in groups:
+                r = ratio_interval(run["rows"], method, [p for p in peers if p in names], g,
+                                   level=level)
+                cells.append("–" if not r["sequences"] else
+                             f"{r['ratio']:.2f} [{r['low']:.2f}, {r['high']:.2f}] "
+                             f"({r['sequences']})")
+            out.append(f"| {run['source']} {run['split']} {protocol} | "
+                       + " | ".join(cells) + " |")
     return "\n".join(out)
 
 
@@ -244,6 +279,7 @@ def main(argv=None):
         results = merge([json.loads(Path(f).read_text()) for f in args.summary])
         print(summary(results))
         print(summary(results, end="end"))
+        print(intervals(results))
         return 0
     if not DATA.is_dir():
         sys.exit(f"needs the real motion capture in {DATA}")

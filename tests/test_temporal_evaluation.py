@@ -8,7 +8,8 @@ import pytest
 
 from sparseedm.cameras import sample_cameras
 from sparseedm.exceptions import ParameterError
-from sparseedm.temporal.evaluation import evaluate_video, plot_fill, protocol_masks
+from sparseedm.temporal.evaluation import (evaluate_video, plot_fill, protocol_masks,
+                                             ratio_interval)
 from sparseedm.temporal.fillers import fill_linear
 from sparseedm.temporal.protocols import GAP_LENGTHS
 from sparseedm.temporal.sequences import Sequence
@@ -73,6 +74,81 @@ def test_the_table_by_hand():
     assert row("linear", "6-15")["error"] == pytest.approx(40.0)
     assert row("linear", "overall")["error"] == pytest.approx((30 + 280) / 11)
     assert report.settings["hidden_fraction"] == pytest.approx(11 / 140)
+
+
+def shifted(name, dx):
+    """A sequence like walker() moved by dx in x, under another clip id."""
+    w = walker()
+    return Sequence(name, w.frames, w.poses2d + [dx, 0.0], w.poses3d, sample_cameras(1))
+
+
+def scaled_offset(factors):
+    """offset()'s error times factors[i] on the sequence shifted by 1000 i px
+    (told by its head top, which hand_protocol never hides)."""
+    def fill(poses, missing, frames):
+        clip = int(round(np.nanmin(poses[:, 0, 0]) / 1000))
+        truth = walker().poses2d + [1000.0 * clip, 0.0]
+        shift = np.where((np.asarray(frames) % 2 == 0)[:, None], [3.0, 4.0], [0.0, 10.0])
+        return np.where(missing[..., None], truth + factors[clip] * shift[:, None, :], poses)
+    return fill
+
+
+def test_per_sequence_sums_pool_to_the_row():
+    seqs = [shifted("a", 0.0), shifted("b", 1000.0), shifted("c", 2000.0)]
+    report = evaluate_video(seqs, {"m": scaled_offset([1, 2, 4])},
+                            hand_protocol)
+    for r in report.rows:
+        assert len(r["sequence_sums"]) == len(r["sequence_counts"]) == 3
+        assert sum(r["sequence_counts"]) == r["scored"]
+        if r["scored"]:
+            assert sum(r["sequence_sums"]) / r["scored"] == pytest.approx(r["error"])
+    row = report.row("m", "overall")
+    assert row["sequence_counts"] == [11, 11, 11]
+    assert row["sequence_sums"] == pytest.approx([85.0, 170.0, 340.0])
+
+
+def test_ratio_interval_resamples_sequences():
+    seqs = [shifted("a", 0.0), shifted("b", 1000.0), shifted("c", 2000.0)]
+    half = scaled_offset([0.5, 0.5, 0.5])
+    peer = scaled_offset([1, 1, 1])
+    mixed = scaled_offset([0.25, 1, 2])
+    other = scaled_offset([4, 4, 0.1])  # worse pooled, better on the third clip
+    report = evaluate_video(seqs, {"half": half, "peer": peer, "mixed": mixed, "other": other},
+                            hand_protocol)
+    # the same ratio on every sequence: no spread
+    r = report.ratio_interval("half", ["peer"], "overall")
+    assert r["ratio"] == pytest.approx(0.5) and r["best"] == "peer" and r["sequences"] == 3
+    assert r["low"] == pytest.approx(0.5) and r["high"] == pytest.approx(0.5)
+    # ratios 0.25, 1, 2 on the three clips: pooled 3.25 / 3, and a wide interval
+    r = ratio_interval(report.rows, "mixed", ["peer"], "overall", level=0.9)
+    assert r["ratio"] == pytest.approx(3.25 / 3)
+    assert r["low"] < 0.6 and r["high"] > 1.6 and r["low"] <= r["ratio"] <= r["high"]
+    # the best peer is taken anew in each resample: "other" wins the resamples
+    # of the third clip alone (1 in 27), so the interval reaches above "peer"'s alone
+    alone = ratio_interval(report.rows, "mixed", ["peer"], "overall", level=0.99)
+    both = ratio_interval(report.rows, "mixed", ["peer", "other"], "overall", level=0.99)
+    assert both["best"] == "peer" and both["ratio"] == pytest.approx(r["ratio"])
+    assert alone["high"] == pytest.approx(2.0) and both["high"] == pytest.approx(20.0)
+    assert both["low"] >= alone["low"]
+    # seeded: the same interval twice
+    assert ratio_interval(report.rows, "mixed", ["peer"], "overall") == r
+    # a group with no scored joint-frames
+    empty = report.ratio_interval("mixed", ["peer"], "16-45")
+    assert empty["sequences"] == 0 and np.isnan(empty["ratio"]) and empty["best"] is None
+
+
+def test_ratio_interval_refusals():
+    report = evaluate_video([walker()], {"offset": offset, "linear": fill_linear},
+                            hand_protocol)
+    with pytest.raises(ParameterError, match="level"):
+        report.ratio_interval("offset", ["linear"], "overall", level=1.5)
+    with pytest.raises(ParameterError, match="peer"):
+        report.ratio_interval("offset", ["offset"], "overall")
+    with pytest.raises(KeyError):
+        report.ratio_interval("offset", ["akima"], "overall")
+    old = [{k: v for k, v in r.items() if not k.startswith("sequence_")} for r in report.rows]
+    with pytest.raises(ParameterError, match="per-sequence"):
+        ratio_interval(old, "offset", ["linear"], "overall")
 
 
 def test_a_method_that_leaves_joints_unfilled():

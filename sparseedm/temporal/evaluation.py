@@ -66,7 +66,7 @@ from .protocols import (GAP_LENGTHS, RUN_BINS, dropout_mask, gap_mask, run_bin, 
 from .sequences import Sequence, load_sequences
 
 __all__ = ["evaluate_video", "VideoReport", "protocol_masks", "detector_jitter",
-           "resolve_methods", "plot_fill", "PROTOCOLS", "DEFAULT_METHODS"]
+           "resolve_methods", "ratio_interval", "plot_fill", "PROTOCOLS", "DEFAULT_METHODS"]
 
 PROTOCOLS = ("gaps", "self-occlusion")
 #: methods evaluated when none are named
@@ -172,7 +172,10 @@ class VideoReport:
         run-length bin such as ``"6-15"``, or ``"overall"``), ``end``
         (``"all"``, ``"end"``, ``"inside"``), ``n`` (hidden joint-frames),
         ``error`` (mean 2D error of the filled ones, % of body height; NaN
-        when none), ``median``, ``unfilled`` (joint-frames the method left NaN).
+        when none), ``median``, ``unfilled`` (joint-frames the method left NaN),
+        ``sequence_sums`` and ``sequence_counts`` (the scored errors' sum and
+        count per sequence, in the order given: what :func:`ratio_interval`
+        resamples).
     seconds : dict
         Each method's total fill time.
     settings : dict
@@ -192,6 +195,10 @@ class VideoReport:
             if (r["method"], r["group"], r["end"]) == (method, group, end):
                 return r
         raise KeyError((method, group, end))
+
+    def ratio_interval(self, method, peers, group, end="all", **kwargs):
+        """:func:`ratio_interval` on this report's rows."""
+        return ratio_interval(self.rows, method, peers, group, end, **kwargs)
 
     @property
     def methods(self):
@@ -325,7 +332,7 @@ def evaluate_video(sequences, methods=DEFAULT_METHODS, protocol="gaps", *,
     seconds = dict.fromkeys(fillers, 0.0)
     hidden = total = filled_frames = 0
     conditions = []
-    for seq in sequences:
+    for index, seq in enumerate(sequences):
         truth, height = seq.poses2d, seq.height
         observed = truth + detector_jitter(seq, noise, random_state) if noise else truth
         for condition, missing in protocol_masks(seq, protocol, gap_lengths=gap_lengths,
@@ -343,8 +350,9 @@ def evaluate_video(sequences, methods=DEFAULT_METHODS, protocol="gaps", *,
                 filled = fill(given, missing, seq.frames)
                 seconds[name] += time.perf_counter() - start
                 err = np.linalg.norm(filled - truth, axis=-1) / height * 100.0
-                records[name].append((groups[missing], at_end[missing], err[missing]))
-    rows = _rows(records, protocol, gap_lengths)
+                records[name].append((groups[missing], at_end[missing], err[missing],
+                                      np.full(int(missing.sum()), index)))
+    rows = _rows(records, protocol, gap_lengths, len(sequences))
     settings = {"sequences": len(sequences), "frames": int(sum(len(s) for s in sequences)),
                 "clips": sorted({s.clip.split("#")[0] for s in sequences}),
                 "random_state": int(random_state), "conditions": sorted(set(conditions)),
@@ -356,12 +364,13 @@ def evaluate_video(sequences, methods=DEFAULT_METHODS, protocol="gaps", *,
     return VideoReport(name, rows, seconds, settings)
 
 
-def _rows(records, protocol, gap_lengths):
+def _rows(records, protocol, gap_lengths, n_sequences):
     order = [f"gap {L}" for L in gap_lengths] if protocol == "gaps" else \
         [label for _, _, label in RUN_BINS]
     first = next(iter(records.values()), [])
     groups = np.concatenate([p[0] for p in first]) if first else np.array([], str)
     ends = np.concatenate([p[1] for p in first]) if first else np.array([], bool)
+    seq = np.concatenate([p[3] for p in first]) if first else np.array([], int)
     errs = {name: np.concatenate([p[2] for p in parts]) if parts else np.array([])
             for name, parts in records.items()}
     common = np.logical_and.reduce([np.isfinite(e) for e in errs.values()]) if errs else \
@@ -372,7 +381,13 @@ def _rows(records, protocol, gap_lengths):
             in_group = np.ones(err.shape, bool) if group == "overall" else groups == group
             for end in _ENDS:
                 sel = in_group & {"all": True, "end": ends, "inside": ~ends}[end]
-                rows.append(_summary(name, group, end, err[sel], common[sel]))
+                row = _summary(name, group, end, err[sel], common[sel])
+                scored = sel & common
+                row["sequence_sums"] = np.bincount(
+                    seq[scored], err[scored], minlength=n_sequences).tolist()
+                row["sequence_counts"] = np.bincount(
+                    seq[scored], minlength=n_sequences).tolist()
+                rows.append(row)
     return rows
 
 
@@ -387,6 +402,91 @@ def _summary(method, group, end, errs, common):
             "scored": int(scored.size), "error": mean(scored),
             "median": float(np.median(scored)) if scored.size else float("nan"),
             "error_own": mean(own), "unfilled": int(errs.size - own.size)}
+
+
+def ratio_interval(rows, method, peers, group, end="all", *, level=0.9, n_resamples=2000,
+                   random_state=0):
+    """`method`'s error over the best of `peers` in one group, with a bootstrap interval.
+
+    The ratio the video goals are stated in (e.g. the temporal model's error
+    over the best of linear, cubic, Akima and PCA gap filling in a run-length
+    bin), and how far it can be trusted: the sequences are resampled with
+    replacement `n_resamples` times (a joint-frame's error depends on its
+    clip, so clips, not joint-frames, are the independent draws), each
+    method's error is re-pooled over the resampled sequences' scored
+    joint-frames, and the best peer is taken anew in each resample.
+
+    Parameters
+    ----------
+    rows : list of dict
+        :attr:`VideoReport.rows` (or the rows of its JSON), with their
+        ``sequence_sums`` and ``sequence_counts``.
+    method : str
+    peers : sequence of str
+    group, end : str
+        As in :meth:`VideoReport.row`.
+    level : float, default 0.9
+        Coverage of the percentile interval.
+    n_resamples : int, default 2000
+    random_state : int, default 0
+
+    Returns
+    -------
+    dict
+        ``ratio`` (on all the sequences), ``low`` and ``high`` (the
+        interval), ``best`` (the best peer on all the sequences) and
+        ``sequences`` (how many have scored joint-frames in the group);
+        NaN ratios where the group has none.
+
+    Examples
+    --------
+    Two sequences where the method is half the peer's error, one where it is
+    equal:
+
+    >>> rows = [dict(method="m", group="g", end="all", sequence_sums=[1.0, 1.0, 4.0],
+    ...              sequence_counts=[1, 1, 2]),
+    ...         dict(method="p", group="g", end="all", sequence_sums=[2.0, 2.0, 4.0],
+    ...              sequence_counts=[1, 1, 2])]
+    >>> r = ratio_interval(rows, "m", ["p"], "g")
+    >>> r["ratio"], r["best"], r["sequences"], r["low"] < r["ratio"] < r["high"]
+    (0.75, 'p', 3, True)
+    """
+    if not 0 < level < 1:
+        raise ParameterError(f"ratio_interval: level must be in (0, 1), got {level!r}")
+    if int(n_resamples) < 1:
+        raise ParameterError(f"ratio_interval: n_resamples must be >= 1, got {n_resamples!r}")
+    names = [method] + [p for p in peers if p != method]
+    if len(names) < 2:
+        raise ParameterError("ratio_interval: needs at least one peer other than the method")
+    found = {}
+    for r in rows:
+        if r["method"] in names and (r["group"], r["end"]) == (group, end):
+            if "sequence_sums" not in r:
+                raise ParameterError("ratio_interval: the rows have no per-sequence sums "
+                                     "(a report written before they were kept)")
+            found[r["method"]] = (np.asarray(r["sequence_sums"], float),
+                                  np.asarray(r["sequence_counts"], float))
+    missing = [n for n in names if n not in found]
+    if missing:
+        raise KeyError((missing, group, end))
+    sums = np.stack([found[n][0] for n in names])
+    counts = found[method][1]
+    keep = counts > 0
+    out = {"sequences": int(keep.sum())}
+    if not keep.any():
+        return dict(out, ratio=float("nan"), low=float("nan"), high=float("nan"), best=None)
+    sums, counts = sums[:, keep], counts[keep]
+    errors = sums.sum(axis=1) / counts.sum()
+    best = 1 + int(np.argmin(errors[1:]))
+    rng = np.random.default_rng(random_state)
+    draws = rng.integers(0, counts.size, size=(int(n_resamples), counts.size))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        boot = sums[:, draws].sum(axis=2) / counts[draws].sum(axis=1)
+        ratios = boot[0] / boot[1:].min(axis=0)
+    tail = 100 * (1 - level) / 2
+    low, high = np.nanpercentile(ratios, [tail, 100 - tail])
+    return dict(out, ratio=float(errors[0] / errors[best]), low=float(low), high=float(high),
+                best=names[best])
 
 
 def plot_fill(sequence, methods=DEFAULT_METHODS, protocol="gaps", joint="left_wrist", *,
