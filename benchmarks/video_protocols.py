@@ -241,11 +241,10 @@ def intervals(results, method="temporal", peers=PEERS, level=0.9):
         groups = list(dict.fromkeys(x["group"] for x in runs[0]["rows"]))
         out += ["", "| run | " + " | ".join(groups) + " |", "|---|" + "---|" * len(groups)]
         for run in runs:
-            names = {x["method"] for x in run["rows"]}
+            present = [p for p in peers if any(x["method"] == p for x in run["rows"])]
             cells = []
             for g in groups:
-                r = ratio_interval(run["rows"], method, [p for p in peers if p in names], g,
-                                   level=level)
+                r = ratio_interval(run["rows"], method, present, g, level=level)
                 cells.append("–" if not r["sequences"] else
                              f"{r['ratio']:.2f} [{r['low']:.2f}, {r['high']:.2f}] "
                              f"({r['sequences']})")

@@ -381,17 +381,12 @@ def _rows(records, protocol, gap_lengths, n_sequences):
             in_group = np.ones(err.shape, bool) if group == "overall" else groups == group
             for end in _ENDS:
                 sel = in_group & {"all": True, "end": ends, "inside": ~ends}[end]
-                row = _summary(name, group, end, err[sel], common[sel])
-                scored = sel & common
-                row["sequence_sums"] = np.bincount(
-                    seq[scored], err[scored], minlength=n_sequences).tolist()
-                row["sequence_counts"] = np.bincount(
-                    seq[scored], minlength=n_sequences).tolist()
-                rows.append(row)
+                rows.append(_summary(name, group, end, err[sel], common[sel], seq[sel],
+                                     n_sequences))
     return rows
 
 
-def _summary(method, group, end, errs, common):
+def _summary(method, group, end, errs, common, seq, n_sequences):
     own = errs[np.isfinite(errs)]
     scored = errs[common]
 
@@ -401,7 +396,10 @@ def _summary(method, group, end, errs, common):
     return {"method": method, "group": group, "end": end, "n": int(errs.size),
             "scored": int(scored.size), "error": mean(scored),
             "median": float(np.median(scored)) if scored.size else float("nan"),
-            "error_own": mean(own), "unfilled": int(errs.size - own.size)}
+            "error_own": mean(own), "unfilled": int(errs.size - own.size),
+            # what ratio_interval resamples: the scored errors per sequence
+            "sequence_sums": np.bincount(seq[common], scored, minlength=n_sequences).tolist(),
+            "sequence_counts": np.bincount(seq[common], minlength=n_sequences).tolist()}
 
 
 def ratio_interval(rows, method, peers, group, end="all", *, level=0.9, n_resamples=2000,
