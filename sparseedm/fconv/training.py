@@ -14,7 +14,7 @@ Two tasks share one training loop (:func:`fit_network`):
   the 3D pose's EDM in metres.
 
 Validation rows are whole clips (every 5th clip in sorted order from the 3rd,
-the split ``dictionaries/select_alpha.py`` and the benchmarks use), with masks
+the split ``studies/dictionary/select_alpha.py`` and the benchmarks use), with masks
 drawn once; the parameters of the epoch with the lowest validation loss are
 kept; training stops after ``patience`` epochs without a relative improvement
 of ``tol``. CPU by default; ``device="cuda"`` when asked.

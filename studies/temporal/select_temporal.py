@@ -1,11 +1,11 @@
 """Choose the temporal model's settings (sparseedm.temporal.model) on validation sequences.
 
-    python dictionaries/select_temporal.py --data-dir ../shared/data \\
-        --out dictionaries/selection_temporal.json            # grid on validation
-    python dictionaries/select_temporal.py --data-dir ../shared/data --test \\
-        --out dictionaries/selection_temporal_test.json      # the README's table
-    python dictionaries/select_temporal.py --data-dir ../shared/data --adapt-grid \\
-        --adapt-sequences 8 --out dictionaries/selection_temporal_adapt_settings.json
+    python studies/temporal/select_temporal.py --data-dir ../shared/data \\
+        --out studies/temporal/selection_temporal.json            # grid on validation
+    python studies/temporal/select_temporal.py --data-dir ../shared/data --test \\
+        --out studies/temporal/selection_temporal_test.json      # the README's table
+    python studies/temporal/select_temporal.py --data-dir ../shared/data --adapt-grid \\
+        --adapt-sequences 8 --out studies/temporal/selection_temporal_adapt_settings.json
         # the settings re-checked with one clip adapting (dictionaries/README.md)
 
 Directions (dictionary learned on one source, sequences from another):

@@ -1,7 +1,7 @@
 """Choose the adaptation settings of sparseedm.adaptation on cross-source validation splits.
 
-    python dictionaries/select_adaptation.py --data-dir ../shared/data \\
-        --work /tmp/select_adaptation --out dictionaries/selection_adaptation.json
+    python studies/adaptation/select_adaptation.py --data-dir ../shared/data \\
+        --work /tmp/select_adaptation --out studies/adaptation/selection_adaptation.json
 
 Directions (dictionary learned on one source, adapted to and scored on another):
 
