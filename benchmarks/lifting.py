@@ -69,7 +69,7 @@ def speed(lifters, poses, repeats=3, mask=None):
 
 
 def run_speed(quick=False):
-    """Lifting speed for ``python -m benchmarks`` (issue 12's ">= 500 poses/s on 2 cores").
+    """Lifting speed for ``python -m benchmarks`` (the goal: >= 500 poses/s on 2 cores).
 
     The shipped lifter (``"default"``, CMU ASF/AMC only) on held-out poses of
     the benchmark's CMU split (:func:`benchmarks.split_clips`), complete and
@@ -117,7 +117,7 @@ LIFT_GOAL = 500.0
 
 
 def speed_goal(res):
-    """(met, evidence) of issue 12's speed goal: both inputs at >= 500 poses/s, 2 cores."""
+    """(met, evidence) of the lifting speed goal: both inputs at >= 500 poses/s, 2 cores."""
     d = "dictionary (shipped cmu-lift)"
     best = {k: max(res[k][f"{d}, n_jobs=1"], res[k][f"{d}, n_jobs=2"]) for k in ("complete", "mix")}
     return (min(best.values()) >= LIFT_GOAL,

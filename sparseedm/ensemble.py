@@ -1,4 +1,4 @@
-"""Ensembles of adapted dictionaries (beyond the paper; issue 9).
+"""Ensembles of adapted dictionaries (beyond the paper).
 
 An adapted dictionary depends on its seed: which complete poses are held back
 for the guard, the order of the mini-batches, the self-training sample. On

@@ -1,4 +1,4 @@
-"""Probe (issue 9): does re-fitting the read-out of an adapted dictionary help recovery?
+"""Probe: does re-fitting the read-out of an adapted dictionary help recovery?
 
     python studies/adaptation/probe_readout_refit.py "cmu->bandai" [DATA_DIR] [WORK]
 

@@ -1,4 +1,4 @@
-"""Cheaper self-training, tried on the validation splits (issue 26; one adopted: only
+"""Cheaper self-training, tried on the validation splits (one adopted: only
 the last round judged, ``today`` now; ``guardall`` is the earlier default).
 
     python studies/adaptation/probe_self_training_cost.py "cmu->bandai" today a2 a4 ...
@@ -102,8 +102,7 @@ VARIANTS = {
     "a4": dict(st_alpha=4.0), "a2": dict(st_alpha=2.0),
     "warm1": dict(warm=True, passes=1), "f1": dict(final_factor=1.0),
     "r2": dict(rounds=2), "a4": dict(st_alpha=4.0), "a8": dict(st_alpha=8.0), "a4f1": dict(st_alpha=4.0, final_factor=1.0),
-    "guardall": dict(guard_rounds=True),  # every round judged (the default until issue 26's
-                                          # third session)
+    "guardall": dict(guard_rounds=True),  # every round judged (the earlier default)
     "combo": dict(max_poses=1000, st_alpha=4.0, warm=True, passes=1, final_factor=1.0),
     "combo2": dict(max_poses=1000, st_alpha=2.0, warm=True, passes=1),
 }

@@ -3,7 +3,7 @@
 The chosen setting (training alpha 0.8, recovery alpha 0.0005, one pass)
 learned on the training groups of select_all_cmu.py with and without
 left-right mirrored copies, scored (Mix Err_ave) on Bandai-Namco poses -- the
-cross-source check the issue's 4 % figure came from. Bandai-Namco is CC BY-NC:
+cross-source check the 4 % figure of dictionaries/README.md came from. Bandai-Namco is CC BY-NC:
 only these numbers are kept.
 
     python studies/dictionary/mirror_bandai_info.py --cmu cmu_asf.npz \\

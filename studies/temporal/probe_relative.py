@@ -1,4 +1,4 @@
-"""Relative smoothing (issue 23), measured on the video protocols' validation split.
+"""Relative smoothing in the temporal model, measured on the video protocols' validation split.
 
     python studies/temporal/probe_relative.py --sources bandai,cmu --out /tmp/relative.json
 

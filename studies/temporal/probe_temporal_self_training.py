@@ -1,4 +1,4 @@
-"""Self-training in the video path (issue 23 item 5), on the video protocols' validation split.
+"""Self-training in the video path, on the video protocols' validation split.
 
     python studies/temporal/probe_temporal_self_training.py clips --out /tmp/st-clips.json
     python studies/temporal/probe_temporal_self_training.py files --out /tmp/st-files.json
