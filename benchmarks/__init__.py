@@ -43,7 +43,7 @@ def cache_dir() -> Path:
 
 #: where the benchmarks' CMU training set is built once (same command, same seed)
 CMU_CACHE = "benchmarks-cmu_train.npz"
-SELECTION = ROOT / "dictionaries" / "selection.json"
+SELECTION = ROOT / "studies" / "dictionary" / "selection.json"
 SHIPPED_K2000 = ROOT / "dictionaries" / "cmu-k2000.npz"
 DEFAULT_ALPHA_TRAIN = 0.2
 DEFAULT_ALPHA_RECOVER = 0.0005
@@ -111,7 +111,7 @@ def bench_main(argv, *, prog, doc, quick_help, run, render, tag, heading, result
 def split_clips(clips):
     """Held-out mask: every 5th clip in sorted order, starting at the 3rd.
 
-    The same split as ``dictionaries/select_alpha.py`` (by clip, never by frame).
+    The same split as ``studies/dictionary/select_alpha.py`` (by clip, never by frame).
     """
     names = sorted(set(clips.tolist()))
     held = sorted(c for i, c in enumerate(names) if i % 5 == 2)
@@ -125,14 +125,14 @@ def held_out_sample(poses, n, seed=0):
 
 
 def alphas():
-    """(alpha_train, alpha_recover, source) from dictionaries/selection.json 'best'."""
+    """(alpha_train, alpha_recover, source) from studies/dictionary/selection.json 'best'."""
     if SELECTION.is_file():
         try:
             best = json.loads(SELECTION.read_text())["best"]
             return float(best["alpha_train"]), float(best["alpha_recover"]), str(SELECTION.relative_to(ROOT))
         except (KeyError, ValueError, TypeError):
             pass
-    return DEFAULT_ALPHA_TRAIN, DEFAULT_ALPHA_RECOVER, "defaults (dictionaries/selection.json absent)"
+    return DEFAULT_ALPHA_TRAIN, DEFAULT_ALPHA_RECOVER, "defaults (studies/dictionary/selection.json absent)"
 
 
 def machine():

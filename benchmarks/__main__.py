@@ -5,7 +5,7 @@ Only with ``--write-docs`` are the tracked files rewritten: the tables in
 benchmarks/README.md between the markers (the full run's RESULTS block,
 ``--quick``'s QUICK block) and the raw numbers in benchmarks/results[-quick].json.
 ``--quick`` (k = 200, a few hundred poses) is a smoke test, not a measurement:
-0.3 min with the CMU set already cached, 218 s on a fresh machine (issue 24:
+0.3 min with the CMU set already cached, 218 s on a fresh machine (with
 the CMU set built first, 2 shared cores).
 The CMU training set it builds is cached in the user's cache directory
 (:func:`benchmarks.cache_dir`).
@@ -43,7 +43,7 @@ def goals(fit_res, rec_res, adapt_res=None, lift_res=None):
                     + f" vs SPAMS {spams['seconds']:.1f} s, Err_ave {spams['err_ave']:.3f}%"))
     mix = rec_res["protocols"]["Mix (1-3 missing)"]["rows"]
     clar = mix["recover(solver='clarabel', n_jobs=2)"]
-    out.append(("recovery: Clarabel path >= 150 poses/s, certified (Mix; issue 13)",
+    out.append(("recovery: Clarabel path >= 150 poses/s, certified (Mix)",
                 clar["pps"] >= 150 and clar["certified"] == 1.0,
                 f"{clar['pps']:.0f} poses/s, certified {100 * clar['certified']:.2f}%"))
     f1 = mix["recover(solver='fast', n_jobs=1)"]
@@ -56,7 +56,7 @@ def goals(fit_res, rec_res, adapt_res=None, lift_res=None):
         met = (best >= 3 * max(sp) and cert == 1.0 and oc["max_rel_diff"] <= 1e-6)
         out.append(("recovery: fast path >= 3x SPAMS lasso (2 threads) end to end, all "
                     "certified, objectives within 1e-6 of Clarabel's on a checked sample "
-                    "(Mix; issue 13)", met,
+                    "(Mix)", met,
                     f"fast recover {best:.0f} poses/s end to end (lasso only "
                     f"{mix['lasso only: sparseedm FastSolver (numba, 2 threads)']['pps']:.0f}) vs "
                     f"SPAMS lasso-only {max(sp):.0f} poses/s = {best / max(sp):.2f}x; certified "
@@ -65,18 +65,18 @@ def goals(fit_res, rec_res, adapt_res=None, lift_res=None):
                     f"on {oc['n']} sub-problems"))
     one = mix.get(recovery.ONE_CORE, {}).get("pps")
     if one:
-        out.append(("recovery: near-linear in cores, best 2-core rate >= 1.8x one core (Mix; "
-                    "issue 13)", best >= 1.8 * one,
+        out.append(("recovery: near-linear in cores, best 2-core rate >= 1.8x one core (Mix)",
+                    best >= 1.8 * one,
                     f"{best:.0f} vs {one:.0f} poses/s = {best / one:.2f}x"))
     if adapt_res is not None:
         first = next(iter(adapt_res["rows"].values()))
         out.append((f"adaptation on {adapt_res['n_poses']:,} complete poses <= "
-                    f"{adaptation.GOAL_SECONDS:.0f} s on 2 cores (issue 9)",
+                    f"{adaptation.GOAL_SECONDS:.0f} s on 2 cores",
                     first["seconds"] <= adaptation.GOAL_SECONDS, f"{first['seconds']:.1f} s"))
     if lift_res is not None:
         met, ev = lifting.speed_goal(lift_res)
-        out.append((f"lifting >= {lifting.LIFT_GOAL:.0f} poses/s on 2 cores, complete and Mix "
-                    "(issue 12)", met, ev))
+        out.append((f"lifting >= {lifting.LIFT_GOAL:.0f} poses/s on 2 cores, complete and Mix",
+                    met, ev))
     return out
 
 

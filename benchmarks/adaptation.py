@@ -1,6 +1,5 @@
 """``python -m benchmarks.adaptation [--quick] [--write-docs]``: time of dictionary
-adaptation on 5,000 complete poses (issue "Learn from the user's own poses", item 6),
-against its peers measured in the same run.
+adaptation on 5,000 complete poses against its peers measured in the same run.
 
 Data: the CMU training set (:func:`benchmarks.load_cmu`), the poses of subjects
 other than 01-03 (whom the shipped default was learned from): a seeded sample of

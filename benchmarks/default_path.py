@@ -1,6 +1,6 @@
 """``python -m benchmarks.default_path [--quick] [--write-docs]``: what users run,
 ``recover()`` with its defaults (adaptation and self-training), against the
-certified lasso path ``recover(adapt=False)``, measured in the same run (issue 26).
+certified lasso path ``recover(adapt=False)``, measured in the same run.
 
 Data: poses no shipped dictionary has seen, as users' are: the Bandai-Namco-1
 set (``sparseedm dataset build ../shared/data/bandai-namco-1 --seed 0``, 31,914

@@ -15,7 +15,7 @@ sparse path, and the paper's Table 1 experiment with the 2D -> 3D network.
   k = 2000 dictionary on the same poses (numba on 1 and 2 threads). Poses/s from
   wall time, best of 3; the machine is shared, so compare rows of one run.
 * **Table 1** (DMR's 2D -> 3D regression, as Guo & Dai's Table 1 uses it):
-  :func:`sparseedm.fconv.fit_lifter` trained on complete 2D inputs, then
+  :func:`sparseedm.fconv.fit_edm_lifter` trained on complete 2D inputs, then
   retrained with 1-3 occluded joints per pose ('average'), both tested on the
   held-out CMU clips (and on ``--cross`` poses) with 0, 1, 2, 3 occluded joints;
   Err_ave (per cent) of the predicted 3D EDM against the true one (metres).
@@ -122,7 +122,7 @@ def table1(p2, p3, clips, tests, cfg):
     import torch
 
     from sparseedm.edm import pose_to_vector
-    from sparseedm.fconv import fit_lifter, lift
+    from sparseedm.fconv import fit_edm_lifter, lift_edm_vectors
     from sparseedm.metrics import err_ave, random_occlusion
 
     torch.set_num_threads(1)
@@ -130,14 +130,14 @@ def table1(p2, p3, clips, tests, cfg):
     for name, occluded in (("trained on complete input", (0, 0)),
                            ("retrained on occluded input (1-3)", (1, 3))):
         t0 = time.perf_counter()
-        model = fit_lifter(p2, p3, clips, occluded=occluded, max_epochs=cfg["lift_epochs"],
-                           max_train=cfg["lift_max_train"], representation="average")
+        model = fit_edm_lifter(p2, p3, clips, occluded=occluded, max_epochs=cfg["lift_epochs"],
+                               max_train=cfg["lift_max_train"], representation="average")
         secs = time.perf_counter() - t0
         for test, (t2, t3) in tests.items():
             gt = pose_to_vector(t3)
             for k in (0, 1, 2, 3):
                 mask = random_occlusion(len(t2), t2.shape[1], k, random_state=k)
-                e = err_ave(lift(model, np.where(mask[..., None], np.nan, t2)), gt)
+                e = err_ave(lift_edm_vectors(model, np.where(mask[..., None], np.nan, t2)), gt)
                 out.append(dict(network=name, test=test, missing=k, err_ave=float(np.mean(e)),
                                 err_var=float(np.var(e)), epochs=model.meta["training"]["epochs"],
                                 fit_seconds=secs))

@@ -4,7 +4,7 @@
 
 TIED_LIFTER from ``sparseedm fit-lifter TRAIN.npz --method fconv`` (3D EDMs in
 the lifter's "tied" normalisation), METRES_MODEL from ``sparseedm fit-cnn
-TRAIN.npz --task lift`` (3D EDMs in metres, ``sparseedm.fconv.fit_lifter``),
+TRAIN.npz --task lift`` (3D EDMs in metres, ``sparseedm.fconv.fit_edm_lifter``),
 same architecture and budget. Judged on the clips both held out for early
 stopping (every 5th training clip from the 3rd, ``split_by_clip``): validation
 data of the training set, never the test clips. Score: 3D-EDM Err_ave (one
@@ -19,7 +19,7 @@ import sys
 
 import numpy as np
 
-from sparseedm.fconv import lift as fconv_lift
+from sparseedm.fconv import lift_edm_vectors as fconv_lift
 from sparseedm.fconv import load_model
 from sparseedm.fconv.training import split_by_clip
 from sparseedm.lifting import load_lifter, training_pairs

@@ -1,12 +1,12 @@
 """Lifting benchmark: the coupled-dictionary lifter against DMR's FConn (MLP), one run.
 
-    python -m benchmarks.lifting --cmu /tmp/iss12-lift/cmu.npz \
-        [--bandai /tmp/iss12-lift/bandai.npz] [-o benchmarks/results-lifting.json]
+    python -m benchmarks.lifting --cmu /tmp/lift/cmu.npz \
+        [--bandai /tmp/lift/bandai.npz] [-o benchmarks/results-lifting.json]
 
 Both lifters are learned on the same poses: a seeded subsample of the CMU
-training clips of ``lifters/select_lifter.py``'s clip split (the dictionary
-with the settings chosen there, ``lifters/selection.json``, and the passes and
-3D-half re-fit of ``lifters/selection_decoder.json``; the MLP with
+training clips of ``studies/lifting/select_lifter.py``'s clip split (the dictionary
+with the settings chosen there, ``studies/lifting/selection.json``, and the passes and
+3D-half re-fit of ``studies/lifting/selection_decoder.json``; the MLP with
 ``sparseedm.lifting.defaults``). Judged on the CMU validation clips and, across
 sources, on Bandai-Namco poses (read from ../shared only; nothing learned from
 them): 3D-EDM Err_ave (after one scale per pose) on complete input, and Mix
@@ -32,8 +32,8 @@ from sparseedm.lifting.metrics import err_ave_3d
 from sparseedm.metrics import random_occlusion
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT / "lifters"))
-from select_lifter import arrays, split  # noqa: E402
+sys.path.insert(0, str(ROOT))
+from studies.lifting.select_lifter import arrays, split  # noqa: E402
 
 
 def _load(path):
@@ -69,7 +69,7 @@ def speed(lifters, poses, repeats=3, mask=None):
 
 
 def run_speed(quick=False):
-    """Lifting speed for ``python -m benchmarks`` (issue 12's ">= 500 poses/s on 2 cores").
+    """Lifting speed for ``python -m benchmarks`` (the goal: >= 500 poses/s on 2 cores).
 
     The shipped lifter (``"default"``, CMU ASF/AMC only) on held-out poses of
     the benchmark's CMU split (:func:`benchmarks.split_clips`), complete and
@@ -117,7 +117,7 @@ LIFT_GOAL = 500.0
 
 
 def speed_goal(res):
-    """(met, evidence) of issue 12's speed goal: both inputs at >= 500 poses/s, 2 cores."""
+    """(met, evidence) of the lifting speed goal: both inputs at >= 500 poses/s, 2 cores."""
     d = "dictionary (shipped cmu-lift)"
     best = {k: max(res[k][f"{d}, n_jobs=1"], res[k][f"{d}, n_jobs=2"]) for k in ("complete", "mix")}
     return (min(best.values()) >= LIFT_GOAL,
@@ -170,10 +170,10 @@ def main(argv=None):
     rng = np.random.default_rng(0)
     tr = np.sort(rng.choice(tr, min(args.max_train, len(tr)), replace=False))
     val = np.sort(rng.choice(val, min(args.max_test, len(val)), replace=False))
-    shipped = json.loads((ROOT / "lifters" / "selection.json").read_text())["shipped"]
+    shipped = json.loads((ROOT / "studies" / "lifting" / "selection.json").read_text())["shipped"]
     dparams = {k: shipped[k] for k in ("n_components", "alpha", "weight", "alpha_lift",
                                        "normalization")}
-    chosen = json.loads((ROOT / "lifters" / "selection_decoder.json").read_text())["chosen"]
+    chosen = json.loads((ROOT / "studies" / "lifting" / "selection_decoder.json").read_text())["chosen"]
     dparams.update(n_passes=chosen["n_passes"], decoder_ridge=chosen["decoder_ridge"])
     mparams = dict(DEFAULTS["mlp"], max_iter=args.mlp_max_iter)
     lifters, fit_s = {}, {}

@@ -1,8 +1,8 @@
-"""Probe (issue 13, not adopted): LARS rows advanced in lockstep, the correlation update BLAS-3.
+"""Probe (not adopted): LARS rows advanced in lockstep, the correlation update BLAS-3.
 
     python -m benchmarks.probe_lockstep [--n 2000] [--slots 64]
 
-The issue's idea: advance many poses together so the step's correlation
+The idea: advance many poses together so the step's correlation
 update is one matrix product. Here B poses ("slots") of *any* missing pattern
 take one LARS step at a time; each slot's direction ``u = D_A w`` (zeroed at
 its missing entries) is a row of U, and ``U @ D`` (B x 91 by 91 x k, one

@@ -278,6 +278,6 @@ def split(realset, val=0.2, test=0.2):
 
 
 def body_size(poses):
-    """Distance from the head top to the ankles' midpoint, (n,): the issue's body size."""
+    """Head top to the ankles' midpoint, (n,): the body size errors are divided by."""
     poses = np.asarray(poses, float)
     return np.linalg.norm(poses[:, 0] - poses[:, [10, 13]].mean(axis=1), axis=-1)

@@ -320,7 +320,7 @@ FAST2 = "recover(solver='fast', n_jobs=2)"
 ONE_CORE = "recover(solver='fast', n_jobs=1) on 1 core (numba threads = 1)"
 CLAR = "recover(solver='clarabel', n_jobs=2)"
 CLAR_CORR = ("recover(solver=ClarabelSolver(seed='correlation'), n_jobs=2) "
-             "(the Clarabel path before issue 13)")
+             "(the earlier Clarabel path)")
 LF = "lasso only: sparseedm FastSolver (numba, 2 threads)"
 SD = "lasso only: SPAMS lasso, D given (numThreads=2)"
 SQ = "lasso only: SPAMS lasso, Q=D'D, q=D'X given (numThreads=2)"

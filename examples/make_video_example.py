@@ -6,7 +6,7 @@ Two CMU clips of subject 02 (02_01 walk, 02_05 punch/strike; data from
 mocap.cs.cmu.edu, created with funding from NSF EIA-0196217), each seen by one
 seeded virtual camera at ~40 frames per second of motion, each as one track of
 its first 150 frames (``N_FRAMES``), or all of it when the clip is shorter: the
-walk has 86 frames, so the tracks have 86 and 150. Joints are hidden as issue 23's Protocol B hides them:
+walk has 86 frames, so the tracks have 86 and 150. Joints are hidden as the video evaluation's Protocol B hides them:
 while behind the torso as seen from the camera, plus 5 % short dropouts
 (:func:`sparseedm.temporal.evaluation.protocol_masks`). Written with
 :func:`sparseedm.keypoints.write_keypoints`: columns ``track`` and ``frame``,

@@ -12,7 +12,7 @@ Steps (all through the public CLI/API):
    the CMU poses for training;
 3. learn a k = 2000 dictionary on that training set with the shipped
    dictionary's settings (training alpha and recovery alpha chosen on the CMU
-   validation split, ``dictionaries/selection.json``), in the work folder --
+   validation split, ``studies/dictionary/selection.json``), in the work folder --
    Bandai-Namco is CC BY-NC, so nothing learned from it enters the project;
 4. ``sparseedm evaluate`` that dictionary, the shipped CMU-only ``cmu-k2000``
    and the default (``cmu-all-k2000``), on the held-out styles against the
@@ -75,7 +75,7 @@ def main(argv=None):
              for k in c}
     save_dataset(work / "train.npz", train)
 
-    sel = json.loads((ROOT / "dictionaries" / "selection.json").read_text())["best"]
+    sel = json.loads((ROOT / "studies" / "dictionary" / "selection.json").read_text())["best"]
     dictionary = work / "cmu-bandai-k2000.npz"
     if not dictionary.exists():
         run("fit", work / "train.npz", "-o", dictionary, "--atoms", 2000,

@@ -59,8 +59,8 @@ the early-batch forgetting: atoms move towards the new poses in proportion to
 how much the new poses use them, unused atoms stay as they were. ``replay``
 mixes base atoms, scaled to the poses' typical norm, into every mini-batch
 against forgetting. The defaults were chosen on cross-source validation splits
-by ``dictionaries/select_adaptation.py`` (results in
-``dictionaries/selection_adaptation.json``, summary in
+by ``studies/adaptation/select_adaptation.py`` (results in
+``studies/adaptation/selection_adaptation.json``, summary in
 ``dictionaries/README.md``).
 """
 
@@ -101,17 +101,17 @@ __all__ = ["adapt", "run_adaptation", "adapt_vectors", "AdaptationResult",
 MIN_COMPLETE_POSES = 250
 #: Inner-statistics modes of :func:`adapt_vectors`.
 STATS = ("fresh", "carried")
-# defaults chosen by dictionaries/select_adaptation.py (see dictionaries/README.md)
+# defaults chosen by studies/adaptation/select_adaptation.py (see dictionaries/README.md)
 DEFAULT_PASSES = 2
 #: The adapted dictionary's recommended recovery alpha is the base's times this
 #: (0.0005 -> 0.00025 for the shipped default; chosen on the validation splits,
-#: grid 6 of dictionaries/select_adaptation.py).
+#: grid 6 of studies/adaptation/select_adaptation.py).
 ADAPTED_ALPHA_RECOVER_FACTOR = 0.5
 #: Lasso penalty of the adaptation's coding step (``alpha=None``):
 #: ``min(ADAPTED_ALPHA_TRAIN_FACTOR * base alpha_train, ADAPTED_ALPHA_TRAIN)``,
 #: sparser codes than the base's own (0.8 for the all-CMU default -> 3.2; 1.6
 #: for the k = 2000 ones -> 3.2). Chosen on the validation splits (grid 6 of
-#: dictionaries/select_adaptation.py): 2-5 % lower error than the base's alpha
+#: studies/adaptation/select_adaptation.py): 2-5 % lower error than the base's alpha
 #: for k = 2000 dictionaries, and a faster learning (shorter LARS paths). The
 #: factor keeps small dictionaries (trained with small alphas: denser codes)
 #: away from a penalty that would leave their codes empty.
@@ -138,7 +138,7 @@ DEFAULT_MAX_POSES = 5000
 DEFAULT_VALIDATION_FRACTION = 0.2
 MAX_VALIDATION = 300
 #: Rounds of :func:`self_train` that ``recover`` runs after adapting (0: none);
-#: chosen on the validation splits (grid 8 of dictionaries/select_adaptation.py).
+#: chosen on the validation splits (grid 8 of studies/adaptation/select_adaptation.py).
 SELF_TRAINING_ROUNDS = 3
 #: Fewest incomplete poses (recovered) a self-training round learns from.
 MIN_SELF_TRAINING_POSES = 50

@@ -310,7 +310,7 @@ def dictionary_path(name_or_path):
                            DictionaryError, "dictionary")
 
 
-#: the name before issue 22 made it public (tests and code in flight use it)
+#: the private name this had before it was public (tests still use it)
 _resolve = dictionary_path
 
 

@@ -1,8 +1,8 @@
-"""Ensembles of adapted dictionaries (beyond the paper; issue 9).
+"""Ensembles of adapted dictionaries (beyond the paper).
 
 An adapted dictionary depends on its seed: which complete poses are held back
 for the guard, the order of the mini-batches, the self-training sample. On
-the validation clips of ``dictionaries/select_adaptation.py`` (three
+the validation clips of ``studies/adaptation/select_adaptation.py`` (three
 cross-source directions, 400 Mix poses each) one seed's Mix Err_ave moved by
 3-7 % from the next. ``recover(..., ensemble=K)`` therefore adapts K times
 (seeds 0 .. K-1), recovers the poses with each member and returns the mean

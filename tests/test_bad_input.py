@@ -1,4 +1,4 @@
-"""Issue #14: malformed inputs and arguments give a SparseEDMError or a per-row status.
+"""Malformed inputs and arguments give a SparseEDMError or a per-row status.
 
 Never another exception, never a changed input, never a misplaced output, and
 never unbounded work: every test here runs under an address-space cap
@@ -385,7 +385,7 @@ def test_one_extreme_row_gets_a_status_and_the_rest_recover(name, small_dictiona
 
 
 def test_recovered_rows_are_finite_and_certified(small_dictionary):
-    """The issue's wrong answer: +/-1e308 came back 'recovered' with NaN joints."""
+    """The wrong answer once given: +/-1e308 came back 'recovered' with NaN joints."""
     poses = _rows()[:3]
     poses[1, :, 0] = np.where(np.arange(14) % 2, 1e308, -1e308)
     poses[1, 4] = np.nan

@@ -55,7 +55,7 @@ def test_members_differ_by_seed_and_the_answer_is_their_mean(split, shifted):
 
 def test_no_adaptation_means_one_member(split, shifted):
     adapt_on, inputs, mask = split
-    # issue 25: an ensemble with adaptation off was silently one member; now refused
+    # an ensemble with adaptation off would silently be one member: refused
     with pytest.raises(SparseEDMError, match="ensemble=4 averages adapted dictionaries"):
         sparseedm.recover(inputs, mask, dictionary=shifted, adapt=False, ensemble=4)
     with pytest.warns(UserWarning, match="no adaptation"):  # 20 poses: too few to adapt on
@@ -108,7 +108,7 @@ def test_cli_recover_ensemble(tmp_path, cmu_poses, shifted, capsys):
     observed = np.isfinite(poses)
     np.testing.assert_array_equal(outs["2"][observed], poses[observed])
     assert main(["recover", str(inp), "-o", str(tmp_path / "x.npz"), "--ensemble", "0"]) != 0
-    assert "ensemble must be an integer in [1, 64]" in capsys.readouterr().err  # bounded: issue 25
+    assert "ensemble must be an integer in [1, 64]" in capsys.readouterr().err  # bounded
     assert not (tmp_path / "x.npz").exists()
 
 

@@ -163,7 +163,7 @@ def test_nothing_to_evaluate_is_refused_not_an_empty_report(split, methods, why)
 
 
 def test_test_poses_recover_refuses_are_left_out(split):
-    """The test set keeps the poses normalize.usable_rows keeps (issue 22's one
+    """The test set keeps the poses normalize.usable_rows keeps (the one
     rule): a pose whose extent overflows float64 is left out with a note, as a
     NaN one is, instead of being counted as a failed recovery."""
     test = split["test"][:6].copy()
@@ -252,7 +252,7 @@ def test_report_without_matplotlib(split, tmp_path, monkeypatch):
 
 @pytest.mark.parametrize("kwargs", [dict(ensemble=3), dict(self_training=2)])
 def test_evaluate_refuses_adaptation_options_without_adaptation(kwargs):
-    # issue 25: an option that cannot apply refuses instead of being ignored
+    # an option that cannot apply refuses instead of being ignored
     from sparseedm.exceptions import ParameterError
 
     poses = np.random.default_rng(0).normal(size=(5, 14, 2))

@@ -32,7 +32,8 @@ def test_core_never_imports_torch():
 torch = pytest.importorskip("torch", reason="needs the [torch] extra")
 
 from sparseedm import recover  # noqa: E402
-from sparseedm.fconv import FConvModel, fit_fconv, fit_lifter, lift, load_model  # noqa: E402
+from sparseedm.fconv import (FConvModel, fit_edm_lifter, fit_fconv, lift_edm_vectors,  # noqa: E402
+                             load_model)
 from sparseedm.fconv.network import build_network, param_shapes  # noqa: E402
 from sparseedm.fconv.training import _recover_pairs  # noqa: E402
 
@@ -148,7 +149,7 @@ def test_bad_model_files(trained, tmp_path):
     with pytest.raises(ModelError, match="'zero' inputs"):
         recover(np.zeros((1, 14, 2)), method="fconv", model=path, representation="average")
     with pytest.raises(ModelError, match="'lift' model is needed"):
-        lift(path, np.zeros((1, 14, 2)))
+        lift_edm_vectors(path, np.zeros((1, 14, 2)))
     cut = tmp_path / "cut.npz"
     cut.write_bytes(path.read_bytes()[:300])
     with pytest.raises(ModelError, match="truncated"):
@@ -185,13 +186,13 @@ def test_bad_training_input_fails_before_any_epoch(cmu_poses):
 
 
 def test_lifter_learns_3d_edms(cmu_poses, clips):
-    model = fit_lifter(cmu_poses, clips[1], clips[0], occluded=(0, 1), max_epochs=4, **SMALL)
+    model = fit_edm_lifter(cmu_poses, clips[1], clips[0], occluded=(0, 1), max_epochs=4, **SMALL)
     val = [h[1] for h in model.meta["training"]["history"]]
     assert model.kind == "lift" and min(val) < 0.5 * val[0]
     occluded = cmu_poses[:5].copy()
     occluded[0, 2] = np.nan
     occluded[1, :12] = np.nan    # too few observed: NaN row
-    out = lift(model, occluded)
+    out = lift_edm_vectors(model, occluded)
     assert out.shape == (5, 91)
     assert np.isnan(out[1]).all() and np.isfinite(out[[0, 2, 3, 4]]).all()
 

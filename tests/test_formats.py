@@ -1,4 +1,4 @@
-"""Detector and tracker formats (issue 24): OpenPose, MMPose, DeepLabCut, PoseTrack.
+"""Detector and tracker formats: OpenPose, MMPose, DeepLabCut, PoseTrack.
 
 Fixtures: tests/fixtures/formats (made by make_formats.py from the formats'
 documented layouts). Round trips go read -> recover -> write -> read.
@@ -307,7 +307,7 @@ def test_mmpose_scores_above_one_are_kept_negative_refused(tmp_path):
 
 def test_low_detector_scores_are_recovered_with_the_default_threshold(tmp_path,
                                                                       small_dictionary):
-    """Issue 24: occluded joints scored 0.02-0.2 (not 0) are recovered by default."""
+    """Occluded joints scored 0.02-0.2 (not 0) are recovered by default."""
     summary = recover_file(F / "mmpose_predictions.json", tmp_path / "o.json",
                            dictionary=small_dictionary, adapt=False)
     assert summary["recovered_joints"] == 4

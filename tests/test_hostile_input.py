@@ -1,4 +1,4 @@
-"""Issue #25: files that are not files, refusals that come late, answers that only
+"""Files that are not files, refusals that come late, answers that only
 look right, crashes on valid but extreme input.
 
 Device nodes and named pipes are made in pytest's temporary folder, never the

@@ -245,7 +245,7 @@ def test_fit_and_info_cli(train_file, tmp_path, capsys):
 
 
 def test_complete_pose_vectors_keeps_what_recover_accepts():
-    """One usable-pose rule (normalize.usable_rows, issue 22): besides NaN/inf and
+    """One usable-pose rule (normalize.usable_rows): besides NaN/inf and
     zero extent, training leaves out the poses whose extent overflows float64 or is
     subnormal, the ones recover() refuses as out_of_range (normalize() used to
     raise a PoseError on them, stopping the fit)."""

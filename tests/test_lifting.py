@@ -82,7 +82,7 @@ def test_mds_recovers_pose_up_to_rigid_motion_and_reflection(seed, n_joints, siz
 
 
 def test_small_batches_run_numpy_forms_with_the_compiled_answers():
-    # a first lift of a few poses must not wait for numba to compile (issue 26):
+    # a first lift of a few poses must not wait for numba to compile:
     # below NUMPY_MAX poses smacof and tetra_volumes run numpy forms of the
     # compiled loops; both must give the same poses and volumes
     from sparseedm.lifting import mds
@@ -194,7 +194,7 @@ def test_an_overflowing_row_is_refused_and_the_rest_lifted(data, dict_lifter):
 
 def test_summary_counts_every_status_lift_gives(data, dict_lifter):
     """summary() counts each row under its status: out_of_range rows were lost
-    while lifting kept its own copy of recovery's statuses (issue 22)."""
+    while lifting kept its own copy of recovery's statuses."""
     poses = data["poses2d"][:3].copy()
     poses[1] = np.where(np.arange(14)[:, None] % 2, 1.5e308, -1.5e308)  # extent overflows
     poses[2] = np.nan  # no observed joint

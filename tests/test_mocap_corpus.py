@@ -204,7 +204,7 @@ def test_mutated_asf_amc_never_escapes_as_another_error(tmp_path_factory, data, 
 
 def test_unreadable_path_is_a_clear_error(tmp_path):
     (tmp_path / "folder.bvh").mkdir()
-    with pytest.raises(FileFormatError, match=r"folder\.bvh is a directory"):  # issue 25
+    with pytest.raises(FileFormatError, match=r"folder\.bvh is a directory"):
         load_mocap(tmp_path / "folder.bvh")
     with pytest.raises(FileNotFoundError):
         load_mocap(tmp_path / "missing.bvh")

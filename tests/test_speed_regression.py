@@ -1,7 +1,7 @@
 """The speed work changes no answer: ``recover`` against answers frozen before it.
 
 ``tests/fixtures/speed_reference.npz`` (made by ``make_speed_reference.py``
-with the code as it was before issue 13) holds a real batch -- 510 CMU poses,
+with the code as it was before the speed work) holds a real batch -- 510 CMU poses,
 one 100-pose and one 30-pose pattern group, small Mix groups, bad rows of
 every refusal kind -- and what ``recover`` returned. Statuses, reasons and
 fallback flags must match exactly; objectives, certificates and filled poses

@@ -10,14 +10,22 @@ import torch; training and prediction do.
 - :mod:`sparseedm.fconv.recover`   recover(..., method="fconv") lands here
 - :mod:`sparseedm.fconv.lifting`   lift_edm_vectors(): 2D -> 3D EDM vectors, FConvEDMLifter
 
-``fit_lifter``, ``lift`` and ``FConvLifter`` are the same functions under their
-names before issue 22 (not :func:`sparseedm.lifting.fit_lifter` /
-:func:`sparseedm.lift`, which give a Lifter and a LiftResult).
+The older names ``fit_lifter``, ``lift`` and ``FConvLifter`` (of
+:func:`fit_edm_lifter`, :func:`lift_edm_vectors`, :class:`FConvEDMLifter`)
+still work and warn with the new name (:mod:`sparseedm._deprecated`); they
+are not :func:`sparseedm.lifting.fit_lifter` / :func:`sparseedm.lift`, which
+give a Lifter and a LiftResult.
 """
 
-from .lifting import FConvEDMLifter, FConvLifter, lift, lift_edm_vectors
+from .._deprecated import alias_getattr
+from .lifting import FConvEDMLifter, lift_edm_vectors
 from .model import FConvModel, load_model
-from .training import FConvRecoverer, fit_edm_lifter, fit_fconv, fit_lifter
+from .network import require_torch
+from .recover import recover_fconv
+from .training import FConvRecoverer, fit_edm_lifter, fit_fconv, split_by_clip
 
 __all__ = ["FConvModel", "load_model", "fit_fconv", "fit_edm_lifter", "FConvRecoverer",
-           "FConvEDMLifter", "lift_edm_vectors", "fit_lifter", "FConvLifter", "lift"]
+           "FConvEDMLifter", "lift_edm_vectors", "recover_fconv", "split_by_clip",
+           "require_torch"]
+
+__getattr__ = alias_getattr(__name__, globals())  # the older names, deprecated

@@ -6,8 +6,8 @@ mask) to 3D EDM vectors in the training 3D units (metres for
 :func:`~sparseedm.fconv.fit_edm_lifter`; :class:`FConvEDMLifter` is its
 scikit-learn-style shell. (Metric 3D joints and a ``LiftResult`` come from
 :func:`sparseedm.lift`, whose ``fconv`` lifter, :mod:`sparseedm.lifting.fconv`,
-wraps this network.) The names before issue 22, ``lift`` and ``FConvLifter``,
-stay as aliases. Turning a 3D EDM into
+wraps this network.) The older names ``lift`` and ``FConvLifter`` still
+work and warn (:mod:`sparseedm._deprecated`). Turning a 3D EDM into
 joint coordinates (multidimensional scaling) is left to the caller, e.g. the
 3D lifting module, which can wrap these.
 """
@@ -16,11 +16,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._deprecated import alias_getattr
 from .._recovery_base import screen, validate_poses
 from .model import load_model
 from .training import NetworkShell, fit_edm_lifter
 
-__all__ = ["lift_edm_vectors", "FConvEDMLifter", "lift", "FConvLifter"]
+__all__ = ["lift_edm_vectors", "FConvEDMLifter"]
 
 
 def lift_edm_vectors(model, poses2d, missing=None, *, batch_size=4096):
@@ -81,6 +82,4 @@ class FConvEDMLifter(NetworkShell):
         return lift_edm_vectors(self.model_, X, missing)
 
 
-# the names before issue 22
-lift = lift_edm_vectors
-FConvLifter = FConvEDMLifter
+__getattr__ = alias_getattr(__name__, globals())  # the older names, deprecated

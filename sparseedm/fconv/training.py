@@ -9,12 +9,12 @@ Two tasks share one training loop (:func:`fit_network`):
   (the observed joints' bounding box), so its output is read as the sparse
   path's recovered vector is. Every epoch draws fresh masks of 1-3 occluded
   joints per pose (the protocol's Mix).
-* :func:`fit_edm_lifter` (old name ``fit_lifter``) -- DMR's 2D -> 3D regression with the same network: the
+* :func:`fit_edm_lifter` (formerly ``fit_lifter``, deprecated) -- DMR's 2D -> 3D regression with the same network: the
   input is the 2D EDM (optionally occluded, same representations), the target
   the 3D pose's EDM in metres.
 
 Validation rows are whole clips (every 5th clip in sorted order from the 3rd,
-the split ``dictionaries/select_alpha.py`` and the benchmarks use), with masks
+the split ``studies/dictionary/select_alpha.py`` and the benchmarks use), with masks
 drawn once; the parameters of the epoch with the lowest validation loss are
 kept; training stops after ``patience`` epochs without a relative improvement
 of ``tol``. CPU by default; ``device="cuda"`` when asked.
@@ -26,6 +26,7 @@ import time
 
 import numpy as np
 
+from .._deprecated import alias_getattr
 from .._validation import Options, check_pose_shape, validate_params
 from ..edm import pose_to_vector, triu_indices
 from ..exceptions import PoseError, SparseEDMError
@@ -36,8 +37,7 @@ from .model import FConvModel, to_matrix
 from .network import build_network, require_torch
 from .recover import recover_fconv
 
-__all__ = ["fit_fconv", "fit_edm_lifter", "fit_lifter", "split_by_clip", "occlusion_range",
-           "FConvRecoverer"]
+__all__ = ["fit_fconv", "fit_edm_lifter", "split_by_clip", "occlusion_range", "FConvRecoverer"]
 
 
 def split_by_clip(clips, n_poses, random_state=0):
@@ -212,9 +212,6 @@ def fit_edm_lifter(poses2d, poses3d, clips=None, *, representation="average", oc
 
 
 
-#: the name before issue 22 (``sparseedm.lifting.fit_lifter`` returns a Lifter; this an FConvModel)
-fit_lifter = fit_edm_lifter
-
 def check_representation(representation):
     if representation not in REPRESENTATIONS:
         raise SparseEDMError(f"unknown representation {representation!r}; use one of "
@@ -359,3 +356,6 @@ class FConvRecoverer(NetworkShell):
         self.result_ = recover_fconv(X, missing, model=self.model_,
                                      representation=self.representation, chunk_size=2048)
         return self.result_.poses
+
+
+__getattr__ = alias_getattr(__name__, globals())  # the older name, deprecated

@@ -31,7 +31,7 @@ keeps every atom's 3D half ``b_j`` as it was:
 Here the 3D half cannot follow: an atom whose 2D half drifts far pairs the new 2D
 shape with the old 3D shape, which can lift worse. ``memory`` bounds the
 drift. Whether each helps was measured across sources by
-``lifters/select_lift_adaptation.py`` (``lifters/README.md``): read that before
+``studies/lifting/select_lift_adaptation.py`` (``lifters/README.md``): read that before
 relying on it.
 
 Examples

@@ -1,5 +1,5 @@
-"""Default lifter settings, chosen on CMU validation clips (lifters/selection.json,
-"shipped"; passes and the 3D-half re-fit: lifters/selection_decoder.json, "chosen")."""
+"""Default lifter settings, chosen on CMU validation clips (studies/lifting/selection.json,
+"shipped"; passes and the 3D-half re-fit: studies/lifting/selection_decoder.json, "chosen")."""
 
 #: method -> constructor parameters used by ``sparseedm fit-lifter`` by default
 DEFAULTS = {

@@ -60,7 +60,7 @@ class DictionaryLifter(Lifter):
     n_components : int, default 2000
     alpha : float, default 1.6
         Lasso penalty while learning (defaults: the settings chosen on CMU
-        validation clips, ``lifters/selection.json``).
+        validation clips, ``studies/lifting/selection.json``).
     alpha_lift : float, default 0.002
         Lasso penalty when lifting (scaled by observed entries / M).
     weight : float, default 1.0

@@ -18,9 +18,10 @@ from pathlib import Path
 from .._validation import Interval, validate_params
 from ..exceptions import FileFormatError
 from ._text import MAX_FILE_BYTES
-from .asf_amc import find_asf, load_asf_amc, parse_amc, parse_asf, write_cmu_bvh
-from .bvh import detect_rig, load_bvh, parse_bvh, rotation_matrices
-from .rigs import FAMILIES, UNITS, UnitsError, plausibility, read_joint_map, tpose_frames
+from .asf_amc import ASFSkeleton, find_asf, load_asf_amc, parse_amc, parse_asf, write_cmu_bvh
+from .bvh import BVHData, detect_rig, load_bvh, parse_bvh, rotation_matrices
+from .rigs import (FAMILIES, UNITS, Rig, UnitsError, chirality, plausibility, read_joint_map,
+                   tpose_frames)
 
 __all__ = [
     "load_mocap",
@@ -41,6 +42,10 @@ __all__ = [
     "plausibility",
     "read_joint_map",
     "tpose_frames",
+    "chirality",
+    "Rig",
+    "BVHData",
+    "ASFSkeleton",
 ]
 
 #: file suffixes :func:`load_mocap` reads

@@ -6,8 +6,11 @@ Backends by name (:data:`SOLVERS`):
   (Clarabel interior point on small working sets, certified on the full lasso);
 * ``"cvxpy-naive"`` -- :class:`~sparseedm.solvers.reference.NaiveCvxpySolver`
   (a fresh cvxpy problem per signal: the reference);
-* ``"fast"`` -- ``sparseedm.solvers.fast.FastSolver`` (numba LARS), imported
-  only when asked for.
+* ``"fast"`` -- :class:`~sparseedm.solvers.fast.FastSolver` (numba LARS, its
+  kernels compiled on first use).
+
+:func:`gram_matrix` holds a dictionary's Gram matrix once per process (by
+content); :func:`clear_gram_cache` lets it go.
 
 Examples
 --------
@@ -21,6 +24,10 @@ Examples
 from __future__ import annotations
 
 from .base import SOLVERS, BaseSolver, LassoResult, duality_gap, get_solver, lasso_objective
+from .clarabel import ClarabelSolver
+from .fast import FastSolver
+from .gram import clear_gram_cache, gram_matrix
+from .reference import NaiveCvxpySolver
 
 __all__ = [
     "SOLVERS",
@@ -29,4 +36,9 @@ __all__ = [
     "LassoResult",
     "duality_gap",
     "lasso_objective",
+    "ClarabelSolver",
+    "FastSolver",
+    "NaiveCvxpySolver",
+    "gram_matrix",
+    "clear_gram_cache",
 ]

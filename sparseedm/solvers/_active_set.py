@@ -5,8 +5,8 @@ on ill-conditioned active sets (condition numbers of 1e6-1e8 are common with
 2000 coherent atoms and a small alpha) an atom's entering event is missed by
 round-off, the path reaches alpha with the correlation of that atom at
 ``1.0001 * alpha``, and the duality gap is 2e-6 to 4e-5 of the objective:
-above the certificate's 1e-6. Measured on the default path (6,000 poses, issue
-26) 398 rows a run, all re-solved by Clarabel at ~37 ms each: 14 s of work.
+above the certificate's 1e-6. Measured on the default path (6,000 poses):
+398 rows a run, all re-solved by Clarabel at ~37 ms each: 14 s of work.
 
 Starting from that answer, the feature-sign search of Lee, Battle, Raina & Ng
 ("Efficient sparse coding algorithms", NIPS 2007) reaches the optimum in one or

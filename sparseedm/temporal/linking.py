@@ -11,7 +11,7 @@ tracks seen in the frames just before by the Hungarian algorithm
 common observed joints, in units of the pose's extent, each track's joints
 carried forward at the body's last velocity (the median of its joints'
 moves; per-joint velocities switched identities 157 / 69 times against 58 /
-39 on the two sources' validation scenes of ``dictionaries/probe_linking.py``);
+39 on the two sources' validation scenes of ``studies/temporal/probe_linking.py``);
 a pose no track is near enough to starts a new track. Occluded joints are no
 obstacle: a track remembers each joint's last observed position.
 

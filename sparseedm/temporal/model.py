@@ -54,7 +54,7 @@ measured below 0.16 %) is filled exactly as without it.
 The constants (acceleration 30, jerk 300, ramp from 6 to 30 frames, at 30
 frames/s) were chosen on validation sequences across sources, by the error
 over all hidden joint-frames against the best gap filler
-(``dictionaries/select_temporal.py``, ``dictionaries/selection_temporal.json``;
+(``studies/temporal/select_temporal.py``, ``studies/temporal/selection_temporal.json``;
 the grid spanned acceleration 3-3000, jerk 0-3000, ramp start 1-6 and full
 12-90). Both penalties and the prior are squared pixels, so the settings do
 not depend on the image's scale; they do depend on the frame rate.
@@ -97,7 +97,7 @@ class TemporalSettings:
         (:func:`prior_frames`, :func:`spread_prior`). 1: every frame. The
         default 4 asks the per-frame model for 3.5x fewer frames at 0.1 % of
         the error on the validation sequences
-        (``dictionaries/selection_temporal_stride.json``).
+        (``studies/temporal/selection_temporal_stride.json``).
     relative : bool
         Smooth each joint relative to its parent's trajectory (see the
         module docstring); False: every trajectory on its own, as before.

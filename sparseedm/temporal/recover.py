@@ -59,8 +59,8 @@ RESIDUAL_TOL = 1e-8
 #: within CLIP_NEAR frames of an observation, filled by time alone, once
 #: CLIP_MIN_POSES of them pass the filters (the per-frame path needs 250
 #: complete poses), then self-trained and guarded as everywhere. Chosen on
-#: validation sequences across sources (``dictionaries/select_temporal.py
-#: --adapt``, ``dictionaries/selection_temporal_adapt.json``)
+#: validation sequences across sources (``studies/temporal/select_temporal.py
+#: --adapt``, ``studies/temporal/selection_temporal_adapt.json``)
 CLIP_NEAR = 3
 CLIP_MIN_POSES = 30
 

@@ -3,12 +3,12 @@
 The chosen setting (training alpha 0.8, recovery alpha 0.0005, one pass)
 learned on the training groups of select_all_cmu.py with and without
 left-right mirrored copies, scored (Mix Err_ave) on Bandai-Namco poses -- the
-cross-source check the issue's 4 % figure came from. Bandai-Namco is CC BY-NC:
+cross-source check the 4 % figure of dictionaries/README.md came from. Bandai-Namco is CC BY-NC:
 only these numbers are kept.
 
-    python dictionaries/mirror_bandai_info.py --cmu cmu_asf.npz \\
+    python studies/dictionary/mirror_bandai_info.py --cmu cmu_asf.npz \\
         --daz salsa=daz_salsa.npz,martial=daz_martial.npz,indian=daz_indian.npz \\
-        --bandai bandai.npz --out dictionaries/selection_all_cmu_mirror_bandai.json
+        --bandai bandai.npz --out studies/dictionary/selection_all_cmu_mirror_bandai.json
 """
 
 from __future__ import annotations
@@ -19,9 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from check_all_cmu import per_pose  # noqa: E402
-from select_all_cmu import data_parser, load_split, mirrored, sample  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository root
+from studies.dictionary.check_all_cmu import per_pose  # noqa: E402
+from studies.dictionary.select_all_cmu import data_parser, load_split, mirrored, sample  # noqa: E402
 
 from sparseedm.dictionary import Dictionary  # noqa: E402
 from sparseedm.learning import OnlineDictionaryLearning, complete_pose_vectors  # noqa: E402

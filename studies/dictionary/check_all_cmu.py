@@ -8,9 +8,9 @@ On the same held-out subjects and validation poses as ``select_all_cmu.py``:
   is not only the recovery alpha;
 * paired per-pose differences (new - cmu-k2000) with their standard error.
 
-    python dictionaries/check_all_cmu.py --cmu cmu_asf.npz \\
+    python studies/dictionary/check_all_cmu.py --cmu cmu_asf.npz \\
         --daz salsa=daz_salsa.npz,martial=daz_martial.npz,indian=daz_indian.npz \\
-        --out dictionaries/selection_all_cmu_check.json
+        --out studies/dictionary/selection_all_cmu_check.json
 """
 
 from __future__ import annotations
@@ -21,8 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from select_all_cmu import data_parser, load_split, sample  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository root
+from studies.dictionary.select_all_cmu import data_parser, load_split, sample  # noqa: E402
 
 from sparseedm.dictionary import Dictionary, load_dictionary  # noqa: E402
 from sparseedm.edm import pose_to_vector  # noqa: E402

@@ -14,8 +14,8 @@ overlap, with 10 % of the detections missing. Records, per pair and ``link_track
   the true tracks, given none (linked), and each frame alone (what a file
   without tracks got before linking)::
 
-    python dictionaries/probe_linking.py --data-dir ../shared/data \\
-        --out dictionaries/selection_linking.json
+    python studies/temporal/probe_linking.py --data-dir ../shared/data \\
+        --out studies/temporal/selection_linking.json
 
 Validation only; nothing from Bandai-Namco is written but the scores.
 Results: dictionaries/README.md, "Two people without track ids".
@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository root
 from benchmarks import video_protocols  # noqa: E402
 from sparseedm.dictionary import load_dictionary  # noqa: E402
 from sparseedm.metrics import joint_error  # noqa: E402
@@ -145,7 +145,7 @@ def summary(rows):
 
 def main():
     video_protocols.probe_main(__doc__, pair_rows, summary, count="max-pairs", default=8,
-                               out="dictionaries/selection_linking.json")
+                               out="studies/temporal/selection_linking.json")
 
 
 if __name__ == "__main__":

@@ -1,9 +1,9 @@
-"""Self-training in the video path (issue 23 item 5), on the video protocols' validation split.
+"""Self-training in the video path, on the video protocols' validation split.
 
-    python dictionaries/probe_temporal_self_training.py clips --out /tmp/st-clips.json
-    python dictionaries/probe_temporal_self_training.py files --out /tmp/st-files.json
-    python dictionaries/probe_temporal_self_training.py clips --rounds 5 --out /tmp/st5.json
-    python dictionaries/probe_temporal_self_training.py files --rounds "" --caps 1000:all,1000:2000 --out /tmp/st-caps.json
+    python studies/temporal/probe_temporal_self_training.py clips --out /tmp/st-clips.json
+    python studies/temporal/probe_temporal_self_training.py files --out /tmp/st-files.json
+    python studies/temporal/probe_temporal_self_training.py clips --rounds 5 --out /tmp/st5.json
+    python studies/temporal/probe_temporal_self_training.py files --rounds "" --caps 1000:all,1000:2000 --out /tmp/st-caps.json
 
 ``recover_temporal`` adapts on what the poses offer (complete frames and
 frames time fills from close by) and then, by default, self-trains
@@ -34,9 +34,8 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from probe_relative import parser, run  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository root
+from studies.temporal.probe_relative import parser, run  # noqa: E402
 from benchmarks.video_protocols import DICTIONARY, sequences  # noqa: E402
 from sparseedm import adaptation  # noqa: E402
 from sparseedm.dictionary import load_dictionary  # noqa: E402

@@ -11,7 +11,7 @@ training alpha, the largest whose error is within 1 % of the best is chosen
 (a sparser code: faster, and no worse beyond noise). No test clip is ever
 looked at.
 
-    python dictionaries/select_alpha.py TRAIN.npz [--out selection.json]
+    python studies/dictionary/select_alpha.py TRAIN.npz [--out selection.json]
 
 where TRAIN.npz is the CMU training set of dictionaries/README.md.
 """

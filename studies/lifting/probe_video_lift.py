@@ -1,6 +1,6 @@
 """Lifting a video: each frame alone, or across time? Measured on validation sequences.
 
-    nice python lifters/probe_video_lift.py [--data-dir ../shared/data] [--sequences 10]
+    nice python studies/lifting/probe_video_lift.py [--data-dir ../shared/data] [--sequences 10]
 
 The video protocols' validation sequences (``benchmarks/video_protocols.py``:
 Bandai-Namco-1's validation clips and CMU subjects 05, 07, 10, 32, 38, 43, 55,
@@ -36,12 +36,12 @@ condition: MPJPE and PA-MPJPE (mm; pelvis-centred, at the lifter's size
 prior, against the camera-frame truth) and the share of frames whose depth
 reflection is the closer one to the truth, over the frames with a hidden
 joint (all frames when complete). Only scores are written (Bandai-Namco is CC
-BY-NC): ``lifters/selection_video.json``.
+BY-NC): ``studies/lifting/selection_video.json``.
 
 Once the settings were chosen, the held-out split was measured once, the
 defaults against each frame alone (no grid)::
 
-    nice python lifters/probe_video_lift.py --split test --out lifters/test_video.json
+    nice python studies/lifting/probe_video_lift.py --split test --out studies/lifting/test_video.json
 """
 
 from __future__ import annotations
@@ -53,7 +53,7 @@ from unittest import mock
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from benchmarks import video_protocols as vp  # noqa: E402

@@ -1,6 +1,6 @@
-"""Probe (issue 9): does re-fitting the read-out of an adapted dictionary help recovery?
+"""Probe: does re-fitting the read-out of an adapted dictionary help recovery?
 
-    python dictionaries/probe_readout_refit.py "cmu->bandai" [DATA_DIR] [WORK]
+    python studies/adaptation/probe_readout_refit.py "cmu->bandai" [DATA_DIR] [WORK]
 
 The lifter's 3D halves gained 7-8 % from a re-fit to the codes lifting computes
 (lifters/README.md). The same idea for 2D recovery: adapt the default on
@@ -14,9 +14,9 @@ recovered pose are read from the re-fitted atoms. Scored on 600 poses of the *va
 filled EDM vectors. Result in dictionaries/README.md ("Read-out re-fit").
 """
 
+import argparse
 import sys
 import time
-
 from pathlib import Path
 
 import numpy as np
@@ -24,8 +24,8 @@ from scipy.linalg import cho_factor, cho_solve
 from scipy.sparse import csr_matrix
 from scipy.sparse import vstack as svstack
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from select_adaptation import build, sample, source_dictionary, split  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository root
+from studies.adaptation.select_adaptation import build, sample, source_dictionary, split  # noqa: E402
 from sparseedm.adaptation import guard_masks, masked_error, run_adaptation  # noqa: E402
 from sparseedm.edm import observed_entries, pose_to_vector  # noqa: E402
 from sparseedm.metrics import err_ave  # noqa: E402
@@ -44,18 +44,26 @@ def codes(D, P, mask, key):
     return out.coef, X, obs, scale
 
 
+def parser():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("direction", help='source->target, e.g. "cmu->bandai"')
+    ap.add_argument("data_dir", nargs="?", default="../shared/data")
+    ap.add_argument("work", nargs="?", default="/tmp/select_adaptation",
+                    help="the training sets and dictionaries of select_adaptation.py")
+    return ap
+
+
 def main(argv=None):
-    argv = sys.argv[1:] if argv is None else argv
-    src, dst = argv[0].split("->")
-    data_dir = argv[1] if len(argv) > 1 else "../shared/data"
-    work = argv[2] if len(argv) > 2 else "/tmp/select_adaptation"
+    args = parser().parse_args(argv)
+    src, dst = args.direction.split("->")
+    data_dir, work = args.data_dir, args.work
     base = source_dictionary(src, data_dir, work)
     poses, clips = build(data_dir, work, dst, {"cmu": 0, "bandai": 1, "daz": 0}[dst])
     pool, val, _ = split(poses, clips)
     scored, A = sample(val, 600, 1), sample(pool, 3000, 2)
     t = time.time()
     D = run_adaptation(base, A, n_jobs=2).dictionary
-    print(f"{argv[0]}: adapted in {time.time() - t:.1f} s; Mix Err_ave cold "
+    print(f"{args.direction}: adapted in {time.time() - t:.1f} s; Mix Err_ave cold "
           f"{masked_error(base, scored):.3f}, adapted {masked_error(D, scored):.3f}", flush=True)
     C = D.components
     Z, Y = [], []

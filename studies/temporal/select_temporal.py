@@ -1,11 +1,11 @@
 """Choose the temporal model's settings (sparseedm.temporal.model) on validation sequences.
 
-    python dictionaries/select_temporal.py --data-dir ../shared/data \\
-        --out dictionaries/selection_temporal.json            # grid on validation
-    python dictionaries/select_temporal.py --data-dir ../shared/data --test \\
-        --out dictionaries/selection_temporal_test.json      # the README's table
-    python dictionaries/select_temporal.py --data-dir ../shared/data --adapt-grid \\
-        --adapt-sequences 8 --out dictionaries/selection_temporal_adapt_settings.json
+    python studies/temporal/select_temporal.py --data-dir ../shared/data \\
+        --out studies/temporal/selection_temporal.json            # grid on validation
+    python studies/temporal/select_temporal.py --data-dir ../shared/data --test \\
+        --out studies/temporal/selection_temporal_test.json      # the README's table
+    python studies/temporal/select_temporal.py --data-dir ../shared/data --adapt-grid \\
+        --adapt-sequences 8 --out studies/temporal/selection_temporal_adapt_settings.json
         # the settings re-checked with one clip adapting (dictionaries/README.md)
 
 Directions (dictionary learned on one source, sequences from another):
@@ -183,7 +183,7 @@ def score(case_list, answers, settings):
 
 def objective(row, best):
     """Worst ratio to the best gap filler (linear, cubic, Akima, PCA) over the bins
-    (the issue's goal: <= 0.8 in every bin)."""
+    (the goal: <= 0.8 in every bin)."""
     return max(row[b] / best[b] for b in BINS)
 
 
@@ -224,7 +224,7 @@ def adapt_one_clip(case_list, dictionary, min_poses, near):
 
 
 def run_adaptation_arm(name, args, settings):
-    """Item 3 of the issue: does adapting on one clip help? Cold vs adapted
+    """Does adapting on one clip help? Cold vs adapted
     per-frame answers under the chosen temporal settings, 30 / 90 / ends bins."""
     folder, dict_name = DIRECTIONS[name]
     seqs = sequences(Path(args.data_dir) / folder, 1, args.length, args.adapt_sequences)
@@ -249,7 +249,7 @@ def run_adaptation_arm(name, args, settings):
 
 
 def run_strides(name, args):
-    """Item 5 of the issue: the default settings with per-frame answers on every
+    """The default settings with per-frame answers on every
     s-th frame only (``prior_stride``), on validation: what skipping costs."""
     from dataclasses import replace
 
@@ -342,7 +342,7 @@ def run_direction(name, args, part):
 def choose(results):
     """The setting whose error over all hidden joint-frames, as a ratio to the best
     single gap filler of its direction, is least in the worse direction (the
-    issue's overall goal). The worst ratio over the bins is recorded beside it:
+    overall goal). The worst ratio over the bins is recorded beside it:
     no setting brings it under 1 on cmu->bandai, where PCA gap filling wins the
     30 / 90 / ends bins (see the README), so it cannot choose."""
     keys = next(iter(results.values()))["grid"]

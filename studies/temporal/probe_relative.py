@@ -1,6 +1,6 @@
-"""Relative smoothing (issue 23), measured on the video protocols' validation split.
+"""Relative smoothing in the temporal model, measured on the video protocols' validation split.
 
-    python dictionaries/probe_relative.py --sources bandai,cmu --out /tmp/relative.json
+    python studies/temporal/probe_relative.py --sources bandai,cmu --out /tmp/relative.json
 
 The temporal model with defaults (``TemporalSettings.relative`` True: each
 joint smoothed relative to its parent's trajectory) against the same model
@@ -19,7 +19,7 @@ import json
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 from benchmarks.video_protocols import DICTIONARY, sequences  # noqa: E402
 from sparseedm.dictionary import load_dictionary  # noqa: E402

@@ -1,6 +1,6 @@
 """Does adapting the lifter's 2D half on 3D-free 2D poses help? Measured across sources.
 
-    python lifters/select_lift_adaptation.py /tmp/iss12c/bandai.npz -o /tmp/iss12c/bandai.json
+    python studies/lifting/select_lift_adaptation.py /tmp/lift-adapt/bandai.npz -o /tmp/lift-adapt/bandai.json
 
 The base lifter (shipped ``cmu-lift``, CMU data only) is adapted with
 :func:`sparseedm.lifting.adaptation.adapt_lifter` on the complete 2D poses

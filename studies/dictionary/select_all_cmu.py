@@ -23,9 +23,9 @@ Steps (all single-threaded, k = 2000):
    (``--bandai``) for ``cmu-k2000`` and the chosen setting;
 5. with ``--ship PATH``: the chosen setting learned on ALL groups, saved.
 
-    python dictionaries/select_all_cmu.py --cmu cmu_asf.npz \\
+    python studies/dictionary/select_all_cmu.py --cmu cmu_asf.npz \\
         --daz salsa=daz_salsa.npz,martial=daz_martial.npz,indian=daz_indian.npz \\
-        [--bandai bandai.npz] --out dictionaries/selection_all_cmu.json \\
+        [--bandai bandai.npz] --out studies/dictionary/selection_all_cmu.json \\
         [--ship dictionaries/cmu-all-k2000.npz]
 """
 
@@ -39,8 +39,8 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from select_alpha import choose  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository root
+from studies.dictionary.select_alpha import choose  # noqa: E402
 
 from sparseedm.dictionary import Dictionary, load_dictionary  # noqa: E402
 from sparseedm.edm import pose_to_vector  # noqa: E402
@@ -211,7 +211,7 @@ def main(argv=None):
                                      "cmu-bvh-daz (" + ", ".join(sorted(daz)) + ")"],
                            "n_poses": int(len(X_all)), "mirrored": bool(best["mirror"]),
                            "n_passes": int(best["passes"]), "batch_size": 512,
-                           "random_state": 0, "selection": "dictionaries/selection_all_cmu.json",
+                           "random_state": 0, "selection": "studies/dictionary/selection_all_cmu.json",
                        })
         d.save(args.ship)
         result["shipped"] = {"path": str(args.ship), "n_poses": int(len(X_all)), "fit_s": fit_s}

@@ -1,6 +1,6 @@
 """Noisy observations (a detector's jitter) on the video protocols' validation split.
 
-    python dictionaries/probe_denoise.py --sources cmu,bandai --noise 0.01 --out /tmp/d.json
+    python studies/temporal/probe_denoise.py --sources cmu,bandai --noise 0.01 --out /tmp/d.json
 
 Motion capture projected by a camera is noise-free; detectors' keypoints are
 not. Here every observed coordinate of each sequence gets seeded white noise
@@ -22,8 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from probe_relative import parser, run  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository root
+from studies.temporal.probe_relative import parser, run  # noqa: E402
 from sparseedm.temporal.fillers import FILLERS  # noqa: E402
 from sparseedm.temporal.model import TemporalSettings  # noqa: E402
 from sparseedm.temporal.recover import recover_track  # noqa: E402

@@ -1,6 +1,6 @@
 """Choose the dictionary lifter's settings on a clip-level validation split of CMU data.
 
-    python lifters/select_lifter.py /tmp/iss12-lift/cmu.npz -o lifters/selection.json
+    python studies/lifting/select_lifter.py /tmp/lift/cmu.npz -o studies/lifting/selection.json
 
 The CMU training set (``sparseedm dataset build ../shared/data/cmu-mocap``) is
 split by clip (a seeded fifth of the clips held out, so no validation frame has

@@ -9,8 +9,8 @@ length per sequence, and Protocol B), with defaults and with ``adapt=False``,
 and records whether the guard adopted, its two figures, and the error of the
 hidden joints (% of body height) either way::
 
-    python dictionaries/probe_one_clip_guard.py --data-dir ../shared/data \\
-        --out dictionaries/selection_one_clip_guard.json
+    python studies/temporal/probe_one_clip_guard.py --data-dir ../shared/data \\
+        --out studies/temporal/selection_one_clip_guard.json
 
 Validation only; nothing from Bandai-Namco is written but the scores.
 Results: dictionaries/README.md, "The guard on one short clip".
@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository root
 from benchmarks import video_protocols  # noqa: E402
 from sparseedm.dictionary import load_dictionary  # noqa: E402
 from sparseedm.metrics import joint_error  # noqa: E402
@@ -77,7 +77,7 @@ def summary(rows):
 
 def main():
     video_protocols.probe_main(__doc__, clip_rows, summary, count="max-sequences", default=20,
-                               out="dictionaries/selection_one_clip_guard.json")
+                               out="studies/temporal/selection_one_clip_guard.json")
 
 
 if __name__ == "__main__":

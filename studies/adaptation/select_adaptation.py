@@ -1,7 +1,7 @@
 """Choose the adaptation settings of sparseedm.adaptation on cross-source validation splits.
 
-    python dictionaries/select_adaptation.py --data-dir ../shared/data \\
-        --work /tmp/select_adaptation --out dictionaries/selection_adaptation.json
+    python studies/adaptation/select_adaptation.py --data-dir ../shared/data \\
+        --work /tmp/select_adaptation --out studies/adaptation/selection_adaptation.json
 
 Directions (dictionary learned on one source, adapted to and scored on another):
 
@@ -132,7 +132,7 @@ def main(argv=None):
     ap.add_argument("--self-training", type=int, default=None, metavar="ROUNDS",
                     help="grid 3: self-training rounds of the adapted row (default: recover's)")
     ap.add_argument("--grid", default="1,2",
-                    help="1, 2, 4 (issue 9), 5, 6, 7 (the tuning follow-up), 8 (self-training), "
+                    help="1, 2, 4 (the adaptation settings), 5, 6, 7 (the tuning follow-up), 8 (self-training), "
                     "9 (ensembles), 3 (test table)")
     args = ap.parse_args(argv)
     Path(args.work).mkdir(parents=True, exist_ok=True)
@@ -156,7 +156,7 @@ def main(argv=None):
         scored = sample(val, args.n_score, 1)
         rec = out["directions"].setdefault(direction, {})
         cold = masked_error(base, scored)
-        if set("124") & set(args.grid):  # issue 9's grids share these
+        if set("124") & set(args.grid):  # grids 1, 2 and 4 share these
             rec.update(n_pool=len(pool), n_val=len(val), n_scored=len(scored), cold=cold)
         tuned = dict(dictionary={"cmu": "default (cmu-all-k2000)", "cmu0103": "cmu-k2000",
                                  "bandai": "bandai-k2000"}[src],
@@ -237,8 +237,8 @@ def main(argv=None):
     return 0
 
 
-#: grid 5 (issue 9 follow-up, with the all-CMU default): one change at a time
-#: around the shipped setting of issue 9 (fresh, 2 passes, batch 256, training
+#: grid 5 (a follow-up with the all-CMU default): one change at a time
+#: around the first shipped setting (fresh, 2 passes, batch 256, training
 #: alpha = the base's, recovery alpha x 0.25). Keys besides adapt_vectors'
 #: arguments: ``replay_real`` (replay a sample of the source's own training
 #: vectors), ``most_used`` (keep only the k base atoms the adaptation poses use
@@ -453,7 +453,7 @@ def test_table(base, src, dst, args, poses, clips):
     with open(work / "report" / "results.csv") as f:
         table = list(csv.DictReader(f))
     rows = {r["method"]: float(r["err_ave_mean"]) for r in table}
-    # the same metric on the filled poses' EDM (column added after issue 9's first
+    # the same metric on the filled poses' EDM (column added after the first
     # tables; the imputers fill joints, so theirs is unchanged)
     rows.update({f"{r['method']} filled": float(r["err_ave_filled"]) for r in table
                  if "err_ave_filled" in r})

@@ -1,7 +1,7 @@
-"""Cheaper self-training, tried on the validation splits (issue 26; one adopted: only
+"""Cheaper self-training, tried on the validation splits (one adopted: only
 the last round judged, ``today`` now; ``guardall`` is the earlier default).
 
-    python dictionaries/probe_self_training_cost.py "cmu->bandai" today a2 a4 ...
+    python studies/adaptation/probe_self_training_cost.py "cmu->bandai" today a2 a4 ...
 
 A 6,000-pose file per target source, as users' files are: a seeded sample of
 the target's *validation* clips (select_adaptation.py's split: sorted clip
@@ -13,13 +13,17 @@ poses' completed EDMs and the seconds per step. Bandai-Namco data is used
 from ../shared, never written anywhere but the --work folder. Results:
 dictionaries/README.md, "Self-training cost".
 """
-import sys, time, warnings, json
+import argparse
+import json
+import sys
+import time
+import warnings
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from select_adaptation import build, split  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository root
+from studies.adaptation.select_adaptation import build, split  # noqa: E402
 from sparseedm import load_dictionary, recover
 from sparseedm.dictionary import Dictionary
 from sparseedm.edm import pose_to_vector
@@ -32,7 +36,7 @@ warnings.simplefilter("ignore")
 DIRS = {"cmu->bandai": ("bandai", "default"), "cmu0103->daz": ("daz", "cmu-k2000"),
         "cmu0103->cmu": ("cmu", "cmu-k2000")}
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+DATA = Path(__file__).resolve().parents[3] / "shared" / "data"
 WORK = "/tmp/probe_self_training_cost"
 
 
@@ -98,21 +102,29 @@ VARIANTS = {
     "a4": dict(st_alpha=4.0), "a2": dict(st_alpha=2.0),
     "warm1": dict(warm=True, passes=1), "f1": dict(final_factor=1.0),
     "r2": dict(rounds=2), "a4": dict(st_alpha=4.0), "a8": dict(st_alpha=8.0), "a4f1": dict(st_alpha=4.0, final_factor=1.0),
-    "guardall": dict(guard_rounds=True),  # every round judged (the default until issue 26's
-                                          # third session)
+    "guardall": dict(guard_rounds=True),  # every round judged (the earlier default)
     "combo": dict(max_poses=1000, st_alpha=4.0, warm=True, passes=1, final_factor=1.0),
     "combo2": dict(max_poses=1000, st_alpha=2.0, warm=True, passes=1),
 }
 
+def parser():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("direction", choices=sorted(DIRS))
+    ap.add_argument("variants", nargs="+", choices=sorted(VARIANTS), metavar="VARIANT",
+                    help=f"one or more of {', '.join(VARIANTS)}")
+    return ap
+
+
 if __name__ == "__main__":
-    direction = sys.argv[1]
+    args = parser().parse_args()
+    direction = args.direction
     Path(WORK).mkdir(parents=True, exist_ok=True)
     target, dname = DIRS[direction]
     P, mask = make_file(target)
     X = np.where(mask[..., None], np.nan, P)
     d = load_dictionary(dname)
     recover_sparse(X[:300], mask[:300], dictionary=d)
-    for v in sys.argv[2:]:
+    for v in args.variants:
         kw = VARIANTS[v]
         t = time.perf_counter()
         if kw is None:

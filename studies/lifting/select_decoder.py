@@ -1,12 +1,12 @@
 """Choose the dictionary lifter's 3D-half re-fit (``decoder_ridge``) and passes.
 
-    python lifters/select_decoder.py /tmp/iss12-lift/cmu.npz -o lifters/selection_decoder.json
+    python studies/lifting/select_decoder.py /tmp/lift/cmu.npz -o studies/lifting/selection_decoder.json
 
 Chosen on the *training* clips of ``select_lifter.py``'s clip split only: a
 seeded fifth of them (seed 1) is held out as an inner validation set, so the
 validation clips that ``select_lifter.py`` and ``benchmarks/lifting.py``
 report on play no part in this choice. Each fit uses the shipped settings
-(``lifters/selection.json`` ``"shipped"``) on 15,000 poses of the other
+(``studies/lifting/selection.json`` ``"shipped"``) on 15,000 poses of the other
 training clips; for each number of passes the lifting codes of those poses
 are computed once and every ridge penalty rho re-fits the 3D halves from the
 same statistics (``DictionaryLifter._decoder_stats`` / ``_solve_decoder``).
@@ -19,15 +19,17 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-from select_lifter import arrays, split
-from sparseedm.lifting import fit_lifter, lift, training_pairs
-from sparseedm.lifting.metrics import err_ave_3d
-from sparseedm.metrics import random_occlusion
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository root
+from studies.lifting.select_lifter import arrays, split  # noqa: E402
+from sparseedm.lifting import fit_lifter, lift, training_pairs  # noqa: E402
+from sparseedm.lifting.metrics import err_ave_3d  # noqa: E402
+from sparseedm.metrics import random_occlusion  # noqa: E402
 
 RHOS = (None, 0.0001, 0.0003, 0.001, 0.003, 0.01, 0.03, 0.1)
 
