@@ -221,7 +221,7 @@ def test_kalman_is_the_textbook_rts_smoother():
     missing[:, 0] = False
     q, r = 0.7, 2.0
     out = fill_kalman(np.where(missing[..., None], np.nan, poses), missing, frames, q=q, r=r,
-                      ends="extrapolate")
+                      persistence=np.inf)
     for j, k in [(1, 0), (1, 1), (6, 0), (9, 1)]:
         y = np.where(missing[:, j], np.nan, poses[:, j, k])
         expected = textbook_rts(y, frames.astype(float), q, r)
@@ -229,9 +229,9 @@ def test_kalman_is_the_textbook_rts_smoother():
         # rtol: the textbook's broad prior costs it about 1e-7 of rounding
         np.testing.assert_allclose(out[hidden, j, k], expected[hidden], rtol=1e-6)
     # the result depends on q / r only; another ratio gives other fills
-    same = fill_kalman(poses, missing, frames, q=2 * q, r=2 * r, ends="extrapolate")
+    same = fill_kalman(poses, missing, frames, q=2 * q, r=2 * r, persistence=np.inf)
     np.testing.assert_allclose(same, out, rtol=1e-9)
-    other = fill_kalman(poses, missing, frames, q=q, r=10 * r, ends="extrapolate")
+    other = fill_kalman(poses, missing, frames, q=q, r=10 * r, persistence=np.inf)
     assert np.abs(other - out)[missing].max() > 0.1
 
 
@@ -268,24 +268,35 @@ def test_the_noise_fit_recovers_simulated_noise():
     assert each.log_likelihood > noise.log_likelihood  # more freedom, a higher maximum
 
 
-def test_kalman_clip_ends_hold_or_extrapolate():
+def test_kalman_clip_ends_held_extrapolated_or_damped():
     frames = np.arange(20)
     truth = track(2.0 * frames + 1.0, frames)
     missing = np.zeros((20, 14), bool)
     missing[:4, 3] = missing[15:, 3] = True
     given = np.where(missing[..., None], np.nan, truth)
-    held = fill_kalman(given, missing, frames)
+    held = fill_kalman(given, missing, frames, persistence=0)
     np.testing.assert_allclose(held[:4, 3], np.repeat(truth[4:5, 3], 4, axis=0), atol=1e-9)
     np.testing.assert_allclose(held[15:, 3], np.repeat(truth[14:15, 3], 5, axis=0), atol=1e-9)
     # extrapolated at the velocity there: the line goes on
-    np.testing.assert_allclose(fill_kalman(given, missing, frames, ends="extrapolate"), truth,
+    np.testing.assert_allclose(fill_kalman(given, missing, frames, persistence=np.inf), truth,
                                atol=1e-6)
+    # damped: d frames out, the velocity's reach over tau (1 - exp(-d / tau)) frames
+    tau = 3.0
+    reach = tau * (1 - np.exp(-np.arange(1, 6) / tau))
+    velocity = (truth[1, 3] - truth[0, 3])[None]
+    damped = fill_kalman(given, missing, frames, persistence=tau)
+    np.testing.assert_allclose(damped[15:, 3], truth[14, 3] + reach[:, None] * velocity,
+                               atol=1e-6)
+    np.testing.assert_allclose(damped[:4, 3], truth[4, 3] - reach[:4][::-1, None] * velocity,
+                               atol=1e-6)
+    assert np.array_equal(fill_kalman(given, missing, frames),
+                          fill_kalman(given, missing, frames, persistence=20.0))
     # one observation: held everywhere; two: the line through them
     missing = np.ones((20, 14), bool)
     missing[7, 2] = missing[[5, 9], 4] = False
     missing[:, 0] = False
     out = fill_kalman(np.where(missing[..., None], np.nan, truth), missing, frames,
-                      ends="extrapolate")
+                      persistence=np.inf)
     np.testing.assert_allclose(out[:, 2], np.repeat(truth[7:8, 2], 20, axis=0), atol=1e-9)
     np.testing.assert_allclose(out[:, 4], truth[:, 4], atol=1e-6)
 
@@ -298,7 +309,7 @@ def test_kalman_refuses_bad_options():
         fill_kalman(poses, missing, np.arange(5), q=1.0, r=0.0)
     with pytest.raises(ParameterError, match="pooling must be one of"):
         fit_kalman_noise(poses, missing, np.arange(5), pooling="frame")
-    with pytest.raises(ParameterError, match="ends must be one of"):
-        fill_kalman(poses, missing, np.arange(5), ends="clip")
+    with pytest.raises(ParameterError, match="persistence must be"):
+        fill_kalman(poses, missing, np.arange(5), persistence=-1.0)
     with pytest.raises(PoseError, match="sorted and unique"):
         fill_kalman(poses, missing, [0, 1, 1, 2, 3])
