@@ -395,8 +395,8 @@ def fit_kalman_noise(poses, missing, frames, *, pooling="clip"):
     >>> truth = np.cumsum(np.cumsum(acc, axis=0), axis=0)
     >>> seen = truth + rng.normal(scale=2.0, size=truth.shape)
     >>> noise = fit_kalman_noise(seen, np.zeros((T, 14), bool), np.arange(T))
-    >>> round(float(noise.q[0, 0]), 2), round(float(noise.r[0, 0]), 2)
-    (0.51, 4.09)
+    >>> round(float(noise.q[0, 0]), 1), round(float(noise.r[0, 0]), 1)
+    (0.5, 4.1)
     """
     validate_params("fit_kalman_noise", dict(pooling=pooling),
                     {"pooling": [Options(KALMAN_POOLING)]})
@@ -499,9 +499,10 @@ def _forward(y, observed, t, ratio, store=False):
     """The Kalman filter over time, every series (and candidate ratio) at once.
 
     In units of r (r = 1, q = `ratio`); `ratio` is (S,) or (G, S). A series
-    starts at its first observation (position observed, velocity diffuse).
-    Returns the likelihood's terms -- sums of e² / F and log F, and counts,
-    over each series' third and later observations -- and, with `store`, the
+    starts at its first observation (position observed, velocity diffuse)
+    and is exact from its second on (:func:`_start`). Without `store`, returns
+    the likelihood's terms: sums of e² / F and log F, and counts, over each
+    series' third and later observations. With `store`, returns the
     predicted and filtered states (p, v and the covariance a, b, c), each
     (5, T, *ratio.shape).
     """
@@ -509,10 +510,15 @@ def _forward(y, observed, t, ratio, store=False):
     K = _diffuse(ratio, t)
     p, v, b = np.zeros(shape), np.zeros(shape), np.zeros(shape)
     a, c = np.ones(shape), np.ones(shape)
-    square, logdet, count = np.zeros(shape), np.zeros(shape), np.zeros(y.shape[1])
-    seen = np.zeros(y.shape[1], int)
+    square, logdet = np.zeros(shape), np.zeros(shape)
+    before = np.cumsum(observed, axis=0) - observed      # observations before each frame
+    first, second = observed & (before == 0), observed & (before == 1)
+    update = (observed & (before > 1)).astype(float)
+    starting, updating = (first | second).any(axis=1), update.any(axis=1)
+    cols = np.arange(y.shape[1])
+    start_row = np.argmax(observed, axis=0)
     y0 = np.where(observed, y, 0.0)
-    t_first, y_first = np.zeros(y.shape[1]), np.zeros(y.shape[1])
+    y_first, t_first = y0[start_row, cols], t[start_row]
     states = (np.empty((5, T) + shape), np.empty((5, T) + shape)) if store else None
     for k in range(T):
         if k:
@@ -524,27 +530,22 @@ def _forward(y, observed, t, ratio, store=False):
             p = p + dt * v
         if store:
             states[0][:, k] = p, v, a, b, c
-        obs = observed[k]
-        if (obs & (seen < 2)).any():
-            p, v, a, b, c = _start(obs & (seen == 0), obs & (seen == 1), y0[k],
-                                   t[k] - t_first, y_first, (p, v, a, b, c), ratio, K)
-            t_first = np.where(obs & (seen == 0), t[k], t_first)
-            y_first = np.where(obs & (seen == 0), y0[k], y_first)
-        update = obs & (seen > 1)
-        if update.any():
+        if starting[k]:
+            p, v, a, b, c = _start(first[k], second[k], y0[k], t[k] - t_first, y_first,
+                                   (p, v, a, b, c), ratio, K)
+        if updating[k]:
             F = a + 1.0
             e = y0[k] - p
-            square += update * (e * e / F)
-            logdet += update * np.log(F)
-            count += update
-            g = update / F
+            g = update[k] / F
+            if not store:
+                square += g * e * e
+                logdet += update[k] * np.log(F)
             ag, ge = a * g, g * e
             p, v = p + a * ge, v + b * ge
             a, b, c = a * (1.0 - ag), b * (1.0 - ag), c - b * b * g
-        seen += obs
         if store:
             states[1][:, k] = p, v, a, b, c
-    return (square, logdet, count), states
+    return states if store else (square, logdet, update.sum(axis=0))
 
 
 def _start(first, second, y, h, y_first, state, ratio, K):
@@ -578,7 +579,7 @@ def _smooth(y, observed, t, ratio, persistence):
     """Smoothed positions (T, S); before a series' first and after its last
     observation carried on by its velocity there (fill_kalman's `persistence`);
     NaN for a series never observed."""
-    _, (predicted, filtered) = _forward(y, observed, t, ratio, store=True)
+    predicted, filtered = _forward(y, observed, t, ratio, store=True)
     ps, vs = _backward(predicted, filtered, t)
     cols = np.arange(y.shape[1])
     first = np.argmax(observed, axis=0)
@@ -599,31 +600,29 @@ def _drift(d, persistence):
 
 
 def _fit_ratio(y, observed, t, pooling):
-    """Each series' maximum-likelihood q / r, (S,): a grid of one decade over
-    :data:`LOG_RATIO_RANGE`, one of an eighth of a decade around its best, and a
-    parabola through the best three. A unit with fewer than three observations per
-    series gets any ratio: one or two points are held or joined by a line whatever it is."""
+    """Each series' maximum-likelihood q / r, (S,): every quarter decade over
+    :data:`LOG_RATIO_RANGE` in one pass, then a parabola through the best three.
+    A unit with fewer than three observations per series gets any ratio: one or
+    two points are held or joined by a line whatever it is."""
     units = _units(y.shape[1], pooling)
     lo, hi = LOG_RATIO_RANGE
-    coarse = np.arange(lo, hi + 0.5)[:, None] * np.ones(units.shape[1])
-    best = coarse[np.argmax(_grid_loglik(y, observed, t, coarse, units), axis=0), 0]
-    step = 0.125
-    fine = np.clip(best + step * np.arange(-8, 9)[:, None], lo, hi)
-    ll = _grid_loglik(y, observed, t, fine, units)
-    cols = np.arange(units.shape[1])
+    step = 0.25
+    grid = np.arange(lo, hi + step / 2, step)
+    ll = _grid_loglik(y, observed, t, grid[:, None] * np.ones(units.shape[1]), units)
     i = np.argmax(ll, axis=0)
-    j = np.clip(i, 1, len(fine) - 2)
+    j = np.clip(i, 1, len(grid) - 2)
+    cols = np.arange(units.shape[1])
     left, mid, right = ll[j - 1, cols], ll[j, cols], ll[j + 1, cols]
     curvature = left - 2.0 * mid + right
-    even = np.isclose(fine[j + 1, cols] - fine[j - 1, cols], 2 * step) & (i == j)
     with np.errstate(divide="ignore", invalid="ignore"):
-        shift = np.where(even & (curvature < 0), 0.5 * step * (left - right) / curvature, 0.0)
-    return 10.0 ** (units @ (fine[i, cols] + np.clip(shift, -step, step)))
+        shift = np.where((i == j) & (curvature < 0),
+                         0.5 * step * (left - right) / curvature, 0.0)
+    return 10.0 ** (units @ (grid[i] + np.clip(shift, -step, step)))
 
 
 def _grid_loglik(y, observed, t, logs, units):
     """The profile log-likelihood (G, U) of each unit at each candidate log10 ratio (G, U)."""
-    terms = _forward(y, observed, t, 10.0 ** (logs @ units.T))[0]
+    terms = _forward(y, observed, t, 10.0 ** (logs @ units.T))
     return _pooled(terms, units).loglik
 
 
@@ -647,7 +646,7 @@ def _fit_noise(y, observed, t, pooling):
     """KalmanNoise of the series (T, S), fitted."""
     ratio = _fit_ratio(y, observed, t, pooling)
     units = _units(y.shape[1], pooling)
-    pooled = _pooled(_forward(y, observed, t, ratio)[0], units)
+    pooled = _pooled(_forward(y, observed, t, ratio), units)
     r = units @ pooled.r
     n_joints = y.shape[1] // 2
     return KalmanNoise((ratio * r).reshape(n_joints, 2), r.reshape(n_joints, 2),
