@@ -266,6 +266,13 @@ def test_the_noise_fit_recovers_simulated_noise():
     np.testing.assert_allclose(each.q, 0.3, rtol=0.35)
     np.testing.assert_allclose(each.r, 2.5, rtol=0.2)
     assert each.log_likelihood > noise.log_likelihood  # more freedom, a higher maximum
+    # a joint seen twice has nothing to fit: NaN there, the others' own
+    missing[:, 6] = True
+    missing[[5, 9], 6] = False
+    by_joint = fit_kalman_noise(poses, missing, frames, pooling="joint")
+    assert np.isnan(by_joint.q[6]).all() and np.isnan(by_joint.r[6]).all()
+    assert np.isfinite(np.delete(by_joint.q, 6, axis=0)).all()
+    np.testing.assert_allclose(np.delete(by_joint.r, 6, axis=0), 2.5, rtol=0.2)
 
 
 def test_kalman_clip_ends_held_extrapolated_or_damped():

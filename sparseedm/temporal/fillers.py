@@ -353,7 +353,7 @@ class KalmanNoise(NamedTuple):
     log_likelihood : float
         The innovations log-likelihood at (q, r), summed over the series
         (the first two observations of each series set its diffuse start and
-        are not counted); NaN for a joint observed fewer than three times.
+        are not counted).
     """
 
     q: np.ndarray
@@ -367,9 +367,10 @@ def fit_kalman_noise(poses, missing, frames, *, pooling="clip"):
     Each joint coordinate is a constant-velocity series (the model of
     :func:`fill_kalman`). For a given ratio ``q / r`` the observation noise
     ``r`` that maximises the innovations likelihood is the mean squared
-    standardised innovation, so the search is over the ratio alone: a grid
-    of one decade over :data:`LOG_RATIO_RANGE`, then one of an eighth of a
-    decade around the best, every candidate filtered in one pass.
+    standardised innovation, so the search is over the ratio alone: every
+    quarter decade over :data:`LOG_RATIO_RANGE`, all filtered in one pass
+    (vectorised over the candidates and the series), then a parabola through
+    the best three.
 
     Parameters
     ----------
@@ -377,8 +378,9 @@ def fit_kalman_noise(poses, missing, frames, *, pooling="clip"):
         One track (see the module docstring).
     pooling : {"clip", "joint", "coordinate"}, default "clip"
         What shares one (q, r): the whole track (every joint and coordinate),
-        each joint (its x and y), or each joint coordinate. A joint or
-        coordinate with fewer than three observations takes the track's.
+        each joint (its x and y), or each joint coordinate. A joint observed
+        fewer than three times (in a unit with no other) gets NaN: there is
+        nothing to fit, and a line through two points does not depend on it.
 
     Returns
     -------
@@ -647,7 +649,7 @@ def _fit_noise(y, observed, t, pooling):
     ratio = _fit_ratio(y, observed, t, pooling)
     units = _units(y.shape[1], pooling)
     pooled = _pooled(_forward(y, observed, t, ratio), units)
-    r = units @ pooled.r
+    r = pooled.r[np.argmax(units, axis=1)]  # NaN for a unit with nothing counted
     n_joints = y.shape[1] // 2
     return KalmanNoise((ratio * r).reshape(n_joints, 2), r.reshape(n_joints, 2),
                        float(pooled.loglik[pooled.count > 0].sum()))
