@@ -338,12 +338,14 @@ def test_cli_video_protocol(sequence_file, tmp_path, capsys):
 
     out = tmp_path / "rep"
     argv = ["evaluate", "--protocol", "gaps", "--data", str(sequence_file), "--methods",
-            "linear,akima", "--gap-lengths", "3,10", "-o", str(out)]
+            "linear,akima,kalman", "--gap-lengths", "3,10", "-o", str(out)]
     assert main(argv) == 0
     printed = capsys.readouterr().out
     assert "| linear |" in printed and "gap 10" in printed and "gap 30" not in printed
+    assert "| kalman |" in printed and "edge jump" in printed
     saved = json.loads((out / "video.json").read_text())
-    ref = evaluate_video(str(sequence_file), ["linear", "akima"], "gaps", gap_lengths=(3, 10))
+    ref = evaluate_video(str(sequence_file), ["linear", "akima", "kalman"], "gaps",
+                         gap_lengths=(3, 10))
     assert json.dumps(saved["rows"]) == json.dumps(ref.rows)
     assert (out / "video.csv").is_file()
     assert main(argv + ["--noise", "0.01"]) == 0

@@ -30,6 +30,10 @@ The fillers users already apply, each per joint and per coordinate over time:
   frame's missing coordinates predicted from its observed ones through the
   leading principal components of the clip's trajectory matrix (the
   correlations between joints);
+* :func:`fill_kalman` -- a constant-velocity Kalman filter and
+  Rauch-Tung-Striebel smoother per joint coordinate, its noise fitted to the
+  track by maximum likelihood (:func:`fit_kalman_noise`); past a joint's
+  last observation it carries the joint on at a decaying velocity;
 * :func:`sparse_filler` -- per-frame sparseedm (:func:`sparseedm.recover` on
   the track's poses, time unused), as a filler.
 
@@ -42,13 +46,17 @@ Rules shared by the splines and linear interpolation:
   joint is held there throughout; with two, cubic and Akima are linear.
 * **A joint never observed in the track** is returned as NaN: the filler has
   nothing to go on, and the caller decides (the evaluation counts such
-  joint-frames as unfilled). :func:`fill_pca` follows the same rule;
+  joint-frames as unfilled). :func:`fill_pca` and :func:`fill_kalman`
+  follow the same rule;
   :func:`sparse_filler` fills them from the other joints of each frame.
 
 References
 ----------
 Gløersen, Ø., Federolf, P. (2016). Predicting missing marker trajectories in
 human motion data using marker intercorrelations. PLoS ONE 11(3): e0152616.
+
+Rauch, H. E., Tung, F., Striebel, C. T. (1965). Maximum likelihood estimates of
+linear dynamic systems. AIAA Journal 3(8): 1445-1450.
 
 Examples
 --------
