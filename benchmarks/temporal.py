@@ -15,7 +15,9 @@ what a user runs end to end:
   adaptation;
 * per-frame :func:`sparseedm.recover` with ``adapt=False`` on the poses in memory;
 * the temporal model with ``adapt=False`` on the poses in memory;
-* a cubic spline (:func:`sparseedm.temporal.fillers.fill_cubic`) per track.
+* a cubic spline (:func:`sparseedm.temporal.fillers.fill_cubic`) per track;
+* the constant-velocity Kalman smoother, its noise fitted per track
+  (:func:`sparseedm.temporal.fillers.fill_kalman`).
 
 Every row in the same run, single process; the machine and its load are recorded.
 """
@@ -38,7 +40,7 @@ from sparseedm.cameras import Cameras, project, sample_cameras
 from sparseedm.dataset import find_mocap_files
 from sparseedm.keypoints import KeypointSet, write_keypoints
 from sparseedm.mocap import load_mocap
-from sparseedm.temporal.fillers import fill_cubic
+from sparseedm.temporal.fillers import fill_cubic, fill_kalman
 
 
 def build_video(data_dir, n_frames, seed=0, folder="cmu-mocap"):
@@ -109,14 +111,15 @@ def run(data_dir, n_frames):
         seconds=round(sec, 2), frames_per_second=round(n / sec, 1),
         per_frame_poses=res.per_frame_poses)
 
-    def splines():
+    def per_track(fill):
         for clip in np.unique(tracks):
             r = tracks == clip
-            fill_cubic(poses[r], missing[r], frames[r])
+            fill(poses[r], missing[r], frames[r])
 
-    _, sec = timed(splines)
-    rows["cubic spline per track (fill_cubic)"] = dict(seconds=round(sec, 2),
-                                                       frames_per_second=round(n / sec, 1))
+    for name, fill in (("cubic spline per track (fill_cubic)", fill_cubic),
+                       ("Kalman smoother per track (fill_kalman)", fill_kalman)):
+        _, sec = timed(lambda: per_track(fill))
+        rows[name] = dict(seconds=round(sec, 2), frames_per_second=round(n / sec, 1))
     return dict(frames=n, tracks=int(len(np.unique(tracks))),
                 missing_fraction=round(float(missing.mean()), 3),
                 machine=f"{platform.platform()}, {os.cpu_count()} cores",

@@ -5,7 +5,8 @@ of 31-300 frames; :mod:`sparseedm.temporal.sequences`) from two sources in
 ``../shared/data`` and runs :func:`sparseedm.temporal.evaluation.evaluate_video`
 under Protocol A (contiguous gaps of 3/10/30/90 frames) and Protocol B
 (self-occlusion behind the torso + 5 % dropouts) for linear, cubic, Akima,
-PCA gap filling and per-frame sparseedm (``recover`` per clip, defaults):
+PCA gap filling, the constant-velocity Kalman smoother and per-frame sparseedm
+(``recover`` per clip, defaults):
 
 * ``bandai``: Bandai-Namco-1 (another lab, other actors); its clips in sorted
   order alternate validation / test. Per-frame sparseedm uses the shipped
@@ -197,31 +198,36 @@ def summary(results, end="all"):
             groups = list(dict.fromkeys(x["group"] for x in pair["validation"]["rows"]))
             methods = list(dict.fromkeys(x["method"] for x in pair["validation"]["rows"]))
             out.append(f"{source}, {protocol} ({end}): validation / test, "
-                       "% of body height")
-            out.append("| method | " + " | ".join(groups) + " |")
-            out.append("|---|" + "---|" * len(groups))
+                       "% of body height; edge jump: the mean excess jump at the gaps' edges")
+            out.append("| method | " + " | ".join(groups) + " | edge jump |")
+            out.append("|---|" + "---|" * (len(groups) + 1))
             for m in methods:
-                cells = []
-                for g in groups:
-                    vals = []
-                    for split in ("validation", "test"):
-                        x = next(x for x in pair[split]["rows"]
-                                 if (x["method"], x["group"], x["end"]) == (m, g, end))
-                        vals.append("–" if x["scored"] == 0 else f"{x['error']:.2f}")
-                    cells.append(" / ".join(vals))
+                cells = [_cells(pair, m, g, end, "error") for g in groups]
+                cells.append(_cells(pair, m, "overall", end, "edge_jump"))
                 out.append(f"| {m} | " + " | ".join(cells) + " |")
             counts = []
             for g in groups:
                 n = [next(x for x in pair[s]["rows"] if (x["group"], x["end"]) == (g, end))
                      for s in ("validation", "test")]
                 counts.append(" / ".join(f"{x['scored']}" for x in n))
-            out.append("| scored joint-frames | " + " | ".join(counts) + " |")
+            out.append("| scored joint-frames | " + " | ".join(counts) + " | |")
             out.append("")
     return "\n".join(out)
 
 
-#: the gap fillers the goals are stated against (issue 23)
-PEERS = ("linear", "cubic", "akima", "pca")
+def _cells(pair, method, group, end, key):
+    """'validation / test' of one row's `key` (error or edge jump; "–" where none)."""
+    vals = []
+    for split in ("validation", "test"):
+        x = next(x for x in pair[split]["rows"]
+                 if (x["method"], x["group"], x["end"]) == (method, group, end))
+        value = x.get(key, float("nan"))  # results written before the edge jump have none
+        vals.append("–" if x["scored"] == 0 or not np.isfinite(value) else f"{value:.2f}")
+    return " / ".join(vals)
+
+
+#: the gap fillers the goals are stated against (issue 23), and the Kalman smoother
+PEERS = ("linear", "cubic", "akima", "pca", "kalman")
 
 
 def intervals(results, method="temporal", peers=PEERS, level=0.9):
@@ -261,10 +267,10 @@ def main(argv=None):
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--splits", default="validation,test", type=lambda s: s.split(","),
                    help="e.g. 'test' alone once the settings are chosen")
-    p.add_argument("--methods", default="linear,cubic,akima,pca,sparse",
+    p.add_argument("--methods", default="linear,cubic,akima,pca,kalman,sparse",
                    type=lambda s: [m for m in s.split(",") if m],
-                   help="built-in methods (default linear,cubic,akima,pca,sparse); keep one "
-                   "of the splines beside a method run alone, so rows are scored on the "
+                   help="built-in methods (default linear,cubic,akima,pca,kalman,sparse); keep "
+                   "one of the splines beside a method run alone, so rows are scored on the "
                    "same joint-frames as a full run")
     p.add_argument("--noise", type=float, default=0.0, metavar="F",
                    help="observed joints jittered by F x the body height (evaluate_video's "

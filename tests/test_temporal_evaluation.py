@@ -8,8 +8,8 @@ import pytest
 
 from sparseedm.cameras import sample_cameras
 from sparseedm.exceptions import ParameterError
-from sparseedm.temporal.evaluation import (evaluate_video, plot_fill, protocol_masks,
-                                             ratio_interval)
+from sparseedm.temporal.evaluation import (edge_jumps, evaluate_video, plot_fill,
+                                             protocol_masks, ratio_interval)
 from sparseedm.temporal.fillers import fill_linear
 from sparseedm.temporal.protocols import GAP_LENGTHS
 from sparseedm.temporal.sequences import Sequence
@@ -74,6 +74,51 @@ def test_the_table_by_hand():
     assert row("linear", "6-15")["error"] == pytest.approx(40.0)
     assert row("linear", "overall")["error"] == pytest.approx((30 + 280) / 11)
     assert report.settings["hidden_fraction"] == pytest.approx(11 / 140)
+
+
+def test_edge_jumps_by_hand():
+    truth = np.zeros((8, 2, 2))
+    truth[:, :, 0] = 2.0 * np.arange(8)[:, None]       # 2 px a frame in x
+    missing = np.zeros((8, 2), bool)
+    missing[0:2, 0] = True    # at the clip start: only its end has a neighbour
+    missing[4, 0] = True      # one frame: start and end on the same row
+    missing[5:7, 1] = True    # a run whose end borders a skipped frame
+    frames = np.array([0, 1, 2, 3, 4, 5, 6, 9])
+    filled = truth.copy()
+    filled[1, 0] += [0.0, 3.0]   # 3 px off in y: sqrt(2² + 3²) from frame 2
+    filled[4, 0] = truth[3, 0]   # held: it does not move into the gap, moves 4 out
+    filled[5, 1] += [6.0, 0.0]   # 6 px ahead in x: moves 8 into the gap
+    jumps = edge_jumps(truth, filled, missing, frames)
+    expected = np.full((8, 2, 2), np.nan)
+    expected[1, 0, 1] = np.sqrt(13) - 2
+    expected[4, 0] = [0 - 2, 4 - 2]
+    expected[5, 1, 0] = 8 - 2
+    # row 6 -> row 7 is frames 6 -> 9: no edge counted there
+    np.testing.assert_allclose(jumps, expected)
+    # a fill that follows the truth has no excess jump anywhere
+    assert np.nanmax(np.abs(edge_jumps(truth, truth, missing, frames))) == 0
+
+
+def test_the_report_has_the_mean_excess_jump_per_method():
+    report = evaluate_video([walker()], {"offset": offset, "linear": fill_linear},
+                            hand_protocol)
+    row = report.row
+    # offset's edges (body height 100 px, truth 10 px a frame in x): joint 4's end at
+    # frame 1 (0, 10) off -> |(10, -10)|; joint 7's start at frame 3 (0, 10) off ->
+    # |(10, 10)|; joint 9's start at frame 4 (3, 4) off -> |(13, 4)|, end at 5 -> |(10, -10)|
+    diagonal, skew = np.hypot(10, 10) - 10, np.hypot(13, 4) - 10
+    assert row("offset", "overall")["edges"] == 4
+    assert row("offset", "overall")["edge_jump"] == pytest.approx((3 * diagonal + skew) / 4)
+    assert row("offset", "1-5", "inside")["edge_jump"] == pytest.approx((diagonal + skew) / 2)
+    assert row("offset", "6-15")["edge_jump"] == pytest.approx(diagonal)
+    assert row("offset", "16-45")["edges"] == 0 and np.isnan(row("offset", "16-45")["edge_jump"])
+    # linear: exact inside (no excess), holding at the clip ends: stays put where the
+    # truth moves 10 px
+    assert row("linear", "1-5", "inside")["edge_jump"] == pytest.approx(0.0, abs=1e-9)
+    assert row("linear", "overall")["edge_jump"] == pytest.approx(-20 / 4)
+    assert "edge jump" in report.table() and f"{(3 * diagonal + skew) / 4:.2f}" in \
+        report.table()
+    assert "edge_jump" in report.to_csv().splitlines()[0]
 
 
 def shifted(name, dx):
@@ -293,12 +338,14 @@ def test_cli_video_protocol(sequence_file, tmp_path, capsys):
 
     out = tmp_path / "rep"
     argv = ["evaluate", "--protocol", "gaps", "--data", str(sequence_file), "--methods",
-            "linear,akima", "--gap-lengths", "3,10", "-o", str(out)]
+            "linear,akima,kalman", "--gap-lengths", "3,10", "-o", str(out)]
     assert main(argv) == 0
     printed = capsys.readouterr().out
     assert "| linear |" in printed and "gap 10" in printed and "gap 30" not in printed
+    assert "| kalman |" in printed and "edge jump" in printed
     saved = json.loads((out / "video.json").read_text())
-    ref = evaluate_video(str(sequence_file), ["linear", "akima"], "gaps", gap_lengths=(3, 10))
+    ref = evaluate_video(str(sequence_file), ["linear", "akima", "kalman"], "gaps",
+                         gap_lengths=(3, 10))
     assert json.dumps(saved["rows"]) == json.dumps(ref.rows)
     assert (out / "video.csv").is_file()
     assert main(argv + ["--noise", "0.01"]) == 0

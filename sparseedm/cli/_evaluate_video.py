@@ -14,7 +14,7 @@ import sys
 from pathlib import Path
 
 #: evaluate_video's default methods, as the CLI states them
-VIDEO_METHODS = "linear,cubic,akima,pca,sparse"
+VIDEO_METHODS = "linear,cubic,akima,pca,kalman,sparse"
 #: evaluate_video's default gap lengths
 GAP_LENGTHS = (3, 10, 30, 90)
 

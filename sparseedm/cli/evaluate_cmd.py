@@ -31,8 +31,8 @@ def add_parser(sub):
                    "and for --sweep-atoms")
     p.add_argument("--methods", default=None,
                    help="comma-separated methods (default all: sparse,mean-fill,knn,iterative,"
-                   "nearest; with --protocol: linear,cubic,akima,pca,sparse; a gap filler of "
-                   "your own as module:function)")
+                   "nearest; with --protocol: linear,cubic,akima,pca,kalman,sparse; a gap filler "
+                   "of your own as module:function)")
     p.add_argument("--counts", default="1,2,3,mix", help="occlusion counts (default 1,2,3,mix)")
     p.add_argument("--representations", default="average,zero",
                    help="occlusion representations (default average,zero)")

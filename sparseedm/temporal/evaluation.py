@@ -29,6 +29,10 @@ every method's ``error`` is taken over the joint-frames that all the methods
 evaluated together filled (``scored``), so that the rows compare the same
 joint-frames; ``error_own`` is each method's error over all it filled.
 
+A fill can be close to the truth on average and still jump where the joint
+reappears: ``edge_jump`` is the mean *excess jump* at the gaps' edges
+(:func:`edge_jumps`), in the same % of body height.
+
 Examples
 --------
 >>> from sparseedm.temporal.fillers import fill_linear
@@ -65,12 +69,12 @@ from .protocols import (GAP_LENGTHS, RUN_BINS, dropout_mask, gap_mask, run_bin, 
                         self_occlusion_mask)
 from .sequences import Sequence, load_sequences
 
-__all__ = ["evaluate_video", "VideoReport", "protocol_masks", "detector_jitter",
+__all__ = ["evaluate_video", "VideoReport", "protocol_masks", "detector_jitter", "edge_jumps",
            "resolve_methods", "ratio_interval", "plot_fill", "PROTOCOLS", "DEFAULT_METHODS"]
 
 PROTOCOLS = ("gaps", "self-occlusion")
 #: methods evaluated when none are named
-DEFAULT_METHODS = ("linear", "cubic", "akima", "pca", "sparse")
+DEFAULT_METHODS = ("linear", "cubic", "akima", "pca", "kalman", "sparse")
 _ENDS = ("all", "end", "inside")
 
 
@@ -92,7 +96,7 @@ def resolve_methods(methods, dictionary=None):
     >>> resolve_methods(["spline"])
     Traceback (most recent call last):
     ...
-    sparseedm.exceptions.ParameterError: evaluate_video: unknown method 'spline'; known: linear, cubic, akima, pca, sparse, module:function, or a (name, filler) pair
+    sparseedm.exceptions.ParameterError: evaluate_video: unknown method 'spline'; known: linear, cubic, akima, pca, kalman, sparse, module:function, or a (name, filler) pair
     """
     items = methods.items() if isinstance(methods, dict) else methods
     out = {}
@@ -175,7 +179,10 @@ class VideoReport:
         when none), ``median``, ``unfilled`` (joint-frames the method left NaN),
         ``sequence_sums`` and ``sequence_counts`` (the scored errors' sum and
         count per sequence, in the order given: what :func:`ratio_interval`
-        resamples).
+        resamples), ``edges`` (gap edges with an observed neighbour, the
+        runs' starts and ends; those every method filled) and ``edge_jump``
+        (their mean excess jump, :func:`edge_jumps`, % of body height; NaN
+        when none).
     seconds : dict
         Each method's total fill time.
     settings : dict
@@ -209,10 +216,11 @@ class VideoReport:
         return list(dict.fromkeys(r["group"] for r in self.rows))
 
     def table(self, end="all"):
-        """A Markdown table: one row per method, one column per group (error %)."""
+        """A Markdown table: one row per method, one column per group (error %), the
+        excess jump at the gap edges (all groups, %) and the frames filled per second."""
         groups = self.groups
-        lines = ["| method | " + " | ".join(groups) + " | frames/s |",
-                 "|---|" + "---|" * (len(groups) + 1)]
+        lines = ["| method | " + " | ".join(groups) + " | edge jump | frames/s |",
+                 "|---|" + "---|" * (len(groups) + 2)]
         frames = self.settings.get("filled_frames", 0)
         for m in self.methods:
             cells = []
@@ -229,11 +237,13 @@ class VideoReport:
                     cell += f" [{r['error_own']:.2f} on all {r['n']}]"
                 cells.append(cell)
             speed = frames / self.seconds[m] if self.seconds.get(m) else float("nan")
-            lines.append(f"| {m} | " + " | ".join(cells) + f" | {speed:,.0f} |")
+            jump = self.row(m, "overall", end).get("edge_jump", float("nan"))
+            lines.append(f"| {m} | " + " | ".join(cells) + f" | {jump:.2f} | {speed:,.0f} |")
         counts = [self.row(self.methods[0], g, end) for g in groups] if self.methods else []
-        lines.append("| hidden (scored) joint-frames | " + " | ".join(
+        edges = counts[-1].get("edges", 0) if counts else 0
+        lines.append("| hidden (scored) joint-frames; edges | " + " | ".join(
             f"{r['n']}" + (f" ({r['scored']})" if r["scored"] < r["n"] else "")
-            for r in counts) + " | |")
+            for r in counts) + f" | {edges} | |")
         return "\n".join(lines)
 
     def to_json(self):
@@ -244,7 +254,7 @@ class VideoReport:
     def to_csv(self):
         buf = io.StringIO()
         keys = ("method", "group", "end", "n", "scored", "error", "median", "error_own",
-                "unfilled")
+                "unfilled", "edges", "edge_jump")
         writer = csv.DictWriter(buf, fieldnames=keys, lineterminator="\n")
         writer.writeheader()
         for r in self.rows:
@@ -282,6 +292,60 @@ def detector_jitter(sequence, level, random_state=0):
     return rng.normal(scale=float(level) * sequence.height, size=sequence.poses2d.shape)
 
 
+def edge_jumps(truth, filled, missing, frames):
+    """The excess jump of a fill at the edges of its gaps, on one track: (T, N, 2).
+
+    A gap is a run of missing frames of one joint. Where it starts at row
+    ``s`` after an observed row ``s - 1`` one frame earlier, the filled joint
+    moves ``|filled[s] - filled[s - 1]|`` (from the observed position: fillers
+    keep observed joints as given) where the truth moves
+    ``|truth[s] - truth[s - 1]|``; the excess jump is the difference, positive
+    when the fill jumps more than the body did. At the gap's last row ``e``
+    before an observed row ``e + 1`` the same with ``e`` and ``e + 1``.
+
+    Parameters
+    ----------
+    truth, filled : array_like (T, N, 2)
+    missing : array_like of bool (T, N)
+    frames : array_like of int (T,)
+        Sorted frame numbers: an edge counts only where its observed
+        neighbour is one frame away (not across a skipped frame).
+
+    Returns
+    -------
+    ndarray (T, N, 2)
+        ``[..., 0]``: the excess at a gap's first row, ``[..., 1]``: at its
+        last (a one-frame gap has both on its row), in the units of `truth`;
+        NaN elsewhere and at an edge with no observed neighbour (a clip end).
+
+    Examples
+    --------
+    Frames 2-3 of a joint moving 1 px a frame are hidden and filled 3 px
+    off in x: it jumps 4 px into the gap where the truth moves 1 (excess 3),
+    and 2 px back out of it (excess 1):
+
+    >>> truth = np.zeros((6, 1, 2)); truth[:, 0, 0] = np.arange(6)
+    >>> missing = np.zeros((6, 1), bool); missing[2:4] = True
+    >>> filled = truth.copy(); filled[2:4, 0, 0] += 3
+    >>> edge_jumps(truth, filled, missing, np.arange(6))[:, 0]
+    array([[nan, nan],
+           [nan, nan],
+           [ 3., nan],
+           [nan,  1.],
+           [nan, nan],
+           [nan, nan]])
+    """
+    truth, filled = np.asarray(truth, float), np.asarray(filled, float)
+    missing = np.asarray(missing, bool)
+    adjacent = (np.diff(np.asarray(frames)) == 1)[:, None]
+    excess = np.linalg.norm(np.diff(filled, axis=0), axis=-1) \
+        - np.linalg.norm(np.diff(truth, axis=0), axis=-1)          # between rows k, k + 1
+    out = np.full(missing.shape + (2,), np.nan)
+    out[1:, :, 0] = np.where(missing[1:] & ~missing[:-1] & adjacent, excess, np.nan)
+    out[:-1, :, 1] = np.where(missing[:-1] & ~missing[1:] & adjacent, excess, np.nan)
+    return out
+
+
 def evaluate_video(sequences, methods=DEFAULT_METHODS, protocol="gaps", *,
                    gap_lengths=GAP_LENGTHS, random_state=0, dictionary=None, noise=0.0):
     """Score gap fillers on sequences under a video protocol.
@@ -293,7 +357,7 @@ def evaluate_video(sequences, methods=DEFAULT_METHODS, protocol="gaps", *,
         built with one camera per clip.
     methods : sequence of str or (name, filler), or dict
         Names of :data:`~sparseedm.temporal.fillers.FILLERS` (default
-        linear, cubic, akima, pca, sparse) and/or your own fillers.
+        linear, cubic, akima, pca, kalman, sparse) and/or your own fillers.
     protocol : {"gaps", "self-occlusion"} or callable
         A callable ``protocol(sequence) -> {condition: missing (T, 14)}`` is
         your own protocol; its results are grouped by run length, as
@@ -328,7 +392,7 @@ def evaluate_video(sequences, methods=DEFAULT_METHODS, protocol="gaps", *,
         raise ParameterError("evaluate_video: no sequences to evaluate (a sequence file "
                              "keeps clips of 31 to 300 frames; are its clips shorter?)")
     fillers = resolve_methods(methods, dictionary)
-    records = {m: [] for m in fillers}  # (group, at_end, error or NaN)
+    records = {m: [] for m in fillers}  # (group, at_end, error, sequence, edge jumps)
     seconds = dict.fromkeys(fillers, 0.0)
     hidden = total = filled_frames = 0
     conditions = []
@@ -350,8 +414,9 @@ def evaluate_video(sequences, methods=DEFAULT_METHODS, protocol="gaps", *,
                 filled = fill(given, missing, seq.frames)
                 seconds[name] += time.perf_counter() - start
                 err = np.linalg.norm(filled - truth, axis=-1) / height * 100.0
+                jump = edge_jumps(truth, filled, missing, seq.frames) / height * 100.0
                 records[name].append((groups[missing], at_end[missing], err[missing],
-                                      np.full(int(missing.sum()), index)))
+                                      np.full(int(missing.sum()), index), jump[missing]))
     rows = _rows(records, protocol, gap_lengths, len(sequences))
     settings = {"sequences": len(sequences), "frames": int(sum(len(s) for s in sequences)),
                 "clips": sorted({s.clip.split("#")[0] for s in sequences}),
@@ -373,30 +438,36 @@ def _rows(records, protocol, gap_lengths, n_sequences):
     seq = np.concatenate([p[3] for p in first]) if first else np.array([], int)
     errs = {name: np.concatenate([p[2] for p in parts]) if parts else np.array([])
             for name, parts in records.items()}
+    jumps = {name: np.concatenate([p[4] for p in parts]) if parts else np.zeros((0, 2))
+             for name, parts in records.items()}
     common = np.logical_and.reduce([np.isfinite(e) for e in errs.values()]) if errs else \
         np.array([], bool)
+    # gap edges every method filled: each row's mean jump is over the same edges
+    edges = np.logical_and.reduce([np.isfinite(j) for j in jumps.values()]) if jumps else \
+        np.zeros((0, 2), bool)
     rows = []
     for name, err in errs.items():
         for group in order + ["overall"]:
             in_group = np.ones(err.shape, bool) if group == "overall" else groups == group
             for end in _ENDS:
                 sel = in_group & {"all": True, "end": ends, "inside": ~ends}[end]
-                rows.append(_summary(name, group, end, err[sel], common[sel], seq[sel],
-                                     n_sequences))
+                row = _summary(name, group, end, err[sel], common[sel], seq[sel], n_sequences)
+                jump = jumps[name][sel][edges[sel]]
+                rows.append(dict(row, edges=int(jump.size), edge_jump=_mean(jump)))
     return rows
+
+
+def _mean(e):
+    return float(e.mean()) if e.size else float("nan")
 
 
 def _summary(method, group, end, errs, common, seq, n_sequences):
     own = errs[np.isfinite(errs)]
     scored = errs[common]
-
-    def mean(e):
-        return float(e.mean()) if e.size else float("nan")
-
     return {"method": method, "group": group, "end": end, "n": int(errs.size),
-            "scored": int(scored.size), "error": mean(scored),
+            "scored": int(scored.size), "error": _mean(scored),
             "median": float(np.median(scored)) if scored.size else float("nan"),
-            "error_own": mean(own), "unfilled": int(errs.size - own.size),
+            "error_own": _mean(own), "unfilled": int(errs.size - own.size),
             # what ratio_interval resamples: the scored errors per sequence
             "sequence_sums": np.bincount(seq[common], scored, minlength=n_sequences).tolist(),
             "sequence_counts": np.bincount(seq[common], minlength=n_sequences).tolist()}
