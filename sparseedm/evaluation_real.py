@@ -73,7 +73,7 @@ PHOTO_METHODS = ("sparseedm", "sparseedm-no-adapt", "iterative", "knn", "mean-fi
 PHOTO_CONDITIONS = ("mix", "transplanted")
 #: a clip of evaluate_tracks has at least this many consecutive complete frames
 MIN_CLIP_FRAMES = 30
-_STAT_KEYS = ("n", "scored", "mean", "median", "pckh", "pckh_n", "unfilled")
+_STAT_KEYS = ("n", "scored", "mean", "median", "pckh", "pckh_n", "unfilled", "mean_own")
 
 
 def video_methods():
@@ -106,7 +106,8 @@ class RealReport:
         :data:`~sparseedm.real_protocol.JOINT_GROUPS`, a gap length ``"gap 10"``
         or a run-length bin, and ``"overall"``), ``n`` (hidden joints),
         ``scored``, ``mean``, ``median`` (% of body size), ``pckh``
-        (PCKh@0.5, NaN without head sizes), ``pckh_n``, ``unfilled``.
+        (PCKh@0.5, NaN without head sizes), ``pckh_n``, ``unfilled``,
+        ``mean_own`` (see :func:`sparseedm.real_protocol.error_summary`).
     seconds : dict
         ``{condition: {method: seconds}}``.
     settings : dict
@@ -136,7 +137,9 @@ class RealReport:
     def table(self, condition):
         """A Markdown table of one condition: a row per method, a column per group.
 
-        Cells are ``mean (median)`` in % of body size, then PCKh@0.5 where known.
+        Cells are ``mean (median)`` in % of body size, then PCKh@0.5 where
+        known; a method that filled joints others left unfilled also shows
+        its mean over all the hidden joints (``[all n: mean]``).
         """
         rows = [r for r in self.rows if r["condition"] == condition]
         groups = list(dict.fromkeys(r["group"] for r in rows))
@@ -149,6 +152,7 @@ class RealReport:
         first = [self.row(self.methods[0], condition, g) for g in groups]
         lines.append("| hidden (scored) joints | " + " | ".join(
             f"{r['n']}" + (f" ({r['scored']})" if r["scored"] < r["n"] else "")
+            + (f", PCKh on {r['pckh_n']}" if 0 < r["pckh_n"] < r["scored"] else "")
             for r in first) + " | |")
         return "\n".join(lines)
 
@@ -181,6 +185,8 @@ def _cell(r):
         text += f" {r['pckh']:.0%}"
     if r["unfilled"]:
         text += f" [{r['unfilled']} unfilled]"
+    elif r["scored"] < r["n"]:
+        text += f" [all {r['n']}: {r['mean_own']:.2f}]"
     return text
 
 
@@ -219,6 +225,19 @@ def _photo_sizes(n, n_complete, n_occluded):
     if c + m > n:
         c, m = int(round(n * c / (c + m))), n - int(round(n * c / (c + m)))
     return c, m
+
+
+def _photo_file(poses, complete, n_complete, n_occluded, random_state):
+    """(the file's complete poses, the rows of `poses` to occlude): a seeded draw,
+    the complete ones from `complete` when given, else from `poses`."""
+    rng = np.random.default_rng([int(random_state), 3])
+    if complete is None:
+        c, m = _photo_sizes(len(poses), n_complete, n_occluded)
+        order = rng.permutation(len(poses))
+        return poses[order[:c]], order[c:c + m]
+    c = len(complete) if n_complete is None else min(int(n_complete), len(complete))
+    m = len(poses) if n_occluded is None else min(int(n_occluded), len(poses))
+    return complete[rng.permutation(len(complete))[:c]], rng.permutation(len(poses))[:m]
 
 
 def _fill_sparse(given, missing, context, **options):
@@ -275,7 +294,7 @@ def _photo_conditions(conditions, pool, n_occluded, random_state, notes):
     return masks
 
 
-def evaluate_photos(poses, pool=None, *, n_complete=None, n_occluded=None,
+def evaluate_photos(poses, pool=None, *, complete=None, n_complete=None, n_occluded=None,
                     conditions=PHOTO_CONDITIONS, methods=PHOTO_METHODS, head_size=None,
                     dictionary=None, random_state=0):
     """Real photos: hide joints of complete poses in one file; score every method.
@@ -288,10 +307,14 @@ def evaluate_photos(poses, pool=None, *, n_complete=None, n_occluded=None,
         Real missing patterns (True = missing) for ``"transplanted"``, e.g.
         the file's incomplete poses; without one that keeps 3 observed
         joints, that condition is skipped (noted in ``settings["notes"]``).
+    complete : array_like (k, 14, 2), optional
+        The file's complete poses from elsewhere (other images of the same
+        source); default: drawn from `poses`.
     n_complete, n_occluded : int, optional
-        Poses kept complete (C) and poses occluded (M); default half each.
-        Scaled down in proportion when C + M exceeds n (the sizes used are
-        in ``settings``).
+        Poses kept complete (C) and poses occluded (M); default half of
+        `poses` each (with `complete`: all of both). Scaled down in
+        proportion when C + M exceeds n (with `complete`: each to what there
+        is); the sizes used are in ``settings``.
     conditions : sequence, default ("mix", "transplanted")
         Among 1, 2, 3, "mix", "transplanted".
     methods : sequence of str, default PHOTO_METHODS
@@ -331,11 +354,15 @@ def evaluate_photos(poses, pool=None, *, n_complete=None, n_occluded=None,
                              f"{', '.join(PHOTO_METHODS)}")
     pool = None if pool is None else check_mask(pool, "evaluate_photos", "pool")
     head = None if head_size is None else np.asarray(head_size, float)
-    c, m = _photo_sizes(len(poses), n_complete, n_occluded)
+    if complete is not None:
+        complete = check_poses(complete, "evaluate_photos", "complete")
+        check_pose_shape(complete, "complete", n_joints=14, model="protocol")
+        if not np.isfinite(complete).all():
+            raise PoseError("evaluate_photos: complete poses must have every joint")
+    kept, occ = _photo_file(poses, complete, n_complete, n_occluded, random_state)
+    c, m = len(kept), len(occ)
     if m < 1:
         raise PoseError(f"evaluate_photos: {len(poses)} complete poses: none left to occlude")
-    order = np.random.default_rng([int(random_state), 3]).permutation(len(poses))
-    keep, occ = order[:c], order[c:c + m]
     notes = []
     masks = _photo_conditions(conditions, pool, m, random_state, notes)
     if not isinstance(dictionary, Dictionary) and {"sparseedm", "sparseedm-no-adapt"} & set(methods):
@@ -343,7 +370,7 @@ def evaluate_photos(poses, pool=None, *, n_complete=None, n_occluded=None,
     truth = poses[occ]
     rows, seconds = [], {}
     for cond, mask in masks.items():
-        given = np.concatenate([poses[keep], np.where(mask[..., None], np.nan, truth)])
+        given = np.concatenate([kept, np.where(mask[..., None], np.nan, truth)])
         missing = np.concatenate([np.zeros((c, 14), bool), mask])
         context = {"dictionary": dictionary, "random_state": int(random_state)}
         errors, seconds[cond] = {}, {}
@@ -357,6 +384,7 @@ def evaluate_photos(poses, pool=None, *, n_complete=None, n_occluded=None,
             notes.append(f"{cond}: sparseedm {context['adaptation']}")
         rows += _rows(cond, errors, None, ())
     settings = {"poses": len(poses), "n_complete": c, "n_occluded": m,
+                "complete_given": complete is not None,
                 "conditions": list(masks), "random_state": int(random_state),
                 "pool": 0 if pool is None else int(usable_patterns(pool).size),
                 "pckh": head is not None, "notes": notes}

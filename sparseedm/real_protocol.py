@@ -290,7 +290,8 @@ def error_summary(error, hit, keep=None):
         ``n`` (errors given), ``scored`` (pooled), ``mean``, ``median``
         (NaN when none), ``pckh`` (fraction of hits among the pooled errors
         with a head size; NaN when none has one), ``pckh_n`` (how many had),
-        ``unfilled`` (NaN errors).
+        ``unfilled`` (NaN errors), ``mean_own`` (the mean of every finite
+        error, pooled or not).
 
     Examples
     --------
@@ -303,12 +304,14 @@ def error_summary(error, hit, keep=None):
     keep = np.isfinite(error) if keep is None else np.asarray(keep, bool) & np.isfinite(error)
     e, h = error[keep], hit[keep]
     h = h[np.isfinite(h)]
+    own = error[np.isfinite(error)]
     nan = float("nan")
     return {"n": int(error.size), "scored": int(e.size),
             "mean": float(e.mean()) if e.size else nan,
             "median": float(np.median(e)) if e.size else nan,
             "pckh": float(h.mean()) if h.size else nan, "pckh_n": int(h.size),
-            "unfilled": int(np.count_nonzero(~np.isfinite(error)))}
+            "unfilled": int(error.size - own.size),
+            "mean_own": float(own.mean()) if own.size else nan}
 
 
 def group_summaries(errors, keep=None, groups=JOINT_GROUPS):

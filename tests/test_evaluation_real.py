@@ -105,6 +105,7 @@ def test_unfilled_joints_are_counted_not_scored():
     s = error_summary(np.array([2.0, np.nan, 4.0]), np.full(3, np.nan),
                       keep=np.array([True, True, False]))
     assert (s["n"], s["scored"], s["unfilled"], s["mean"]) == (3, 1, 1, 2.0)
+    assert s["mean_own"] == 3.0            # every finite error, pooled or not
 
 
 # ---------------------------------------------------------------- photos
@@ -144,6 +145,14 @@ def test_photos_every_method_with_head_sizes(photos, small_dictionary):
         r = rep.row(m, "2")
         assert r["n"] == 120 and r["pckh"] == 1.0 and np.isfinite(r["mean"])
     assert rep.settings["notes"][0].startswith("2: sparseedm not adapted")
+
+
+def test_photos_complete_poses_from_elsewhere(photos, cmu_poses):
+    poses, pool = photos
+    rep = evaluate_photos(poses[:30], pool, complete=cmu_poses[200:], n_complete=80,
+                          conditions=["transplanted"], methods=["nearest"])
+    assert (rep.settings["n_complete"], rep.settings["n_occluded"]) == (80, 30)
+    assert rep.row("nearest", "transplanted", "wrists")["n"] == 60
 
 
 def test_photos_without_a_pool_skip_transplanted(photos):
