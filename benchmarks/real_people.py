@@ -98,18 +98,18 @@ def render(results, meta):
     for key, rep in results.items():
         s = rep["settings"]
         if rep["protocol"] == "photos":
-            head = f"### {key}: {s['n_complete']} complete + {s['n_occluded']} occluded " \
-                   f"poses (of {s['poses']} complete), {s['pool']} real missing patterns"
+            where = " (train split)" if s.get("complete_given") else ""
+            head = f"### {key}: {s['n_complete']} complete{where} + {s['n_occluded']} " \
+                   f"occluded poses (of the split's {s['poses']} complete), {s['pool']} real " \
+                   "missing patterns"
         else:
             head = f"### {key}: {s['clips']} clips, {s['frames']} frames (of {s['tracks']} " \
                    "tracks), each alone"
         out += ["", head] + [f"- {n}" for n in s["notes"]]
-        if s.get("complete_given"):
-            out.append("- the file's complete poses come from the source's train split")
-        elif key == "bonn photos":
-            out.append("- frames of videos: the file's complete poses include neighbouring "
-                       "frames of the occluded ones (near-duplicates), which favours knn and "
-                       "nearest")
+        if key == "bonn photos":
+            out.append("- frames of videos: an occluded pose's neighbouring frames are in the "
+                       "file (near-duplicates, among the occluded poses too), which favours "
+                       "knn and nearest")
         if not s["pckh"]:
             out.append("- no head sizes: no PCKh")
         for cond in rep["report"].conditions:

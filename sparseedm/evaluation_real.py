@@ -332,12 +332,11 @@ def evaluate_photos(poses, pool=None, *, complete=None, n_complete=None, n_occlu
 
     Examples
     --------
-    >>> from sparseedm.keypoints import read_keypoints
-    >>> import pathlib, sparseedm
-    >>> clip = pathlib.Path(sparseedm.__file__).parents[1] / "examples" / "video_clip.csv"
-    >>> kps = read_keypoints(clip)
-    >>> rep = evaluate_photos(kps.poses[~kps.missing.any(axis=1)][:40], conditions=[2],
-    ...                       methods=["mean-fill", "nearest"])
+    Twenty complete poses stay complete, two joints are hidden in each of the
+    other twenty:
+
+    >>> poses = np.random.default_rng(0).normal(100.0, 20.0, size=(40, 14, 2))
+    >>> rep = evaluate_photos(poses, conditions=[2], methods=["mean-fill", "nearest"])
     >>> rep.settings["n_complete"], rep.row("nearest", "2")["n"]
     (20, 40)
     """
