@@ -444,6 +444,14 @@ def track_clips(poses, tracks, frames, *, min_frames=MIN_CLIP_FRAMES):
 
 def _video_fillers(methods, dictionary):
     """{name: fill(poses, missing, frames)} for evaluate_tracks' method names."""
+    own = ("sparseedm", "per-frame", "kalman")
+    unknown = [m for m in methods if m not in own and m not in fillers.FILLERS and ":" not in m]
+    if unknown or not methods:
+        raise ParameterError(f"evaluate_tracks: unknown method(s) {unknown}; known: "
+                             f"{', '.join(own + tuple(fillers.FILLERS))}, module:function")
+    if {"sparseedm", "per-frame", "sparse"} & set(methods) and \
+            not isinstance(dictionary, Dictionary):
+        dictionary = load_dictionary(dictionary)
     out = {}
     for name in methods:
         if name == "sparseedm":
@@ -530,9 +538,7 @@ def evaluate_tracks(poses, tracks, frames, *, occluded=None, gap_lengths=GAP_LEN
     hidden = ~np.isfinite(poses).all(axis=-1)
     if occluded is not None:
         hidden |= check_mask(occluded, "evaluate_tracks", "occluded")
-    if not isinstance(dictionary, Dictionary):
-        dictionary = load_dictionary(dictionary)
-    fills = _video_fillers(methods or video_methods(), dictionary)
+    fills = _video_fillers(video_methods() if methods is None else tuple(methods), dictionary)
     clips = track_clips(poses, tracks, frames, min_frames=min_frames)
     notes = [] if clips else [f"no clip of {min_frames} consecutive complete frames"]
     if max_clips is not None and len(clips) > max_clips:

@@ -213,6 +213,14 @@ def test_tracks_with_sparseedm_and_a_clip_sample(small_dictionary):
     assert r["n"] > 0 and np.isfinite(r["mean"]) and r["pckh_n"] == r["scored"]
 
 
+def test_tracks_refuse_an_unknown_method():
+    from sparseedm.exceptions import ParameterError
+
+    poses, tracks, frames = _still_tracks()
+    with pytest.raises(ParameterError, match="'spline'.*per-frame"):
+        evaluate_tracks(poses, tracks, frames, methods=["linear", "spline"])
+
+
 def test_video_methods_include_kalman_when_the_fillers_have_it(monkeypatch):
     from sparseedm.temporal import fillers
 
