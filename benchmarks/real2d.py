@@ -27,10 +27,13 @@ from __future__ import annotations
 import gzip
 import hashlib
 import json
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+
+from sparseedm import real_protocol
 
 __all__ = ["RealSet", "REAL2D", "SOURCES", "load", "load_all", "split", "body_size",
            "coco_head_top", "available"]
@@ -184,8 +187,8 @@ def coco_head_top(kp, v):
     point or no shoulder is annotated. ``kp`` is (n, 17, 2), ``v`` (n, 17).
     """
     face = np.where((v[:, 1:5] > 0)[..., None], kp[:, 1:5], np.nan)
-    with np.errstate(invalid="ignore"), np.testing.suppress_warnings() as sup:
-        sup.filter(RuntimeWarning)
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)      # no face point: NaN
         centre = np.nanmean(face, axis=1)
     shoulders = np.where((v[:, 5:7] > 0).all(axis=1)[:, None], kp[:, 5:7].mean(axis=1), np.nan)
     return centre + 0.5 * (centre - shoulders)
@@ -278,6 +281,6 @@ def split(realset, val=0.2, test=0.2):
 
 
 def body_size(poses):
-    """Head top to the ankles' midpoint, (n,): the body size errors are divided by."""
-    poses = np.asarray(poses, float)
-    return np.linalg.norm(poses[:, 0] - poses[:, [10, 13]].mean(axis=1), axis=-1)
+    """Distance from the head top to the ankles' midpoint, (n,): the body size
+    (:func:`sparseedm.real_protocol.body_size`)."""
+    return real_protocol.body_size(poses)

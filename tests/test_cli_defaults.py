@@ -9,6 +9,7 @@ from sparseedm.batch import recover_file
 from sparseedm.cli import build_parser, main
 from sparseedm.dataset import build_dataset
 from sparseedm.evaluation import evaluate
+from sparseedm.evaluation_real import evaluate_photos, evaluate_tracks
 from sparseedm.learning import fit_dictionary_file
 from sparseedm.lifting.evaluation import evaluate_lifting
 from sparseedm.lifting.io import lift_file
@@ -38,6 +39,14 @@ CASES = [  # (command line, option dest, API function, its parameter)
         ("seed", evaluate_video, "random_state"),
         ("gap_lengths", evaluate_video, "gap_lengths"),
         ("noise", evaluate_video, "noise")]),
+    (["evaluate", "--protocol", "photos", "--data", "k.csv", "-o", "rep"], [
+        ("seed", evaluate_photos, "random_state"),
+        ("conditions", evaluate_photos, "conditions")]),
+    (["evaluate", "--protocol", "video-real", "--data", "k.csv", "-o", "rep"], [
+        ("seed", evaluate_tracks, "random_state"),
+        ("gap_lengths", evaluate_tracks, "gap_lengths"),
+        ("min_frames", evaluate_tracks, "min_frames"),
+        ("max_clips", evaluate_tracks, "max_clips")]),
     (["evaluate-lift", "--data", "t.npz", "-o", "rep"], [
         ("max_train", evaluate_lifting, "max_train"),
         ("seed", evaluate_lifting, "seed"),

@@ -40,7 +40,7 @@ LAYERS = [
     ("sparseedm.edm", "sparseedm.normalize", "sparseedm.metrics", "sparseedm.placement",
      "sparseedm.cameras", "sparseedm.plotting", "sparseedm.lifting.metrics",
      "sparseedm.lifting.mds", "sparseedm.lifting.plotting", "sparseedm.lifting.defaults",
-     "sparseedm.lifting.trc"),
+     "sparseedm.lifting.trc", "sparseedm.real_protocol"),
     # 3 file formats and the lasso solvers
     ("sparseedm.dictionary", "sparseedm.keypoints", "sparseedm.formats", "sparseedm.mocap",
      "sparseedm.dataset",
@@ -62,7 +62,7 @@ LAYERS = [
     # 10 workflows: evaluation, file-to-file recovery and lifting; the video
     # evaluation and the gap fillers temporal recovery is compared with (one of
     # them runs recover()); the lifting package, which exports lift_file
-    ("sparseedm.evaluation", "sparseedm.batch", "sparseedm.lifting.io",
+    ("sparseedm.evaluation", "sparseedm.evaluation_real", "sparseedm.batch", "sparseedm.lifting.io",
      "sparseedm.lifting.evaluation", "sparseedm.lifting", "sparseedm.temporal.fillers",
      "sparseedm.temporal.evaluation", "sparseedm.temporal.sequences",
      "sparseedm.temporal.protocols"),

@@ -48,10 +48,12 @@ def add_arguments(p):
         "build --camera-per clip) and --methods are gap fillers (default "
         f"{VIDEO_METHODS}); the 2D error of the filled joints in % of the body's pixel "
         "height is printed per gap length or run length, and -o gets video.json, video.csv")
-    g.add_argument("--protocol", choices=("gaps", "self-occlusion"), default=None,
+    g.add_argument("--protocol", choices=("gaps", "self-occlusion", "photos", "video-real"),
+                   default=None,
                    help="gaps: contiguous gaps on 1-3 joints (17%% of joint-frames) per gap "
                    "length; self-occlusion: joints behind the torso from the camera plus 5%% "
-                   "short dropouts, per run length")
+                   "short dropouts, per run length; photos, video-real: real keypoints (see "
+                   "'real-people protocols')")
     g.add_argument("--gap-lengths", type=gap_lengths, default=GAP_LENGTHS, metavar="L,L,...",
                    help="gap lengths in frames (default 3,10,30,90)")
     g.add_argument("--noise", type=noise_level, default=0.0, metavar="FRACTION",

@@ -9,7 +9,7 @@ import numpy as np
 
 
 from ..exceptions import FileFormatError, SparseEDMError
-from . import _evaluate_video
+from . import _evaluate_real, _evaluate_video
 from ._common import add_adaptation_rounds, add_quiet, load_npz, split_list
 
 
@@ -31,8 +31,9 @@ def add_parser(sub):
                    "and for --sweep-atoms")
     p.add_argument("--methods", default=None,
                    help="comma-separated methods (default all: sparse,mean-fill,knn,iterative,"
-                   "nearest; with --protocol: linear,cubic,akima,pca,kalman,sparse; a gap filler "
-                   "of your own as module:function)")
+                   "nearest; with --protocol gaps or self-occlusion: linear,cubic,akima,pca,kalman,"
+                   "sparse; a gap filler of your own as module:function; photos, video-real: see "
+                   "real-people protocols)")
     p.add_argument("--counts", default="1,2,3,mix", help="occlusion counts (default 1,2,3,mix)")
     p.add_argument("--representations", default="average,zero",
                    help="occlusion representations (default average,zero)")
@@ -73,6 +74,7 @@ def add_parser(sub):
         "the 'sparse-adapted' row (default 1)")
     p.add_argument("-o", "--output", required=True, help="report directory")
     _evaluate_video.add_arguments(p)
+    _evaluate_real.add_arguments(p)
     add_quiet(p)
     p.set_defaults(func=run)
 
@@ -118,6 +120,8 @@ def run(args):
     from ..dictionary import load_dictionary
     from ..evaluation import check_methods, evaluate
 
+    if args.protocol in _evaluate_real.PROTOCOLS:
+        return _evaluate_real.run(args, split_list(args.methods or ""))
     if args.protocol:
         return _evaluate_video.run(args, split_list(args.methods or _evaluate_video.VIDEO_METHODS))
     methods = split_list(args.methods or "sparse,mean-fill,knn,iterative,nearest")
