@@ -320,3 +320,20 @@ def test_kalman_refuses_bad_options():
         fill_kalman(poses, missing, np.arange(5), persistence=-1.0)
     with pytest.raises(PoseError, match="sorted and unique"):
         fill_kalman(poses, missing, [0, 1, 1, 2, 3])
+
+
+def test_pca_ignores_a_component_the_observed_joints_barely_see():
+    """A joint moving on its own, seen by an observed joint only at 1e-6: a
+    hundredth of a pixel of noise there must not be read as that motion (it sent
+    short real clips' fills 10^9 body heights away)."""
+    rng = np.random.default_rng(0)
+    T = 40
+    a, b = rng.normal(size=T), rng.normal(size=T)
+    poses = a[:, None, None] * rng.normal(size=(14, 2))
+    poses[:, 13] += 20 * b[:, None]
+    poses[:, 0, 0] += 1e-6 * b
+    missing = np.zeros((T, 14), bool)
+    missing[20:, 13] = True
+    poses[20:, 0, 0] += 0.01
+    filled = fill_pca(poses, missing, np.arange(T))
+    assert np.abs(filled - poses)[missing].max() <= np.ptp(poses[:, 13])

@@ -309,7 +309,7 @@ def _pca_project(M, holes, complete, variance):
     V = Vt[:_pca_rank(complete, variance)].T
     for i in np.flatnonzero(holes.any(axis=1)):
         obs, gap = ~holes[i], holes[i]
-        coef = np.linalg.lstsq(V[obs], (M[i, obs] - mean[obs]) / scale, rcond=None)[0]
+        coef = np.linalg.lstsq(V[obs], (M[i, obs] - mean[obs]) / scale, rcond=PCA_RCOND)[0]
         M[i, gap] = V[gap] @ coef * scale + mean[gap]
 
 
@@ -323,6 +323,12 @@ def _pca_em(M, holes, rank, max_iter, tol):
         if change <= tol * max(np.linalg.norm(M[holes]), 1.0):
             break
 
+
+#: a frame's coefficients ignore the directions its observed coordinates see less than
+#: this fraction of (relative singular values of the kept components restricted to
+#: them): a component that lives on the hidden coordinates alone is not guessed from
+#: noise, which sent short real clips' fills 10^9 body heights away
+PCA_RCOND = 0.05
 
 #: fill_pca chooses its rank on the complete frames when the track has this many
 MIN_COMPLETE_FRAMES = 10
