@@ -331,8 +331,11 @@ class OnlineDictionaryLearning:
         """Learn the dictionary from X (n_samples, n_features) in `n_passes` passes."""
         X = self._check_X(X)
         self._init_state(X)
-        for batch in iter_batches(len(X), self.batch_size, self.n_passes,
-                                  self.random_state):
+        total = int(np.ceil(self.n_passes * -(-len(X) // self.batch_size)))
+        for batch in _progress.steps(
+                iter_batches(len(X), self.batch_size, self.n_passes, self.random_state),
+                f"learning {self.n_components:,} atoms from {len(X):,} samples "
+                f"({total:,} mini-batches)", total=total, unit="batch"):
             self._step(X[batch])
         return self
 

@@ -49,6 +49,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import _progress
 from .._version import __version__
 from .._atomic import save_npz
 from .._safeio import load_npz, load_npz_file, parse_meta, require_file
@@ -179,9 +180,11 @@ class Lifter:
         `clips` (the clip of each pose) is used by lifters that hold out
         validation clips (``fconv``); the others ignore it.
         """
+        _progress.say(f"fitting a {self.method} lifter on {len(poses2d):,} training poses")
         X2, X3, metric, cam3d = training_pairs(poses2d, poses3d, camera_R, camera_t, camera_f,
                                                self.normalization)
         self._fit_from_poses(X2, X3, poses2d, clips)
+        _progress.say("fitting the depth-reflection (chirality) prior")
         self.chirality_ = ChiralityPrior().fit(cam3d, random_state=self.random_state)
         self.size_prior_ = float(np.median(rms(metric)))
         self.joint_names_ = tuple(joint_names)
