@@ -99,7 +99,7 @@ from .keypoints import (N_JOINTS, EXTENSIONS, check_joint_map, finish_missing, f
 from .keypoints import output_format as keypoint_output_format
 from ._recovery_base import OK_STATUSES, combine, recovery_summary
 from ._recovery_kernel import compiled_solver
-from .normalize import REPRESENTATIONS
+from .normalize import REPRESENTATIONS, representation_for
 from .recovery import STATUSES, check_options_apply, recover
 from .skeleton import JOINT_NAMES
 from .temporal.recover import CLIP_MIN_POSES, adapt_in_time, linked_tracks, offered_poses
@@ -252,7 +252,7 @@ def _is_folder(out_path, out_fmt):
 # the batch
 
 
-def recover_file(input, output, *, dictionary=None, alpha=None, representation="average",
+def recover_file(input, output, *, dictionary=None, alpha=None, representation=None,
                  solver="fast", n_jobs=1, chunk_size=50_000, output_format=None,
                  errors_path=None, progress=False, save_edm=False,
                  confidence_threshold=None, backend=None, scheduler=None,
@@ -272,7 +272,9 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
         Default: the shipped default dictionary.
     alpha : float, optional
         Lasso penalty; default the dictionary's ``alpha_recover``.
-    representation : {"average", "zero"}
+    representation : {"average", "zero"}, optional
+        Default: an FConv `model`'s own (another one is refused), else
+        ``"average"`` (see :func:`sparseedm.recover`).
     solver : {"fast", "clarabel", "cvxpy-naive"} or a BaseSolver
     n_jobs : int, default 1
         joblib workers (see :func:`sparseedm.recover`).
@@ -378,6 +380,8 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
         raise SparseEDMError(str(exc)) from None
     if method == "fconv":  # checked before anything is read or written
         model = load_model(model, representation=representation, kind="recover")
+    representation = representation_for(  # None: the model's own, else the default
+        representation, model.representation if method == "fconv" else None)
 
     threshold = default_threshold(in_fmt) if confidence_threshold is None else \
         confidence_threshold
@@ -543,7 +547,7 @@ def _adaptation_poses(path, threshold):
 #: constraints of recover_file()'s arguments (see sparseedm._validation)
 _PARAMS = {
     "input": PATH, "output": PATH, "dictionary": [Dictionary, "path", None],
-    "alpha": ALPHA + [None], "representation": [Options(REPRESENTATIONS)],
+    "alpha": ALPHA + [None], "representation": [Options(REPRESENTATIONS), None],
     "n_jobs": N_JOBS, "chunk_size": CHUNK_SIZE,
     "errors_path": PATH + [None], "progress": BOOLEAN, "save_edm": BOOLEAN,
     "confidence_threshold": [Interval(Real, None, None), None],

@@ -27,7 +27,8 @@ CASES = [  # (command line, option dest, API function, its parameter)
         ("self_training", recover_file, "self_training"),
         ("ensemble", recover_file, "ensemble"),
         ("joint_map", recover_file, "joint_map"),
-        ("filled_score", recover_file, "filled_score")]),
+        ("filled_score", recover_file, "filled_score"),
+        ("representation", recover_file, "representation")]),
     (["evaluate", "--data", "t.npz", "-o", "rep"], [
         ("max_train", evaluate, "max_train"),
         ("seed", evaluate, "random_state"),
@@ -44,7 +45,8 @@ CASES = [  # (command line, option dest, API function, its parameter)
         ("jobs", evaluate_lifting, "n_jobs")]),
     (["lift", "in.csv", "-o", "out.csv"], [
         ("confidence_threshold", lift_file, "confidence_threshold"),
-        ("jobs", lift_file, "n_jobs")]),
+        ("jobs", lift_file, "n_jobs"),
+        ("representation", lift_file, "representation")]),
     (["dataset", "build", "mocap", "-o", "d.npz"], [
         ("cameras_per_pose", build_dataset, "cameras_per_pose"),
         ("seed", build_dataset, "random_state"),

@@ -35,8 +35,9 @@ def add_parser(sub):
                    help="output format (default: from OUTPUT's extension)")
     p.add_argument("--errors", default=None, metavar="FILE",
                    help="errors file (default OUTPUT stem + .errors.csv)")
-    p.add_argument("--representation", choices=("average", "zero"), default="average",
-                   help="how an MLP lifter sees occluded joints (default average)")
+    p.add_argument("--representation", choices=("average", "zero"), default=None,
+                   help="how an MLP or FConv lifter sees occluded joints (default: the one "
+                   "an FConv lifter was trained on, else average)")
     p.add_argument("--confidence-threshold", type=float, default=None, metavar="T",
                    help="joints with a confidence below T count as missing (default: the "
                    "input format's, as for recover)")

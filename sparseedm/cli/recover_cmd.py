@@ -52,8 +52,9 @@ def _add_recovery_options(p):
                    help="parallel workers (-1: all cores; default 1): threads with the "
                    "default fast solver (its kernels release the GIL), processes with "
                    "--solver clarabel, or --backend's")
-    p.add_argument("--representation", choices=("average", "zero"), default="average",
-                   help="occlusion representation (default average)")
+    p.add_argument("--representation", choices=("average", "zero"), default=None,
+                   help="occlusion representation (default: the one a --model was trained "
+                   "on, else average)")
     p.add_argument("--solver", choices=("fast", "clarabel"), default="fast",
                    help="lasso backend (default fast: certified LARS, Clarabel fallback)")
 

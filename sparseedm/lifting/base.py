@@ -162,6 +162,9 @@ class Lifter:
     #: whether predict uses only the observed entries (True) or a whole
     #: 'average'/'zero' vector (False)
     codes_observed_only = False
+    #: the representation of occluded input the lifter was trained on (an FConv
+    #: lifter's own); None: it was trained on complete poses, any one may be fed
+    representation = None
 
     def __init__(self, *, normalization="tied", random_state=0):
         self.normalization = normalization

@@ -192,7 +192,7 @@ def write_poses3d(path, result, ids=None, output_format=None, rate=30.0, *, trac
 
 
 def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, errors_path=None,
-              confidence_threshold=None, representation="average", rate=30.0, plot=None,
+              confidence_threshold=None, representation=None, rate=30.0, plot=None,
               temporal=True, chunk_size=50_000, joint_map=None, dictionary=None, adapt=True,
               self_training=None):
     """Read 2D keypoints, lift them, write 3D poses and an errors file; return a summary.
