@@ -94,8 +94,9 @@ from .fconv.model import load_model
 from .formats import FILLED_SCORE, count_below, default_threshold, threshold_line
 from .formats import FORMATS as FOLDER_OR_TABLE_FORMATS
 from .formats.deeplabcut import H5_SUFFIXES, check_h5_extra, read_joint_map
-from .keypoints import (N_JOINTS, EXTENSIONS, check_joint_map, finish_missing, format_of,
-                        load_single_npy, npy_confidence, read_keypoints, write_keypoints)
+from .keypoints import (FLAGS_IN_SIDECAR, N_JOINTS, EXTENSIONS, beside, check_joint_map,
+                        finish_missing, format_of, load_single_npy, npy_confidence,
+                        read_keypoints, status_sidecar, write_keypoints)
 from .keypoints import output_format as keypoint_output_format
 from ._recovery_base import OK_STATUSES, combine, recovery_summary
 from ._recovery_kernel import compiled_solver
@@ -117,17 +118,11 @@ _SUFFIX = {"npz": ".npz", "npy": ".npy", "csv": ".csv", "coco": ".json"}
 def default_errors_path(output) -> Path:
     """``<output stem>.errors.csv`` beside `output` (in the current folder when
     `output` is a device or a pipe, such as ``/dev/null``)."""
-    return _beside(output, ".errors.csv")
+    return beside(output, ".errors.csv")
 
 
 def _sidecar(output, what) -> Path:
-    return _beside(output, f".{what}.npz")
-
-
-def _beside(output, ending) -> Path:
-    output = Path(output)
-    name = output.stem + ending
-    return Path(name) if is_stream(output) else output.with_name(name)
+    return beside(output, f".{what}.npz")
 
 
 # --------------------------------------------------------------------------
@@ -615,8 +610,8 @@ class _Outputs:
 
     def sidecars(self):
         """name -> path of the sidecar file this output format needs (if any)."""
-        if self.out_fmt in ("npy", "dlc"):
-            return {"status": _sidecar(self.out_path, "status")}
+        if self.out_fmt in FLAGS_IN_SIDECAR:  # its filled flags live there
+            return {"status": status_sidecar(self.out_path)}
         if self.save_edm and self.out_fmt != "npz":
             return {"edm": _sidecar(self.out_path, "edm")}
         return {}

@@ -68,7 +68,8 @@ def test_round_trip_fills_and_flags_every_occluded_joint(case, tmp_path, small_d
                            confidence_threshold=threshold, **kw)
     assert summary["refused"] == 0 and summary["recovered_joints"] == first.missing.sum()
     assert digest(src) == before, "the input was changed"
-    back = _read_back(out, first.meta["format"], threshold, kw)
+    # a DeepLabCut table (no room for flags) too: its flags are read from the sidecar
+    back = read_keypoints(out, confidence_threshold=threshold, **kw)
     assert back.meta["format"] == first.meta["format"]
     assert not back.missing.any(), "every occluded joint is filled"
     np.testing.assert_array_equal(back.filled, first.missing)
@@ -81,20 +82,6 @@ def test_round_trip_fills_and_flags_every_occluded_joint(case, tmp_path, small_d
         np.testing.assert_array_equal(back.ids, first.ids)
     # filled joints carry the filled score, never a detection's
     np.testing.assert_array_equal(back.confidence[first.missing], 0.0)
-
-
-def _read_back(out, fmt, threshold, kw):
-    """An output read back; a DeepLabCut table (DeepLabCut's own layout, no room
-    for flags) with its filled joints present and flagged from the status sidecar."""
-    if fmt != "dlc":
-        return read_keypoints(out, confidence_threshold=threshold, **kw)
-    flags = np.load(out.with_name(out.stem + ".status.npz"))["filled"]
-    back = read_keypoints(out, confidence_threshold=threshold, **kw)
-    assert back.filled is None
-    np.testing.assert_array_equal(back.missing, flags)  # scored filled_score: below
-    raw = formats.read("dlc", out, joint_map=kw["joint_map"])
-    back.poses, back.missing, back.filled = raw.poses, ~raw.present, flags
-    return back
 
 
 def test_openpose_folder_round_trip_writes_the_same_files(tmp_path, small_dictionary):

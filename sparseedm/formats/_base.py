@@ -96,7 +96,9 @@ class Parsed:
     ``poses`` hold the file's coordinates (not yet blanked by the threshold),
     ``present`` says which joints the file gives at all, ``filled`` which ones
     the file flags as filled by sparseedm (read as present whatever their
-    score). ``meta`` holds what the writer needs to write the file back.
+    score), ``stored`` the neck / head top sparseedm wrote in its own object
+    (present whatever the score of the keypoints they would be derived from,
+    as in COCO files). ``meta`` holds what the writer needs to write the file back.
     """
 
     poses: np.ndarray
@@ -107,6 +109,7 @@ class Parsed:
     frames: np.ndarray | None = None
     filled: np.ndarray | None = None
     meta: dict = field(default_factory=dict)
+    stored: np.ndarray | None = None
 
 
 def csv_cells(values):
@@ -303,15 +306,16 @@ def assemble(people, layout, meta, *, tracks=None, frames=None):
         seen[r, [sources[j] for j in p.filled if j in sources]] = True  # flagged: present
     poses, present, conf = to_14(xy, score, seen, layout)
     filled = np.zeros((n, N_JOINTS), dtype=bool)
+    stored = np.zeros((n, N_JOINTS), dtype=bool)
     for r, p in enumerate(people):
         for j, value in p.points.items():
-            poses[r, j], present[r, j] = value, True
+            poses[r, j], present[r, j], stored[r, j] = value, True, True
         filled[r, p.filled] = True
     filled &= ~np.isnan(poses).any(axis=-1)
     present |= filled
     ids = np.asarray([p.id for p in people], dtype=str).reshape(n)
     return Parsed(poses, present, conf, ids, tracks, frames, filled if filled.any() else None,
-                  meta)
+                  meta, stored if stored.any() else None)
 
 
 def update_person(xy, score, pose, filled_row, layout, filled_score):
