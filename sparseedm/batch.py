@@ -239,8 +239,8 @@ def _output_format(out_path, in_fmt, output_format):
 
 
 def _is_folder(out_path, out_fmt):
-    """An OpenPose output without ``.json`` is a folder of frame files."""
-    return out_fmt == "openpose" and out_path.suffix.lower() != ".json"
+    """An OpenPose or MMPose output without ``.json`` is a folder of frame files."""
+    return out_fmt in ("openpose", "mmpose") and out_path.suffix.lower() != ".json"
 
 
 # --------------------------------------------------------------------------

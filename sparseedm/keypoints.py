@@ -341,7 +341,7 @@ def format_of(path: Path, format):
 def output_format(path, format=None, read_format=None):
     """The format a file written at `path` gets: `format` if given; else the
     format it was read in (`read_format`) when the extension suits it
-    (OpenPose: ``.json`` or none, a folder; MMPose ``.json``; DeepLabCut
+    (OpenPose and MMPose: ``.json``, or none for a folder; DeepLabCut
     ``.csv`` / ``.h5``); else from the extension (``.h5`` is DeepLabCut).
 
     >>> output_format(Path("out.json"), read_format="mmpose")
@@ -353,7 +353,7 @@ def output_format(path, format=None, read_format=None):
     if format is not None:
         return format_of(path, format)
     ext = path.suffix.lower()
-    suits = {"openpose": ("", ".json"), "mmpose": (".json",), "dlc": (".csv",) + H5_SUFFIXES}
+    suits = {"openpose": ("", ".json"), "mmpose": ("", ".json"), "dlc": (".csv",) + H5_SUFFIXES}
     if ext in suits.get(read_format, ()):
         return read_format
     if ext in H5_SUFFIXES:

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import re
 from pathlib import Path
 from dataclasses import dataclass, field
@@ -254,6 +255,26 @@ def write_extra(pose, filled_row, status=None):
     if status:
         out.update(status)
     return out
+
+
+def folder_files(path, max_files):
+    """``([(frame, name), ...] in frame order, [ignored names])`` of a folder of
+    per-frame ``.json`` files: the frame number in each name
+    (:func:`frame_number`), or name order when some name has none; hidden
+    files are skipped, other files ignored."""
+    names, ignored = [], []
+    with os.scandir(path) as it:
+        for entry in it:
+            if len(names) + len(ignored) >= max_files:
+                raise FileFormatError(f"{path}: more than {max_files} files; split the folder")
+            if entry.name.startswith("."):
+                continue
+            (names if entry.name.lower().endswith(".json") and entry.is_file()
+             else ignored).append(entry.name)
+    numbered = [(frame_number(n), n) for n in names]
+    if any(f is None for f, _ in numbered):  # no numbers in some names: name order
+        numbered = [(i, n) for i, n in enumerate(sorted(names))]
+    return sorted(numbered), sorted(ignored)
 
 
 _FRAME_NUMBER = re.compile(r"(\d+)(?=_keypoints\.json$)|(\d+)(?=\.json$)")

@@ -50,7 +50,6 @@ track).
 from __future__ import annotations
 
 import json
-import os
 import warnings
 from pathlib import Path
 
@@ -125,22 +124,6 @@ def _frame_file(path, frame):
     return [_person(person, path, p, frame) for p, person in enumerate(doc["people"])], doc
 
 
-def _folder_files(path):
-    names, ignored = [], []
-    with os.scandir(path) as it:
-        for entry in it:
-            if len(names) + len(ignored) >= MAX_FILES:
-                raise FileFormatError(f"{path}: more than {MAX_FILES} files; split the folder")
-            if entry.name.startswith("."):
-                continue
-            (names if entry.name.lower().endswith(".json") and entry.is_file()
-             else ignored).append(entry.name)
-    numbered = [(_base.frame_number(n), n) for n in names]
-    if any(f is None for f, _ in numbered):  # no numbers in some names: name order
-        numbered = [(i, n) for i, n in enumerate(sorted(names))]
-    return sorted(numbered), sorted(ignored)
-
-
 def read(path):
     """Read an OpenPose frame file or a folder of them into a :class:`_base.Parsed`."""
     path = Path(path)
@@ -150,7 +133,7 @@ def read(path):
         files = [{"name": path.name, "doc": doc, "rows": len(people)}]
         return _parsed(people, files, {"openpose_folder": False, "skipped": [],
                                        "ignored": []}, path)
-    numbered, ignored = _folder_files(path)
+    numbered, ignored = _base.folder_files(path, MAX_FILES)
     people, files, skipped = [], [], []
     for frame, name in numbered:
         try:
