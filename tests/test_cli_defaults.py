@@ -12,6 +12,7 @@ from sparseedm.evaluation import evaluate
 from sparseedm.learning import fit_dictionary_file
 from sparseedm.lifting.evaluation import evaluate_lifting
 from sparseedm.lifting.io import lift_file
+from sparseedm.plotting import plot_recovery
 from sparseedm.temporal.evaluation import evaluate_video
 
 
@@ -46,7 +47,14 @@ CASES = [  # (command line, option dest, API function, its parameter)
     (["lift", "in.csv", "-o", "out.csv"], [
         ("confidence_threshold", lift_file, "confidence_threshold"),
         ("jobs", lift_file, "n_jobs"),
-        ("representation", lift_file, "representation")]),
+        ("representation", lift_file, "representation"),
+        ("frames", lift_file, "plot_frames")]),
+    (["plot", "in.csv", "out.csv", "-o", "f.png"], [
+        ("poses", plot_recovery, "n_poses"),
+        ("tracks", plot_recovery, "show_tracks"),
+        ("frames", plot_recovery, "show_frames"),
+        ("rows", plot_recovery, "show_rows"),
+        ("joints", plot_recovery, "show_joints")]),
     (["dataset", "build", "mocap", "-o", "d.npz"], [
         ("cameras_per_pose", build_dataset, "cameras_per_pose"),
         ("seed", build_dataset, "random_state"),

@@ -26,8 +26,8 @@ from .._version import __version__
 from ..exceptions import SparseEDMError
 
 #: sub-command modules, in the order ``sparseedm --help`` lists them
-COMMANDS = ("dataset", "fit", "info", "recover", "evaluate", "fit_cnn", "fit_lifter", "lift",
-            "evaluate_lift")
+COMMANDS = ("dataset", "fit", "info", "recover", "plot", "evaluate", "fit_cnn", "fit_lifter",
+            "lift", "evaluate_lift")
 
 #: exit codes (see the module docstring)
 EXIT_OK, EXIT_REFUSED_ROWS, EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED = 0, 1, 2, 3, 130

@@ -43,9 +43,14 @@ def add_parser(sub):
                    "input format's, as for recover)")
     p.add_argument("--rate", type=float, default=30.0, metavar="HZ",
                    help="frames per second written to a .trc output (default 30)")
-    p.add_argument("--plot", default=None, metavar="PNG",
-                   help="also draw the first 4 lifted poses from the front and the side, "
-                   "left/right coloured (needs matplotlib: pip install 'sparseedm[plot]')")
+    p.add_argument("--plot", default=None, metavar="FIG",
+                   help="also draw lifted poses from the front and the side, left/right "
+                   "coloured, to FIG (.png, .pdf or .svg; needs matplotlib: pip install "
+                   "'sparseedm[plot]'): the first 4 lifted, or those of --frames")
+    p.add_argument("--frames", default=None, metavar="LO:HI",
+                   help="with --plot: the frames drawn (rows, 0-based, for an input without "
+                   "frames): a range LO:HI (HI excluded), single numbers, or several joined "
+                   "by commas, e.g. 10:40 or 3,17; at most 8, spread over them")
     p.add_argument("--no-temporal", action="store_true",
                    help="lift every pose on its own even when INPUT gives frames (by "
                    "default a CSV 'frame' column or .npz 'frames' array, with 'track' / "
@@ -81,7 +86,8 @@ def run(args):
                   representation=args.representation, rate=args.rate, plot=args.plot,
                   temporal=not args.no_temporal, chunk_size=args.chunk_size,
                   joint_map=args.joint_map, dictionary=args.dictionary,
-                  adapt=not args.no_adapt, self_training=args.self_training)
+                  adapt=not args.no_adapt, self_training=args.self_training,
+                  plot_frames=args.frames)
     out = sys.stderr if args.quiet or is_stream(args.output) else sys.stdout  # -o /dev/stdout
     rate = f"{s['poses_per_second']:,.0f} poses/s" if s["poses_per_second"] else "-"
     counts = ", ".join(f"{k} {v}" for k, v in s["status"].items()) or "none"
