@@ -505,6 +505,9 @@ def _fit_batches_inplace(est, poses, index, start, checkpoint, checkpoint_every,
     batch_size, n_passes = params["batch_size"], params["n_passes"]
     per_pass = -(-len(index) // batch_size)
     total = int(np.ceil(n_passes * per_pass))
+    if not progress:  # else the bar says it
+        _progress.say(f"learning {est.n_components:,} atoms from {len(index):,} poses: "
+                      f"{total - start:,} mini-batches of {batch_size}")
     bar = tqdm(total=total, initial=start, disable=not progress, unit="batch",
                desc="fit", dynamic_ncols=True)
     try:

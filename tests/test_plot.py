@@ -143,3 +143,24 @@ def test_the_command_refuses_another_figure_format(tmp_path, capsys):
     pytest.importorskip("matplotlib", reason="needs the [plot] extra")
     assert main(["plot", "a.csv", "b.csv", "-o", str(tmp_path / "x.jpg")]) == 2
     assert "ending in .png, .pdf, .svg" in capsys.readouterr().err
+
+
+def test_the_command_matches_rows_of_a_file_written_frame_by_frame(clip, tmp_path,
+                                                                  monkeypatch):
+    """An OpenPose folder reads back frame by frame, not in the input's row order."""
+    pytest.importorskip("matplotlib", reason="needs the [plot] extra")
+    import sparseedm.plotting as plotting
+
+    seen, truth, frames, tracks = clip
+    src, out = tmp_path / "in.csv", tmp_path / "op"
+    tracks = (tracks == "b").astype(int)
+    write_keypoints(src, seen, tracks=tracks, frames=frames)
+    write_keypoints(out, truth, format="openpose", tracks=tracks, frames=frames,
+                    filled=np.isnan(seen).any(-1))
+    got = {}
+    monkeypatch.setattr(plotting, "plot_recovery",
+                        lambda *a, **k: got.update(args=a, kwargs=k))
+    assert main(["plot", str(src), str(out), "-o", str(tmp_path / "f.png")]) == 0
+    observed, recovered, filled = got["args"]
+    np.testing.assert_allclose(recovered, truth, atol=1e-6)
+    np.testing.assert_array_equal(filled, np.isnan(seen).any(-1))

@@ -9,6 +9,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+import numpy as np
+
 from ._common import add_joint_map, split_list
 
 
@@ -74,7 +76,9 @@ def run(args):
     if len(done.poses) != len(seen.poses):
         raise SparseEDMError(f"{args.recovered} has {len(done.poses)} poses, {args.input} "
                              f"{len(seen.poses)}: is it the file recover wrote from it?")
-    plot_recovery(seen.poses, done.poses, done.filled, frames=seen.frames,
+    order = _aligned(seen.frames, done.frames, len(done.poses))
+    filled = None if done.filled is None else done.filled[order]
+    plot_recovery(seen.poses, done.poses[order], filled, frames=seen.frames,
                   tracks=seen.tracks, ids=seen.ids,
                   show_tracks=split_list(args.tracks) if args.tracks else None,
                   show_frames=args.frames, show_rows=args.rows,
@@ -83,3 +87,25 @@ def run(args):
     print(f"wrote {args.output}", file=sys.stdout)
     return 0
 
+
+
+def _aligned(frames_in, frames_out, n):
+    """The recovered file's row of each input row. Row i of recover's output is
+    row i of its input, except in the formats written one file per frame (OpenPose,
+    MMPose folders), whose rows read back frame by frame: matched by frame number
+    and order within the frame.
+
+    >>> _aligned(np.array([2, 1, 2, 1]), np.array([1, 1, 2, 2]), 4).tolist()
+    [2, 0, 3, 1]
+    >>> _aligned(np.arange(3), None, 3).tolist()
+    [0, 1, 2]
+    """
+    if frames_in is None or frames_out is None or np.array_equal(frames_in, frames_out):
+        return np.arange(n)
+    a, b = np.asarray(frames_in), np.asarray(frames_out)
+    by_in, by_out = np.argsort(a, kind="stable"), np.argsort(b, kind="stable")
+    if not np.array_equal(a[by_in], b[by_out]):  # other frame numbers (a DeepLabCut row number)
+        return np.arange(n)
+    order = np.empty(n, dtype=np.int64)
+    order[by_in] = by_out
+    return order
