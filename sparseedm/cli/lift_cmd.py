@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import sys
 
-from ._common import add_joint_map, add_quiet, refusals_said
+from ._common import SELECTION_HELP, add_joint_map, add_quiet, refusals_said
 
 
 def add_parser(sub):
@@ -49,8 +49,7 @@ def add_parser(sub):
                    "'sparseedm[plot]'): the first 4 lifted, or those of --frames")
     p.add_argument("--frames", default=None, metavar="LO:HI",
                    help="with --plot: the frames drawn (rows, 0-based, for an input without "
-                   "frames): a range LO:HI (HI excluded), single numbers, or several joined "
-                   "by commas, e.g. 10:40 or 3,17; at most 8, spread over them")
+                   f"frames): {SELECTION_HELP}; at most 8, spread over them")
     p.add_argument("--no-temporal", action="store_true",
                    help="lift every pose on its own even when INPUT gives frames (by "
                    "default a CSV 'frame' column or .npz 'frames' array, with 'track' / "

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._common import add_joint_map, split_list
+from ._common import SELECTION_HELP, add_joint_map, split_list
 
 
 def add_parser(sub):
@@ -34,9 +34,7 @@ def add_parser(sub):
                    help="tracks (people) to draw, by their ids in the file (default: the "
                    "track with the most filled joints)")
     p.add_argument("--frames", default=None, metavar="LO:HI",
-                   help="frames to draw: a range LO:HI (HI excluded; an end may be left "
-                   "out), single frame numbers, or several joined by commas, e.g. 10:40 "
-                   "or 3,10:20 (default: all)")
+                   help=f"frames to draw: {SELECTION_HELP} (default: all)")
     p.add_argument("--rows", default=None, metavar="LO:HI",
                    help="for a file without frames: the rows whose poses are drawn, as "
                    "--frames (0-based; default: those with the most filled joints)")

@@ -26,6 +26,7 @@ import json
 import math
 import os
 import re
+import warnings
 from pathlib import Path
 from dataclasses import dataclass, field
 from numbers import Real
@@ -275,6 +276,33 @@ def folder_files(path, max_files):
     if any(f is None for f, _ in numbered):  # no numbers in some names: name order
         numbered = [(i, n) for i, n in enumerate(sorted(names))]
     return sorted(numbered), sorted(ignored)
+
+
+def read_frame_folder(path, read_file, what, max_files):
+    """The people of a folder of per-frame files, ``(people, files, skipped, ignored)``.
+
+    ``read_file(file path, frame) -> (people, document)`` reads one file; a bad
+    file (a :class:`FileFormatError`) is skipped with a warning naming it and
+    listed in `skipped` ``[(name, message)]``; `files` are ``{"name", "doc",
+    "rows"}`` of the good ones, in frame order. A folder with no good file is a
+    FileFormatError saying it holds no readable `what` (and the first problem).
+    """
+    numbered, ignored = folder_files(path, max_files)
+    people, files, skipped = [], [], []
+    for frame, name in numbered:
+        try:
+            got, doc = read_file(Path(path) / name, frame)
+        except FileFormatError as exc:
+            skipped.append((name, str(exc)))
+            continue
+        people += got
+        files.append({"name": name, "doc": doc, "rows": len(got)})
+    if not files:
+        why = f"; first: {skipped[0][1]}" if skipped else ""
+        raise FileFormatError(f"{path}: no readable {what} (*.json){why}")
+    for name, msg in skipped:  # sparseedm recover lists them in its summary too
+        warnings.warn(f"skipped {msg}", stacklevel=4)
+    return people, files, skipped, ignored
 
 
 _FRAME_NUMBER = re.compile(r"(\d+)(?=_keypoints\.json$)|(\d+)(?=\.json$)")

@@ -46,7 +46,6 @@ a whole, :func:`sparseedm.formats._base.write_json_folder`).
 from __future__ import annotations
 
 import json
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -145,29 +144,20 @@ def read(path, doc):
 
 def read_folder(path):
     """Read a folder of per-image MMPose files (see the module docstring)."""
-    path = Path(path)
-    numbered, ignored = _base.folder_files(path, MAX_FILES)
-    people, files, skipped = [], [], []
-    for frame, name in numbered:
-        try:
-            doc = load_json(path / name)
-            if not is_image_file(doc):
-                raise FileFormatError(f"{path / name}: not an MMPose per-image file (a list "
-                                      "of instances with [x, y] keypoints)")
-            got = [_instance(inst, f"{path / name}: instance {i}", frame, Path(name).stem)
-                   for i, inst in enumerate(doc)]
-        except FileFormatError as exc:
-            skipped.append((name, str(exc)))
-            continue
-        people += got
-        files.append({"name": name, "doc": doc, "rows": len(got)})
-    if not files:
-        why = f"; first: {skipped[0][1]}" if skipped else ""
-        raise FileFormatError(f"{path}: no readable MMPose per-image files (*.json){why}")
-    for name, msg in skipped:  # sparseedm recover lists them in its summary too
-        warnings.warn(f"skipped {msg}", stacklevel=3)
+    people, files, skipped, ignored = _base.read_frame_folder(
+        path, _image_file, "MMPose per-image files", MAX_FILES)
     return _assembled(people, path, {"mmpose_files": files, "skipped": skipped,
                                      "ignored": ignored})
+
+
+def _image_file(path, frame):
+    """The instances of one per-image file (its frame from its name) and its document."""
+    doc = load_json(path)
+    if not is_image_file(doc):
+        raise FileFormatError(f"{path}: not an MMPose per-image file (a list of instances "
+                              "with [x, y] keypoints)")
+    return [_instance(inst, f"{path}: instance {i}", frame, path.stem)
+            for i, inst in enumerate(doc)], doc
 
 
 def _assembled(people, path, meta):

@@ -50,7 +50,6 @@ track).
 from __future__ import annotations
 
 import json
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -133,21 +132,8 @@ def read(path):
         files = [{"name": path.name, "doc": doc, "rows": len(people)}]
         return _parsed(people, files, {"openpose_folder": False, "skipped": [],
                                        "ignored": []}, path)
-    numbered, ignored = _base.folder_files(path, MAX_FILES)
-    people, files, skipped = [], [], []
-    for frame, name in numbered:
-        try:
-            got, doc = _frame_file(path / name, frame)
-        except FileFormatError as exc:
-            skipped.append((name, str(exc)))
-            continue
-        people += got
-        files.append({"name": name, "doc": doc, "rows": len(got)})
-    if not files:
-        why = f"; first: {skipped[0][1]}" if skipped else ""
-        raise FileFormatError(f"{path}: no readable OpenPose frame files (*.json){why}")
-    for name, msg in skipped:  # sparseedm recover lists them in its summary too
-        warnings.warn(f"skipped {msg}", stacklevel=3)
+    people, files, skipped, ignored = _base.read_frame_folder(
+        path, _frame_file, "OpenPose frame files", MAX_FILES)
     return _parsed(people, files, {"openpose_folder": True, "skipped": skipped,
                                    "ignored": ignored}, path)
 
