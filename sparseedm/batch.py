@@ -45,7 +45,8 @@ output flags the joints this run filled (and those the input already flagged):
 in the ``.status.npz`` sidecar of ``.npy`` and DeepLabCut outputs), the
 ``"sparseedm"`` object's ``filled`` list in the JSON formats (a DeepLabCut
 table keeps DeepLabCut's own x, y, likelihood layout, so its flags are only in
-the sidecar); where the format keeps scores (COCO
+the sidecar, which :func:`sparseedm.keypoints.read_keypoints` reads them back
+from, as for ``.npy``); where the format keeps scores (COCO
 ``v``, OpenPose ``c``, MMPose ``keypoint_scores``, DeepLabCut ``likelihood``)
 a filled joint's score is ``filled_score`` (default 0: below every threshold,
 never a detection's), and COCO's ``num_keypoints`` counts the keypoints with

@@ -432,11 +432,12 @@ def read_keypoints(path, *, format=None, confidence_threshold=None, joint_map=No
     Parameters
     ----------
     path : str or path-like
-        A file, or a folder of OpenPose frame files.
+        A file, or a folder of OpenPose frame files or MMPose per-image files.
     format : {"npz", "npy", "csv", "coco", "openpose", "mmpose", "dlc"}, optional
         Default: told from the path (:func:`sparseedm.formats.detect`: a
-        folder is OpenPose, ``.h5`` DeepLabCut, a ``.json`` by its content,
-        else the extension; ``.json`` is COCO).
+        folder is OpenPose or MMPose by its files' content, ``.h5``
+        DeepLabCut, a ``.json`` by its content, else the extension; ``.json``
+        is COCO).
     confidence_threshold : float, optional
         Joints whose confidence is below it are missing (joints with a
         confidence <= 0 are always missing). Default: the format's,

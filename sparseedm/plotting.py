@@ -431,10 +431,11 @@ def _track_rows(frames, tracks, filled, show_tracks, show_frames):
         chosen = [max(known, key=lambda t: counts[t])] if known else []
     else:
         chosen = [str(t) for t in show_tracks]
+        more = " ..." if len(known) > 20 else ""
         for t in chosen:
             if t not in known:
                 raise SparseEDMError(f"track {t!r} is not in the file (its tracks: "
-                                     f"{', '.join(known[:20])}{' ...' if len(known) > 20 else ''})")
+                                     f"{', '.join(known[:20])}{more})")
     if not chosen:
         raise SparseEDMError("the file has no poses to draw")
     out = []

@@ -24,8 +24,8 @@ def add_parser(sub):
         "Exit code 0: all rows lifted; 1: some refused; 2: bad input.",
     )
     p.add_argument("input", help="keypoints: .csv, .npz, .npy, COCO-style .json, OpenPose "
-                   ".json or a folder of them, MMPose predictions .json, DeepLabCut .csv/.h5 "
-                   "(see sparseedm.formats)")
+                   ".json or a folder of them, MMPose predictions .json or a folder of "
+                   "per-image files, DeepLabCut .csv/.h5 (see sparseedm.formats)")
     p.add_argument("-o", "--output", required=True,
                    help="3D output: .csv, .npz, .json or .trc (OpenSim)")
     p.add_argument("--lifter", default=None, metavar="NAME|PATH",
