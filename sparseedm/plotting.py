@@ -8,11 +8,13 @@ needs it and figures can be made in any process.
 from __future__ import annotations
 
 from difflib import get_close_matches
+from numbers import Integral
 from pathlib import Path
 
 import numpy as np
 
 from ._atomic import atomic_path
+from ._validation import Interval, validate_params
 from .exceptions import SparseEDMError
 from .skeleton import JOINT_NAMES, SKELETON_14
 
@@ -359,6 +361,8 @@ def plot_recovery(observed, recovered, filled=None, *, frames=None, tracks=None,
     >>> len(fig.axes)                             # x and y, then 2 poses
     4
     """
+    validate_params("plot_recovery", dict(n_poses=n_poses),
+                    {"n_poses": [Interval(Integral, 0, None)]})
     obs, rec, fill = _recovery_arrays(observed, recovered, filled)
     n = len(obs)
     ids = np.char.add("row ", np.arange(n).astype(str)) if ids is None else \

@@ -63,8 +63,6 @@ def run(args):
     if suffix not in FIGURE_FORMATS:
         raise SparseEDMError(f"-o {args.output}: give a figure name ending in "
                              f"{', '.join('.' + f for f in FIGURE_FORMATS)}")
-    if args.poses < 0:
-        raise SparseEDMError(f"--poses must be >= 0, got {args.poses}")
     check_paths([("input", args.input), ("recovered file", args.recovered)],
                 [("output", args.output)])
     seen = read_keypoints(args.input, confidence_threshold=args.confidence_threshold,
@@ -84,7 +82,6 @@ def run(args):
                   n_poses=args.poses, path=args.output)
     print(f"wrote {args.output}", file=sys.stdout)
     return 0
-
 
 
 def _aligned(frames_in, frames_out, n):
