@@ -282,14 +282,25 @@ def _joint_indices(joints, filled):
 
 
 def _pick_rows(rows, filled, k):
-    """Up to `k` of `rows` for the pose panels: those with the most filled joints,
-    spread over the selection, in their order."""
+    """Up to `k` of `rows` for the pose panels, in their order: those with filled
+    joints first (spread over them when more), then others spread over the rest.
+
+    >>> _pick_rows(np.arange(6), np.array([[0], [1], [0], [1], [0], [1]], bool), 4).tolist()
+    [0, 1, 3, 5]
+    """
     if len(rows) <= k:
         return rows
-    counts = filled[rows].sum(axis=1)
-    with_filled = rows[counts > 0]
-    pool = with_filled if len(with_filled) >= k else rows
-    return pool[np.linspace(0, len(pool) - 1, k).round().astype(int)]
+    some = filled[rows].any(axis=1)
+    pos = _spread(np.flatnonzero(some), k)
+    rest = _spread(np.flatnonzero(~some), k - len(pos))
+    return rows[np.sort(np.concatenate([pos, rest]))]
+
+
+def _spread(positions, k):
+    """`k` of `positions` evenly spread (all of them when fewer)."""
+    if len(positions) <= k:
+        return positions
+    return positions[np.linspace(0, len(positions) - 1, k).round().astype(int)]
 
 
 #: what the recovery figure draws, by role: (colour, marker, line style)
