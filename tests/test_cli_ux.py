@@ -187,3 +187,12 @@ def test_fit_lifter_says_its_stages_unless_quiet(fixtures_dir, tmp_path, capsys)
     assert "sparseedm: re-fitting the 3D halves" in err
     assert main(argv + ["-o", str(tmp_path / "b.npz"), "-q"]) == 0
     assert "sparseedm:" not in capsys.readouterr().err
+
+
+def test_fit_says_its_batches_off_a_terminal(fixtures_dir, tmp_path, capsys):
+    argv = ["fit", str(fixtures_dir / "cmu_poses.npz"), "--atoms", "40"]
+    assert main(argv + ["-o", str(tmp_path / "a.npz")]) == 0
+    assert "sparseedm: learning 40 atoms from 334 poses: 2 mini-batches" in \
+        capsys.readouterr().err
+    assert main(argv + ["-o", str(tmp_path / "b.npz"), "-q"]) == 0
+    assert "sparseedm:" not in capsys.readouterr().err
