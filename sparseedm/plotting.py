@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import _progress
 from ._atomic import atomic_path
 from ._validation import Interval, validate_params
 from .exceptions import SparseEDMError
@@ -391,6 +392,8 @@ def plot_recovery(observed, recovered, filled=None, *, frames=None, tracks=None,
         rows = panels[0][1]
         joints = _joint_indices(show_joints, fill[np.concatenate([r for _, r in panels])])
     shown = _pick_rows(rows, fill, int(n_poses))
+    _progress.say(f"drawing {2 * len(panels) * len(joints)} trajectory panels and "
+                  f"{len(shown)} poses")
     height = 1.7 * len(panels) * len(joints) + (3.6 if len(shown) else 0) + 0.8
     fig = new_figure(max(8.4, 2.4 * len(shown)), height)
     half = max(len(shown), 1)

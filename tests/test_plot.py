@@ -109,7 +109,9 @@ def test_the_command_writes_a_png(clip, tmp_path, capsys):
     assert main(["plot", str(src), str(out), "-o", str(fig), "--frames", "5:35",
                  "--joints", "right_wrist,left_knee", "--tracks", "a"]) == 0
     assert fig.read_bytes()[:8] == PNG
-    assert f"wrote {fig}" in capsys.readouterr().out
+    said = capsys.readouterr()
+    assert f"wrote {fig}" in said.out
+    assert "sparseedm: drawing 4 trajectory panels and 4 poses" in said.err
     svg = tmp_path / "check.svg"
     assert main(["plot", str(src), str(out), "-o", str(svg)]) == 0
     assert b"<svg" in svg.read_bytes()[:500]

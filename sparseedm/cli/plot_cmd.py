@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._common import SELECTION_HELP, add_joint_map, split_list
+from ._common import SELECTION_HELP, add_joint_map, add_quiet, split_list
 
 
 def add_parser(sub):
@@ -48,10 +48,12 @@ def add_parser(sub):
                    help="read INPUT as recover read it: joints scored below T are "
                    "missing (default: the input format's)")
     add_joint_map(p)
+    add_quiet(p)
     p.set_defaults(func=run)
 
 
 def run(args):
+    from .. import _progress
     from .._atomic import check_paths
     from .._extras import require
     from ..exceptions import SparseEDMError
@@ -65,6 +67,7 @@ def run(args):
                              f"{', '.join('.' + f for f in FIGURE_FORMATS)}")
     check_paths([("input", args.input), ("recovered file", args.recovered)],
                 [("output", args.output)])
+    _progress.say(f"reading {args.input} and {args.recovered}")
     seen = read_keypoints(args.input, confidence_threshold=args.confidence_threshold,
                           joint_map=args.joint_map)
     same_map = format_of(Path(args.recovered), None) == "dlc"  # a DeepLabCut output: its map
@@ -80,7 +83,7 @@ def run(args):
                   show_frames=args.frames, show_rows=args.rows,
                   show_joints=split_list(args.joints) if args.joints else None,
                   n_poses=args.poses, path=args.output)
-    print(f"wrote {args.output}", file=sys.stdout)
+    print(f"wrote {args.output}", file=sys.stderr if args.quiet else sys.stdout)
     return 0
 
 
