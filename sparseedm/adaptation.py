@@ -1126,6 +1126,8 @@ def fine_tune_file(train_path, output, init="default", *, passes=DEFAULT_PASSES,
         raise PoseError(f"{train_path}: poses have {poses.shape[1]} joints, the dictionary "
                         f"{base.n_joints}")
     alpha = base.alpha_train if alpha is None else alpha
+    _progress.say(f"fine-tuning {base.n_components:,} atoms on {len(X):,} complete poses "
+                  f"({passes:g} passes)")
     comps = adapt_vectors(base.components, X, alpha, passes=passes, stats=stats,
                           replay=replay, batch_size=batch_size, random_state=random_state,
                           n_jobs=n_jobs)

@@ -45,7 +45,8 @@ output flags the joints this run filled (and those the input already flagged):
 in the ``.status.npz`` sidecar of ``.npy`` and DeepLabCut outputs), the
 ``"sparseedm"`` object's ``filled`` list in the JSON formats (a DeepLabCut
 table keeps DeepLabCut's own x, y, likelihood layout, so its flags are only in
-the sidecar); where the format keeps scores (COCO
+the sidecar, which :func:`sparseedm.keypoints.read_keypoints` reads them back
+from, as for ``.npy``); where the format keeps scores (COCO
 ``v``, OpenPose ``c``, MMPose ``keypoint_scores``, DeepLabCut ``likelihood``)
 a filled joint's score is ``filled_score`` (default 0: below every threshold,
 never a detection's), and COCO's ``num_keypoints`` counts the keypoints with
@@ -94,12 +95,13 @@ from .fconv.model import load_model
 from .formats import FILLED_SCORE, count_below, default_threshold, threshold_line
 from .formats import FORMATS as FOLDER_OR_TABLE_FORMATS
 from .formats.deeplabcut import H5_SUFFIXES, check_h5_extra, read_joint_map
-from .keypoints import (N_JOINTS, EXTENSIONS, check_joint_map, finish_missing, format_of,
-                        load_single_npy, npy_confidence, read_keypoints, write_keypoints)
+from .keypoints import (FLAGS_IN_SIDECAR, N_JOINTS, EXTENSIONS, beside, check_joint_map,
+                        finish_missing, format_of, load_single_npy, npy_confidence,
+                        read_keypoints, status_sidecar, write_keypoints)
 from .keypoints import output_format as keypoint_output_format
 from ._recovery_base import OK_STATUSES, combine, recovery_summary
 from ._recovery_kernel import compiled_solver
-from .normalize import REPRESENTATIONS
+from .normalize import REPRESENTATIONS, representation_for
 from .recovery import STATUSES, check_options_apply, recover
 from .skeleton import JOINT_NAMES
 from .temporal.recover import CLIP_MIN_POSES, adapt_in_time, linked_tracks, offered_poses
@@ -117,17 +119,11 @@ _SUFFIX = {"npz": ".npz", "npy": ".npy", "csv": ".csv", "coco": ".json"}
 def default_errors_path(output) -> Path:
     """``<output stem>.errors.csv`` beside `output` (in the current folder when
     `output` is a device or a pipe, such as ``/dev/null``)."""
-    return _beside(output, ".errors.csv")
+    return beside(output, ".errors.csv")
 
 
 def _sidecar(output, what) -> Path:
-    return _beside(output, f".{what}.npz")
-
-
-def _beside(output, ending) -> Path:
-    output = Path(output)
-    name = output.stem + ending
-    return Path(name) if is_stream(output) else output.with_name(name)
+    return beside(output, f".{what}.npz")
 
 
 # --------------------------------------------------------------------------
@@ -244,15 +240,15 @@ def _output_format(out_path, in_fmt, output_format):
 
 
 def _is_folder(out_path, out_fmt):
-    """An OpenPose output without ``.json`` is a folder of frame files."""
-    return out_fmt == "openpose" and out_path.suffix.lower() != ".json"
+    """An OpenPose or MMPose output without ``.json`` is a folder of frame files."""
+    return out_fmt in ("openpose", "mmpose") and out_path.suffix.lower() != ".json"
 
 
 # --------------------------------------------------------------------------
 # the batch
 
 
-def recover_file(input, output, *, dictionary=None, alpha=None, representation="average",
+def recover_file(input, output, *, dictionary=None, alpha=None, representation=None,
                  solver="fast", n_jobs=1, chunk_size=50_000, output_format=None,
                  errors_path=None, progress=False, save_edm=False,
                  confidence_threshold=None, backend=None, scheduler=None,
@@ -272,7 +268,9 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
         Default: the shipped default dictionary.
     alpha : float, optional
         Lasso penalty; default the dictionary's ``alpha_recover``.
-    representation : {"average", "zero"}
+    representation : {"average", "zero"}, optional
+        Default: an FConv `model`'s own (another one is refused), else
+        ``"average"`` (see :func:`sparseedm.recover`).
     solver : {"fast", "clarabel", "cvxpy-naive"} or a BaseSolver
     n_jobs : int, default 1
         joblib workers (see :func:`sparseedm.recover`).
@@ -378,6 +376,8 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
         raise SparseEDMError(str(exc)) from None
     if method == "fconv":  # checked before anything is read or written
         model = load_model(model, representation=representation, kind="recover")
+    representation = representation_for(  # None: the model's own, else the default
+        representation, model.representation if method == "fconv" else None)
 
     threshold = default_threshold(in_fmt) if confidence_threshold is None else \
         confidence_threshold
@@ -543,7 +543,7 @@ def _adaptation_poses(path, threshold):
 #: constraints of recover_file()'s arguments (see sparseedm._validation)
 _PARAMS = {
     "input": PATH, "output": PATH, "dictionary": [Dictionary, "path", None],
-    "alpha": ALPHA + [None], "representation": [Options(REPRESENTATIONS)],
+    "alpha": ALPHA + [None], "representation": [Options(REPRESENTATIONS), None],
     "n_jobs": N_JOBS, "chunk_size": CHUNK_SIZE,
     "errors_path": PATH + [None], "progress": BOOLEAN, "save_edm": BOOLEAN,
     "confidence_threshold": [Interval(Real, None, None), None],
@@ -611,8 +611,8 @@ class _Outputs:
 
     def sidecars(self):
         """name -> path of the sidecar file this output format needs (if any)."""
-        if self.out_fmt in ("npy", "dlc"):
-            return {"status": _sidecar(self.out_path, "status")}
+        if self.out_fmt in FLAGS_IN_SIDECAR:  # its filled flags live there
+            return {"status": status_sidecar(self.out_path)}
         if self.save_edm and self.out_fmt != "npz":
             return {"edm": _sidecar(self.out_path, "edm")}
         return {}

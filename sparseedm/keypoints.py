@@ -135,8 +135,11 @@ Every format says which joints sparseedm filled (``filled=`` of
 :func:`write_keypoints`; by default the joints a read had missing that the
 poses now hold): CSV ``<joint>_filled`` columns (1/0, all 14 or none),
 ``.npz`` a ``filled`` (n, 14) bool array, COCO the ``"sparseedm"`` field, the
-detector formats as :mod:`sparseedm.formats` describes. ``.npy`` cannot hold
-them (``sparseedm recover`` puts them in its ``.status.npz`` sidecar).
+detector formats as :mod:`sparseedm.formats` describes. ``.npy`` and
+DeepLabCut tables cannot hold them (:data:`FLAGS_IN_SIDECAR`): ``sparseedm
+recover`` puts them in the ``<stem>.status.npz`` sidecar beside its output
+(:func:`status_sidecar`), and :func:`read_keypoints` reads them back from
+there, the flagged joints present whatever their score.
 
 PoseTrack, OpenPose, MMPose, DeepLabCut
 ---------------------------------------
@@ -173,7 +176,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._atomic import atomic_path, save_npy, save_npz
+from ._atomic import atomic_path, is_stream, save_npy, save_npz
 from ._safeio import MAX_LINE_BYTES, load_json, load_npy, load_npz, text_lines
 from . import formats
 from ._validation import SCORE, Interval, check_poses, validate_params
@@ -192,6 +195,9 @@ __all__ = [
     "COCO_KEYPOINTS",
     "COCO_TO_14",
     "HEAD_TOP_FACTOR",
+    "FLAGS_IN_SIDECAR",
+    "status_sidecar",
+    "beside",
 ]
 
 #: Formats, by the name ``format=`` accepts (the last three: :mod:`sparseedm.formats`).
@@ -200,6 +206,10 @@ FORMATS = ("npz", "npy", "csv", "coco") + formats.FORMATS
 RESULT_FIELDS = ("status", "reason", "objective", "gap", "n_active", "edm_vectors",
                  "center", "scale")
 EXTENSIONS = {".npz": "npz", ".npy": "npy", ".csv": "csv", ".json": "coco"}
+#: formats whose files have no room for the filled flags: ``sparseedm recover``
+#: writes them to the file's status sidecar (:func:`status_sidecar`), and
+#: :func:`read_keypoints` reads them back from there
+FLAGS_IN_SIDECAR = ("npy", "dlc")
 #: CSV column suffixes of the joint columns
 _SUFFIXES = ("x", "y", "conf", "filled")
 #: other suffixes detectors and tools give a joint's confidence column, read as ``_conf``
@@ -331,7 +341,7 @@ def format_of(path: Path, format):
 def output_format(path, format=None, read_format=None):
     """The format a file written at `path` gets: `format` if given; else the
     format it was read in (`read_format`) when the extension suits it
-    (OpenPose: ``.json`` or none, a folder; MMPose ``.json``; DeepLabCut
+    (OpenPose and MMPose: ``.json``, or none for a folder; DeepLabCut
     ``.csv`` / ``.h5``); else from the extension (``.h5`` is DeepLabCut).
 
     >>> output_format(Path("out.json"), read_format="mmpose")
@@ -343,7 +353,7 @@ def output_format(path, format=None, read_format=None):
     if format is not None:
         return format_of(path, format)
     ext = path.suffix.lower()
-    suits = {"openpose": ("", ".json"), "mmpose": (".json",), "dlc": (".csv",) + H5_SUFFIXES}
+    suits = {"openpose": ("", ".json"), "mmpose": ("", ".json"), "dlc": (".csv",) + H5_SUFFIXES}
     if ext in suits.get(read_format, ()):
         return read_format
     if ext in H5_SUFFIXES:
@@ -376,8 +386,9 @@ def finish_missing(poses, missing, confidence, threshold):
 
 
 def _keep_filled(raw, poses, missing, filled):
-    """Joints a file flags as filled by sparseedm: present with the file's
-    coordinates, whatever their score (a filled score is below any threshold)."""
+    """Joints a file flags as filled by sparseedm (or holds in its own object):
+    present with the file's coordinates, whatever their score (a filled score
+    is below any threshold)."""
     if filled is None:
         return poses, missing
     keep = filled & np.isfinite(raw).all(axis=-1)
@@ -421,11 +432,12 @@ def read_keypoints(path, *, format=None, confidence_threshold=None, joint_map=No
     Parameters
     ----------
     path : str or path-like
-        A file, or a folder of OpenPose frame files.
+        A file, or a folder of OpenPose frame files or MMPose per-image files.
     format : {"npz", "npy", "csv", "coco", "openpose", "mmpose", "dlc"}, optional
         Default: told from the path (:func:`sparseedm.formats.detect`: a
-        folder is OpenPose, ``.h5`` DeepLabCut, a ``.json`` by its content,
-        else the extension; ``.json`` is COCO).
+        folder is OpenPose or MMPose by its files' content, ``.h5``
+        DeepLabCut, a ``.json`` by its content, else the extension; ``.json``
+        is COCO).
     confidence_threshold : float, optional
         Joints whose confidence is below it are missing (joints with a
         confidence <= 0 are always missing). Default: the format's,
@@ -473,7 +485,12 @@ def read_keypoints(path, *, format=None, confidence_threshold=None, joint_map=No
     if confidence_threshold is None:
         confidence_threshold = formats.default_threshold(fmt)
     if fmt in formats.FORMATS:
-        kps = _from_parsed(formats.read(fmt, path, joint_map=joint_map), confidence_threshold)
+        parsed = formats.read(fmt, path, joint_map=joint_map)
+        if fmt in FLAGS_IN_SIDECAR:
+            flags = sidecar_flags(path, len(parsed.poses), parsed.ids)
+            if flags is not None:
+                parsed.filled = flags if parsed.filled is None else parsed.filled | flags
+        kps = _from_parsed(parsed, confidence_threshold)
     else:
         reader = {"npz": _read_npz, "npy": _read_npy, "csv": _read_csv, "coco": _read_coco}
         kps = reader[fmt](path, confidence_threshold)
@@ -502,7 +519,9 @@ def _from_parsed(parsed, threshold):
     """A KeypointSet from a :class:`sparseedm.formats.Parsed`: thresholds applied,
     the joints the file flags as filled kept present."""
     poses, missing = finish_missing(parsed.poses, ~parsed.present, parsed.confidence, threshold)
-    poses, missing = _keep_filled(parsed.poses, poses, missing, parsed.filled)
+    kept = [m for m in (parsed.filled, parsed.stored) if m is not None]
+    poses, missing = _keep_filled(parsed.poses, poses, missing,
+                                  np.logical_or.reduce(kept) if kept else None)
     parsed.meta.update(read_missing=missing)
     return KeypointSet(poses, missing, parsed.confidence, parsed.ids, parsed.meta,
                        tracks=parsed.tracks, frames=parsed.frames, filled=parsed.filled)
@@ -645,8 +664,54 @@ def _read_npy(path, threshold):
     poses = arr[..., :2]
     confidence = npy_confidence(arr, str(path)) if arr.shape[-1] == 3 else None
     missing = np.zeros(poses.shape[:2], dtype=bool)
+    filled = sidecar_flags(path, len(poses), None)
     poses, missing = finish_missing(poses, missing, confidence, threshold)
-    return KeypointSet(poses, missing, confidence, None, {})
+    poses, missing = _keep_filled(arr[..., :2], poses, missing, filled)
+    return KeypointSet(poses, missing, confidence, None, {}, filled=filled)
+
+
+def beside(path, ending) -> Path:
+    """``<stem><ending>`` beside `path` (in the current folder when `path` is a
+    device or a pipe, such as ``/dev/stdout``).
+
+    >>> str(beside("out/poses.csv", ".status.npz"))
+    'out/poses.status.npz'
+    """
+    path = Path(path)
+    name = path.stem + ending
+    return Path(name) if is_stream(path) else path.with_name(name)
+
+
+def status_sidecar(path) -> Path:
+    """The status sidecar of a keypoint file, ``<stem>.status.npz`` beside it:
+    ``sparseedm recover`` writes there the per-row status and, for the
+    :data:`FLAGS_IN_SIDECAR` formats, the ``filled`` (n, 14) flags."""
+    return beside(path, ".status.npz")
+
+
+def sidecar_flags(path, n, ids):
+    """The filled flags (n, 14) of a :data:`FLAGS_IN_SIDECAR` file, read from its
+    status sidecar; None without one. A sidecar that is not this file's (another
+    row count, other ids) or cannot be read is ignored with a warning naming it."""
+    side = status_sidecar(path)
+    if is_stream(path) or not side.is_file():
+        return None
+    try:
+        arrays, _ = load_npz(side, ("filled", "ids"), what=f"{side}:")
+    except (FileFormatError, OSError) as exc:
+        warnings.warn(f"ignored {side} (the filled flags of {path}): {exc}", stacklevel=4)
+        return None
+    flags, side_ids = arrays.get("filled"), arrays.get("ids")
+    why = None
+    if flags is None or flags.dtype != bool or flags.shape != (n, N_JOINTS):
+        why = f"no 'filled' (bool, {n} x {N_JOINTS}) array for its {n} poses"
+    elif side_ids is not None and ids is not None and not np.array_equal(
+            np.asarray(side_ids).astype(str), np.asarray(ids).astype(str)):
+        why = "its ids are not the file's"
+    if why is not None:
+        warnings.warn(f"ignored {side} (the filled flags of {path}): {why}", stacklevel=4)
+        return None
+    return flags
 
 
 #: a plain decimal number (or nan/inf): not Python's extras ("1_0", full-width digits)

@@ -331,8 +331,11 @@ class OnlineDictionaryLearning:
         """Learn the dictionary from X (n_samples, n_features) in `n_passes` passes."""
         X = self._check_X(X)
         self._init_state(X)
-        for batch in iter_batches(len(X), self.batch_size, self.n_passes,
-                                  self.random_state):
+        total = int(np.ceil(self.n_passes * -(-len(X) // self.batch_size)))
+        for batch in _progress.steps(
+                iter_batches(len(X), self.batch_size, self.n_passes, self.random_state),
+                f"learning {self.n_components:,} atoms from {len(X):,} samples "
+                f"({total:,} mini-batches)", total=total, unit="batch"):
             self._step(X[batch])
         return self
 
@@ -502,6 +505,9 @@ def _fit_batches_inplace(est, poses, index, start, checkpoint, checkpoint_every,
     batch_size, n_passes = params["batch_size"], params["n_passes"]
     per_pass = -(-len(index) // batch_size)
     total = int(np.ceil(n_passes * per_pass))
+    if not progress:  # else the bar says it
+        _progress.say(f"learning {est.n_components:,} atoms from {len(index):,} poses: "
+                      f"{total - start:,} mini-batches of {batch_size}")
     bar = tqdm(total=total, initial=start, disable=not progress, unit="batch",
                desc="fit", dynamic_ncols=True)
     try:

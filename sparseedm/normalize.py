@@ -37,7 +37,7 @@ from __future__ import annotations
 import numpy as np
 
 from .edm import pose_to_vector, observed_entries
-from .exceptions import PoseError
+from .exceptions import ParameterError, PoseError
 
 __all__ = [
     "REPRESENTATIONS",
@@ -47,9 +47,36 @@ __all__ = [
     "normalize",
     "denormalize",
     "represent",
+    "representation_for",
+    "DEFAULT_REPRESENTATION",
 ]
 
 REPRESENTATIONS = ("average", "zero")
+#: the representation used when neither the caller nor a model or lifter file names one
+DEFAULT_REPRESENTATION = "average"
+
+
+def representation_for(given, recorded=None, where="the model"):
+    """The occlusion representation to use: the one a model or lifter file
+    `recorded` (it was trained on it), else `given`, else
+    :data:`DEFAULT_REPRESENTATION`; a `given` one other than the recorded one
+    is refused (the one rule for ``representation=None`` of recover, lift and
+    their commands).
+
+    >>> representation_for(None), representation_for(None, "zero")
+    ('average', 'zero')
+    >>> representation_for("zero", "average", "m.npz")
+    Traceback (most recent call last):
+    ...
+    sparseedm.exceptions.ParameterError: m.npz was trained on 'average' inputs, not 'zero': leave representation (--representation) unset to use the file's own, or pass 'average'
+    """
+    if recorded is None:
+        return DEFAULT_REPRESENTATION if given is None else given
+    if given is not None and given != recorded:
+        raise ParameterError(f"{where} was trained on {recorded!r} inputs, not {given!r}: "
+                             "leave representation (--representation) unset to use the "
+                             f"file's own, or pass {recorded!r}")
+    return recorded
 #: Fewer observed joints than this leave too little of the EDM to code.
 MIN_OBSERVED_JOINTS = 3
 

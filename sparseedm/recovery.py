@@ -30,7 +30,8 @@ from __future__ import annotations
 
 from ._recovery_base import STATUSES, RecoveryResult, screen_poses, validate_poses
 from ._recovery_kernel import RECOVER_PARAMS, recover_members, recover_sparse, solve_chunk
-from ._validation import validate_params
+from ._validation import Options, validate_params
+from .normalize import REPRESENTATIONS, representation_for
 from .dictionary import Dictionary, check_gram_memory, load_dictionary
 from .ensemble import adapt_members
 from .exceptions import ParameterError, SparseEDMError
@@ -45,7 +46,7 @@ _recover, _recover_members, _solve_chunk = recover_sparse, recover_members, solv
 
 #: constraints of recover()'s arguments (defined with the kernel, which the guard
 #: of adaptation also validates against)
-_PARAMS = RECOVER_PARAMS
+_PARAMS = dict(RECOVER_PARAMS, representation=[Options(REPRESENTATIONS), None])
 
 
 def check_options_apply(caller, *, method, model, backend, scheduler, adapt, ensemble):
@@ -63,7 +64,7 @@ def check_options_apply(caller, *, method, model, backend, scheduler, adapt, ens
 
 
 def recover(poses, missing=None, *, dictionary=None, alpha=None,
-            representation="average", solver="fast", n_jobs=1, chunk_size=2048,
+            representation=None, solver="fast", n_jobs=1, chunk_size=2048,
             positive=None, progress=False, backend=None, scheduler=None,
             method="sparse", model=None, adapt="auto", self_training=None, ensemble=1,
             tracks=None, frames=None, temporal=True):
@@ -80,7 +81,9 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
     alpha : float, optional
         Lasso penalty; default the dictionary's recommended ``alpha_recover``.
         Scaled per pose by the dictionary's ``alpha_scaling`` rule.
-    representation : {"average", "zero"}
+    representation : {"average", "zero"}, optional
+        How occluded joints enter the EDM vector. Default: the one an FConv
+        `model` was trained on (another one is refused), else ``"average"``.
     solver : {"fast", "clarabel", "cvxpy-naive"} or a BaseSolver
         "fast" (default) is the certified LARS path, which finishes any pose
         its path leaves uncertified by feature-sign search and hands what that
@@ -106,8 +109,8 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         (:mod:`sparseedm.fconv`, needs ``sparseedm[torch]``); the dictionary,
         alpha, solver, n_jobs, backend and positive arguments are then unused.
     model : FConvModel, str or path, optional
-        The network for ``method="fconv"`` (``sparseedm fit-cnn``); its
-        representation must be `representation`.
+        The network for ``method="fconv"`` (``sparseedm fit-cnn``), used with
+        the representation it was trained on.
     adapt : "auto", False or array_like (n_adapt, N, 2)
         (sparse method only)
         ``"auto"`` (default): when the poses hold at least
@@ -172,6 +175,8 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         ensemble=ensemble, temporal=temporal), _PARAMS)
     check_options_apply("recover", method=method, model=model, backend=backend,
                         scheduler=scheduler, adapt=adapt, ensemble=ensemble)
+    if method != "fconv":  # an FConv model says its own (recover_fconv)
+        representation = representation_for(representation)
     if frames is not None and temporal:
         return _recover_in_time(poses, missing, tracks, frames, method, dict(
             dictionary=dictionary, alpha=alpha, representation=representation, solver=solver,
@@ -231,7 +236,7 @@ class OcclusionRecoverer:
     ((1, 14, 2), True)
     """
 
-    def __init__(self, dictionary=None, *, alpha=None, representation="average",
+    def __init__(self, dictionary=None, *, alpha=None, representation=None,
                  solver="fast", n_jobs=1, adapt="auto"):
         self.dictionary = dictionary
         self.alpha = alpha

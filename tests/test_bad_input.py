@@ -676,7 +676,8 @@ BAD_RECOVER_ARGS = [
     ("chunk_size", 0), ("chunk_size", -1), ("chunk_size", 2.0), ("chunk_size", None),
     ("chunk_size", "10"), ("dictionary", 123), ("dictionary", 1.5), ("dictionary", ["a"]),
     ("dictionary", ""), ("backend", "bogus"), ("backend", 1), ("representation", "mean"),
-    ("representation", None), ("representation", 0), ("solver", "lars"), ("solver", None),
+    ("representation", 0),  # representation None: a model's own, else "average"
+    ("solver", "lars"), ("solver", None),
     ("solver", 3), ("positive", "yes"), ("positive", 1), ("progress", "no"),
     ("progress", None), ("scheduler", 8786),
 ]

@@ -13,6 +13,7 @@ from sparseedm.evaluation_real import evaluate_photos, evaluate_tracks
 from sparseedm.learning import fit_dictionary_file
 from sparseedm.lifting.evaluation import evaluate_lifting
 from sparseedm.lifting.io import lift_file
+from sparseedm.plotting import plot_recovery
 from sparseedm.temporal.evaluation import evaluate_video
 
 
@@ -28,7 +29,8 @@ CASES = [  # (command line, option dest, API function, its parameter)
         ("self_training", recover_file, "self_training"),
         ("ensemble", recover_file, "ensemble"),
         ("joint_map", recover_file, "joint_map"),
-        ("filled_score", recover_file, "filled_score")]),
+        ("filled_score", recover_file, "filled_score"),
+        ("representation", recover_file, "representation")]),
     (["evaluate", "--data", "t.npz", "-o", "rep"], [
         ("max_train", evaluate, "max_train"),
         ("seed", evaluate, "random_state"),
@@ -53,7 +55,15 @@ CASES = [  # (command line, option dest, API function, its parameter)
         ("jobs", evaluate_lifting, "n_jobs")]),
     (["lift", "in.csv", "-o", "out.csv"], [
         ("confidence_threshold", lift_file, "confidence_threshold"),
-        ("jobs", lift_file, "n_jobs")]),
+        ("jobs", lift_file, "n_jobs"),
+        ("representation", lift_file, "representation"),
+        ("frames", lift_file, "plot_frames")]),
+    (["plot", "in.csv", "out.csv", "-o", "f.png"], [
+        ("poses", plot_recovery, "n_poses"),
+        ("tracks", plot_recovery, "show_tracks"),
+        ("frames", plot_recovery, "show_frames"),
+        ("rows", plot_recovery, "show_rows"),
+        ("joints", plot_recovery, "show_joints")]),
     (["dataset", "build", "mocap", "-o", "d.npz"], [
         ("cameras_per_pose", build_dataset, "cameras_per_pose"),
         ("seed", build_dataset, "random_state"),

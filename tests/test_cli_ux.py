@@ -150,3 +150,49 @@ def test_dash_is_not_a_file_named_dash(tmp_path, monkeypatch, capsys, argv):
     err = capsys.readouterr().err
     assert "'-' is not standard output here" in err and "/dev/stdout" in err
     assert not (tmp_path / "-").exists()
+
+
+def test_a_mistyped_command_is_answered_with_the_nearest_one(capsys):
+    with pytest.raises(SystemExit) as exit_:
+        main(["recovr", "in.csv", "-o", "out.csv"])
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err
+    assert err.startswith("usage: sparseedm")
+    assert "invalid choice: 'recovr'" in err and "did you mean 'recover'?" in err
+
+
+def test_a_mistyped_option_is_answered_with_the_nearest_ones(capsys):
+    with pytest.raises(SystemExit) as exit_:
+        main(["recover", "in.csv", "-o", "out.csv", "--confidence-treshold", "0.5"])
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err
+    assert err.startswith("usage: sparseedm recover")  # the command's own usage line
+    assert "unrecognized arguments: --confidence-treshold 0.5" in err
+    assert "did you mean '--confidence-threshold'?" in err
+    with pytest.raises(SystemExit):
+        main(["recover", "in.csv", "-o", "out.csv", "--solver", "fsat"])
+    assert "did you mean 'fast'?" in capsys.readouterr().err
+    with pytest.raises(SystemExit):  # nothing near: argparse's message alone
+        main(["recover", "in.csv", "-o", "out.csv", "--zzzzzz"])
+    assert "did you mean" not in capsys.readouterr().err
+
+
+def test_fit_lifter_says_its_stages_unless_quiet(fixtures_dir, tmp_path, capsys):
+    argv = ["fit-lifter", str(fixtures_dir / "cmu_poses.npz"), "--atoms", "40",
+            "--passes", "1"]
+    assert main(argv + ["-o", str(tmp_path / "a.npz")]) == 0
+    err = capsys.readouterr().err
+    assert "sparseedm: fitting a dictionary lifter on 334 training poses" in err
+    assert "sparseedm: learning 40 atoms from 334 samples" in err
+    assert "sparseedm: re-fitting the 3D halves" in err
+    assert main(argv + ["-o", str(tmp_path / "b.npz"), "-q"]) == 0
+    assert "sparseedm:" not in capsys.readouterr().err
+
+
+def test_fit_says_its_batches_off_a_terminal(fixtures_dir, tmp_path, capsys):
+    argv = ["fit", str(fixtures_dir / "cmu_poses.npz"), "--atoms", "40"]
+    assert main(argv + ["-o", str(tmp_path / "a.npz")]) == 0
+    assert "sparseedm: learning 40 atoms from 334 poses: 2 mini-batches" in \
+        capsys.readouterr().err
+    assert main(argv + ["-o", str(tmp_path / "b.npz"), "-q"]) == 0
+    assert "sparseedm:" not in capsys.readouterr().err

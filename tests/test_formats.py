@@ -68,7 +68,8 @@ def test_round_trip_fills_and_flags_every_occluded_joint(case, tmp_path, small_d
                            confidence_threshold=threshold, **kw)
     assert summary["refused"] == 0 and summary["recovered_joints"] == first.missing.sum()
     assert digest(src) == before, "the input was changed"
-    back = _read_back(out, first.meta["format"], threshold, kw)
+    # a DeepLabCut table (no room for flags) too: its flags are read from the sidecar
+    back = read_keypoints(out, confidence_threshold=threshold, **kw)
     assert back.meta["format"] == first.meta["format"]
     assert not back.missing.any(), "every occluded joint is filled"
     np.testing.assert_array_equal(back.filled, first.missing)
@@ -81,20 +82,6 @@ def test_round_trip_fills_and_flags_every_occluded_joint(case, tmp_path, small_d
         np.testing.assert_array_equal(back.ids, first.ids)
     # filled joints carry the filled score, never a detection's
     np.testing.assert_array_equal(back.confidence[first.missing], 0.0)
-
-
-def _read_back(out, fmt, threshold, kw):
-    """An output read back; a DeepLabCut table (DeepLabCut's own layout, no room
-    for flags) with its filled joints present and flagged from the status sidecar."""
-    if fmt != "dlc":
-        return read_keypoints(out, confidence_threshold=threshold, **kw)
-    flags = np.load(out.with_name(out.stem + ".status.npz"))["filled"]
-    back = read_keypoints(out, confidence_threshold=threshold, **kw)
-    assert back.filled is None
-    np.testing.assert_array_equal(back.missing, flags)  # scored filled_score: below
-    raw = formats.read("dlc", out, joint_map=kw["joint_map"])
-    back.poses, back.missing, back.filled = raw.poses, ~raw.present, flags
-    return back
 
 
 def test_openpose_folder_round_trip_writes_the_same_files(tmp_path, small_dictionary):
@@ -723,3 +710,63 @@ def test_cli_lists_skipped_frame_files(tmp_path, capsys, small_dictionary_path):
     assert main(["recover", str(d), "-o", str(tmp_path / "out"), "-q", "--no-adapt",
                  "--dictionary", str(small_dictionary_path)]) == 0
     assert not (tmp_path / "out.errors.csv").exists()
+
+
+def _mmpose_image_folder(folder, cmu_poses):
+    """What MMPoseInferencer's pred_out_dir holds after a folder of images: one JSON
+    per image, a list of COCO-17 instances; frame 2 has nobody, the right wrist of
+    frames 1 and 3 is scored 0.05 (occluded), a notes file is not a frame."""
+    from sparseedm.formats import COCO_17
+    from sparseedm.skeleton import JOINT_NAMES
+
+    folder.mkdir()
+    for f in range(4):
+        instances = []
+        if f != 2:
+            xy, scores = np.zeros((17, 2)), np.full(17, 0.9)
+            for j, k in COCO_17.sources().items():
+                xy[k] = cmu_poses[f, j]
+            face = cmu_poses[f, 1] + 0.6 * (cmu_poses[f, 0] - cmu_poses[f, 1])
+            xy[:5] = face
+            if f in (1, 3):
+                scores[COCO_17.index("right_wrist")] = 0.05
+            instances.append({"keypoints": xy.tolist(), "keypoint_scores": scores.tolist(),
+                              "bbox": [[0.0, 0.0, 100.0, 200.0]], "bbox_score": 0.99})
+        (folder / f"img_{f:04d}.json").write_text(json.dumps(instances))
+    (folder / "notes.txt").write_text("not a frame")
+    return JOINT_NAMES.index("right_wrist")
+
+
+def test_a_folder_of_mmpose_image_files_reads_and_writes_back(cmu_poses, tmp_path,
+                                                              small_dictionary):
+    from sparseedm.formats import detect
+
+    folder = tmp_path / "preds"
+    wrist = _mmpose_image_folder(folder, cmu_poses)
+    assert detect(folder) == "mmpose"
+    kps = read_keypoints(folder)
+    assert kps.meta["format"] == "mmpose"
+    assert kps.frames.tolist() == [0, 1, 3]  # from the names; frame 2: nobody
+    assert kps.ids.tolist() == ["img_0000", "img_0001", "img_0003"]
+    assert kps.missing[:, wrist].tolist() == [False, True, True]
+    assert kps.meta["ignored"] == ["notes.txt"]
+    out = tmp_path / "out"
+    summary = recover_file(folder, out, dictionary=small_dictionary, adapt=False)
+    assert summary["format"] == "mmpose" and summary["refused"] == 0
+    assert sorted(p.name for p in out.glob("*.json")) == \
+        sorted(p.name for p in folder.glob("*.json"))
+    first = json.loads((out / "img_0001.json").read_text())[0]
+    assert first["sparseedm"]["filled"] == ["right_wrist"] and first["bbox_score"] == 0.99
+    assert json.loads((out / "img_0002.json").read_text()) == []
+    back = read_keypoints(out)
+    assert not back.missing.any()
+    np.testing.assert_array_equal(back.filled, kps.missing)
+    np.testing.assert_array_equal(back.frames, kps.frames)
+
+
+def test_a_folder_of_neither_format_is_refused_naming_the_file(tmp_path):
+    folder = tmp_path / "x"
+    folder.mkdir()
+    (folder / "a_000001.json").write_text('{"images": []}')
+    with pytest.raises(FileFormatError, match="no readable OpenPose frame files.*a_000001"):
+        read_keypoints(folder)

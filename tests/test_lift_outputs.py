@@ -72,6 +72,29 @@ def test_lift_plot(fixtures_dir, tmp_path, capsys):
     assert f"figure: {png}" in capsys.readouterr().out
 
 
+def test_lift_plot_draws_the_frames_chosen(fixtures_dir, tmp_path, monkeypatch, capsys):
+    pytest.importorskip("matplotlib", reason="needs the [plot] extra")
+    import sparseedm.lifting.io as io
+
+    drawn = []
+    real = io.plot_lifted
+    monkeypatch.setattr(io, "plot_lifted", lambda P, path, titles=None, missing=None: (
+        drawn.append(titles), real(P, path, titles=titles, missing=missing))[1])
+    src = str(fixtures_dir.parents[1] / "examples" / "occluded_poses.csv")
+    png = tmp_path / "poses.png"
+    argv = ["lift", src, "-o", str(tmp_path / "p.csv"), "--plot", str(png)]
+    assert main(argv + ["--frames", "5,9:11"]) == 0  # a file without frames: rows
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    ids = (fixtures_dir.parents[1] / "examples" / "occluded_poses.csv").read_text() \
+        .splitlines()[1:]
+    assert drawn[-1] == [ids[r].split(",")[0] for r in (5, 9, 10)]
+    assert main(argv + ["--frames", "7:2000"]) == 0  # at most 8, spread over them
+    assert len(drawn[-1]) == 8 and drawn[-1][0] == ids[7].split(",")[0]
+    capsys.readouterr()
+    assert main(argv + ["--frames", "500"]) == 2
+    assert "row 500 is not in the file (its rows: 0 to 49)" in capsys.readouterr().err
+
+
 def test_lift_plot_without_matplotlib_fails_before_work(monkeypatch, fixtures_dir, tmp_path,
                                                         capsys):
     import sparseedm._extras as extras

@@ -13,8 +13,10 @@ the traceback), 130 interrupted.
 from __future__ import annotations
 
 import argparse
+import difflib
 import importlib
 import os
+import re
 import sys
 import traceback
 import warnings
@@ -24,8 +26,8 @@ from .._version import __version__
 from ..exceptions import SparseEDMError
 
 #: sub-command modules, in the order ``sparseedm --help`` lists them
-COMMANDS = ("dataset", "fit", "info", "recover", "evaluate", "fit_cnn", "fit_lifter", "lift",
-            "evaluate_lift")
+COMMANDS = ("dataset", "fit", "info", "recover", "plot", "evaluate", "fit_cnn", "fit_lifter",
+            "lift", "evaluate_lift")
 
 #: exit codes (see the module docstring)
 EXIT_OK, EXIT_REFUSED_ROWS, EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
@@ -36,8 +38,60 @@ _EPILOG = ("exit codes: 0 every row done; 1 some rows refused (outputs written, 
            "(a bug: rerun with --debug for the traceback); 130 interrupted")
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse's parser, whose errors suggest the nearest command, option or choice
+    (``did you mean 'recover'?``); its sub-command parsers are of this class too."""
+
+    def parse_args(self, args=None, namespace=None):
+        args, extras = self.parse_known_args(args, namespace)
+        if extras:  # said by the sub-command that was given them, with its options
+            _chosen(self, args).error(f"unrecognized arguments: {' '.join(extras)}")
+        return args
+
+    def error(self, message):
+        super().error(message + _did_you_mean(self, message))
+
+
+def _chosen(parser, args):
+    """The innermost (sub-)command parser the parsed `args` went through."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            name = getattr(args, action.dest, None)
+            if name in action.choices:
+                return _chosen(action.choices[name], args)
+    return parser
+
+
+def _did_you_mean(parser, message) -> str:
+    """``"; did you mean ...?"`` for an unknown choice (a command, an option's value)
+    or unknown options in argparse's `message`, from `parser`'s own; else "".
+
+    >>> p = _Parser(prog="x")
+    >>> _ = p.add_argument("--solver", choices=("fast", "clarabel"))
+    >>> _did_you_mean(p, "argument --solver: invalid choice: 'fsat' (choose from ...)")
+    "; did you mean 'fast'?"
+    >>> _did_you_mean(p, "unrecognized arguments: --solvr=fast 3")
+    "; did you mean '--solver'?"
+    """
+    choice = re.search(r"argument (\S+): invalid choice: (['\"]?)(.*?)\2 \(", message)
+    if choice:
+        name, words = choice.group(1), [choice.group(3)]
+        pool = [str(c) for a in parser._actions if a.choices is not None
+                and name in (*a.option_strings, a.metavar, a.dest) for c in a.choices]
+    elif message.startswith("unrecognized arguments: "):
+        words = [w.split("=", 1)[0] for w in message.split(": ", 1)[1].split()
+                 if w.startswith("-")]
+        pool = [o for a in parser._actions for o in a.option_strings
+                if not isinstance(a, argparse._HelpAction)]
+    else:
+        return ""
+    close = [m for w in words for m in difflib.get_close_matches(w, pool, n=2, cutoff=0.6)]
+    close = list(dict.fromkeys(close))
+    return f"; did you mean {' or '.join(map(repr, close))}?" if close else ""
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="sparseedm",
         description="Recover occluded 2D pose joints from distance matrices by sparse coding.",
         epilog=_EPILOG,

@@ -6,6 +6,11 @@ import sys
 from pathlib import Path
 
 
+#: how --frames / --rows are read (sparseedm.plotting.select_values)
+SELECTION_HELP = ("a range LO:HI (HI excluded; an end may be left out), single numbers, or "
+                  "several joined by commas, e.g. 10:40 or 3,10:20")
+
+
 def add_quiet(parser):
     parser.add_argument("-q", "--quiet", action="store_true",
                         help="no progress bar (it is also off when stderr is not a terminal)")

@@ -7,6 +7,8 @@ import time
 
 import numpy as np
 
+from ._common import add_quiet
+
 
 def add_parser(sub):
     p = sub.add_parser(
@@ -45,6 +47,7 @@ def add_parser(sub):
     p.add_argument("--max-train", type=int, default=None,
                    help="use a seeded subsample of this many training poses")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    add_quiet(p)
     p.set_defaults(func=run)
 
 
@@ -116,6 +119,6 @@ def run(args):
     lifter.save(args.output)
     print(f"wrote {args.output}: {args.method} lifter from {len(idx)} poses in "
           f"{time.perf_counter() - t0:.1f} s (known methods: {', '.join(LIFTERS)})",
-          file=sys.stdout)
+          file=sys.stderr if args.quiet else sys.stdout)
     return 0
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import sys
 
-from ._common import add_joint_map, add_quiet, refusals_said
+from ._common import SELECTION_HELP, add_joint_map, add_quiet, refusals_said
 
 
 def add_parser(sub):
@@ -24,8 +24,8 @@ def add_parser(sub):
         "Exit code 0: all rows lifted; 1: some refused; 2: bad input.",
     )
     p.add_argument("input", help="keypoints: .csv, .npz, .npy, COCO-style .json, OpenPose "
-                   ".json or a folder of them, MMPose predictions .json, DeepLabCut .csv/.h5 "
-                   "(see sparseedm.formats)")
+                   ".json or a folder of them, MMPose predictions .json or a folder of "
+                   "per-image files, DeepLabCut .csv/.h5 (see sparseedm.formats)")
     p.add_argument("-o", "--output", required=True,
                    help="3D output: .csv, .npz, .json or .trc (OpenSim)")
     p.add_argument("--lifter", default=None, metavar="NAME|PATH",
@@ -35,16 +35,21 @@ def add_parser(sub):
                    help="output format (default: from OUTPUT's extension)")
     p.add_argument("--errors", default=None, metavar="FILE",
                    help="errors file (default OUTPUT stem + .errors.csv)")
-    p.add_argument("--representation", choices=("average", "zero"), default="average",
-                   help="how an MLP lifter sees occluded joints (default average)")
+    p.add_argument("--representation", choices=("average", "zero"), default=None,
+                   help="how an MLP or FConv lifter sees occluded joints (default: the one "
+                   "an FConv lifter was trained on, else average)")
     p.add_argument("--confidence-threshold", type=float, default=None, metavar="T",
                    help="joints with a confidence below T count as missing (default: the "
                    "input format's, as for recover)")
     p.add_argument("--rate", type=float, default=30.0, metavar="HZ",
                    help="frames per second written to a .trc output (default 30)")
-    p.add_argument("--plot", default=None, metavar="PNG",
-                   help="also draw the first 4 lifted poses from the front and the side, "
-                   "left/right coloured (needs matplotlib: pip install 'sparseedm[plot]')")
+    p.add_argument("--plot", default=None, metavar="FIG",
+                   help="also draw lifted poses from the front and the side, left/right "
+                   "coloured, to FIG (.png, .pdf or .svg; needs matplotlib: pip install "
+                   "'sparseedm[plot]'): the first 4 lifted, or those of --frames")
+    p.add_argument("--frames", default=None, metavar="LO:HI",
+                   help="with --plot: the frames drawn (rows, 0-based, for an input without "
+                   f"frames): {SELECTION_HELP}; at most 8, spread over them")
     p.add_argument("--no-temporal", action="store_true",
                    help="lift every pose on its own even when INPUT gives frames (by "
                    "default a CSV 'frame' column or .npz 'frames' array, with 'track' / "
@@ -80,7 +85,8 @@ def run(args):
                   representation=args.representation, rate=args.rate, plot=args.plot,
                   temporal=not args.no_temporal, chunk_size=args.chunk_size,
                   joint_map=args.joint_map, dictionary=args.dictionary,
-                  adapt=not args.no_adapt, self_training=args.self_training)
+                  adapt=not args.no_adapt, self_training=args.self_training,
+                  plot_frames=args.frames)
     out = sys.stderr if args.quiet or is_stream(args.output) else sys.stdout  # -o /dev/stdout
     rate = f"{s['poses_per_second']:,.0f} poses/s" if s["poses_per_second"] else "-"
     counts = ", ".join(f"{k} {v}" for k, v in s["status"].items()) or "none"

@@ -24,13 +24,14 @@ def add_parser(sub):
         "errors file. Exit code 0: all rows usable; 1: some rows refused; 2: bad input.",
     )
     p.add_argument("input", help="keypoints: .csv, .npz, .npy, COCO-style .json, OpenPose "
-                   ".json or a folder of them, MMPose predictions .json, DeepLabCut "
-                   ".csv/.h5 (see sparseedm.formats)")
+                   ".json or a folder of them, MMPose predictions .json or a folder of "
+                   "per-image files, DeepLabCut .csv/.h5 (see sparseedm.formats)")
     p.add_argument("-o", "--output", required=True,
-                   help="file (or OpenPose folder) to write, at exactly this path, in "
+                   help="file (or OpenPose/MMPose folder) to write, at exactly this path, in "
                    "--format, else INPUT's own format when the extension suits it "
                    "(OpenPose: no extension for a folder, .json for one frame file; "
-                   "MMPose .json; DeepLabCut .csv or .h5), else its extension's (.csv "
+                   "MMPose .json, no extension for a folder of per-image files; DeepLabCut "
+                   ".csv or .h5), else its extension's (.csv "
                    ".npz .npy, .json COCO, .h5 DeepLabCut), else INPUT's; never the "
                    "input, the dictionary or the errors file")
     _add_recovery_options(p)
@@ -52,8 +53,9 @@ def _add_recovery_options(p):
                    help="parallel workers (-1: all cores; default 1): threads with the "
                    "default fast solver (its kernels release the GIL), processes with "
                    "--solver clarabel, or --backend's")
-    p.add_argument("--representation", choices=("average", "zero"), default="average",
-                   help="occlusion representation (default average)")
+    p.add_argument("--representation", choices=("average", "zero"), default=None,
+                   help="occlusion representation (default: the one a --model was trained "
+                   "on, else average)")
     p.add_argument("--solver", choices=("fast", "clarabel"), default="fast",
                    help="lasso backend (default fast: certified LARS, Clarabel fallback)")
 

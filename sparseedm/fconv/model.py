@@ -30,8 +30,8 @@ from .._version import __version__
 from .._atomic import save_npz
 from .._safeio import load_npz_file, parse_meta, require_file
 from ..edm import triu_indices
-from ..exceptions import ModelError
-from ..normalize import REPRESENTATIONS
+from ..exceptions import ModelError, SparseEDMError
+from ..normalize import REPRESENTATIONS, representation_for
 from .network import build_network, param_shapes, require_torch
 
 #: a cap on any one array of a model file (the networks here hold well under 1 MB)
@@ -232,10 +232,11 @@ def load_model(path, *, n_joints=None, representation=None, kind=None) -> FConvM
     if n_joints is not None and model.n_joints != int(n_joints):
         raise ModelError(f"{where}: the model is for {model.n_joints} joints, the data has "
                          f"{n_joints}")
-    if representation is not None and model.representation != representation:
-        raise ModelError(f"{where}: the model was trained on {model.representation!r} inputs, "
-                         f"not {representation!r}; pass representation="
-                         f"{model.representation!r} (--representation {model.representation})")
+    if representation is not None:  # None: the model's own
+        try:
+            representation_for(representation, model.representation, where)
+        except SparseEDMError as exc:
+            raise ModelError(str(exc)) from None
     if kind is not None and model.kind != kind:
         raise ModelError(f"{where}: a {model.kind!r} model ({KINDS[model.kind]}), but a "
                          f"{kind!r} model is needed ({KINDS[kind]})")

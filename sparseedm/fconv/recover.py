@@ -24,9 +24,12 @@ from .model import load_model
 __all__ = ["recover_fconv"]
 
 
-def recover_fconv(poses, missing=None, *, model=None, representation="average",
+def recover_fconv(poses, missing=None, *, model=None, representation=None,
                   chunk_size=4096, progress=False):
     """Recover occluded joints with an FConv recovery model (see :func:`sparseedm.recover`).
+
+    `representation` None (default) is the one the model was trained on; another
+    one is refused.
 
     Returns
     -------
@@ -36,10 +39,11 @@ def recover_fconv(poses, missing=None, *, model=None, representation="average",
     if model is None:
         raise SparseEDMError("method='fconv' needs model=: a file from `sparseedm fit-cnn` "
                              "or an FConvModel")
-    if representation not in REPRESENTATIONS:
+    if representation not in (*REPRESENTATIONS, None):
         raise SparseEDMError(
             f"unknown representation {representation!r}; use one of {REPRESENTATIONS}")
     model = load_model(model, representation=representation, kind="recover")
+    representation = model.representation
     shape = np.shape(poses)
     if len(shape) >= 2 and shape[-2] != model.n_joints:
         load_model(model, n_joints=shape[-2])  # names the model and both joint counts

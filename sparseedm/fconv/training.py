@@ -26,6 +26,7 @@ import time
 
 import numpy as np
 
+from .. import _progress
 from .._deprecated import alias_getattr
 from .._validation import Options, check_pose_shape, validate_params
 from ..edm import pose_to_vector, triu_indices
@@ -257,6 +258,9 @@ def fit_network(pairs, n, N, clips, meta, *, representation, channels, kernel, s
     rng = np.random.default_rng([seed, 2])
     best, best_state, since, history = np.inf, None, 0, []
     t0 = time.perf_counter()
+    if not progress:  # else the bar says it
+        _progress.say(f"training the network on {len(train_rows):,} poses ({len(val_rows):,} "
+                      f"held out for early stopping), at most {max_epochs} epochs")
     bar = tqdm(range(max_epochs), disable=not progress, desc="fit-cnn", unit="epoch")
     for epoch in bar:
         net.train()

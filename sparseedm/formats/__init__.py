@@ -11,7 +11,8 @@ in the same format with the filled joints flagged:
 Users call :func:`sparseedm.keypoints.read_keypoints` and
 :func:`~sparseedm.keypoints.write_keypoints`, which dispatch here (COCO, CSV
 and the array formats live in :mod:`sparseedm.keypoints`). :func:`detect`
-tells a format from a path: a folder is OpenPose, ``.h5`` DeepLabCut, a
+tells a format from a path: a folder is OpenPose, or MMPose when its first
+files are MMPose per-image files (lists of instances), ``.h5`` DeepLabCut, a
 ``.csv`` whose first cell is ``scorer`` DeepLabCut, and a ``.json`` by its
 first MiB (``"people"``: OpenPose; ``"instance_info"`` or keypoints as
 ``[[x, y], ...]`` pairs: MMPose; otherwise COCO).
@@ -39,6 +40,7 @@ none is given (a joint whose confidence is below it is missing, and recovered):
 
 from __future__ import annotations
 
+import os
 import re
 from pathlib import Path
 
@@ -65,6 +67,9 @@ FILLED_SCORE = 0.0
 _SNIFF_BYTES = 1 << 20
 _OPENPOSE = re.compile(rb'"people"\s*:\s*\[')
 _MMPOSE = re.compile(rb'"instance_info"\s*:|"instances"\s*:\s*\[|"keypoints"\s*:\s*\[\s*\[')
+#: an MMPose per-image file: a list, empty or of instances with [x, y] keypoints
+_EMPTY_LIST = re.compile(rb"\s*\[\s*\]\s*$")
+_KEYPOINT_PAIRS = re.compile(rb'"keypoints"\s*:\s*\[\s*\[')
 
 
 def default_threshold(fmt):
@@ -112,7 +117,7 @@ def detect(path):
     """
     path = Path(path)
     if path.is_dir():
-        return "openpose"
+        return _folder_format(path)
     ext = path.suffix.lower()
     if ext in deeplabcut.H5_SUFFIXES:
         return "dlc"
@@ -133,10 +138,35 @@ def detect(path):
     return None
 
 
+def _folder_format(path, tries=20):
+    """A folder's format by the content of its first frame files (name order):
+    ``"mmpose"`` for MMPose per-image files (a list of instances), else
+    ``"openpose"`` (whose reader names the problem of a folder that is neither)."""
+    try:
+        names = sorted(e.name for e in os.scandir(path) if e.name.lower().endswith(".json")
+                       and not e.name.startswith(".") and e.is_file())
+    except OSError:
+        return "openpose"
+    for name in names[:tries]:
+        try:
+            with open(path / name, "rb") as f:
+                head = f.read(_SNIFF_BYTES)
+        except OSError:
+            continue
+        if _OPENPOSE.search(head):
+            return "openpose"
+        if head.lstrip()[:1] == b"[" and (_EMPTY_LIST.match(head)
+                                          or _KEYPOINT_PAIRS.search(head)):
+            return "mmpose"
+    return "openpose"
+
+
 def read(fmt, path, *, joint_map=None):
     """Read `path` in format `fmt` (one of :data:`FORMATS`) into a :class:`Parsed`."""
     if fmt == "openpose":
         return openpose.read(path)
+    if fmt == "mmpose" and Path(path).is_dir():
+        return mmpose.read_folder(path)
     if fmt == "mmpose":
         doc = load_json(path)
         if not mmpose.is_mmpose(doc):

@@ -24,7 +24,9 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import re
+import warnings
 from pathlib import Path
 from dataclasses import dataclass, field
 from numbers import Real
@@ -96,7 +98,9 @@ class Parsed:
     ``poses`` hold the file's coordinates (not yet blanked by the threshold),
     ``present`` says which joints the file gives at all, ``filled`` which ones
     the file flags as filled by sparseedm (read as present whatever their
-    score). ``meta`` holds what the writer needs to write the file back.
+    score), ``stored`` the neck / head top sparseedm wrote in its own object
+    (present whatever the score of the keypoints they would be derived from,
+    as in COCO files). ``meta`` holds what the writer needs to write the file back.
     """
 
     poses: np.ndarray
@@ -107,6 +111,7 @@ class Parsed:
     frames: np.ndarray | None = None
     filled: np.ndarray | None = None
     meta: dict = field(default_factory=dict)
+    stored: np.ndarray | None = None
 
 
 def csv_cells(values):
@@ -253,6 +258,53 @@ def write_extra(pose, filled_row, status=None):
     return out
 
 
+def folder_files(path, max_files):
+    """``([(frame, name), ...] in frame order, [ignored names])`` of a folder of
+    per-frame ``.json`` files: the frame number in each name
+    (:func:`frame_number`), or name order when some name has none; hidden
+    files are skipped, other files ignored."""
+    names, ignored = [], []
+    with os.scandir(path) as it:
+        for entry in it:
+            if len(names) + len(ignored) >= max_files:
+                raise FileFormatError(f"{path}: more than {max_files} files; split the folder")
+            if entry.name.startswith("."):
+                continue
+            (names if entry.name.lower().endswith(".json") and entry.is_file()
+             else ignored).append(entry.name)
+    numbered = [(frame_number(n), n) for n in names]
+    if any(f is None for f, _ in numbered):  # no numbers in some names: name order
+        numbered = [(i, n) for i, n in enumerate(sorted(names))]
+    return sorted(numbered), sorted(ignored)
+
+
+def read_frame_folder(path, read_file, what, max_files):
+    """The people of a folder of per-frame files, ``(people, files, skipped, ignored)``.
+
+    ``read_file(file path, frame) -> (people, document)`` reads one file; a bad
+    file (a :class:`FileFormatError`) is skipped with a warning naming it and
+    listed in `skipped` ``[(name, message)]``; `files` are ``{"name", "doc",
+    "rows"}`` of the good ones, in frame order. A folder with no good file is a
+    FileFormatError saying it holds no readable `what` (and the first problem).
+    """
+    numbered, ignored = folder_files(path, max_files)
+    people, files, skipped = [], [], []
+    for frame, name in numbered:
+        try:
+            got, doc = read_file(Path(path) / name, frame)
+        except FileFormatError as exc:
+            skipped.append((name, str(exc)))
+            continue
+        people += got
+        files.append({"name": name, "doc": doc, "rows": len(got)})
+    if not files:
+        why = f"; first: {skipped[0][1]}" if skipped else ""
+        raise FileFormatError(f"{path}: no readable {what} (*.json){why}")
+    for name, msg in skipped:  # sparseedm recover lists them in its summary too
+        warnings.warn(f"skipped {msg}", stacklevel=4)
+    return people, files, skipped, ignored
+
+
 _FRAME_NUMBER = re.compile(r"(\d+)(?=_keypoints\.json$)|(\d+)(?=\.json$)")
 
 
@@ -303,15 +355,16 @@ def assemble(people, layout, meta, *, tracks=None, frames=None):
         seen[r, [sources[j] for j in p.filled if j in sources]] = True  # flagged: present
     poses, present, conf = to_14(xy, score, seen, layout)
     filled = np.zeros((n, N_JOINTS), dtype=bool)
+    stored = np.zeros((n, N_JOINTS), dtype=bool)
     for r, p in enumerate(people):
         for j, value in p.points.items():
-            poses[r, j], present[r, j] = value, True
+            poses[r, j], present[r, j], stored[r, j] = value, True, True
         filled[r, p.filled] = True
     filled &= ~np.isnan(poses).any(axis=-1)
     present |= filled
     ids = np.asarray([p.id for p in people], dtype=str).reshape(n)
     return Parsed(poses, present, conf, ids, tracks, frames, filled if filled.any() else None,
-                  meta)
+                  meta, stored if stored.any() else None)
 
 
 def update_person(xy, score, pose, filled_row, layout, filled_score):

@@ -41,7 +41,8 @@ likelihood per body part) read the file: the same header rows (column levels
 in ``.h5``), the same columns in the same order, with each filled joint's
 ``x``, ``y`` set and its ``likelihood`` set to ``filled_score``. The table
 has no room for the filled flags: ``sparseedm recover`` writes them to its
-``<output stem>.status.npz`` sidecar (``filled``, (n, 14)). A ``filled``
+``<output stem>.status.npz`` sidecar (``filled``, (n, 14)), which
+:func:`sparseedm.keypoints.read_keypoints` reads them back from. A ``filled``
 coords column of a file an earlier sparseedm wrote is still read (its flagged
 body parts as present) and is left out when the table is written back.
 Without a DeepLabCut input, a single-animal table is written whose body parts

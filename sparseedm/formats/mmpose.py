@@ -7,10 +7,17 @@ Three shapes are read, all made of *instances* ``{"keypoints": [[x, y], ...],
   ``demo/bottomup_demo.py``): ``{"meta_info": {...}, "instance_info":
   [{"frame_id": f, "instances": [...]}, ...]}``;
 * the ``instance_info`` list alone: ``[{"frame_id": f, "instances": [...]}, ...]``;
-* an ``MMPoseInferencer`` ``pred_out_dir`` file for one image: ``[instance, ...]``.
+* an ``MMPoseInferencer`` ``pred_out_dir`` file for one image: ``[instance, ...]``;
+* a folder of those, one file per image or frame (what ``pred_out_dir``
+  holds after a folder of images): each file's frame number is the one in its
+  name (``000012.json``, ``frame_12.json``; name order when a name has none),
+  as for OpenPose folders; a file with no instances (``[]``) is a frame with
+  no poses. A bad file is skipped with a warning naming it, the good frames
+  kept (``meta["skipped"]``); a folder with no good file is an error.
 
 Each instance is one pose; its id and frame are the ``frame_id`` (``0`` for
-the one-image shape); tracks are the ``track_id`` where every instance has
+the one-image shape; in a folder, the id is the file's name without
+``.json``); tracks are the ``track_id`` where every instance has
 one, else one track when no frame holds more than one instance, else none.
 ``keypoint_scores`` are the model's scores: heatmap or SimCC maxima, which
 are not probabilities and can exceed 1 (RTMPose gives 1.0-1.1 for clear
@@ -31,6 +38,9 @@ set to their recovered ``[x, y]`` and score ``filled_score``, and a
 ``"sparseedm"`` object (``neck``, ``head_top``, ``filled``: the 14-joint
 names filled; per-row status when written by ``sparseedm recover``).
 Without an MMPose input: the demos' shape, COCO-17 instances grouped by frame.
+A path without ``.json`` is a folder of per-image files: a folder input's
+files under the same names, else one ``<frame>.json`` per frame (written as
+a whole, :func:`sparseedm.formats._base.write_json_folder`).
 """
 
 from __future__ import annotations
@@ -40,12 +50,13 @@ from pathlib import Path
 
 import numpy as np
 
+from .._safeio import load_json
 from ..exceptions import FileFormatError
 from . import _base
 from ._base import COCO17, COCO_17, EXTRA_KEY, Layout, Person
 
 __all__ = ["COCO_17", "HALPE_26", "HALPE_136", "COCO_WHOLEBODY", "LAYOUTS", "read",
-           "write", "is_mmpose"]
+           "read_folder", "write", "is_mmpose", "is_image_file", "MAX_FILES"]
 
 _HALPE_EXTRA = ("head", "neck", "hip", "left_big_toe", "right_big_toe", "left_small_toe",
                 "right_small_toe", "left_heel", "right_heel")
@@ -57,6 +68,8 @@ COCO_WHOLEBODY = Layout("COCO-WholeBody", COCO17 + tuple(f"foot_face_or_hand_{i}
                                                          for i in range(116)))
 #: layouts by their number of keypoints
 LAYOUTS = {len(lay): lay for lay in (COCO_17, HALPE_26, HALPE_136, COCO_WHOLEBODY)}
+#: most files a folder may hold (a 9-hour video at 30 fps)
+MAX_FILES = 1_000_000
 
 
 def _is_instance(x):
@@ -73,6 +86,15 @@ def is_mmpose(doc):
         return (isinstance(first, dict) and isinstance(first.get("instances"), list)) \
             or _is_instance(first)
     return False
+
+
+def is_image_file(doc):
+    """Whether a JSON document is one image's instances (``pred_out_dir``; maybe none).
+
+    >>> is_image_file([]), is_image_file([{"keypoints": [[1, 2]]}]), is_image_file({})
+    (True, True, False)
+    """
+    return isinstance(doc, list) and (not doc or _is_instance(doc[0]))
 
 
 def _frames_of(doc, path):
@@ -93,7 +115,7 @@ def _frames_of(doc, path):
     return out
 
 
-def _instance(inst, where, frame):
+def _instance(inst, where, frame, pose_id=None):
     xy = _base.keypoint_rows(inst, where, "keypoints", 2, LAYOUTS,
                              "MMPose layouts read: 17 (COCO), 26 (Halpe), 133 "
                              "(COCO-WholeBody), 136 (Halpe-136) [x, y] pairs")
@@ -107,7 +129,8 @@ def _instance(inst, where, frame):
     if track is not None and (isinstance(track, bool) or not isinstance(track, (int, str))):
         raise FileFormatError(f"{where}: 'track_id' must be an integer or a string")
     points, filled = _base.read_extra(inst, where)
-    return Person(xy, scores, str(frame), frame, track, points, filled)
+    return Person(xy, scores, str(frame) if pose_id is None else pose_id, frame, track,
+                  points, filled)
 
 
 def read(path, doc):
@@ -116,19 +139,48 @@ def read(path, doc):
     for fid, instances in _frames_of(doc, path):
         for i, inst in enumerate(instances):
             people.append(_instance(inst, f"{path}: frame {fid}, instance {i}", fid))
+    return _assembled(people, path, {"mmpose_document": doc})
+
+
+def read_folder(path):
+    """Read a folder of per-image MMPose files (see the module docstring)."""
+    people, files, skipped, ignored = _base.read_frame_folder(
+        path, _image_file, "MMPose per-image files", MAX_FILES)
+    return _assembled(people, path, {"mmpose_files": files, "skipped": skipped,
+                                     "ignored": ignored})
+
+
+def _image_file(path, frame):
+    """The instances of one per-image file (its frame from its name) and its document."""
+    doc = load_json(path)
+    if not is_image_file(doc):
+        raise FileFormatError(f"{path}: not an MMPose per-image file (a list of instances "
+                              "with [x, y] keypoints)")
+    return [_instance(inst, f"{path}: instance {i}", frame, path.stem)
+            for i, inst in enumerate(doc)], doc
+
+
+def _assembled(people, path, meta):
+    """The :class:`_base.Parsed` of the instances of a file or folder."""
     sizes = {len(p.xy) for p in people}
     if len(sizes) > 1:
         raise FileFormatError(f"{path}: instances of different layouts "
                               f"({', '.join(LAYOUTS[s].name for s in sorted(sizes))})")
     layout = LAYOUTS[sizes.pop()] if sizes else COCO_17
-    meta = {"mmpose_document": doc, "layout": layout.name}
+    meta["layout"] = layout.name
     frames = np.asarray([p.frame for p in people], dtype=np.int64)
     return _base.assemble(people, layout, meta, tracks=_base.person_tracks(people),
                           frames=frames)
 
 
 def write(path, rows, meta, filled_score, row_fields=None):
-    """Write MMPose JSON: the input's document with the filled joints, or a fresh one."""
+    """Write MMPose JSON: the input's document with the filled joints, or a fresh one;
+    a path without ``.json``: a folder of per-image files."""
+    if Path(path).suffix.lower() != ".json":
+        files = meta.get("mmpose_files")
+        _base.write_json_folder(path, _fresh_files(rows) if files is None else
+                                _updated_files(files, rows, meta, filled_score, row_fields))
+        return
     doc = meta.get("mmpose_document")
     if doc is None:
         doc = _fresh(rows)
@@ -161,20 +213,44 @@ def _update(inst, rows, r, layout, filled_score, row_fields):
         inst["track_id"] = track
 
 
+def _updated_files(files, rows, meta, filled_score, row_fields):
+    """[(name, document)] of a folder input's files with the filled joints."""
+    total = sum(f["rows"] for f in files)
+    if total != len(rows.poses):
+        raise FileFormatError(f"{len(rows.poses)} poses for the {total} instances read")
+    layout = next(lay for lay in LAYOUTS.values() if lay.name == meta["layout"])
+    docs, r = [], 0
+    for f in files:
+        doc = json.loads(json.dumps(f["doc"]))
+        for inst in doc:
+            _update(inst, rows, r, layout, filled_score, row_fields)
+            r += 1
+        docs.append((f["name"], doc))
+    return docs
+
+
+def _fresh_instance(rows, r):
+    """Row r as a COCO-17 instance."""
+    xy, scores = np.zeros((17, 2)), np.zeros(17)
+    for j, k in COCO_17.sources().items():
+        if not np.isnan(rows.poses[r, j]).any():
+            xy[k], scores[k] = rows.poses[r, j], rows.score(r, j)
+    inst = {"keypoints": xy.tolist(), "keypoint_scores": scores.tolist(),
+            EXTRA_KEY: _base.write_extra(rows.poses[r], rows.filled[r])}
+    if rows.tracks is not None:
+        inst["track_id"] = _base.track_value(rows.tracks[r])
+    return inst
+
+
 def _fresh(rows):
     groups, frames = _base.frame_rows(rows.frames, len(rows.poses))
-    info = []
-    for members, frame in zip(groups, frames):
-        instances = []
-        for r in members:
-            xy, scores = np.zeros((17, 2)), np.zeros(17)
-            for j, k in COCO_17.sources().items():
-                if not np.isnan(rows.poses[r, j]).any():
-                    xy[k], scores[k] = rows.poses[r, j], rows.score(r, j)
-            inst = {"keypoints": xy.tolist(), "keypoint_scores": scores.tolist(),
-                    EXTRA_KEY: _base.write_extra(rows.poses[r], rows.filled[r])}
-            if rows.tracks is not None:
-                inst["track_id"] = _base.track_value(rows.tracks[r])
-            instances.append(inst)
-        info.append({"frame_id": int(frame), "instances": instances})
+    info = [{"frame_id": int(frame), "instances": [_fresh_instance(rows, r) for r in members]}
+            for members, frame in zip(groups, frames)]
     return {"meta_info": {"dataset_name": "coco"}, "instance_info": info}
+
+
+def _fresh_files(rows):
+    """[(name, instances)]: one per-image file per frame, named by its number."""
+    groups, frames = _base.frame_rows(rows.frames, len(rows.poses))
+    return [(f"{int(frame):012d}.json", [_fresh_instance(rows, r) for r in members])
+            for members, frame in zip(groups, frames)]

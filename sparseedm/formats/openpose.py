@@ -50,8 +50,6 @@ track).
 from __future__ import annotations
 
 import json
-import os
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -125,22 +123,6 @@ def _frame_file(path, frame):
     return [_person(person, path, p, frame) for p, person in enumerate(doc["people"])], doc
 
 
-def _folder_files(path):
-    names, ignored = [], []
-    with os.scandir(path) as it:
-        for entry in it:
-            if len(names) + len(ignored) >= MAX_FILES:
-                raise FileFormatError(f"{path}: more than {MAX_FILES} files; split the folder")
-            if entry.name.startswith("."):
-                continue
-            (names if entry.name.lower().endswith(".json") and entry.is_file()
-             else ignored).append(entry.name)
-    numbered = [(_base.frame_number(n), n) for n in names]
-    if any(f is None for f, _ in numbered):  # no numbers in some names: name order
-        numbered = [(i, n) for i, n in enumerate(sorted(names))]
-    return sorted(numbered), sorted(ignored)
-
-
 def read(path):
     """Read an OpenPose frame file or a folder of them into a :class:`_base.Parsed`."""
     path = Path(path)
@@ -150,21 +132,8 @@ def read(path):
         files = [{"name": path.name, "doc": doc, "rows": len(people)}]
         return _parsed(people, files, {"openpose_folder": False, "skipped": [],
                                        "ignored": []}, path)
-    numbered, ignored = _folder_files(path)
-    people, files, skipped = [], [], []
-    for frame, name in numbered:
-        try:
-            got, doc = _frame_file(path / name, frame)
-        except FileFormatError as exc:
-            skipped.append((name, str(exc)))
-            continue
-        people += got
-        files.append({"name": name, "doc": doc, "rows": len(got)})
-    if not files:
-        why = f"; first: {skipped[0][1]}" if skipped else ""
-        raise FileFormatError(f"{path}: no readable OpenPose frame files (*.json){why}")
-    for name, msg in skipped:  # sparseedm recover lists them in its summary too
-        warnings.warn(f"skipped {msg}", stacklevel=3)
+    people, files, skipped, ignored = _base.read_frame_folder(
+        path, _frame_file, "OpenPose frame files", MAX_FILES)
     return _parsed(people, files, {"openpose_folder": True, "skipped": skipped,
                                    "ignored": ignored}, path)
 

@@ -49,6 +49,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import _progress
 from .._version import __version__
 from .._atomic import save_npz
 from .._safeio import load_npz, load_npz_file, parse_meta, require_file
@@ -161,6 +162,9 @@ class Lifter:
     #: whether predict uses only the observed entries (True) or a whole
     #: 'average'/'zero' vector (False)
     codes_observed_only = False
+    #: the representation of occluded input the lifter was trained on (an FConv
+    #: lifter's own); None: it was trained on complete poses, any one may be fed
+    representation = None
 
     def __init__(self, *, normalization="tied", random_state=0):
         self.normalization = normalization
@@ -179,9 +183,11 @@ class Lifter:
         `clips` (the clip of each pose) is used by lifters that hold out
         validation clips (``fconv``); the others ignore it.
         """
+        _progress.say(f"fitting a {self.method} lifter on {len(poses2d):,} training poses")
         X2, X3, metric, cam3d = training_pairs(poses2d, poses3d, camera_R, camera_t, camera_f,
                                                self.normalization)
         self._fit_from_poses(X2, X3, poses2d, clips)
+        _progress.say("fitting the depth-reflection (chirality) prior")
         self.chirality_ = ChiralityPrior().fit(cam3d, random_state=self.random_state)
         self.size_prior_ = float(np.median(rms(metric)))
         self.joint_names_ = tuple(joint_names)

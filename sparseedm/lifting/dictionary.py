@@ -41,6 +41,7 @@ import numpy as np
 from joblib import Parallel, delayed
 from threadpoolctl import threadpool_limits
 
+from .. import _progress
 from .._coding import atoms_key, pattern_order
 from .._parallel import chunk_tasks
 from .._validation import usable_jobs
@@ -120,6 +121,8 @@ class DictionaryLifter(Lifter):
 
         k = self.components_.shape[0]
         G, B = np.zeros((k, k)), np.zeros((k, Y.shape[1]))
+        _progress.say(f"re-fitting the 3D halves of the atoms to the lifting codes of "
+                      f"{len(X2):,} training poses")
 
         def stats(rows, res):
             Z = csr_matrix(res.coef)

@@ -62,6 +62,7 @@ from ..dictionary import load_dictionary
 from ..exceptions import FileFormatError, ParameterError, SparseEDMError
 from ..formats.deeplabcut import check_h5_extra
 from ..keypoints import read_keypoints
+from ..plotting import select_values
 from ..skeleton import JOINT_NAMES
 from ..temporal.recover import adapt_in_time, linked_tracks
 from ..temporal.linking import needs_linking
@@ -192,9 +193,9 @@ def write_poses3d(path, result, ids=None, output_format=None, rate=30.0, *, trac
 
 
 def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, errors_path=None,
-              confidence_threshold=None, representation="average", rate=30.0, plot=None,
+              confidence_threshold=None, representation=None, rate=30.0, plot=None,
               temporal=True, chunk_size=50_000, joint_map=None, dictionary=None, adapt=True,
-              self_training=None):
+              self_training=None, plot_frames=None):
     """Read 2D keypoints, lift them, write 3D poses and an errors file; return a summary.
 
     `confidence_threshold`: joints scored below it are missing; default the
@@ -203,7 +204,11 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
     Nothing the run reads is ever written, and no output overwrites another:
     the paths are checked (:func:`sparseedm._atomic.check_paths`) before any work.
     `rate` is a .trc output's frames per second; `plot` a PNG path for a few
-    lifted poses (matplotlib checked first). The summary's ``plot`` is the
+    lifted poses (matplotlib checked first): the first 4 lifted, or those of
+    `plot_frames` (frames, or rows of an input without frames, as
+    :func:`sparseedm.plotting.select_values` reads them: ``"10:40"``,
+    ``"3,7"``; at most :data:`PLOT_MAX` spread over them; an unknown one is
+    refused before any work). The summary's ``plot`` is the
     figure written, or None; its ``temporal`` says whether time was used
     (`temporal` and the input has frames). `chunk_size` rows (whole tracks
     with time) are lifted at a time. `joint_map`: a DeepLabCut input's JSON
@@ -229,6 +234,7 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
         if v is not None and (what == "joint map" or _names_a_file(v))]
     check_paths(inputs, [("output", output), ("errors file", errors), ("plot", plot)])
     kps = read_keypoints(input, confidence_threshold=confidence_threshold, joint_map=joint_map)
+    plot_rows = _plot_rows(kps, plot, plot_frames)
     _one_person(kps, input, output, _output_format(output, output_format))
     in_time = bool(temporal) and has_time(kps.frames)  # (no poses: no time)
     fill = _fill_options(in_time, dictionary, adapt, self_training)
@@ -246,7 +252,7 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
     summary.update(output=str(output), skipped_files=skipped,
                    errors=str(errors) if refused.any() or skipped else None,
                    temporal=in_time,
-                   plot=str(_plot(plot, result, kps.ids)) if plot is not None else None)
+                   plot=str(_plot(plot, result, kps, plot_rows)) if plot is not None else None)
     return summary
 
 
@@ -334,9 +340,35 @@ def _joined(parts, n):
     return LiftResult(**out, seconds=sum(part.seconds for _, part in parts))
 
 
-def _plot(path, result, ids, k=4):
-    """The first `k` lifted poses drawn to `path` (front and side views)."""
-    rows = np.flatnonzero(result.ok)[:k]
-    ids = np.arange(len(result.status)).astype(str) if ids is None else np.asarray(ids, str)
-    return plot_lifted(result.poses3d[rows], path, titles=[str(ids[r]) for r in rows],
-                       missing=result.missing[rows])
+#: most poses a lift figure draws
+PLOT_MAX = 8
+
+
+def _plot_rows(kps, plot, spec):
+    """The rows `spec` chooses to draw (frames, or rows without frames), in frame
+    order; None: the first lifted. Refused without a figure, or naming an unknown one."""
+    if spec is None:
+        return None
+    if plot is None:
+        raise ParameterError("plot_frames (--frames) chooses what the figure draws: it "
+                             "needs plot (--plot FIG)")
+    timed = kps.frames is not None
+    values = np.asarray(kps.frames) if timed else np.arange(len(kps.poses))
+    rows = np.flatnonzero(select_values(spec, values, "frame" if timed else "row"))
+    return rows[np.argsort(values[rows], kind="stable")]
+
+
+def _plot(path, result, kps, rows, k=4):
+    """Lifted poses drawn to `path` (front and side views): the first `k`, or
+    those of `rows` (at most :data:`PLOT_MAX`, spread over them)."""
+    if rows is None:
+        rows = np.flatnonzero(result.ok)[:k]
+    else:
+        rows = rows[result.ok[rows]]
+        if len(rows) > PLOT_MAX:
+            rows = rows[np.linspace(0, len(rows) - 1, PLOT_MAX).round().astype(int)]
+    n = len(result.status)
+    ids = np.arange(n).astype(str) if kps.ids is None else np.asarray(kps.ids, str)
+    titles = [str(ids[r]) + ("" if kps.frames is None else f", frame {kps.frames[r]}")
+              for r in rows]
+    return plot_lifted(result.poses3d[rows], path, titles=titles, missing=result.missing[rows])

@@ -28,7 +28,7 @@ from .._recovery_base import STATUSES as RECOVERY_STATUSES
 from .._recovery_base import (SCREENING_REFUSALS, poses_per_second, screen_poses, take_rows,
                               status_counts, validate_poses)
 from .._validation import N_JOBS, Options, validate_params
-from ..normalize import REPRESENTATIONS, normalize, represent
+from ..normalize import REPRESENTATIONS, normalize, represent, representation_for
 from .adaptation import adapt_lifter
 from .base import Lifter, load_lifter, rms
 from .mds import reflections
@@ -117,7 +117,7 @@ class LiftResult:
 
 
 def lift(poses, missing=None, *, tracks=None, frames=None, lifter=None, n_jobs=1,
-         representation="average", adapt=None, dictionary=None, fill_adapt="auto"):
+         representation=None, adapt=None, dictionary=None, fill_adapt="auto"):
     """Lift 2D poses to 3D.
 
     Parameters
@@ -138,9 +138,11 @@ def lift(poses, missing=None, *, tracks=None, frames=None, lifter=None, n_jobs=1
         shipped ``"default"``.
     n_jobs : int, default 1
         Threads for the dictionary lifter's lasso.
-    representation : {"average", "zero"}
+    representation : {"average", "zero"}, optional
         How occluded joints are fed to a lifter that reads whole vectors
-        (MLP); the dictionary lifter reads observed entries only.
+        (MLP, FConv); the dictionary lifter reads observed entries only.
+        Default: the one the lifter was trained on where its file records one
+        (FConv; another one is refused), else ``"average"``.
     adapt : array_like (m, N, 2), optional
         Complete 2D poses of the same domain, without 3D: the (dictionary)
         lifter is first adapted on them by
@@ -173,9 +175,11 @@ def lift(poses, missing=None, *, tracks=None, frames=None, lifter=None, n_jobs=1
     """
     t0 = time.perf_counter()
     validate_params("lift", dict(representation=representation, n_jobs=n_jobs, lifter=lifter),
-                    {"representation": [Options(REPRESENTATIONS)], "n_jobs": N_JOBS,
+                    {"representation": [Options(REPRESENTATIONS), None], "n_jobs": N_JOBS,
                      "lifter": [Lifter, "path", None]})
     lifter = load_lifter(lifter)
+    representation = representation_for(representation, lifter.representation,
+                                        f"the {lifter.method} lifter")
     if adapt is not None:
         lifter = adapt_lifter(lifter, adapt, n_jobs=n_jobs)
     N = lifter.n_joints

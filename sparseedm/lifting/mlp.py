@@ -29,6 +29,7 @@ import warnings
 
 import numpy as np
 
+from .. import _progress
 from ..edm import num_joints_from_dim
 from .base import Lifter, LifterError
 
@@ -70,6 +71,8 @@ class MLPLifter(Lifter):
         net = MLPRegressor(hidden_layer_sizes=self.hidden_layer_sizes, alpha=self.alpha, max_iter=self.max_iter,
                            early_stopping=True, random_state=self.random_state,
                            batch_size=min(256, max(1, len(X2) * 9 // 10)))
+        _progress.say(f"training the MLP {self.hidden_layer_sizes} on {len(X2):,} poses "
+                      f"(at most {self.max_iter} epochs, early stopping)")
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", ConvergenceWarning)
             net.fit(X2, X3)

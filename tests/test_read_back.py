@@ -1,0 +1,57 @@
+"""Every format ``recover`` writes reads back with its filled joints present and flagged."""
+
+import numpy as np
+import pytest
+
+from sparseedm.batch import recover_file
+from sparseedm.keypoints import read_keypoints, status_sidecar, write_keypoints
+
+OUTPUTS = [  # (output name, --format)
+    ("out.csv", None), ("out.npz", None), ("out.npy", None), ("out.json", None),
+    ("mmpose.json", "mmpose"), ("openpose", "openpose"), ("dlc.csv", "dlc"),
+    ("dlc.h5", "dlc")]
+
+
+@pytest.fixture(scope="module")
+def occluded(cmu_poses, tmp_path_factory):
+    """A CSV of 30 real poses, a wrist or a knee missing in two rows of three."""
+    poses = cmu_poses[:30].copy()
+    poses[::3, 7] = np.nan
+    poses[1::3, 10] = np.nan
+    src = tmp_path_factory.mktemp("read_back") / "in.csv"
+    write_keypoints(src, poses, ids=[f"f{i}" for i in range(30)])
+    return src, np.isnan(poses).any(axis=-1)
+
+
+@pytest.mark.parametrize("name,fmt", OUTPUTS, ids=[n for n, _ in OUTPUTS])
+def test_recovered_file_reads_back_filled_and_flagged(occluded, tmp_path, name, fmt):
+    if name.endswith(".h5"):
+        pytest.importorskip("pandas")
+        pytest.importorskip("tables")
+    src, was_missing = occluded
+    out = tmp_path / name
+    summary = recover_file(src, out, output_format=fmt, adapt=False)
+    assert summary["status"].get("recovered") == int(was_missing.any(axis=1).sum())
+    kps = read_keypoints(out)
+    assert kps.meta["format"] == (fmt or {"csv": "csv", "npz": "npz", "npy": "npy",
+                                          "json": "coco"}[name.rsplit(".", 1)[1]])
+    present = ~np.isnan(kps.poses).any(axis=-1)
+    assert present.all() and not kps.missing.any()  # the filled joints: coordinates
+    assert kps.filled is not None
+    np.testing.assert_array_equal(kps.filled, was_missing)
+
+
+def test_a_sidecar_of_another_file_is_ignored_with_a_warning(occluded, tmp_path):
+    src, was_missing = occluded
+    out = tmp_path / "dlc.csv"
+    recover_file(src, out, output_format="dlc", adapt=False)
+    side = status_sidecar(out)
+    with open(side, "wb") as f:  # stale: another file's rows
+        np.savez(f, filled=np.ones((5, 14), bool))
+    with pytest.warns(UserWarning, match=f"ignored {side}.*for its 30 poses"):
+        kps = read_keypoints(out)
+    assert kps.filled is None
+    # without its flags, a filled joint is what the table says: likelihood 0, missing
+    np.testing.assert_array_equal(kps.missing, was_missing)
+    side.unlink()
+    assert read_keypoints(out).filled is None
