@@ -1,4 +1,4 @@
-"""Speed of the default video path (issue 23 item 5): frames/s on a 10,000-frame file.
+"""Speed of the default video path: frames/s on a 10,000-frame file.
 
     python -m benchmarks.temporal [--frames 10000] [--out benchmarks/results-temporal.json]
 

@@ -1,4 +1,4 @@
-"""Issue 23's video protocols on real mocap: gap fillers vs per-frame sparseedm.
+"""The video protocols on real mocap: gap fillers vs per-frame sparseedm.
 
 Builds video sequences (one fixed seeded camera per clip, ~30 frames/s, clips
 of 31-300 frames; :mod:`sparseedm.temporal.sequences`) from two sources in
@@ -226,7 +226,7 @@ def _cells(pair, method, group, end, key):
     return " / ".join(vals)
 
 
-#: the gap fillers the goals are stated against (issue 23), and the Kalman smoother
+#: the gap fillers the goals are stated against, and the Kalman smoother
 PEERS = ("linear", "cubic", "akima", "pca", "kalman")
 
 

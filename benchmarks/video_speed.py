@@ -1,4 +1,4 @@
-"""Where the default video path's time goes, and what the prior stride saves (issue 23 item 5).
+"""Where the default video path's time goes, and what the prior stride saves.
 
     nice python -m benchmarks.video_speed [--frames 10000] [--out results.json]
 
