@@ -176,7 +176,7 @@ import numpy as np
 from ._atomic import atomic_path, save_npy, save_npz
 from ._safeio import MAX_LINE_BYTES, load_json, load_npy, load_npz, text_lines
 from . import formats
-from ._validation import SCORE, Interval, check_poses, validate_params
+from ._validation import NUMBER_TEXT, SCORE, Interval, check_poses, validate_params
 from .exceptions import FileFormatError, ParameterError, PoseError
 from .formats import posetrack
 from .formats.deeplabcut import H5_SUFFIXES
@@ -650,8 +650,7 @@ def _read_npy(path, threshold):
 
 
 #: a plain decimal number (or nan/inf): not Python's extras ("1_0", full-width digits)
-_NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?|[+-]?(?:nan|inf|infinity)",
-                     re.IGNORECASE | re.ASCII)
+_NUMBER = NUMBER_TEXT
 
 
 def _parse_float(text, path, line, column):
@@ -785,9 +784,10 @@ def _read_csv(path, threshold):
 
 def _frame_cells(cells, n):
     """A CSV ``frame`` column: int64 when every cell is an integer, else the
-    cells as text (the recovery refuses the odd rows by name)."""
+    cells as text (the recovery refuses the odd rows by name, by the one
+    frame-number rule, :func:`sparseedm._validation.frame_value`)."""
     text = [c.strip() for c in cells]
-    if all(re.fullmatch(r"[+-]?\d{1,18}", c) for c in text):
+    if all(re.fullmatch(r"[+-]?[0-9]{1,18}", c) for c in text):  # ASCII digits only
         return np.asarray([int(c) for c in text], dtype=np.int64).reshape(n)
     return np.asarray(text, dtype=object).reshape(n)
 
