@@ -6,7 +6,9 @@ over the target on success. Temporary files are named
 SIGHUP and SIGINT (when Python's own Ctrl-C handler is not installed) remove it
 before the previous handler runs, and a later write to the same target removes
 the leftovers of writers that were killed outright (SIGKILL, power loss): the
-``<pid>`` in the name is no longer running.
+``<pid>`` in the name is no longer running. The signal handlers are installed
+before a temporary exists, and an output gets one temporary, however many
+writers it passes through.
 
 :func:`check_paths` refuses an output that is an input, another output, a
 directory, or under a parent that is a regular file, before any work is done.
@@ -45,7 +47,7 @@ TEMP_MARK = ".sparseedm-tmp-"
 #: the file in every folder output saying what sparseedm wrote there (JSON)
 FOLDER_MARK = ".sparseedm-output"
 _MARK_MAX_BYTES = 64 << 20
-_LEFTOVER = re.compile(r"^\.(?P<name>.+)" + re.escape(TEMP_MARK) + r"(?P<pid>\d+)-")
+_PID = re.compile(r"(\d+)-")
 _SIGNALS = tuple(getattr(signal, s) for s in ("SIGTERM", "SIGHUP", "SIGINT")
                  if hasattr(signal, s))
 
@@ -69,12 +71,43 @@ def _remove_live():
         _live.discard(tmp)
 
 
-def _hold(tmp):
-    """`tmp` is removed on SIGTERM/SIGHUP/SIGINT until :func:`_release`."""
+def _new_temp(make):
+    """`make()`'s new temporary, removed on SIGTERM/SIGHUP/SIGINT until
+    :func:`_release`: the handlers that remove it are installed before it
+    exists, and those signals wait (blocked, in the main thread) until it is
+    registered, so no signal finds it made and unknown."""
     with _lock:
         if not _live:
             _install()
-        _live.add(tmp)
+    mask = _SIGNALS if threading.current_thread() is threading.main_thread() \
+        and hasattr(signal, "pthread_sigmask") else ()
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, mask) if mask else None
+    tmp = None
+    try:
+        try:
+            tmp = make()
+        finally:
+            with _lock:
+                if tmp is not None:
+                    _live.add(tmp)
+                elif not _live:
+                    _restore()
+            if mask:  # a signal that came meanwhile is handled now, `tmp` known
+                signal.pthread_sigmask(signal.SIG_SETMASK, old)
+    except BaseException:
+        if tmp is not None:
+            _remove(tmp)
+            _release(tmp)
+        raise
+    return tmp
+
+
+def _live_temp(path) -> bool:
+    """Whether `path` is itself the temporary of a write in progress here (a
+    writer handed a temporary writes into it: one temporary per output)."""
+    where = os.path.abspath(path)
+    with _lock:
+        return any(os.path.abspath(t) == where for t in _live)
 
 
 def _release(tmp):
@@ -155,16 +188,37 @@ def remove_leftovers(path) -> list[Path]:
     removed = []
     with contextlib.suppress(OSError):
         for entry in os.scandir(path.parent):
-            m = _LEFTOVER.match(entry.name)
-            if not m or m.group("name") != _temp_stem(path.name) or not (
-                    entry.is_file(follow_symlinks=False)
-                    or entry.is_dir(follow_symlinks=False)):
+            pid = _leftover_pid(entry.name, _temp_stem(path.name))
+            if pid is None or not (entry.is_file(follow_symlinks=False)
+                                   or entry.is_dir(follow_symlinks=False)):
                 continue
-            if not _pid_alive(int(m.group("pid"))):
+            if not _pid_alive(pid):
                 _remove(entry.path)
                 if not os.path.lexists(entry.path):
                     removed.append(Path(entry.path))
     return removed
+
+
+def _leftover_pid(name, stem):
+    """The writer's pid in `name` if it is a temporary of the output named `stem`
+    (``.<stem>.sparseedm-tmp-<pid>-...``, the one temporary-name prefix), or
+    a temporary made inside such a temporary (``..<stem>.sparseedm-tmp-<pid>-...``
+    with a second mark); else None.
+
+    >>> _leftover_pid(".o.csv.sparseedm-tmp-12-ab.csv", "o.csv")
+    12
+    >>> _leftover_pid("..o.csv.sparseedm-tmp-12-ab.csv.sparseedm-tmp-12-cd.csv", "o.csv")
+    12
+    >>> _leftover_pid("..o.csv.sparseedm-tmp-12-ab.csv", "o.csv") is None  # .o.csv's
+    True
+    """
+    for prefix, nested in ((f".{stem}{TEMP_MARK}", False), (f"..{stem}{TEMP_MARK}", True)):
+        if name.startswith(prefix):
+            rest = name[len(prefix):]
+            m = _PID.match(rest)
+            if m and (not nested or TEMP_MARK in rest):
+                return int(m.group(1))
+    return None
 
 
 #: packages whose files ship with sparseedm: never an output (see check_paths)
@@ -334,7 +388,7 @@ def check_paths(inputs=(), outputs=()):
 
 
 def _temp_prefix(path: Path) -> str:
-    """The start of every temporary's name beside `path` (what :data:`_LEFTOVER`
+    """The start of every temporary's name beside `path` (what :func:`_leftover_pid`
     and :func:`remove_leftovers` recognise)."""
     return f".{_temp_stem(path.name)}{TEMP_MARK}{os.getpid()}-"
 
@@ -455,11 +509,9 @@ def atomic_folder(path, label="output"):
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         remove_leftovers(path)
-        tmp = tempfile.mkdtemp(prefix=_temp_prefix(path),
-                               dir=path.parent)
+        tmp = _new_temp(lambda: tempfile.mkdtemp(prefix=_temp_prefix(path), dir=path.parent))
     except OSError as exc:
         raise OutputPathError(f"{path}: cannot write beside it ({exc.strerror})") from None
-    _hold(tmp)
     try:
         os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp makes 0700: give the usual mode
         yield Path(tmp)
@@ -479,6 +531,10 @@ def atomic_path(path, suffix=None):
     The temporary file keeps `path`'s suffix (or `suffix`). On any exception,
     and on SIGTERM/SIGHUP, the temporary file is removed and `path` is
     untouched. Leftovers of killed earlier writers to `path` are removed first.
+    The handlers that remove the temporary are in place before it exists. A
+    `path` that is itself the temporary of a write in progress (a writer
+    called on another's temporary, as ``recover_file`` calls
+    ``write_keypoints``) is written directly: one temporary per output.
     Write through an open file object (``np.save(f, ...)``), not a file name:
     numpy appends ``.npy``/``.npz`` to names without that extension.
 
@@ -492,6 +548,9 @@ def atomic_path(path, suffix=None):
     ['a.npz']
     """
     path = Path(path)
+    if _live_temp(path):  # a writer below another's atomic write: no second temporary
+        yield str(path)
+        return
     _parent_ok(path)
     kind, path = _target(path)
     if kind == "stream":
@@ -504,16 +563,12 @@ def atomic_path(path, suffix=None):
         raise OutputPathError(f"{path}: cannot create its folder ({exc.strerror})") from None
     remove_leftovers(path)
     try:
-        fd, tmp = tempfile.mkstemp(
-            prefix=_temp_prefix(path),
-            suffix=_temp_suffix(path, suffix), dir=path.parent,
-        )
+        tmp = _new_temp(lambda: _made_file(prefix=_temp_prefix(path),
+                                           suffix=_temp_suffix(path, suffix), dir=path.parent))
     except OSError as exc:
         raise OutputPathError(f"{path}: cannot write beside it ({exc.strerror})") from None
-    os.close(fd)
-    _hold(tmp)
-    os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600: give the usual mode
     try:
+        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600: give the usual mode
         yield tmp
         os.replace(tmp, path)
     except BaseException:
@@ -524,13 +579,18 @@ def atomic_path(path, suffix=None):
         _release(tmp)
 
 
+def _made_file(**where):
+    """A new empty file by :func:`tempfile.mkstemp` (closed); its path."""
+    fd, tmp = tempfile.mkstemp(**where)
+    os.close(fd)
+    return tmp
+
+
 @contextlib.contextmanager
 def _streamed(path: Path, suffix):
     """A temporary in the system's temporary folder, streamed into `path` on success."""
-    fd, tmp = tempfile.mkstemp(prefix=f"sparseedm-{os.getpid()}-",
-                               suffix=_temp_suffix(path, suffix))
-    os.close(fd)
-    _hold(tmp)
+    tmp = _new_temp(lambda: _made_file(prefix=f"sparseedm-{os.getpid()}-",
+                                       suffix=_temp_suffix(path, suffix)))
     try:
         yield tmp
         with open(tmp, "rb") as src, open(path, "wb") as dst:  # a FIFO waits for its reader
