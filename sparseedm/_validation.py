@@ -47,7 +47,7 @@ from .exceptions import ParameterError, PoseError
 __all__ = ["Interval", "Options", "validate_params", "check_poses", "check_pose_shape",
            "check_mask", "ALPHA", "ALPHA_MIN", "ALPHA_MAX", "ENSEMBLE", "MAX_ENSEMBLE", "N_JOBS",
            "CHUNK_SIZE", "PATH", "BOOLEAN", "THRESHOLD", "SCORE", "usable_jobs",
-           "unmask", "MAX_FRAME", "NUMBER_TEXT", "frame_value", "frame_array"]
+           "unmask", "environment_problem", "MAX_FRAME", "NUMBER_TEXT", "frame_value", "frame_array"]
 
 
 class Interval:
@@ -372,3 +372,26 @@ def frame_array(values):
     out = np.empty(len(values), dtype=object)
     out[:] = values
     return out
+
+
+def environment_problem():
+    """What is wrong with an environment variable a dependency reads as it loads,
+    or None: ``NUMBA_NUM_THREADS`` set to a whole number below 1 stops numba
+    (the solvers') from importing at all. (A value numba cannot parse it
+    ignores, with a warning, so that one is no problem.)
+
+    Examples
+    --------
+    >>> os.environ.get("NUMBA_NUM_THREADS", "1") != "0" and environment_problem() is None
+    True
+    """
+    value = os.environ.get("NUMBA_NUM_THREADS")
+    try:
+        threads = int(value)
+    except (TypeError, ValueError):
+        return None
+    if threads >= 1:
+        return None
+    return (f"the environment variable NUMBA_NUM_THREADS={value!r} is not a thread count: "
+            "numba, which sparseedm's solvers use, needs a whole number >= 1; unset it or "
+            "set e.g. NUMBA_NUM_THREADS=2")

@@ -617,3 +617,75 @@ def test_an_unwritable_output_folder_is_refused_before_any_work(
     err = capsys.readouterr().err
     assert code == 2 and f"the folder {unwritable} is not writable" in err, err
     assert "Errno" not in err and os.listdir(unwritable) == []
+
+
+# --------------------------------------------------------------------------
+# frame numbers: one rule; the environment and warning filters
+
+
+def _openpose_folder(folder, names, truncated=()):
+    import json
+
+    person = {"people": [{"person_id": [-1], "pose_keypoints_2d": [
+        float(v) for i in range(25) for v in (100 + 3 * i, 200 + 5 * i, 0.9)]}]}
+    folder.mkdir()
+    for name in names:
+        text = json.dumps(person)
+        (folder / name).write_text(text[:40] if name in truncated else text)
+    return folder
+
+
+def test_openpose_frame_past_int64_is_refused_per_row_not_an_internal_error(tmp_path,
+                                                                           capsys):
+    """A file named for frame 10**20 is answered as a frame past 2**53 is: per row."""
+    names = [f"vid_{i:012d}_keypoints.json" for i in range(3)] + \
+        ["vid_99999999999999999999_keypoints.json"]
+    folder = _openpose_folder(tmp_path / "op", names)
+    kps = read_keypoints(folder)
+    assert kps.frames.tolist() == [0, 1, 2, 10**20 - 1]
+    out = tmp_path / "o.csv"
+    assert main(["recover", str(folder), "-o", str(out), "-q"]) == 0
+    assert "internal error" not in capsys.readouterr().err
+    last = out.read_text().splitlines()[-1]
+    assert "frame number 99999999999999999999 is too large (over 2**53)" in last
+
+
+@pytest.mark.parametrize("cell", ["1_0", "\uff11\uff10", "\u0661\u0660"])
+def test_frame_cells_python_reads_as_numbers_are_refused_per_row(tmp_path, occluded, cell):
+    """'1_0' is not frame 10, nor are full-width or Arabic-Indic digits: refused
+    per row by the one frame-number rule, as a coordinate cell would be."""
+    from sparseedm.temporal.tracks import frame_numbers
+
+    src = tmp_path / "clip.csv"
+    write_keypoints(src, occluded[:3], extra_columns={"frame": ["0", cell, "2"]})
+    frames = read_keypoints(src).frames
+    values, reason = frame_numbers(frames, 3)
+    assert reason.tolist() == ["", f"frame number {cell!r} is not a number", ""]
+
+
+def test_a_bad_numba_thread_count_is_named_with_exit_2(tmp_path, good_csv):
+    import subprocess
+    import sys
+
+    env = dict(os.environ, NUMBA_NUM_THREADS="0")
+    proc = subprocess.run([sys.executable, "-m", "sparseedm", "recover", str(good_csv), "-o",
+                           str(tmp_path / "o.csv"), "-q"], capture_output=True, text=True,
+                          env=env, timeout=120)
+    assert proc.returncode == 2, proc.stderr
+    assert "NUMBA_NUM_THREADS='0'" in proc.stderr and "Traceback" not in proc.stderr
+    assert not (tmp_path / "o.csv").exists()
+
+
+def test_warnings_raised_as_errors_are_bad_input_not_internal(tmp_path, capsys):
+    """Under PYTHONWARNINGS=error a skipped (truncated) frame file stops the run with
+    its own message and exit 2, never 'internal error'."""
+    import warnings
+
+    names = [f"vid_{i:012d}_keypoints.json" for i in range(4)]
+    folder = _openpose_folder(tmp_path / "op", names, truncated=names[3:])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        code = main(["recover", str(folder), "-o", str(tmp_path / "o.csv"), "-q"])
+    err = capsys.readouterr().err
+    assert code == 2 and "internal error" not in err
+    assert f"error: skipped {folder / names[3]}" in err and "warning filters" in err

@@ -108,7 +108,7 @@ def _trc_order(frames, n, output, rate=30.0):
         return np.arange(n), None
     values, reason = frame_numbers(frames, n)
     fix = ("a .trc places each row at its frame's time (frame / rate); fix the frame "
-           "column, or write .csv, .npz or .json, which keep the rows as given")
+           "numbers, or write .csv, .npz or .json, which keep the rows as given")
     bad = np.flatnonzero(reason != "")
     if len(bad):
         more = f" (and {len(bad) - 1} more rows)" if len(bad) > 1 else ""
