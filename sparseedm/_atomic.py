@@ -40,7 +40,7 @@ from pathlib import Path
 from .exceptions import OutputPathError
 
 __all__ = ["atomic_path", "atomic_folder", "check_paths", "check_folder", "is_stream",
-           "save_npz", "save_npy", "remove_leftovers", "TEMP_MARK", "FOLDER_MARK"]
+           "save_npz", "save_npy", "remove_leftovers", "fit_name", "TEMP_MARK", "FOLDER_MARK"]
 
 #: every temporary file's name holds this (see the module docstring)
 TEMP_MARK = ".sparseedm-tmp-"
@@ -165,15 +165,29 @@ def _pid_alive(pid: int) -> bool:
     return True
 
 
+def fit_name(stem: str, ending: str = "", limit: int | None = None) -> str:
+    """``stem + ending``, or, when that is over `limit` bytes (default the 255
+    most file systems take), the stem's first 120 bytes, ``~`` and a hash of the
+    whole stem, then `ending`: a name that fits, the same for the same stem.
+
+    >>> fit_name("out", ".errors.csv")
+    'out.errors.csv'
+    >>> len(fit_name("p" * 249, ".errors.csv").encode())
+    144
+    """
+    limit = _NAME_MAX if limit is None else limit
+    if len(os.fsencode(stem + ending)) <= limit:
+        return stem + ending
+    import hashlib
+
+    digest = hashlib.sha256(os.fsencode(stem)).hexdigest()[:12]
+    return os.fsencode(stem)[:120].decode("utf-8", "ignore") + "~" + digest + ending
+
+
 def _temp_stem(name: str) -> str:
     """`name` as it appears in its temporaries' names: shortened (with a hash of the
     whole) when the temporary's name would pass the file systems' limit."""
-    if len(os.fsencode(name)) <= _NAME_MAX - 64:
-        return name
-    import hashlib
-
-    digest = hashlib.sha256(os.fsencode(name)).hexdigest()[:12]
-    return os.fsencode(name)[:120].decode("utf-8", "ignore") + "~" + digest
+    return fit_name(name, limit=_NAME_MAX - 64)
 
 
 def _temp_suffix(path: Path, suffix) -> str:

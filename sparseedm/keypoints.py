@@ -323,7 +323,7 @@ def format_of(path: Path, format):
         raise FileFormatError(
             f"{path}: cannot tell the keypoint format from the extension {ext!r}; "
             f"use {', '.join(EXTENSIONS)}, .h5 (DeepLabCut), a folder (OpenPose) or "
-            f"pass format= (one of {FORMATS})"
+            f"pass format= (--input-format on the command line; one of {FORMATS})"
         )
     return EXTENSIONS[ext]
 
@@ -351,7 +351,8 @@ def output_format(path, format=None, read_format=None):
     if ext not in EXTENSIONS:
         raise FileFormatError(
             f"{path}: cannot tell the keypoint format from the extension {ext!r}; "
-            f"use {', '.join(EXTENSIONS)}, .h5 or pass format= (one of {FORMATS})")
+            f"use {', '.join(EXTENSIONS)}, .h5 or pass format= (--input-format on the "
+            f"command line; one of {FORMATS})")
     return EXTENSIONS[ext]
 
 

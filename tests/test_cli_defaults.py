@@ -27,6 +27,7 @@ CASES = [  # (command line, option dest, API function, its parameter)
         ("self_training", recover_file, "self_training"),
         ("ensemble", recover_file, "ensemble"),
         ("joint_map", recover_file, "joint_map"),
+        ("input_format", recover_file, "input_format"),
         ("filled_score", recover_file, "filled_score")]),
     (["evaluate", "--data", "t.npz", "-o", "rep"], [
         ("max_train", evaluate, "max_train"),
@@ -44,6 +45,7 @@ CASES = [  # (command line, option dest, API function, its parameter)
         ("jobs", evaluate_lifting, "n_jobs")]),
     (["lift", "in.csv", "-o", "out.csv"], [
         ("confidence_threshold", lift_file, "confidence_threshold"),
+        ("input_format", lift_file, "input_format"),
         ("jobs", lift_file, "n_jobs")]),
     (["dataset", "build", "mocap", "-o", "d.npz"], [
         ("cameras_per_pose", build_dataset, "cameras_per_pose"),
@@ -60,6 +62,21 @@ def test_cli_defaults_are_the_apis(argv, pairs):
     args = build_parser().parse_args(argv)
     for dest, func, name in pairs:
         assert getattr(args, dest) == api(func, name), (argv[0], dest)
+
+
+def test_input_formats_are_the_ones_read_keypoints_reads():
+    """--input-format names every format read_keypoints reads (and its aliases), no other."""
+    from pathlib import Path
+
+    from sparseedm.cli._common import INPUT_FORMATS
+    from sparseedm.keypoints import FORMATS, format_of
+
+    assert set(FORMATS) <= set(INPUT_FORMATS)
+    assert {format_of(Path("in"), f) for f in INPUT_FORMATS} == set(FORMATS)
+    for command in ("recover", "lift"):
+        args = build_parser().parse_args([command, "in", "-o", "o.csv", "--input-format",
+                                          "csv"])
+        assert args.input_format == "csv"
 
 
 def test_video_evaluation_methods_are_the_apis():

@@ -689,3 +689,41 @@ def test_warnings_raised_as_errors_are_bad_input_not_internal(tmp_path, capsys):
     err = capsys.readouterr().err
     assert code == 2 and "internal error" not in err
     assert f"error: skipped {folder / names[3]}" in err and "warning filters" in err
+
+
+def test_a_pipe_is_read_in_the_input_format_given(tmp_path, good_csv):
+    """`cat in.csv | sparseedm recover /dev/stdin`: told to give --input-format (the
+    option exists), and read with it."""
+    import subprocess
+    import sys
+
+    def run(*extra):
+        with open(good_csv, "rb") as stdin:
+            return subprocess.run([sys.executable, "-m", "sparseedm", "recover", "/dev/stdin",
+                                   "-o", str(tmp_path / "o.csv"), "--no-adapt", "-q", *extra],
+                                  stdin=stdin, capture_output=True, text=True, timeout=300)
+
+    proc = run()
+    assert proc.returncode == 2 and "--input-format" in proc.stderr
+    proc = run("--input-format", "csv")
+    assert proc.returncode in (0, 1), proc.stderr
+    assert len(read_keypoints(tmp_path / "o.csv")) == N
+
+
+def test_a_253_byte_output_name_gets_an_errors_file_name_that_fits(tmp_path, good_csv,
+                                                                   small_dictionary_path):
+    """The default errors file of a long output name is shortened by a stated rule
+    (the stem's first 120 bytes and a hash), not a reason to refuse the output."""
+    from sparseedm.batch import default_errors_path
+
+    out = tmp_path / ("p" * 249 + ".csv")
+    bad = tmp_path / "bad.csv"
+    poses = read_keypoints(good_csv).poses
+    poses[0, 2:] = np.nan  # one row refused: the errors file is written
+    write_keypoints(bad, poses)
+    code = main(["recover", str(bad), "-o", str(out), "--dictionary",
+                 str(small_dictionary_path), "--no-adapt", "-q"])
+    errors = default_errors_path(out)
+    assert code == 1 and out.is_file() and errors.is_file()
+    assert len(errors.name.encode()) <= 255 and errors.name.endswith(".errors.csv")
+    assert errors.name.startswith("p" * 120 + "~")

@@ -213,7 +213,7 @@ def write_poses3d(path, result, ids=None, output_format=None, rate=30.0, *, trac
 def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, errors_path=None,
               confidence_threshold=None, representation="average", rate=30.0, plot=None,
               temporal=True, chunk_size=50_000, joint_map=None, dictionary=None, adapt=True,
-              self_training=None):
+              self_training=None, input_format=None):
     """Read 2D keypoints, lift them, write 3D poses and an errors file; return a summary.
 
     `confidence_threshold`: joints scored below it are missing; default the
@@ -232,7 +232,9 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
     Dictionary; default the shipped default), whether it is adapted to the
     input (as ``sparseedm recover`` adapts) and its self-training rounds; they
     apply only when time is used (an input with frames), and are refused
-    otherwise, after reading the input and before any work.
+    otherwise, after reading the input and before any work. `input_format`:
+    the input's keypoint format when its name does not tell (as
+    :func:`~sparseedm.keypoints.read_keypoints`' `format`).
     """
     validate_params("lift_file", dict(n_jobs=n_jobs, chunk_size=chunk_size, adapt=adapt,
                                       self_training=self_training), _PARAMS)  # before adapting
@@ -247,7 +249,8 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
         ("lifter", lifter), ("joint map", joint_map), ("dictionary", dictionary))
         if v is not None and (what == "joint map" or _names_a_file(v))]
     check_paths(inputs, [("output", output), ("errors file", errors), ("plot", plot)])
-    kps = read_keypoints(input, confidence_threshold=confidence_threshold, joint_map=joint_map)
+    kps = read_keypoints(input, format=input_format, confidence_threshold=confidence_threshold,
+                         joint_map=joint_map)
     _one_person(kps, input, output, _output_format(output, output_format))
     if _output_format(output, output_format) == "trc":  # its time, before any work
         _trc_order(kps.frames, len(kps.poses), output, rate)
