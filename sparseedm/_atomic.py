@@ -52,6 +52,7 @@ _SIGNALS = tuple(getattr(signal, s) for s in ("SIGTERM", "SIGHUP", "SIGINT")
                  if hasattr(signal, s))
 
 _live: set[str] = set()        # temporary files (and folders) of writes in progress
+_pending: set = set()          # (folder, name prefix) of temporaries being made
 _previous: dict = {}           # signal -> handler before ours
 _lock = threading.Lock()
 
@@ -69,37 +70,45 @@ def _remove_live():
     for tmp in list(_live):
         _remove(tmp)
         _live.discard(tmp)
+    for pending in list(_pending):  # a temporary being made when the signal came
+        _remove_announced(pending)
 
 
-def _new_temp(make):
-    """`make()`'s new temporary, removed on SIGTERM/SIGHUP/SIGINT until
-    :func:`_release`: the handlers that remove it are installed before it
-    exists, and those signals wait (blocked, in the main thread) until it is
-    registered, so no signal finds it made and unknown."""
+def _new_temp(make, folder, prefix):
+    """`make()`'s new temporary (named `prefix`... in `folder`), removed on
+    SIGTERM/SIGHUP/SIGINT until :func:`_release`: the handlers that remove it
+    are installed, and the name it will have announced, before it exists, so
+    a signal at any moment (whichever thread receives it) finds it."""
+    pending = (os.fspath(folder), prefix)
     with _lock:
-        if not _live:
+        if not _live and not _pending:
             _install()
-    mask = _SIGNALS if threading.current_thread() is threading.main_thread() \
-        and hasattr(signal, "pthread_sigmask") else ()
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, mask) if mask else None
+        _pending.add(pending)
     tmp = None
     try:
-        try:
-            tmp = make()
-        finally:
-            with _lock:
-                if tmp is not None:
-                    _live.add(tmp)
-                elif not _live:
-                    _restore()
-            if mask:  # a signal that came meanwhile is handled now, `tmp` known
-                signal.pthread_sigmask(signal.SIG_SETMASK, old)
-    except BaseException:
-        if tmp is not None:
-            _remove(tmp)
-            _release(tmp)
+        tmp = make()
+    except OSError:
         raise
+    except BaseException:  # Ctrl-C as it was made: the file may exist, unnamed here
+        _remove_announced(pending)
+        raise
+    finally:
+        with _lock:
+            if tmp is not None:
+                _live.add(tmp)
+            _pending.discard(pending)
+            if not _live and not _pending:
+                _restore()
     return tmp
+
+
+def _remove_announced(pending):
+    """Remove the files of a temporary being made: (folder, name prefix)."""
+    folder, prefix = pending
+    with contextlib.suppress(OSError):
+        for entry in os.scandir(folder):
+            if entry.name.startswith(prefix):
+                _remove(entry.path)
 
 
 def _live_temp(path) -> bool:
@@ -113,7 +122,7 @@ def _live_temp(path) -> bool:
 def _release(tmp):
     with _lock:
         _live.discard(tmp)
-        if not _live:
+        if not _live and not _pending:
             _restore()
 
 
@@ -523,7 +532,8 @@ def atomic_folder(path, label="output"):
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         remove_leftovers(path)
-        tmp = _new_temp(lambda: tempfile.mkdtemp(prefix=_temp_prefix(path), dir=path.parent))
+        tmp = _new_temp(lambda: tempfile.mkdtemp(prefix=_temp_prefix(path), dir=path.parent),
+                        path.parent, _temp_prefix(path))
     except OSError as exc:
         raise OutputPathError(f"{path}: cannot write beside it ({exc.strerror})") from None
     try:
@@ -578,7 +588,8 @@ def atomic_path(path, suffix=None):
     remove_leftovers(path)
     try:
         tmp = _new_temp(lambda: _made_file(prefix=_temp_prefix(path),
-                                           suffix=_temp_suffix(path, suffix), dir=path.parent))
+                                           suffix=_temp_suffix(path, suffix), dir=path.parent),
+                        path.parent, _temp_prefix(path))
     except OSError as exc:
         raise OutputPathError(f"{path}: cannot write beside it ({exc.strerror})") from None
     try:
@@ -603,8 +614,9 @@ def _made_file(**where):
 @contextlib.contextmanager
 def _streamed(path: Path, suffix):
     """A temporary in the system's temporary folder, streamed into `path` on success."""
-    tmp = _new_temp(lambda: _made_file(prefix=f"sparseedm-{os.getpid()}-",
-                                       suffix=_temp_suffix(path, suffix)))
+    prefix = f"sparseedm-{os.getpid()}-"
+    tmp = _new_temp(lambda: _made_file(prefix=prefix, suffix=_temp_suffix(path, suffix)),
+                    tempfile.gettempdir(), prefix)
     try:
         yield tmp
         with open(tmp, "rb") as src, open(path, "wb") as dst:  # a FIFO waits for its reader
