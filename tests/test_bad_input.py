@@ -603,15 +603,22 @@ def test_an_ignored_signal_stays_ignored(tmp_path):
     assert os.listdir(tmp_path) == []
 
 
-def test_leftovers_of_a_killed_writer_are_removed_on_the_next_write(tmp_path):
-    target = tmp_path / "out.csv"
-    with subprocess.Popen([sys.executable, "-c", _WRITER, str(target)],
+def _killed_writer(script, target):
+    """Run a writer `script` on `target` and SIGKILL it once it prints its
+    temporary path; that path and the writer's pid."""
+    with subprocess.Popen([sys.executable, "-c", script, str(target)],
                           stdout=subprocess.PIPE, text=True) as proc:
         tmp = Path(proc.stdout.readline().strip())
         proc.kill()
         proc.communicate(timeout=30)
+    return tmp, proc.pid
+
+
+def test_leftovers_of_a_killed_writer_are_removed_on_the_next_write(tmp_path):
+    target = tmp_path / "out.csv"
+    tmp, pid = _killed_writer(_WRITER, target)
     assert tmp.is_file()                                  # SIGKILL cannot be caught
-    other = tmp_path / f".other.csv{TEMP_MARK}{proc.pid}-x.csv"
+    other = tmp_path / f".other.csv{TEMP_MARK}{pid}-x.csv"
     other.write_text("someone else's")
     live = tmp_path / f".out.csv{TEMP_MARK}{os.getpid()}-live.csv"
     live.write_text("a write in progress")
@@ -636,11 +643,7 @@ def test_a_writer_handed_a_temporary_writes_into_it_and_a_kill_leaves_one_file(t
     """One temporary per output: SIGKILL leaves one file, which the next write
     to the output removes (a temporary inside a temporary never was)."""
     target = tmp_path / "out.csv"
-    with subprocess.Popen([sys.executable, "-c", _NESTED_WRITER, str(target)],
-                          stdout=subprocess.PIPE, text=True) as proc:
-        inner = Path(proc.stdout.readline().strip())
-        proc.kill()
-        proc.communicate(timeout=30)
+    inner, _ = _killed_writer(_NESTED_WRITER, target)
     assert inner.name.count(TEMP_MARK) == 1 and os.listdir(tmp_path) == [inner.name]
     with atomic_path(target) as t:
         Path(t).write_text("new")
