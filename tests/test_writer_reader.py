@@ -9,12 +9,12 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from sparseedm.exceptions import FileFormatError, PoseError, SparseEDMError
 from sparseedm.lifting.trc import read_trc, write_trc
-from sparseedm.mocap.asf_amc import parse_amc, parse_asf, write_cmu_bvh
+from sparseedm.mocap.asf_amc import CMU_BVH_NAMES, parse_amc, parse_asf, write_cmu_bvh
 from sparseedm.mocap.bvh import parse_bvh
 
 _SETTINGS = settings(max_examples=60, deadline=None,
@@ -127,6 +127,7 @@ def cmu_motion(fixtures_dir):
     ("frame_time=nan", "finite number of seconds > 0"),
     ("no frames", "at least one motion frame"),
     ("nan channel", "frame 2 of the motion has a root channel value"),
+    ("tab in a joint name", "joint name 'left.tthumb' cannot be written"),
 ])
 def test_write_cmu_bvh_refuses_what_load_bvh_refuses(tmp_path, cmu_motion, case, words):
     skeleton, motion, degrees = cmu_motion
@@ -136,6 +137,8 @@ def test_write_cmu_bvh_refuses_what_load_bvh_refuses(tmp_path, cmu_motion, case,
         frame_time = float(case.split("=")[1])
     elif case == "no frames":
         motion = {k: v[:0] for k, v in motion.items()}
+    elif case.startswith("tab"):
+        skeleton, motion = _renamed(skeleton, motion, "lthumb", "left\tthumb")
     else:
         motion["root"][2, 3] = np.nan
     with pytest.raises(SparseEDMError, match=words):
@@ -144,20 +147,44 @@ def test_write_cmu_bvh_refuses_what_load_bvh_refuses(tmp_path, cmu_motion, case,
     assert list(tmp_path.iterdir()) == []
 
 
+def _renamed(skeleton, motion, old, new):
+    """`skeleton` and `motion` with the bone `old` called `new`."""
+    import dataclasses
+
+    def name(b):
+        return new if b == old else b
+
+    skeleton = dataclasses.replace(
+        skeleton, bones={name(k): v for k, v in skeleton.bones.items()},
+        parents={name(k): name(v) for k, v in skeleton.parents.items()},
+        order=[name(b) for b in skeleton.order])
+    return skeleton, {name(k): v for k, v in motion.items()}
+
+
 @settings(max_examples=25, deadline=None,
           suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(frame_time=st.floats(1e-300, 1e6), n=st.integers(1, 5), seed=st.integers(0, 2**16))
-def test_bvh_round_trip_property(tmp_path, cmu_motion, frame_time, n, seed):
+@given(frame_time=st.floats(1e-300, 1e6), n=st.integers(1, 5), seed=st.integers(0, 2**16),
+       name=st.one_of(_PRINTABLE, _ANY_NAME))
+def test_bvh_round_trip_property(tmp_path, cmu_motion, frame_time, n, seed, name):
     """Whatever write_cmu_bvh accepts, parse_bvh reads back: the frames, the frame
-    time (to the 8 decimals written, or exactly) and the root translation."""
+    time (to the 8 decimals written, or exactly), the root translation and a
+    joint's name (anything else refused, nothing written)."""
     skeleton, motion, degrees = cmu_motion
+    assume(name not in skeleton.bones and name not in CMU_BVH_NAMES)  # a new bone name
     rng = np.random.default_rng(seed)
     rows = rng.integers(0, len(motion["root"]), n)
     motion = {k: v[rows] for k, v in motion.items()}
     motion["root"][:, :3] += rng.normal(scale=100, size=(n, 3))
-    path = write_cmu_bvh(skeleton, motion, tmp_path / "m.bvh", degrees=degrees,
-                         frame_time=frame_time) or tmp_path / "m.bvh"
+    skeleton, motion = _renamed(skeleton, motion, "lthumb", name)
+    try:
+        path = write_cmu_bvh(skeleton, motion, tmp_path / "m.bvh", degrees=degrees,
+                             frame_time=frame_time) or tmp_path / "m.bvh"
+    except FileFormatError:
+        assert not any(tmp_path.iterdir())
+        return
     back = parse_bvh(path)
+    path.unlink()
+    assert name in back.joint_names
     assert back.motion.shape[0] == n and back.frame_time > 0
     assert math.isclose(back.frame_time, frame_time, abs_tol=5e-9, rel_tol=1e-15)
     trans = [k for k, ch in enumerate(skeleton.root_order) if ch[0] == "T"]

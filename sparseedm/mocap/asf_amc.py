@@ -645,6 +645,25 @@ CMU_BVH_NAMES = {
 }
 
 
+def _check_bvh_motion(skeleton, motion, n, path):
+    """Refuse what a BVH cannot hold: a channel value that is not finite, a joint
+    name that is not printable text without tabs, line breaks, runs of spaces
+    or spaces at its ends (the reader joins a JOINT line's words with one space)."""
+    for name, values in motion.items():
+        bad = ~np.isfinite(np.asarray(values, dtype=float)).reshape(n, -1).all(axis=1)
+        if bad.any():
+            raise FileFormatError(f"{path}: frame {int(np.flatnonzero(bad)[0])} of the motion "
+                                  f"has a {name} channel value that is not a finite number "
+                                  "(NaN or infinite); a BVH holds numbers")
+    for bone in skeleton.order:
+        name = CMU_BVH_NAMES.get(bone, bone)
+        if not (isinstance(name, str) and name.isprintable() and name
+                and name == " ".join(name.split())):
+            raise FileFormatError(f"{path}: joint name {name!r} cannot be written: a BVH "
+                                  "joint name is printable text, without tabs, line breaks, "
+                                  "runs of spaces or spaces at its ends")
+
+
 def _frame_time_text(frame_time, n):
     """A BVH's ``Frame Time`` as written (8 decimals, or every digit when 8 would
     read as 0), refused unless finite and > 0, and `n` frames refused unless >= 1."""
@@ -673,8 +692,8 @@ def write_cmu_bvh(skeleton: ASFSkeleton, motion, path, *, degrees=True, frame_ti
 
     It writes only what :func:`~sparseedm.mocap.bvh.load_bvh` reads: at least
     one frame, a `frame_time` that is a finite number of seconds > 0 (written
-    with 8 decimals, or every digit when 8 would read as 0), and finite
-    channel values; anything else raises
+    with 8 decimals, or every digit when 8 would read as 0), finite channel
+    values and joint names it reads back as written; anything else raises
     :class:`~sparseedm.exceptions.FileFormatError` before the file is made.
     """
     from scipy.spatial.transform import Rotation
@@ -682,12 +701,7 @@ def write_cmu_bvh(skeleton: ASFSkeleton, motion, path, *, degrees=True, frame_ti
     root = motion["root"]
     n = root.shape[0]
     time_text = _frame_time_text(frame_time, n)
-    for name, values in motion.items():
-        bad = ~np.isfinite(np.asarray(values, dtype=float)).reshape(n, -1).all(axis=1)
-        if bad.any():
-            raise FileFormatError(f"{path}: frame {int(np.flatnonzero(bad)[0])} of the motion "
-                                  f"has a {name} channel value that is not a finite number "
-                                  "(NaN or infinite); a BVH holds numbers")
+    _check_bvh_motion(skeleton, motion, n, path)
     to_deg = 1.0 if degrees else 180.0 / np.pi
     order = skeleton.root_order
     trans = np.zeros((n, 3))
