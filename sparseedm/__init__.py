@@ -14,10 +14,20 @@ See README.md for the tour; the modules, one per idea:
 """
 
 from ._version import __version__
-from .dictionary import Dictionary, load_dictionary  # noqa: E402
-from .recovery import OcclusionRecoverer, RecoveryResult, recover  # noqa: E402
-from .adaptation import adapt  # noqa: E402
-from .lifting import LiftResult, adapt_lifter, lift, load_lifter  # noqa: E402
+from ._validation import environment_problem
+
+if environment_problem() is None:  # the usual case
+    from .dictionary import Dictionary, load_dictionary  # noqa: E402
+    from .recovery import OcclusionRecoverer, RecoveryResult, recover  # noqa: E402
+    from .adaptation import adapt  # noqa: E402
+    from .lifting import LiftResult, adapt_lifter, lift, load_lifter  # noqa: E402
+else:  # e.g. NUMBA_NUM_THREADS=0: numba cannot load; the first use (and the CLI) says why
+    def __getattr__(name):
+        if name not in __all__:  # a submodule: imported as usual
+            raise AttributeError(f"module 'sparseedm' has no attribute {name!r}")
+        from .exceptions import EnvironmentSettingError
+
+        raise EnvironmentSettingError(environment_problem())
 
 __all__ = ["recover", "adapt", "lift", "adapt_lifter", "RecoveryResult", "LiftResult", "OcclusionRecoverer",
            "load_dictionary", "load_lifter", "Dictionary", "__version__"]

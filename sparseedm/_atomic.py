@@ -6,7 +6,9 @@ over the target on success. Temporary files are named
 SIGHUP and SIGINT (when Python's own Ctrl-C handler is not installed) remove it
 before the previous handler runs, and a later write to the same target removes
 the leftovers of writers that were killed outright (SIGKILL, power loss): the
-``<pid>`` in the name is no longer running.
+``<pid>`` in the name is no longer running. The signal handlers are installed
+before a temporary exists, and an output gets one temporary, however many
+writers it passes through.
 
 :func:`check_paths` refuses an output that is an input, another output, a
 directory, or under a parent that is a regular file, before any work is done.
@@ -38,18 +40,19 @@ from pathlib import Path
 from .exceptions import OutputPathError
 
 __all__ = ["atomic_path", "atomic_folder", "check_paths", "check_folder", "is_stream",
-           "save_npz", "save_npy", "remove_leftovers", "TEMP_MARK", "FOLDER_MARK"]
+           "save_npz", "save_npy", "remove_leftovers", "fit_name", "TEMP_MARK", "FOLDER_MARK"]
 
 #: every temporary file's name holds this (see the module docstring)
 TEMP_MARK = ".sparseedm-tmp-"
 #: the file in every folder output saying what sparseedm wrote there (JSON)
 FOLDER_MARK = ".sparseedm-output"
 _MARK_MAX_BYTES = 64 << 20
-_LEFTOVER = re.compile(r"^\.(?P<name>.+)" + re.escape(TEMP_MARK) + r"(?P<pid>\d+)-")
+_PID = re.compile(r"(\d+)-")
 _SIGNALS = tuple(getattr(signal, s) for s in ("SIGTERM", "SIGHUP", "SIGINT")
                  if hasattr(signal, s))
 
 _live: set[str] = set()        # temporary files (and folders) of writes in progress
+_pending: set = set()          # (folder, name prefix) of temporaries being made
 _previous: dict = {}           # signal -> handler before ours
 _lock = threading.Lock()
 
@@ -67,20 +70,59 @@ def _remove_live():
     for tmp in list(_live):
         _remove(tmp)
         _live.discard(tmp)
+    for pending in list(_pending):  # a temporary being made when the signal came
+        _remove_announced(pending)
 
 
-def _hold(tmp):
-    """`tmp` is removed on SIGTERM/SIGHUP/SIGINT until :func:`_release`."""
+def _new_temp(make, folder, prefix):
+    """`make()`'s new temporary (named `prefix`... in `folder`), removed on
+    SIGTERM/SIGHUP/SIGINT until :func:`_release`: the handlers that remove it
+    are installed, and the name it will have announced, before it exists, so
+    a signal at any moment (whichever thread receives it) finds it."""
+    pending = (os.fspath(folder), prefix)
     with _lock:
-        if not _live:
+        if not _live and not _pending:
             _install()
-        _live.add(tmp)
+        _pending.add(pending)
+    tmp = None
+    try:
+        tmp = make()
+    except OSError:
+        raise
+    except BaseException:  # Ctrl-C as it was made: the file may exist, unnamed here
+        _remove_announced(pending)
+        raise
+    finally:
+        with _lock:
+            if tmp is not None:
+                _live.add(tmp)
+            _pending.discard(pending)
+            if not _live and not _pending:
+                _restore()
+    return tmp
+
+
+def _remove_announced(pending):
+    """Remove the files of a temporary being made: (folder, name prefix)."""
+    folder, prefix = pending
+    with contextlib.suppress(OSError):
+        for entry in os.scandir(folder):
+            if entry.name.startswith(prefix):
+                _remove(entry.path)
+
+
+def _live_temp(path) -> bool:
+    """Whether `path` is itself the temporary of a write in progress here (a
+    writer handed a temporary writes into it: one temporary per output)."""
+    where = os.path.abspath(path)
+    with _lock:
+        return any(os.path.abspath(t) == where for t in _live)
 
 
 def _release(tmp):
     with _lock:
         _live.discard(tmp)
-        if not _live:
+        if not _live and not _pending:
             _restore()
 
 
@@ -132,15 +174,29 @@ def _pid_alive(pid: int) -> bool:
     return True
 
 
+def fit_name(stem: str, ending: str = "", limit: int | None = None) -> str:
+    """``stem + ending``, or, when that is over `limit` bytes (default the 255
+    most file systems take), the stem's first 120 bytes, ``~`` and a hash of the
+    whole stem, then `ending`: a name that fits, the same for the same stem.
+
+    >>> fit_name("out", ".errors.csv")
+    'out.errors.csv'
+    >>> len(fit_name("p" * 249, ".errors.csv").encode())
+    144
+    """
+    limit = _NAME_MAX if limit is None else limit
+    if len(os.fsencode(stem + ending)) <= limit:
+        return stem + ending
+    import hashlib
+
+    digest = hashlib.sha256(os.fsencode(stem)).hexdigest()[:12]
+    return os.fsencode(stem)[:120].decode("utf-8", "ignore") + "~" + digest + ending
+
+
 def _temp_stem(name: str) -> str:
     """`name` as it appears in its temporaries' names: shortened (with a hash of the
     whole) when the temporary's name would pass the file systems' limit."""
-    if len(os.fsencode(name)) <= _NAME_MAX - 64:
-        return name
-    import hashlib
-
-    digest = hashlib.sha256(os.fsencode(name)).hexdigest()[:12]
-    return os.fsencode(name)[:120].decode("utf-8", "ignore") + "~" + digest
+    return fit_name(name, limit=_NAME_MAX - 64)
 
 
 def _temp_suffix(path: Path, suffix) -> str:
@@ -155,16 +211,37 @@ def remove_leftovers(path) -> list[Path]:
     removed = []
     with contextlib.suppress(OSError):
         for entry in os.scandir(path.parent):
-            m = _LEFTOVER.match(entry.name)
-            if not m or m.group("name") != _temp_stem(path.name) or not (
-                    entry.is_file(follow_symlinks=False)
-                    or entry.is_dir(follow_symlinks=False)):
+            pid = _leftover_pid(entry.name, _temp_stem(path.name))
+            if pid is None or not (entry.is_file(follow_symlinks=False)
+                                   or entry.is_dir(follow_symlinks=False)):
                 continue
-            if not _pid_alive(int(m.group("pid"))):
+            if not _pid_alive(pid):
                 _remove(entry.path)
                 if not os.path.lexists(entry.path):
                     removed.append(Path(entry.path))
     return removed
+
+
+def _leftover_pid(name, stem):
+    """The writer's pid in `name` if it is a temporary of the output named `stem`
+    (``.<stem>.sparseedm-tmp-<pid>-...``, the one temporary-name prefix), or
+    a temporary made inside such a temporary (``..<stem>.sparseedm-tmp-<pid>-...``
+    with a second mark); else None.
+
+    >>> _leftover_pid(".o.csv.sparseedm-tmp-12-ab.csv", "o.csv")
+    12
+    >>> _leftover_pid("..o.csv.sparseedm-tmp-12-ab.csv.sparseedm-tmp-12-cd.csv", "o.csv")
+    12
+    >>> _leftover_pid("..o.csv.sparseedm-tmp-12-ab.csv", "o.csv") is None  # .o.csv's
+    True
+    """
+    for prefix, nested in ((f".{stem}{TEMP_MARK}", False), (f"..{stem}{TEMP_MARK}", True)):
+        if name.startswith(prefix):
+            rest = name[len(prefix):]
+            m = _PID.match(rest)
+            if m and (not nested or TEMP_MARK in rest):
+                return int(m.group(1))
+    return None
 
 
 #: packages whose files ship with sparseedm: never an output (see check_paths)
@@ -334,7 +411,7 @@ def check_paths(inputs=(), outputs=()):
 
 
 def _temp_prefix(path: Path) -> str:
-    """The start of every temporary's name beside `path` (what :data:`_LEFTOVER`
+    """The start of every temporary's name beside `path` (what :func:`_leftover_pid`
     and :func:`remove_leftovers` recognise)."""
     return f".{_temp_stem(path.name)}{TEMP_MARK}{os.getpid()}-"
 
@@ -455,11 +532,10 @@ def atomic_folder(path, label="output"):
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         remove_leftovers(path)
-        tmp = tempfile.mkdtemp(prefix=_temp_prefix(path),
-                               dir=path.parent)
+        tmp = _new_temp(lambda: tempfile.mkdtemp(prefix=_temp_prefix(path), dir=path.parent),
+                        path.parent, _temp_prefix(path))
     except OSError as exc:
         raise OutputPathError(f"{path}: cannot write beside it ({exc.strerror})") from None
-    _hold(tmp)
     try:
         os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp makes 0700: give the usual mode
         yield Path(tmp)
@@ -479,6 +555,10 @@ def atomic_path(path, suffix=None):
     The temporary file keeps `path`'s suffix (or `suffix`). On any exception,
     and on SIGTERM/SIGHUP, the temporary file is removed and `path` is
     untouched. Leftovers of killed earlier writers to `path` are removed first.
+    The handlers that remove the temporary are in place before it exists. A
+    `path` that is itself the temporary of a write in progress (a writer
+    called on another's temporary, as ``recover_file`` calls
+    ``write_keypoints``) is written directly: one temporary per output.
     Write through an open file object (``np.save(f, ...)``), not a file name:
     numpy appends ``.npy``/``.npz`` to names without that extension.
 
@@ -492,6 +572,9 @@ def atomic_path(path, suffix=None):
     ['a.npz']
     """
     path = Path(path)
+    if _live_temp(path):  # a writer below another's atomic write: no second temporary
+        yield str(path)
+        return
     _parent_ok(path)
     kind, path = _target(path)
     if kind == "stream":
@@ -504,16 +587,13 @@ def atomic_path(path, suffix=None):
         raise OutputPathError(f"{path}: cannot create its folder ({exc.strerror})") from None
     remove_leftovers(path)
     try:
-        fd, tmp = tempfile.mkstemp(
-            prefix=_temp_prefix(path),
-            suffix=_temp_suffix(path, suffix), dir=path.parent,
-        )
+        tmp = _new_temp(lambda: _made_file(prefix=_temp_prefix(path),
+                                           suffix=_temp_suffix(path, suffix), dir=path.parent),
+                        path.parent, _temp_prefix(path))
     except OSError as exc:
         raise OutputPathError(f"{path}: cannot write beside it ({exc.strerror})") from None
-    os.close(fd)
-    _hold(tmp)
-    os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600: give the usual mode
     try:
+        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600: give the usual mode
         yield tmp
         os.replace(tmp, path)
     except BaseException:
@@ -524,13 +604,19 @@ def atomic_path(path, suffix=None):
         _release(tmp)
 
 
+def _made_file(**where):
+    """A new empty file by :func:`tempfile.mkstemp` (closed); its path."""
+    fd, tmp = tempfile.mkstemp(**where)
+    os.close(fd)
+    return tmp
+
+
 @contextlib.contextmanager
 def _streamed(path: Path, suffix):
     """A temporary in the system's temporary folder, streamed into `path` on success."""
-    fd, tmp = tempfile.mkstemp(prefix=f"sparseedm-{os.getpid()}-",
-                               suffix=_temp_suffix(path, suffix))
-    os.close(fd)
-    _hold(tmp)
+    prefix = f"sparseedm-{os.getpid()}-"
+    tmp = _new_temp(lambda: _made_file(prefix=prefix, suffix=_temp_suffix(path, suffix)),
+                    tempfile.gettempdir(), prefix)
     try:
         yield tmp
         with open(tmp, "rb") as src, open(path, "wb") as dst:  # a FIFO waits for its reader

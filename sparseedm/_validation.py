@@ -37,6 +37,7 @@ sparseedm.exceptions.ParameterError: f: alpha must be a real number in (0, inf),
 from __future__ import annotations
 
 import os
+import re
 from numbers import Integral, Real
 
 import numpy as np
@@ -46,7 +47,7 @@ from .exceptions import ParameterError, PoseError
 __all__ = ["Interval", "Options", "validate_params", "check_poses", "check_pose_shape",
            "check_mask", "ALPHA", "ALPHA_MIN", "ALPHA_MAX", "ENSEMBLE", "MAX_ENSEMBLE", "N_JOBS",
            "CHUNK_SIZE", "PATH", "BOOLEAN", "THRESHOLD", "SCORE", "usable_jobs",
-           "unmask"]
+           "unmask", "environment_problem", "MAX_FRAME", "NUMBER_TEXT", "frame_value", "frame_array"]
 
 
 class Interval:
@@ -305,3 +306,92 @@ def check_mask(missing, caller, name="missing"):
             "f": "NaN or infinite values"}.get(arr.dtype.kind, str(arr.dtype))
     raise ParameterError(f"{caller}: {name} must hold booleans (or 0/1); got {kind} "
                          f"(dtype {arr.dtype})")
+
+
+# --------------------------------------------------------------------------
+# frame numbers: the one rule every reader and the recovery across time use
+
+#: the largest frame-number magnitude used across time: every integer up to it is
+#: exact as a float, and differences of two of them never overflow int64
+MAX_FRAME = 2**53
+#: a plain decimal number (or nan/inf) in text: not Python's extras ("1_0",
+#: full-width or other non-ASCII digits), which coordinates and frame numbers refuse
+NUMBER_TEXT = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?|[+-]?(?:nan|inf|infinity)",
+                         re.IGNORECASE | re.ASCII)
+
+
+def frame_value(v):
+    """One frame number's int value and ``""``, or 0 and why it is refused.
+
+    The one frame-number rule: a whole number of magnitude at most
+    :data:`MAX_FRAME`, given as an integer, a float or text in
+    :data:`NUMBER_TEXT`'s plain decimal form (never a bool, ``"1_0"`` or
+    full-width digits); a larger one is refused as too large, never wrapped.
+
+    Examples
+    --------
+    >>> frame_value(12), frame_value("12.0"), frame_value(2**64)[1]
+    ((12, ''), (12, ''), 'frame number 18446744073709551616 is too large (over 2**53)')
+    >>> frame_value("1_0")[1], frame_value("\uff11\uff12")[1]
+    ("frame number '1_0' is not a number", "frame number '\uff11\uff12' is not a number")
+    """
+    if isinstance(v, (bool, np.bool_)):
+        return 0, f"frame number {v!r} is a boolean, not a number"
+    if isinstance(v, (int, np.integer)):
+        return (int(v), "") if abs(int(v)) <= MAX_FRAME else \
+            (0, f"frame number {v} is too large (over 2**53)")
+    if isinstance(v, (str, bytes)):
+        text = v.decode("ascii", "replace") if isinstance(v, bytes) else v
+        if not NUMBER_TEXT.fullmatch(text.strip()):
+            return 0, f"frame number {v!r} is not a number"
+    try:
+        f = float(v)
+    except (TypeError, ValueError, OverflowError):
+        return 0, f"frame number {v!r} is not a number"
+    if np.isnan(f) or (np.isinf(f) and "inf" in str(v).lower()):
+        return 0, f"frame number is {f}"
+    if abs(f) > MAX_FRAME:  # "1e999" or 400 digits of text too
+        return 0, f"frame number {v!r} is too large (over 2**53)"
+    if f != round(f):
+        return 0, f"frame number {v!r} is not an integer"
+    return int(f), ""
+
+
+def frame_array(values):
+    """Frame numbers as read (ints, or text) in one array: int64 when every one
+    is an int that fits, else an object array whose odd values
+    :func:`frame_value` refuses row by row (never an OverflowError).
+
+    >>> frame_array([3, 4]).dtype.name, frame_array([3, 2**70]).dtype.name
+    ('int64', 'object')
+    """
+    values = list(values)
+    if all(isinstance(v, (int, np.integer)) and not isinstance(v, (bool, np.bool_))
+           and -2**63 <= int(v) < 2**63 for v in values):
+        return np.asarray(values, dtype=np.int64)
+    out = np.empty(len(values), dtype=object)
+    out[:] = values
+    return out
+
+
+def environment_problem():
+    """What is wrong with an environment variable a dependency reads as it loads,
+    or None: ``NUMBA_NUM_THREADS`` set to a whole number below 1 stops numba
+    (the solvers') from importing at all. (A value numba cannot parse it
+    ignores, with a warning, so that one is no problem.)
+
+    Examples
+    --------
+    >>> os.environ.get("NUMBA_NUM_THREADS", "1") != "0" and environment_problem() is None
+    True
+    """
+    value = os.environ.get("NUMBA_NUM_THREADS")
+    try:
+        threads = int(value)
+    except (TypeError, ValueError):
+        return None
+    if threads >= 1:
+        return None
+    return (f"the environment variable NUMBA_NUM_THREADS={value!r} is not a thread count: "
+            "numba, which sparseedm's solvers use, needs a whole number >= 1; unset it or "
+            "set e.g. NUMBA_NUM_THREADS=2")

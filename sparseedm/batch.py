@@ -82,7 +82,7 @@ import numpy as np
 from numbers import Integral, Real
 
 from . import _progress
-from ._atomic import atomic_path, check_folder, check_paths, is_stream
+from ._atomic import atomic_path, check_folder, check_paths
 from ._extras import require as require_extra
 from ._validation import (ALPHA, BOOLEAN, CHUNK_SIZE, ENSEMBLE, N_JOBS, PATH, SCORE,
                           Interval, Options, validate_params)
@@ -118,7 +118,10 @@ _SUFFIX = {"npz": ".npz", "npy": ".npy", "csv": ".csv", "coco": ".json"}
 
 def default_errors_path(output) -> Path:
     """``<output stem>.errors.csv`` beside `output` (in the current folder when
-    `output` is a device or a pipe, such as ``/dev/null``)."""
+    `output` is a device or a pipe, such as ``/dev/null``); when that name would
+    pass 255 bytes, the stem's first 120 bytes and a hash of the whole stem
+    (:func:`sparseedm.keypoints.beside`), so that any output name file systems
+    take has an errors file name they take too."""
     return beside(output, ".errors.csv")
 
 
@@ -254,7 +257,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
                  confidence_threshold=None, backend=None, scheduler=None,
                  method="sparse", model=None, adapt="auto", save_dictionary=None,
                  self_training=None, ensemble=1, joint_map=None,
-                 filled_score=FILLED_SCORE, temporal=True):
+                 filled_score=FILLED_SCORE, temporal=True, input_format=None):
     """Recover every pose of a keypoint file and write the filled poses.
 
     Parameters
@@ -279,7 +282,8 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
     output_format : {"csv", "npz", "npy", "coco"}, optional
         Default: from the output's extension, else the input's format.
     errors_path : str or path-like, optional
-        Default ``<output stem>.errors.csv`` beside the output.
+        Default ``<output stem>.errors.csv`` beside the output (a long stem
+        shortened, :func:`default_errors_path`).
     progress : bool, default False
         A tqdm progress bar over poses.
     save_edm : bool, default False
@@ -322,6 +326,10 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
         :func:`~sparseedm.temporal.tracks.track_windows`); False: every pose on
         its own, as for a file without frames.
         ``summary["temporal"]`` says which was used.
+    input_format : str, optional
+        The input's keypoint format when its name does not tell (a pipe such
+        as ``/dev/stdin``): as :func:`~sparseedm.keypoints.read_keypoints`'
+        `format`; default told from the input.
 
     Returns
     -------
@@ -350,7 +358,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
         save_edm=save_edm, confidence_threshold=confidence_threshold, backend=backend,
         scheduler=scheduler, method=method, save_dictionary=save_dictionary,
         self_training=self_training, ensemble=ensemble, joint_map=joint_map,
-        filled_score=filled_score, temporal=temporal), _PARAMS)
+        filled_score=filled_score, temporal=temporal, input_format=input_format), _PARAMS)
     check_options_apply("recover_file", method=method, model=model, backend=backend,
                         scheduler=scheduler, adapt=adapt, ensemble=ensemble)
     if method == "fconv" and ensemble > 1:
@@ -359,7 +367,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
     _check_extras(backend, method, input, output)
     in_path, out_path = Path(input), Path(output)
     errors_path = default_errors_path(out_path) if errors_path is None else Path(errors_path)
-    in_fmt = _input_format(in_path, joint_map)
+    in_fmt = _input_format(in_path, joint_map, input_format)
     outputs = _Outputs(in_fmt, out_path, _output_format(out_path, in_fmt, output_format),
                        errors_path, save_edm, filled_score)
     _check_run_paths(outputs, in_path, dictionary, adapt, model, save_dictionary, joint_map)
@@ -421,11 +429,12 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
     return summary
 
 
-def _input_format(in_path, joint_map):
-    """The input's format, once the input is known to exist and to suit `joint_map`."""
+def _input_format(in_path, joint_map, input_format=None):
+    """The input's format (`input_format`, else told from the input), once the
+    input is known to exist and to suit `joint_map`."""
     if not in_path.exists():
         raise FileNotFoundError(f"{in_path}: no such file")
-    fmt = format_of(in_path, None)
+    fmt = format_of(in_path, input_format)
     check_joint_map(in_path, fmt, joint_map)
     if joint_map is not None:  # a map that could never work: said before any work
         read_joint_map(joint_map)
@@ -556,6 +565,7 @@ _PARAMS = {
     "self_training": [Interval(Integral, 0, None), None],
     "ensemble": ENSEMBLE,
     "temporal": BOOLEAN,
+    "input_format": [str, None],
 }
 
 

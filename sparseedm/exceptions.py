@@ -14,6 +14,7 @@ __all__ = [
     "ParameterError",
     "OutputPathError",
     "ModelError",
+    "EnvironmentSettingError",
     "ConvergenceWarning",
 ]
 
@@ -56,6 +57,11 @@ class OutputPathError(SparseEDMError):
 
 class ModelError(SparseEDMError):
     """A network model file (sparseedm.fconv) that is corrupt, unsafe, or does not fit."""
+
+
+class EnvironmentSettingError(SparseEDMError):
+    """An environment variable whose value cannot work (``NUMBA_NUM_THREADS=0``
+    stops numba, which the solvers use, from loading); the message names it."""
 
 
 class ConvergenceWarning(UserWarning):

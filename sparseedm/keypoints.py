@@ -176,10 +176,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ._atomic import atomic_path, is_stream, save_npy, save_npz
+from ._atomic import atomic_path, fit_name, is_stream, save_npy, save_npz
 from ._safeio import MAX_LINE_BYTES, load_json, load_npy, load_npz, text_lines
 from . import formats
-from ._validation import SCORE, Interval, check_poses, validate_params
+from ._validation import NUMBER_TEXT, SCORE, Interval, check_poses, validate_params
 from .exceptions import FileFormatError, ParameterError, PoseError
 from .formats import posetrack
 from .formats.deeplabcut import H5_SUFFIXES
@@ -333,7 +333,7 @@ def format_of(path: Path, format):
         raise FileFormatError(
             f"{path}: cannot tell the keypoint format from the extension {ext!r}; "
             f"use {', '.join(EXTENSIONS)}, .h5 (DeepLabCut), a folder (OpenPose) or "
-            f"pass format= (one of {FORMATS})"
+            f"pass format= (--input-format on the command line; one of {FORMATS})"
         )
     return EXTENSIONS[ext]
 
@@ -361,7 +361,8 @@ def output_format(path, format=None, read_format=None):
     if ext not in EXTENSIONS:
         raise FileFormatError(
             f"{path}: cannot tell the keypoint format from the extension {ext!r}; "
-            f"use {', '.join(EXTENSIONS)}, .h5 or pass format= (one of {FORMATS})")
+            f"use {', '.join(EXTENSIONS)}, .h5 or pass format= (--input-format on the "
+            f"command line; one of {FORMATS})")
     return EXTENSIONS[ext]
 
 
@@ -678,7 +679,7 @@ def beside(path, ending) -> Path:
     'out/poses.status.npz'
     """
     path = Path(path)
-    name = path.stem + ending
+    name = fit_name(path.stem, ending)  # within 255 bytes, by the temporaries' rule
     return Path(name) if is_stream(path) else path.with_name(name)
 
 
@@ -715,8 +716,7 @@ def sidecar_flags(path, n, ids):
 
 
 #: a plain decimal number (or nan/inf): not Python's extras ("1_0", full-width digits)
-_NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?|[+-]?(?:nan|inf|infinity)",
-                     re.IGNORECASE | re.ASCII)
+_NUMBER = NUMBER_TEXT
 
 
 def _parse_float(text, path, line, column):
@@ -850,9 +850,10 @@ def _read_csv(path, threshold):
 
 def _frame_cells(cells, n):
     """A CSV ``frame`` column: int64 when every cell is an integer, else the
-    cells as text (the recovery refuses the odd rows by name)."""
+    cells as text (the recovery refuses the odd rows by name, by the one
+    frame-number rule, :func:`sparseedm._validation.frame_value`)."""
     text = [c.strip() for c in cells]
-    if all(re.fullmatch(r"[+-]?\d{1,18}", c) for c in text):
+    if all(re.fullmatch(r"[+-]?[0-9]{1,18}", c) for c in text):  # ASCII digits only
         return np.asarray([int(c) for c in text], dtype=np.int64).reshape(n)
     return np.asarray(text, dtype=object).reshape(n)
 

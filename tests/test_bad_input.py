@@ -603,15 +603,22 @@ def test_an_ignored_signal_stays_ignored(tmp_path):
     assert os.listdir(tmp_path) == []
 
 
-def test_leftovers_of_a_killed_writer_are_removed_on_the_next_write(tmp_path):
-    target = tmp_path / "out.csv"
-    with subprocess.Popen([sys.executable, "-c", _WRITER, str(target)],
+def _killed_writer(script, target):
+    """Run a writer `script` on `target` and SIGKILL it once it prints its
+    temporary path; that path and the writer's pid."""
+    with subprocess.Popen([sys.executable, "-c", script, str(target)],
                           stdout=subprocess.PIPE, text=True) as proc:
         tmp = Path(proc.stdout.readline().strip())
         proc.kill()
         proc.communicate(timeout=30)
+    return tmp, proc.pid
+
+
+def test_leftovers_of_a_killed_writer_are_removed_on_the_next_write(tmp_path):
+    target = tmp_path / "out.csv"
+    tmp, pid = _killed_writer(_WRITER, target)
     assert tmp.is_file()                                  # SIGKILL cannot be caught
-    other = tmp_path / f".other.csv{TEMP_MARK}{proc.pid}-x.csv"
+    other = tmp_path / f".other.csv{TEMP_MARK}{pid}-x.csv"
     other.write_text("someone else's")
     live = tmp_path / f".out.csv{TEMP_MARK}{os.getpid()}-live.csv"
     live.write_text("a write in progress")
@@ -619,6 +626,92 @@ def test_leftovers_of_a_killed_writer_are_removed_on_the_next_write(tmp_path):
         Path(t).write_text("new")
     assert sorted(os.listdir(tmp_path)) == sorted(["out.csv", other.name, live.name])
     assert remove_leftovers(tmp_path / "other.csv") == [other]
+
+
+_NESTED_WRITER = textwrap.dedent("""
+    import sys, time
+    from sparseedm._atomic import atomic_path
+    with atomic_path(sys.argv[1]) as tmp:  # recover_file's output ...
+        with atomic_path(tmp) as inner:    # ... handed to a writer that is atomic itself
+            open(inner, "w").write("partial")
+            print(inner, flush=True)
+            time.sleep(60)
+""")
+
+
+def test_a_writer_handed_a_temporary_writes_into_it_and_a_kill_leaves_one_file(tmp_path):
+    """One temporary per output: SIGKILL leaves one file, which the next write
+    to the output removes (a temporary inside a temporary never was)."""
+    target = tmp_path / "out.csv"
+    inner, _ = _killed_writer(_NESTED_WRITER, target)
+    assert inner.name.count(TEMP_MARK) == 1 and os.listdir(tmp_path) == [inner.name]
+    with atomic_path(target) as t:
+        Path(t).write_text("new")
+    assert os.listdir(tmp_path) == ["out.csv"]
+
+
+def test_a_temporary_left_inside_a_temporary_is_removed(tmp_path):
+    dead = _dead_pid()
+    nested = tmp_path / f"..o.csv{TEMP_MARK}{dead}-ab.csv{TEMP_MARK}{dead}-cd.csv"
+    hidden_output_tmp = tmp_path / f"..o.csv{TEMP_MARK}{dead}-ef.csv"  # .o.csv's, not o.csv's
+    for p in (nested, hidden_output_tmp):
+        p.write_text("x")
+    assert remove_leftovers(tmp_path / "o.csv") == [nested]
+    assert os.listdir(tmp_path) == [hidden_output_tmp.name]
+
+
+def _dead_pid():
+    proc = subprocess.Popen([sys.executable, "-c", "pass"])
+    proc.wait()
+    return proc.pid
+
+
+def test_recover_file_makes_one_temporary_per_output(tmp_path, csv_input, small_dictionary,
+                                                     monkeypatch):
+    import tempfile
+
+    made = []
+    real = tempfile.mkstemp
+
+    def mkstemp(*args, **kw):
+        fd, name = real(*args, **kw)
+        made.append(Path(name).name)
+        return fd, name
+
+    monkeypatch.setattr(tempfile, "mkstemp", mkstemp)
+    for ext in ("csv", "npz", "json"):
+        made.clear()
+        recover_file(csv_input, tmp_path / f"o.{ext}", dictionary=small_dictionary)
+        assert made and all(name.count(TEMP_MARK) == 1 for name in made), made
+        assert len([m for m in made if m.startswith(f".o.{ext}")]) == 1, made
+
+
+_SIGNAL_AT_CREATION = textwrap.dedent("""
+    import os, signal, sys, tempfile
+    from sparseedm._atomic import atomic_path
+    real = tempfile.mkstemp
+
+    def mkstemp(*args, **kw):  # SIGTERM the moment the temporary exists
+        made = real(*args, **kw)
+        os.kill(os.getpid(), signal.SIGTERM)
+        return made
+
+    tempfile.mkstemp = mkstemp
+    with atomic_path(sys.argv[1]) as tmp:
+        open(tmp, "w").write("partial")
+    print("not killed", flush=True)
+""")
+
+
+def test_sigterm_as_the_temporary_appears_removes_it(tmp_path):
+    """The handlers are in place (and the signal waits) before the file exists."""
+    target = tmp_path / "o.npy"
+    target.write_text("previous")
+    proc = subprocess.run([sys.executable, "-c", _SIGNAL_AT_CREATION, str(target)],
+                          capture_output=True, text=True, timeout=60,
+                          preexec_fn=_default_signals)
+    assert proc.returncode == -signal.SIGTERM and "not killed" not in proc.stdout
+    assert os.listdir(tmp_path) == ["o.npy"] and target.read_text() == "previous"
 
 
 _FOLDER_WRITER = textwrap.dedent("""

@@ -29,6 +29,7 @@ CASES = [  # (command line, option dest, API function, its parameter)
         ("self_training", recover_file, "self_training"),
         ("ensemble", recover_file, "ensemble"),
         ("joint_map", recover_file, "joint_map"),
+        ("input_format", recover_file, "input_format"),
         ("filled_score", recover_file, "filled_score"),
         ("representation", recover_file, "representation")]),
     (["evaluate", "--data", "t.npz", "-o", "rep"], [
@@ -56,6 +57,7 @@ CASES = [  # (command line, option dest, API function, its parameter)
     (["lift", "in.csv", "-o", "out.csv"], [
         ("confidence_threshold", lift_file, "confidence_threshold"),
         ("jobs", lift_file, "n_jobs"),
+        ("input_format", lift_file, "input_format"),
         ("representation", lift_file, "representation"),
         ("frames", lift_file, "plot_frames")]),
     (["plot", "in.csv", "out.csv", "-o", "f.png"], [
@@ -79,6 +81,21 @@ def test_cli_defaults_are_the_apis(argv, pairs):
     args = build_parser().parse_args(argv)
     for dest, func, name in pairs:
         assert getattr(args, dest) == api(func, name), (argv[0], dest)
+
+
+def test_input_formats_are_the_ones_read_keypoints_reads():
+    """--input-format names every format read_keypoints reads (and its aliases), no other."""
+    from pathlib import Path
+
+    from sparseedm.cli._common import INPUT_FORMATS
+    from sparseedm.keypoints import FORMATS, format_of
+
+    assert set(FORMATS) <= set(INPUT_FORMATS)
+    assert {format_of(Path("in"), f) for f in INPUT_FORMATS} == set(FORMATS)
+    for command in ("recover", "lift"):
+        args = build_parser().parse_args([command, "in", "-o", "o.csv", "--input-format",
+                                          "csv"])
+        assert args.input_format == "csv"
 
 
 def test_video_evaluation_methods_are_the_apis():

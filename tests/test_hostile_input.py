@@ -617,3 +617,113 @@ def test_an_unwritable_output_folder_is_refused_before_any_work(
     err = capsys.readouterr().err
     assert code == 2 and f"the folder {unwritable} is not writable" in err, err
     assert "Errno" not in err and os.listdir(unwritable) == []
+
+
+# --------------------------------------------------------------------------
+# frame numbers: one rule; the environment and warning filters
+
+
+def _openpose_folder(folder, names, truncated=()):
+    import json
+
+    person = {"people": [{"person_id": [-1], "pose_keypoints_2d": [
+        float(v) for i in range(25) for v in (100 + 3 * i, 200 + 5 * i, 0.9)]}]}
+    folder.mkdir()
+    for name in names:
+        text = json.dumps(person)
+        (folder / name).write_text(text[:40] if name in truncated else text)
+    return folder
+
+
+def test_openpose_frame_past_int64_is_refused_per_row_not_an_internal_error(tmp_path,
+                                                                           capsys):
+    """A file named for frame 10**20 is answered as a frame past 2**53 is: per row."""
+    names = [f"vid_{i:012d}_keypoints.json" for i in range(3)] + \
+        ["vid_99999999999999999999_keypoints.json"]
+    folder = _openpose_folder(tmp_path / "op", names)
+    kps = read_keypoints(folder)
+    assert kps.frames.tolist() == [0, 1, 2, 10**20 - 1]
+    out = tmp_path / "o.csv"
+    assert main(["recover", str(folder), "-o", str(out), "-q"]) == 0
+    assert "internal error" not in capsys.readouterr().err
+    last = out.read_text().splitlines()[-1]
+    assert "frame number 99999999999999999999 is too large (over 2**53)" in last
+
+
+@pytest.mark.parametrize("cell", ["1_0", "\uff11\uff10", "\u0661\u0660"])
+def test_frame_cells_python_reads_as_numbers_are_refused_per_row(tmp_path, occluded, cell):
+    """'1_0' is not frame 10, nor are full-width or Arabic-Indic digits: refused
+    per row by the one frame-number rule, as a coordinate cell would be."""
+    from sparseedm.temporal.tracks import frame_numbers
+
+    src = tmp_path / "clip.csv"
+    write_keypoints(src, occluded[:3], extra_columns={"frame": ["0", cell, "2"]})
+    frames = read_keypoints(src).frames
+    values, reason = frame_numbers(frames, 3)
+    assert reason.tolist() == ["", f"frame number {cell!r} is not a number", ""]
+
+
+def test_a_bad_numba_thread_count_is_named_with_exit_2(tmp_path, good_csv):
+    import subprocess
+    import sys
+
+    env = dict(os.environ, NUMBA_NUM_THREADS="0")
+    proc = subprocess.run([sys.executable, "-m", "sparseedm", "recover", str(good_csv), "-o",
+                           str(tmp_path / "o.csv"), "-q"], capture_output=True, text=True,
+                          env=env, timeout=120)
+    assert proc.returncode == 2, proc.stderr
+    assert "NUMBA_NUM_THREADS='0'" in proc.stderr and "Traceback" not in proc.stderr
+    assert not (tmp_path / "o.csv").exists()
+
+
+def test_warnings_raised_as_errors_are_bad_input_not_internal(tmp_path, capsys):
+    """Under PYTHONWARNINGS=error a skipped (truncated) frame file stops the run with
+    its own message and exit 2, never 'internal error'."""
+    import warnings
+
+    names = [f"vid_{i:012d}_keypoints.json" for i in range(4)]
+    folder = _openpose_folder(tmp_path / "op", names, truncated=names[3:])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        code = main(["recover", str(folder), "-o", str(tmp_path / "o.csv"), "-q"])
+    err = capsys.readouterr().err
+    assert code == 2 and "internal error" not in err
+    assert f"error: skipped {folder / names[3]}" in err and "warning filters" in err
+
+
+def test_a_pipe_is_read_in_the_input_format_given(tmp_path, good_csv):
+    """`cat in.csv | sparseedm recover /dev/stdin`: told to give --input-format (the
+    option exists), and read with it."""
+    import subprocess
+    import sys
+
+    def run(*extra):
+        with open(good_csv, "rb") as stdin:
+            return subprocess.run([sys.executable, "-m", "sparseedm", "recover", "/dev/stdin",
+                                   "-o", str(tmp_path / "o.csv"), "--no-adapt", "-q", *extra],
+                                  stdin=stdin, capture_output=True, text=True, timeout=300)
+
+    proc = run()
+    assert proc.returncode == 2 and "--input-format" in proc.stderr
+    proc = run("--input-format", "csv")
+    assert proc.returncode in (0, 1), proc.stderr
+    assert len(read_keypoints(tmp_path / "o.csv")) == N
+
+
+def test_a_253_byte_output_name_gets_an_errors_file_name_that_fits(tmp_path, good_csv,
+                                                                   small_dictionary_path):
+    """The default errors file of a long output name is shortened by a stated rule
+    (the stem's first 120 bytes and a hash), not a reason to refuse the output."""
+    from sparseedm.batch import default_errors_path
+
+    out = tmp_path / ("p" * 249 + ".csv")
+    bad = tmp_path / "bad.csv"
+    poses = read_keypoints(good_csv).poses
+    poses[0, 2:] = np.nan  # one row refused: the errors file is written
+    write_keypoints(bad, poses)
+    code = main(["recover", str(bad), "-o", str(out), "--dictionary",
+                 str(small_dictionary_path), "--no-adapt", "-q"])
+    errors = default_errors_path(out)
+    assert code == 1 and out.is_file() and errors.is_file()
+    assert len(errors.name.encode()) <= 255 and errors.name.endswith(".errors.csv")
+    assert errors.name.startswith("p" * 120 + "~")

@@ -151,3 +151,42 @@ def test_lift_of_zero_poses_writes_an_empty_output(tmp_path, capsys, src, ext):
             len(out.read_text().splitlines()) == 1  # the header alone
     else:
         assert out.read_text() == "[]"
+
+
+def _clip_with_frames(fixtures_dir, tmp_path, frames):
+    """The example clip's first rows (one track) with the frame column set to `frames`."""
+    lines = (fixtures_dir.parents[1] / "examples" / "video_clip.csv").read_text().splitlines()
+    head = lines[0].split(",")
+    rows = [line.split(",") for line in lines[1:1 + len(frames)]]
+    for row, frame in zip(rows, frames):
+        row[head.index("frame")] = frame
+    src = tmp_path / "clip.csv"
+    src.write_text("\n".join(",".join(r) for r in [head] + rows) + "\n")
+    return src
+
+
+def test_lift_trc_keeps_each_rows_frame_time(fixtures_dir, tmp_path, capsys):
+    """Frames 10 apart are 10/rate s apart in the .trc, whatever order they come in."""
+    frames = ["0", "10", "30", "20", "40", "50"]
+    src = _clip_with_frames(fixtures_dir, tmp_path, frames)
+    out = tmp_path / "p.trc"
+    assert main(["lift", str(src), "-o", str(out), "--no-temporal", "-q"]) == 0
+    trc = read_trc(out)
+    np.testing.assert_array_equal(trc["frames"], [1, 11, 21, 31, 41, 51])
+    np.testing.assert_allclose(trc["times"], np.arange(0, 60, 10) / 30, atol=1e-6)
+
+
+@pytest.mark.parametrize("bad, words", [("nan", "row 2 has no usable frame number"),
+                                        ("1_0", "row 2 has no usable frame number"),
+                                        ("10", "rows 1 and 2 are both frame 10")])
+def test_lift_trc_refuses_rows_it_cannot_place_in_time(fixtures_dir, tmp_path, capsys, bad,
+                                                      words):
+    """A frame cell that is not a usable number, or a frame given twice, refuses the
+    .trc before any work (exit 2), never renumbered 1, 2, 3 at 1/rate s."""
+    src = _clip_with_frames(fixtures_dir, tmp_path, ["0", "10", bad, "30", "40", "50"])
+    out = tmp_path / "p.trc"
+    assert main(["lift", str(src), "-o", str(out), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert words in err and "a .trc places each row at its frame's time" in err
+    assert not out.exists()
+    assert main(["lift", str(src), "-o", str(tmp_path / "p.csv"), "--no-temporal", "-q"]) == 0

@@ -23,7 +23,8 @@ import warnings
 
 from .. import _progress
 from .._version import __version__
-from ..exceptions import SparseEDMError
+from .._validation import environment_problem
+from ..exceptions import EnvironmentSettingError, SparseEDMError
 
 #: sub-command modules, in the order ``sparseedm --help`` lists them
 COMMANDS = ("dataset", "fit", "info", "recover", "plot", "evaluate", "fit_cnn", "fit_lifter",
@@ -135,6 +136,7 @@ def main(argv=None) -> int:
     # long stages say what they are doing on stderr (a bar on a terminal) unless --quiet
     _progress.enable(not getattr(args, "quiet", False))
     try:
+        _refuse_environment()
         _refuse_dash(args)
         with warnings.catch_warnings():  # the API's warnings, one clean line each
             warnings.showwarning = _warning_line(args.command)
@@ -148,6 +150,11 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         print(f"sparseedm {args.command}: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
+    except Warning as exc:  # the user's filters (PYTHONWARNINGS=error, -W error) stop the run
+        kind = "" if type(exc) is UserWarning else f"{type(exc).__name__}: "
+        print(f"sparseedm {args.command}: error: {kind}{_one_line(exc)} (a warning, raised "
+              "as an error by the warning filters: PYTHONWARNINGS or -W)", file=sys.stderr)
+        return EXIT_BAD_INPUT
     except Exception as exc:  # noqa: BLE001 - a bug must never read as rows refused
         return _internal_error(args, exc)
     finally:
@@ -157,6 +164,14 @@ def main(argv=None) -> int:
 #: options that name a file a command writes
 _OUTPUT_OPTIONS = {"output": "-o", "errors": "--errors", "save_dictionary": "--save-dictionary",
                    "checkpoint": "--checkpoint", "plot": "--plot", "write_map": "--write-map"}
+
+
+def _refuse_environment():
+    """An environment variable that stops a dependency from loading: bad input
+    (exit 2, its name and value said), never a traceback."""
+    problem = environment_problem()
+    if problem:
+        raise EnvironmentSettingError(problem)
 
 
 def _refuse_dash(args):

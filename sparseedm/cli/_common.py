@@ -23,6 +23,22 @@ def add_joint_map(parser):
                         "the 14 joints ({\"joints\": {\"head_top\": \"head\", ...}})")
 
 
+#: the keypoint formats read_keypoints reads (with its aliases json, posetrack, deeplabcut);
+#: tests/test_cli_defaults.py keeps the two equal
+INPUT_FORMATS = ("csv", "npz", "npy", "coco", "json", "posetrack", "openpose", "mmpose",
+                 "dlc", "deeplabcut")
+
+
+def add_input_format(parser):
+    """``--input-format FORMAT``, as recover and lift take it: INPUT's format when its
+    name does not tell (``/dev/stdin``, a pipe, an odd extension)."""
+    parser.add_argument("--input-format", choices=INPUT_FORMATS, default=None,
+                        metavar="FORMAT",
+                        help="INPUT's keypoint format when its name does not tell (e.g. "
+                        "/dev/stdin): " + ", ".join(INPUT_FORMATS) + " (default: told from "
+                        "INPUT's content and extension)")
+
+
 def add_adaptation_rounds(parser, self_training_help, ensemble_help):
     """``--self-training ROUNDS`` and ``--ensemble K``, as recover and evaluate take them
     (defaults: the API's, None meaning ``SELF_TRAINING_ROUNDS``, and 1)."""

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import sys
 
-from ._common import SELECTION_HELP, add_joint_map, add_quiet, refusals_said
+from ._common import SELECTION_HELP, add_input_format, add_joint_map, add_quiet, refusals_said
 
 
 def add_parser(sub):
@@ -57,6 +57,7 @@ def add_parser(sub):
                    "joints filled across time first, each person's depth reflections "
                    "chosen together)")
     add_joint_map(p)
+    add_input_format(p)
     p.add_argument("--dictionary", default=None, metavar="NAME|PATH",
                    help="with frames: the 2D dictionary that fills missing joints across "
                    "time before lifting (default: the shipped default, as recover's)")
@@ -86,7 +87,7 @@ def run(args):
                   temporal=not args.no_temporal, chunk_size=args.chunk_size,
                   joint_map=args.joint_map, dictionary=args.dictionary,
                   adapt=not args.no_adapt, self_training=args.self_training,
-                  plot_frames=args.frames)
+                  plot_frames=args.frames, input_format=args.input_format)
     out = sys.stderr if args.quiet or is_stream(args.output) else sys.stdout  # -o /dev/stdout
     rate = f"{s['poses_per_second']:,.0f} poses/s" if s["poses_per_second"] else "-"
     counts = ", ".join(f"{k} {v}" for k, v in s["status"].items()) or "none"

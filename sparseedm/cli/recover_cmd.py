@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import sys
 
-from ._common import (add_adaptation_rounds, add_joint_map, add_quiet, refusals_said,
-                      show_progress)
+from ._common import (add_adaptation_rounds, add_input_format, add_joint_map, add_quiet,
+                      refusals_said, show_progress)
 
 
 def add_parser(sub):
@@ -73,6 +73,7 @@ def _add_format_options(p):
                    "MMPose and COCO 0.3, OpenPose 0.05, csv/npz/npy 0; see "
                    "sparseedm.formats)")
     add_joint_map(p)
+    add_input_format(p)
     p.add_argument("--filled-score", type=float, default=0.0, metavar="S",
                    help="score in [0, 1] written for filled joints (OpenPose, MMPose, "
                    "DeepLabCut, COCO); default 0, below every threshold")
@@ -141,7 +142,7 @@ def run(args):
         adapt=False if args.no_adapt else (args.adapt_from or "auto"),
         save_dictionary=args.save_dictionary, self_training=args.self_training,
         ensemble=args.ensemble, joint_map=args.joint_map, filled_score=args.filled_score,
-        temporal=not args.no_temporal,
+        temporal=not args.no_temporal, input_format=args.input_format,
     )
     out = sys.stderr if args.quiet or is_stream(args.output) else sys.stdout  # -o /dev/stdout
     ad = summary.get("adaptation")

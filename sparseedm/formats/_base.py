@@ -305,11 +305,14 @@ def read_frame_folder(path, read_file, what, max_files):
     return people, files, skipped, ignored
 
 
-_FRAME_NUMBER = re.compile(r"(\d+)(?=_keypoints\.json$)|(\d+)(?=\.json$)")
+#: ASCII digits only (a full-width "１２" is no frame number, as in a CSV cell)
+_FRAME_NUMBER = re.compile(r"(\d+)(?=_keypoints\.json$)|(\d+)(?=\.json$)", re.ASCII)
 
 
 def frame_number(name):
-    """The frame number in a per-frame file name, or None.
+    """The frame number in a per-frame file name, or None (a Python int of any
+    size: one past 2**53 is refused per row, as any frame number, by
+    :func:`sparseedm._validation.frame_value`).
 
     >>> frame_number("video_000000000012_keypoints.json")
     12

@@ -51,6 +51,7 @@ from pathlib import Path
 import numpy as np
 
 from .._safeio import load_json
+from .._validation import frame_array
 from ..exceptions import FileFormatError
 from . import _base
 from ._base import COCO17, COCO_17, EXTRA_KEY, Layout, Person
@@ -168,7 +169,7 @@ def _assembled(people, path, meta):
                               f"({', '.join(LAYOUTS[s].name for s in sorted(sizes))})")
     layout = LAYOUTS[sizes.pop()] if sizes else COCO_17
     meta["layout"] = layout.name
-    frames = np.asarray([p.frame for p in people], dtype=np.int64)
+    frames = frame_array([p.frame for p in people])  # huge numbers: refused per row
     return _base.assemble(people, layout, meta, tracks=_base.person_tracks(people),
                           frames=frames)
 

@@ -55,6 +55,7 @@ from pathlib import Path
 import numpy as np
 
 from .._safeio import load_json
+from .._validation import frame_array
 from ..exceptions import FileFormatError
 from . import _base
 from ._base import COCO17, EXTRA_KEY, Layout, Person
@@ -147,7 +148,7 @@ def _parsed(people, files, meta, path):
     meta.update(openpose_files=files, layout=layout.name)
     frames = None
     if all(p.frame is not None for p in people):
-        frames = np.asarray([p.frame for p in people], dtype=np.int64)
+        frames = frame_array([p.frame for p in people])  # huge numbers: refused per row
     return _base.assemble(people, layout, meta, tracks=_base.person_tracks(people),
                           frames=frames)
 

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._validation import frame_array
 from ..exceptions import FileFormatError
 
 __all__ = ["POSETRACK_KEYPOINTS", "tracks_and_frames", "uses_posetrack_order",
@@ -88,4 +89,4 @@ def tracks_and_frames(doc, anns, path):
             frames.append(a)
     kinds = {type(t) for t in tracks}
     tracks = np.asarray(tracks if len(kinds) == 1 else [str(t) for t in tracks])
-    return tracks, np.asarray(frames, dtype=np.int64)
+    return tracks, frame_array(frames)  # huge numbers: refused per row

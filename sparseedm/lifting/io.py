@@ -70,7 +70,7 @@ from ..temporal.tracks import frame_numbers, has_time, track_windows
 from .base import load_lifter
 from .lift import LiftResult, lift
 from .plotting import plot_lifted
-from .trc import write_trc
+from .trc import trc_times, write_trc
 
 __all__ = ["lift_file", "write_poses3d", "OUTPUT_FORMATS"]
 
@@ -94,15 +94,34 @@ def _output_format(path, output_format):
     return fmt
 
 
-def _trc_order(frames, n):
-    """The rows of a .trc in frame order and their frame numbers, when every
-    row has its own usable frame number; else the rows as given (numbers None)."""
+def _trc_order(frames, n, output, rate=30.0):
+    """The rows of a .trc in frame order and their frame numbers (None without
+    frames: the rows are frames 0, 1, 2 ...), checked before any work.
+
+    Each row keeps its own frame number, never a renumbering: a row without a
+    usable one (the one frame-number rule,
+    :func:`~sparseedm.temporal.tracks.frame_numbers`) or two rows of one frame
+    refuse the .trc output (FileFormatError naming them), as does a `rate`
+    whose times cannot be written (:func:`~sparseedm.lifting.trc.trc_times`).
+    """
     if frames is None:
+        trc_times(None, rate, n)
         return np.arange(n), None
     values, reason = frame_numbers(frames, n)
-    if (reason != "").any() or len(np.unique(values)) != n:
-        return np.arange(n), None
+    fix = ("a .trc places each row at its frame's time (frame / rate); fix the frame "
+           "numbers, or write .csv, .npz or .json, which keep the rows as given")
+    bad = np.flatnonzero(reason != "")
+    if len(bad):
+        more = f" (and {len(bad) - 1} more rows)" if len(bad) > 1 else ""
+        raise FileFormatError(f"{output}: row {bad[0]} has no usable frame number "
+                              f"({reason[bad[0]]}){more}: {fix}")
     order = np.argsort(values, kind="stable")
+    twice = np.flatnonzero(np.diff(values[order]) == 0)
+    if len(twice):
+        a, b = sorted(order[twice[0]:twice[0] + 2])
+        raise FileFormatError(f"{output}: rows {a} and {b} are both frame "
+                              f"{values[order[twice[0]]]}: {fix}")
+    trc_times(values[order], rate, n)
     return order, values[order]
 
 
@@ -165,7 +184,7 @@ def write_poses3d(path, result, ids=None, output_format=None, rate=30.0, *, trac
                             joint_names=np.array(JOINT_NAMES),
                             **{f"{k}s": v for k, v in when}))
     elif fmt == "trc":
-        order, numbers = _trc_order(frames, n)
+        order, numbers = _trc_order(frames, n, path, rate)
         write_trc(path, P[order], rate=rate, frames=numbers)
     elif fmt == "csv":
         with atomic_path(path) as tmp, open(tmp, "w", newline="", encoding="utf-8") as f:
@@ -195,7 +214,7 @@ def write_poses3d(path, result, ids=None, output_format=None, rate=30.0, *, trac
 def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, errors_path=None,
               confidence_threshold=None, representation=None, rate=30.0, plot=None,
               temporal=True, chunk_size=50_000, joint_map=None, dictionary=None, adapt=True,
-              self_training=None, plot_frames=None):
+              self_training=None, plot_frames=None, input_format=None):
     """Read 2D keypoints, lift them, write 3D poses and an errors file; return a summary.
 
     `confidence_threshold`: joints scored below it are missing; default the
@@ -218,7 +237,9 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
     Dictionary; default the shipped default), whether it is adapted to the
     input (as ``sparseedm recover`` adapts) and its self-training rounds; they
     apply only when time is used (an input with frames), and are refused
-    otherwise, after reading the input and before any work.
+    otherwise, after reading the input and before any work. `input_format`:
+    the input's keypoint format when its name does not tell (as
+    :func:`~sparseedm.keypoints.read_keypoints`' `format`).
     """
     validate_params("lift_file", dict(n_jobs=n_jobs, chunk_size=chunk_size, adapt=adapt,
                                       self_training=self_training), _PARAMS)  # before adapting
@@ -233,9 +254,12 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
         ("lifter", lifter), ("joint map", joint_map), ("dictionary", dictionary))
         if v is not None and (what == "joint map" or _names_a_file(v))]
     check_paths(inputs, [("output", output), ("errors file", errors), ("plot", plot)])
-    kps = read_keypoints(input, confidence_threshold=confidence_threshold, joint_map=joint_map)
+    kps = read_keypoints(input, format=input_format, confidence_threshold=confidence_threshold,
+                         joint_map=joint_map)
     plot_rows = _plot_rows(kps, plot, plot_frames)
     _one_person(kps, input, output, _output_format(output, output_format))
+    if _output_format(output, output_format) == "trc":  # its time, before any work
+        _trc_order(kps.frames, len(kps.poses), output, rate)
     in_time = bool(temporal) and has_time(kps.frames)  # (no poses: no time)
     fill = _fill_options(in_time, dictionary, adapt, self_training)
     _progress.say(f"lifting {len(kps.poses):,} poses to 3D"

@@ -645,6 +645,42 @@ CMU_BVH_NAMES = {
 }
 
 
+def _check_bvh_motion(skeleton, motion, n, path):
+    """Refuse what a BVH cannot hold: a channel value that is not finite, a joint
+    name that is not printable text without tabs, line breaks, runs of spaces
+    or spaces at its ends (the reader joins a JOINT line's words with one space)."""
+    for name, values in motion.items():
+        bad = ~np.isfinite(np.asarray(values, dtype=float)).reshape(n, -1).all(axis=1)
+        if bad.any():
+            raise FileFormatError(f"{path}: frame {int(np.flatnonzero(bad)[0])} of the motion "
+                                  f"has a {name} channel value that is not a finite number "
+                                  "(NaN or infinite); a BVH holds numbers")
+    for bone in skeleton.order:
+        name = CMU_BVH_NAMES.get(bone, bone)
+        if not (isinstance(name, str) and name.isprintable() and name
+                and name == " ".join(name.split())):
+            raise FileFormatError(f"{path}: joint name {name!r} cannot be written: a BVH "
+                                  "joint name is printable text, without tabs, line breaks, "
+                                  "runs of spaces or spaces at its ends")
+
+
+def _frame_time_text(frame_time, n):
+    """A BVH's ``Frame Time`` as written (8 decimals, or every digit when 8 would
+    read as 0), refused unless finite and > 0, and `n` frames refused unless >= 1."""
+    if n < 1:
+        raise FileFormatError("a BVH needs at least one motion frame; the motion has none")
+    try:
+        frame_time = float(frame_time)
+    except (TypeError, ValueError):
+        raise FileFormatError(f"frame_time must be a number of seconds, got {frame_time!r}") \
+            from None
+    if not 0 < frame_time < np.inf:
+        raise FileFormatError(f"frame_time must be a finite number of seconds > 0, got "
+                              f"{frame_time}")
+    text = f"{frame_time:.8f}"
+    return text if float(text) > 0 else repr(frame_time)
+
+
 def write_cmu_bvh(skeleton: ASFSkeleton, motion, path, *, degrees=True, frame_time=1 / 120):
     """Write ASF/AMC motion as a BVH file with the CMU BVH conversion's names.
 
@@ -653,11 +689,19 @@ def write_cmu_bvh(skeleton: ASFSkeleton, motion, path, *, degrees=True, frame_ti
     the parent bone's ``length * direction`` as OFFSET (file units kept).
     Loading the result with :func:`sparseedm.mocap.bvh.load_bvh` gives the
     same 14 joints as :func:`load_asf_amc`.
+
+    It writes only what :func:`~sparseedm.mocap.bvh.load_bvh` reads: at least
+    one frame, a `frame_time` that is a finite number of seconds > 0 (written
+    with 8 decimals, or every digit when 8 would read as 0), finite channel
+    values and joint names it reads back as written; anything else raises
+    :class:`~sparseedm.exceptions.FileFormatError` before the file is made.
     """
     from scipy.spatial.transform import Rotation
 
     root = motion["root"]
     n = root.shape[0]
+    time_text = _frame_time_text(frame_time, n)
+    _check_bvh_motion(skeleton, motion, n, path)
     to_deg = 1.0 if degrees else 180.0 / np.pi
     order = skeleton.root_order
     trans = np.zeros((n, 3))
@@ -715,8 +759,11 @@ def write_cmu_bvh(skeleton: ASFSkeleton, motion, path, *, degrees=True, frame_ti
     for kid in children.get("root", []):
         emit(kid, 1, np.zeros(3))
     out.append("}")
-    out += ["MOTION", f"Frames: {n}", f"Frame Time: {frame_time:.8f}"]
+    out += ["MOTION", f"Frames: {n}", f"Frame Time: {time_text}"]
     data = np.concatenate(columns, axis=1)
+    if not np.isfinite(data).all():  # e.g. a root translation of 1e308 turned
+        raise FileFormatError(f"{path}: the motion gives channel values that are not "
+                              "finite numbers; a BVH holds numbers")
     out += [fmt(row) for row in data]
     with atomic_path(path) as tmp:
         Path(tmp).write_text("\n".join(out) + "\n", encoding="utf-8")

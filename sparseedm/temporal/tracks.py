@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._validation import MAX_FRAME, frame_value
 from ..exceptions import ParameterError
 
 __all__ = ["MAX_SKIP", "MAX_FRAME", "TrackLayout", "split_tracks", "frame_numbers",
@@ -64,16 +65,13 @@ class TrackLayout:
     linked: np.ndarray = None
 
 
-#: the largest frame-number magnitude used across time: every integer up to it is
-#: exact as a float, and differences of two of them never overflow int64
-MAX_FRAME = 2**53
-
 
 def frame_numbers(frames, n):
     """Frames as int64 (n,) and the reason each unusable one is refused (`""` if usable).
 
     A frame number must be a whole number of magnitude at most :data:`MAX_FRAME`
-    (whatever its dtype: a larger one is refused as too large, never wrapped).
+    (whatever its dtype: a larger one is refused as too large, never wrapped):
+    the one rule, :func:`sparseedm._validation.frame_value`, row by row.
 
     Examples
     --------
@@ -99,7 +97,7 @@ def frame_numbers(frames, n):
         values[usable] = arr[usable].astype(np.int64)
         rows = np.flatnonzero(~usable)
     for i, v in zip(rows, arr[rows].tolist()):
-        values[i], reason[i] = _frame_number(v)
+        values[i], reason[i] = frame_value(v)
     return values, reason
 
 
@@ -117,24 +115,6 @@ def has_time(frames):
         return False
     values, reason = frame_numbers(frames, len(np.asarray(frames)))
     return len(np.unique(values[reason == ""])) >= 2
-
-
-def _frame_number(v):
-    """One frame number's int value, or 0 and why it is refused."""
-    if isinstance(v, (int, np.integer)) and not isinstance(v, bool):
-        return (int(v), "") if abs(int(v)) <= MAX_FRAME else \
-            (0, f"frame number {v} is too large (over 2**53)")
-    try:
-        f = float(v)
-    except (TypeError, ValueError, OverflowError):
-        return 0, f"frame number {v!r} is not a number"
-    if np.isnan(f) or (np.isinf(f) and "inf" in str(v).lower()):
-        return 0, f"frame number is {f}"
-    if abs(f) > MAX_FRAME:  # "1e999" or 400 digits of text too
-        return 0, f"frame number {v!r} is too large (over 2**53)"
-    if f != round(f):
-        return 0, f"frame number {v!r} is not an integer"
-    return int(f), ""
 
 
 def _track_ids(tracks, n):
