@@ -27,15 +27,19 @@ Every output holds, per row, ``status`` (one of
 :data:`sparseedm.recovery.STATUSES`), ``reason``, ``objective`` and ``gap``
 (of the lasso; empty/NaN where none was solved) and ``n_active`` (atoms used):
 
-``.csv``   the joint columns plus the columns ``status, reason, objective, gap,
-           n_active`` (after any extra columns the input had);
-``.npz``   ``poses``, ``missing``, ``ids`` plus arrays ``status``, ``reason``,
-           ``objective``, ``gap``, ``n_active`` (and any extra arrays the input had);
-``.json``  COCO: the input document (or a results list) with the recovered
-           keypoints filled in (see :mod:`sparseedm.keypoints`) and the status
-           fields added to each annotation's ``"sparseedm"`` object;
-``.npy``   a plain (n, 14, 2) array cannot hold them: they go to a sidecar
-           ``<output stem>.status.npz`` (with ``ids`` when the input had them).
+``.csv``
+    the joint columns plus the columns ``status, reason, objective, gap,
+    n_active`` (after any extra columns the input had);
+``.npz``
+    ``poses``, ``missing``, ``ids`` plus arrays ``status``, ``reason``,
+    ``objective``, ``gap``, ``n_active`` (and any extra arrays the input had);
+``.json``
+    COCO: the input document (or a results list) with the recovered
+    keypoints filled in (see :mod:`sparseedm.keypoints`) and the status
+    fields added to each annotation's ``"sparseedm"`` object;
+``.npy``
+    a plain (n, 14, 2) array cannot hold them: they go to a sidecar
+    ``<output stem>.status.npz`` (with ``ids`` when the input had them).
 
 Refused rows are written back as they were read (observed joints kept, the
 missing ones NaN / missing), so row i of the output is always row i of the

@@ -3,15 +3,18 @@
 A dictionary file is a NumPy ``.npz`` archive, read with ``allow_pickle=False``
 (a pickle is refused, never executed), holding:
 
-``components``  float64 (k, N(N-1)/2): unit-norm atoms as rows (the paper's D is
-                its transpose)
-``joint_names`` unicode (N,): the joint layout the atoms describe
-``meta``        a 0-d unicode array holding JSON: ``format_version``,
-                ``representation`` and ``normalization`` of the training vectors,
-                ``alpha_train``, ``alpha_recover`` (recommended recovery alpha),
-                ``alpha_scaling``, ``positive_code``, ``provenance`` (training
-                files, pose count, sha256 of the training poses, seed, passes,
-                batch size) and ``library_version``.
+``components``
+    float64 (k, N(N-1)/2): unit-norm atoms as rows (the paper's D is
+    its transpose)
+``joint_names``
+    unicode (N,): the joint layout the atoms describe
+``meta``
+    a 0-d unicode array holding JSON: ``format_version``,
+    ``representation`` and ``normalization`` of the training vectors,
+    ``alpha_train``, ``alpha_recover`` (recommended recovery alpha),
+    ``alpha_scaling``, ``positive_code``, ``provenance`` (training
+    files, pose count, sha256 of the training poses, seed, passes,
+    batch size) and ``library_version``.
 
 :func:`load_dictionary` checks shape, dtype, finiteness and unit norm and
 refuses anything else with a :class:`~sparseedm.exceptions.DictionaryError`.

@@ -3,10 +3,10 @@
 One module per format, each reading into the 14-joint layout and writing back
 in the same format with the filled joints flagged:
 
-:mod:`~sparseedm.formats.openpose`    OpenPose ``--write_json`` frame files or a folder of them
-:mod:`~sparseedm.formats.mmpose`      MMPose prediction JSON (COCO-17, Halpe, COCO-WholeBody)
-:mod:`~sparseedm.formats.deeplabcut`  DeepLabCut ``.csv`` / ``.h5`` tables with a joints map
-:mod:`~sparseedm.formats.posetrack`   ``track_id`` / ``frame_id`` of COCO files (PoseTrack)
+- :mod:`~sparseedm.formats.openpose`: OpenPose ``--write_json`` frame files or a folder of them
+- :mod:`~sparseedm.formats.mmpose`: MMPose prediction JSON (COCO-17, Halpe, COCO-WholeBody)
+- :mod:`~sparseedm.formats.deeplabcut`: DeepLabCut ``.csv`` / ``.h5`` tables with a joints map
+- :mod:`~sparseedm.formats.posetrack`: ``track_id`` / ``frame_id`` of COCO files (PoseTrack)
 
 Users call :func:`sparseedm.keypoints.read_keypoints` and
 :func:`~sparseedm.keypoints.write_keypoints`, which dispatch here (COCO, CSV
@@ -21,20 +21,22 @@ Default confidence thresholds
 :data:`DEFAULT_THRESHOLDS` holds the threshold each format is read with when
 none is given (a joint whose confidence is below it is missing, and recovered):
 
-``dlc`` 0.6        DeepLabCut's own ``pcutoff`` default (``config.yaml``): the
-                   likelihood below which DeepLabCut itself drops a body part
-                   from its plots and filtered outputs;
-``mmpose``,        0.3, MMPose's ``kpt_thr`` default (its demos and
-``coco`` 0.3       visualiser draw only keypoints scoring above it); MMPose's
-                   COCO metric counts keypoints above 0.2 as valid when it
-                   rescores instances, so detectors' occluded joints
-                   (0.02-0.2) fall below either. COCO ground truth (``v`` 0/1/2)
-                   is unaffected: labelled joints have v >= 1;
-``openpose`` 0.05  OpenPose's ``--render_threshold`` default: below it OpenPose
-                   itself does not draw a keypoint (it writes 0 for joints it
-                   did not find at all);
-``csv``, ``npz``,  0: these hold whatever the user put in them, so only a
-``npy``            confidence <= 0 is missing.
+``dlc``: 0.6
+    DeepLabCut's own ``pcutoff`` default (``config.yaml``): the likelihood
+    below which DeepLabCut itself drops a body part from its plots and
+    filtered outputs;
+``mmpose``, ``coco``: 0.3
+    MMPose's ``kpt_thr`` default (its demos and visualiser draw only keypoints
+    scoring above it); MMPose's COCO metric counts keypoints above 0.2 as valid
+    when it rescores instances, so detectors' occluded joints (0.02-0.2) fall
+    below either. COCO ground truth (``v`` 0/1/2) is unaffected: labelled joints
+    have v >= 1;
+``openpose``: 0.05
+    OpenPose's ``--render_threshold`` default: below it OpenPose itself does
+    not draw a keypoint (it writes 0 for joints it did not find at all);
+``csv``, ``npz``, ``npy``: 0
+    these hold whatever the user put in them, so only a confidence <= 0 is
+    missing.
 """
 
 from __future__ import annotations

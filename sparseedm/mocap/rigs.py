@@ -599,8 +599,8 @@ def tpose_frames(poses, *, tol=0.9, edges_only=True) -> np.ndarray:
 
     A frame is a T-pose when each arm is straight (shoulder -> wrist at least
     `tol` of upper arm + forearm), both arms point in opposite directions
-    (cosine below ``-tol``) and are perpendicular to the trunk (|cosine with
-    neck -> hips midpoint| below ``1 - tol``), and both legs are straight.
+    (cosine below ``-tol``) and are perpendicular to the trunk (the absolute cosine
+    with neck -> hips midpoint below ``1 - tol``), and both legs are straight.
     With `edges_only` (the default) only the runs of such frames that start
     the clip or end it count: calibration T-poses come first or last, while a
     dancer or a waving person spreads the arms level mid-clip (Bandai-Namco
