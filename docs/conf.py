@@ -1,6 +1,7 @@
 """Sphinx configuration: ``sphinx-build -W --keep-going -b html docs docs/_build/html``."""
 
 import os
+import re
 import sys
 from pathlib import Path
 
@@ -9,7 +10,7 @@ sys.path.insert(0, str(HERE / "_ext"))
 os.environ.setdefault("MPLBACKEND", "Agg")
 
 import sparseedm  # noqa: E402
-from reference import defined_in, write_api_pages  # noqa: E402
+from reference import constants, defined_in, write_api_pages  # noqa: E402
 
 project = "sparseedm"
 author = "sparseedm developers"
@@ -56,7 +57,7 @@ NOT_YET_VALIDATED = [
 ]
 numpydoc_validation_exclude = set(defined_in(NOT_YET_VALIDATED)) | {
     r"\.__init__$", r"\.__call__$", r"\.__repr__$",
-}
+} | {rf"^{re.escape(name)}$" for name in constants(API_MODULES)}  # a constant's doc is its type's
 
 # ---- tutorials: scripts executed at build time ------------------------------
 sphinx_gallery_conf = {

@@ -120,7 +120,18 @@ _SUFFIX = {"npz": ".npz", "npy": ".npy", "csv": ".csv", "coco": ".json"}
 
 def default_errors_path(output) -> Path:
     """``<output stem>.errors.csv`` beside `output` (in the current folder when
-    `output` is a device or a pipe, such as ``/dev/null``)."""
+    `output` is a device or a pipe, such as ``/dev/null``).
+
+    Parameters
+    ----------
+    output : str or path-like
+        The output file.
+
+    Returns
+    -------
+    Path
+        Where the refused rows are listed.
+    """
     return _beside(output, ".errors.csv")
 
 
@@ -282,6 +293,11 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation="
         joblib workers (see :func:`sparseedm.recover`).
     chunk_size : int, default 50_000
         Poses recovered per call of :func:`sparseedm.recover`; bounds memory.
+    backend : {"loky", "threading", "dask"}, optional
+        joblib backend of the parallel recovery; ``"dask"`` sends the work to a
+        Dask cluster (``dask`` extra).
+    scheduler : str, optional
+        The Dask scheduler's address (``tcp://HOST:8786``) with ``backend="dask"``.
     output_format : {"csv", "npz", "npy", "coco"}, optional
         Default: from the output's extension, else the input's format.
     errors_path : str or path-like, optional

@@ -201,6 +201,15 @@ def check_layout(dictionary, joint_names=JOINT_NAMES, where="poses"):
     file sparseedm reads): atoms of another order or naming would be used
     silently wrong.
 
+    Parameters
+    ----------
+    dictionary : Dictionary
+        The dictionary to check.
+    joint_names : sequence of str
+        The poses' joint layout.
+    where : str
+        What to name in the error message.
+
     Examples
     --------
     >>> import numpy as np
@@ -289,6 +298,11 @@ def check_gram_memory(dictionary):
     build, would take more than half the memory available (a DictionaryError
     naming the sizes), before anything is allocated.
 
+    Parameters
+    ----------
+    dictionary : Dictionary
+        The dictionary to check.
+
     Examples
     --------
     >>> check_gram_memory(Dictionary(np.eye(91)[:3]))
@@ -304,7 +318,13 @@ def check_gram_memory(dictionary):
 
 
 def available_dictionaries() -> list[str]:
-    """Names of the dictionaries shipped with the package ("default" included)."""
+    """Names of the dictionaries shipped with the package ("default" included).
+
+    Returns
+    -------
+    list of str
+        Names :func:`load_dictionary` accepts.
+    """
     return shipped_names("sparseedm.dictionaries", DEFAULT_DICTIONARY)
 
 
@@ -327,6 +347,11 @@ def load_dictionary(name_or_path=None, *, n_joints=None) -> Dictionary:
         name, or a path to an .npz file.
     n_joints : int, optional
         Refuse a dictionary for another joint count.
+
+    Returns
+    -------
+    Dictionary
+        The validated dictionary.
 
     Raises
     ------

@@ -343,6 +343,20 @@ def output_format(path, format=None, read_format=None):
     'mmpose'
     >>> output_format(Path("out.json"), read_format="csv")
     'coco'
+
+    Parameters
+    ----------
+    path : str or path-like
+        The output.
+    format : str, optional
+        The format asked for.
+    read_format : str, optional
+        The input's format.
+
+    Returns
+    -------
+    str
+        The format name.
     """
     path = Path(path)
     if format is not None:

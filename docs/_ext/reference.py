@@ -100,6 +100,18 @@ def write_api_pages(folder: Path):
     return modules
 
 
+def constants(modules):
+    """Documented names of the constants of `modules` (their docstring is their type's)."""
+    names = set()
+    for modname in modules:
+        module = importlib.import_module(modname)
+        for name in module.__all__:
+            kind, full = canonical(module, name)
+            if kind == "data":
+                names.add(full)
+    return names
+
+
 def defined_in(prefixes):
     """Regexes matching the documented names of objects defined under `prefixes`."""
     return [rf"^{re.escape(p)}(\.|$)" for p in prefixes]

@@ -74,6 +74,16 @@ def default_threshold(fmt):
 
     >>> default_threshold("dlc")
     0.6
+
+    Parameters
+    ----------
+    fmt : str
+        A format name (a key of :data:`DEFAULT_THRESHOLDS`).
+
+    Returns
+    -------
+    float
+        Its default threshold.
     """
     return DEFAULT_THRESHOLDS.get(fmt, 0.0)
 
@@ -83,6 +93,18 @@ def count_below(confidence, threshold):
 
     >>> count_below(np.array([[0.0, 0.1, 0.5, np.nan]]), 0.3)
     1
+
+    Parameters
+    ----------
+    confidence : ndarray or None
+        Scores read.
+    threshold : float
+        The threshold.
+
+    Returns
+    -------
+    int or None
+        How many joints it turns missing (None when there are no scores).
     """
     if confidence is None:
         return None
@@ -97,6 +119,22 @@ def threshold_line(threshold, given, fmt, below):
     'confidence threshold 0.3 (the mmpose default): 4 scored joints below it read as missing'
     >>> threshold_line(0.3, False, "coco", 0)
     'confidence threshold 0.3 (the coco default): the file has scores, none below it'
+
+    Parameters
+    ----------
+    threshold : float
+        The threshold used.
+    given : bool
+        Whether the user gave it.
+    fmt : str
+        The input's format.
+    below : int or None
+        Scored joints below it (None: the file has no scores).
+
+    Returns
+    -------
+    str
+        The line.
     """
     where = "given" if given else f"the {fmt} default"
     head = f"confidence threshold {threshold:g} ({where})"
@@ -111,6 +149,16 @@ def detect(path):
     """The format of `path` if it is one of :data:`FORMATS`, else None.
 
     Raises FileFormatError for a folder that holds no ``.json`` file.
+
+    Parameters
+    ----------
+    path : str or path-like
+        A file or folder.
+
+    Returns
+    -------
+    str or None
+        ``"openpose"``, ``"mmpose"``, ``"dlc"`` or None.
     """
     path = Path(path)
     if path.is_dir():
@@ -136,7 +184,22 @@ def detect(path):
 
 
 def read(fmt, path, *, joint_map=None):
-    """Read `path` in format `fmt` (one of :data:`FORMATS`) into a :class:`Parsed`."""
+    """Read `path` in format `fmt` (one of :data:`FORMATS`) into a :class:`Parsed`.
+
+    Parameters
+    ----------
+    fmt : str
+        One of :data:`FORMATS`.
+    path : str or path-like
+        The file or folder.
+    joint_map : str, path-like or dict, optional
+        DeepLabCut's joints map.
+
+    Returns
+    -------
+    Parsed
+        The keypoints in the 14-joint layout.
+    """
     if fmt == "openpose":
         return openpose.read(path)
     if fmt == "mmpose":
@@ -151,7 +214,23 @@ def read(fmt, path, *, joint_map=None):
 
 
 def write(fmt, path, rows, meta, *, filled_score=FILLED_SCORE, row_fields=None):
-    """Write :class:`Rows` to `path` in format `fmt`, with `meta` of a read of that format."""
+    """Write :class:`Rows` to `path` in format `fmt`, with `meta` of a read of that format.
+
+    Parameters
+    ----------
+    fmt : str
+        One of :data:`FORMATS`.
+    path : str or path-like
+        The output file or folder.
+    rows : Rows
+        The poses to write.
+    meta : dict
+        ``Parsed.meta`` of the read (empty to write a fresh file).
+    filled_score : float
+        Score of a filled joint.
+    row_fields : dict, optional
+        Per-row fields (status, reason...) to add to each person.
+    """
     module = {"openpose": openpose, "mmpose": mmpose, "dlc": deeplabcut}[fmt]
     module.write(path, rows, meta if meta.get("format") == fmt else {}, filled_score,
                  row_fields)

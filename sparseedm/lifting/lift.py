@@ -55,7 +55,7 @@ _OK = ("lifted", "lifted_occluded", "lifted_filled", "inaccurate")
 class LiftResult:
     """What :func:`lift` returns; arrays have the poses' leading axis n.
 
-    Attributes
+    Parameters
     ----------
     poses3d : (n, N, 3) metres, pelvis at the origin, camera axes (x right,
         y down, z away from the camera); NaN for refused poses
