@@ -21,7 +21,7 @@ dominated by its coding step (LassoLars refits per sample in Python) and by a
 Python loop over the 2000 atoms; measured on ~46k poses at k = 300 it took
 213 s for one pass. The steps here are the same maths with the coding done by
 the batched Gram-matrix homotopy and the atom loop compiled, see
-``benchmarks/README.md`` for the measured fit times against SPAMS' trainDL.
+the documentation's speed results for the measured fit times against SPAMS' trainDL.
 
 Objective: ``0.5 ||x - D c||^2 + alpha ||c||_1`` per sample (scikit-learn's and
 SPAMS' convention; the paper's lambda is ``2 * alpha``).
@@ -291,7 +291,7 @@ class OnlineDictionaryLearning:
     alpha : float, default 1.6
         Lasso penalty of the coding step (``0.5||x - Dc||^2 + alpha||c||_1``);
         the default was chosen on a validation split of CMU clips
-        (``dictionaries/README.md``): very sparse training codes recover best.
+        (``docs/explanation/settings.md``): very sparse training codes recover best.
     batch_size : int, default 512
     n_passes : float, default 1
         Passes over the training data in :meth:`fit`.

@@ -13,7 +13,7 @@
 - :mod:`.lift`        :func:`lift`, the user entry point
 - :mod:`.evaluation`  the paper's application table (lifting after recovery)
 - :mod:`.adaptation`  :func:`adapt_lifter`: adapt a dictionary lifter on 3D-free
-                      complete 2D poses (measured: lifters/README.md)
+                      complete 2D poses (measured: docs/explanation/settings.md)
 """
 
 from .base import (LIFTERS, Lifter, LifterError, available_lifters, is_lifter_file,  # noqa: F401
