@@ -38,6 +38,7 @@ html_static_path = []
 myst_heading_anchors = 3
 myst_enable_extensions = ["colon_fence"]
 suppress_warnings = ["myst.header"]
+smartquotes = False  # commands keep their "--" and quotes
 
 # ---- API reference: one page per public module, from its __all__ ------------
 API_MODULES = write_api_pages(HERE / "reference" / "api")
@@ -64,6 +65,7 @@ sphinx_gallery_conf = {
     "examples_dirs": "tutorials",
     "gallery_dirs": "auto_tutorials",
     "filename_pattern": r"\.py$",
+    "ignore_pattern": r"_workdir\.py$",  # the tutorials' shared helper, not a tutorial
     "within_subsection_order": "FileNameSortKey",
     "download_all_examples": False,
     "remove_config_comments": True,

@@ -333,7 +333,7 @@ def dictionary_path(name_or_path):
                            DictionaryError, "dictionary")
 
 
-#: the name before issue 22 made it public (tests and code in flight use it)
+#: the earlier name of this function (kept for code that uses it)
 _resolve = dictionary_path
 
 

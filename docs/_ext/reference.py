@@ -66,7 +66,8 @@ def _page(modname):
         if name == "__version__":
             continue
         kind, full = canonical(module, name)
-        groups[kind].append(full)
+        if full not in groups[kind]:  # an alias documents its original once
+            groups[kind].append(full)
     headings = {"class": "Classes", "function": "Functions", "data": "Constants",
                 "module": "Modules"}
     for kind in ("function", "class", "data", "module"):

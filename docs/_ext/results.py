@@ -59,7 +59,7 @@ META_KEYS = {"machine", "versions", "meta", "date", "loadavg_start", "loadavg_en
              "load_end", "settings", "argv", "note", "what", "issue", "cfg"}
 MAX_ROWS = 40
 MAX_COLUMNS = 10
-_ISSUE = [re.compile(r"\s*\([^()]*\b(?:issues?|session)\b[^()]*\)", re.I),
+_ISSUE = [re.compile(r"\s*\([^()]*\b(?:issues?|sessions?)\b[^()]*\)", re.I),
           re.compile(r"\b(?:issues? \d+(?:'s)?(?: item \d+)?|#\d+)\s*", re.I)]
 
 
@@ -204,8 +204,10 @@ def _meta_line(obj):
         parts.append(f"run {meta['date']}")
     machine = meta.get("machine")
     if isinstance(machine, dict):
-        parts.append(", ".join(str(machine[k]) for k in ("cpu", "cores", "cpus", "python")
-                               if k in machine) + (" cores" if "cores" in machine else ""))
+        cores = machine.get("cores", machine.get("cpus"))
+        parts.append(", ".join(p for p in (
+            machine.get("cpu"), f"{cores} cores" if cores else None,
+            f"Python {machine['python']}" if machine.get("python") else None) if p))
     elif machine:
         parts.append(clean(machine))
     for key in ("loadavg_start", "load_average", "load_average_before", "load_start"):

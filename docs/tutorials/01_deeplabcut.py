@@ -17,29 +17,17 @@ knee at likelihood 0.1-0.3 in two of them).
 # %%
 # Where the files are
 # -------------------
-# Run this script from anywhere inside a clone of the repository; it works in a
-# temporary folder, so nothing of the repository is written.
-import shutil
-import subprocess
-import tempfile
-from pathlib import Path
-
-repo = next(p for p in [Path.cwd(), *Path.cwd().parents] if (p / "examples").is_dir()
-            and (p / "pyproject.toml").is_file())
-work = Path(tempfile.mkdtemp())
-for name in ("dlc.csv", "dlc_joints.json"):
-    shutil.copy(repo / "tests" / "fixtures" / "formats" / name, work)
+# The script works in a temporary folder, ``work``, holding copies of
+# ``dlc.csv`` and ``dlc_joints.json``; ``sh(...)`` runs a command there and
+# prints what it prints, as a terminal would (the helper is in this script's
+# source: run it from anywhere inside a clone).
 
 
-def sh(command, expect=0):
-    """Run a shell command in the work folder and print what it prints, as a terminal would."""
-    print("$", command)
-    done = subprocess.run(command, shell=True, cwd=work, text=True,
-                          stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
-    print(done.stdout.rstrip())
-    print(f"(exit code {done.returncode})")
-    if done.returncode != expect:
-        raise RuntimeError(f"{command!r} exited {done.returncode}, expected {expect}")
+# sphinx_gallery_start_ignore
+from _workdir import repository, sh, work_folder  # noqa: F401
+
+work = work_folder("tests/fixtures/formats/dlc.csv", "tests/fixtures/formats/dlc_joints.json")
+# sphinx_gallery_end_ignore
 
 
 # %%
@@ -55,7 +43,7 @@ print("\n".join(line[:110] for line in (work / "dlc.csv").read_text().splitlines
 # knees, ankles), so it needs to know which of your body parts is which. A joint
 # map says so, once per project. Without one the file is refused, and the
 # message says what to do:
-sh("sparseedm recover dlc.csv -o filled.csv", expect=2)
+sh("sparseedm recover dlc.csv -o filled.csv", work, expect=2)
 
 # %%
 # The map of this project: ``{"joints": {"<sparseedm joint>": "<your body part>"}}``
@@ -66,7 +54,7 @@ print((work / "dlc_joints.json").read_text())
 # %%
 # Fill in the low-likelihood body parts
 # -------------------------------------
-sh("sparseedm recover dlc.csv -o filled.csv --joint-map dlc_joints.json")
+sh("sparseedm recover dlc.csv -o filled.csv --joint-map dlc_joints.json", work)
 
 # %%
 # The output is a DeepLabCut table again (``create_labeled_video`` and the
@@ -102,7 +90,7 @@ print("left knee, filled:", np.round(res.poses[kps.missing[:, knee], knee], 1))
 # ``--confidence-threshold`` (``confidence_threshold=`` in Python) overrides
 # DeepLabCut's 0.6; the command prints how many scored body parts fell below it.
 sh("sparseedm recover dlc.csv -o strict.csv --joint-map dlc_joints.json "
-   "--confidence-threshold 0.95", expect=1)
+   "--confidence-threshold 0.95", work, expect=1)
 
 # %%
 # At 0.95 most body parts of this table fall below the line: every row keeps

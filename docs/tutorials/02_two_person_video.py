@@ -22,30 +22,24 @@ recovers both.
 # %%
 # Two people in the same frames
 # -----------------------------
-import shutil
-import subprocess
-import tempfile
-from pathlib import Path
 
 import numpy as np
 
 from sparseedm.keypoints import read_keypoints, write_keypoints
 
-repo = next(p for p in [Path.cwd(), *Path.cwd().parents] if (p / "examples").is_dir()
-            and (p / "pyproject.toml").is_file())
-work = Path(tempfile.mkdtemp())
-shutil.copy(repo / "examples" / "video_clip.csv", work)
 
+# %%
+# The script works in a temporary folder, ``work``, holding copies of
+# ``video_clip.csv``; ``sh(...)`` runs a command there and prints what it
+# prints, as a terminal would (the helper is in this script's source: run it
+# from anywhere inside a clone).
 
-def sh(command, expect=0):
-    """Run a shell command in the work folder and print what it prints, as a terminal would."""
-    print("$", command)
-    done = subprocess.run(command, shell=True, cwd=work, text=True,
-                          stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
-    print(done.stdout.rstrip())
-    print(f"(exit code {done.returncode})")
-    if done.returncode != expect:
-        raise RuntimeError(f"{command!r} exited {done.returncode}, expected {expect}")
+# sphinx_gallery_start_ignore
+from _workdir import repository, sh, work_folder  # noqa: F401
+
+repo = repository()
+work = work_folder("examples/video_clip.csv")
+# sphinx_gallery_end_ignore
 
 
 clip = read_keypoints(work / "video_clip.csv")
@@ -72,13 +66,13 @@ print((work / "openpose_json" / files[0]).read_text()[:300], "...")
 # A folder in, a folder out: every frame file comes back with the hidden joints
 # filled (score 0, so that nothing reads them as detections) and a
 # ``person_id`` per person.
-sh("sparseedm recover openpose_json/ -o filled_json/")
+sh("sparseedm recover openpose_json/ -o filled_json/", work)
 
 # %%
 # Recover the MMPose file
 # -----------------------
 # The same for MMPose; the linked tracks are written as ``track_id``.
-sh("sparseedm recover predictions.json -o filled.json")
+sh("sparseedm recover predictions.json -o filled.json", work)
 
 # %%
 # How close the filled joints are

@@ -20,32 +20,25 @@ person's markers, one row per frame.
 # ``examples/video_clip.csv`` holds two people (``track`` 02_01 and 02_05).
 # A TRC file holds one person, so we keep the first.
 import csv
-import shutil
-import subprocess
-import tempfile
-from pathlib import Path
-
-repo = next(p for p in [Path.cwd(), *Path.cwd().parents] if (p / "examples").is_dir()
-            and (p / "pyproject.toml").is_file())
-work = Path(tempfile.mkdtemp())
-shutil.copy(repo / "examples" / "video_clip.csv", work)
 
 
-def sh(command, expect=0):
-    """Run a shell command in the work folder and print what it prints, as a terminal would."""
-    print("$", command)
-    done = subprocess.run(command, shell=True, cwd=work, text=True,
-                          stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
-    print(done.stdout.rstrip())
-    print(f"(exit code {done.returncode})")
-    if done.returncode != expect:
-        raise RuntimeError(f"{command!r} exited {done.returncode}, expected {expect}")
+# %%
+# The script works in a temporary folder, ``work``, holding copies of
+# ``video_clip.csv``; ``sh(...)`` runs a command there and prints what it
+# prints, as a terminal would (the helper is in this script's source: run it
+# from anywhere inside a clone).
+
+# sphinx_gallery_start_ignore
+from _workdir import repository, sh, work_folder  # noqa: F401
+
+work = work_folder("examples/video_clip.csv")
+# sphinx_gallery_end_ignore
 
 
 # %%
 # Asking for a TRC of the two-person file is refused before any work, and the
 # message says what to do instead:
-sh("sparseedm lift video_clip.csv -o both.trc", expect=2)
+sh("sparseedm lift video_clip.csv -o both.trc", work, expect=2)
 
 # %%
 # So write the first person's rows to their own file:
@@ -61,7 +54,7 @@ print(sum(r["track"] == "02_01" for r in rows), "frames of track 02_01")
 # Lift it
 # -------
 # ``--rate`` is the video's frame rate (the TRC's time column).
-sh("sparseedm lift walk.csv -o walk.trc --rate 30")
+sh("sparseedm lift walk.csv -o walk.trc --rate 30", work)
 
 # %%
 # The TRC file: a header, then a frame number, a time and x, y, z per joint.

@@ -19,29 +19,22 @@ thousands of atoms and many clips (see the commands at the end).
 # %%
 # The files
 # ---------
+
+# The script works in a temporary folder, ``work``, holding copies of the
+# three motion files (in ``mocap/``) and ``occluded_poses.csv``; ``sh(...)``
+# runs a command there and prints what it prints, as a terminal would (the
+# helper is in this script's source: run it from anywhere inside a clone).
+
+# sphinx_gallery_start_ignore
 import shutil
-import subprocess
-import tempfile
-from pathlib import Path
 
-repo = next(p for p in [Path.cwd(), *Path.cwd().parents] if (p / "examples").is_dir()
-            and (p / "pyproject.toml").is_file())
-work = Path(tempfile.mkdtemp())
-(work / "mocap").mkdir()
-for name in ("cmu_02_01_short.bvh", "cmu_02.asf", "cmu_02_01_short.amc"):
-    shutil.copy(repo / "tests" / "fixtures" / name, work / "mocap")
+from _workdir import repository, sh, work_folder  # noqa: F401
+
+repo = repository()
+work = work_folder("tests/fixtures/cmu_02_01_short.bvh", "tests/fixtures/cmu_02.asf",
+                   "tests/fixtures/cmu_02_01_short.amc", into="mocap")
 shutil.copy(repo / "examples" / "occluded_poses.csv", work)
-
-
-def sh(command, expect=0):
-    """Run a shell command in the work folder and print what it prints, as a terminal would."""
-    print("$", command)
-    done = subprocess.run(command, shell=True, cwd=work, text=True,
-                          stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
-    print(done.stdout.rstrip())
-    print(f"(exit code {done.returncode})")
-    if done.returncode != expect:
-        raise RuntimeError(f"{command!r} exited {done.returncode}, expected {expect}")
+# sphinx_gallery_end_ignore
 
 
 # %%
@@ -51,7 +44,7 @@ def sh(command, expect=0):
 # standing height), the T-pose frames it would drop, and where each of the 14
 # joints comes from. A rig it does not know needs a joint map
 # (:doc:`/howto/joint_maps`).
-sh("sparseedm dataset inspect mocap/cmu_02_01_short.bvh")
+sh("sparseedm dataset inspect mocap/cmu_02_01_short.bvh", work)
 
 # %%
 # Build the training poses
@@ -59,20 +52,20 @@ sh("sparseedm dataset inspect mocap/cmu_02_01_short.bvh")
 # Every BVH and ASF/AMC clip of the folder, every frame (``--frame-step 1``;
 # by default about 40 frames a second are kept) seen by ten seeded virtual
 # cameras.
-sh("sparseedm dataset build mocap -o train.npz --frame-step 1 --cameras-per-pose 10 --seed 0")
+sh("sparseedm dataset build mocap -o train.npz --frame-step 1 --cameras-per-pose 10 --seed 0", work)
 
 # %%
 # Learn the dictionary
 # --------------------
 # 32 atoms and one pass keep this tutorial fast; the defaults (2,000 atoms, two
 # passes) are what the shipped dictionary uses.
-sh("sparseedm fit train.npz -o mine.npz --atoms 32 --passes 1 --seed 0")
-sh("sparseedm info mine.npz")
+sh("sparseedm fit train.npz -o mine.npz --atoms 32 --passes 1 --seed 0", work)
+sh("sparseedm info mine.npz", work)
 
 # %%
 # Use it
 # ------
-sh("sparseedm recover occluded_poses.csv -o filled.csv --dictionary mine.npz --no-adapt")
+sh("sparseedm recover occluded_poses.csv -o filled.csv --dictionary mine.npz --no-adapt", work)
 
 # %%
 # The same in Python
@@ -98,7 +91,7 @@ print(f"{len(mine.components)} atoms; recovery alpha {mine.alpha_recover}")
 # build skips such files, lists them and builds the rest (exit code 1):
 shutil.copy(repo / "tests" / "fixtures" / "bad_input" / "mocap" / "err_hierarchy_cut.bvh",
             work / "mocap")
-sh("sparseedm dataset build mocap -o train2.npz --seed 0", expect=1)
+sh("sparseedm dataset build mocap -o train2.npz --seed 0", work, expect=1)
 
 # %%
 # At full size

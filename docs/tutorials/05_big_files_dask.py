@@ -18,28 +18,23 @@ workers, then on a local Dask cluster (if the ``dask`` extra is installed).
 # ----------
 # Poses in an ``.npy`` array of shape (n, 14, 2), NaN at the hidden joints
 # (here 1-3 joints per pose, drawn as the paper's evaluation does).
-import subprocess
-import tempfile
-from pathlib import Path
 
 import numpy as np
 
 from sparseedm.metrics import random_occlusion
 
-repo = next(p for p in [Path.cwd(), *Path.cwd().parents] if (p / "examples").is_dir()
-            and (p / "pyproject.toml").is_file())
-work = Path(tempfile.mkdtemp())
 
+# %%
+# The script works in a temporary folder, ``work``; ``sh(...)`` runs a command
+# there and prints what it prints, as a terminal would (the helper is in this
+# script's source: run it from anywhere inside a clone).
 
-def sh(command, expect=0):
-    """Run a shell command in the work folder and print what it prints, as a terminal would."""
-    print("$", command)
-    done = subprocess.run(command, shell=True, cwd=work, text=True,
-                          stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
-    print(done.stdout.rstrip())
-    print(f"(exit code {done.returncode})")
-    if done.returncode != expect:
-        raise RuntimeError(f"{command!r} exited {done.returncode}, expected {expect}")
+# sphinx_gallery_start_ignore
+from _workdir import repository, sh, work_folder  # noqa: F401
+
+repo = repository()
+work = work_folder()
+# sphinx_gallery_end_ignore
 
 
 with np.load(repo / "tests" / "fixtures" / "cmu_poses.npz") as data:
@@ -56,7 +51,7 @@ print(poses.shape, f"{hidden.sum()} hidden joints")
 # ----------------------
 # ``--no-adapt`` keeps this tutorial short: by default the dictionary is first
 # adapted on the file's own complete poses (:doc:`/howto/adaptation`).
-sh("sparseedm recover big.npy -o filled.npy --jobs 2 --chunk-size 250 --no-adapt")
+sh("sparseedm recover big.npy -o filled.npy --jobs 2 --chunk-size 250 --no-adapt", work)
 
 # %%
 # A ``.npy`` output has a ``.status.npz`` beside it (each row's status, the
@@ -89,7 +84,7 @@ if LocalCluster is not None:
                       protocol="tcp", dashboard_address=None) as cluster:
         print("scheduler:", cluster.scheduler_address)
         sh(f"sparseedm recover big.npy -o filled_dask.npy --no-adapt --backend dask "
-           f"--scheduler {cluster.scheduler_address}")
+           f"--scheduler {cluster.scheduler_address}", work)
         res = sparseedm.recover(poses[:300], backend="dask",
                                 scheduler=cluster.scheduler_address, adapt=False)
     print(res.summary()["status"])

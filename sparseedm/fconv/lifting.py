@@ -6,7 +6,7 @@ mask) to 3D EDM vectors in the training 3D units (metres for
 :func:`~sparseedm.fconv.fit_edm_lifter`; :class:`FConvEDMLifter` is its
 scikit-learn-style shell. (Metric 3D joints and a ``LiftResult`` come from
 :func:`sparseedm.lift`, whose ``fconv`` lifter, :mod:`sparseedm.lifting.fconv`,
-wraps this network.) The names before issue 22, ``lift`` and ``FConvLifter``,
+wraps this network.) The earlier names, ``lift`` and ``FConvLifter``,
 stay as aliases. Turning a 3D EDM into
 joint coordinates (multidimensional scaling) is left to the caller, e.g. the
 3D lifting module, which can wrap these.
@@ -98,6 +98,6 @@ class FConvEDMLifter(NetworkShell):
         return lift_edm_vectors(self.model_, X, missing)
 
 
-# the names before issue 22
+# the earlier names
 lift = lift_edm_vectors
 FConvLifter = FConvEDMLifter

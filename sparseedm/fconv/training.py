@@ -241,7 +241,7 @@ def fit_edm_lifter(poses2d, poses3d, clips=None, *, representation="average", oc
 
 
 
-#: the name before issue 22 (``sparseedm.lifting.fit_lifter`` returns a Lifter; this an FConvModel)
+#: the earlier name (``sparseedm.lifting.fit_lifter`` returns a Lifter; this an FConvModel)
 fit_lifter = fit_edm_lifter
 
 def check_representation(representation):
