@@ -19,8 +19,9 @@ knee at likelihood 0.1-0.3 in two of them).
 # -------------------
 # The script works in a temporary folder, ``work``, holding copies of
 # ``dlc.csv`` and ``dlc_joints.json``; ``sh(...)`` runs a command there and
-# prints what it prints, as a terminal would (the helper is in this script's
-# source: run it from anywhere inside a clone).
+# prints what it prints, as a terminal would (both come from
+# ``docs/tutorials/_workdir.py``; run the script from anywhere inside a
+# clone).
 
 
 # sphinx_gallery_start_ignore

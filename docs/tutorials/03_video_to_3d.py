@@ -25,8 +25,8 @@ import csv
 # %%
 # The script works in a temporary folder, ``work``, holding copies of
 # ``video_clip.csv``; ``sh(...)`` runs a command there and prints what it
-# prints, as a terminal would (the helper is in this script's source: run it
-# from anywhere inside a clone).
+# prints, as a terminal would (both come from ``docs/tutorials/_workdir.py``;
+# run the script from anywhere inside a clone).
 
 # sphinx_gallery_start_ignore
 from _workdir import repository, sh, work_folder  # noqa: F401

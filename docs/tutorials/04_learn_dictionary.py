@@ -22,8 +22,9 @@ thousands of atoms and many clips (see the commands at the end).
 
 # The script works in a temporary folder, ``work``, holding copies of the
 # three motion files (in ``mocap/``) and ``occluded_poses.csv``; ``sh(...)``
-# runs a command there and prints what it prints, as a terminal would (the
-# helper is in this script's source: run it from anywhere inside a clone).
+# runs a command there and prints what it prints, as a terminal would (both
+# come from ``docs/tutorials/_workdir.py``; run the script from anywhere
+# inside a clone).
 
 # sphinx_gallery_start_ignore
 import shutil
