@@ -11,7 +11,7 @@ import torch; training and prediction do.
 - :mod:`sparseedm.fconv.lifting`   lift_edm_vectors(): 2D -> 3D EDM vectors, FConvEDMLifter
 
 ``fit_lifter``, ``lift`` and ``FConvLifter`` are the same functions under their
-names before issue 22 (not :func:`sparseedm.lifting.fit_lifter` /
+earlier names (not :func:`sparseedm.lifting.fit_lifter` /
 :func:`sparseedm.lift`, which give a Lifter and a LiftResult).
 """
 
