@@ -33,7 +33,7 @@ PAGES = {
     "speed": ["results.json", "results-quick.json", "results-adaptation.json",
               "results-default-path.json", "results-temporal.json", "results-video-speed*.json",
               "results-lifting-speed.json", "results-fconv.json"],
-    "accuracy": ["results-video*.json", "results-real-people*.json", "results-lifting*.json"],
+    "accuracy": ["results-real-people*.json", "results-video*.json", "results-lifting*.json"],
 }
 #: readable titles (a file without one is titled by its name)
 TITLES = {
@@ -52,6 +52,13 @@ TITLES = {
     "results-video-intervals-30.json": "Video protocols, 30 sequences per split",
     "results-video-intervals-all.json": "Video protocols, every sequence of each split",
     "results-video-noise-30.json": "Video protocols with 1 % keypoint jitter",
+    "results-video-pca.json": "PCA gap filling: how many components (validation)",
+    "results-video-rerun.json": "Video protocols, re-run with the placement guard",
+    "results-video-temporal.json": "Video protocols: the temporal model",
+    "results-video-test-30.json": "Video protocols, held-out test, 30 sequences",
+    "results-video-test-30-relative.json": "Held-out test, 30 sequences, joints smoothed relative to their parents",
+    "results-video-validation.json": "Video protocols, validation sequences",
+    "results-video-validation-30.json": "Video protocols, validation, 30 sequences",
     "results-real-people-val.json": "Real people, validation split",
 }
 META_KEYS = {"machine", "versions", "meta", "date", "loadavg_start", "loadavg_end",
@@ -71,15 +78,19 @@ def clean(text):
     return text.strip()
 
 
-def page_of(name):
+def place(name):
+    """(page, rank): the first pattern matching `name`, its position in its page's list."""
     for page, patterns in PAGES.items():
-        if any(fnmatch.fnmatch(name, p) for p in patterns):
-            return page
-    return "accuracy"
+        for rank, pattern in enumerate(patterns):
+            if fnmatch.fnmatch(name, pattern):
+                return page, rank
+    return "accuracy", len(PAGES["accuracy"])
 
 
 def files_for(page):
-    return [p for p in sorted(ROOT.glob(PATTERN)) if page_of(p.name) == page]
+    """The results files of `page`, in the order of its patterns, then by name."""
+    found = [p for p in ROOT.glob(PATTERN) if place(p.name)[0] == page]
+    return sorted(found, key=lambda p: (place(p.name)[1], p.name))
 
 
 def fmt(value):
