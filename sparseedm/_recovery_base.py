@@ -94,7 +94,7 @@ def recovery_summary(status, recovered_joints, fallback, seconds):
 class RecoveryResult:
     """What :func:`sparseedm.recover` returns; every array has the poses' leading axis n.
 
-    Attributes
+    Parameters
     ----------
     poses : ndarray (n, N, 2)
         Filled poses in the caller's frame: observed joints exactly as given,

@@ -27,15 +27,19 @@ Every output holds, per row, ``status`` (one of
 :data:`sparseedm.recovery.STATUSES`), ``reason``, ``objective`` and ``gap``
 (of the lasso; empty/NaN where none was solved) and ``n_active`` (atoms used):
 
-``.csv``   the joint columns plus the columns ``status, reason, objective, gap,
-           n_active`` (after any extra columns the input had);
-``.npz``   ``poses``, ``missing``, ``ids`` plus arrays ``status``, ``reason``,
-           ``objective``, ``gap``, ``n_active`` (and any extra arrays the input had);
-``.json``  COCO: the input document (or a results list) with the recovered
-           keypoints filled in (see :mod:`sparseedm.keypoints`) and the status
-           fields added to each annotation's ``"sparseedm"`` object;
-``.npy``   a plain (n, 14, 2) array cannot hold them: they go to a sidecar
-           ``<output stem>.status.npz`` (with ``ids`` when the input had them).
+``.csv``
+    the joint columns plus the columns ``status, reason, objective, gap,
+    n_active`` (after any extra columns the input had);
+``.npz``
+    ``poses``, ``missing``, ``ids`` plus arrays ``status``, ``reason``,
+    ``objective``, ``gap``, ``n_active`` (and any extra arrays the input had);
+``.json``
+    COCO: the input document (or a results list) with the recovered
+    keypoints filled in (see :mod:`sparseedm.keypoints`) and the status
+    fields added to each annotation's ``"sparseedm"`` object;
+``.npy``
+    a plain (n, 14, 2) array cannot hold them: they go to a sidecar
+    ``<output stem>.status.npz`` (with ``ids`` when the input had them).
 
 Refused rows are written back as they were read (observed joints kept, the
 missing ones NaN / missing), so row i of the output is always row i of the
@@ -121,7 +125,18 @@ def default_errors_path(output) -> Path:
     `output` is a device or a pipe, such as ``/dev/null``); when that name would
     pass 255 bytes, the stem's first 120 bytes and a hash of the whole stem
     (:func:`sparseedm.keypoints.beside`), so that any output name file systems
-    take has an errors file name they take too."""
+    take has an errors file name they take too.
+
+    Parameters
+    ----------
+    output : str or path-like
+        The output file.
+
+    Returns
+    -------
+    Path
+        Where the refused rows are listed.
+    """
     return beside(output, ".errors.csv")
 
 
@@ -279,6 +294,11 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
         joblib workers (see :func:`sparseedm.recover`).
     chunk_size : int, default 50_000
         Poses recovered per call of :func:`sparseedm.recover`; bounds memory.
+    backend : {"loky", "threading", "dask"}, optional
+        joblib backend of the parallel recovery; ``"dask"`` sends the work to a
+        Dask cluster (``dask`` extra).
+    scheduler : str, optional
+        The Dask scheduler's address (``tcp://HOST:8786``) with ``backend="dask"``.
     output_format : {"csv", "npz", "npy", "coco"}, optional
         Default: from the output's extension, else the input's format.
     errors_path : str or path-like, optional

@@ -99,6 +99,16 @@ def find_mocap_files(paths) -> list[Path]:
 
     Files are returned sorted within each folder; a path that does not exist
     raises :class:`FileNotFoundError`.
+
+    Parameters
+    ----------
+    paths : sequence of str or path-like
+        Files and folders.
+
+    Returns
+    -------
+    list of Path
+        Sorted, without duplicates.
     """
     if isinstance(paths, (str, os.PathLike)):
         paths = [paths]
@@ -159,6 +169,16 @@ def clip_metadata(path) -> dict:
     ``folder/stem``, so that numbered files of different folders (the Daz BVH's
     ``salsa/01.bvh`` and ``martial/01.bvh``) stay different clips, and a purely
     numeric stem takes its folder's name as the action label.
+
+    Parameters
+    ----------
+    path : str or path-like
+        A .bvh or .amc file.
+
+    Returns
+    -------
+    dict
+        Those four fields, each a str.
 
     Examples
     --------
@@ -475,6 +495,11 @@ def _validate(data, name):
 
 def load_dataset(path) -> dict:
     """Load and validate a dataset .npz written by :func:`build_dataset`.
+
+    Parameters
+    ----------
+    path : str or path-like
+        A dataset ``.npz``.
 
     Returns
     -------

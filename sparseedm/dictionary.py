@@ -3,15 +3,18 @@
 A dictionary file is a NumPy ``.npz`` archive, read with ``allow_pickle=False``
 (a pickle is refused, never executed), holding:
 
-``components``  float64 (k, N(N-1)/2): unit-norm atoms as rows (the paper's D is
-                its transpose)
-``joint_names`` unicode (N,): the joint layout the atoms describe
-``meta``        a 0-d unicode array holding JSON: ``format_version``,
-                ``representation`` and ``normalization`` of the training vectors,
-                ``alpha_train``, ``alpha_recover`` (recommended recovery alpha),
-                ``alpha_scaling``, ``positive_code``, ``provenance`` (training
-                files, pose count, sha256 of the training poses, seed, passes,
-                batch size) and ``library_version``.
+``components``
+    float64 (k, N(N-1)/2): unit-norm atoms as rows (the paper's D is
+    its transpose)
+``joint_names``
+    unicode (N,): the joint layout the atoms describe
+``meta``
+    a 0-d unicode array holding JSON: ``format_version``,
+    ``representation`` and ``normalization`` of the training vectors,
+    ``alpha_train``, ``alpha_recover`` (recommended recovery alpha),
+    ``alpha_scaling``, ``positive_code``, ``provenance`` (training
+    files, pose count, sha256 of the training poses, seed, passes,
+    batch size) and ``library_version``.
 
 :func:`load_dictionary` checks shape, dtype, finiteness and unit norm and
 refuses anything else with a :class:`~sparseedm.exceptions.DictionaryError`.
@@ -198,6 +201,15 @@ def check_layout(dictionary, joint_names=JOINT_NAMES, where="poses"):
     file sparseedm reads): atoms of another order or naming would be used
     silently wrong.
 
+    Parameters
+    ----------
+    dictionary : Dictionary
+        The dictionary to check.
+    joint_names : sequence of str
+        The poses' joint layout.
+    where : str
+        What to name in the error message.
+
     Examples
     --------
     >>> import numpy as np
@@ -286,6 +298,11 @@ def check_gram_memory(dictionary):
     build, would take more than half the memory available (a DictionaryError
     naming the sizes), before anything is allocated.
 
+    Parameters
+    ----------
+    dictionary : Dictionary
+        The dictionary to check.
+
     Examples
     --------
     >>> check_gram_memory(Dictionary(np.eye(91)[:3]))
@@ -301,7 +318,13 @@ def check_gram_memory(dictionary):
 
 
 def available_dictionaries() -> list[str]:
-    """Names of the dictionaries shipped with the package ("default" included)."""
+    """Names of the dictionaries shipped with the package ("default" included).
+
+    Returns
+    -------
+    list of str
+        Names :func:`load_dictionary` accepts.
+    """
     return shipped_names("sparseedm.dictionaries", DEFAULT_DICTIONARY)
 
 
@@ -310,7 +333,7 @@ def dictionary_path(name_or_path):
                            DictionaryError, "dictionary")
 
 
-#: the private name this had before it was public (tests still use it)
+#: the earlier name of this function (kept for code that uses it)
 _resolve = dictionary_path
 
 
@@ -324,6 +347,11 @@ def load_dictionary(name_or_path=None, *, n_joints=None) -> Dictionary:
         name, or a path to an .npz file.
     n_joints : int, optional
         Refuse a dictionary for another joint count.
+
+    Returns
+    -------
+    Dictionary
+        The validated dictionary.
 
     Raises
     ------

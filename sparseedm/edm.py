@@ -34,6 +34,16 @@ __all__ = [
 def triu_indices(n_joints: int) -> tuple[np.ndarray, np.ndarray]:
     """Row and column indices of the upper triangle (i < j), row-major.
 
+    Parameters
+    ----------
+    n_joints : int
+        Joint count N.
+
+    Returns
+    -------
+    rows, cols : ndarray
+        Read-only index arrays of length N(N-1)/2.
+
     Examples
     --------
     >>> rows, cols = triu_indices(4)
@@ -48,6 +58,16 @@ def triu_indices(n_joints: int) -> tuple[np.ndarray, np.ndarray]:
 
 def num_joints_from_dim(n_features: int) -> int:
     """N such that N(N-1)/2 == n_features (clear error otherwise).
+
+    Parameters
+    ----------
+    n_features : int
+        Length of an EDM vector.
+
+    Returns
+    -------
+    int
+        The joint count N.
 
     Examples
     --------
@@ -103,6 +123,16 @@ def pose_to_edm(poses) -> np.ndarray:
 def edm_to_vector(edm) -> np.ndarray:
     """Upper-triangle vector T of each EDM (row-major over i < j).
 
+    Parameters
+    ----------
+    edm : array_like, shape (..., N, N)
+        Euclidean distance matrices.
+
+    Returns
+    -------
+    ndarray, shape (..., N(N-1)/2)
+        Their upper triangles, row by row.
+
     Examples
     --------
     >>> edm_to_vector(pose_to_edm([[0, 0], [3, 0], [3, 4]]))
@@ -117,6 +147,16 @@ def edm_to_vector(edm) -> np.ndarray:
 
 def vector_to_edm(vectors) -> np.ndarray:
     """Symmetric EDM with zero diagonal from upper-triangle vectors.
+
+    Parameters
+    ----------
+    vectors : array_like, shape (..., N(N-1)/2)
+        Upper-triangle vectors.
+
+    Returns
+    -------
+    ndarray, shape (..., N, N)
+        The matrices.
 
     Examples
     --------
@@ -138,6 +178,16 @@ def vector_to_edm(vectors) -> np.ndarray:
 
 def pose_to_vector(poses) -> np.ndarray:
     """Shortcut for ``edm_to_vector(pose_to_edm(poses))`` without the full EDM.
+
+    Parameters
+    ----------
+    poses : array_like, shape (..., N, dim)
+        Joint coordinates.
+
+    Returns
+    -------
+    ndarray, shape (..., N(N-1)/2)
+        Each pose's pairwise joint distances, row-major over i < j.
 
     Examples
     --------

@@ -3,13 +3,18 @@
 
 Every reader returns one in-memory form, a :class:`KeypointSet`:
 
-``poses``       (n, 14, 2) float, joints in :data:`~sparseedm.skeleton.SKELETON_14`
-                order, **NaN for every missing joint**;
-``missing``     (n, 14) bool, True = missing;
-``confidence``  (n, 14) float or None;
-``ids``         (n,) str or None (image / frame ids);
-``meta``        dict of format details needed to write the same file back
-                (extra CSV columns, the original COCO document, ...).
+``poses``
+    (n, 14, 2) float, joints in :data:`~sparseedm.skeleton.SKELETON_14`
+    order, **NaN for every missing joint**;
+``missing``
+    (n, 14) bool, True = missing;
+``confidence``
+    (n, 14) float or None;
+``ids``
+    (n,) str or None (image / frame ids);
+``meta``
+    dict of format details needed to write the same file back
+    (extra CSV columns, the original COCO document, ...).
 
 :func:`write_keypoints` writes poses (e.g. recovered ones) in any of the formats,
 atomically (:func:`sparseedm._atomic.atomic_path`). The format comes from the
@@ -348,6 +353,20 @@ def output_format(path, format=None, read_format=None):
     'mmpose'
     >>> output_format(Path("out.json"), read_format="csv")
     'coco'
+
+    Parameters
+    ----------
+    path : str or path-like
+        The output.
+    format : str, optional
+        The format asked for.
+    read_format : str, optional
+        The input's format.
+
+    Returns
+    -------
+    str
+        The format name.
     """
     path = Path(path)
     if format is not None:

@@ -21,7 +21,7 @@ dominated by its coding step (LassoLars refits per sample in Python) and by a
 Python loop over the 2000 atoms; measured on ~46k poses at k = 300 it took
 213 s for one pass. The steps here are the same maths with the coding done by
 the batched Gram-matrix homotopy and the atom loop compiled, see
-``benchmarks/README.md`` for the measured fit times against SPAMS' trainDL.
+the documentation's speed results for the measured fit times against SPAMS' trainDL.
 
 Objective: ``0.5 ||x - D c||^2 + alpha ||c||_1`` per sample (scikit-learn's and
 SPAMS' convention; the paper's lambda is ``2 * alpha``).
@@ -91,6 +91,17 @@ def update_inner_stats(A, B, X, code, beta=1.0):
     """``A <- beta A + C^T C``, ``B <- beta B + X^T C`` in place (Mairal's A_t, B_t).
 
     `beta` < 1 down-weights the first, poorly coded batches (Mairal 2009, sec. 3.4).
+
+    Parameters
+    ----------
+    A, B : ndarray
+        Statistics, shapes (k, k) and (d, k), updated in place.
+    X : ndarray, shape (b, d)
+        The mini-batch.
+    code : ndarray, shape (b, k)
+        Its codes.
+    beta : float
+        Forgetting factor.
     """
     A *= beta
     B *= beta
@@ -141,6 +152,22 @@ def update_dictionary(components, A, B, X=None, random_state=None):
     yet (``A_jj == 0``) are re-drawn from the rows of X, as scikit-learn does.
 
     Returns the number of re-drawn atoms.
+
+    Parameters
+    ----------
+    components : ndarray, shape (k, d)
+        Atoms, updated in place.
+    A, B : ndarray
+        Sufficient statistics, shapes (k, k) and (d, k).
+    X : ndarray, shape (b, d), optional
+        Vectors to re-draw an unused atom from.
+    random_state : int, Generator or SeedSequence, optional
+        Seed of that draw.
+
+    Returns
+    -------
+    ndarray, shape (k, d)
+        `components`, updated.
     """
     C = np.ascontiguousarray(components)
     used = np.ones(C.shape[0], dtype=np.bool_)
@@ -164,6 +191,30 @@ def minibatch_step(X, components, A, B, alpha, *, positive=False, beta=1.0,
     continued from a known dictionary, on its first step). Returns the
     batch's mean lasso objective at the codes (before the atom update), the
     quantity whose running average monitors convergence.
+
+    Parameters
+    ----------
+    X : ndarray, shape (b, d)
+        The mini-batch.
+    components : ndarray, shape (k, d)
+        Atoms, updated in place.
+    A, B : ndarray
+        Mairal's sufficient statistics, shapes (k, k) and (d, k), updated in place.
+    alpha : float
+        Lasso penalty of the coding step.
+    positive : bool
+        Non-negative codes.
+    beta : float
+        Forgetting factor applied to A and B before adding the batch.
+    random_state : int, Generator or SeedSequence, optional
+        Seed for re-drawing unused atoms.
+    gram : ndarray, shape (k, k), optional
+        ``components @ components.T`` if already known.
+
+    Returns
+    -------
+    ndarray, shape (b, k)
+        The batch's codes.
     """
     if gram is None:
         gram = components @ components.T
@@ -179,6 +230,20 @@ def init_dictionary(X, n_components, random_state=None):
     """Initial atoms: distinct random rows of X, unit-normalised.
 
     Raises SparseEDMError when X has fewer rows than atoms.
+
+    Parameters
+    ----------
+    X : ndarray, shape (n, d)
+        Training vectors.
+    n_components : int
+        Number of atoms k (at most the number of distinct rows).
+    random_state : int, Generator or SeedSequence, optional
+        Seed of the draw.
+
+    Returns
+    -------
+    ndarray, shape (k, d)
+        Unit-norm initial atoms.
     """
     X = np.asarray(X, dtype=float)
     if len(X) < n_components:
@@ -226,7 +291,7 @@ class OnlineDictionaryLearning:
     alpha : float, default 1.6
         Lasso penalty of the coding step (``0.5||x - Dc||^2 + alpha||c||_1``);
         the default was chosen on a validation split of CMU clips
-        (``dictionaries/README.md``): very sparse training codes recover best.
+        (``docs/explanation/settings.md``): very sparse training codes recover best.
     batch_size : int, default 512
     n_passes : float, default 1
         Passes over the training data in :meth:`fit`.

@@ -65,9 +65,13 @@ def test_trc_times_stay_distinct_and_exact_at_any_rate(tmp_path, rate):
     assert back["rate"] == rate
 
 
+#: half the 6th decimal, and the binary rounding of a value exactly half-way (0.2578125)
+_HALF_LAST_DECIMAL = 5e-7 * (1 + 1e-9)
+
+
 def _same_times(read, written):
     """Times read back: to the 6 decimals written (or exactly), still increasing."""
-    np.testing.assert_allclose(read, written, atol=5e-7, rtol=0)
+    np.testing.assert_allclose(read, written, atol=_HALF_LAST_DECIMAL, rtol=0)
     assert (np.diff(read) > 0).all()
 
 
@@ -107,7 +111,7 @@ def test_trc_round_trip_property(tmp_path, names, file, frames, rate, seed):
     assert back["markers"] == names and back["rate"] == rate
     np.testing.assert_array_equal(back["frames"], np.asarray(frames, dtype=np.int64) + 1)
     _same_times(back["times"], np.asarray(frames) / rate)
-    np.testing.assert_allclose(back["poses"], P, atol=5e-7, rtol=0)
+    np.testing.assert_allclose(back["poses"], P, atol=_HALF_LAST_DECIMAL, rtol=0)
     np.testing.assert_array_equal(np.isnan(back["poses"]), np.isnan(P))
     path.unlink()
 
@@ -189,3 +193,10 @@ def test_bvh_round_trip_property(tmp_path, cmu_motion, frame_time, n, seed, name
     assert math.isclose(back.frame_time, frame_time, abs_tol=5e-9, rel_tol=1e-15)
     trans = [k for k, ch in enumerate(skeleton.root_order) if ch[0] == "T"]
     np.testing.assert_allclose(back.motion[:, :3], motion["root"][:, trans], atol=5e-7)
+
+
+def test_trc_times_either_side_of_zero_stay_distinct(tmp_path):
+    """-5e-7 s and 0 s both print as zero at 6 decimals ("-0.000000", "0.000000")."""
+    back = read_trc(write_trc(tmp_path / "p.trc", np.zeros((2, 14, 3)), rate=2e6,
+                              frames=[-1, 0]))
+    _same_times(back["times"], np.array([-1, 0]) / 2e6)

@@ -34,6 +34,8 @@ def lift_edm_vectors(model, poses2d, missing=None, *, batch_size=4096):
     poses2d : array_like (n, N, 2)
         Pixels; occluded joints NaN or marked in `missing`.
     missing : array_like of bool (n, N), optional
+    batch_size : int, default 4096
+        Poses per forward pass.
 
     Returns
     -------
@@ -70,6 +72,21 @@ class FConvEDMLifter(NetworkShell):
     ``__init__`` stores the arguments of :func:`~sparseedm.fconv.fit_edm_lifter`
     (``occluded=None`` means its default, complete inputs); the trained model
     is ``model_``; :meth:`predict` returns 3D EDM vectors.
+
+    Parameters
+    ----------
+    representation : {"average", "zero"}
+        How occluded joints enter the network.
+    occluded : (int, int), optional
+        Range of occluded joints drawn per pose and epoch.
+    channels, kernel, symmetrize
+        The architecture (:mod:`sparseedm.fconv.network`).
+    batch_size, max_epochs, patience, learning_rate
+        Adam on mini-batches; early stopping on held-out clips.
+    random_state : int
+        Seeds the weights, the masks and the batch order.
+    device : str
+        A torch device.
     """
 
     def fit(self, X, y, clips=None):

@@ -204,6 +204,11 @@ def load_model(path, *, n_joints=None, representation=None, kind=None) -> FConvM
         Refuse a model made for another joint count, input representation
         or task.
 
+    Returns
+    -------
+    FConvModel
+        The validated model.
+
     Raises
     ------
     ModelError

@@ -140,6 +140,8 @@ def fit_fconv(poses2d, clips=None, *, representation="average", occluded=(1, 3),
         tqdm bar over epochs (ETA, losses).
     max_train : int, optional
         Keep a seeded subsample of this many training rows.
+    provenance : dict, optional
+        Stored in the model file's meta.
 
     Returns
     -------
@@ -185,6 +187,33 @@ def fit_edm_lifter(poses2d, poses3d, clips=None, *, representation="average", oc
     pose and epoch); the target the 3D pose's EDM vector in its own units
     (metres for :mod:`sparseedm.dataset` files). :func:`sparseedm.fconv.lift_edm_vectors`
     applies the result. Other parameters as :func:`fit_fconv`.
+
+    Parameters
+    ----------
+    poses2d : array_like (n, N, 2)
+        Complete 2D training poses.
+    poses3d : array_like (n, N, 3)
+        The same poses in 3D.
+    clips : array_like of str (n,), optional
+        Clip of each pose: validation holds out whole clips.
+    representation : {"average", "zero"}
+        How occluded joints enter the network.
+    occluded : (int, int), default (0, 0)
+        Range of occluded joints drawn per pose and epoch.
+    channels, kernel, symmetrize
+        The architecture (:mod:`sparseedm.fconv.network`).
+    batch_size, max_epochs, patience, tol, learning_rate
+        As :func:`fit_fconv`.
+    random_state : int
+        Seeds the weights, the masks and the batch order.
+    device : str
+        A torch device.
+    progress : bool
+        tqdm bar over epochs.
+    max_train : int, optional
+        Keep a seeded subsample of this many training rows.
+    provenance : dict, optional
+        Stored in the model file's meta.
 
     Returns
     -------
@@ -335,6 +364,21 @@ class FConvRecoverer(NetworkShell):
 
     ``__init__`` only stores the arguments of :func:`fit_fconv` (``occluded=None``
     means its default, 1-3); the trained model is ``model_``.
+
+    Parameters
+    ----------
+    representation : {"average", "zero"}
+        How occluded joints enter the network.
+    occluded : (int, int), optional
+        Range of occluded joints drawn per pose and epoch.
+    channels, kernel, symmetrize
+        The architecture (:mod:`sparseedm.fconv.network`).
+    batch_size, max_epochs, patience, learning_rate
+        Adam on mini-batches; early stopping on held-out clips.
+    random_state : int
+        Seeds the weights, the masks and the batch order.
+    device : str
+        A torch device.
 
     Examples
     --------

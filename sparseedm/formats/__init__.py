@@ -3,10 +3,10 @@
 One module per format, each reading into the 14-joint layout and writing back
 in the same format with the filled joints flagged:
 
-:mod:`~sparseedm.formats.openpose`    OpenPose ``--write_json`` frame files or a folder of them
-:mod:`~sparseedm.formats.mmpose`      MMPose prediction JSON (COCO-17, Halpe, COCO-WholeBody)
-:mod:`~sparseedm.formats.deeplabcut`  DeepLabCut ``.csv`` / ``.h5`` tables with a joints map
-:mod:`~sparseedm.formats.posetrack`   ``track_id`` / ``frame_id`` of COCO files (PoseTrack)
+- :mod:`~sparseedm.formats.openpose`: OpenPose ``--write_json`` frame files or a folder of them
+- :mod:`~sparseedm.formats.mmpose`: MMPose prediction JSON (COCO-17, Halpe, COCO-WholeBody)
+- :mod:`~sparseedm.formats.deeplabcut`: DeepLabCut ``.csv`` / ``.h5`` tables with a joints map
+- :mod:`~sparseedm.formats.posetrack`: ``track_id`` / ``frame_id`` of COCO files (PoseTrack)
 
 Users call :func:`sparseedm.keypoints.read_keypoints` and
 :func:`~sparseedm.keypoints.write_keypoints`, which dispatch here (COCO, CSV
@@ -22,20 +22,22 @@ Default confidence thresholds
 :data:`DEFAULT_THRESHOLDS` holds the threshold each format is read with when
 none is given (a joint whose confidence is below it is missing, and recovered):
 
-``dlc`` 0.6        DeepLabCut's own ``pcutoff`` default (``config.yaml``): the
-                   likelihood below which DeepLabCut itself drops a body part
-                   from its plots and filtered outputs;
-``mmpose``,        0.3, MMPose's ``kpt_thr`` default (its demos and
-``coco`` 0.3       visualiser draw only keypoints scoring above it); MMPose's
-                   COCO metric counts keypoints above 0.2 as valid when it
-                   rescores instances, so detectors' occluded joints
-                   (0.02-0.2) fall below either. COCO ground truth (``v`` 0/1/2)
-                   is unaffected: labelled joints have v >= 1;
-``openpose`` 0.05  OpenPose's ``--render_threshold`` default: below it OpenPose
-                   itself does not draw a keypoint (it writes 0 for joints it
-                   did not find at all);
-``csv``, ``npz``,  0: these hold whatever the user put in them, so only a
-``npy``            confidence <= 0 is missing.
+``dlc``: 0.6
+    DeepLabCut's own ``pcutoff`` default (``config.yaml``): the likelihood
+    below which DeepLabCut itself drops a body part from its plots and
+    filtered outputs;
+``mmpose``, ``coco``: 0.3
+    MMPose's ``kpt_thr`` default (its demos and visualiser draw only keypoints
+    scoring above it); MMPose's COCO metric counts keypoints above 0.2 as valid
+    when it rescores instances, so detectors' occluded joints (0.02-0.2) fall
+    below either. COCO ground truth (``v`` 0/1/2) is unaffected: labelled joints
+    have v >= 1;
+``openpose``: 0.05
+    OpenPose's ``--render_threshold`` default: below it OpenPose itself does
+    not draw a keypoint (it writes 0 for joints it did not find at all);
+``csv``, ``npz``, ``npy``: 0
+    these hold whatever the user put in them, so only a confidence <= 0 is
+    missing.
 """
 
 from __future__ import annotations
@@ -77,6 +79,16 @@ def default_threshold(fmt):
 
     >>> default_threshold("dlc")
     0.6
+
+    Parameters
+    ----------
+    fmt : str
+        A format name (a key of :data:`DEFAULT_THRESHOLDS`).
+
+    Returns
+    -------
+    float
+        Its default threshold.
     """
     return DEFAULT_THRESHOLDS.get(fmt, 0.0)
 
@@ -86,6 +98,18 @@ def count_below(confidence, threshold):
 
     >>> count_below(np.array([[0.0, 0.1, 0.5, np.nan]]), 0.3)
     1
+
+    Parameters
+    ----------
+    confidence : ndarray or None
+        Scores read.
+    threshold : float
+        The threshold.
+
+    Returns
+    -------
+    int or None
+        How many joints it turns missing (None when there are no scores).
     """
     if confidence is None:
         return None
@@ -100,6 +124,22 @@ def threshold_line(threshold, given, fmt, below):
     'confidence threshold 0.3 (the mmpose default): 4 scored joints below it read as missing'
     >>> threshold_line(0.3, False, "coco", 0)
     'confidence threshold 0.3 (the coco default): the file has scores, none below it'
+
+    Parameters
+    ----------
+    threshold : float
+        The threshold used.
+    given : bool
+        Whether the user gave it.
+    fmt : str
+        The input's format.
+    below : int or None
+        Scored joints below it (None: the file has no scores).
+
+    Returns
+    -------
+    str
+        The line.
     """
     where = "given" if given else f"the {fmt} default"
     head = f"confidence threshold {threshold:g} ({where})"
@@ -114,6 +154,16 @@ def detect(path):
     """The format of `path` if it is one of :data:`FORMATS`, else None.
 
     Raises FileFormatError for a folder that holds no ``.json`` file.
+
+    Parameters
+    ----------
+    path : str or path-like
+        A file or folder.
+
+    Returns
+    -------
+    str or None
+        ``"openpose"``, ``"mmpose"``, ``"dlc"`` or None.
     """
     path = Path(path)
     if path.is_dir():
@@ -162,7 +212,22 @@ def _folder_format(path, tries=20):
 
 
 def read(fmt, path, *, joint_map=None):
-    """Read `path` in format `fmt` (one of :data:`FORMATS`) into a :class:`Parsed`."""
+    """Read `path` in format `fmt` (one of :data:`FORMATS`) into a :class:`Parsed`.
+
+    Parameters
+    ----------
+    fmt : str
+        One of :data:`FORMATS`.
+    path : str or path-like
+        The file or folder.
+    joint_map : str, path-like or dict, optional
+        DeepLabCut's joints map.
+
+    Returns
+    -------
+    Parsed
+        The keypoints in the 14-joint layout.
+    """
     if fmt == "openpose":
         return openpose.read(path)
     if fmt == "mmpose" and Path(path).is_dir():
@@ -179,7 +244,23 @@ def read(fmt, path, *, joint_map=None):
 
 
 def write(fmt, path, rows, meta, *, filled_score=FILLED_SCORE, row_fields=None):
-    """Write :class:`Rows` to `path` in format `fmt`, with `meta` of a read of that format."""
+    """Write :class:`Rows` to `path` in format `fmt`, with `meta` of a read of that format.
+
+    Parameters
+    ----------
+    fmt : str
+        One of :data:`FORMATS`.
+    path : str or path-like
+        The output file or folder.
+    rows : Rows
+        The poses to write.
+    meta : dict
+        ``Parsed.meta`` of the read (empty to write a fresh file).
+    filled_score : float
+        Score of a filled joint.
+    row_fields : dict, optional
+        Per-row fields (status, reason...) to add to each person.
+    """
     module = {"openpose": openpose, "mmpose": mmpose, "dlc": deeplabcut}[fmt]
     module.write(path, rows, meta if meta.get("format") == fmt else {}, filled_score,
                  row_fields)

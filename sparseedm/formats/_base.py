@@ -101,6 +101,23 @@ class Parsed:
     score), ``stored`` the neck / head top sparseedm wrote in its own object
     (present whatever the score of the keypoints they would be derived from,
     as in COCO files). ``meta`` holds what the writer needs to write the file back.
+
+    Parameters
+    ----------
+    poses : ndarray, shape (n, 14, 2)
+        Coordinates as the file gives them.
+    present : ndarray of bool, shape (n, 14)
+        Joints the file gives.
+    confidence : ndarray, shape (n, 14), or None
+        Scores read.
+    ids, tracks, frames : ndarray, shape (n,), optional
+        Each pose's id, track and frame number.
+    filled : ndarray of bool, shape (n, 14), optional
+        Joints the file flags as filled.
+    meta : dict
+        What the writer needs to write the file back.
+    stored : ndarray of bool, shape (n, 14), optional
+        The neck / head top sparseedm wrote in its own object.
     """
 
     poses: np.ndarray
@@ -132,6 +149,22 @@ def to_14(xy, score, present, layout):
 
     Returns ``(poses, present, confidence)`` of shapes (n, 14, 2), (n, 14),
     (n, 14); ``poses`` is NaN where a joint is not present.
+
+    Parameters
+    ----------
+    xy : ndarray, shape (n, K, 2)
+        Keypoints in the file's layout.
+    score : ndarray, shape (n, K)
+        Their scores.
+    present : ndarray of bool, shape (n, K)
+        Keypoints the file gives.
+    layout : Layout
+        The file's keypoint layout and its rules for neck and head top.
+
+    Returns
+    -------
+    poses, present, confidence : ndarray
+        Shapes (n, 14, 2), (n, 14) and (n, 14).
 
     Examples
     --------
@@ -224,7 +257,22 @@ def keypoint_rows(obj, where, key, width, layouts, described):
 
 def read_extra(person, where):
     """The ``"sparseedm"`` object of a person: {joint index: (x, y)} overrides for
-    neck / head top, and the 14-joint indices flagged filled."""
+    neck / head top, and the 14-joint indices flagged filled.
+
+    Parameters
+    ----------
+    person : dict
+        One person (instance) of a JSON format.
+    where : str
+        What to name in an error message.
+
+    Returns
+    -------
+    points : dict
+        {joint index: (x, y)}.
+    filled : list of int
+        Joint indices flagged filled.
+    """
     extra = person.get(EXTRA_KEY)
     if not isinstance(extra, dict):
         return {}, []
@@ -434,6 +482,19 @@ class Rows:
     ``poses`` NaN where missing; ``filled`` the joints sparseedm filled;
     ``confidence`` the scores read (or None); ``filled_score`` the score a
     filled joint is written with.
+
+    Parameters
+    ----------
+    poses : ndarray, shape (n, 14, 2)
+        Coordinates, NaN where missing.
+    filled : ndarray of bool, shape (n, 14)
+        Joints sparseedm filled.
+    confidence : ndarray, shape (n, 14), optional
+        Scores read.
+    ids, tracks, frames : ndarray, shape (n,), optional
+        Each pose's id, track and frame number.
+    filled_score : float
+        Score a filled joint is written with.
     """
 
     poses: np.ndarray

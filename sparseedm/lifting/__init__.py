@@ -13,7 +13,7 @@
 - :mod:`.lift`        :func:`lift`, the user entry point
 - :mod:`.evaluation`  the paper's application table (lifting after recovery)
 - :mod:`.adaptation`  :func:`adapt_lifter`: adapt a dictionary lifter on 3D-free
-                      complete 2D poses (measured: lifters/README.md)
+                      complete 2D poses (measured: docs/explanation/settings.md)
 - :mod:`.io`          :func:`lift_file`: a keypoint file lifted to a 3D file (TRC, npz, CSV)
 - :mod:`.trc`         OpenSim TRC files: :func:`write_trc`, :func:`read_trc`
 
@@ -70,6 +70,28 @@ def fit_lifter(poses2d, poses3d, camera_R, camera_t, camera_f, *, method="dictio
 
     `clips` (optional, one name per pose) lets ``fconv`` hold out whole clips
     for early stopping; the other methods ignore it.
+
+    Parameters
+    ----------
+    poses2d : array_like, shape (n, N, 2)
+        Complete 2D training poses (pixels).
+    poses3d : array_like, shape (n, N, 3)
+        The same poses in 3D (metres).
+    camera_R, camera_t, camera_f : array_like
+        Each pose's pinhole camera (``x_cam = R X + t``; focal length in pixels).
+    method : str
+        ``"dictionary"``, ``"mlp"`` or ``"fconv"``.
+    provenance : dict, optional
+        Stored in the file's meta.
+    clips : sequence, optional
+        Clip name of each pose.
+    **params
+        The method's settings.
+
+    Returns
+    -------
+    Lifter
+        The fitted lifter.
     """
     cls = lifter_class(method, "fit_lifter")
     return cls(**params).fit_poses(poses2d, poses3d, camera_R, camera_t, camera_f,

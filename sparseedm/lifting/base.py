@@ -148,11 +148,15 @@ class Lifter:
     :meth:`_arrays` and :meth:`_from_arrays`, and list their parameters in
     ``_params`` (stored in the file's meta).
 
-    Parameters (common)
-    -------------------
+    Parameters
+    ----------
     normalization : {"tied", "unit"}
+        3D EDMs in the 2D normaliser's units (``"tied"``) or scaled to unit RMS.
     random_state : int
+        Seed of the learning.
 
+    Notes
+    -----
     Learned state (common): ``chirality_`` (:class:`ChiralityPrior`),
     ``size_prior_`` (metres), ``joint_names_``, ``provenance_``.
     """
@@ -279,7 +283,13 @@ def lifter_class(method, where):
 
 
 def available_lifters():
-    """Names of the lifters shipped with the package ("default" included)."""
+    """Names of the lifters shipped with the package ("default" included).
+
+    Returns
+    -------
+    list of str
+        Names :func:`load_lifter` accepts.
+    """
     return shipped_names("sparseedm.lifters", DEFAULT_LIFTER)
 
 
@@ -292,6 +302,16 @@ def is_lifter_file(name_or_path):
     """True when `name_or_path` names a shipped lifter or an .npz holding a lifter's meta.
 
     ``None`` and ``"default"`` are not lifters here: they name the default dictionary.
+
+    Parameters
+    ----------
+    name_or_path : str, path-like or None
+        A shipped name or a file.
+
+    Returns
+    -------
+    bool
+        Whether it is a lifter.
     """
     if name_or_path is None or name_or_path == "default":
         return False
@@ -305,6 +325,18 @@ def is_lifter_file(name_or_path):
 
 def load_lifter(name_or_path=None, *, n_joints=None):
     """Load and validate a lifter by shipped name or path.
+
+    Parameters
+    ----------
+    name_or_path : str or path-like, optional
+        A shipped lifter's name (default: the default lifter) or a lifter ``.npz``.
+    n_joints : int, optional
+        Refuse a lifter for another joint count.
+
+    Returns
+    -------
+    Lifter
+        The lifter, of its file's method.
 
     Raises
     ------

@@ -10,7 +10,7 @@ compute: the codes ``c_i`` of the 2D halves alone (the lifting lasso), and
 a ridge regression shrunk towards the learned halves (one k x k solve).
 Learning fits ``[x2 ; w x3]`` jointly, but a lifted pose is coded on x2 only,
 so its 3D read-out is not the one learning optimised; the re-fit is the best
-linear read-out of the 2D codes (lifters/README.md measures it).
+linear read-out of the 2D codes (docs/explanation/settings.md).
 
 Lifting a pose: keep the entries of its 2D EDM vector that touch no occluded
 joint, solve the lasso ``min_c 0.5 ||x2_obs - D2_obs c||^2 + alpha_eff ||c||_1``

@@ -13,7 +13,7 @@
 Given ``frames`` (a video), :mod:`.video` uses time: the missing 2D joints
 are filled across time before step 1, each person's depth reflections are
 chosen together in step 3, and each joint's 3D trajectory is smoothed after
-step 4 (measured in lifters/README.md, "Video").
+step 4 (measured: docs/explanation/settings.md).
 """
 
 from __future__ import annotations
@@ -55,7 +55,7 @@ _OK = ("lifted", "lifted_occluded", "lifted_filled", "inaccurate")
 class LiftResult:
     """What :func:`lift` returns; arrays have the poses' leading axis n.
 
-    Attributes
+    Parameters
     ----------
     poses3d : (n, N, 3) metres, pelvis at the origin, camera axes (x right,
         y down, z away from the camera); NaN for refused poses
@@ -147,7 +147,7 @@ def lift(poses, missing=None, *, tracks=None, frames=None, lifter=None, n_jobs=1
         Complete 2D poses of the same domain, without 3D: the (dictionary)
         lifter is first adapted on them by
         :func:`sparseedm.lifting.adaptation.adapt_lifter` with its defaults
-        (measured in lifters/README.md). Default None: no adaptation.
+        (measured: docs/explanation/settings.md). Default None: no adaptation.
     dictionary : Dictionary, str or path, optional
         With `frames`: the 2D dictionary of the fill across time (default the
         shipped one).

@@ -52,7 +52,7 @@ __all__ = ["classical_mds", "smacof", "align_to_image", "tetra_volumes",
 #: weight of the motion between consecutive frames against the chirality
 #: prior's log-odds in :func:`reflection_path`, per square metre of summed
 #: squared joint displacement per frame; chosen on validation sequences of
-#: two sources (lifters/README.md, "Video")
+#: two sources (docs/explanation/settings.md)
 REFLECTION_SMOOTHNESS = 3.0
 
 

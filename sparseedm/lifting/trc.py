@@ -106,7 +106,8 @@ def trc_times(frames, rate, n):
             "times (frame / rate seconds) that are not finite or not increasing; give a "
             "rate nearer the video's frames per second")
     text = [f"{t:.6f}" for t in times]
-    if len(set(text)) < n:  # too close for 6 decimals: every digit
+    if (np.diff([float(t) for t in text]) <= 0).any():  # too close for 6 decimals (or
+        # "-0.000000" beside "0.000000"): every digit
         text = [repr(float(t)) for t in times]
     return [str(int(f) + 1) for f in frames], text
 

@@ -17,7 +17,7 @@ beyond the per-frame pipeline:
    per-frame lasso's jitter.
 
 The settings were chosen on validation sequences of two sources
-(``studies/lifting/probe_video_lift.py``, lifters/README.md, "Video"), never on test
+(``studies/lifting/probe_video_lift.py``, docs/explanation/settings.md), never on test
 clips.
 """
 

@@ -61,6 +61,26 @@ def load_mocap(path, *, scale=None, units="auto", joint_map=None, return_info=Fa
     ``scale``, ``height``, ``frame_rate``, ``sources``, ``tpose_frames``)
     comes too.
 
+    Parameters
+    ----------
+    path : str or path-like
+        A ``.bvh`` or ``.amc`` file.
+    scale : float, optional
+        Metres per file unit; overrides `units`.
+    units : {"auto", "m", "cm", "mm", "inch", "cmu"}
+        The file's unit (``"auto"``: from the standing height).
+    joint_map : str, path-like or dict, optional
+        A joint map (:func:`sparseedm.mocap.rigs.read_joint_map`).
+    return_info : bool
+        Also return what the loader chose.
+
+    Returns
+    -------
+    poses : ndarray, shape (n_frames, 14, 3)
+        Joint positions in metres, Y up.
+    info : dict
+        Only with `return_info`.
+
     Examples
     --------
     >>> load_mocap("walk.c3d")

@@ -138,6 +138,18 @@ def _floats(tokens, path, lineno, what):
 def parse_asf(source, *, name=None) -> ASFSkeleton:
     """Parse an ASF skeleton file (a path, or the text itself).
 
+    Parameters
+    ----------
+    source : str or path-like
+        An ASF file, or its text.
+    name : str, optional
+        What to call the source in error messages.
+
+    Returns
+    -------
+    ASFSkeleton
+        Its bones, units and root.
+
     Raises
     ------
     FileFormatError
@@ -359,6 +371,15 @@ def _bone_order(bones, parents, bone_lines, fail):
 def parse_amc(source, skeleton: ASFSkeleton, *, name=None):
     """Parse an AMC motion file against its skeleton.
 
+    Parameters
+    ----------
+    source : str or path-like
+        An AMC file, or its text.
+    skeleton : ASFSkeleton
+        The skeleton it moves (:func:`parse_asf`).
+    name : str, optional
+        What to call the source in error messages.
+
     Returns
     -------
     motion : dict
@@ -500,6 +521,16 @@ def find_asf(amc_path) -> Path:
     """The ASF skeleton of a CMU AMC file: ``NN.asf`` beside ``NN_MM.amc``.
 
     Falls back to the only ``.asf`` in the folder.
+
+    Parameters
+    ----------
+    amc_path : str or path-like
+        The AMC file.
+
+    Returns
+    -------
+    Path
+        Its ASF file.
 
     Examples
     --------
@@ -695,6 +726,19 @@ def write_cmu_bvh(skeleton: ASFSkeleton, motion, path, *, degrees=True, frame_ti
     with 8 decimals, or every digit when 8 would read as 0), finite channel
     values and joint names it reads back as written; anything else raises
     :class:`~sparseedm.exceptions.FileFormatError` before the file is made.
+
+    Parameters
+    ----------
+    skeleton : ASFSkeleton
+        The ASF skeleton.
+    motion : dict
+        Its AMC motion (:func:`parse_amc`).
+    path : str or path-like
+        The BVH file to write.
+    degrees : bool
+        Whether the AMC angles are in degrees.
+    frame_time : float
+        Seconds per frame.
     """
     from scipy.spatial.transform import Rotation
 

@@ -158,6 +158,11 @@ def parse_bvh(source, *, name=None) -> BVHData:
     name : str, optional
         Name used in error messages when `source` is text.
 
+    Returns
+    -------
+    BVHData
+        The joints (names, parents, offsets, channels) and the motion.
+
     Raises
     ------
     FileFormatError
@@ -432,6 +437,18 @@ def detect_rig(joint_names, end_sites=None) -> str:
     """Name of the first rig family (:data:`sparseedm.mocap.rigs.FAMILIES`) that fits.
 
     `end_sites` names the joints with an End Site (all of them if not given).
+
+    Parameters
+    ----------
+    joint_names : sequence of str
+        The file's joint names.
+    end_sites : sequence of str, optional
+        Joints that end in an End Site.
+
+    Returns
+    -------
+    str
+        The family's name.
 
     Raises
     ------

@@ -411,6 +411,11 @@ def read_joint_map(source) -> dict:
     ``joints`` may name only some of the 14 joints: the others come from
     ``rig`` or, without it, from the family detected in each file.
 
+    Parameters
+    ----------
+    source : str, path-like or dict
+        A ``.json`` / ``.toml`` file, or the map itself.
+
     Returns
     -------
     dict
@@ -599,12 +604,26 @@ def tpose_frames(poses, *, tol=0.9, edges_only=True) -> np.ndarray:
 
     A frame is a T-pose when each arm is straight (shoulder -> wrist at least
     `tol` of upper arm + forearm), both arms point in opposite directions
-    (cosine below ``-tol``) and are perpendicular to the trunk (|cosine with
-    neck -> hips midpoint| below ``1 - tol``), and both legs are straight.
+    (cosine below ``-tol``) and are perpendicular to the trunk (the absolute cosine
+    with neck -> hips midpoint below ``1 - tol``), and both legs are straight.
     With `edges_only` (the default) only the runs of such frames that start
     the clip or end it count: calibration T-poses come first or last, while a
     dancer or a waving person spreads the arms level mid-clip (Bandai-Namco
     has 67 such frames, none a calibration pose).
+
+    Parameters
+    ----------
+    poses : ndarray, shape (n, 14, 3)
+        A clip's joints.
+    tol : float
+        How straight, level and opposite the arms must be.
+    edges_only : bool
+        Only the runs that start or end the clip.
+
+    Returns
+    -------
+    ndarray of int
+        Frame indices.
 
     Examples
     --------
@@ -707,6 +726,24 @@ def plausibility(poses, *, height=None, name="clip", rigidity_tol=0.05,
     mean length within `symmetry_tol`; left on the subject's left
     (:func:`chirality` not below -0.5: knees bending backwards means a mirror
     image, e.g. left and right joints swapped).
+
+    Parameters
+    ----------
+    poses : ndarray, shape (n, 14, 3)
+        A clip's joints in metres.
+    height : float, optional
+        Its standing height, if already measured.
+    name : str
+        What to call the clip in the messages.
+    rigidity_tol : float
+        Allowed relative spread of a limb bone's length over the clip.
+    symmetry_tol : float
+        Allowed relative difference of left and right limbs.
+
+    Returns
+    -------
+    list of str
+        One message per problem.
 
     Examples
     --------

@@ -45,7 +45,7 @@ _FIELDS = ("coef", "objective", "gap", "status", "n_iter")
 class LassoResult:
     """The answer of one solve over a batch of signals.
 
-    Attributes
+    Parameters
     ----------
     coef : ndarray, shape (n_samples, n_components)
     objective : ndarray, shape (n_samples,)
@@ -74,7 +74,24 @@ class LassoResult:
 
 
 def lasso_objective(D, X, coef, alpha):
-    """``0.5 ||x - D c||^2 + alpha ||c||_1`` for each row (vectorised)."""
+    """``0.5 ||x - D c||^2 + alpha ||c||_1`` for each row (vectorised).
+
+    Parameters
+    ----------
+    D : ndarray, shape (k, d)
+        Atoms as rows.
+    X : ndarray, shape (n, d)
+        Signals.
+    coef : ndarray, shape (n, k)
+        Codes.
+    alpha : float or ndarray, shape (n,)
+        Penalty (per row).
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        The objectives.
+    """
     R = X - coef @ D.T
     return 0.5 * np.einsum("ij,ij->i", R, R) + alpha * np.abs(coef).sum(axis=1)
 
@@ -86,6 +103,26 @@ def duality_gap(D, X, coef, alpha, positive=False, observed=None):
     row i is judged on its observed entries only -- the lasso of
     ``D[observed[i]]`` and ``X[i, observed[i]]`` -- so one call certifies rows
     of many sub-dictionaries of one D.
+
+    Parameters
+    ----------
+    D : ndarray, shape (k, d)
+        Atoms as rows.
+    X : ndarray, shape (n, d)
+        Signals.
+    coef : ndarray, shape (n, k)
+        Codes.
+    alpha : float or ndarray, shape (n,)
+        Penalty (per row).
+    positive : bool
+        Non-negative codes.
+    observed : ndarray of bool, shape (n, d), optional
+        Entries of each signal the problem sees (all by default).
+
+    Returns
+    -------
+    objective, gap : ndarray, shape (n,)
+        Each row's primal objective and duality gap.
 
     Examples
     --------
@@ -119,6 +156,8 @@ class BaseSolver:
         Relative duality-gap tolerance: a row is "optimal" when
         ``gap <= tol * objective``.
 
+    Notes
+    -----
     A backend with ``refine = True`` and a ``_refiner`` (the function that
     finishes rows from the backend's own answer, e.g. the feature-sign search
     of :mod:`._active_set`) has every row the certificate rejects finished by
@@ -342,6 +381,11 @@ def get_solver(name_or_instance="clarabel", **kwargs):
         keyword arguments with an instance is an error).
     **kwargs
         Passed to the solver's constructor (e.g. ``tol``).
+
+    Returns
+    -------
+    BaseSolver
+        The solver.
 
     Raises
     ------

@@ -1,0 +1,265 @@
+"""Results pages rendered from the benchmarks' own JSON files at build time.
+
+``.. benchmark-results:: PAGE`` renders, one section each, every file of
+:data:`PATTERN` that :data:`PAGES` assigns to ``PAGE`` (the first pattern that
+matches a file's name wins; a file no pattern names goes to ``accuracy``). A new
+``benchmarks/results-*.json`` therefore appears on the next build with no change
+here; :data:`TITLES` gives it a readable title.
+
+The renderer knows two shapes and falls back to a generic one:
+
+* the video protocols' ``runs`` (each with ``rows`` of ``method``, ``group``,
+  ``error``): one table per run, a row per method and a column per group;
+* anything else: scalars as a two-column table, a mapping of mappings as one
+  table (a row per key), a list of mappings as one table (a row per item),
+  nested up to three levels under small headings.
+"""
+
+from __future__ import annotations
+
+import fnmatch
+import json
+import re
+from pathlib import Path
+
+from docutils import nodes
+from docutils.parsers.rst import Directive
+
+ROOT = Path(__file__).resolve().parents[2]
+#: which files are results (relative to the repository root)
+PATTERN = "benchmarks/results*.json"
+#: page -> file name patterns, tried in this order; unmatched files go to "accuracy"
+PAGES = {
+    "speed": ["results.json", "results-quick.json", "results-adaptation.json",
+              "results-default-path.json", "results-temporal.json", "results-video-speed*.json",
+              "results-lifting-speed.json", "results-fconv.json"],
+    "accuracy": ["results-real-people*.json", "results-video*.json", "results-lifting*.json"],
+}
+#: readable titles (a file without one is titled by its name)
+TITLES = {
+    "results.json": "Dictionary learning and recovery speed against peers (k = 2000)",
+    "results-quick.json": "The same, quick smoke test (k = 200)",
+    "results-adaptation.json": "Adaptation on 5,000 poses",
+    "results-default-path.json": "recover() with its defaults against adapt=False",
+    "results-temporal.json": "The video path on a 10,000-frame file",
+    "results-video-speed.json": "The video path by stage",
+    "results-lifting-speed.json": "Lifting speed",
+    "results-fconv.json": "FConv network speed and Table 1 (2D to 3D)",
+    "results-lifting.json": "Lifting accuracy: dictionary lifter and MLP",
+    "results-lifting-fconv.json": "The application table (lifters x recovery pipelines)",
+    "results-video.json": "Video protocols, validation and test (per-frame and fillers)",
+    "results-video-adapt-test.json": "Video protocols, held-out test, one clip adapting",
+    "results-video-intervals-30.json": "Video protocols, 30 sequences per split",
+    "results-video-intervals-all.json": "Video protocols, every sequence of each split",
+    "results-video-noise-30.json": "Video protocols with 1 % keypoint jitter",
+    "results-video-pca.json": "PCA gap filling: how many components (validation)",
+    "results-video-rerun.json": "Video protocols, re-run with the placement guard",
+    "results-video-temporal.json": "Video protocols: the temporal model",
+    "results-video-test-30.json": "Video protocols, held-out test, 30 sequences",
+    "results-video-test-30-relative.json": "Held-out test, 30 sequences, joints smoothed relative to their parents",
+    "results-video-validation.json": "Video protocols, validation sequences",
+    "results-video-validation-30.json": "Video protocols, validation, 30 sequences",
+    "results-real-people-val.json": "Real people, validation split",
+}
+META_KEYS = {"machine", "versions", "meta", "date", "loadavg_start", "loadavg_end",
+             "load_average", "load_average_before", "load_average_after", "load_start",
+             "load_end", "settings", "argv", "note", "what", "issue", "cfg"}
+MAX_ROWS = 40
+MAX_COLUMNS = 10
+_ISSUE = [re.compile(r"\s*\([^()]*\b(?:issues?|sessions?)\b[^()]*\)", re.I),
+          re.compile(r"\b(?:issues? \d+(?:'s)?(?: item \d+)?|#\d+)\s*", re.I)]
+
+
+def clean(text):
+    """Text for users: internal issue numbers and session notes removed."""
+    text = str(text)
+    for pattern in _ISSUE:
+        text = pattern.sub("", text)
+    return text.strip()
+
+
+def place(name):
+    """(page, rank): the first pattern matching `name`, its position in its page's list."""
+    for page, patterns in PAGES.items():
+        for rank, pattern in enumerate(patterns):
+            if fnmatch.fnmatch(name, pattern):
+                return page, rank
+    return "accuracy", len(PAGES["accuracy"])
+
+
+def files_for(page):
+    """The results files of `page`, in the order of its patterns, then by name."""
+    found = [p for p in ROOT.glob(PATTERN) if place(p.name)[0] == page]
+    return sorted(found, key=lambda p: (place(p.name)[1], p.name))
+
+
+def fmt(value):
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if value is None:
+        return "–"
+    if isinstance(value, float):
+        return f"{value:,.4g}" if abs(value) < 1e6 else f"{value:,.0f}"
+    if isinstance(value, int):
+        return f"{value:,}"
+    if isinstance(value, list) and all(not isinstance(v, (dict, list)) for v in value):
+        return ", ".join(fmt(v) for v in value[:8]) + (" ..." if len(value) > 8 else "")
+    if isinstance(value, (dict, list)):
+        return "..."
+    return clean(value)
+
+
+def table(header, rows):
+    ncol = len(header)
+    tbl = nodes.table(classes=["results-table"])
+    group = nodes.tgroup(cols=ncol)
+    tbl += group
+    for _ in range(ncol):
+        group += nodes.colspec(colwidth=1)
+    head = nodes.thead()
+    group += head
+    body = nodes.tbody()
+    group += body
+    for target, cells in ((head, [header]), (body, rows)):
+        for cells_row in cells:
+            row = nodes.row()
+            for cell in cells_row:
+                entry = nodes.entry()
+                entry += nodes.paragraph(text=str(cell))
+                row += entry
+            target += row
+    return tbl
+
+
+def _scalar(v):
+    return not isinstance(v, (dict, list)) or (
+        isinstance(v, list) and all(not isinstance(x, (dict, list)) for x in v))
+
+
+def _columns(items):
+    cols = []
+    for item in items:
+        for k, v in item.items():
+            if k not in cols and _scalar(v) and k not in META_KEYS:
+                cols.append(k)
+    return cols[:MAX_COLUMNS]
+
+
+def _rows_table(label, items):
+    """A table from (row label, mapping) pairs."""
+    items = list(items)
+    cols = _columns([m for _, m in items])
+    rows = [[fmt(name)] + [fmt(m.get(c)) for c in cols] for name, m in items[:MAX_ROWS]]
+    out = [table([label] + [clean(c) for c in cols], rows)]
+    if len(items) > MAX_ROWS:
+        out.append(nodes.paragraph(text=f"({len(items) - MAX_ROWS} more rows in the file.)"))
+    return out
+
+
+def _is_protocol_runs(obj):
+    runs = obj.get("runs") if isinstance(obj, dict) else None
+    return (isinstance(runs, list) and runs and isinstance(runs[0], dict)
+            and isinstance(runs[0].get("rows"), list) and runs[0]["rows"]
+            and {"method", "group", "error"} <= set(runs[0]["rows"][0]))
+
+
+def _protocol_tables(obj):
+    out = []
+    for run in obj["runs"]:
+        rows = [r for r in run["rows"] if r.get("end", "all") == "all"]
+        groups, methods, cells = [], [], {}
+        for r in rows:
+            if r["group"] not in groups:
+                groups.append(r["group"])
+            if r["method"] not in methods:
+                methods.append(r["method"])
+            cells[r["method"], r["group"]] = r["error"]
+        what = " · ".join(str(run[k]) for k in ("source", "split", "protocol", "dictionary")
+                          if run.get(k) is not None)
+        out.append(nodes.rubric(text=f"{what}: error, % of body height"))
+        out.append(table(["method"] + groups,
+                         [[clean(m)] + [fmt(cells.get((m, g))) for g in groups] for m in methods]))
+    return out
+
+
+def _walk(obj, depth):
+    out = []
+    if isinstance(obj, list):
+        if obj and all(isinstance(x, dict) for x in obj):
+            first = next(iter(obj[0]))
+            return _rows_table(first, [(x.get(first), {k: v for k, v in x.items() if k != first})
+                                       for x in obj])
+        return [nodes.paragraph(text=fmt(obj))]
+    scalars = [(k, v) for k, v in obj.items() if _scalar(v) and k not in META_KEYS]
+    if scalars:
+        out.append(table(["", "value"], [[clean(k), fmt(v)] for k, v in scalars]))
+    nested = {k: v for k, v in obj.items() if not _scalar(v) and k not in META_KEYS}
+    if nested and all(isinstance(v, dict) for v in nested.values()) and all(
+            sum(not _scalar(x) for x in v.values()) == 0 for v in nested.values()):
+        return out + _rows_table("", nested.items())
+    for key, value in nested.items():
+        if _is_protocol_runs({"runs": value}) if key == "runs" else False:
+            out += _protocol_tables({"runs": value})
+            continue
+        if depth >= 3:
+            continue
+        out.append(nodes.rubric(text=clean(key)))
+        out += _walk(value, depth + 1)
+    return out
+
+
+def _meta_line(obj):
+    parts = []
+    meta = obj.get("meta", obj) if isinstance(obj, dict) else {}
+    if meta.get("date"):
+        parts.append(f"run {meta['date']}")
+    machine = meta.get("machine")
+    if isinstance(machine, dict):
+        cores = machine.get("cores", machine.get("cpus"))
+        parts.append(", ".join(p for p in (
+            machine.get("cpu"), f"{cores} cores" if cores else None,
+            f"Python {machine['python']}" if machine.get("python") else None) if p))
+    elif machine:
+        parts.append(clean(machine))
+    for key in ("loadavg_start", "load_average", "load_average_before", "load_start"):
+        value = meta.get(key) or (machine.get(key) if isinstance(machine, dict) else None)
+        if value:
+            parts.append(f"load average at start {fmt(value)}")
+            break
+    return "; ".join(p for p in parts if p)
+
+
+def render(path):
+    obj = json.loads(path.read_text(encoding="utf-8"))
+    rel = path.relative_to(ROOT).as_posix()
+    section = nodes.section(ids=[nodes.make_id(rel)])
+    section += nodes.title(text=TITLES.get(path.name, path.stem))
+    para = nodes.paragraph()
+    para += nodes.literal(text=rel)
+    line = _meta_line(obj)
+    if line:
+        para += nodes.Text(f" ({line})")
+    section += para
+    body = _protocol_tables(obj) if _is_protocol_runs(obj) else _walk(obj, 0)
+    for node in body:
+        section += node
+    return section
+
+
+class BenchmarkResults(Directive):
+    """Render the results files assigned to one page."""
+
+    required_arguments = 1
+
+    def run(self):
+        env = self.state.document.settings.env
+        out = []
+        for path in files_for(self.arguments[0]):
+            env.note_dependency(str(path))
+            out.append(render(path))
+        return out
+
+
+def setup(app):
+    app.add_directive("benchmark-results", BenchmarkResults)
+    return {"parallel_read_safe": True, "parallel_write_safe": True}
