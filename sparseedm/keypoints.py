@@ -694,6 +694,21 @@ def beside(path, ending) -> Path:
     """``<stem><ending>`` beside `path` (in the current folder when `path` is a
     device or a pipe, such as ``/dev/stdout``).
 
+    Parameters
+    ----------
+    path : str or path-like
+        The file the new name goes beside.
+    ending : str
+        What replaces `path`'s suffix, e.g. ``".status.npz"``.
+
+    Returns
+    -------
+    Path
+        The sibling path. A name over 255 bytes keeps the stem's first 120
+        bytes and a hash of the whole stem before `ending`.
+
+    Examples
+    --------
     >>> str(beside("out/poses.csv", ".status.npz"))
     'out/poses.status.npz'
     """
@@ -705,7 +720,19 @@ def beside(path, ending) -> Path:
 def status_sidecar(path) -> Path:
     """The status sidecar of a keypoint file, ``<stem>.status.npz`` beside it:
     ``sparseedm recover`` writes there the per-row status and, for the
-    :data:`FLAGS_IN_SIDECAR` formats, the ``filled`` (n, 14) flags."""
+    :data:`FLAGS_IN_SIDECAR` formats, the ``filled`` (n, 14) flags.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The keypoint file.
+
+    Returns
+    -------
+    Path
+        Where its sidecar is (whether or not it exists), as :func:`beside`
+        names it.
+    """
     return beside(path, ".status.npz")
 
 

@@ -44,7 +44,18 @@ LAYERS = (("enc1", "conv"), ("enc2", "conv"), ("dec1", "deconv"), ("dec2", "deco
 
 
 def require_torch():
-    """Import torch or say how to install it."""
+    """Import torch or say how to install it.
+
+    Returns
+    -------
+    module
+        The imported ``torch`` package.
+
+    Raises
+    ------
+    SparseEDMError
+        PyTorch is not installed; the message gives the install commands.
+    """
     try:
         import torch
     except ImportError:

@@ -28,12 +28,30 @@ def recover_fconv(poses, missing=None, *, model=None, representation=None,
                   chunk_size=4096, progress=False):
     """Recover occluded joints with an FConv recovery model (see :func:`sparseedm.recover`).
 
-    `representation` None (default) is the one the model was trained on; another
-    one is refused.
+    Parameters
+    ----------
+    poses : array_like, shape (n, N, 2) or (N, 2)
+        Keypoints in the caller's own pixel frame; N must be the model's joint
+        count.
+    missing : array_like of bool, shape (n, N), optional
+        True where a joint is occluded; by default NaN coordinates mark them.
+    model : FConvModel, str or path
+        The trained recovery network or its file (``sparseedm fit-cnn``);
+        required.
+    representation : {"average", "zero"}, optional
+        How occluded joints enter the EDM vector. None (default) is the one the
+        model was trained on; another one is refused.
+    chunk_size : int, default 4096
+        Poses per batch through the network.
+    progress : bool, default False
+        Accepted for the signature of :func:`sparseedm.recover`; unused here
+        (no progress bar is shown).
 
     Returns
     -------
     RecoveryResult
+        The filled poses and EDM vectors with a status and reason per pose;
+        ``objective``, ``gap`` and ``alpha`` are NaN (nothing is certified).
     """
     t0 = time.perf_counter()
     if model is None:

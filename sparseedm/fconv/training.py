@@ -47,6 +47,23 @@ def split_by_clip(clips, n_poses, random_state=0):
     Without clip names (``clips=None``), or with fewer than 3 clips, a seeded
     10 % of the rows is used instead (said in the model's metadata).
 
+    Parameters
+    ----------
+    clips : array_like of str, shape (n_poses,), or None
+        The clip each pose comes from.
+    n_poses : int
+        Number of poses (rows) to split.
+    random_state : int, default 0
+        Seed of the row split used when there are no clip names or fewer than
+        3 clips.
+
+    Returns
+    -------
+    mask : ndarray of bool, shape (n_poses,)
+        True for the validation rows.
+    description : str
+        How the split was made, for the model's metadata.
+
     Examples
     --------
     >>> import numpy as np

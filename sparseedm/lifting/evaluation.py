@@ -71,7 +71,25 @@ RETRAINED = {"zero+basl": "zero", "ave+basl": "average"}
 
 @dataclass
 class LiftReport:
-    """Rows of the application table, per-action Mix errors, examples for figures."""
+    """Rows of the application table, per-action Mix errors, examples for figures.
+
+    Parameters
+    ----------
+    rows : list of dict
+        One row per lifter, pipeline and occlusion count, with the keys of
+        :data:`COLUMNS` (errors are means over the poses that were lifted).
+    per_action : list of dict
+        Mix-occlusion 3D-EDM error per action label (``label``, ``lifter``,
+        ``pipeline``, ``n_poses``, ``err3d``); empty without labels.
+    examples : dict
+        A few poses for the figure: ``truth``, ``lifted``, ``missing`` and
+        ``titles``; empty when the ``joint`` pipeline was not run.
+    settings : dict
+        What was run: number of poses, data name, seed, counts, pipelines,
+        lifters and the FConv models used.
+    notes : list of str, optional
+        Pipelines skipped and poses that could not be lifted, in words.
+    """
 
     rows: list
     per_action: list
@@ -195,10 +213,25 @@ def evaluate_lifting(lifters, test, *, dictionary=None, train_poses2d=None,
         For ``applyspar`` (default: the shipped 2D dictionary).
     train_poses2d : (n, N, 2), optional
         For the imputer pipelines (skipped without it).
+    counts : iterable of {1, 2, 3, ..., "mix"}, default (1, 2, 3, "mix")
+        Occluded joints per pose, one seeded occlusion per count shared by
+        every pipeline (``"mix"``: 1, 2 or 3 per pose).
     pipelines : iterable of str, optional
         Default: all of complete, as-is average, as-is zero, applyspar, the
         imputers (with training poses), joint, and the FConv rows whose
         models are given.
+    max_poses : int, optional
+        Evaluate a seeded sample of this many test poses; default all.
+    seed : int, default 0
+        Seed of the pose sample, the occlusions, the imputers' training
+        sample and the example poses.
+    n_jobs : int, default 1
+        Workers of the lifters' predictions and of the sparse recovery.
+    max_train : int, default 20000
+        The imputers are fitted on a seeded sample of at most this many
+        training poses.
+    data_name : str, default "test data"
+        Name of the test data, for the report.
     fconv_models : dict, optional
         ``{"zero": model, "average": model}`` (FConvModel or path; either
         key may be absent): the FConv recovery models of ``applyzero`` /
@@ -206,6 +239,12 @@ def evaluate_lifting(lifters, test, *, dictionary=None, train_poses2d=None,
     retrained : dict, optional
         ``{"zero": lifter, "average": lifter}``: lifters retrained on
         occluded input in that representation, for ``zero+basl`` / ``ave+basl``.
+
+    Returns
+    -------
+    LiftReport
+        The table's rows, per-action errors, example poses, the settings and
+        notes on what was skipped.
     """
     rng = np.random.default_rng(seed)
     n_all = len(test["poses2d"])

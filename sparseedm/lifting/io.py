@@ -166,9 +166,31 @@ def _json_when(name, value):
 
 def write_poses3d(path, result, ids=None, output_format=None, rate=30.0, *, tracks=None,
                   frames=None):
-    """Write a :class:`~sparseedm.lifting.LiftResult` atomically (format from the extension;
-    `rate`: frames per second of a .trc; `tracks`, `frames`: the input's, written
-    beside each row's id)."""
+    """Write a :class:`~sparseedm.lifting.LiftResult` atomically (format from the extension).
+
+    Parameters
+    ----------
+    path : str or path-like
+        The output file: .csv, .npz, .json or .trc (see the module's
+        description).
+    result : LiftResult
+        The lifted poses, their statuses and reasons.
+    ids : array_like (n,), optional
+        Each row's id; default the row numbers.
+    output_format : {"csv", "npz", "json", "trc"}, optional
+        The format when the extension does not say; one that contradicts the
+        extension is refused.
+    rate : float, default 30.0
+        Frames per second of a .trc.
+    tracks, frames : array_like (n,), optional
+        The input's tracks and frame numbers, written beside each row's id
+        (a .trc places each row at its frame's time instead).
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
     path = Path(path)
     fmt = _output_format(path, output_format)
     n = len(result.status)
@@ -217,29 +239,82 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
               self_training=None, plot_frames=None, input_format=None):
     """Read 2D keypoints, lift them, write 3D poses and an errors file; return a summary.
 
-    `confidence_threshold`: joints scored below it are missing; default the
-    input format's (:data:`sparseedm.formats.DEFAULT_THRESHOLDS`).
-
     Nothing the run reads is ever written, and no output overwrites another:
     the paths are checked (:func:`sparseedm._atomic.check_paths`) before any work.
-    `rate` is a .trc output's frames per second; `plot` a PNG path for a few
-    lifted poses (matplotlib checked first): the first 4 lifted, or those of
-    `plot_frames` (frames, or rows of an input without frames, as
-    :func:`sparseedm.plotting.select_values` reads them: ``"10:40"``,
-    ``"3,7"``; at most :data:`PLOT_MAX` spread over them; an unknown one is
-    refused before any work). The summary's ``plot`` is the
-    figure written, or None; its ``temporal`` says whether time was used
-    (`temporal` and the input has frames). `chunk_size` rows (whole tracks
-    with time) are lifted at a time. `joint_map`: a DeepLabCut input's JSON
-    naming the body part of each joint (as ``sparseedm recover --joint-map``).
-    `dictionary`, `adapt` and `self_training` are the 2D dictionary that fills
-    a video's missing joints across time first (a shipped name, a path or a
-    Dictionary; default the shipped default), whether it is adapted to the
-    input (as ``sparseedm recover`` adapts) and its self-training rounds; they
-    apply only when time is used (an input with frames), and are refused
-    otherwise, after reading the input and before any work. `input_format`:
-    the input's keypoint format when its name does not tell (as
-    :func:`~sparseedm.keypoints.read_keypoints`' `format`).
+
+    Parameters
+    ----------
+    input : str or path-like
+        A keypoint file :func:`sparseedm.keypoints.read_keypoints` reads.
+    output : str or path-like
+        The 3D poses' file: .csv, .npz, .json or .trc (see the module's
+        description).
+    lifter : Lifter, str or path, optional
+        A loaded lifter, a shipped name or a lifter .npz; default the shipped
+        ``"default"``.
+    n_jobs : int, default 1
+        Workers of the lifting (and of the 2D dictionary's adaptation with
+        time).
+    output_format : {"csv", "npz", "json", "trc"}, optional
+        The output's format when its extension does not say; one that
+        contradicts the extension is refused.
+    errors_path : str or path-like, optional
+        The errors file (a row per refused pose); default
+        ``<output stem>.errors.csv`` beside `output`. Written only when a pose
+        was refused or an input file skipped.
+    confidence_threshold : float, optional
+        Joints scored below it are missing; default the input format's
+        (:data:`sparseedm.formats.DEFAULT_THRESHOLDS`).
+    representation : {"average", "zero"}, optional
+        How missing joints are fed to a lifter that reads whole vectors, as
+        :func:`sparseedm.lifting.lift`'s `representation`.
+    rate : float, default 30.0
+        A .trc output's frames per second (finite, > 0).
+    plot : str or path-like, optional
+        A PNG of a few lifted poses (the ``plot`` extra, checked first): the
+        first 4 lifted, or those of `plot_frames`.
+    temporal : bool, default True
+        Lift across time when the input has frames; False lifts every row on
+        its own.
+    chunk_size : int, default 50000
+        Rows lifted at a time (whole tracks at a time with time).
+    joint_map : str or path-like, optional
+        A DeepLabCut input's JSON naming the body part of each joint (as
+        ``sparseedm recover --joint-map``).
+    dictionary : Dictionary, str or path, optional
+        With time only: the 2D dictionary that fills a video's missing joints
+        across time first (a shipped name, a path or a Dictionary; default the
+        shipped default).
+    adapt : bool, default True
+        With time only: whether that dictionary is first adapted to the input
+        (as ``sparseedm recover`` adapts); False is refused without time.
+    self_training : int, optional
+        With time only: that adaptation's self-training rounds; default
+        :data:`sparseedm.adaptation.SELF_TRAINING_ROUNDS`, 0 turns it off.
+    plot_frames : str, optional
+        The poses to plot: frames, or rows of an input without frames, as
+        :func:`sparseedm.plotting.select_values` reads them (``"10:40"``,
+        ``"3,7"``); at most :data:`PLOT_MAX` spread over them; an unknown one
+        is refused before any work.
+    input_format : str, optional
+        The input's keypoint format when its name does not tell (as
+        :func:`~sparseedm.keypoints.read_keypoints`' `format`).
+
+    Returns
+    -------
+    dict
+        The counts of ``LiftResult.summary()`` (poses, refused, statuses...)
+        plus ``output``, ``skipped_files`` (input files that could not
+        be read), ``errors`` (the errors file, or None when nothing was
+        refused), ``temporal`` (whether time was used: `temporal` and the
+        input has frames) and ``plot`` (the figure written, or None).
+
+    Raises
+    ------
+    SparseEDMError
+        Bad arguments, a path the run would both read and write, an
+        unreadable input; the dictionary options given for an input lifted
+        row by row.
     """
     validate_params("lift_file", dict(n_jobs=n_jobs, chunk_size=chunk_size, adapt=adapt,
                                       self_training=self_training), _PARAMS)  # before adapting

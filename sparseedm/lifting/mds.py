@@ -329,6 +329,9 @@ def reconstruct(edm3, P, observed, chirality=None, *, smacof_iter=30):
     chirality : ChiralityPrior or ndarray of coefficients, optional
         Decides the depth reflection; without it the ``front`` candidate of
         :func:`align_to_image` is kept.
+    smacof_iter : int, default 30
+        Most stress-majorisation iterations (:func:`smacof`) refining the
+        classical-MDS embedding of each EDM.
 
     Returns
     -------

@@ -51,7 +51,21 @@ def scale_to(vectors, target):
 
 
 def err_ave_3d(pred_vectors, true_vectors):
-    """Err_ave (per cent) of 3D EDM vectors after one least-squares scale per pose."""
+    """Err_ave (per cent) of 3D EDM vectors after one least-squares scale per pose.
+
+    Parameters
+    ----------
+    pred_vectors : array_like (n, N(N-1)/2)
+        Predicted 3D EDM vectors (upper-triangle entries), any scale.
+    true_vectors : array_like (n, N(N-1)/2)
+        The true 3D EDM vectors.
+
+    Returns
+    -------
+    ndarray (n,)
+        Err_ave per pose (:func:`sparseedm.metrics.err_ave`) of the prediction
+        scaled by its least-squares factor onto the truth.
+    """
     s = scale_to(pred_vectors, true_vectors)
     return err_ave(np.asarray(pred_vectors, float) * s[..., None], true_vectors)
 
@@ -59,9 +73,23 @@ def err_ave_3d(pred_vectors, true_vectors):
 def mpjpe(pred, true, *, align="root", unit=1000.0):
     """Mean per-joint position error per pose (mm for poses in metres).
 
+    Parameters
+    ----------
+    pred : array_like (n, 14, 3)
+        Predicted 3D poses.
+    true : array_like (n, 14, 3)
+        True 3D poses, in the same axes.
     align : {"root", "scale"}
         "root": pelvis-centred; "scale": pelvis-centred plus one least-squares
         scale of the prediction (N-MPJPE).
+    unit : float, default 1000.0
+        Factor applied to the errors (1000: metres to millimetres).
+
+    Returns
+    -------
+    ndarray (n,)
+        Mean over the joints of the Euclidean distance between the aligned
+        poses, times `unit`.
     """
     p = np.asarray(pred, float) - pelvis(pred)[..., None, :]
     t = np.asarray(true, float) - pelvis(true)[..., None, :]
@@ -72,7 +100,24 @@ def mpjpe(pred, true, *, align="root", unit=1000.0):
 
 
 def pa_mpjpe(pred, true, *, unit=1000.0):
-    """MPJPE after the best similarity transform (Procrustes, proper rotation)."""
+    """MPJPE after the best similarity transform (Procrustes, proper rotation).
+
+    Parameters
+    ----------
+    pred : array_like (n, N, 3)
+        Predicted 3D poses.
+    true : array_like (n, N, 3)
+        True 3D poses.
+    unit : float, default 1000.0
+        Factor applied to the errors (1000: metres to millimetres).
+
+    Returns
+    -------
+    ndarray (n,)
+        Mean per-joint error of each prediction after the translation,
+        rotation (no reflection) and scale that best fit it to the truth,
+        times `unit`.
+    """
     p = np.asarray(pred, float)
     t = np.asarray(true, float)
     p = p - p.mean(axis=-2, keepdims=True)

@@ -15,6 +15,24 @@ def plot_poses3d(truth, lifted, path, titles=None, missing=None):
 
     Poses are (k, N, 3) in camera axes (x right, y down, z away); drawn with
     the image's up at the top and depth into the page.
+
+    Parameters
+    ----------
+    truth : array_like (k, N, 3)
+        The true poses; they also set each panel's extent.
+    lifted : array_like (k, N, 3)
+        The lifted poses; a pose with a non-finite coordinate is not drawn.
+    path : str or path-like
+        The figure file, PNG, PDF or SVG by its extension (written atomically).
+    titles : list of str, optional
+        One title per panel.
+    missing : array_like of bool (k, N), optional
+        The occluded joints, marked with a red x on the lifted pose.
+
+    Returns
+    -------
+    Path
+        The file written.
     """
     truth = np.asarray(truth, float)
     lifted = np.asarray(lifted, float)

@@ -207,6 +207,11 @@ def write_trc(path, poses3d, *, rate=30.0, joint_names=JOINT_NAMES, frames=None)
 def read_trc(path):
     """Read a TRC file as :func:`write_trc` writes it (bounded reader).
 
+    Parameters
+    ----------
+    path : str or path-like
+        The .trc file.
+
     Returns
     -------
     dict

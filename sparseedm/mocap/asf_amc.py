@@ -102,8 +102,29 @@ class ASFBone:
 class ASFSkeleton:
     """A parsed ASF file.
 
-    ``order`` lists the bones parents-first; ``parents`` maps a bone to its
-    parent bone name (``"root"`` for the root's children).
+    Parameters
+    ----------
+    bones : dict of str to ASFBone
+        The ``:bonedata`` blocks by bone name.
+    parents : dict of str to str
+        A bone's parent bone name (``"root"`` for the root's children).
+    order : list of str
+        The bones parents-first.
+    root_order : tuple of str, default ("TX", "TY", "TZ", "RX", "RY", "RZ")
+        The root's motion channels, in the order an AMC frame lists them.
+    root_axis : str, default "XYZ"
+        The axis order of `root_orientation` (the ASF root's ``axis``).
+    root_orientation : ndarray (3,), default zeros
+        The root's rest orientation: Euler angles in degrees, in `root_axis` order.
+    root_position : ndarray (3,), default zeros
+        The root's rest position (file length units); channels absent from
+        `root_order` keep it.
+    length_unit : float, default 1.0
+        The ASF ``:units length``: file units are inches divided by it.
+    angle_unit : {"deg", "rad"}, default "deg"
+        The ASF ``:units angle``: the unit of the AMC motion's angles.
+    path : str, default "<string>"
+        The file parsed, for messages.
     """
 
     bones: dict

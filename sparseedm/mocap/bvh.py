@@ -126,7 +126,20 @@ class BVHJoint:
 
 @dataclass
 class BVHData:
-    """A parsed BVH file: joints in file order, motion (n_frames, n_channels)."""
+    """A parsed BVH file: joints in file order, motion (n_frames, n_channels).
+
+    Parameters
+    ----------
+    joints : list of BVHJoint
+        The hierarchy's joints in file order (a joint's parent comes first).
+    motion : ndarray (n_frames, n_channels)
+        The MOTION section: one row per frame, the joints' channels in file
+        order.
+    frame_time : float
+        Seconds per frame (the ``Frame Time`` line).
+    path : str, default "<string>"
+        The file parsed, for messages.
+    """
 
     joints: list
     motion: np.ndarray

@@ -212,9 +212,19 @@ def _along(name, metres):
 class Rig:
     """A rig family: per 14-joint name, alternative sources (first present wins).
 
-    ``units`` is the family's usual length unit (a key of :data:`UNITS`), or
-    ``None`` when the family is written in several (``auto`` then decides from
-    the height alone).
+    Parameters
+    ----------
+    name : str
+        The family's short name (``"mixamo"``, ``"cmu"``, ...).
+    title : str
+        A line describing the family and the joint names that tell it.
+    units : str or None
+        The family's usual length unit (a key of :data:`UNITS`), or ``None``
+        when the family is written in several (``auto`` then decides from
+        the height alone).
+    joints : dict of str to tuple of Source
+        For each of the 14 joint names, the sources to try in order; exactly
+        the 14 joints or ValueError.
     """
 
     name: str
@@ -683,8 +693,20 @@ def chirality(poses, *, min_bend=0.02):
     Knees bend forwards: with ``b`` the knee's offset from the hip-ankle
     midpoint (frames where it exceeds `min_bend`), ``up`` the hips -> neck
     direction and ``lr`` the right hip -> left hip vector, a person has
-    ``(lr x up) . b > 0`` -- whatever the world's axes. Returns the
-    bend-weighted mean sign, or None when no knee is bent enough.
+    ``(lr x up) . b > 0`` -- whatever the world's axes.
+
+    Parameters
+    ----------
+    poses : array_like (n, 14, 3)
+        3D poses of one clip in any axes and units.
+    min_bend : float, default 0.02
+        Knee offsets at most this long (in the poses' units) do not vote.
+
+    Returns
+    -------
+    float or None
+        The bend-weighted mean sign of the knees' votes, in [-1, 1] (+1: left
+        is the subject's left), or None when no knee is bent enough.
 
     Examples
     --------
