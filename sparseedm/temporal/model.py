@@ -129,6 +129,10 @@ class TemporalSettings:
     prior_error : float
         Typical error of a per-frame answer, as a fraction of the body's
         extent: the scale the observations' weight is set against.
+    noisy_acceleration : float
+        The acceleration penalty where the observations are data (noisy
+        input, :func:`observation_weight`): a detector's or an annotator's
+        keypoints want a stiffer curve than clean ones.
     edge_decay : float
         Frames over which a filled run takes on the offset between an
         observed neighbour and the smoothed curve there (:func:`joined`):
@@ -150,6 +154,7 @@ class TemporalSettings:
     denoise: bool = True
     noise_floor: float = 0.002
     prior_error: float = 0.03
+    noisy_acceleration: float = 100.0
     edge_decay: float = 3.0
     still: float = 0.04
 
@@ -524,7 +529,7 @@ def fill_segment(values, free, prior, confidence, settings=DEFAULT_SETTINGS, par
         return values.copy(), weight, np.zeros(values.shape[1])
     weight[:, (~free).any(axis=0)] *= trust
     weight[still_runs(values, free, settings)] = 0.0
-    unknown, data, data_weight = _data_terms(values, free, prior, weight, settings)
+    unknown, data, data_weight, settings = _data_terms(values, free, prior, weight, settings)
     filled, residual = _smooth_joints(values, unknown, data, data_weight, settings)
     if parents is None and values.shape[1] == SKELETON_14.num_joints:
         parents = SKELETON_14.parents
@@ -541,14 +546,16 @@ def fill_segment(values, free, prior, confidence, settings=DEFAULT_SETTINGS, par
 
 
 def _data_terms(values, free, prior, weight, settings):
-    """Unknown frames, data and data weights of the banded solves: the free
-    frames against the prior, and, when :func:`observation_weight` finds the
-    observations noisy, every frame, the observed ones against their values."""
+    """Unknown frames, data, data weights and settings of the banded solves:
+    the free frames against the prior, and, when :func:`observation_weight`
+    finds the observations noisy, every frame, the observed ones against
+    their values (with ``settings.noisy_acceleration``)."""
     w_obs = observation_weight(values, free, settings)
     if w_obs is None:
-        return free, prior, weight
+        return free, prior, weight, settings
     data = np.where(free[..., None], prior, values)
-    return np.ones_like(free), data, np.where(free, weight, w_obs)
+    stiff = replace(settings, acceleration=settings.noisy_acceleration)
+    return np.ones_like(free), data, np.where(free, weight, w_obs), stiff
 
 
 #: scales of the prior's weight a segment chooses among (:func:`clip_trust`)
