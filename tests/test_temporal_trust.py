@@ -83,7 +83,7 @@ def _long_gaps(track):
 def test_a_wrong_prior_is_caught_by_the_probes_and_time_fills(track):
     free = _long_gaps(track)
     values = np.where(free[..., None], 0.0, track)
-    probe = probe_mask(free)
+    probe = probe_mask(values, free)
     assert probe.any() and not (probe & free).any()
     wrong, confidence = _off_by(track, 0.4)
     right, _ = _off_by(track, 0.0)
@@ -108,4 +108,4 @@ def test_a_joint_never_observed_keeps_the_prior_whatever_the_trust(track):
 def test_no_probe_where_the_prior_has_no_weight():
     free = np.zeros((60, 14), bool)
     free[20:26, WRIST] = True  # every frame within ramp_start of an observation
-    assert not probe_mask(free).any()
+    assert not probe_mask(np.zeros((60, 14, 2)), free).any()

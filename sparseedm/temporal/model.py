@@ -575,17 +575,18 @@ def probe_settings(settings=DEFAULT_SETTINGS):
     return replace(settings, prior_stride=2 * max(int(settings.prior_stride), 1))
 
 
-def probe_mask(free, settings=DEFAULT_SETTINGS):
+def probe_mask(values, free, settings=DEFAULT_SETTINGS):
     """(T, N) bool: observed joint-frames to hide so a segment can test its prior.
 
     Only when some joint observed in the segment has a run of free frames
     where the prior carries weight: then up to :data:`PROBE_WINDOWS` windows
-    that do not overlap, as long as the longest such run (at least
-    ``2 * ramp_start + 4`` frames, so the prior weighs inside them; at most
-    half the segment), each with one observed frame on both sides, hide up to
-    :data:`PROBE_JOINTS` joints observed throughout the window and its two
-    neighbours (chosen by a generator seeded by the segment's shape: the same
-    segment is probed the same way). A probed frame loses few joints more
+    side by side from the segment's start, as long as the longest such run
+    (at least ``2 * ramp_start + 4`` frames, so the prior weighs inside them;
+    at most half the segment), each with one observed frame on both sides,
+    hide up to :data:`PROBE_JOINTS` joints observed throughout the window and
+    its two neighbours and not still there (:func:`still_runs`: time alone
+    fills those whatever the trust), chosen by a generator seeded by the
+    segment's shape (the same segment is probed the same way). A probed frame loses few joints more
     than it has lost, so its per-frame answer is as good as the real ones.
     Else all False.
     """
@@ -603,7 +604,10 @@ def probe_mask(free, settings=DEFAULT_SETTINGS):
     rng = np.random.default_rng([T, N])
     count = min(PROBE_WINDOWS, (T - 1) // (L + 1))
     for s in 1 + (L + 1) * np.arange(count):
-        ok = np.flatnonzero(~free[s - 1:s + L + 1].any(axis=0))
+        ok = ~free[s - 1:s + L + 1].any(axis=0)
+        trial = free.copy()
+        trial[s:s + L, ok] = True
+        ok = np.flatnonzero(ok & ~still_runs(values, trial, settings)[s])
         pick = rng.choice(ok, min(PROBE_JOINTS, len(ok)), replace=False)
         out[s:s + L, pick] = True
     return out
@@ -632,11 +636,13 @@ def clip_trust(values, free, probe, prior, confidence, settings=DEFAULT_SETTINGS
     float
         The level whose fill of ``free | probe`` lies nearest the hidden
         observations, over the probed joint-frames where the prior weighs
-        (ties to the smaller), when it beats the full trust's (the last
-        level) by :data:`TRUST_MARGIN`; else, or with nothing to score, 1.0.
+        and the joint is not still (ties to the smaller), when it beats the
+        full trust's (the last level) by :data:`TRUST_MARGIN`; else, or with
+        nothing to score, 1.0.
     """
     probed = free | probe
-    scored = probe & (_ramp(distance_to_observed(probed), settings) > 0)
+    scored = probe & (_ramp(distance_to_observed(probed), settings) > 0) \
+        & ~still_runs(values, probed, settings)
     if not scored.any():
         return 1.0
     settings = probe_settings(settings)

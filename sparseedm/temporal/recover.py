@@ -303,8 +303,8 @@ def _probes(layout, poses, mask, usable, settings):
     mask with the probes added, and the rows whose answer changes with them."""
     probes, probed, need = [], mask.copy(), np.zeros(len(mask), bool)
     for rows, off in zip(layout.segments, layout.offsets):
-        _, free = _dense(rows, off, poses, mask, usable)
-        probe = probe_mask(free, settings)
+        values, free = _dense(rows, off, poses, mask, usable)
+        probe = probe_mask(values, free, settings)
         probes.append(probe)
         probed[rows] |= probe[off]
         asked = prior_frames(free | probe, probe_settings(settings))
