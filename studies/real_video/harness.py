@@ -264,7 +264,8 @@ def table(summary):
     for k in keys:
         vals = [summary[n].get(k) for n in summary]
         lines.append(k.ljust(22) + "".join(
-            ("-" if v is None else f"{v:.3f}").rjust(11) for v in vals))
+            ("-" if v is None else f"{v:.3f}" if abs(v) < 1e5 else f"{v:.2e}").rjust(11)
+            for v in vals))
     return "\n".join(lines)
 
 
