@@ -85,6 +85,7 @@ def test_a_wrong_prior_is_caught_by_the_probes_and_time_fills(track):
     values = np.where(free[..., None], 0.0, track)
     probe = probe_mask(values, free)
     assert probe.any() and not (probe & free).any()
+    assert not probe_mask(values, free, TemporalSettings(probe=False)).any()
     wrong, confidence = _off_by(track, 0.4)
     right, _ = _off_by(track, 0.0)
     assert clip_trust(values, free, probe, right, confidence) == TRUST_LEVELS[-1]

@@ -142,6 +142,10 @@ class TemporalSettings:
         A joint whose observed frames within :data:`STILL_FRAMES` of a run's
         both ends stay within this fraction of the body's extent is still
         there: time alone fills the run (:func:`still_runs`). 0: never.
+    probe : bool
+        Test the per-frame prior on each segment's own observed joints and
+        scale its weight by what the test shows (:func:`probe_mask`,
+        :func:`clip_trust`); False: full trust, no extra per-frame answers.
     """
 
     acceleration: float = 30.0
@@ -157,6 +161,7 @@ class TemporalSettings:
     noisy_acceleration: float = 100.0
     edge_decay: float = 3.0
     still: float = 0.04
+    probe: bool = True
 
 
 DEFAULT_SETTINGS = TemporalSettings()
@@ -592,6 +597,8 @@ def probe_mask(values, free, settings=DEFAULT_SETTINGS):
     """
     T, N = free.shape
     out = np.zeros_like(free)
+    if not settings.probe:
+        return out
     seen = (~free).any(axis=0)
     deep = free & seen & (_ramp(distance_to_observed(free), settings) > 0)
     if not deep.any():
