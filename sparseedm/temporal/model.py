@@ -85,7 +85,8 @@ from .tracks import distance_to_observed
 __all__ = ["TemporalSettings", "prior_weights", "needs_prior", "prior_frames",
            "spread_prior", "reference_trajectories", "coupling", "observation_noise",
            "body_extent", "observation_weight", "free_runs", "still_runs", "joined",
-           "fill_segment", "probe_settings", "probe_mask", "clip_trust", "time_filled",
+           "fill_segment", "probe_settings", "probe_mask", "clip_trust", "probe_errors", "choose_trust",
+           "time_filled",
            "TRUST_LEVELS"]
 
 
@@ -647,17 +648,38 @@ def clip_trust(values, free, probe, prior, confidence, settings=DEFAULT_SETTINGS
         full trust's (the last level) by :data:`TRUST_MARGIN`; else, or with
         nothing to score, 1.0.
     """
+    return choose_trust(*probe_errors(values, free, probe, prior, confidence, settings,
+                                      parents))
+
+
+def probe_errors(values, free, probe, prior, confidence, settings=DEFAULT_SETTINGS,
+                 parents=None):
+    """What :func:`clip_trust` ranks the levels by, to be pooled over segments:
+    the summed distances (pixels) of the probed joint-frames for each of
+    :data:`TRUST_LEVELS`, and how many joint-frames were scored."""
     probed = free | probe
     scored = probe & (_ramp(distance_to_observed(probed), settings) > 0) \
         & ~still_runs(values, probed, settings)
     if not scored.any():
-        return 1.0
+        return np.zeros(len(TRUST_LEVELS)), 0
     settings = probe_settings(settings)
     errors = []
     for level in TRUST_LEVELS:
         out = fill_segment(values, probed, prior, confidence, settings, parents, level)[0]
-        errors.append(np.linalg.norm(out[scored] - values[scored], axis=-1).mean())
-    errors = np.nan_to_num(np.asarray(errors), nan=np.inf)
+        errors.append(np.linalg.norm(out[scored] - values[scored], axis=-1).sum())
+    return np.nan_to_num(np.asarray(errors), nan=np.inf), int(scored.sum())
+
+
+def choose_trust(errors, count):
+    """The trust level of pooled :func:`probe_errors` (see :func:`clip_trust`).
+
+    Examples
+    --------
+    >>> choose_trust(np.array([1.0, 3.0, 4.0]), 2), choose_trust(np.zeros(3), 0)
+    (0.0, 1.0)
+    """
+    if not count:
+        return 1.0
     best = int(np.argmin(errors))
     return float(TRUST_LEVELS[best]) if errors[best] < TRUST_MARGIN * errors[-1] else 1.0
 

@@ -35,8 +35,8 @@ from ..ensemble import adapt_members
 from ..normalize import normalize
 from ..skeleton import SKELETON_14
 from .linking import link_tracks, needs_linking, split_at_jumps
-from .model import (DEFAULT_SETTINGS, clip_trust, fill_segment, prior_frames, probe_mask,
-                    probe_settings, time_filled)
+from .model import (DEFAULT_SETTINGS, choose_trust, fill_segment, prior_frames,
+                    probe_errors, probe_mask, probe_settings, time_filled)
 from .tracks import split_tracks
 
 __all__ = ["recover_temporal", "recover_track", "adapt_in_time", "offered_poses",
@@ -312,25 +312,36 @@ def _probes(layout, poses, mask, usable, settings):
     return probes, probed, need & usable
 
 
-def _trusts(layout, poses, mask, usable, per, settings, members, kwargs):
-    """Each segment's :func:`~sparseedm.temporal.model.clip_trust`, from one
-    batch of per-frame answers with the probes hidden; and the rows asked."""
+def _trusts(layout, poses, mask, usable, per, settings, members, kwargs, track_of):
+    """Each segment's trust in the per-frame prior: the probes' errors
+    (:func:`~sparseedm.temporal.model.probe_errors`, one batch of per-frame
+    answers with the probes hidden) pooled over the segments of one track
+    (`track_of`: a track key per row), so that a cut in a track does not
+    change what its other rows are filled with; and the rows asked."""
     probes, probed, need = _probes(layout, poses, mask, usable, settings)
     if not need.any():
         return [1.0] * len(probes), 0
     test = _per_frame(poses, probed, need, members, settings, kwargs)
-    trusts = []
+    pooled = {}
     for rows, off, probe in zip(layout.segments, layout.offsets, probes):
-        if not probe.any():
-            trusts.append(1.0)
-            continue
-        values, free = _dense(rows, off, poses, mask, usable)
-        prior, confidence = _segment_prior(per, rows, off, len(values))
-        changed = probe.any(axis=1)
-        test_prior, test_confidence = _segment_prior(test, rows, off, len(values))
-        prior[changed], confidence[changed] = test_prior[changed], test_confidence[changed]
-        trusts.append(clip_trust(values, free, probe, prior, confidence, settings))
-    return trusts, int(need.sum())
+        if probe.any():
+            errors, count = probe_errors(*_probed_segment(rows, off, probe, poses, mask,
+                                                          usable, per, test), settings)
+            sums = pooled.setdefault(track_of[rows[0]], [0.0, 0])
+            sums[0], sums[1] = sums[0] + errors, sums[1] + count
+    trust = {key: choose_trust(*sums) for key, sums in pooled.items()}
+    return [trust.get(track_of[rows[0]], 1.0) for rows in layout.segments], int(need.sum())
+
+
+def _probed_segment(rows, off, probe, poses, mask, usable, per, test):
+    """values, free, probe, prior, confidence of a probed segment: its
+    per-frame answers, those of the probed frames from `test`."""
+    values, free = _dense(rows, off, poses, mask, usable)
+    prior, confidence = _segment_prior(per, rows, off, len(values))
+    changed = probe.any(axis=1)
+    test_prior, test_confidence = _segment_prior(test, rows, off, len(values))
+    prior[changed], confidence[changed] = test_prior[changed], test_confidence[changed]
+    return values, free, probe, prior, confidence
 
 
 def _fill_segments(layout, poses, mask, usable, per, settings, trusts):
@@ -447,7 +458,10 @@ def recover_temporal(poses, missing=None, *, tracks=None, frames, dictionary=Non
     need = _plan(layout, poses, mask, usable, settings)
     kwargs["solver"] = compiled_solver(kwargs.get("solver", "fast"), adaptations)
     per = _per_frame(poses, mask, need, members, settings, kwargs)
-    trusts, probe_poses = _trusts(layout, poses, mask, usable, per, settings, members, kwargs)
+    track_of = layout.linked if layout.linked is not None else (
+        np.zeros(len(poses), int) if tracks is None else np.asarray(tracks))
+    trusts, probe_poses = _trusts(layout, poses, mask, usable, per, settings, members, kwargs,
+                                  track_of)
     filled, weight, residual = _fill_segments(layout, poses, mask, usable, per, settings,
                                               trusts)
     res = _assemble(poses, mask, refusal, why, layout, per, filled, weight, residual,
