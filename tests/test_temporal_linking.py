@@ -5,6 +5,8 @@ import pytest
 
 import sparseedm
 from sparseedm.temporal.linking import MIN_COMMON_JOINTS, link_tracks, needs_linking
+from sparseedm.temporal.model import TemporalSettings
+from sparseedm.temporal.recover import recover_temporal
 
 WRIST, KNEE = 4, 8
 
@@ -181,11 +183,14 @@ def test_a_wild_coordinate_stays_on_its_own_row(track, small_dictionary, wild):
     bad[100, 1, 0] = wild  # the neck of a complete row inside the wrist's gap
     mask_bad = mask.copy()
     frames = np.arange(len(track))
-    ref = sparseedm.recover(clean, frames=frames, dictionary=small_dictionary, adapt=False)
+    # the per-segment test of the prior (TemporalSettings.probe) is off: it may
+    # rightly decide otherwise on a track cut in two, which is not what is tested
+    fixed = dict(dictionary=small_dictionary, adapt=False,
+                 settings=TemporalSettings(probe=False))
+    ref = recover_temporal(clean, frames=frames, **fixed)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        res = sparseedm.recover(bad, mask_bad, frames=frames, dictionary=small_dictionary,
-                                adapt=False)
+        res = recover_temporal(bad, mask_bad, frames=frames, **fixed)
     others = np.arange(len(track)) != 100
     np.testing.assert_array_equal(res.status[others], ref.status[others])
     assert "jumps" in res.reason[100]  # answered alone (refused per frame at 1e308)

@@ -51,6 +51,18 @@ spline, which the gaps then follow. Observed joints are still returned
 exactly as given; clean input (every motion-capture validation segment
 measured below 0.16 %) is filled exactly as without it.
 
+Where time is the better evidence, three rules keep the pose model from
+dragging a joint away. A joint still on both sides of a run of free frames
+is filled by time alone (:func:`still_runs`). Where the observations are
+data, each run is joined to its observed neighbours (:func:`joined`): its
+first and last frames continue the observed motion instead of jumping to the
+smoothed curve. And each segment tests its own prior (:func:`probe_mask`,
+:func:`clip_trust`): a few observed joints are hidden in runs like the ones
+to fill, filled with the prior's weight scaled by each of
+:data:`TRUST_LEVELS`, and a lower scale that predicts them clearly better
+is used for every joint observed in the segment (a joint never observed
+keeps the prior: only the pose model can place it).
+
 The constants (acceleration 30, jerk 300, ramp from 6 to 30 frames, at 30
 frames/s) were chosen on validation sequences across sources, by the error
 over all hidden joint-frames against the best gap filler
@@ -62,7 +74,7 @@ not depend on the image's scale; they do depend on the frame rate.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -72,7 +84,10 @@ from .tracks import distance_to_observed
 
 __all__ = ["TemporalSettings", "prior_weights", "needs_prior", "prior_frames",
            "spread_prior", "reference_trajectories", "coupling", "observation_noise",
-           "body_extent", "observation_weight", "fill_segment", "time_filled"]
+           "body_extent", "observation_weight", "free_runs", "still_runs", "joined",
+           "fill_segment", "probe_settings", "probe_mask", "clip_trust", "probe_errors", "choose_trust",
+           "time_filled",
+           "TRUST_LEVELS"]
 
 
 @dataclass(frozen=True)
@@ -115,6 +130,23 @@ class TemporalSettings:
     prior_error : float
         Typical error of a per-frame answer, as a fraction of the body's
         extent: the scale the observations' weight is set against.
+    noisy_acceleration : float
+        The acceleration penalty where the observations are data (noisy
+        input, :func:`observation_weight`): a detector's or an annotator's
+        keypoints want a stiffer curve than clean ones.
+    edge_decay : float
+        Frames over which a filled run takes on the offset between an
+        observed neighbour and the smoothed curve there (:func:`joined`):
+        the first and last filled frames continue the observed ones.
+        0: not joined.
+    still : float
+        A joint whose observed frames within :data:`STILL_FRAMES` of a run's
+        both ends stay within this fraction of the body's extent is still
+        there: time alone fills the run (:func:`still_runs`). 0: never.
+    probe : bool
+        Test the per-frame prior on each segment's own observed joints and
+        scale its weight by what the test shows (:func:`probe_mask`,
+        :func:`clip_trust`); False: full trust, no extra per-frame answers.
     """
 
     acceleration: float = 30.0
@@ -127,6 +159,10 @@ class TemporalSettings:
     denoise: bool = True
     noise_floor: float = 0.002
     prior_error: float = 0.03
+    noisy_acceleration: float = 100.0
+    edge_decay: float = 3.0
+    still: float = 0.04
+    probe: bool = True
 
 
 DEFAULT_SETTINGS = TemporalSettings()
@@ -357,6 +393,81 @@ def observation_weight(values, free, settings=DEFAULT_SETTINGS):
     return (settings.prior_error * extent / noise) ** 2
 
 
+#: observed frames on each side of a run that :func:`still_runs` reads
+STILL_FRAMES = 5
+
+
+def free_runs(free):
+    """Each joint's runs of free frames: (joint, first, stop) rows, ``stop``
+    one past the last frame.
+
+    Examples
+    --------
+    >>> free = np.array([[0, 1], [1, 1], [1, 0], [0, 0]], bool)
+    >>> free_runs(free).tolist()
+    [[0, 1, 3], [1, 0, 2]]
+    """
+    T, N = free.shape
+    pad = np.zeros((1, N), np.int8)
+    edges = np.diff(np.concatenate([pad, free.astype(np.int8), pad]), axis=0)
+    starts, stops = np.nonzero(edges.T == 1), np.nonzero(edges.T == -1)
+    return np.stack([starts[0], starts[1], stops[1]], axis=1) if len(starts[0]) \
+        else np.zeros((0, 3), int)
+
+
+def still_runs(values, free, settings=DEFAULT_SETTINGS):
+    """(T, N) bool: the free frames of runs between two still stretches.
+
+    A run inside the segment is still when the joint's observed positions in
+    the :data:`STILL_FRAMES` frames before it and after it (the observed ones
+    among them, at least two a side) all lie within ``settings.still`` times
+    the :func:`body_extent` of their mean: a resting foot or hand. Such a run
+    needs no pose model (which may drag it away); time alone keeps it still.
+    """
+    out = np.zeros(free.shape, bool)
+    extent = body_extent(values, free)
+    if not settings.still or not np.isfinite(extent):
+        return out
+    T, k, tol = len(free), STILL_FRAMES, settings.still * extent
+    for j, a, b in free_runs(free):
+        if a == 0 or b == T:
+            continue
+        sides = [np.flatnonzero(~free[lo:hi, j]) + lo for lo, hi in
+                 ((max(a - k, 0), a), (b, min(b + k, T)))]
+        if min(len(i) for i in sides) < 2:
+            continue
+        pts = values[np.concatenate(sides), j]
+        if np.linalg.norm(pts - pts.mean(axis=0), axis=1).max() <= tol:
+            out[a:b, j] = True
+    return out
+
+
+def joined(filled, values, free, settings=DEFAULT_SETTINGS):
+    """`filled` with every run of free frames joined to its observed ends.
+
+    Where the observations are data rather than anchors (noisy input) the
+    smoothed curve passes beside them; the run then takes on the offset
+    ``values - filled`` of each observed neighbour, in full at the frame next
+    to it and fading over ``settings.edge_decay`` frames (times the share of
+    the run nearer that side), so the filled frames continue the observed
+    motion instead of jumping to the smoothed curve.
+    """
+    out = filled.copy()
+    T = len(free)
+    if settings.edge_decay <= 0:
+        return out
+    tau = float(settings.edge_decay)
+    for j, a, b in free_runs(free):
+        t = np.arange(a, b)
+        share = ((b - t) / (b - a + 1), (t - a + 1) / (b - a + 1)) \
+            if a > 0 and b < T else (1.0, 1.0)
+        for edge, near, part in ((a - 1, t - a, share[0]), (b, b - 1 - t, share[1])):
+            if 0 <= edge < T:
+                offset = values[edge, j] - filled[edge, j]
+                out[a:b, j] += (part * np.exp(-near / tau))[:, None] * offset
+    return out
+
+
 def _smooth_joints(values, free, prior, weight, settings, joints=None):
     """Every joint with a free frame (of `joints`, default all) through
     :func:`smooth_trajectory`."""
@@ -370,7 +481,8 @@ def _smooth_joints(values, free, prior, weight, settings, joints=None):
     return filled, residual
 
 
-def fill_segment(values, free, prior, confidence, settings=DEFAULT_SETTINGS, parents=None):
+def fill_segment(values, free, prior, confidence, settings=DEFAULT_SETTINGS, parents=None,
+                 trust=1.0):
     """Every unknown joint of one segment from time and the per-frame prior.
 
     Parameters
@@ -389,6 +501,10 @@ def fill_segment(values, free, prior, confidence, settings=DEFAULT_SETTINGS, par
         The skeleton's parents for ``settings.relative``; default the
         14-joint skeleton's (relative smoothing is skipped for other joint
         counts).
+    trust : float, default 1
+        Scale of the prior's weight at joints observed somewhere in the
+        segment (a joint never observed keeps the full weight: only the pose
+        model places it); see :func:`sparseedm.temporal.recover.clip_trust`.
 
     Returns
     -------
@@ -417,7 +533,9 @@ def fill_segment(values, free, prior, confidence, settings=DEFAULT_SETTINGS, par
     weight = prior_weights(free, confidence, settings)
     if not free.any():
         return values.copy(), weight, np.zeros(values.shape[1])
-    unknown, data, data_weight = _data_terms(values, free, prior, weight, settings)
+    weight[:, (~free).any(axis=0)] *= trust
+    weight[still_runs(values, free, settings)] = 0.0
+    unknown, data, data_weight, settings = _data_terms(values, free, prior, weight, settings)
     filled, residual = _smooth_joints(values, unknown, data, data_weight, settings)
     if parents is None and values.shape[1] == SKELETON_14.num_joints:
         parents = SKELETON_14.parents
@@ -428,18 +546,142 @@ def fill_segment(values, free, prior, confidence, settings=DEFAULT_SETTINGS, par
         second, residual2 = _smooth_joints(values - ref, unknown, data - ref, data_weight,
                                            settings, joints=free.any(axis=0))
         filled, residual = second + ref, np.maximum(residual, residual2)
+    if unknown is not free:  # observations were data: join the runs to them
+        filled = joined(filled, values, free, settings)
     return np.where(free[..., None], filled, values), weight, residual
 
 
 def _data_terms(values, free, prior, weight, settings):
-    """Unknown frames, data and data weights of the banded solves: the free
-    frames against the prior, and, when :func:`observation_weight` finds the
-    observations noisy, every frame, the observed ones against their values."""
+    """Unknown frames, data, data weights and settings of the banded solves:
+    the free frames against the prior, and, when :func:`observation_weight`
+    finds the observations noisy, every frame, the observed ones against
+    their values (with ``settings.noisy_acceleration``)."""
     w_obs = observation_weight(values, free, settings)
     if w_obs is None:
-        return free, prior, weight
+        return free, prior, weight, settings
     data = np.where(free[..., None], prior, values)
-    return np.ones_like(free), data, np.where(free, weight, w_obs)
+    stiff = replace(settings, acceleration=settings.noisy_acceleration)
+    return np.ones_like(free), data, np.where(free, weight, w_obs), stiff
+
+
+#: scales of the prior's weight a segment chooses among (:func:`clip_trust`)
+TRUST_LEVELS = (0.0, 0.25, 1.0)
+#: a lower trust is taken only when its probe error is below this share of
+#: the full trust's: the probes are few, and the pose model is right on most
+#: people, so only a clear loss moves a segment to time
+TRUST_MARGIN = 0.5
+#: joints hidden per probe window, and most windows per segment (:func:`probe_mask`)
+PROBE_JOINTS = 2
+PROBE_WINDOWS = 2
+
+
+def probe_settings(settings=DEFAULT_SETTINGS):
+    """The settings probes are filled with: per-frame answers twice as sparse
+    (a probe only ranks the trust levels; its answers are extra cost)."""
+    return replace(settings, prior_stride=2 * max(int(settings.prior_stride), 1))
+
+
+def probe_mask(values, free, settings=DEFAULT_SETTINGS):
+    """(T, N) bool: observed joint-frames to hide so a segment can test its prior.
+
+    Only when some joint observed in the segment has a run of free frames
+    where the prior carries weight: then up to :data:`PROBE_WINDOWS` windows
+    side by side from the segment's start, as long as the longest such run
+    (at least ``2 * ramp_start + 4`` frames, so the prior weighs inside them;
+    at most half the segment), each with one observed frame on both sides,
+    hide up to :data:`PROBE_JOINTS` joints observed throughout the window and
+    its two neighbours and not still there (:func:`still_runs`: time alone
+    fills those whatever the trust), chosen by a generator seeded by the
+    segment's shape (the same segment is probed the same way). A probed frame loses few joints more
+    than it has lost, so its per-frame answer is as good as the real ones.
+    Else all False.
+    """
+    T, N = free.shape
+    out = np.zeros_like(free)
+    if not settings.probe:
+        return out
+    seen = (~free).any(axis=0)
+    deep = free & seen & (_ramp(distance_to_observed(free), settings) > 0)
+    if not deep.any():
+        return out
+    runs = free_runs(free)
+    longest = max(b - a for j, a, b in runs if deep[a:b, j].any())
+    L = int(min(max(longest, 2 * settings.ramp_start + 4), (T - 2) // 2))
+    if L < 1:
+        return out
+    rng = np.random.default_rng([T, N])
+    count = min(PROBE_WINDOWS, (T - 1) // (L + 1))
+    for s in 1 + (L + 1) * np.arange(count):
+        ok = ~free[s - 1:s + L + 1].any(axis=0)
+        trial = free.copy()
+        trial[s:s + L, ok] = True
+        ok = np.flatnonzero(ok & ~still_runs(values, trial, settings)[s])
+        pick = rng.choice(ok, min(PROBE_JOINTS, len(ok)), replace=False)
+        out[s:s + L, pick] = True
+    return out
+
+
+def clip_trust(values, free, probe, prior, confidence, settings=DEFAULT_SETTINGS,
+               parents=None):
+    """The scale of the prior's weight (one of :data:`TRUST_LEVELS`) that fills
+    a segment's probed joints best.
+
+    Parameters
+    ----------
+    values, free
+        The segment, as :func:`fill_segment`.
+    probe : ndarray of bool (T, N)
+        Observed joint-frames hidden as a test (:func:`probe_mask`).
+    prior, confidence
+        Per-frame answers and confidences with the probed joints hidden too,
+        at the :func:`prior_frames` of ``free | probe`` under
+        :func:`probe_settings`.
+    settings, parents
+        As :func:`fill_segment`.
+
+    Returns
+    -------
+    float
+        The level whose fill of ``free | probe`` lies nearest the hidden
+        observations, over the probed joint-frames where the prior weighs
+        and the joint is not still (ties to the smaller), when it beats the
+        full trust's (the last level) by :data:`TRUST_MARGIN`; else, or with
+        nothing to score, 1.0.
+    """
+    return choose_trust(*probe_errors(values, free, probe, prior, confidence, settings,
+                                      parents))
+
+
+def probe_errors(values, free, probe, prior, confidence, settings=DEFAULT_SETTINGS,
+                 parents=None):
+    """What :func:`clip_trust` ranks the levels by, to be pooled over segments:
+    the summed distances (pixels) of the probed joint-frames for each of
+    :data:`TRUST_LEVELS`, and how many joint-frames were scored."""
+    probed = free | probe
+    scored = probe & (_ramp(distance_to_observed(probed), settings) > 0) \
+        & ~still_runs(values, probed, settings)
+    if not scored.any():
+        return np.zeros(len(TRUST_LEVELS)), 0
+    settings = probe_settings(settings)
+    errors = []
+    for level in TRUST_LEVELS:
+        out = fill_segment(values, probed, prior, confidence, settings, parents, level)[0]
+        errors.append(np.linalg.norm(out[scored] - values[scored], axis=-1).sum())
+    return np.nan_to_num(np.asarray(errors), nan=np.inf), int(scored.sum())
+
+
+def choose_trust(errors, count):
+    """The trust level of pooled :func:`probe_errors` (see :func:`clip_trust`).
+
+    Examples
+    --------
+    >>> choose_trust(np.array([1.0, 3.0, 4.0]), 2), choose_trust(np.zeros(3), 0)
+    (0.0, 1.0)
+    """
+    if not count:
+        return 1.0
+    best = int(np.argmin(errors))
+    return float(TRUST_LEVELS[best]) if errors[best] < TRUST_MARGIN * errors[-1] else 1.0
 
 
 def time_filled(values, free, near, settings=DEFAULT_SETTINGS):

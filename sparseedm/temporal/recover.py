@@ -5,7 +5,10 @@ runs. It screens every row as the per-frame path does, cuts the rows into
 segments (:mod:`sparseedm.temporal.tracks`), asks the per-frame sparse model
 only for the frames whose answer carries weight, every
 ``settings.prior_stride``-th of them
-(:func:`sparseedm.temporal.model.prior_frames`), fills every segment with the
+(:func:`sparseedm.temporal.model.prior_frames`), asks it once more for the
+frames of each segment's probes (observed joints hidden to test how far the
+per-frame prior is to be trusted in that segment,
+:func:`sparseedm.temporal.model.clip_trust`), fills every segment with the
 temporal model (:func:`sparseedm.temporal.model.fill_segment`) and returns a
 :class:`TemporalResult` in the caller's row order. Rows that cannot be placed
 in time (see :mod:`~sparseedm.temporal.tracks`) are recovered frame by frame
@@ -32,7 +35,8 @@ from ..ensemble import adapt_members
 from ..normalize import normalize
 from ..skeleton import SKELETON_14
 from .linking import link_tracks, needs_linking, split_at_jumps
-from .model import DEFAULT_SETTINGS, fill_segment, prior_frames, time_filled
+from .model import (DEFAULT_SETTINGS, choose_trust, fill_segment, prior_frames,
+                    probe_errors, probe_mask, probe_settings, time_filled)
 from .tracks import split_tracks
 
 __all__ = ["recover_temporal", "recover_track", "adapt_in_time", "offered_poses",
@@ -81,6 +85,13 @@ class TemporalResult(RecoveryResult):
         temporal model's certificate); NaN for rows outside any track.
     per_frame_poses : int
         Rows the per-frame model was asked for.
+    probe_poses : int
+        Rows it was asked for again with some observed joints hidden, to test
+        the per-frame prior against time (:func:`~sparseedm.temporal.model.clip_trust`).
+    prior_trust : ndarray (n,)
+        The scale of the per-frame prior's weight the row's segment chose from
+        those probes (1: as designed; 0: time alone at the joints observed in
+        the segment); NaN for rows outside any segment.
     segments : int
         Segments (one track, consecutive frames) solved.
     linked_tracks : ndarray of int (n,) or None
@@ -102,6 +113,8 @@ class TemporalResult(RecoveryResult):
     prior_weight: np.ndarray = field(default=None)
     residual: np.ndarray = field(default=None)
     per_frame_poses: int = 0
+    probe_poses: int = 0
+    prior_trust: np.ndarray = field(default=None)
     segments: int = 0
     linked_tracks: np.ndarray = field(default=None)
     alone_reason: np.ndarray = field(default=None)
@@ -276,19 +289,71 @@ def adapt_in_time(dictionary, poses, missing=None, *, tracks=None, frames, ensem
                   dict(n_jobs=n_jobs, self_training=self_training))
 
 
-def _fill_segments(layout, poses, mask, usable, per, settings):
+def _segment_prior(per, rows, off, T):
+    """A segment's per-frame answers and confidences on its frame range."""
+    prior = np.full((T,) + per.poses.shape[1:], np.nan)
+    confidence = np.zeros(T)
+    prior[off] = per.poses[rows]
+    confidence[off] = per.confidence[rows]
+    return prior, confidence
+
+
+def _probes(layout, poses, mask, usable, settings):
+    """Every segment's :func:`~sparseedm.temporal.model.probe_mask`, the rows'
+    mask with the probes added, and the rows whose answer changes with them."""
+    probes, probed, need = [], mask.copy(), np.zeros(len(mask), bool)
+    for rows, off in zip(layout.segments, layout.offsets):
+        values, free = _dense(rows, off, poses, mask, usable)
+        probe = probe_mask(values, free, settings)
+        probes.append(probe)
+        probed[rows] |= probe[off]
+        asked = prior_frames(free | probe, probe_settings(settings))
+        need[rows] |= (asked & probe.any(axis=1))[off]
+    return probes, probed, need & usable
+
+
+def _trusts(layout, poses, mask, usable, per, settings, members, kwargs, track_of):
+    """Each segment's trust in the per-frame prior: the probes' errors
+    (:func:`~sparseedm.temporal.model.probe_errors`, one batch of per-frame
+    answers with the probes hidden) pooled over the segments of one track
+    (`track_of`: a track key per row), so that a cut in a track does not
+    change what its other rows are filled with; and the rows asked."""
+    probes, probed, need = _probes(layout, poses, mask, usable, settings)
+    if not need.any():
+        return [1.0] * len(probes), 0
+    test = _per_frame(poses, probed, need, members, settings, kwargs)
+    pooled = {}
+    for rows, off, probe in zip(layout.segments, layout.offsets, probes):
+        if probe.any():
+            errors, count = probe_errors(*_probed_segment(rows, off, probe, poses, mask,
+                                                          usable, per, test), settings)
+            sums = pooled.setdefault(track_of[rows[0]], [0.0, 0])
+            sums[0], sums[1] = sums[0] + errors, sums[1] + count
+    trust = {key: choose_trust(*sums) for key, sums in pooled.items()}
+    return [trust.get(track_of[rows[0]], 1.0) for rows in layout.segments], int(need.sum())
+
+
+def _probed_segment(rows, off, probe, poses, mask, usable, per, test):
+    """values, free, probe, prior, confidence of a probed segment: its
+    per-frame answers, those of the probed frames from `test`."""
+    values, free = _dense(rows, off, poses, mask, usable)
+    prior, confidence = _segment_prior(per, rows, off, len(values))
+    changed = probe.any(axis=1)
+    test_prior, test_confidence = _segment_prior(test, rows, off, len(values))
+    prior[changed], confidence[changed] = test_prior[changed], test_confidence[changed]
+    return values, free, probe, prior, confidence
+
+
+def _fill_segments(layout, poses, mask, usable, per, settings, trusts):
     """The temporal model on every segment: filled poses, weights, residuals."""
     n, N = mask.shape
     filled = np.full_like(poses, np.nan)
     weight = np.zeros((n, N))
     residual = np.full(n, np.nan)
-    for rows, off in zip(layout.segments, layout.offsets):
+    for rows, off, trust in zip(layout.segments, layout.offsets, trusts):
         values, free = _dense(rows, off, poses, mask, usable)
-        prior = np.full_like(values, np.nan)
-        confidence = np.zeros(len(values))
-        prior[off] = per.poses[rows]
-        confidence[off] = per.confidence[rows]
-        out, w, r = fill_segment(values, free, prior, confidence, settings)
+        prior, confidence = _segment_prior(per, rows, off, len(values))
+        out, w, r = fill_segment(values, free, prior, confidence, settings, trust=trust)
         filled[rows], weight[rows] = out[off], w[off]
         residual[rows] = np.max(np.where(free[off], r[None, :], 0.0), axis=1)
     return filled, weight, residual
@@ -393,9 +458,18 @@ def recover_temporal(poses, missing=None, *, tracks=None, frames, dictionary=Non
     need = _plan(layout, poses, mask, usable, settings)
     kwargs["solver"] = compiled_solver(kwargs.get("solver", "fast"), adaptations)
     per = _per_frame(poses, mask, need, members, settings, kwargs)
-    filled, weight, residual = _fill_segments(layout, poses, mask, usable, per, settings)
+    track_of = layout.linked if layout.linked is not None else (
+        np.zeros(len(poses), int) if tracks is None else np.asarray(tracks))
+    trusts, probe_poses = _trusts(layout, poses, mask, usable, per, settings, members, kwargs,
+                                  track_of)
+    filled, weight, residual = _fill_segments(layout, poses, mask, usable, per, settings,
+                                              trusts)
     res = _assemble(poses, mask, refusal, why, layout, per, filled, weight, residual,
                     len(members))
+    res.probe_poses = probe_poses
+    res.prior_trust = np.full(len(poses), np.nan)
+    for rows, trust in zip(layout.segments, trusts):
+        res.prior_trust[rows] = trust
     res.dictionary = members[0] if members else dictionary
     if adaptations:
         res.adaptation = adaptations[0]

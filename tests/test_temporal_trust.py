@@ -1,0 +1,112 @@
+"""The temporal model where time is the better evidence: still joints, joined
+edges, and a per-frame prior a segment's own probes find wrong."""
+
+import numpy as np
+
+from sparseedm.temporal.model import (TRUST_LEVELS, TemporalSettings, clip_trust,
+                                      fill_segment, free_runs, probe_mask, still_runs)
+
+ANKLE, WRIST = 10, 4
+LOWER_BODY = list(range(8, 14))
+
+
+def _height(poses):
+    return np.ptp(poses[..., 1], axis=1).mean()
+
+
+def _resting_legs(track, start=40, stop=120):
+    """The track with hips, knees and ankles held still from `start` to `stop`."""
+    out = track.copy()
+    out[start:stop, LOWER_BODY] = track[start, LOWER_BODY]
+    return out
+
+
+def _off_by(truth, share):
+    """A per-frame prior `share` of the body's height away from the truth."""
+    return truth + share * _height(truth), np.ones(len(truth))
+
+
+def test_a_joint_still_on_both_sides_of_a_gap_comes_back_still(track):
+    truth = _resting_legs(track)
+    free = np.zeros(truth.shape[:2], bool)
+    free[60:100, ANKLE] = True
+    values = np.where(free[..., None], 0.0, truth)
+    prior, confidence = _off_by(truth, 0.3)
+    assert still_runs(values, free)[60:100, ANKLE].all()
+    out = fill_segment(values, free, prior, confidence)[0]
+    moved = np.linalg.norm(out[60:100, ANKLE] - truth[60, ANKLE], axis=-1).max()
+    dragged = fill_segment(values, free, prior, confidence, TemporalSettings(still=0))[0]
+    away = np.linalg.norm(dragged[60:100, ANKLE] - truth[60, ANKLE], axis=-1).max()
+    height = _height(truth)
+    assert moved < 0.005 * height < 0.05 * height < away, (moved, away, height)
+
+
+def test_a_moving_joint_is_not_still(track):
+    free = np.zeros(track.shape[:2], bool)
+    free[60:100, WRIST] = True
+    assert not still_runs(np.where(free[..., None], 0.0, track), free).any()
+
+
+def _edge_jumps(filled, observed, free):
+    """Distance from each run's first / last filled frame to its observed neighbour."""
+    out = []
+    for j, a, b in free_runs(free):
+        out += [np.linalg.norm(filled[a, j] - observed[a - 1, j]),
+                np.linalg.norm(filled[b - 1, j] - observed[b, j])]
+    return np.array(out)
+
+
+def test_filled_runs_join_noisy_observations_at_both_ends(track):
+    rng = np.random.default_rng(0)
+    noise = 0.01 * _height(track)
+    noisy = track + rng.normal(scale=noise, size=track.shape)
+    free = np.zeros(track.shape[:2], bool)
+    for start in range(20, 220, 40):
+        free[start:start + 15, WRIST] = True
+    values = np.where(free[..., None], 0.0, noisy)
+    prior, confidence = np.full_like(values, np.nan), np.zeros(len(values))
+    joined = fill_segment(values, free, prior, confidence)[0]
+    apart = fill_segment(values, free, prior, confidence, TemporalSettings(edge_decay=0))[0]
+    # the local motion: the truth's own step between the two frames
+    steps = _edge_jumps(track, track, free)
+    assert (_edge_jumps(joined, noisy, free) <= steps + 1e-9 + 0.5 * noise).all()
+    assert (_edge_jumps(apart, noisy, free) > steps + 0.5 * noise).any()
+    np.testing.assert_array_equal(joined[~free], noisy[~free])
+
+
+def _long_gaps(track):
+    free = np.zeros(track.shape[:2], bool)
+    free[100:140, [WRIST, 7]] = True
+    return free
+
+
+def test_a_wrong_prior_is_caught_by_the_probes_and_time_fills(track):
+    free = _long_gaps(track)
+    values = np.where(free[..., None], 0.0, track)
+    probe = probe_mask(values, free)
+    assert probe.any() and not (probe & free).any()
+    assert not probe_mask(values, free, TemporalSettings(probe=False)).any()
+    wrong, confidence = _off_by(track, 0.4)
+    right, _ = _off_by(track, 0.0)
+    assert clip_trust(values, free, probe, right, confidence) == TRUST_LEVELS[-1]
+    trust = clip_trust(values, free, probe, wrong, confidence)
+    assert trust < TRUST_LEVELS[-1]
+    err = {t: np.linalg.norm(fill_segment(values, free, wrong, confidence, trust=t)[0]
+                             - track, axis=-1)[free].mean() for t in (trust, 1.0)}
+    assert err[trust] < 0.5 * err[1.0], err
+
+
+def test_a_joint_never_observed_keeps_the_prior_whatever_the_trust(track):
+    free = _long_gaps(track)
+    free[:, ANKLE] = True
+    values = np.where(free[..., None], 0.0, track)
+    prior, confidence = _off_by(track, 0.0)
+    out, weight, _ = fill_segment(values, free, prior, confidence, trust=0.0)
+    assert np.isfinite(out).all() and weight[:, ANKLE].max() == 1.0
+    assert weight[:, WRIST].max() == 0.0
+
+
+def test_no_probe_where_the_prior_has_no_weight():
+    free = np.zeros((60, 14), bool)
+    free[20:26, WRIST] = True  # every frame within ramp_start of an observation
+    assert not probe_mask(np.zeros((60, 14, 2)), free).any()
