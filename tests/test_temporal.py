@@ -1,4 +1,4 @@
-"""Temporal recovery (issue 23): the banded model, recover(frames=...), bad input."""
+"""Temporal recovery: the banded model, recover(frames=...), bad input."""
 
 import warnings
 
@@ -459,7 +459,7 @@ def test_a_runaway_per_frame_answer_gets_no_weight():
     assert _runaway(far, mask)[0]
 
 
-# -- per-frame answers on every s-th frame (speed, issue 23 item 5) ---------------------
+# -- per-frame answers on every s-th frame (speed) -------------------------------------
 
 
 def test_prior_frames_thin_each_run_and_keep_its_ends():
@@ -521,7 +521,7 @@ def test_recover_with_a_prior_stride_asks_fewer_frames(track, small_dictionary):
     assert _error(three.poses, track, mask) <= 1.2 * _error(one.poses, track, mask) + 1e-3
 
 
-# -- one clip adapts (issue 23 item 3) --------------------------------------------------
+# -- one clip adapts --------------------------------------------------------------------
 
 
 def _few_complete_frames(track):

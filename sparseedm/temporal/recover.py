@@ -58,7 +58,7 @@ RUNAWAY_EXTENTS = 3.0
 #: relative residual of a trajectory's banded solve above which its rows are
 #: 'inaccurate' instead of 'recovered'
 RESIDUAL_TOL = 1e-8
-#: one clip adapts (issue 23 item 3): under ``adapt="auto"`` the dictionary is
+#: one clip adapts: under ``adapt="auto"`` the dictionary is
 #: adapted on the complete rows and on the rows whose missing joints all lie
 #: within CLIP_NEAR frames of an observation, filled by time alone, once
 #: CLIP_MIN_POSES of them pass the filters (the per-frame path needs 250
