@@ -80,3 +80,15 @@ def test_filter_option(cmu_poses, small_dictionary, filter):
     assert 0 < out.n_atoms <= 50
     if not filter:
         assert out.n_atoms == 50
+
+
+def test_shipped_coco_prior_extends_the_default():
+    """cmu-coco-k2466 is the default's atoms followed by 466 COCO exemplar atoms."""
+    from sparseedm.dictionary import load_dictionary
+
+    base, coco = load_dictionary(), load_dictionary("cmu-coco-k2466")
+    assert coco.n_components == base.n_components + 466
+    np.testing.assert_array_equal(coco.components[:base.n_components], base.components)
+    assert coco.alpha_recover == base.alpha_recover
+    assert "CC BY 4.0" in coco.provenance["coco_atoms"]["source"]
+    assert coco.provenance["coco_atoms"]["mirrored"] is True
