@@ -29,6 +29,7 @@ import numpy as np
 
 from .adaptation import duplicate_rows, filter_poses, pose_vectors
 from .dictionary import Dictionary
+from .normalize import usable_rows
 
 __all__ = ["MAX_FILE_ATOMS", "FileAtoms", "with_file_atoms"]
 
@@ -64,8 +65,8 @@ def with_file_atoms(dictionary, poses, missing=None, *, max_atoms=MAX_FILE_ATOMS
     ----------
     dictionary : Dictionary
     poses : ndarray (n, N, 2)
-        Poses in pixels; a row with a NaN coordinate or a `missing` joint is
-        not used.
+        Poses in pixels; only usable complete rows are used
+        (:func:`sparseedm.normalize.usable_rows`, no `missing` joint).
     missing : ndarray of bool (n, N), optional
     max_atoms : int
         At most this many poses become atoms (a seeded sample, order kept).
@@ -90,7 +91,7 @@ def with_file_atoms(dictionary, poses, missing=None, *, max_atoms=MAX_FILE_ATOMS
     (30, True)
     """
     poses = np.asarray(poses, dtype=float)
-    complete = np.isfinite(poses).all(axis=(-1, -2))
+    complete = usable_rows(poses)  # finite, with an extent recover() accepts
     if missing is not None:
         complete &= ~np.asarray(missing, dtype=bool).any(axis=-1)
     poses = poses[complete]
