@@ -92,3 +92,12 @@ def test_shipped_coco_prior_extends_the_default():
     assert coco.alpha_recover == base.alpha_recover
     assert "CC BY 4.0" in coco.provenance["coco_atoms"]["source"]
     assert coco.provenance["coco_atoms"]["mirrored"] is True
+
+
+def test_bad_arguments_are_refused(cmu_poses, small_dictionary):
+    from sparseedm.exceptions import ParameterError, PoseError
+
+    with pytest.raises(ParameterError, match="max_atoms"):
+        with_file_atoms(small_dictionary, cmu_poses[:5], max_atoms=0)
+    with pytest.raises(PoseError):
+        with_file_atoms(small_dictionary, cmu_poses[:5, :10])
