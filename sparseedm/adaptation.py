@@ -516,6 +516,9 @@ class AdaptationResult:
     pool : ndarray or None
         The complete poses after filtering and bounding (learning and
         held-back slice come from them); reused by self-training rounds.
+    file_atoms : int
+        When not adapted: the complete poses appended to the base dictionary
+        as atoms instead (:mod:`sparseedm.file_atoms`; 0: none).
     """
 
     dictionary: Dictionary
@@ -535,6 +538,7 @@ class AdaptationResult:
     n_extra: int = 0
     self_training: list = field(default_factory=list)
     pool: np.ndarray | None = field(default=None, repr=False)
+    file_atoms: int = 0
 
     def summary(self) -> dict:
         """JSON-able summary (what ``RecoveryResult.summary()`` reports)."""
@@ -547,6 +551,7 @@ class AdaptationResult:
             "dropped": dict(self.dropped),
             "validation_err_base": num(self.err_base),
             "validation_err_adapted": num(self.err_adapted),
+            "file_atoms": int(self.file_atoms),
             "seconds": round(self.seconds, 3),
             "step_seconds": {k: round(v, 3) for k, v in self.step_seconds.items()},
             "self_training": [{k: (num(v) if isinstance(v, float) else v)
@@ -564,6 +569,8 @@ class AdaptationResult:
         parts = [f"{head} ({self.reason})"]
         if self.n_used:
             parts.append(f"{self.n_used} poses used")
+        if self.file_atoms:
+            parts.append(f"{self.file_atoms} complete poses added as atoms")
         if errs:
             parts.append(errs)
         if self.self_training:

@@ -546,7 +546,7 @@ def _adapt(source, dictionary, adapt, chunk_size, threshold, n_jobs, self_traini
         partial, partial_missing = np.zeros((0, n_joints, 2)), np.zeros((0, n_joints), bool)
     poses = np.concatenate([complete, partial])
     missing = np.concatenate([np.zeros(complete.shape[:2], bool), partial_missing])
-    kw = dict(n_jobs=n_jobs, warn=False, self_training=self_training)
+    kw = dict(n_jobs=n_jobs, warn=False, self_training=self_training, file_atoms=True)
     if isinstance(adapt, str) and adapt == "auto":
         members, results = adapt_members(dictionary, poses, missing, "auto", ensemble, **kw)
     else:

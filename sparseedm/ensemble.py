@@ -22,19 +22,22 @@ ensemble stops at that one member.
 from __future__ import annotations
 
 import warnings
+from dataclasses import replace
 
 from joblib import Parallel, delayed, effective_n_jobs
 from threadpoolctl import threadpool_limits
 
 from . import _progress
 from .adaptation import MIN_COMPLETE_POSES, resolve_adaptation
+from .file_atoms import with_file_atoms
 from ._recovery_base import combine
 
 __all__ = ["adapt_members", "combine"]
 
 
 def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
-                  self_training=None, warn=True, min_poses=MIN_COMPLETE_POSES):
+                  self_training=None, warn=True, min_poses=MIN_COMPLETE_POSES,
+                  file_atoms=False):
     """Dictionaries adapted with seeds 0 .. n_members - 1, and what each did.
 
     Parameters
@@ -48,6 +51,12 @@ def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
     n_jobs, self_training, warn, min_poses
         As :func:`sparseedm.adaptation.resolve_adaptation` (`min_poses`: as
         :func:`~sparseedm.adaptation.run_adaptation`).
+    file_atoms : bool, default False
+        When the first adaptation is not adopted, append the complete poses
+        it was offered to the base dictionary as atoms
+        (:func:`sparseedm.file_atoms.with_file_atoms`; the result's
+        ``file_atoms`` counts them). :func:`sparseedm.recover` and
+        :func:`sparseedm.batch.recover_file` pass True.
 
     Returns
     -------
@@ -72,6 +81,8 @@ def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
                                     min_poses=min_poses)
         if res is None:  # adaptation off
             return [d], []
+        if file_atoms and not res.adapted:
+            d, res = _file_atoms(dictionary, poses, missing, adapt, res)
         dictionaries, adaptations = [d], [res]
         if int(n_members) <= 1 or not res.adapted:
             if int(n_members) > 1:
@@ -103,3 +114,13 @@ def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
             _progress.say(f"ensemble: member seed {seed} dropped: "
                           f"{res.reason if res is not None else 'not adapted'}")
     return dictionaries, adaptations
+
+
+def _file_atoms(dictionary, poses, missing, adapt, res):
+    """The base with the offered complete poses as atoms, and `res` saying so."""
+    source = (poses, missing) if isinstance(adapt, str) else (adapt, None)
+    found = with_file_atoms(dictionary, *source)
+    if not found.n_atoms:
+        return res.dictionary, res
+    return found.dictionary, replace(res, dictionary=found.dictionary,
+                                     file_atoms=found.n_atoms)

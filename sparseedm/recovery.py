@@ -119,6 +119,9 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         better on a held-back slice, see :mod:`sparseedm.adaptation`).
         ``False``: recover with the dictionary as given. An array: adapt on
         those (complete) poses instead, e.g. other files of the same source.
+        When the adaptation is not adopted (too few complete poses, or the
+        guard keeps the base), those complete poses join the base dictionary
+        as extra atoms instead (:mod:`sparseedm.file_atoms`).
         ``res.adaptation`` says what was done.
     self_training : int, optional
         After an adopted adaptation, this many rounds of transductive
@@ -202,7 +205,8 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         poses, missing, _ = validate_poses(poses, missing, dictionary.n_joints)
         # one member unless an ensemble was asked for (seed 0 is the default's)
         members, adaptations = adapt_members(dictionary, poses, missing, adapt, ensemble,
-                                             n_jobs=n_jobs, self_training=self_training)
+                                             n_jobs=n_jobs, self_training=self_training,
+                                             file_atoms=True)
     return recover_members(poses, missing, members, adaptations, alpha=alpha,
                            representation=representation, solver=solver, n_jobs=n_jobs,
                            chunk_size=chunk_size, positive=positive, progress=progress,

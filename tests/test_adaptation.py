@@ -14,6 +14,7 @@ from sparseedm.adaptation import (MIN_COMPLETE_POSES, adapt_vectors,
 from sparseedm.batch import recover_file
 from sparseedm.cli import main
 from sparseedm.dictionary import Dictionary, load_dictionary
+from sparseedm.file_atoms import with_file_atoms
 from sparseedm.keypoints import COCO_KEYPOINTS, read_keypoints, write_keypoints
 from sparseedm.learning import OnlineDictionaryLearning, complete_pose_vectors
 from sparseedm.metrics import random_occlusion
@@ -152,13 +153,18 @@ def test_adapt_false_reproduces_todays_results_exactly(cmu_poses, small_dictiona
     for name in ("poses", "vectors", "objective", "gap", "n_active"):
         np.testing.assert_array_equal(getattr(off, name), getattr(ref, name))
     assert off.adaptation is None and not off.adapted and "adaptation" not in off.summary()
-    # 167 complete poses are below the threshold: "auto" changes nothing either
+    # 167 complete poses are below the threshold: "auto" does not adapt; it codes
+    # with those poses as extra atoms (sparseedm.file_atoms), nothing else
     assert MIN_COMPLETE_POSES > 167
     auto = sparseedm.recover(poses, missing, dictionary=small_dictionary)
-    np.testing.assert_array_equal(auto.poses, ref.poses)
+    atoms = with_file_atoms(small_dictionary, poses, missing)
+    assert atoms.n_atoms == 167
+    with_atoms = _recover(poses, missing, dictionary=atoms.dictionary)
+    np.testing.assert_array_equal(auto.poses, with_atoms.poses)
     assert not auto.adapted
     s = auto.summary()["adaptation"]
     assert s["adapted"] is False and "fewer than" in s["reason"] and s["complete_poses"] <= 167
+    assert s["file_atoms"] == 167
 
 
 def test_recover_adapts_on_separate_poses(cmu_poses, shifted_dictionary):

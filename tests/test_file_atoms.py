@@ -1,0 +1,103 @@
+"""A file's complete poses as extra atoms (sparseedm.file_atoms) and recover()'s use of them."""
+
+import numpy as np
+import pytest
+
+from sparseedm import recover
+from sparseedm.adaptation import MIN_COMPLETE_POSES, pose_vectors
+from sparseedm.file_atoms import with_file_atoms
+
+
+def test_atoms_are_the_complete_poses_unit_norm(cmu_poses, small_dictionary):
+    poses = cmu_poses[:40].copy()
+    missing = np.zeros((40, 14), bool)
+    missing[30:, 4] = True          # ten incomplete rows: not atoms
+    poses[25, 3] = np.nan           # a NaN row: not an atom
+    poses[10] = poses[5]            # an exact repeat: one atom
+    out = with_file_atoms(small_dictionary, poses, missing)
+    k = small_dictionary.n_components
+    assert out.n_complete == 29
+    assert out.n_atoms == 28
+    assert out.dictionary.n_components == k + 28
+    np.testing.assert_array_equal(out.dictionary.components[:k], small_dictionary.components)
+    rows = [i for i in range(30) if i not in (10, 25)]
+    X = pose_vectors(poses[rows])
+    np.testing.assert_allclose(out.dictionary.components[k:],
+                               X / np.linalg.norm(X, axis=1, keepdims=True))
+    assert out.dictionary.provenance["file_atoms"]["atoms"] == 28
+
+
+def test_cap_is_a_seeded_sample(cmu_poses, small_dictionary):
+    a = with_file_atoms(small_dictionary, cmu_poses[:60], max_atoms=20, random_state=3)
+    b = with_file_atoms(small_dictionary, cmu_poses[:60], max_atoms=20, random_state=3)
+    c = with_file_atoms(small_dictionary, cmu_poses[:60], max_atoms=20, random_state=4)
+    assert a.n_atoms == 20
+    np.testing.assert_array_equal(a.dictionary.components, b.dictionary.components)
+    assert not np.array_equal(a.dictionary.components, c.dictionary.components)
+
+
+def test_no_complete_pose_leaves_the_dictionary(cmu_poses, small_dictionary):
+    poses = cmu_poses[:5].copy()
+    poses[:, 2] = np.nan
+    out = with_file_atoms(small_dictionary, poses)
+    assert out.n_atoms == 0 and out.dictionary is small_dictionary
+
+
+def test_recover_adds_a_small_files_complete_poses(cmu_poses, small_dictionary):
+    """Too few complete poses to adapt on: they become atoms, and a hidden joint
+    of a pose seen complete in the file comes back (nearly) exactly."""
+    n_complete = 40
+    assert n_complete < MIN_COMPLETE_POSES
+    truth = np.concatenate([cmu_poses[:n_complete], cmu_poses[:10]])
+    missing = np.zeros((len(truth), 14), bool)
+    missing[n_complete:, 9] = True  # right knee of ten poses the file also has complete
+    poses = np.where(missing[..., None], np.nan, truth)
+    res = recover(poses, dictionary=small_dictionary)
+    cold = recover(poses, dictionary=small_dictionary, adapt=False)
+    assert not res.adapted and res.adaptation.file_atoms == n_complete
+    assert res.adaptation.summary()["file_atoms"] == n_complete
+    assert res.dictionary.n_components == small_dictionary.n_components + n_complete
+    assert cold.dictionary.n_components == small_dictionary.n_components
+    err = np.linalg.norm(res.poses - truth, axis=-1)[missing]
+    err_cold = np.linalg.norm(cold.poses - truth, axis=-1)[missing]
+    size = np.ptp(truth[n_complete:], axis=1).max(axis=1)
+    assert (err / size).max() < 0.01
+    assert err.mean() < err_cold.mean()
+    np.testing.assert_array_equal(res.poses[~missing], truth[~missing])
+
+
+def test_recover_without_adaptation_adds_nothing(cmu_poses, small_dictionary):
+    poses = cmu_poses[:30].copy()
+    poses[20:, 4] = np.nan
+    res = recover(poses, dictionary=small_dictionary, adapt=False)
+    assert res.adaptation is None
+    assert res.dictionary.n_components == small_dictionary.n_components
+
+
+@pytest.mark.parametrize("filter", [True, False])
+def test_filter_option(cmu_poses, small_dictionary, filter):
+    out = with_file_atoms(small_dictionary, cmu_poses[:50], filter=filter)
+    assert 0 < out.n_atoms <= 50
+    if not filter:
+        assert out.n_atoms == 50
+
+
+def test_shipped_coco_prior_extends_the_default():
+    """cmu-coco-k2466 is the default's atoms followed by 466 COCO exemplar atoms."""
+    from sparseedm.dictionary import load_dictionary
+
+    base, coco = load_dictionary(), load_dictionary("cmu-coco-k2466")
+    assert coco.n_components == base.n_components + 466
+    np.testing.assert_array_equal(coco.components[:base.n_components], base.components)
+    assert coco.alpha_recover == base.alpha_recover
+    assert "CC BY 4.0" in coco.provenance["coco_atoms"]["source"]
+    assert coco.provenance["coco_atoms"]["mirrored"] is True
+
+
+def test_bad_arguments_are_refused(cmu_poses, small_dictionary):
+    from sparseedm.exceptions import ParameterError, PoseError
+
+    with pytest.raises(ParameterError, match="max_atoms"):
+        with_file_atoms(small_dictionary, cmu_poses[:5], max_atoms=0)
+    with pytest.raises(PoseError):
+        with_file_atoms(small_dictionary, cmu_poses[:5, :10])
