@@ -54,7 +54,42 @@ RECOVER_PARAMS = {
 
 
 def solve_chunk(solver, components, X, observed, alpha_eff, positive, key, threads=None):
-    """One task: the lasso of every row on its observed entries, merged (Eq. 10)."""
+    """One task: the lasso of every row on its observed entries, merged (Eq. 10).
+
+    Parameters
+    ----------
+    solver : BaseSolver
+        The lasso backend (:func:`sparseedm.solvers.get_solver`).
+    components : ndarray (K, m)
+        The dictionary's atoms, one per row.
+    X : ndarray (n, m)
+        The chunk's normalised EDM vectors (read at the observed entries).
+    observed : ndarray of bool (n, m)
+        Each row's observed EDM entries.
+    alpha_eff : ndarray (n,)
+        Each row's lasso penalty, already scaled.
+    positive : bool
+        Non-negative codes.
+    key : object
+        The dictionary's cache key (:func:`sparseedm._coding.atoms_key`).
+    threads : int, optional
+        Numba threads for this task (1 inside a joblib worker); None: unchanged.
+
+    Returns
+    -------
+    merged : ndarray (n, m)
+        The observed entries as given, the others from the code (Eq. 10).
+    objective : ndarray (n,)
+        Each row's lasso objective.
+    gap : ndarray (n,)
+        Each row's duality gap.
+    status : ndarray of str (n,)
+        The solver's status per row (``"optimal"``, ``"failed"``, ...).
+    n_active : ndarray of int (n,)
+        Non-zero atoms in each row's code.
+    fallback : ndarray of bool (n,)
+        Rows the fast solver handed to Clarabel.
+    """
     if threads is not None:  # one thread per joblib worker: no oversubscription
         import numba
 
@@ -87,6 +122,18 @@ def compiled_solver(solver="fast", adaptations=None):
     compiled kernel is 2.5-4x faster per row (one clip of another lab's video
     with defaults: 53 -> 87 frames/s, answers within 2e-8 px).
 
+    Parameters
+    ----------
+    solver : str or BaseSolver, default "fast"
+        The solver the caller asked for.
+    adaptations : sequence of AdaptationResult, optional
+        What the call's adaptations did; None: the caller is the adaptation.
+
+    Returns
+    -------
+    str or BaseSolver
+        ``FastSolver(numpy_max=0)`` or `solver` unchanged.
+
     Examples
     --------
     >>> compiled_solver("fast").numpy_max, compiled_solver("clarabel")
@@ -107,7 +154,27 @@ def recover_members(poses, missing, members, adaptations, **kwargs):
     what `adaptations` (:func:`sparseedm.ensemble.adapt_members`'s, or empty)
     did and took; `kwargs` as :func:`recover`'s recovery settings (the fast
     solver on its compiled kernel when an adaptation learned:
-    :func:`compiled_solver`)."""
+    :func:`compiled_solver`).
+
+    Parameters
+    ----------
+    poses : array_like (n, N, 2)
+        The poses, NaN (or `missing`) at the occluded joints.
+    missing : array_like of bool (n, N) or None
+        The occluded joints; None: the NaN ones.
+    members : sequence of Dictionary
+        The dictionaries (one unless an ensemble).
+    adaptations : sequence of AdaptationResult
+        What adapting each member did (empty: no adaptation).
+    **kwargs
+        The recovery settings of :func:`recover_sparse` (alpha, solver, n_jobs...).
+
+    Returns
+    -------
+    RecoveryResult
+        The combined result, with the first adaptation and every adaptation's
+        time.
+    """
     kwargs["solver"] = compiled_solver(kwargs.get("solver", "fast"), adaptations)
     # the work is many small BLAS calls beside numba's threads: BLAS threads
     # would only spin against them (measured 2x slower), so BLAS gets one.
@@ -122,6 +189,49 @@ def recover_members(poses, missing, members, adaptations, **kwargs):
 def recover_sparse(poses, missing=None, *, dictionary=None, alpha=None,
              representation="average", solver="fast", n_jobs=1, chunk_size=2048,
              positive=None, progress=False, backend=None, scheduler=None):
+    """One dictionary's sparse recovery of a batch of poses.
+
+    The kernel of :func:`sparseedm.recover`, its arguments already validated.
+
+    Each pose is screened and normalised, its lasso solved on the observed EDM
+    entries (rows sorted by missing pattern, chunked over workers), the code's
+    entries merged into the unobserved ones (Eq. 10) and the occluded joints
+    placed from the completed distances.
+
+    Parameters
+    ----------
+    poses : array_like (n, N, 2)
+        Keypoints in the caller's own frame.
+    missing : array_like of bool (n, N), optional
+        The occluded joints; default the NaN ones.
+    dictionary : Dictionary, str or path, optional
+        The dictionary; None: the shipped default.
+    alpha : float, optional
+        Lasso penalty; default the dictionary's ``alpha_recover``.
+    representation : {"average", "zero"}, default "average"
+        How occluded joints enter the EDM vector.
+    solver : str or BaseSolver, default "fast"
+        The lasso backend.
+    n_jobs : int, default 1
+        joblib workers over chunks; -1 for all cores.
+    chunk_size : int, default 2048
+        Poses per task.
+    positive : bool, optional
+        Non-negative codes; default the dictionary's ``positive_code``.
+    progress : bool, default False
+        Show a progress bar over chunks.
+    backend : {None, "loky", "threading", "multiprocessing", "dask"}, optional
+        joblib backend when ``n_jobs != 1``; None: threads for the fast solver,
+        loky processes for the others.
+    scheduler : str, optional
+        With ``backend="dask"``: the scheduler's address; None: the client
+        already created in this process.
+
+    Returns
+    -------
+    RecoveryResult
+        The filled poses, completed EDM vectors and each pose's status.
+    """
     t0 = time.perf_counter()
     if not isinstance(dictionary, Dictionary):
         dictionary = load_dictionary(dictionary)

@@ -102,6 +102,23 @@ _PARAMS = {
 
 
 def check_methods(methods):
+    """The evaluation's methods as a tuple, each checked against the known ones.
+
+    Parameters
+    ----------
+    methods : iterable of str
+        Names among :data:`METHODS` and :data:`OPTIONAL_METHODS`.
+
+    Returns
+    -------
+    tuple of str
+        The methods, in the order given.
+
+    Raises
+    ------
+    SparseEDMError
+        If the list is empty or names an unknown method.
+    """
     methods = tuple(methods)
     if not methods:
         raise SparseEDMError("no method to evaluate (the list of methods is empty)")
@@ -116,6 +133,18 @@ def check_methods(methods):
 
 def torso_size(poses, joint_names):
     """Ground-truth distance neck to mid-hip per pose (NaN if the joints are unnamed).
+
+    Parameters
+    ----------
+    poses : ndarray (n, N, 2)
+        Ground-truth poses.
+    joint_names : sequence of str
+        The joints' names, in the poses' order.
+
+    Returns
+    -------
+    ndarray (n,)
+        The torso length of each pose, in the poses' units.
 
     Examples
     --------
@@ -135,7 +164,20 @@ def torso_size(poses, joint_names):
 
 
 def extreme_occluded(poses, missing):
-    """True where the highest or lowest joint in image y (y down) is occluded."""
+    """True where the highest or lowest joint in image y (y down) is occluded.
+
+    Parameters
+    ----------
+    poses : ndarray (n, N, 2)
+        Ground-truth poses.
+    missing : ndarray of bool (n, N)
+        The occluded joints.
+
+    Returns
+    -------
+    ndarray of bool (n,)
+        True for the poses whose normalisation box shrinks with the occlusion.
+    """
     rows = np.arange(len(poses))
     top = poses[..., 1].argmin(axis=1)
     bottom = poses[..., 1].argmax(axis=1)
@@ -146,7 +188,7 @@ def extreme_occluded(poses, missing):
 class EvaluationReport:
     """What :func:`evaluate` returns.
 
-    Attributes
+    Parameters
     ----------
     rows : list of dict
         One per method x representation x count, keys :data:`RESULT_COLUMNS`.
@@ -166,6 +208,7 @@ class EvaluationReport:
     notes : list of str
         What was skipped and why.
     settings : dict
+        The protocol's settings (seed, counts, poses, methods...).
     sweep : list of dict
         Filled by :func:`sweep_atoms` when attached.
     """
@@ -181,7 +224,22 @@ class EvaluationReport:
     sweep: list = field(default_factory=list)
 
     def table(self, method=None, representation=None, count=None):
-        """Rows filtered by any of method / representation / count."""
+        """Rows filtered by any of method / representation / count.
+
+        Parameters
+        ----------
+        method : str, optional
+            Keep the rows of this method; None: all.
+        representation : str, optional
+            Keep the rows of this representation; None: all.
+        count : int or str, optional
+            Keep the rows of this occlusion count (1, 2, 3 or ``"mix"``); None: all.
+
+        Returns
+        -------
+        list of dict
+            The matching rows, in report order.
+        """
         return [r for r in self.rows
                 if (method is None or r["method"] == method)
                 and (representation is None or r["representation"] == representation)
@@ -189,13 +247,39 @@ class EvaluationReport:
 
     # ---------------------------------------------------------------- output
     def to_csv(self) -> str:
+        """The result rows as CSV text, columns :data:`RESULT_COLUMNS`.
+
+        Returns
+        -------
+        str
+            CSV with a header row.
+        """
         return _csv(self.rows, RESULT_COLUMNS)
 
     def per_action_csv(self) -> str:
+        """The per-action table (Mix) as CSV text.
+
+        Returns
+        -------
+        str
+            CSV with a header row; only the header without labels.
+        """
         return _csv(self.per_action,
                     ("label", "method", "representation", "n_poses", "err_ave_mean"))
 
     def to_markdown(self, figures=()) -> str:
+        """The report as Markdown: protocol, notes, results, failures, per action, sweep.
+
+        Parameters
+        ----------
+        figures : sequence of path, optional
+            Figure files to link at the end (by file name).
+
+        Returns
+        -------
+        str
+            The Markdown text.
+        """
         out = self._protocol_lines()
         if self.notes:
             out += ["## Skipped / notes", ""] + [f"- {n}" for n in self.notes] + [""]
@@ -302,6 +386,20 @@ class EvaluationReport:
 
         Returns the list of files written and a message when figures were not
         made (matplotlib missing).
+
+        Parameters
+        ----------
+        directory : str or Path
+            The folder to write into (created if needed).
+        figures : bool, default True
+            Also draw the figures (needs matplotlib).
+
+        Returns
+        -------
+        written : list of Path
+            The files written.
+        message : str or None
+            Why the figures were skipped, or None.
         """
         directory = Path(directory)
         directory.mkdir(parents=True, exist_ok=True)
@@ -404,6 +502,7 @@ def evaluate(dictionary, test_poses2d, *, train_poses2d=None, labels=None,
     Parameters
     ----------
     dictionary : Dictionary, str or path
+        The dictionary the sparse method recovers with.
     test_poses2d : array_like (n, N, 2)
         Complete ground-truth poses in pixels; incomplete rows are dropped (noted).
     train_poses2d : array_like (n_train, N, 2), optional
@@ -413,8 +512,11 @@ def evaluate(dictionary, test_poses2d, *, train_poses2d=None, labels=None,
     methods : sequence of str
         Any of :data:`METHODS`.
     counts : sequence of {1, 2, 3, "mix"}
+        Occluded joints per pose; ``"mix"``: 1-3 per pose.
     representations : sequence of {"average", "zero"}
+        The occlusion representations evaluated.
     random_state : int
+        Seed of the masks and of the subsamples.
     n_jobs : int
         joblib workers for the sparse recovery.
     max_poses : int, optional
@@ -422,12 +524,15 @@ def evaluate(dictionary, test_poses2d, *, train_poses2d=None, labels=None,
     max_train : int, default 5000
         The baselines are fitted on a seeded sample of at most this many
         training poses (the iterative imputer's fit grows with it: minutes at
-        20,000). The README's Table 2 used 20,000
-        (``examples/reproduce_results.py`` passes it).
-    alpha, solver
-        Passed to :func:`sparseedm.recover`.
+        20,000). The Table 2 figures of the documentation's results pages
+        (``docs/results/``) used 20,000 (``examples/reproduce_results.py``
+        passes it).
+    alpha : float, optional
+        Lasso penalty, passed to :func:`sparseedm.recover`.
+    solver : str
+        The lasso backend, passed to :func:`sparseedm.recover`.
     n_examples : int
-        Mix poses kept in ``report.examples`` for figures.
+        Number of Mix poses kept in ``report.examples`` for figures.
     fconv_models : sequence of FConvModel or path, optional
         Trained FConv recovery networks (``sparseedm fit-cnn``), at most one per
         representation: method "fconv" runs each under its own representation
@@ -715,6 +820,33 @@ def sweep_atoms(train_poses2d, test_poses2d, atoms=(100, 250, 500, 1000, 2000), 
     vectors; the Mix masks are those of :func:`evaluate` with the same seed.
     A size larger than the number of training poses is skipped (noted).
 
+    Parameters
+    ----------
+    train_poses2d : array_like (n_train, N, 2)
+        Training poses; their complete rows are learned on.
+    test_poses2d : array_like (n, N, 2)
+        Complete ground-truth test poses, pixels.
+    atoms : sequence of int
+        The dictionary sizes.
+    alpha : float, default 1.6
+        The learning's sparsity penalty.
+    alpha_recover : float, default 0.002
+        The recovery's lasso penalty.
+    n_passes : int, default 1
+        Passes of the online learning over the training vectors.
+    batch_size : int, default 512
+        Mini-batch size of the online learning.
+    random_state : int, default 0
+        Seed of the masks, the subsample and the learning.
+    max_poses : int, optional
+        Evaluate a seeded subsample of this many test poses.
+    representation : {"average", "zero"}, default "average"
+        The occlusion representation of the recovery.
+    n_jobs : int, default 1
+        joblib workers for the recovery.
+    solver : str, default "fast"
+        The lasso backend.
+
     Returns
     -------
     list of dict
@@ -783,6 +915,40 @@ def evaluate_adaptation(dictionary, test_poses2d, adapt_poses2d, *,
     protocol's seeded masks). `fconv_models` are passed to ``evaluate`` (FConv
     rows, not adapted). ``ensemble=K`` averages K adapted dictionaries in the
     ``sparse-adapted`` row (:mod:`sparseedm.ensemble`).
+
+    Parameters
+    ----------
+    dictionary : Dictionary, str or path
+        The dictionary learned on source A.
+    test_poses2d : array_like (n, N, 2)
+        Complete ground-truth test poses of the target source, pixels.
+    adapt_poses2d : array_like (n_adapt, N, 2)
+        Complete poses of the target source to adapt on (and to fit the
+        baselines on).
+    methods : sequence of str
+        The methods, as :func:`evaluate`; ``sparse`` adds ``sparse-adapted``.
+    counts : sequence of {1, 2, 3, "mix"}
+        Occluded joints per pose, as :func:`evaluate`.
+    representations : sequence of {"average", "zero"}
+        The occlusion representations, as :func:`evaluate`.
+    random_state : int, default 0
+        Seed of the masks, subsamples and adaptation.
+    n_jobs : int, default 1
+        joblib workers for the sparse recovery.
+    max_poses : int, optional
+        Evaluate a seeded subsample of this many test poses.
+    max_train : int, default 20000
+        Most adaptation poses the baselines are fitted on.
+    alpha : float, optional
+        Lasso penalty, passed to :func:`sparseedm.recover`.
+    fconv_models : sequence of FConvModel or path
+        Trained FConv networks, as :func:`evaluate`.
+    self_training : int
+        Self-training rounds after the adaptation.
+    ensemble : int, default 1
+        Adapted dictionaries averaged in the ``sparse-adapted`` row.
+    **adapt_kwargs
+        Adaptation settings passed to :func:`run_adaptation`.
 
     Returns
     -------

@@ -7,9 +7,9 @@
 * :func:`joint_error` is the per-joint Euclidean error of recovered
   coordinates, in the pose's own units (pixels for image keypoints).
 * :func:`occlusion_masks` gives the evaluation protocol's seeded masks, one
-  array per count (moved here from :mod:`sparseedm.evaluation`, which
-  re-exports it, so adaptation's guard uses the protocol without importing
-  the evaluation above it).
+  array per count (:mod:`sparseedm.evaluation` re-exports it; it lives here so
+  that adaptation's guard uses the protocol without importing the evaluation
+  above it).
 """
 
 from __future__ import annotations
@@ -32,10 +32,13 @@ def random_occlusion(n_poses, n_joints=14, n_occluded=1, random_state=None):
     Parameters
     ----------
     n_poses : int
+        Poses (rows) of the mask.
     n_joints : int, default 14
+        Joints per pose.
     n_occluded : {1, 2, 3, ..., "mix"}
         Joints occluded per pose; ``"mix"`` draws 1, 2 or 3 uniformly per pose.
     random_state : int, numpy.random.Generator or None
+        Seed or generator; None: unseeded.
 
     Returns
     -------
@@ -85,6 +88,23 @@ def err_entries(edm_f, edm_gt):
     :func:`sparseedm.edm.edm_to_vector` first: a square array is never
     guessed to be a matrix) and returns the per-entry errors; entries whose
     ground truth is 0 (coincident joints) are NaN, as the ratio is undefined.
+
+    Parameters
+    ----------
+    edm_f : array_like (..., N(N-1)/2)
+        Completed (or recovered) EDM vectors.
+    edm_gt : array_like (..., N(N-1)/2)
+        Ground-truth EDM vectors, same shape.
+
+    Returns
+    -------
+    ndarray (..., N(N-1)/2)
+        Per-entry relative errors, per cent; NaN where the ground truth is 0.
+
+    Raises
+    ------
+    PoseError
+        If the shapes differ.
     """
     f = _as_vectors(edm_f)
     gt = _as_vectors(edm_gt)
@@ -102,6 +122,18 @@ def err_ave(edm_f, edm_gt):
     upper triangle, since both EDMs are symmetric. Entries with a zero ground
     truth distance are left out of the mean.
 
+    Parameters
+    ----------
+    edm_f : array_like (..., N(N-1)/2)
+        Completed (or recovered) EDM vectors.
+    edm_gt : array_like (..., N(N-1)/2)
+        Ground-truth EDM vectors, same shape.
+
+    Returns
+    -------
+    ndarray (...)
+        Err_ave of each pose, per cent.
+
     Examples
     --------
     >>> import numpy as np
@@ -117,7 +149,10 @@ def joint_error(poses_f, poses_gt, missing=None):
 
     Parameters
     ----------
-    poses_f, poses_gt : array_like, shape (..., N, d)
+    poses_f : array_like, shape (..., N, d)
+        The filled (or recovered) poses.
+    poses_gt : array_like, shape (..., N, d)
+        The ground-truth poses, same shape.
     missing : array_like of bool, shape (..., N), optional
         If given, errors of joints that were not missing are NaN, so that
         ``np.nanmean`` averages over the recovered joints only.
@@ -125,6 +160,7 @@ def joint_error(poses_f, poses_gt, missing=None):
     Returns
     -------
     error : ndarray, shape (..., N)
+        Distance of each joint to its ground truth.
 
     Examples
     --------
@@ -146,7 +182,24 @@ _COUNT_KEYS = {1: 1, 2: 2, 3: 3, "mix": 0}
 
 
 def check_counts(counts):
-    """The occlusion counts as the protocol keys them (1, 2, 3, "mix"); unknown ones raise."""
+    """The occlusion counts as the protocol keys them (1, 2, 3, "mix"); unknown ones raise.
+
+    Parameters
+    ----------
+    counts : iterable of int or str
+        Occlusion counts: 1, 2, 3 or ``"mix"`` (strings such as ``"2"`` or
+        ``"MIX"`` too).
+
+    Returns
+    -------
+    tuple
+        The counts as ints 1-3 and ``"mix"``, in the order given.
+
+    Raises
+    ------
+    SparseEDMError
+        If a count is none of those.
+    """
     out = []
     for c in counts:
         c = str(c).lower()
@@ -164,6 +217,27 @@ def occlusion_masks(n_poses, n_joints, counts=(1, 2, 3, "mix"), random_state=0):
 
     Each count's seed is ``(random_state, count)``: the same masks whatever
     other counts or methods are run.
+
+    Parameters
+    ----------
+    n_poses : int
+        Poses (rows) per mask.
+    n_joints : int
+        Joints per pose.
+    counts : iterable of {1, 2, 3, "mix"}
+        The occlusion counts, as :func:`check_counts` reads them.
+    random_state : int or None, default 0
+        The protocol's seed; None: unseeded.
+
+    Returns
+    -------
+    dict
+        ``{count: ndarray of bool (n_poses, n_joints)}``.
+
+    Raises
+    ------
+    SparseEDMError
+        If a count is unknown.
 
     Examples
     --------

@@ -63,6 +63,28 @@ def representation_for(given, recorded=None, where="the model"):
     is refused (the one rule for ``representation=None`` of recover, lift and
     their commands).
 
+    Parameters
+    ----------
+    given : {"average", "zero"} or None
+        The representation the caller asked for; None: unset.
+    recorded : {"average", "zero"} or None, optional
+        The representation the model or lifter file was trained on, if it
+        records one.
+    where : str, default "the model"
+        What the error message calls the file.
+
+    Returns
+    -------
+    str
+        The representation to use.
+
+    Raises
+    ------
+    ParameterError
+        If `given` is set and differs from `recorded`.
+
+    Examples
+    --------
     >>> representation_for(None), representation_for(None, "zero")
     ('average', 'zero')
     >>> representation_for("zero", "average", "m.npz")
@@ -85,6 +107,16 @@ def usable_rows(poses):
     """True for poses with every coordinate finite and a non-zero extent: the one rule
     for a usable complete pose (adaptation, learning, evaluation and the lifter
     adaptation all keep these rows; the extents it refuses are those recover() refuses).
+
+    Parameters
+    ----------
+    poses : array_like, shape (n, N, 2)
+        Complete poses.
+
+    Returns
+    -------
+    ndarray of bool (n,)
+        True for the usable rows.
 
     Examples
     --------
@@ -112,14 +144,18 @@ def missing_mask(poses, missing=None, *, confidence=None, threshold=0.0):
     Parameters
     ----------
     poses : array_like, shape (..., N, 2)
+        The poses' coordinates; NaN marks a missing joint.
     missing : array_like of bool, shape (..., N), optional
+        Joints known to be missing.
     confidence : array_like, shape (..., N), optional
         Detector scores; joints with ``confidence < threshold`` are missing.
     threshold : float, default 0.0
+        The confidence below which a joint is missing.
 
     Returns
     -------
     missing : ndarray of bool, shape (..., N)
+        True at the missing joints.
 
     Examples
     --------
@@ -177,6 +213,7 @@ def normalize(poses, missing=None):
     Parameters
     ----------
     poses : array_like, shape (..., N, 2)
+        The poses' coordinates.
     missing : array_like of bool, shape (..., N), optional
         Joints left out of the bounding box (they are normalised with the
         same transform; NaN stays NaN).
@@ -184,8 +221,11 @@ def normalize(poses, missing=None):
     Returns
     -------
     normalized : ndarray, shape (..., N, 2)
+        The normalised poses.
     center : ndarray, shape (..., 2)
+        Centre of each pose's bounding box.
     scale : ndarray, shape (...)
+        Half the longer side of each bounding box:
         ``poses == normalized * scale[..., None, None] + center[..., None, :]``.
 
     Examples
@@ -220,7 +260,22 @@ def normalize(poses, missing=None):
 
 
 def denormalize(normalized, center, scale):
-    """Undo :func:`normalize`: back to the caller's own frame."""
+    """Undo :func:`normalize`: back to the caller's own frame.
+
+    Parameters
+    ----------
+    normalized : array_like, shape (..., N, 2)
+        Normalised poses.
+    center : array_like, shape (..., 2)
+        Bounding-box centres, as returned by :func:`normalize`.
+    scale : array_like, shape (...)
+        Scales, as returned by :func:`normalize`.
+
+    Returns
+    -------
+    ndarray, shape (..., N, 2)
+        ``normalized * scale + center``, in the caller's units.
+    """
     normalized = np.asarray(normalized, dtype=float)
     return normalized * np.asarray(scale)[..., None, None] + np.asarray(center)[
         ..., None, :
@@ -236,7 +291,8 @@ def represent(poses, missing=None, representation="average"):
         Coordinates of occluded joints are ignored (may be NaN).
     missing : array_like of bool, shape (..., N), optional
         Default: NaN coordinates mark missing joints.
-    representation : {"average", "zero"}
+    representation : {"average", "zero"}, default "average"
+        How the occluded joints enter the EDM (see the module docstring).
 
     Returns
     -------

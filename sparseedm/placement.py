@@ -15,15 +15,11 @@ occluded joints) best match the EDM, by least squares:
    ill-posed, and without these guards a joint could land hundreds of body
    sizes away while its pose read as recovered.
 
-The weight (default ``d``: long distances count more) was chosen on validation
-poses (``dictionaries/README.md``, "Placement weighting"): against unweighted
-residuals it lowered the filled poses' Mix Err_ave by 1.0-1.7 % after
-adaptation in three cross-source directions and by 2.7 % cold in-source, and
-moved cold cross-source recoveries by -0.9 to +0.5 %; ``d^2`` gained a little
-more after adaptation but cost 1.7 % cold in one direction. The sparse method
-(:func:`sparseedm.recover`) places with these weights; the ``nearest``
-baseline and the FConv recovery, whose answers they were not chosen on, pass
-``weight_power=0``.
+The weight (default ``d``: long distances count more) was chosen on
+validation poses; the sparse method (:func:`sparseedm.recover`) places with
+these weights, while the ``nearest`` baseline and the FConv recovery, whose
+answers they were not chosen on, pass ``weight_power=0``. The figures are in
+the documentation, ``docs/explanation/settings.md`` ("Placement weighting").
 
 Everything is batched over poses that share a missing pattern.
 """

@@ -92,6 +92,16 @@ def _did_you_mean(parser, message) -> str:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The ``sparseedm`` parser: every command's options, help and exit codes.
+
+    Commands whose module is not there are left out; ``--debug`` is accepted
+    after every command's name.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The parser; its errors suggest the nearest command, option or choice.
+    """
     parser = _Parser(
         prog="sparseedm",
         description="Recover occluded 2D pose joints from distance matrices by sparse coding.",
@@ -127,7 +137,18 @@ def _add_debug(parser):
 
 def main(argv=None) -> int:
     """Run the CLI; returns the exit code (0 ok, 1 some rows refused, 2 bad input,
-    3 internal error, 130 interrupted)."""
+    3 internal error, 130 interrupted).
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments after ``sparseedm``; default ``sys.argv[1:]``.
+
+    Returns
+    -------
+    int
+        The exit code.
+    """
     parser = build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):

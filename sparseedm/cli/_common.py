@@ -12,12 +12,25 @@ SELECTION_HELP = ("a range LO:HI (HI excluded; an end may be left out), single n
 
 
 def add_quiet(parser):
+    """Add ``-q/--quiet`` (no progress bar) to a command's parser.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The command's parser.
+    """
     parser.add_argument("-q", "--quiet", action="store_true",
                         help="no progress bar (it is also off when stderr is not a terminal)")
 
 
 def add_joint_map(parser):
-    """``--joint-map FILE``, as recover and lift take it (DeepLabCut input)."""
+    """``--joint-map FILE``, as recover and lift take it (DeepLabCut input).
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The command's parser.
+    """
     parser.add_argument("--joint-map", default=None, metavar="FILE",
                         help="DeepLabCut input: JSON file naming the body part of each of "
                         "the 14 joints ({\"joints\": {\"head_top\": \"head\", ...}})")
@@ -31,7 +44,13 @@ INPUT_FORMATS = ("csv", "npz", "npy", "coco", "json", "posetrack", "openpose", "
 
 def add_input_format(parser):
     """``--input-format FORMAT``, as recover and lift take it: INPUT's format when its
-    name does not tell (``/dev/stdin``, a pipe, an odd extension)."""
+    name does not tell (``/dev/stdin``, a pipe, an odd extension).
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The command's parser.
+    """
     parser.add_argument("--input-format", choices=INPUT_FORMATS, default=None,
                         metavar="FORMAT",
                         help="INPUT's keypoint format when its name does not tell (e.g. "
@@ -41,7 +60,17 @@ def add_input_format(parser):
 
 def add_adaptation_rounds(parser, self_training_help, ensemble_help):
     """``--self-training ROUNDS`` and ``--ensemble K``, as recover and evaluate take them
-    (defaults: the API's, None meaning ``SELF_TRAINING_ROUNDS``, and 1)."""
+    (defaults: the API's, None meaning ``SELF_TRAINING_ROUNDS``, and 1).
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The command's parser.
+    self_training_help : str
+        The help text of ``--self-training``.
+    ensemble_help : str
+        The help text of ``--ensemble``.
+    """
     parser.add_argument("--self-training", type=int, default=None, metavar="ROUNDS",
                         help=self_training_help)
     parser.add_argument("--ensemble", type=int, default=1, metavar="K", help=ensemble_help)
@@ -49,7 +78,21 @@ def add_adaptation_rounds(parser, self_training_help, ensemble_help):
 
 def refusals_said(command, summary) -> int:
     """The exit code of a run that wrote its outputs (1 when some rows were
-    refused or some input files could not be read, else 0), said on stderr."""
+    refused or some input files could not be read, else 0), said on stderr.
+
+    Parameters
+    ----------
+    command : str
+        The command's name, for the message.
+    summary : dict
+        The run's summary: ``refused``, ``errors`` (the errors file) and
+        optionally ``skipped_files``.
+
+    Returns
+    -------
+    int
+        The exit code, 0 or 1.
+    """
     refused, skipped = summary["refused"], len(summary.get("skipped_files") or [])
     if not refused and not skipped:
         return 0
@@ -61,7 +104,18 @@ def refusals_said(command, summary) -> int:
 
 
 def show_progress(args) -> bool:
-    """Progress bars only for a person watching a terminal."""
+    """Progress bars only for a person watching a terminal.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line (its ``quiet`` flag, if any).
+
+    Returns
+    -------
+    bool
+        True when not ``--quiet`` and stderr is a terminal.
+    """
     return not getattr(args, "quiet", False) and sys.stderr.isatty()
 
 
@@ -72,6 +126,31 @@ def load_npz(path, what, required, optional=()):
     Returns ``(arrays, names)``: a dict of the arrays read and the set of all
     array names in the file. Raises FileNotFoundError or FileFormatError
     naming the file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The .npz file.
+    what : str
+        What the file is, for messages (``"training set"``...).
+    required : sequence of str
+        Arrays the file must hold.
+    optional : sequence of str, optional
+        Arrays read when present.
+
+    Returns
+    -------
+    arrays : dict of str to ndarray
+        The arrays read.
+    names : set of str
+        Every array name in the file.
+
+    Raises
+    ------
+    FileNotFoundError
+        If `path` does not exist.
+    FileFormatError
+        If the file is not a readable .npz or lacks a required array.
     """
     from .._safeio import load_npz as load_bounded
     from ..exceptions import FileFormatError
@@ -94,7 +173,25 @@ def load_npz(path, what, required, optional=()):
 
 
 def occluded_range(text, default):
-    """``--occluded LO-HI`` as (lo, hi); `default` when not given."""
+    """``--occluded LO-HI`` as (lo, hi); `default` when not given.
+
+    Parameters
+    ----------
+    text : str or None
+        The option's value, ``LO-HI``; None: not given.
+    default : tuple of int
+        The range when not given.
+
+    Returns
+    -------
+    tuple of int
+        ``(lo, hi)``.
+
+    Raises
+    ------
+    SparseEDMError
+        If `text` is not two integers joined by ``-``.
+    """
     from ..exceptions import SparseEDMError
 
     if text is None:
@@ -108,7 +205,23 @@ def occluded_range(text, default):
 
 
 def channels(text):
-    """``--channels C1,C2`` as two positive integers."""
+    """``--channels C1,C2`` as two positive integers.
+
+    Parameters
+    ----------
+    text : str
+        The option's value.
+
+    Returns
+    -------
+    tuple of int
+        The two channel counts.
+
+    Raises
+    ------
+    SparseEDMError
+        If `text` is not two positive integers.
+    """
     from ..exceptions import SparseEDMError
 
     try:
@@ -121,5 +234,16 @@ def channels(text):
 
 
 def split_list(text):
-    """The items of a comma-separated option value, stripped, empty ones dropped."""
+    """The items of a comma-separated option value, stripped, empty ones dropped.
+
+    Parameters
+    ----------
+    text : str
+        The option's value.
+
+    Returns
+    -------
+    tuple of str
+        The items, in order.
+    """
     return tuple(t.strip() for t in text.split(",") if t.strip())

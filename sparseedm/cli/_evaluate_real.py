@@ -23,7 +23,23 @@ PHOTO_CONDITIONS = ("mix", "transplanted")
 
 
 def pose_sizes(text):
-    """``"1000,1000"`` -> (1000, 1000): complete and occluded poses."""
+    """``"1000,1000"`` -> (1000, 1000): complete and occluded poses.
+
+    Parameters
+    ----------
+    text : str
+        The option's value, ``C,M``.
+
+    Returns
+    -------
+    tuple of int
+        Complete poses (>= 0) and occluded poses (>= 1).
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        If `text` is not two such integers.
+    """
     try:
         values = tuple(int(t) for t in text.split(","))
     except ValueError:
@@ -35,7 +51,23 @@ def pose_sizes(text):
 
 
 def conditions(text):
-    """``"mix,transplanted"`` -> ("mix", "transplanted"); among 1, 2, 3, mix, transplanted."""
+    """``"mix,transplanted"`` -> ("mix", "transplanted"); among 1, 2, 3, mix, transplanted.
+
+    Parameters
+    ----------
+    text : str
+        The option's comma-separated value.
+
+    Returns
+    -------
+    tuple of str
+        The conditions, in the order given.
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        If `text` names none, or an unknown one.
+    """
     values = tuple(t.strip() for t in text.split(",") if t.strip())
     if not values or any(v not in ("1", "2", "3", "mix", "transplanted") for v in values):
         raise argparse.ArgumentTypeError(
@@ -44,6 +76,13 @@ def conditions(text):
 
 
 def add_arguments(p):
+    """Add the real-people protocols' options to ``sparseedm evaluate``'s parser.
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The ``evaluate`` command's parser.
+    """
     g = p.add_argument_group(
         "real-people protocols", "with --protocol photos or video-real, --data is any keypoint "
         "file (CSV, .npz, COCO JSON, detector formats) and the error of each hidden joint is "
@@ -68,6 +107,26 @@ def add_arguments(p):
 
 
 def run(args, methods):
+    """Run ``sparseedm evaluate --protocol photos|video-real``: print and write the tables.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+    methods : sequence of str
+        The methods asked for with ``--methods`` (empty: the protocol's default).
+
+    Returns
+    -------
+    int
+        The exit code, 0.
+
+    Raises
+    ------
+    SparseEDMError
+        If the data file does not fit the protocol (video-real without frame
+        numbers); ``main`` turns it into exit code 2.
+    """
     from .._atomic import check_paths
     from ..evaluation_real import evaluate_photos, evaluate_tracks
     from ..exceptions import SparseEDMError

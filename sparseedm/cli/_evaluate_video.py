@@ -20,7 +20,23 @@ GAP_LENGTHS = (3, 10, 30, 90)
 
 
 def gap_lengths(text):
-    """``"3,10"`` -> (3, 10); positive integers only."""
+    """``"3,10"`` -> (3, 10); positive integers only.
+
+    Parameters
+    ----------
+    text : str
+        The option's comma-separated value.
+
+    Returns
+    -------
+    tuple of int
+        The gap lengths, in frames.
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        If a value is not a positive integer, or there is none.
+    """
     try:
         values = tuple(int(t) for t in text.split(",") if t.strip())
     except ValueError:
@@ -31,7 +47,23 @@ def gap_lengths(text):
 
 
 def noise_level(text):
-    """``"0.01"`` -> 0.01; a fraction of the body height in [0, 1)."""
+    """``"0.01"`` -> 0.01; a fraction of the body height in [0, 1).
+
+    Parameters
+    ----------
+    text : str
+        The option's value.
+
+    Returns
+    -------
+    float
+        The noise level.
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        If `text` is not a number in [0, 1).
+    """
     try:
         value = float(text)
     except ValueError:
@@ -43,6 +75,13 @@ def noise_level(text):
 
 
 def add_arguments(p):
+    """Add the video protocols' options to ``sparseedm evaluate``'s parser.
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The ``evaluate`` command's parser.
+    """
     g = p.add_argument_group(
         "video protocols", "with --protocol, --data is a sequence file (sparseedm dataset "
         "build --camera-per clip) and --methods are gap fillers (default "
@@ -67,6 +106,25 @@ def add_arguments(p):
 
 
 def run(args, methods):
+    """Run ``sparseedm evaluate --protocol gaps|self-occlusion``: print and write the table.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+    methods : sequence of str
+        The gap fillers to compare.
+
+    Returns
+    -------
+    int
+        The exit code, 0.
+
+    Raises
+    ------
+    ParameterError
+        If ``--plot-joint`` names no joint; ``main`` turns it into exit code 2.
+    """
     from .._atomic import check_paths
     from ..dictionary import load_dictionary
     from ..temporal.evaluation import evaluate_video, plot_fill

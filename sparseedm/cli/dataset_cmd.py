@@ -9,6 +9,13 @@ import warnings
 
 
 def add_parser(subparsers) -> None:
+    """Add the ``sparseedm dataset`` command, its options and help, to `subparsers`.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        The ``sparseedm`` parser's sub-commands.
+    """
     parser = subparsers.add_parser(
         "dataset", help="build training sets from motion capture",
         description="Build training sets (2D/3D poses, labels, cameras) from motion capture.",
@@ -56,7 +63,7 @@ def _rig_options(parser):
                         help="length unit of the files (default auto: from the standing height)")
     parser.add_argument("--joint-map", metavar="MAP",
                         help="JSON (or TOML) joint map naming the source joint of some or all "
-                        "of the 14 joints (see README, 'Motion capture from any rig')")
+                        "of the 14 joints (see docs/howto/joint_maps.md)")
 
 
 def _positive(text):
@@ -74,7 +81,18 @@ def _help(parser):
 
 
 def run(args) -> int:
-    """Build the dataset; exit code 0, or 1 if some files were skipped."""
+    """Build the dataset; exit code 0, or 1 if some files were skipped.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line of ``sparseedm dataset build``.
+
+    Returns
+    -------
+    int
+        The exit code: 0, or 1 if some files were skipped.
+    """
     from ..dataset import build_dataset
 
     # skipped files and implausible poses come back in the report and are printed
@@ -116,7 +134,18 @@ def run(args) -> int:
 
 
 def run_inspect(args) -> int:
-    """Print what the loader makes of one file; exit code 0 (1 if implausible)."""
+    """Print what the loader makes of one file; exit code 0 (1 if implausible).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line of ``sparseedm dataset inspect``.
+
+    Returns
+    -------
+    int
+        The exit code: 0, or 1 if the file looks implausible.
+    """
     import json
 
     from pathlib import Path

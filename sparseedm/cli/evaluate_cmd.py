@@ -14,6 +14,13 @@ from ._common import add_adaptation_rounds, add_quiet, load_npz, split_list
 
 
 def add_parser(sub):
+    """Add the ``sparseedm evaluate`` command, its options and help, to `sub`.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The ``sparseedm`` parser's sub-commands.
+    """
     p = sub.add_parser(
         "evaluate",
         help="measure recovery against baselines with the paper's protocol (Table 2, Fig. 5)",
@@ -43,8 +50,8 @@ def add_parser(sub):
     p.add_argument("--max-train", type=int, default=5000,
                    help="the knn, iterative and nearest baselines are fitted on a seeded "
                    "sample of at most this many --train poses (default 5000, which keeps "
-                   "the iterative imputer's fit to a minute or two; the README's Table 2 "
-                   "used 20000)")
+                   "the iterative imputer's fit to a minute or two; the Table 2 of "
+                   "docs/results/ used 20000)")
     p.add_argument("--alpha", type=float, default=None,
                    help="recovery alpha (default: the dictionary's recommendation)")
     p.add_argument("--sweep-atoms", default=None,
@@ -117,6 +124,27 @@ def _split_clips(path, poses, labels, k):
 
 
 def run(args):
+    """Run ``sparseedm evaluate``: a protocol's report on a test set, written to ``-o``.
+
+    The paper's protocol by default; with ``--protocol``, a real-people or a
+    video protocol.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        The exit code: 0 when done.
+
+    Raises
+    ------
+    SparseEDMError
+        If an option is malformed or the options do not go together; ``main`` turns it into
+        exit code 2.
+    """
     from ..dictionary import load_dictionary
     from ..evaluation import check_methods, evaluate
 

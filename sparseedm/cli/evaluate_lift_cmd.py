@@ -8,6 +8,13 @@ from ._common import add_quiet
 
 
 def add_parser(sub):
+    """Add the ``sparseedm evaluate-lift`` command, its options and help, to `sub`.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The ``sparseedm`` parser's sub-commands.
+    """
     p = sub.add_parser(
         "evaluate-lift",
         help="measure 3D lifting after occlusion and recovery (the paper's application table)",
@@ -51,6 +58,18 @@ def add_parser(sub):
 
 
 def run(args):
+    """Run ``sparseedm evaluate-lift``: the lifting table of a test set, written to ``-o``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        The exit code: 0 when done.
+    """
     from ..dataset import load_dataset
     from ..metrics import check_counts
     from ..lifting import load_lifter

@@ -9,6 +9,13 @@ from ._common import add_quiet, show_progress
 
 
 def add_parser(sub):
+    """Add the ``sparseedm fit`` command, its options and help, to `sub`.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The ``sparseedm`` parser's sub-commands.
+    """
     p = sub.add_parser(
         "fit",
         help="learn a dictionary from a training .npz (see `sparseedm dataset build`)",
@@ -20,7 +27,7 @@ def add_parser(sub):
     p.add_argument("--atoms", type=int, default=2000, help="number of atoms k (default 2000)")
     p.add_argument("--alpha", type=float, default=None,
                    help="lasso penalty while learning (default 1.6, chosen on a "
-                   "validation split: dictionaries/README.md; with --init, the initial "
+                   "validation split: docs/explanation/settings.md; with --init, the initial "
                    "dictionary's)")
     p.add_argument("--alpha-recover", type=float, default=None,
                    help="recommended recovery alpha to store (default 0.002, chosen "
@@ -34,7 +41,7 @@ def add_parser(sub):
                    "one, still faster than SPAMS trainDL's one; benchmarks/README.md)")
     p.add_argument("--batch-size", type=int, default=None,
                    help="mini-batch size (default 512; with --init, the adaptation's 256, "
-                   "chosen on validation: dictionaries/README.md)")
+                   "chosen on validation: docs/explanation/settings.md)")
     p.add_argument("--positive-code", action="store_true", help="non-negative codes")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--jobs", type=int, default=None, help="threads for the coding step")
@@ -47,6 +54,18 @@ def add_parser(sub):
 
 
 def run(args):
+    """Run ``sparseedm fit``: learn a dictionary from a training set's complete poses.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        The exit code: 0 when done.
+    """
     from ..learning import fit_dictionary_file
 
     t0 = time.perf_counter()

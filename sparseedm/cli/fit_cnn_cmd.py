@@ -10,6 +10,13 @@ from ._common import add_quiet, channels, load_npz, occluded_range, show_progres
 
 
 def add_parser(sub):
+    """Add the ``sparseedm fit-cnn`` command, its options and help, to `sub`.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The ``sparseedm`` parser's sub-commands.
+    """
     p = sub.add_parser(
         "fit-cnn",
         help="train the paper's FConv network (needs the torch extra)",
@@ -58,6 +65,24 @@ def _load(path, need3d):
 
 
 def run(args):
+    """Run ``sparseedm fit-cnn``: train the FConv network on a training set and save it.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        The exit code: 0 when done.
+
+    Raises
+    ------
+    SparseEDMError
+        If the output does not end in .npz or the training set is unusable; ``main`` turns
+        it into exit code 2.
+    """
     from .._atomic import check_paths
     from ..fconv.network import require_torch
     from ..fconv.training import fit_edm_lifter, fit_fconv

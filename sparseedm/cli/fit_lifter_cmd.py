@@ -11,13 +11,21 @@ from ._common import add_quiet
 
 
 def add_parser(sub):
+    """Add the ``sparseedm fit-lifter`` command, its options and help, to `sub`.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The ``sparseedm`` parser's sub-commands.
+    """
     p = sub.add_parser(
         "fit-lifter", help="learn a 2D -> 3D lifter from a training .npz with poses3d",
         description="Learn a lifter from the complete poses of TRAIN (as written by "
         "`sparseedm dataset build`: poses2d, poses3d, camera_R/t/f). Methods: "
         "dictionary (coupled [2D ; w 3D] dictionary, the default), mlp (DMR's FConn) and "
         "fconv (DMR's fully convolutional network; needs the torch extra). "
-        "Defaults are the settings chosen on CMU validation clips (lifters/README.md).",
+        "Defaults are the settings chosen on CMU validation clips "
+        "(docs/explanation/settings.md).",
     )
     p.add_argument("train", help="training .npz with poses2d, poses3d and cameras")
     p.add_argument("-o", "--output", required=True, help="lifter file to write (.npz)")
@@ -74,6 +82,23 @@ _FCONV_OPTS = {"representation": "representation", "epochs": "max_epochs",
 
 
 def run(args):
+    """Run ``sparseedm fit-lifter``: learn a 2D-to-3D lifter from a training set and save it.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        The exit code: 0 when done.
+
+    Raises
+    ------
+    SparseEDMError
+        If the training set has too few usable poses; ``main`` turns it into exit code 2.
+    """
     from pathlib import Path
 
     from ..dataset import load_dataset

@@ -4,6 +4,13 @@ from __future__ import annotations
 
 
 def add_parser(sub):
+    """Add the ``sparseedm info`` command, its options and help, to `sub`.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The ``sparseedm`` parser's sub-commands.
+    """
     p = sub.add_parser("info", help="describe a dictionary, lifter or FConv model file (or a "
                        "shipped one by name)")
     p.add_argument("dictionary", nargs="?", default="default",
@@ -13,6 +20,18 @@ def add_parser(sub):
 
 
 def run(args):
+    """Run ``sparseedm info``: print what a dictionary, lifter or FConv model file holds.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        The exit code: 0 when done.
+    """
     from ..dictionary import load_dictionary
     from ..exceptions import DictionaryError, ModelError
     from ..fconv.model import load_model  # no torch needed to read one

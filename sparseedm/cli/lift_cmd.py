@@ -12,6 +12,13 @@ from ._common import SELECTION_HELP, add_input_format, add_joint_map, add_quiet,
 
 
 def add_parser(sub):
+    """Add the ``sparseedm lift`` command, its options and help, to `sub`.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The ``sparseedm`` parser's sub-commands.
+    """
     p = sub.add_parser(
         "lift", help="lift 2D keypoints to 3D poses (any keypoint file recover reads)",
         description="Lift every pose in INPUT to 3D with a lifter (default: the shipped "
@@ -77,6 +84,18 @@ def add_parser(sub):
 
 
 def run(args):
+    """Run ``sparseedm lift``: lift a keypoint file's 2D poses to 3D and write them.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        The exit code: 0 every row lifted, 1 some rows refused (the output still written).
+    """
     from .._atomic import is_stream
     from ..lifting.io import lift_file
 

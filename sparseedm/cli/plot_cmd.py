@@ -15,6 +15,13 @@ from ._common import SELECTION_HELP, add_joint_map, add_quiet, split_list
 
 
 def add_parser(sub):
+    """Add the ``sparseedm plot`` command, its options and help, to `sub`.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The ``sparseedm`` parser's sub-commands.
+    """
     p = sub.add_parser(
         "plot", help="draw what a recovery did: trajectories over time and a few poses",
         description="Draw INPUT (the keypoints as read) against RECOVERED (the file "
@@ -53,6 +60,24 @@ def add_parser(sub):
 
 
 def run(args):
+    """Run ``sparseedm plot``: draw a keypoint file's poses beside their recovery.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        The exit code: 0 when done.
+
+    Raises
+    ------
+    SparseEDMError
+        If the figure's name or the files do not fit (different numbers of poses); ``main``
+        turns it into exit code 2.
+    """
     from .. import _progress
     from .._atomic import check_paths
     from .._extras import require

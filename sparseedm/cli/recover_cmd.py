@@ -14,6 +14,13 @@ from ._common import (add_adaptation_rounds, add_input_format, add_joint_map, ad
 
 
 def add_parser(sub):
+    """Add the ``sparseedm recover`` command, its options and help, to `sub`.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The ``sparseedm`` parser's sub-commands.
+    """
     p = sub.add_parser(
         "recover",
         help="recover occluded joints in a keypoint file (.csv, .npz, .npy, COCO or "
@@ -124,6 +131,24 @@ def _add_adaptation_options(p):
 
 
 def run(args):
+    """Run ``sparseedm recover``: fill in the occluded joints of a keypoint file and write them.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        The exit code: 0 every row usable, 1 some rows refused (the outputs still written).
+
+    Raises
+    ------
+    SparseEDMError
+        If the options do not go together (``--method fconv`` without ``--model``); ``main``
+        turns it into exit code 2.
+    """
     from .._atomic import is_stream
     from ..batch import recover_file
     from ..exceptions import SparseEDMError
@@ -176,7 +201,20 @@ def _alone_note(temporal) -> str:
 
 
 def format_summary(s) -> str:
-    """The lines printed at the end of a run."""
+    """The lines printed at the end of a run.
+
+    Parameters
+    ----------
+    s : dict
+        The run's summary (output, format, poses, recovered joints, refused rows,
+        time, status counts and, when present, the threshold, adaptation and
+        temporal lines).
+
+    Returns
+    -------
+    str
+        The lines, joined by newlines.
+    """
     rate = f"{s['poses_per_second']:,.0f} poses/s" if s["poses_per_second"] else "-"
     counts = ", ".join(f"{k} {v}" for k, v in s["status"].items()) or "none"
     lines = [

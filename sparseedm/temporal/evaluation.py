@@ -87,6 +87,24 @@ def resolve_methods(methods, dictionary=None):
     test: ``sparseedm.temporal.recover:recover_track``); its row is named
     after the function.
 
+    Parameters
+    ----------
+    methods : sequence or dict
+        Filler names, ``"module:function"`` names and ``(name, filler)`` pairs,
+        or a ``{name: filler}`` dict.
+    dictionary : Dictionary or str, optional
+        The dictionary of the ``"sparse"`` filler; None: the shipped default.
+
+    Returns
+    -------
+    dict of str to callable
+        Each method's filler, ``filler(poses, missing, frames)``, in the order given.
+
+    Raises
+    ------
+    ParameterError
+        If a name is unknown or cannot be imported.
+
     Examples
     --------
     >>> list(resolve_methods(["linear", ("mine", lambda p, m, f: p)]))
@@ -141,6 +159,27 @@ def protocol_masks(sequence, protocol, *, gap_lengths=GAP_LENGTHS, random_state=
     ``"self-occlusion"`` mask. Seeded by `random_state` and the clip id. A
     callable `protocol` is your own: ``protocol(sequence)`` returns the dict.
 
+    Parameters
+    ----------
+    sequence : Sequence
+        The clip whose joints are hidden.
+    protocol : {"gaps", "self-occlusion"} or callable
+        The protocol; a callable returns the ``{condition: missing}`` dict itself.
+    gap_lengths : sequence of int, optional
+        The gap lengths of the ``"gaps"`` protocol (one mask each).
+    random_state : int, default 0
+        Seed, combined with the clip id.
+
+    Returns
+    -------
+    dict of str to ndarray of bool (T, 14)
+        The missing joints of each condition.
+
+    Raises
+    ------
+    ParameterError
+        If `protocol` is neither a callable nor one of :data:`PROTOCOLS`.
+
     Examples
     --------
     >>> from sparseedm.cameras import sample_cameras
@@ -168,9 +207,11 @@ def protocol_masks(sequence, protocol, *, gap_lengths=GAP_LENGTHS, random_state=
 class VideoReport:
     """What :func:`evaluate_video` returns.
 
-    Attributes
+    Parameters
     ----------
     protocol : str
+        The protocol the sequences were evaluated under: ``"gaps"``,
+        ``"self-occlusion"``, or a callable protocol's name.
     rows : list of dict
         One per (method, group, end): ``method``, ``group`` (``"gap 10"``, a
         run-length bin such as ``"6-15"``, or ``"overall"``), ``end``
@@ -197,27 +238,91 @@ class VideoReport:
     settings: dict = field(default_factory=dict)
 
     def row(self, method, group, end="all"):
-        """The row of `method`, `group` and `end` (KeyError if absent)."""
+        """The row of `method`, `group` and `end` (KeyError if absent).
+
+        Parameters
+        ----------
+        method : str
+            The method's name, as given to :func:`evaluate_video`.
+        group : str
+            ``"gap L"``, a run-length bin such as ``"6-15"``, or ``"overall"``.
+        end : {"all", "end", "inside"}, default "all"
+            Which runs: all of them, those touching a clip end, or the others.
+
+        Returns
+        -------
+        dict
+            The row (see the class's `rows`).
+
+        Raises
+        ------
+        KeyError
+            If the report has no such row.
+        """
         for r in self.rows:
             if (r["method"], r["group"], r["end"]) == (method, group, end):
                 return r
         raise KeyError((method, group, end))
 
     def ratio_interval(self, method, peers, group, end="all", **kwargs):
-        """:func:`ratio_interval` on this report's rows."""
+        """:func:`ratio_interval` on this report's rows.
+
+        Parameters
+        ----------
+        method : str
+            The method whose error is the numerator.
+        peers : sequence of str
+            The methods compared to; the best of them is the denominator.
+        group : str
+            The group, as in :meth:`row`.
+        end : str, default "all"
+            Which runs, as in :meth:`row`.
+        **kwargs
+            `level`, `n_resamples` and `random_state` of :func:`ratio_interval`.
+
+        Returns
+        -------
+        dict
+            As :func:`ratio_interval`.
+        """
         return ratio_interval(self.rows, method, peers, group, end, **kwargs)
 
     @property
     def methods(self):
+        """The methods of the report, in the order they were evaluated.
+
+        Returns
+        -------
+        list of str
+            One name per method.
+        """
         return list(dict.fromkeys(r["method"] for r in self.rows))
 
     @property
     def groups(self):
+        """The groups of the report, in the order they appear in its rows.
+
+        Returns
+        -------
+        list of str
+            One label per group.
+        """
         return list(dict.fromkeys(r["group"] for r in self.rows))
 
     def table(self, end="all"):
         """A Markdown table: one row per method, one column per group (error %), the
-        excess jump at the gap edges (all groups, %) and the frames filled per second."""
+        excess jump at the gap edges (all groups, %) and the frames filled per second.
+
+        Parameters
+        ----------
+        end : {"all", "end", "inside"}, default "all"
+            Which runs the error columns pool.
+
+        Returns
+        -------
+        str
+            The Markdown table, with a last row of hidden (scored) joint-frames.
+        """
         groups = self.groups
         lines = ["| method | " + " | ".join(groups) + " | edge jump | frames/s |",
                  "|---|" + "---|" * (len(groups) + 2)]
@@ -247,11 +352,25 @@ class VideoReport:
         return "\n".join(lines)
 
     def to_json(self):
+        """The report as JSON text: protocol, settings, seconds and rows.
+
+        Returns
+        -------
+        str
+            Indented JSON (NaN written as ``NaN``).
+        """
         return json.dumps({"protocol": self.protocol, "settings": self.settings,
                            "seconds": self.seconds, "rows": self.rows}, indent=1,
                           allow_nan=True)
 
     def to_csv(self):
+        """The report's rows as CSV text, one line per (method, group, end).
+
+        Returns
+        -------
+        str
+            CSV with a header row; the per-sequence sums are left out.
+        """
         buf = io.StringIO()
         keys = ("method", "group", "end", "n", "scored", "error", "median", "error_own",
                 "unfilled", "edges", "edge_jump")
@@ -262,7 +381,15 @@ class VideoReport:
         return buf.getvalue()
 
     def write(self, json_path=None, csv_path=None):
-        """Write the report as JSON and/or CSV, atomically."""
+        """Write the report as JSON and/or CSV, atomically.
+
+        Parameters
+        ----------
+        json_path : str or Path, optional
+            Where to write :meth:`to_json`; None: not written.
+        csv_path : str or Path, optional
+            Where to write :meth:`to_csv`; None: not written.
+        """
         for path, text in ((json_path, self.to_json), (csv_path, self.to_csv)):
             if path is not None:
                 with atomic_path(path) as tmp:
@@ -278,6 +405,21 @@ def detector_jitter(sequence, level, random_state=0):
     method, and every protocol condition, sees the same noise. (The temporal
     model's :func:`sparseedm.temporal.model.observation_noise` estimates such
     noise from a track.)
+
+    Parameters
+    ----------
+    sequence : Sequence
+        The clip (its true 2D poses give the body's height).
+    level : float
+        The noise's standard deviation per coordinate, as a fraction of the
+        body's pixel height.
+    random_state : int, default 0
+        Seed, combined with the clip id.
+
+    Returns
+    -------
+    ndarray (T, N, 2)
+        The noise, pixels.
 
     Examples
     --------
@@ -491,13 +633,19 @@ def ratio_interval(rows, method, peers, group, end="all", *, level=0.9, n_resamp
         :attr:`VideoReport.rows` (or the rows of its JSON), with their
         ``sequence_sums`` and ``sequence_counts``.
     method : str
+        The method whose error is the numerator.
     peers : sequence of str
-    group, end : str
-        As in :meth:`VideoReport.row`.
+        The methods it is compared to; the best of them is the denominator.
+    group : str
+        The group, as in :meth:`VideoReport.row`.
+    end : str, default "all"
+        Which runs, as in :meth:`VideoReport.row`.
     level : float, default 0.9
         Coverage of the percentile interval.
     n_resamples : int, default 2000
+        Bootstrap resamples of the sequences.
     random_state : int, default 0
+        Seed of the resampling.
 
     Returns
     -------

@@ -196,6 +196,20 @@ def fill_cubic(poses, missing, frames):
     through all observed frames of the joint, evaluated in its gaps. Two
     observed frames give a straight line, one a constant.
 
+    Parameters
+    ----------
+    poses : array_like, shape (T, N, 2)
+        One track's poses, in frame order.
+    missing : array_like of bool, shape (T, N)
+        The joints to fill.
+    frames : array_like of int, shape (T,)
+        The poses' frame numbers, sorted and unique.
+
+    Returns
+    -------
+    ndarray (T, N, 2)
+        Observed joints as given; a joint never observed is NaN.
+
     Examples
     --------
     >>> t = np.arange(8.0)
@@ -212,6 +226,20 @@ def fill_akima(poses, missing, frames):
 
     Akima's local cubic follows the data without the overshoot a global
     cubic spline can show near sharp turns; it reproduces straight lines.
+
+    Parameters
+    ----------
+    poses : array_like, shape (T, N, 2)
+        One track's poses, in frame order.
+    missing : array_like of bool, shape (T, N)
+        The joints to fill.
+    frames : array_like of int, shape (T,)
+        The poses' frame numbers, sorted and unique.
+
+    Returns
+    -------
+    ndarray (T, N, 2)
+        Observed joints as given; a joint never observed is NaN.
 
     Examples
     --------
@@ -254,7 +282,8 @@ def fill_pca(poses, missing, frames, *, variance=0.9999, max_iter=200, tol=1e-6)
     variance : float, default 0.9999
         Fraction of the variance the kept components explain; chosen on the
         validation sequences of ``benchmarks/video_protocols.py`` (0.99,
-        0.999, 0.9999, 0.99999 tried; see benchmarks/README.md).
+        0.999, 0.9999, 0.99999 tried: ``benchmarks/video_select_pca.py``,
+        ``benchmarks/results-video-pca.json``).
     max_iter : int, default 200
     tol : float, default 1e-6
 
@@ -358,7 +387,7 @@ KALMAN_PERSISTENCE = 20.0
 class KalmanNoise(NamedTuple):
     """The noise of :func:`fill_kalman`'s model, per joint and coordinate.
 
-    Attributes
+    Parameters
     ----------
     q : ndarray (N, 2)
         Process noise: the white acceleration's intensity, px² / frame³.

@@ -61,6 +61,18 @@ JUMP_REASON = ("its pose jumps from the frames before and after it (a cut in the
 def needs_linking(tracks, frames):
     """True when `tracks` is None and some usable frame number repeats.
 
+    Parameters
+    ----------
+    tracks : array_like or None
+        The caller's track ids, if any.
+    frames : array_like of int or None
+        Frame number of each pose, if any.
+
+    Returns
+    -------
+    bool
+        Whether :func:`link_tracks` should give the poses track ids.
+
     Examples
     --------
     >>> needs_linking(None, [0, 1, 1, 2]), needs_linking(None, [0, 1, 2])

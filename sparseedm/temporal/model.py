@@ -8,68 +8,30 @@ distance ``d`` (frames) to the joint's nearest observation,
 
     w(d) = clip((d - ramp_start) / (ramp_full - ramp_start), 0, 1)
 
-times a confidence (1 for a certified per-frame answer, :data:`INACCURATE`
-for one whose duality gap stayed above tolerance, 0 where it was refused).
-Near observations (short gaps) the answer is the smoothest curve through
-them, a spline; deep inside long gaps and past a clip's ends it follows the
-pose model. Only the frames where some missing joint has ``d > ramp_start``
-need a per-frame answer at all (:func:`needs_prior`), and of those only every
-fourth is asked for (``prior_stride``, :func:`prior_frames`): the answers
-between are interpolated (the per-frame model is most of the video path's
-time, and the acceleration penalty smooths its answers over many frames
-anyway; on the validation sequences stride 4 moved the error over all hidden
-joint-frames by +0.08 % and +0.02 % of itself, stride 6 by +0.16 % and
-+0.47 %).
+times a confidence (1 for a certified per-frame answer, ``inaccurate`` for
+one whose duality gap stayed above tolerance, 0 where it was refused). Near
+observations (short gaps) the answer is the smoothest curve through them, a
+spline; deep inside long gaps and past a clip's ends it follows the pose
+model. Why: time is the better evidence next to an observation, the pose model
+far from one.
 
-Each trajectory is smoothed *relative to its parent's* (:func:`fill_segment`,
-``relative``): a first pass fills every joint as above; the second smooths
-``x_j - beta_j r_j`` instead of ``x_j``, where ``r_j`` is the first pass's
-trajectory of the joint's parent in the skeleton (the root's: the mean of its
-children that have children, the shoulders and hips) and ``beta_j`` in
-[0, 1] is fitted per segment by least squares on the joint's observed
-second differences (:func:`coupling`): how much of the parent's
-acceleration the joint shares (the prior term is unchanged, ``||x - p||^2 =
-||(x - beta r) - (p - beta r)||^2``). A body moves as a whole, so a hidden wrist
-follows its elbow (and the whole body's travel) between observations instead
-of a straight line in the image. On the validation sequences (one clip at
-a time, defaults) it lowered the error in every bin of both protocols and
-both sources but one (Bandai-Namco's self-occlusion runs of 46+ frames, 4.11
--> 4.12 %); over all hidden joint-frames: Bandai-Namco gaps 2.26 -> 2.00 %,
-self-occlusion 1.32 -> 1.09 %; CMU 2.04 -> 1.89 % and 0.78 -> 0.63 %
-(``dictionaries/README.md``, "Relative smoothing").
+The rest of the module refines that blend: per-frame answers are computed
+only where they carry weight, on every ``prior_stride``-th frame
+(:func:`needs_prior`, :func:`prior_frames`, :func:`spread_prior`); each joint
+is smoothed relative to its parent's trajectory, so a hidden wrist follows
+its elbow (:func:`reference_trajectories`, :func:`coupling`); noisy
+observations become data of a weight instead of exact anchors
+(:func:`observation_weight`); still joints are filled by time alone
+(:func:`still_runs`), filled runs are joined to their observed neighbours
+(:func:`joined`) and each segment tests how far to trust its prior
+(:func:`probe_mask`, :func:`clip_trust`). :func:`fill_segment` runs it all.
 
-Observed joints are exact anchors only while they are clean. A detector's
-keypoints jitter; a trajectory forced through every jittery point leaves each
-gap bent by its neighbours' noise (at 1 % of the body's height of noise, the
-error in the gaps was 4-5x the noise-free model's on the validation cases).
-:func:`observation_weight` estimates the noise of each segment's observed
-coordinates from the lag-1 autocovariance of their third differences (motion
-does not count as noise) and, above ``noise_floor`` (0.2 %) of the body's
-extent, makes every observed coordinate data of weight
-``(prior_error * extent / noise)^2`` instead of an anchor: a smoothing
-spline, which the gaps then follow. Observed joints are still returned
-exactly as given; clean input (every motion-capture validation segment
-measured below 0.16 %) is filled exactly as without it.
-
-Where time is the better evidence, three rules keep the pose model from
-dragging a joint away. A joint still on both sides of a run of free frames
-is filled by time alone (:func:`still_runs`). Where the observations are
-data, each run is joined to its observed neighbours (:func:`joined`): its
-first and last frames continue the observed motion instead of jumping to the
-smoothed curve. And each segment tests its own prior (:func:`probe_mask`,
-:func:`clip_trust`): a few observed joints are hidden in runs like the ones
-to fill, filled with the prior's weight scaled by each of
-:data:`TRUST_LEVELS`, and a lower scale that predicts them clearly better
-is used for every joint observed in the segment (a joint never observed
-keeps the prior: only the pose model can place it).
-
-The constants (acceleration 30, jerk 300, ramp from 6 to 30 frames, at 30
-frames/s) were chosen on validation sequences across sources, by the error
-over all hidden joint-frames against the best gap filler
-(``studies/temporal/select_temporal.py``, ``studies/temporal/selection_temporal.json``;
-the grid spanned acceleration 3-3000, jerk 0-3000, ramp start 1-6 and full
-12-90). Both penalties and the prior are squared pixels, so the settings do
-not depend on the image's scale; they do depend on the frame rate.
+The constants were chosen on validation sequences across sources; the
+penalties and the prior are squared pixels, so the settings do not depend on
+the image's scale (they do depend on the frame rate). How they were chosen,
+and what each refinement changed, is in the documentation:
+``docs/explanation/method.md`` ("Video: the temporal model") and
+``docs/explanation/settings.md`` ("The temporal model").
 """
 
 from __future__ import annotations
@@ -94,7 +56,7 @@ __all__ = ["TemporalSettings", "prior_weights", "needs_prior", "prior_frames",
 class TemporalSettings:
     """The temporal model's constants (see the module docstring).
 
-    Attributes
+    Parameters
     ----------
     acceleration : float
         The acceleration penalty ``lam`` (the prior's full weight is 1).
@@ -115,7 +77,7 @@ class TemporalSettings:
         (``studies/temporal/selection_temporal_stride.json``).
     relative : bool
         Smooth each joint relative to its parent's trajectory (see the
-        module docstring); False: every trajectory on its own, as before.
+        module docstring); False: every trajectory on its own.
     denoise : bool
         Where the observed coordinates carry white noise (a detector's
         jitter) above ``noise_floor`` of the body's extent
@@ -174,7 +136,20 @@ def _ramp(distance, settings):
 
 
 def needs_prior(free, settings=DEFAULT_SETTINGS):
-    """Frames (T,) where some unknown joint gives a per-frame answer weight."""
+    """Frames (T,) where some unknown joint gives a per-frame answer weight.
+
+    Parameters
+    ----------
+    free : ndarray of bool (T, N)
+        The segment's unknown joints (missing, or in a frame absent from the track).
+    settings : TemporalSettings, optional
+        The temporal model's constants; default :class:`TemporalSettings`'s.
+
+    Returns
+    -------
+    ndarray of bool (T,)
+        True at the frames that need a per-frame answer.
+    """
     w = _ramp(distance_to_observed(free), settings)
     return ((w > 0) & free).any(axis=1)
 
@@ -190,6 +165,18 @@ def prior_frames(free, settings=DEFAULT_SETTINGS):
     """Frames (T,) whose per-frame answer is computed: every
     ``settings.prior_stride``-th frame of each run of :func:`needs_prior`
     frames, counted from the run's first, and the run's last frame.
+
+    Parameters
+    ----------
+    free : ndarray of bool (T, N)
+        The segment's unknown joints (missing, or in a frame absent from the track).
+    settings : TemporalSettings, optional
+        The temporal model's constants; default :class:`TemporalSettings`'s.
+
+    Returns
+    -------
+    ndarray of bool (T,)
+        True at the frames whose per-frame answer is computed.
 
     Examples
     --------
@@ -221,6 +208,24 @@ def spread_prior(free, prior, confidence, settings=DEFAULT_SETTINGS):
     same run on either side; NaN and 0 where either side has none).
 
     Returns new ``(prior, confidence)``; unchanged when ``prior_stride`` is 1.
+
+    Parameters
+    ----------
+    free : ndarray of bool (T, N)
+        The segment's unknown joints (missing, or in a frame absent from the track).
+    prior : ndarray (T, N, 2)
+        Per-frame answers, NaN at the frames without one.
+    confidence : ndarray (T,)
+        Confidence of each frame's answer, 0 where there is none.
+    settings : TemporalSettings, optional
+        The temporal model's constants; default :class:`TemporalSettings`'s.
+
+    Returns
+    -------
+    prior : ndarray (T, N, 2)
+        The answers, the skipped frames filled by interpolation.
+    confidence : ndarray (T,)
+        The confidences, interpolated the same way.
     """
     if int(settings.prior_stride) <= 1:
         return prior, confidence
@@ -244,7 +249,22 @@ def spread_prior(free, prior, confidence, settings=DEFAULT_SETTINGS):
 
 
 def prior_weights(free, confidence, settings=DEFAULT_SETTINGS):
-    """Weights (T, N) of the per-frame answers: ramp of the distance times confidence."""
+    """Weights (T, N) of the per-frame answers: ramp of the distance times confidence.
+
+    Parameters
+    ----------
+    free : ndarray of bool (T, N)
+        The segment's unknown joints (missing, or in a frame absent from the track).
+    confidence : ndarray (T,)
+        Confidence of each frame's per-frame answer, 0 where there is none.
+    settings : TemporalSettings, optional
+        The temporal model's constants; default :class:`TemporalSettings`'s.
+
+    Returns
+    -------
+    ndarray (T, N)
+        The prior's weight at each joint-frame, 0 at the observed ones.
+    """
     return _ramp(distance_to_observed(free), settings) * confidence[:, None] * free
 
 
@@ -296,12 +316,16 @@ def coupling(values, free, reference):
     Parameters
     ----------
     values : ndarray (T, N, 2)
+        The segment's coordinates (read where not free).
     free : ndarray of bool (T, N)
+        The segment's unknown joints.
     reference : ndarray (T, N, 2)
+        Each joint's reference trajectory (:func:`reference_trajectories`).
 
     Returns
     -------
     ndarray (N,)
+        Each joint's share ``beta_j``.
 
     Examples
     --------
@@ -332,6 +356,19 @@ def observation_noise(values, free):
     correlated: ``s^2 = max(0, -mean(d_t . d_{t+1}) / 30)`` over the frames
     where a joint is observed five in a row (both coordinates pooled), so
     motion is not mistaken for noise. NaN with fewer than 10 such products.
+
+    Parameters
+    ----------
+    values : ndarray (T, N, 2)
+        The segment's coordinates (read where not free).
+    free : ndarray of bool (T, N)
+        The segment's unknown joints (missing, or in a frame absent from the track).
+
+    Returns
+    -------
+    float
+        The estimated standard deviation, NaN when fewer than 6 frames or 10
+        usable third-difference pairs.
 
     Examples
     --------
@@ -367,7 +404,21 @@ def _observed_runs(free, k):
 
 
 def body_extent(values, free):
-    """Median over frames of the observed joints' vertical extent (pixels)."""
+    """Median over frames of the observed joints' vertical extent (pixels).
+
+    Parameters
+    ----------
+    values : ndarray (T, N, 2)
+        The segment's coordinates (read where not free).
+    free : ndarray of bool (T, N)
+        The segment's unknown joints (missing, or in a frame absent from the track).
+
+    Returns
+    -------
+    float
+        The median extent over the frames with at least two observed joints,
+        NaN when there is none.
+    """
     y = np.where(free, np.nan, values[..., 1])
     ok = (~free).sum(axis=1) >= 2
     if not ok.any():
@@ -383,6 +434,20 @@ def observation_weight(values, free, settings=DEFAULT_SETTINGS):
     :func:`body_extent`; then ``(settings.prior_error * extent / noise)^2``
     (the prior's weight is 1, so the weight is the ratio of the per-frame
     answers' variance to the observations').
+
+    Parameters
+    ----------
+    values : ndarray (T, N, 2)
+        The segment's coordinates (read where not free).
+    free : ndarray of bool (T, N)
+        The segment's unknown joints (missing, or in a frame absent from the track).
+    settings : TemporalSettings, optional
+        The temporal model's constants; default :class:`TemporalSettings`'s.
+
+    Returns
+    -------
+    float or None
+        The observations' weight, or None when they are exact anchors.
     """
     if not settings.denoise:
         return None
@@ -400,6 +465,16 @@ STILL_FRAMES = 5
 def free_runs(free):
     """Each joint's runs of free frames: (joint, first, stop) rows, ``stop``
     one past the last frame.
+
+    Parameters
+    ----------
+    free : ndarray of bool (T, N)
+        The segment's unknown joints (missing, or in a frame absent from the track).
+
+    Returns
+    -------
+    ndarray of int (R, 3)
+        One ``(joint, first, stop)`` row per run, by joint then frame.
 
     Examples
     --------
@@ -423,6 +498,20 @@ def still_runs(values, free, settings=DEFAULT_SETTINGS):
     among them, at least two a side) all lie within ``settings.still`` times
     the :func:`body_extent` of their mean: a resting foot or hand. Such a run
     needs no pose model (which may drag it away); time alone keeps it still.
+
+    Parameters
+    ----------
+    values : ndarray (T, N, 2)
+        The segment's coordinates (read where not free).
+    free : ndarray of bool (T, N)
+        The segment's unknown joints (missing, or in a frame absent from the track).
+    settings : TemporalSettings, optional
+        The temporal model's constants; default :class:`TemporalSettings`'s.
+
+    Returns
+    -------
+    ndarray of bool (T, N)
+        True at the free frames that time alone fills.
     """
     out = np.zeros(free.shape, bool)
     extent = body_extent(values, free)
@@ -451,6 +540,22 @@ def joined(filled, values, free, settings=DEFAULT_SETTINGS):
     to it and fading over ``settings.edge_decay`` frames (times the share of
     the run nearer that side), so the filled frames continue the observed
     motion instead of jumping to the smoothed curve.
+
+    Parameters
+    ----------
+    filled : ndarray (T, N, 2)
+        The smoothed segment (:func:`fill_segment`'s trajectories).
+    values : ndarray (T, N, 2)
+        The segment's coordinates (read where not free).
+    free : ndarray of bool (T, N)
+        The segment's unknown joints (missing, or in a frame absent from the track).
+    settings : TemporalSettings, optional
+        The temporal model's constants; default :class:`TemporalSettings`'s.
+
+    Returns
+    -------
+    ndarray (T, N, 2)
+        A copy of `filled` with the observed offsets spread into each run.
     """
     out = filled.copy()
     T = len(free)
@@ -496,7 +601,8 @@ def fill_segment(values, free, prior, confidence, settings=DEFAULT_SETTINGS, par
         skipped take them interpolated (:func:`spread_prior`).
     confidence : ndarray (T,)
         Confidence of each frame's per-frame answer, 0 where there is none.
-    settings : TemporalSettings
+    settings : TemporalSettings, optional
+        The temporal model's constants; default :class:`TemporalSettings`'s.
     parents : sequence of int, optional
         The skeleton's parents for ``settings.relative``; default the
         14-joint skeleton's (relative smoothing is skipped for other joint
@@ -577,7 +683,18 @@ PROBE_WINDOWS = 2
 
 def probe_settings(settings=DEFAULT_SETTINGS):
     """The settings probes are filled with: per-frame answers twice as sparse
-    (a probe only ranks the trust levels; its answers are extra cost)."""
+    (a probe only ranks the trust levels; its answers are extra cost).
+
+    Parameters
+    ----------
+    settings : TemporalSettings, optional
+        The temporal model's constants; default :class:`TemporalSettings`'s.
+
+    Returns
+    -------
+    TemporalSettings
+        `settings` with ``prior_stride`` doubled.
+    """
     return replace(settings, prior_stride=2 * max(int(settings.prior_stride), 1))
 
 
@@ -595,6 +712,20 @@ def probe_mask(values, free, settings=DEFAULT_SETTINGS):
     segment's shape (the same segment is probed the same way). A probed frame loses few joints more
     than it has lost, so its per-frame answer is as good as the real ones.
     Else all False.
+
+    Parameters
+    ----------
+    values : ndarray (T, N, 2)
+        The segment's coordinates (read where not free).
+    free : ndarray of bool (T, N)
+        The segment's unknown joints (missing, or in a frame absent from the track).
+    settings : TemporalSettings, optional
+        The temporal model's constants; default :class:`TemporalSettings`'s.
+
+    Returns
+    -------
+    ndarray of bool (T, N)
+        The observed joint-frames to hide as a probe.
     """
     T, N = free.shape
     out = np.zeros_like(free)
@@ -628,16 +759,21 @@ def clip_trust(values, free, probe, prior, confidence, settings=DEFAULT_SETTINGS
 
     Parameters
     ----------
-    values, free
-        The segment, as :func:`fill_segment`.
+    values : ndarray (T, N, 2)
+        The segment's coordinates, as :func:`fill_segment`.
+    free : ndarray of bool (T, N)
+        The segment's unknown joints, as :func:`fill_segment`.
     probe : ndarray of bool (T, N)
         Observed joint-frames hidden as a test (:func:`probe_mask`).
-    prior, confidence
-        Per-frame answers and confidences with the probed joints hidden too,
-        at the :func:`prior_frames` of ``free | probe`` under
-        :func:`probe_settings`.
-    settings, parents
-        As :func:`fill_segment`.
+    prior : ndarray (T, N, 2)
+        Per-frame answers with the probed joints hidden too, at the
+        :func:`prior_frames` of ``free | probe`` under :func:`probe_settings`.
+    confidence : ndarray (T,)
+        Confidences of those answers, 0 where there is none.
+    settings : TemporalSettings, optional
+        The temporal model's constants, as :func:`fill_segment`.
+    parents : sequence of int, optional
+        The skeleton's parents, as :func:`fill_segment`.
 
     Returns
     -------
@@ -656,7 +792,32 @@ def probe_errors(values, free, probe, prior, confidence, settings=DEFAULT_SETTIN
                  parents=None):
     """What :func:`clip_trust` ranks the levels by, to be pooled over segments:
     the summed distances (pixels) of the probed joint-frames for each of
-    :data:`TRUST_LEVELS`, and how many joint-frames were scored."""
+    :data:`TRUST_LEVELS`, and how many joint-frames were scored.
+
+    Parameters
+    ----------
+    values : ndarray (T, N, 2)
+        The segment's coordinates (read where not free).
+    free : ndarray of bool (T, N)
+        The segment's unknown joints (missing, or in a frame absent from the track).
+    probe : ndarray of bool (T, N)
+        Observed joint-frames hidden as a test (:func:`probe_mask`).
+    prior : ndarray (T, N, 2)
+        Per-frame answers with the probed joints hidden too, NaN where none.
+    confidence : ndarray (T,)
+        Confidence of each frame's per-frame answer, 0 where there is none.
+    settings : TemporalSettings, optional
+        The temporal model's constants; default :class:`TemporalSettings`'s.
+    parents : sequence of int, optional
+        The skeleton's parents, as :func:`fill_segment`.
+
+    Returns
+    -------
+    errors : ndarray (len(TRUST_LEVELS),)
+        Summed distances per trust level (inf where a fill was not finite).
+    count : int
+        Number of joint-frames scored (0: nothing to score).
+    """
     probed = free | probe
     scored = probe & (_ramp(distance_to_observed(probed), settings) > 0) \
         & ~still_runs(values, probed, settings)
@@ -672,6 +833,18 @@ def probe_errors(values, free, probe, prior, confidence, settings=DEFAULT_SETTIN
 
 def choose_trust(errors, count):
     """The trust level of pooled :func:`probe_errors` (see :func:`clip_trust`).
+
+    Parameters
+    ----------
+    errors : ndarray (len(TRUST_LEVELS),)
+        Summed probe distances per trust level, pooled over segments.
+    count : int
+        Number of joint-frames scored.
+
+    Returns
+    -------
+    float
+        The chosen level of :data:`TRUST_LEVELS`; 1.0 without a clear win.
 
     Examples
     --------
@@ -692,14 +865,19 @@ def time_filled(values, free, near, settings=DEFAULT_SETTINGS):
     Parameters
     ----------
     values : ndarray (T, N, 2)
+        The segment's coordinates (read where not free).
     free : ndarray of bool (T, N)
+        The segment's unknown joints.
     near : int
+        Most frames between an unknown joint and an observation of it;
         0: the complete frames only.
-    settings : TemporalSettings
+    settings : TemporalSettings, optional
+        The temporal model's constants; default :class:`TemporalSettings`'s.
 
     Returns
     -------
     rows : ndarray of bool (T,)
+        The frames offered.
     filled : ndarray (T, N, 2)
         The segment with every unknown joint filled by time (read at `rows`).
 

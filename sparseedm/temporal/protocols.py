@@ -140,6 +140,24 @@ def dropout_mask(n_frames, n_joints=14, *, fraction=DROPOUT_FRACTION, max_length
     Runs are added (uniform length, joint and start) until `fraction` of the
     joint-frames is hidden; they may touch or overlap one another.
 
+    Parameters
+    ----------
+    n_frames : int
+        Frames of the clip.
+    n_joints : int, default 14
+        Joints per pose.
+    fraction : float, optional
+        Share of the joint-frames to hide (default :data:`DROPOUT_FRACTION`).
+    max_length : int, default 5
+        Longest run, in frames.
+    random_state : int or numpy.random.Generator, optional
+        Seed or generator of the runs.
+
+    Returns
+    -------
+    ndarray of bool (n_frames, n_joints)
+        True at the hidden joint-frames.
+
     Examples
     --------
     >>> m = dropout_mask(200, random_state=0)
@@ -299,6 +317,16 @@ def run_lengths(missing):
 
 def run_bin(lengths):
     """The :data:`RUN_BINS` label of each run length (``""`` for 0).
+
+    Parameters
+    ----------
+    lengths : array_like of int
+        Run lengths, in frames.
+
+    Returns
+    -------
+    ndarray of str
+        The bin label of each length, same shape as `lengths`.
 
     Examples
     --------

@@ -53,7 +53,7 @@ SOURCES = {
 }
 #: a per-frame answer that places a joint further than this many times the
 #: observed joints' extent from their centre gets no weight (a runaway
-#: placement; the per-frame path's rare silent outliers, README's video results)
+#: placement: the per-frame path's rare silent outliers)
 RUNAWAY_EXTENTS = 3.0
 #: relative residual of a trajectory's banded solve above which its rows are
 #: 'inaccurate' instead of 'recovered'
@@ -73,8 +73,18 @@ CLIP_MIN_POSES = 30
 class TemporalResult(RecoveryResult):
     """A :class:`~sparseedm.recovery.RecoveryResult` with what time did.
 
-    Attributes
+    For rows filled by the temporal model, ``vectors``, ``center`` and
+    ``scale`` describe the filled pose itself (normalised as
+    :func:`sparseedm.normalize.normalize` does); ``objective``, ``gap`` and
+    ``n_active`` are the per-frame answer's where one was computed.
+
+    Parameters
     ----------
+    poses, vectors, missing, center, scale, objective, gap, n_active : ndarray
+        As :class:`~sparseedm.recovery.RecoveryResult` (see above for the rows
+        filled by the temporal model).
+    status, reason, fallback, alpha, seconds, adaptation, dictionary, members : object
+        As :class:`~sparseedm.recovery.RecoveryResult`.
     source : ndarray of str (n, N)
         Where each joint comes from, one of :data:`SOURCES`.
     prior_weight : ndarray (n, N)
@@ -102,11 +112,6 @@ class TemporalResult(RecoveryResult):
         Why a row was answered frame by frame instead of across time (a bad
         frame number, the only frame of its stretch, a jump); ``""`` for the
         rows of a segment.
-
-    For rows filled by the temporal model, ``vectors``, ``center`` and
-    ``scale`` describe the filled pose itself (normalised as
-    :func:`sparseedm.normalize.normalize` does); ``objective``, ``gap`` and
-    ``n_active`` are the per-frame answer's where one was computed.
     """
 
     source: np.ndarray = field(default=None)
@@ -120,7 +125,15 @@ class TemporalResult(RecoveryResult):
     alone_reason: np.ndarray = field(default=None)
 
     def summary(self) -> dict:
-        """:meth:`RecoveryResult.summary` plus the temporal model's counts."""
+        """:meth:`RecoveryResult.summary` plus the temporal model's counts.
+
+        Returns
+        -------
+        dict
+            The per-frame summary with a ``"temporal"`` entry: segments solved,
+            per-frame poses asked for, filled joints by source, linked tracks and
+            why rows were answered alone (when any).
+        """
         out = super().summary()
         out["temporal"] = {
             "segments": self.segments,
@@ -211,6 +224,24 @@ def linked_tracks(poses, missing, tracks, frames, n_joints=SKELETON_14.num_joint
     None when `tracks` are given or no frame holds several poses; otherwise
     :func:`~sparseedm.temporal.linking.link_tracks` of the rows time can use
     (what ``sparseedm recover`` links a file by, once, before its chunks).
+
+    Parameters
+    ----------
+    poses : array_like (n, N, 2)
+        The poses, NaN (or `missing`) at the unknown joints.
+    missing : array_like of bool (n, N) or None
+        The unknown joints; None: the NaN ones.
+    tracks : array_like (n,) or None
+        The caller's track ids, if any.
+    frames : array_like of int (n,)
+        Frame number of each pose.
+    n_joints : int, default 14
+        Joints per pose.
+
+    Returns
+    -------
+    ndarray of int (n,) or None
+        The linked track id of each row, or None.
     """
     if not needs_linking(tracks, frames):
         return None
@@ -238,9 +269,24 @@ def time_layout(poses, missing=None, *, tracks=None, frames,
     tracks linked when none are given and a frame holds several poses), cut
     where the pose jumps (:func:`~sparseedm.temporal.linking.split_at_jumps`).
 
+    Parameters
+    ----------
+    poses : array_like (n, N, 2)
+        The poses, NaN (or `missing`) at the unknown joints.
+    missing : array_like of bool (n, N), optional
+        The unknown joints; default the NaN ones.
+    tracks : array_like (n,), optional
+        Track id of each pose; default linked from the poses when a frame
+        holds several, else one track.
+    frames : array_like of int (n,)
+        Frame number of each pose.
+    n_joints : int, default 14
+        Joints per pose.
+
     Returns
     -------
     TrackLayout
+        The segments, the rows answered alone and why, and the linked tracks.
     """
     return _in_time(poses, missing, tracks, frames, n_joints)[-1]
 
@@ -252,9 +298,25 @@ def offered_poses(poses, missing=None, *, tracks=None, frames, settings=None):
     :data:`CLIP_MIN_POSES` of them). ``sparseedm recover --adapt-from`` a
     video adapts on these.
 
+    Parameters
+    ----------
+    poses : array_like (n, N, 2)
+        The poses, NaN (or `missing`) at the unknown joints.
+    missing : array_like of bool (n, N), optional
+        The unknown joints; default the NaN ones.
+    tracks : array_like (n,), optional
+        Track id of each pose; default linked from the poses when a frame
+        holds several, else one track.
+    frames : array_like of int (n,)
+        Frame number of each pose.
+    settings : TemporalSettings, optional
+        The temporal model's constants; default :class:`TemporalSettings`'s.
+
     Returns
     -------
     ndarray (m, N, 2)
+        The offered poses, filled, in an order independent of the rows' (0 rows
+        when none).
     """
     settings = DEFAULT_SETTINGS if settings is None else settings
     poses, mask, _, _, usable, layout = _in_time(poses, missing, tracks, frames,

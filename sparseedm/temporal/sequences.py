@@ -59,7 +59,7 @@ _ANKLES = [SKELETON_14.index("right_ankle"), SKELETON_14.index("left_ankle")]
 class Sequence:
     """One clip seen through one camera.
 
-    Attributes
+    Parameters
     ----------
     clip : str
         Clip id (``"#k"`` appended for the k-th piece of a cut clip).
@@ -71,8 +71,10 @@ class Sequence:
         World metres.
     camera : Cameras
         One camera (``len(camera) == 1``).
-    label, subject : str
-        As in the dataset.
+    label : str
+        The clip's label (its action or description), as in the dataset.
+    subject : str
+        The clip's subject, as in the dataset.
     """
 
     clip: str
@@ -95,6 +97,16 @@ class Sequence:
 def body_height(poses2d) -> float:
     """Median over frames of the head-top to ankle-midpoint distance, pixels.
 
+    Parameters
+    ----------
+    poses2d : array_like (T, 14, 2)
+        The sequence's true 2D poses, pixels.
+
+    Returns
+    -------
+    float
+        The median distance, pixels.
+
     Examples
     --------
     >>> p = np.zeros((3, 14, 2)); p[:, 0] = [0, 0]; p[:, [10, 13]] = [[-10, 170], [10, 170]]
@@ -116,7 +128,11 @@ def sequences_from_dataset(data, *, min_frames=MIN_FRAMES, max_frames=MAX_FRAMES
         Arrays of a dataset (:func:`sparseedm.dataset.load_dataset`): at least
         poses2d, poses3d, clips, frames, camera_R, camera_t, camera_f,
         camera_c; labels and subjects are used when present.
-    min_frames, max_frames : int, default 31, 300
+    min_frames : int, default 31
+        Shortest sequence kept; shorter clips (and pieces) are left out.
+    max_frames : int, default 300
+        Longest sequence: a longer clip is cut into near-equal pieces of at most this
+        many frames (``"#k"`` appended to their clip id).
 
     Returns
     -------
@@ -175,6 +191,28 @@ def _video_frames(frames, clip):
 
 def load_sequences(path, *, min_frames=MIN_FRAMES, max_frames=MAX_FRAMES):
     """:func:`sequences_from_dataset` of a dataset .npz file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The dataset file (``sparseedm dataset`` writes them).
+    min_frames : int, default 31
+        Shortest sequence kept, as :func:`sequences_from_dataset`.
+    max_frames : int, default 300
+        Longest sequence, as :func:`sequences_from_dataset`.
+
+    Returns
+    -------
+    list of Sequence
+        In sorted clip order.
+
+    Raises
+    ------
+    FileNotFoundError
+        If `path` does not exist.
+    FileFormatError
+        If the file is not a dataset, or a clip has several cameras (the message
+        names the file).
 
     Examples
     --------

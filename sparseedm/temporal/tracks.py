@@ -38,7 +38,7 @@ WINDOW_OVERLAP = 300
 class TrackLayout:
     """How the rows fall into segments.
 
-    Attributes
+    Parameters
     ----------
     segments : list of ndarray of int
         Row indices of each segment, in frame order.
@@ -73,6 +73,25 @@ def frame_numbers(frames, n):
     (whatever its dtype: a larger one is refused as too large, never wrapped):
     the one rule, :func:`sparseedm._validation.frame_value`, row by row.
 
+    Parameters
+    ----------
+    frames : array_like (n,)
+        Frame numbers, one per pose, of any dtype.
+    n : int
+        The number of poses.
+
+    Returns
+    -------
+    values : ndarray of int64 (n,)
+        The frame numbers (0 where refused).
+    reason : ndarray of str (n,)
+        Why each refused frame number is unusable; ``""`` where usable.
+
+    Raises
+    ------
+    ParameterError
+        If `frames` does not have shape ``(n,)``.
+
     Examples
     --------
     >>> values, reason = frame_numbers(np.array([3, 2**63 + 5], dtype=np.uint64), 2)
@@ -105,6 +124,16 @@ def has_time(frames):
     """Whether `frames` (or None) hold at least two distinct usable frame
     numbers: a file whose poses all share one frame (a single image, as
     MMPose's image mode and COCO files give) is not a video.
+
+    Parameters
+    ----------
+    frames : array_like or None
+        Frame numbers, one per pose.
+
+    Returns
+    -------
+    bool
+        True when they describe a video.
 
     Examples
     --------
@@ -219,6 +248,21 @@ def track_chunks(tracks, n, chunk_size):
     are interleaved (several people per frame, rows in frame order) they are
     arrays of the rows of whole tracks, in file order.
 
+    Parameters
+    ----------
+    tracks : array_like (n,) or None
+        Track id of each row; None: one track.
+    n : int
+        The number of rows.
+    chunk_size : int
+        Rows a chunk aims at.
+
+    Returns
+    -------
+    list of tuple of int or list of ndarray of int
+        ``(start, stop)`` row ranges, or arrays of rows when tracks interleave;
+        empty when `n` is 0.
+
     Examples
     --------
     >>> track_chunks(["a", "a", "b", "b", "b", "c"], 6, 3)
@@ -326,7 +370,21 @@ def _interleaved_chunks(ids, chunk_size):
 
 
 def add_summaries(total, part):
-    """Two temporal summaries (``TemporalResult.summary()["temporal"]``) added."""
+    """Two temporal summaries (``TemporalResult.summary()["temporal"]``) added.
+
+    Parameters
+    ----------
+    total : dict or None
+        The running sum (None: nothing yet).
+    part : dict or None
+        The summary to add (None: nothing).
+
+    Returns
+    -------
+    dict or None
+        Segments, per-frame poses and joint counts by source added (and the
+        ``alone`` reasons when either has them).
+    """
     if total is None or part is None:
         return part if total is None else total
     def added(key):
