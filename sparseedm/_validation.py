@@ -217,7 +217,8 @@ def check_poses(poses, caller, name="poses"):
         except (TypeError, ValueError, OverflowError):
             raise ParameterError(
                 f"{caller}: {name} must hold real numbers only; got objects "
-                f"({', '.join(sorted({type(v).__name__ for v in arr.flat}))[:80]})") from None
+                f"({', '.join(sorted({type(v).__name__ for v in arr.flat}))[:80]}) in "
+                f"{_given(poses, arr)}") from None
     if arr.dtype.kind not in "fiu":
         kind = {"b": "booleans", "c": "complex numbers", "U": "strings", "S": "bytes",
                 "M": "dates", "m": "time deltas", "V": "raw records"}.get(arr.dtype.kind,
@@ -254,13 +255,31 @@ def unmask(poses, missing, caller):
     return data, missing
 
 
-def check_pose_shape(poses, name="poses", *, dim=2, n_joints=None, model="dictionary"):
+def _given(value, arr, dim=2, n_joints=None):
+    """What the caller passed, for a message: its type and real shape, and for
+    a table (a pandas DataFrame) how to pass its numbers as poses."""
+    shape = getattr(value, "shape", None)
+    shape = tuple(shape) if isinstance(shape, tuple) else arr.shape
+    kind = type(value)
+    module = kind.__module__.split(".")[0]
+    name = kind.__name__ if module in ("builtins", "numpy") else f"{module} {kind.__name__}"
+    text = f"{shape} ({name})"
+    if kind.__name__ == "DataFrame":
+        text += (f"; pass its numbers as .to_numpy().reshape(n, {n_joints or 'N'}, {dim}) "
+                 "(x, y per joint, in sparseedm.skeleton.JOINT_NAMES order) or read the "
+                 "file with sparseedm.read_keypoints")
+    return text
+
+
+def check_pose_shape(poses, name="poses", *, dim=2, n_joints=None, model="dictionary",
+                     given=None):
     """Refuse an array that is not `dim`-D poses (n, N, dim), or not `n_joints`
     joints: the one shape rule of recovery, adaptation, evaluation, the baselines,
     the cameras and FConv training.
 
     Raises :class:`~sparseedm.exceptions.PoseError` naming `name` (and the
-    `model` the joint count is for).
+    `model` the joint count is for); with `given`, the object the caller
+    passed (before it became `poses`), the message names its type and shape.
 
     Examples
     --------
@@ -271,7 +290,8 @@ def check_pose_shape(poses, name="poses", *, dim=2, n_joints=None, model="dictio
     sparseedm.exceptions.PoseError: test poses must have shape (n, N, 2), got (3, 14)
     """
     if poses.ndim != 3 or poses.shape[-1] != dim:
-        raise PoseError(f"{name} must have shape (n, N, {dim}), got {poses.shape}")
+        got = poses.shape if given is None else _given(given, poses, dim, n_joints)
+        raise PoseError(f"{name} must have shape (n, N, {dim}), got {got}")
     if n_joints is not None and poses.shape[1] != n_joints:
         raise PoseError(
             f"{name} have {poses.shape[1]} joints but the {model} is for {n_joints}"
