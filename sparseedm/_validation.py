@@ -36,6 +36,7 @@ sparseedm.exceptions.ParameterError: f: alpha must be a real number in (0, inf),
 
 from __future__ import annotations
 
+import datetime
 import os
 import re
 from numbers import Integral, Real
@@ -47,7 +48,8 @@ from .exceptions import ParameterError, PoseError
 __all__ = ["Interval", "Options", "validate_params", "check_poses", "check_pose_shape",
            "check_mask", "ALPHA", "ALPHA_MIN", "ALPHA_MAX", "ENSEMBLE", "MAX_ENSEMBLE", "N_JOBS",
            "CHUNK_SIZE", "PATH", "BOOLEAN", "THRESHOLD", "SCORE", "usable_jobs",
-           "unmask", "environment_problem", "MAX_FRAME", "NUMBER_TEXT", "frame_value", "frame_array"]
+           "unmask", "environment_problem", "MAX_FRAME", "NUMBER_TEXT", "frame_value", "frame_array",
+           "check_frames"]
 
 
 class Interval:
@@ -392,6 +394,44 @@ def frame_array(values):
     out = np.empty(len(values), dtype=object)
     out[:] = values
     return out
+
+
+#: values that are no frame numbers whatever they convert to (a boolean, a date)
+_NOT_FRAMES = {"b": "booleans", "M": "dates", "m": "time deltas"}
+
+
+def check_frames(frames, caller, name="frames"):
+    """Refuse frame numbers given as booleans or dates / times at an API entrance,
+    as the readers refuse them (:func:`frame_value`); `frames` come back as given.
+
+    Other odd values (too large, not whole) are the rows' business: their poses
+    are recovered per frame with the reason, as a file's.
+
+    Examples
+    --------
+    >>> check_frames([0, 1, 2], "f")
+    [0, 1, 2]
+    >>> check_frames(np.array([True, False]), "f")
+    Traceback (most recent call last):
+    ...
+    sparseedm.exceptions.ParameterError: f: frames must be frame numbers (whole numbers); got booleans (dtype bool)
+    """
+    try:
+        arr = np.asarray(frames)
+    except ValueError:
+        return frames  # ragged: the shape rule names it
+    kind = _NOT_FRAMES.get(arr.dtype.kind)
+    if kind is None and (arr.dtype.kind == "O" or not isinstance(frames, np.ndarray)):
+        # a list's True next to numbers becomes 1 in an array: look at the values given
+        given = arr.flat if isinstance(frames, np.ndarray) or arr.ndim != 1 else frames
+        odd = next((v for v in given if isinstance(v, (bool, np.bool_, datetime.date,
+                    datetime.time, datetime.timedelta, np.datetime64, np.timedelta64))), None)
+        if odd is not None:
+            kind = f"{type(odd).__name__} {odd!r}"
+    if kind is not None:
+        raise ParameterError(f"{caller}: {name} must be frame numbers (whole numbers); got "
+                             f"{kind} (dtype {arr.dtype})")
+    return frames
 
 
 def environment_problem():
