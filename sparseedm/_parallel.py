@@ -7,7 +7,7 @@ import numba
 import numpy as np
 from joblib import effective_n_jobs
 
-from .exceptions import SparseEDMError
+from .exceptions import ParameterError, SparseEDMError
 from .solvers.fast import NUMPY_MAX
 
 __all__ = ["chunk_tasks", "min_tasks", "dask_client", "numba_threads"]
@@ -55,6 +55,12 @@ class dask_client:
             except OSError as exc:
                 raise SparseEDMError(
                     f"cannot reach the Dask scheduler at {self.scheduler}: {exc}"
+                ) from None
+            except (ValueError, TypeError) as exc:  # distributed's address parsing
+                raise ParameterError(
+                    f"scheduler {self.scheduler!r} is not an address the Dask client can "
+                    f"connect to ({exc}); give a running scheduler's address, e.g. "
+                    "tcp://host:8786"
                 ) from None
         else:
             try:

@@ -198,11 +198,12 @@ def validate_poses(poses, missing, n_joints, caller="recover", model="dictionary
     """Poses (n, N, 2) as floats, the missing mask and the rows with a bad
     observed coordinate; whole-input problems raise, naming `caller`/`model`.
     A masked array's masked joints are missing."""
+    given = poses
     poses, missing = unmask(poses, missing, caller)
     poses = check_poses(poses, caller)
     if poses.ndim == 2:
         poses = poses[None]
-    check_pose_shape(poses, n_joints=n_joints, model=model)
+    check_pose_shape(poses, n_joints=n_joints, model=model, given=given)
     nan = np.isnan(poses).any(axis=-1)
     if missing is None:
         mask = nan

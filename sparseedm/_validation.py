@@ -36,6 +36,7 @@ sparseedm.exceptions.ParameterError: f: alpha must be a real number in (0, inf),
 
 from __future__ import annotations
 
+import datetime
 import os
 import re
 from numbers import Integral, Real
@@ -47,7 +48,8 @@ from .exceptions import ParameterError, PoseError
 __all__ = ["Interval", "Options", "validate_params", "check_poses", "check_pose_shape",
            "check_mask", "ALPHA", "ALPHA_MIN", "ALPHA_MAX", "ENSEMBLE", "MAX_ENSEMBLE", "N_JOBS",
            "CHUNK_SIZE", "PATH", "BOOLEAN", "THRESHOLD", "SCORE", "usable_jobs",
-           "unmask", "environment_problem", "MAX_FRAME", "NUMBER_TEXT", "frame_value", "frame_array"]
+           "unmask", "environment_problem", "MAX_FRAME", "NUMBER_TEXT", "frame_value", "frame_array",
+           "check_frames"]
 
 
 class Interval:
@@ -217,7 +219,8 @@ def check_poses(poses, caller, name="poses"):
         except (TypeError, ValueError, OverflowError):
             raise ParameterError(
                 f"{caller}: {name} must hold real numbers only; got objects "
-                f"({', '.join(sorted({type(v).__name__ for v in arr.flat}))[:80]})") from None
+                f"({', '.join(sorted({type(v).__name__ for v in arr.flat}))[:80]}) in "
+                f"{_given(poses, arr)}") from None
     if arr.dtype.kind not in "fiu":
         kind = {"b": "booleans", "c": "complex numbers", "U": "strings", "S": "bytes",
                 "M": "dates", "m": "time deltas", "V": "raw records"}.get(arr.dtype.kind,
@@ -254,13 +257,31 @@ def unmask(poses, missing, caller):
     return data, missing
 
 
-def check_pose_shape(poses, name="poses", *, dim=2, n_joints=None, model="dictionary"):
+def _given(value, arr, dim=2, n_joints=None):
+    """What the caller passed, for a message: its type and real shape, and for
+    a table (a pandas DataFrame) how to pass its numbers as poses."""
+    shape = getattr(value, "shape", None)
+    shape = tuple(shape) if isinstance(shape, tuple) else arr.shape
+    kind = type(value)
+    module = kind.__module__.split(".")[0]
+    name = kind.__name__ if module in ("builtins", "numpy") else f"{module} {kind.__name__}"
+    text = f"{shape} ({name})"
+    if kind.__name__ == "DataFrame":
+        text += (f"; pass its numbers as .to_numpy().reshape(n, {n_joints or 'N'}, {dim}) "
+                 "(x, y per joint, in sparseedm.skeleton.JOINT_NAMES order) or read the "
+                 "file with sparseedm.read_keypoints")
+    return text
+
+
+def check_pose_shape(poses, name="poses", *, dim=2, n_joints=None, model="dictionary",
+                     given=None):
     """Refuse an array that is not `dim`-D poses (n, N, dim), or not `n_joints`
     joints: the one shape rule of recovery, adaptation, evaluation, the baselines,
     the cameras and FConv training.
 
     Raises :class:`~sparseedm.exceptions.PoseError` naming `name` (and the
-    `model` the joint count is for).
+    `model` the joint count is for); with `given`, the object the caller
+    passed (before it became `poses`), the message names its type and shape.
 
     Examples
     --------
@@ -271,7 +292,8 @@ def check_pose_shape(poses, name="poses", *, dim=2, n_joints=None, model="dictio
     sparseedm.exceptions.PoseError: test poses must have shape (n, N, 2), got (3, 14)
     """
     if poses.ndim != 3 or poses.shape[-1] != dim:
-        raise PoseError(f"{name} must have shape (n, N, {dim}), got {poses.shape}")
+        got = poses.shape if given is None else _given(given, poses, dim, n_joints)
+        raise PoseError(f"{name} must have shape (n, N, {dim}), got {got}")
     if n_joints is not None and poses.shape[1] != n_joints:
         raise PoseError(
             f"{name} have {poses.shape[1]} joints but the {model} is for {n_joints}"
@@ -372,6 +394,44 @@ def frame_array(values):
     out = np.empty(len(values), dtype=object)
     out[:] = values
     return out
+
+
+#: values that are no frame numbers whatever they convert to (a boolean, a date)
+_NOT_FRAMES = {"b": "booleans", "M": "dates", "m": "time deltas"}
+
+
+def check_frames(frames, caller, name="frames"):
+    """Refuse frame numbers given as booleans or dates / times at an API entrance,
+    as the readers refuse them (:func:`frame_value`); `frames` come back as given.
+
+    Other odd values (too large, not whole) are the rows' business: their poses
+    are recovered per frame with the reason, as a file's.
+
+    Examples
+    --------
+    >>> check_frames([0, 1, 2], "f")
+    [0, 1, 2]
+    >>> check_frames(np.array([True, False]), "f")
+    Traceback (most recent call last):
+    ...
+    sparseedm.exceptions.ParameterError: f: frames must be frame numbers (whole numbers); got booleans (dtype bool)
+    """
+    try:
+        arr = np.asarray(frames)
+    except ValueError:
+        return frames  # ragged: the shape rule names it
+    kind = _NOT_FRAMES.get(arr.dtype.kind)
+    if kind is None and (arr.dtype.kind == "O" or not isinstance(frames, np.ndarray)):
+        # a list's True next to numbers becomes 1 in an array: look at the values given
+        given = arr.flat if isinstance(frames, np.ndarray) or arr.ndim != 1 else frames
+        odd = next((v for v in given if isinstance(v, (bool, np.bool_, datetime.date,
+                    datetime.time, datetime.timedelta, np.datetime64, np.timedelta64))), None)
+        if odd is not None:
+            kind = f"{type(odd).__name__} {odd!r}"
+    if kind is not None:
+        raise ParameterError(f"{caller}: {name} must be frame numbers (whole numbers); got "
+                             f"{kind} (dtype {arr.dtype})")
+    return frames
 
 
 def environment_problem():

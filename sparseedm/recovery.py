@@ -30,7 +30,7 @@ from __future__ import annotations
 
 from ._recovery_base import STATUSES, RecoveryResult, screen_poses, validate_poses
 from ._recovery_kernel import RECOVER_PARAMS, recover_members, recover_sparse, solve_chunk
-from ._validation import Options, validate_params
+from ._validation import Options, check_frames, validate_params
 from .normalize import REPRESENTATIONS, representation_for
 from .dictionary import Dictionary, check_gram_memory, load_dictionary
 from .ensemble import adapt_members
@@ -146,7 +146,9 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         Frame number of each pose: turns on temporal recovery
         (:mod:`sparseedm.temporal`), which fills each track's occluded joints
         from the frames around them and the per-frame answer. Any order;
-        skipped numbers are frames where the person was not seen.
+        skipped numbers are frames where the person was not seen. The
+        readers' rule: booleans and dates are refused (ParameterError); a
+        number that is not a whole frame number leaves its pose per frame.
     temporal : bool, default True
         False ignores `tracks` and `frames`: every pose on its own, exactly as
         without them.
@@ -181,6 +183,7 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
     if method != "fconv":  # an FConv model says its own (recover_fconv)
         representation = representation_for(representation)
     if frames is not None and temporal:
+        check_frames(frames, "recover")
         return _recover_in_time(poses, missing, tracks, frames, method, dict(
             dictionary=dictionary, alpha=alpha, representation=representation, solver=solver,
             n_jobs=n_jobs, chunk_size=chunk_size, positive=positive, progress=progress,

@@ -770,3 +770,77 @@ def test_a_folder_of_neither_format_is_refused_naming_the_file(tmp_path):
     (folder / "a_000001.json").write_text('{"images": []}')
     with pytest.raises(FileFormatError, match="no readable OpenPose frame files.*a_000001"):
         read_keypoints(folder)
+
+
+def test_a_folder_of_two_videos_is_refused_naming_both_stems(tmp_path):
+    d = tmp_path / "two"
+    d.mkdir()
+    for cam in ("camA", "camB"):
+        for f in (1, 2):
+            _frame(d / f"{cam}_{f:012d}_keypoints.json", _person(25))
+    with pytest.raises(FileFormatError, match=r"2 videos.*'camA_\*_keypoints\.json', "
+                                              r"'camB_\*_keypoints\.json'.*split the folder"):
+        read_keypoints(d)
+    one = tmp_path / "one"  # one stem: one video, read as before
+    one.mkdir()
+    for f in (1, 2):
+        _frame(one / f"camA_{f:012d}_keypoints.json", _person(25))
+    assert read_keypoints(one).frames.tolist() == [1, 2]
+
+
+def test_a_folder_of_two_videos_of_mmpose_image_files_is_refused(cmu_poses, tmp_path):
+    folder = tmp_path / "preds"
+    _mmpose_image_folder(folder, cmu_poses)
+    shutil.copy(folder / "img_0001.json", folder / "other_0001.json")
+    with pytest.raises(FileFormatError, match=r"'img_\*\.json', 'other_\*\.json'"):
+        read_keypoints(folder)
+
+
+def test_posetrack_file_of_two_videos_names_vid_id(tmp_path):
+    doc = {"images": [{"id": 100, "frame_id": 0, "vid_id": "000001"},
+                      {"id": 200, "frame_id": 0, "vid_id": "000002"}],
+           "annotations": [{"image_id": i, "track_id": 0, "keypoints": _coco_kp()}
+                           for i in (100, 200)]}
+    path = tmp_path / "pt.json"
+    path.write_text(json.dumps(doc))
+    with pytest.raises(FileFormatError, match=r"vid_id '000001', '000002'.*one per vid_id"):
+        read_keypoints(path)
+    doc["images"][1]["vid_id"] = "000001"  # one video, two frames 0 of track 0: as before
+    doc["images"][1]["frame_id"] = 1
+    path.write_text(json.dumps(doc))
+    assert read_keypoints(path).frames.tolist() == [0, 1]
+
+
+def _labelled_csv(path, parts, rows):
+    """DeepLabCut's labelled data: three index columns, x and y per body part."""
+    head = [["scorer", "", ""], ["bodyparts", "", ""], ["coords", "", ""]]
+    for part in parts:
+        for c in "xy":
+            head[0].append("Alice")
+            head[1].append(part)
+            head[2].append(c)
+    body = [["labeled-data", "vid1", name] + [repr(float(v)) for v in xy.ravel()]
+            for name, xy in rows]
+    path.write_text("\n".join(",".join(r) for r in head + body) + "\n")
+    return path
+
+
+def test_dlc_labelled_data_with_three_index_columns(cmu_poses, tmp_path, small_dictionary):
+    rows = [(f"img{f:03d}.png", cmu_poses[f]) for f in range(3)]
+    src = _labelled_csv(tmp_path / "CollectedData_Alice.csv", JOINT_NAMES, rows)
+    k = read_keypoints(src)
+    assert k.ids.tolist() == [f"labeled-data/vid1/img{f:03d}.png" for f in range(3)]
+    np.testing.assert_allclose(k.poses, cmu_poses[:3])
+    out = tmp_path / "out.csv"
+    recover_file(src, out, dictionary=small_dictionary, adapt=False)
+    lines = out.read_text().splitlines()
+    assert lines[0].startswith("scorer,,,Alice") and lines[2].startswith("coords,,,x,y")
+    assert lines[3].startswith("labeled-data,vid1,img000.png,")
+    assert read_keypoints(out).ids.tolist() == k.ids.tolist()
+
+
+def test_dlc_body_part_named_twice_is_named(cmu_poses, tmp_path):
+    parts = ["left_wrist" if j == "right_wrist" else j for j in JOINT_NAMES]
+    src = _labelled_csv(tmp_path / "twice.csv", parts, [("img0.png", cmu_poses[0])])
+    with pytest.raises(FileFormatError, match="body part 'left_wrist' is named twice"):
+        read_keypoints(src)

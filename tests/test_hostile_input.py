@@ -727,3 +727,39 @@ def test_a_253_byte_output_name_gets_an_errors_file_name_that_fits(tmp_path, goo
     assert code == 1 and out.is_file() and errors.is_file()
     assert len(errors.name.encode()) <= 255 and errors.name.endswith(".errors.csv")
     assert errors.name.startswith("p" * 120 + "~")
+
+
+def test_a_dataframe_is_named_with_its_real_shape(good_csv, small_dictionary):
+    pd = pytest.importorskip("pandas")
+    from sparseedm import recover
+    from sparseedm.exceptions import ParameterError, PoseError
+
+    numbers = pd.read_csv(good_csv)  # 28 coordinate columns
+    with_ids = numbers.assign(id=[f"f{i}" for i in range(N)])
+    with pytest.raises(ParameterError, match=rf"in \({N}, 29\) \(pandas DataFrame\); pass its "
+                                             r"numbers as \.to_numpy\(\)\.reshape"):
+        recover(with_ids, dictionary=small_dictionary)
+    with pytest.raises(PoseError, match=rf"got \({N}, 28\) \(pandas DataFrame\);.*"
+                                        r"reshape\(n, 14, 2\).*read_keypoints"):
+        recover(numbers, dictionary=small_dictionary)
+    done = recover(numbers.to_numpy().reshape(N, 14, 2), dictionary=small_dictionary)
+    assert done.poses.shape == (N, 14, 2)
+
+
+@pytest.mark.parametrize("frames", [
+    np.arange(N) % 2 == 0,
+    np.arange(N).astype("datetime64[D]"),
+    np.arange(N).astype("timedelta64[s]"),
+    [True] + list(range(1, N)),
+], ids=["bool", "datetime64", "timedelta64", "one-bool-in-a-list"])
+def test_frames_of_booleans_or_dates_are_refused_naming_frames(frames, occluded,
+                                                               small_dictionary):
+    from sparseedm import recover
+    from sparseedm.exceptions import ParameterError
+    from sparseedm.temporal import recover_temporal
+
+    for call, caller in ((recover, "recover"), (recover_temporal, "recover_temporal")):
+        with pytest.raises(ParameterError, match=rf"{caller}: frames must be frame numbers"):
+            call(occluded, frames=frames, dictionary=small_dictionary)
+    done = recover(occluded, frames=np.arange(N), dictionary=small_dictionary)
+    assert done.poses.shape == occluded.shape

@@ -310,7 +310,14 @@ def folder_files(path, max_files):
     """``([(frame, name), ...] in frame order, [ignored names])`` of a folder of
     per-frame ``.json`` files: the frame number in each name
     (:func:`frame_number`), or name order when some name has none; hidden
-    files are skipped, other files ignored."""
+    files are skipped, other files ignored.
+
+    One file stem (the name without its frame number, :func:`file_stem`) is
+    one video: a folder whose numbered names have two stems
+    (``camA_000000000001_keypoints.json``, ``camB_000000000001_keypoints.json``)
+    holds two videos and is refused, naming the stems (split it, one video per
+    folder), rather than read as one video whose people are linked across both.
+    """
     names, ignored = [], []
     with os.scandir(path) as it:
         for entry in it:
@@ -321,9 +328,21 @@ def folder_files(path, max_files):
             (names if entry.name.lower().endswith(".json") and entry.is_file()
              else ignored).append(entry.name)
     numbered = [(frame_number(n), n) for n in names]
+    _one_video(path, names)
     if any(f is None for f, _ in numbered):  # no numbers in some names: name order
         numbered = [(i, n) for i, n in enumerate(sorted(names))]
     return sorted(numbered), sorted(ignored)
+
+
+def _one_video(path, names):
+    """Refuse a folder whose numbered file names have more than one stem."""
+    stems = sorted({s for s in map(file_stem, names) if s is not None})
+    if len(stems) > 1:
+        shown = ", ".join(repr(s) for s in stems[:4]) + (", ..." if len(stems) > 4 else "")
+        raise FileFormatError(
+            f"{path}: files of {len(stems)} videos (file stems {shown}); one file stem "
+            "(the name without its frame number) is one video: split the folder, one "
+            "video per folder")
 
 
 def read_frame_folder(path, read_file, what, max_files):
@@ -369,6 +388,19 @@ def frame_number(name):
     """
     m = _FRAME_NUMBER.search(name)
     return None if m is None else int(m.group(1) or m.group(2))
+
+
+def file_stem(name):
+    """A per-frame file name with its frame number replaced by ``*``, or None
+    when it has none: files of one video share it.
+
+    >>> file_stem("camA_000000000012_keypoints.json")
+    'camA_*_keypoints.json'
+    >>> file_stem("notes.json") is None
+    True
+    """
+    m = _FRAME_NUMBER.search(name)
+    return None if m is None else f"{name[:m.start()]}*{name[m.end():]}"
 
 
 # --------------------------------------------------------------------------

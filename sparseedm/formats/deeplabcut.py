@@ -24,8 +24,10 @@ shoulders, as in the COCO rule). A joint left out counts as null. Without a
 map, the table's body parts must be the 14 joint names themselves (else an
 error names the file, its first body parts and ``--joint-map``). A map
 naming a body part the header lacks, or a key that is not a joint, is an
-error naming the map file and the key; body parts of the header the map does
-not name (a tail, a nose) are not read, and are written back unchanged.
+error naming the map file and the key; a header naming a body part twice
+(for one individual) is an error naming the body part; body parts of the
+header the map does not name (a tail, a nose) are not read, and are written
+back unchanged.
 
 Rows: one pose per frame (per frame and individual, frame-major, for
 multi-animal tables); ``ids`` are the table's index (the frame number, or an
@@ -34,6 +36,14 @@ single-animal tables). An individual whose mapped body parts are all absent
 in a frame is still a row (all missing). ``likelihood`` is the confidence;
 NaN coordinates or a NaN likelihood mark a missing body part; a likelihood
 outside [0, 1] is an error naming the file, row and body part.
+
+Labelled data (``CollectedData_<scorer>.csv``): its rows carry three index
+columns (``labeled-data``, the video's folder, the image name), told from the
+header rows' blank cells after ``scorer`` / ``bodyparts`` / ``coords``; the
+id of a row is its index cells joined by ``/``
+(``labeled-data/vid1/img001.png``, as the ``.h5`` index reads), and the file
+is written back with the same index columns. Labels have no ``likelihood``:
+every labelled body part is present.
 
 Writing back: DeepLabCut's own layout, so that its tools (``create_labeled_video``,
 ``filterpredictions``, which take the values as ``(frames, -1, 3)``: x, y,
@@ -223,16 +233,27 @@ def _read_csv_table(path):
         if len(row) != width:
             raise FileFormatError(f"{path}: header row {level!r} has {len(row)} fields, "
                                   f"'scorer' has {width}")
-    columns = [tuple(h[c].strip() for h in header) for c in range(1, width)]
-    index, values = [], np.empty((len(body), width - 1))
+    keys = _index_columns(header, width)
+    columns = [tuple(h[c].strip() for h in header) for c in range(keys, width)]
+    index, values = [], np.empty((len(body), width - keys))
     for r, (line, row) in enumerate(body):
         if len(row) != width:
             raise FileFormatError(f"{path}, line {line}: {len(row)} fields, the header "
                                   f"has {width}")
-        index.append(row[0].strip())
-        for c, text in enumerate(row[1:]):
+        index.append("/".join(cell.strip() for cell in row[:keys]))
+        for c, text in enumerate(row[keys:]):
             values[r, c] = _number(text, path, line, columns[c])
-    return names, columns, index, values
+    return names, columns, index, values, keys
+
+
+def _index_columns(header, width):
+    """How many index columns lead the table: 1, or up to 3 when the header rows
+    leave the columns after their level names blank (labelled data:
+    ``labeled-data``, the video's folder, the image name)."""
+    keys = 1
+    while keys < min(3, width - 1) and all(not h[keys].strip() for h in header):
+        keys += 1
+    return keys
 
 
 def _number(text, path, line, column):
@@ -289,7 +310,7 @@ def _read_h5_table(path):
         raise FileFormatError(f"{path}: the table holds an infinite value")
     columns = [tuple(str(x) for x in c) for c in df.columns]
     index = ["/".join(map(str, i)) if isinstance(i, tuple) else str(i) for i in df.index]
-    return names, columns, index, values
+    return names, columns, index, values, 1
 
 
 # --------------------------------------------------------------------------
@@ -300,7 +321,7 @@ def read(path, joint_map=None):
     """Read a DeepLabCut ``.csv`` or ``.h5`` table into a :class:`_base.Parsed`."""
     path = Path(path)
     h5 = path.suffix.lower() in H5_SUFFIXES
-    names, columns, index, values = (_read_h5_table if h5 else _read_csv_table)(path)
+    names, columns, index, values, keys = (_read_h5_table if h5 else _read_csv_table)(path)
     multi = len(names) == 4
     where = {}  # (individual, part, coord) -> column
     for c, col in enumerate(columns):
@@ -308,6 +329,11 @@ def read(path, joint_map=None):
         if coord not in _COORDS:
             raise FileFormatError(f"{path}: column {c + 1} has coords {coord!r}; "
                                   f"expected one of {', '.join(_COORDS)}")
+        if (ind, part, coord) in where:
+            raise FileFormatError(
+                f"{path}: body part {part!r}{f' of individual {ind!r}' if ind else ''} is "
+                f"named twice (two {coord!r} columns: {where[(ind, part, coord)] + 1} and "
+                f"{c + 1}); each body part once per individual")
         where[(ind, part, coord)] = c
     parts = list(dict.fromkeys(p for _, p, _ in where))
     mapping, map_path = _resolve_map(joint_map, parts, path)
@@ -347,7 +373,8 @@ def read(path, joint_map=None):
     ids = np.repeat(np.asarray(index, dtype=str), len(individuals))
     meta = {"dlc_names": names, "dlc_columns": columns, "dlc_index": index,
             "dlc_values": values, "dlc_map": {JOINT_NAMES[j]: p for j, p in mapping.items()},
-            "dlc_individuals": individuals, "dlc_h5": h5, "joint_map": map_path}
+            "dlc_individuals": individuals, "dlc_h5": h5, "joint_map": map_path,
+            "dlc_index_columns": keys}
     return _base.Parsed(poses, present, conf if has_conf else None, ids, tracks, frames,
                         filled if filled.any() else None, meta)
 
@@ -395,7 +422,7 @@ def write(path, rows, meta, filled_score, row_fields=None):
     if path.suffix.lower() in H5_SUFFIXES:
         _write_h5(path, names, columns, index, values)
     else:
-        _write_csv(path, names, columns, index, values)
+        _write_csv(path, names, columns, index, values, meta.get("dlc_index_columns", 1))
 
 
 def _fresh(rows):
@@ -438,14 +465,17 @@ def _with_filled(names, columns, values, rows, mapping, individuals, filled_scor
     return [columns[k] for k in keep], values[:, keep]
 
 
-def _write_csv(path, names, columns, index, values):
+def _write_csv(path, names, columns, index, values, keys=1):
+    """The table as DeepLabCut's CSV; `keys` index columns (the index split at
+    its first ``keys - 1`` slashes)."""
     with atomic_path(path) as tmp:
         with open(tmp, "w", newline="", encoding="utf-8") as f:
             w = csv.writer(f)
             for level, name in enumerate(names):
-                w.writerow([name] + [c[level] for c in columns])
+                w.writerow([name] + [""] * (keys - 1) + [c[level] for c in columns])
             for idx, cells in zip(index, _base.csv_cells(values)):
-                w.writerow([idx] + cells)
+                cells_of_index = idx.split("/", keys - 1)
+                w.writerow(cells_of_index + [""] * (keys - len(cells_of_index)) + cells)
 
 
 def _write_h5(path, names, columns, index, values):

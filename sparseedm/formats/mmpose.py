@@ -11,7 +11,9 @@ Three shapes are read, all made of *instances* ``{"keypoints": [[x, y], ...],
 * a folder of those, one file per image or frame (what ``pred_out_dir``
   holds after a folder of images): each file's frame number is the one in its
   name (``000012.json``, ``frame_12.json``; name order when a name has none),
-  as for OpenPose folders; a file with no instances (``[]``) is a frame with
+  as for OpenPose folders, and as there one file stem (the name without its
+  frame number) is one video: a folder of two stems is refused, naming them;
+  a file with no instances (``[]``) is a frame with
   no poses. A bad file is skipped with a warning naming it, the good frames
   kept (``meta["skipped"]``); a folder with no good file is an error.
 

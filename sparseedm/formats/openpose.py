@@ -4,8 +4,11 @@ Each file is ``{"version": ..., "people": [{"person_id": [-1],
 "pose_keypoints_2d": [x1, y1, c1, ...], "face_keypoints_2d": [...], ...}]}``
 (OpenPose ``doc/02_output.md``); its frame number is the one in its name
 (``video_000000000012_keypoints.json``; files without one are numbered in name
-order). Each person is one pose, its id the file's name without
-``_keypoints.json``. ``c`` is OpenPose's confidence in [0, 1]; undetected
+order). A folder is one video: one file stem (the name without its frame
+number) is one video, and a folder whose files have two stems
+(``camA_..._keypoints.json``, ``camB_..._keypoints.json``) is refused, naming
+them (split it, one video per folder). Each person is one pose, its id the
+file's name without ``_keypoints.json``. ``c`` is OpenPose's confidence in [0, 1]; undetected
 keypoints are written ``0, 0, 0`` and read as missing (``c = 0``).
 
 Body models, told apart by the length of ``pose_keypoints_2d``:

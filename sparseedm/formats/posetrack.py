@@ -18,6 +18,11 @@ document is written back whole, ``track_id`` included); this module adds:
 
 A ``track_id`` that is not an integer or a string, or present on some
 annotations and not others, is an error naming the annotation.
+
+One file is one video: PoseTrack numbers tracks and frames per video, so
+annotations on the images of two ``vid_id`` values would link one video's
+people to the other's; such a file is refused, naming the ``vid_id`` values
+(split it, one file per ``vid_id``).
 """
 
 from __future__ import annotations
@@ -73,11 +78,14 @@ def tracks_and_frames(doc, anns, path):
             raise FileFormatError(f"{path}: annotation {a}: 'track_id' must be an integer "
                                   "or a string")
         tracks.append(t)
-    frame_of = {}
+    frame_of, video_of = {}, {}
     if isinstance(doc, dict) and isinstance(doc.get("images"), list):
         for img in doc["images"]:
             if isinstance(img, dict) and isinstance(img.get("frame_id"), int):
                 frame_of[img.get("id")] = img["frame_id"]
+            if isinstance(img, dict) and "vid_id" in img:
+                video_of[_key(img.get("id"))] = img["vid_id"]
+    _one_video(anns, video_of, path)
     frames = []
     for a, ann in enumerate(anns):
         image = ann.get("image_id")
@@ -90,3 +98,24 @@ def tracks_and_frames(doc, anns, path):
     kinds = {type(t) for t in tracks}
     tracks = np.asarray(tracks if len(kinds) == 1 else [str(t) for t in tracks])
     return tracks, frame_array(frames)  # huge numbers: refused per row
+
+
+def _key(value):
+    """A hashable stand-in for an image id (ids of a hostile file may be lists)."""
+    return repr(value)
+
+
+def _one_video(anns, video_of, path):
+    """Refuse annotations on the images of more than one ``vid_id``."""
+    videos = {}
+    for ann in anns:
+        vid = video_of.get(_key(ann.get("image_id")))
+        if vid is not None:
+            videos.setdefault(repr(vid), vid)
+    if len(videos) > 1:
+        shown = sorted(videos)
+        raise FileFormatError(
+            f"{path}: annotations of {len(shown)} videos (vid_id "
+            f"{', '.join(shown[:4])}{', ...' if len(shown) > 4 else ''}); PoseTrack "
+            "numbers tracks and frames per video, so one file is one video: split "
+            "the file, one per vid_id")

@@ -29,6 +29,7 @@ import numpy as np
 
 from .._recovery_base import RecoveryResult, screen_poses, validate_poses
 from .._recovery_kernel import compiled_solver, recover_members
+from .._validation import check_frames
 from ..dictionary import Dictionary, load_dictionary
 from ..edm import pose_to_vector
 from ..ensemble import adapt_members
@@ -510,6 +511,7 @@ def recover_temporal(poses, missing=None, *, tracks=None, frames, dictionary=Non
     """
     t0 = time.perf_counter()
     settings = DEFAULT_SETTINGS if settings is None else settings
+    check_frames(frames, "recover_temporal")
     if not isinstance(dictionary, Dictionary):
         dictionary = load_dictionary(dictionary)
     poses, mask, refusal, why, usable, layout = _in_time(poses, missing, tracks, frames,
