@@ -5,6 +5,7 @@ or from CMU training poses as exemplar atoms (every second pose of the
 
     python studies/real_prior/probe_working_set.py mpii 1,3 cmu_asf.npz daz_*.npz
 """
+import argparse
 import sys
 import warnings
 from pathlib import Path
@@ -45,18 +46,28 @@ def nn_recover(truth, missing, A, K, alpha=0.0005):
         out[rows] = f * s[rr, None, None] + c[rr, None]
     return out
 
-D = load_dictionary().components
-ex = []
-for f in sys.argv[3:]:
-    ex.append(np.load(f, allow_pickle=False)['poses2d'])
-X, _ = complete_pose_vectors(np.concatenate(ex)); X = X[::2]
-X = X / np.linalg.norm(X, axis=1, keepdims=True)
-for src in sys.argv[1].split(','):
-    rs = real2d.load(H.FILES[src][0])
-    for p in sys.argv[2].split(','):
-        truth, missing = H.make_file(src, p, 0, None, rs)
-        row = {"cold": H.score(H.METHODS["cold"](truth, missing), truth, missing)}
-        for name, A in [("dict", D), ("exemplars", X)]:
-            for K in [200, 1000]:
-                row[f"{name}_K{K}"] = H.score(nn_recover(truth, missing, A, K), truth, missing)
-        print(src, p, {k: round(v, 3) for k, v in row.items()}, flush=True)
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("sources", help="comma-separated harness files, e.g. mpii,bonn")
+    ap.add_argument("protocols", help="comma-separated hidden-joint protocols, e.g. 1,3")
+    ap.add_argument("training", nargs="+", help="`sparseedm dataset build` .npz files")
+    a = ap.parse_args(argv)
+    D = load_dictionary().components
+    ex = [np.load(f, allow_pickle=False)['poses2d'] for f in a.training]
+    X, _ = complete_pose_vectors(np.concatenate(ex))
+    X = X[::2]
+    X = X / np.linalg.norm(X, axis=1, keepdims=True)
+    for src in a.sources.split(','):
+        rs = real2d.load(H.FILES[src][0])
+        for p in a.protocols.split(','):
+            truth, missing = H.make_file(src, p, 0, None, rs)
+            row = {"cold": H.score(H.METHODS["cold"](truth, missing), truth, missing)}
+            for name, A in [("dict", D), ("exemplars", X)]:
+                for K in [200, 1000]:
+                    row[f"{name}_K{K}"] = H.score(nn_recover(truth, missing, A, K), truth,
+                                                  missing)
+            print(src, p, {k: round(v, 3) for k, v in row.items()}, flush=True)
+
+
+if __name__ == "__main__":
+    main()
