@@ -84,10 +84,10 @@ def check_options_apply(caller, *, method, model, backend, scheduler, adapt, ens
     >>> check_options_apply("recover", method="sparse", model=None, backend=None,
     ...                     scheduler=None, adapt="auto", ensemble=1)
     >>> check_options_apply("recover", method="sparse", model=None, backend=None,
-    ...                     scheduler=None, adapt=False, ensemble=3)
+    ...                     scheduler=None, adapt=False, ensemble=3)  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    sparseedm.exceptions.ParameterError: recover: ensemble=3 averages adapted dictionaries: it needs adaptation (drop adapt=False / --no-adapt)
+    sparseedm.exceptions.ParameterError: recover: ensemble=3 averages adapted dictionaries: ...
     """
     if method == "sparse" and model is not None:
         raise ParameterError(f"{caller}: model is the FConv network of method='fconv'; "
