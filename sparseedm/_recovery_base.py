@@ -103,6 +103,8 @@ class RecoveryResult:
     vectors : ndarray (n, N(N-1)/2)
         Completed EDM vectors after the Eq. 10 merge, in normalised units.
     missing : ndarray of bool (n, N)
+        True where a joint was occluded in the input (from the mask given, or
+        its NaN coordinates): the joints the recovery filled.
     center, scale : ndarray (n, 2), (n,)
         The normalisation: pixel distances are ``vectors * scale``.
     objective, gap : ndarray (n,)
@@ -113,6 +115,9 @@ class RecoveryResult:
     status : ndarray of str (n,)
         One of :data:`STATUSES`; ``reason`` says more for refused poses.
     reason : ndarray of str (n,)
+        The status in words: why a pose was refused, or how it was filled
+        (an uncertified gap, the FConv network, the temporal model); may be
+        empty for a pose recovered as expected.
     fallback : ndarray of bool (n,)
         The fast solver handed this pose to Clarabel.
     alpha : float
@@ -167,11 +172,34 @@ class RecoveryResult:
         return bool(self.adaptation is not None and self.adaptation.adapted)
 
     def take(self, rows):
-        """The result of the poses `rows` only (:func:`take_rows`)."""
+        """The result of the poses `rows` only (:func:`take_rows`).
+
+        Parameters
+        ----------
+        rows : array_like of int, slice or array_like of bool (n,)
+            The poses to keep: indices, a slice or a mask.
+
+        Returns
+        -------
+        RecoveryResult
+            Every per-pose array indexed by `rows`; ``alpha``, ``seconds``,
+            ``adaptation``, ``dictionary`` and ``members`` as they are.
+        """
         return take_rows(self, rows)
 
     def summary(self) -> dict:
-        """Counts a person reads at the end of a batch."""
+        """Counts a person reads at the end of a batch.
+
+        Returns
+        -------
+        dict
+            ``poses``, ``recovered_joints``, ``refused``, ``fallbacks``,
+            ``seconds``, ``poses_per_second`` and ``status`` (the count of
+            each status present), as :func:`recovery_summary` gives them; also
+            ``adaptation`` (:meth:`AdaptationResult.summary
+            <sparseedm.adaptation.AdaptationResult.summary>`) when adaptation
+            ran, and ``ensemble`` (the members) when more than one.
+        """
         recovered = self.missing[np.isin(self.status, ("recovered", "inaccurate"))].sum()
         out = recovery_summary(self.status, recovered, self.fallback, self.seconds)
         if self.adaptation is not None:
@@ -245,11 +273,33 @@ class Screened(NamedTuple):
 def screen_poses(poses, mask, bad_coord):
     """Why each pose cannot be used, before any solving: shared by every path.
 
-    Returns ``(status, reason, n_obs, clean)``: `status` is ``""`` for a usable
-    pose and a refusal of :data:`STATUSES` otherwise (``invalid_coordinates``,
-    ``too_few_observed``, ``degenerate``, ``out_of_range``); `clean` is the poses
-    with missing joints at 0. Used by :func:`recover`, the FConv path and
-    :func:`sparseedm.lift`.
+    Used by :func:`recover`, the FConv path and :func:`sparseedm.lift`; the
+    inputs are trusted (as :func:`validate_poses` gives them).
+
+    Parameters
+    ----------
+    poses : ndarray (n, N, 2)
+        The poses as floats (missing joints may hold anything).
+    mask : ndarray of bool (n, N)
+        True where a joint is missing.
+    bad_coord : ndarray of bool (n,)
+        Rows with a NaN or infinite observed coordinate.
+
+    Returns
+    -------
+    Screening
+        ``(status, reason, n_obs, clean)``: `status` is ``""`` for a usable
+        pose and a refusal of :data:`STATUSES` otherwise
+        (``invalid_coordinates``, ``too_few_observed``, ``degenerate``,
+        ``out_of_range``), `reason` says why in words, `n_obs` counts each
+        pose's observed joints and `clean` is the poses with missing joints
+        at 0.
+
+    Examples
+    --------
+    >>> pose = np.zeros((1, 14, 2))                 # every joint at one point
+    >>> screen_poses(pose, np.zeros((1, 14), bool), np.zeros(1, bool)).status.tolist()
+    ['degenerate']
     """
     n, N = mask.shape
     status = np.full(n, "", dtype=object)

@@ -46,7 +46,7 @@ learn on every complete pose, the guard's held-back ones included, unchecked:
 they only fill the next round's poses. The last round holds the guard's poses
 back and is judged on them (the filled poses are never held back); when the
 guard rejects it, the first adaptation is used. On the validation files
-(dictionaries/README.md, "Self-training cost") this was 1-2 % more accurate
+(``studies/adaptation/probe_self_training_cost.py``) this was 1-2 % more accurate
 than judging every round, and two guards cheaper.
 
 The learning (:func:`adapt_vectors`)
@@ -61,7 +61,7 @@ mixes base atoms, scaled to the poses' typical norm, into every mini-batch
 against forgetting. The defaults were chosen on cross-source validation splits
 by ``studies/adaptation/select_adaptation.py`` (results in
 ``studies/adaptation/selection_adaptation.json``, summary in
-``dictionaries/README.md``).
+``docs/explanation/settings.md``, "Adaptation and self-training").
 """
 
 from __future__ import annotations
@@ -97,11 +97,11 @@ __all__ = ["adapt", "run_adaptation", "adapt_vectors", "AdaptationResult",
            "adaptation_alpha", "STATS", "SELF_TRAINING_ROUNDS"]
 
 #: Fewest complete poses (after filtering) that ``adapt="auto"`` adapts on;
-#: chosen on the validation splits (dictionaries/README.md).
+#: chosen on the validation splits (docs/explanation/settings.md).
 MIN_COMPLETE_POSES = 250
 #: Inner-statistics modes of :func:`adapt_vectors`.
 STATS = ("fresh", "carried")
-# defaults chosen by studies/adaptation/select_adaptation.py (see dictionaries/README.md)
+# defaults chosen by studies/adaptation/select_adaptation.py (see docs/explanation/settings.md)
 DEFAULT_PASSES = 2
 #: The adapted dictionary's recommended recovery alpha is the base's times this
 #: (0.0005 -> 0.00025 for the shipped default; chosen on the validation splits,
@@ -121,6 +121,16 @@ ADAPTED_ALPHA_TRAIN_FACTOR = 4.0
 
 def adaptation_alpha(dictionary):
     """The default training alpha of adapting `dictionary` (see ADAPTED_ALPHA_TRAIN).
+
+    Parameters
+    ----------
+    dictionary : Dictionary
+        The base dictionary (its ``alpha_train`` is used).
+
+    Returns
+    -------
+    float
+        ``min(ADAPTED_ALPHA_TRAIN_FACTOR * alpha_train, ADAPTED_ALPHA_TRAIN)``.
 
     Examples
     --------
@@ -152,8 +162,8 @@ SELF_TRAINING_MAX_COMPLETE = None
 #: Recovery alpha of a self-training round's sample, times the current
 #: dictionary's ``alpha_recover``. A larger factor means shorter LARS paths
 #: (fewer atoms per pose) and cheaper rounds, but the filled poses feed the next
-#: round: on the validation splits (dictionaries/README.md, "Self-training
-#: cost") x 2 moved the error by -0.7 / +0.3 / +3.1 % for about a fifth less
+#: round: on the validation splits (studies/adaptation/probe_self_training_cost.py)
+#: x 2 moved the error by -0.7 / +0.3 / +3.1 % for about a fifth less
 #: time in the rounds' recoveries, so the default stays 1 (exact as before).
 SELF_TRAINING_ALPHA_FACTOR = 1.0
 #: Held-back poses per occlusion pattern of the guard (:func:`guard_masks`):
@@ -167,6 +177,18 @@ GUARD_POSES_PER_PATTERN = 12
 
 def duplicate_rows(X, decimals=9):
     """True for rows that repeat an earlier row (after rounding to `decimals`).
+
+    Parameters
+    ----------
+    X : array_like (n, m)
+        The rows (EDM vectors or any other).
+    decimals : int, default 9
+        Rows equal after rounding to this many decimals are repeats.
+
+    Returns
+    -------
+    ndarray of bool (n,)
+        True for every repeat after its first occurrence.
 
     Examples
     --------
@@ -190,8 +212,14 @@ def reconstruction_error(X, components, alpha):
     X : ndarray (n, m)
         Normalised EDM vectors.
     components : ndarray (k, m)
+        The dictionary's atoms.
     alpha : float
         Lasso penalty of the code (a dictionary's ``alpha_train``).
+
+    Returns
+    -------
+    ndarray (n,)
+        Each row's residual relative to its norm (0 <= e, 1 for an empty code).
     """
     X = np.asarray(X, dtype=float)
     if len(X) == 0:
@@ -203,6 +231,18 @@ def reconstruction_error(X, components, alpha):
 
 def outlier_rows(errors, factor=3.0):
     """True for far-out errors: above ``Q3 + factor * (Q3 - Q1)`` (Tukey's fence).
+
+    Parameters
+    ----------
+    errors : array_like (n,)
+        Per-row errors (:func:`reconstruction_error`).
+    factor : float, default 3.0
+        Interquartile ranges above the third quartile that make an outlier.
+
+    Returns
+    -------
+    ndarray of bool (n,)
+        True for the outliers; none when fewer than 4 errors are given.
 
     Examples
     --------
@@ -236,12 +276,23 @@ def swapped_rows(poses, components, alpha, *, skeleton=SKELETON_14, ratio=0.5, e
     Parameters
     ----------
     poses : ndarray (n, N, 2), complete
+        The poses to check, in pixels.
     components : ndarray (k, m)
+        The dictionary's atoms.
     alpha : float
-    skeleton : Skeleton
-    ratio : float
+        Lasso penalty of the codes (a dictionary's ``alpha_train``).
+    skeleton : Skeleton, default SKELETON_14
+        Names the left/right joint pairs; arms are the shoulder, elbow and
+        wrist pairs, legs the others.
+    ratio : float, default 0.5
+        Flag a pose when an exchange brings its error below this times its own.
     errors : ndarray (n,), optional
         The poses' own :func:`reconstruction_error`, if already known.
+
+    Returns
+    -------
+    ndarray of bool (n,)
+        True for the poses whose arms or legs look exchanged.
     """
     poses = np.asarray(poses, dtype=float)
     if len(poses) == 0:
@@ -277,6 +328,20 @@ class FilterReport:
 
 def filter_poses(poses, dictionary, *, outlier_factor=3.0, swap_ratio=0.5):
     """Drop implausible poses before adapting (see the module docstring).
+
+    Parameters
+    ----------
+    poses : array_like (n, N, 2)
+        Poses in pixels; rows that are not complete and usable are dropped
+        as ``incomplete``.
+    dictionary : Dictionary
+        Codes the poses (with its ``alpha_train``) for the outlier and
+        swapped-label tests.
+    outlier_factor : float, default 3.0
+        Tukey factor of :func:`outlier_rows` on the reconstruction errors.
+    swap_ratio : float, default 0.5
+        The `ratio` of :func:`swapped_rows` (checked on the worst quarter of
+        the errors only).
 
     Returns
     -------
@@ -318,6 +383,25 @@ def holdout_blocks(n, fraction, random_state=0, n_blocks=20, max_rows=MAX_VALIDA
     whole blocks are held back until `fraction` of the rows (at most
     `max_rows`) are.
 
+    Parameters
+    ----------
+    n : int
+        Rows in all.
+    fraction : float
+        Share of the rows to hold back.
+    random_state : int, default 0
+        Seed of the blocks' order.
+    n_blocks : int, default 20
+        Contiguous blocks the rows are cut into (at most `n`).
+    max_rows : int, default MAX_VALIDATION
+        Held-back rows at most (the last block taken is cut short to fit).
+
+    Returns
+    -------
+    ndarray of bool (n,)
+        True for the held-back rows; none when ``n < 2`` or the share rounds
+        to 0.
+
     Examples
     --------
     >>> v = holdout_blocks(100, 0.2, random_state=0)
@@ -355,7 +439,8 @@ def adapt_vectors(components, X, alpha, *, passes=DEFAULT_PASSES, stats=DEFAULT_
         Normalised EDM vectors of complete poses.
     alpha : float
         Lasso penalty of the coding step.
-    passes : float
+    passes : float, default 2
+        Passes over X (a fraction: part of a pass).
     stats : {"fresh", "carried"}
         Inner statistics A, B start at zero ("fresh") or as ``memory``
         pseudo-observations of each base atom ("carried").
@@ -379,7 +464,13 @@ def adapt_vectors(components, X, alpha, *, passes=DEFAULT_PASSES, stats=DEFAULT_
 
     Returns
     -------
-    components : ndarray (k, m), unit-norm rows
+    components : ndarray (k, m)
+        The adapted atoms, rows scaled to unit norm.
+
+    Raises
+    ------
+    SparseEDMError
+        `stats`, `replay` or `forget` is out of its range.
     """
     if stats not in STATS:
         raise SparseEDMError(f"stats must be one of {STATS}, got {stats!r}")
@@ -436,6 +527,23 @@ def guard_masks(n_poses, n_joints, n_patterns=None, random_state=0):
     solver recovers together through one Gram matrix (the guard's speed;
     both dictionaries it compares see the same masks).
 
+    Parameters
+    ----------
+    n_poses : int
+        Poses to mask.
+    n_joints : int
+        Joints per pose.
+    n_patterns : int, optional
+        Distinct patterns at most; None (or at least `n_poses`): one drawn
+        per pose.
+    random_state : int, default 0
+        Seed of the masks and of their order.
+
+    Returns
+    -------
+    ndarray of bool (n_poses, n_joints)
+        True for the joints to hide, 1 to 3 per pose.
+
     Examples
     --------
     >>> m = guard_masks(100, 14, n_patterns=10)
@@ -459,6 +567,34 @@ def masked_error(dictionary, poses, *, random_state=0, alpha=None, n_jobs=1, n_p
     Every dictionary compared on the same poses sees the same occlusions.
     `solver` as :func:`sparseedm.recover`'s (the guard passes the fast one on
     its compiled kernel at any size, :func:`~sparseedm._recovery_kernel.compiled_solver`).
+
+    Parameters
+    ----------
+    dictionary : Dictionary
+        The dictionary to score (recovered with as given: no adaptation).
+    poses : array_like (n, N, 2)
+        Complete poses in pixels, the truth of the hidden joints.
+    random_state : int, default 0
+        Seed of the masks.
+    alpha : float, optional
+        Recovery alpha; default the dictionary's ``alpha_recover``.
+    n_jobs : int, default 1
+        joblib workers of the recovery.
+    n_patterns : int, optional
+        Distinct occlusion patterns (:func:`guard_masks`); None: one per pose.
+    solver : str or BaseSolver, default "fast"
+        The recovery's solver.
+
+    Returns
+    -------
+    float
+        The mean Err_ave (%) over the poses recovered usably; NaN when none was.
+
+    Raises
+    ------
+    ParameterError
+        `dictionary`, `alpha` or `n_jobs` is not one :func:`sparseedm.recover`
+        accepts.
     """
     validate_params("recover", dict(dictionary=dictionary, alpha=alpha, n_jobs=n_jobs),
                     RECOVER_PARAMS)
@@ -480,7 +616,7 @@ def masked_error(dictionary, poses, *, random_state=0, alpha=None, n_jobs=1, n_p
 class AdaptationResult:
     """What :func:`run_adaptation` did.
 
-    Attributes
+    Parameters
     ----------
     dictionary : Dictionary
         The dictionary to recover with: the adapted one if it was used, else
@@ -498,6 +634,7 @@ class AdaptationResult:
     err_base, err_adapted : float
         Mean Mix Err_ave (%) on the held-back poses (NaN when not measured).
     seconds : float
+        Wall time of the whole adaptation (self-training rounds included).
     step_seconds : dict
         Seconds of each step: ``filter``, ``learning``, ``guard``; after
         self-training, the first adaptation's as ``first filter``, ... and each
@@ -506,6 +643,8 @@ class AdaptationResult:
     candidate : Dictionary or None
         The adapted dictionary even when the guard rejected it.
     settings : dict
+        The learning and guard settings used (:func:`run_adaptation`'s
+        arguments by name).
     n_extra : int
         Filled (recovered) poses learned from besides the complete ones
         (self-training; 0 otherwise).
@@ -541,7 +680,18 @@ class AdaptationResult:
     file_atoms: int = 0
 
     def summary(self) -> dict:
-        """JSON-able summary (what ``RecoveryResult.summary()`` reports)."""
+        """JSON-able summary (what ``RecoveryResult.summary()`` reports).
+
+        Returns
+        -------
+        dict
+            ``adapted``, ``reason``, the pose counts (``poses_given``,
+            ``complete_poses``, ``poses_used``, ``validation_poses``),
+            ``dropped``, the guard's ``validation_err_base`` and
+            ``validation_err_adapted`` (None when not measured),
+            ``file_atoms``, ``seconds``, ``step_seconds`` and the
+            ``self_training`` rounds.
+        """
         def num(v):
             return None if not np.isfinite(v) else round(float(v), 4)
         return {
@@ -559,7 +709,14 @@ class AdaptationResult:
         }
 
     def line(self) -> str:
-        """One line a person reads (what ``sparseedm recover`` prints)."""
+        """One line a person reads (what ``sparseedm recover`` prints).
+
+        Returns
+        -------
+        str
+            ``"adaptation: "`` then what was done and why, the poses used, the
+            guard's errors, the self-training rounds and the time.
+        """
         if np.isfinite(self.err_base) and np.isfinite(self.err_adapted):
             errs = (f"validation Mix Err_ave {self.err_base:.2f}% -> {self.err_adapted:.2f}% "
                     f"on {self.n_validation} held-back poses")
@@ -615,10 +772,12 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
     Parameters
     ----------
     dictionary : Dictionary, str or path
+        The base dictionary (a name or path is loaded).
     poses : array_like (n, N, 2)
         Poses in pixels; rows with a missing joint (NaN or `missing`) are
         not used.
     missing : array_like of bool (n, N), optional
+        True where a joint is missing; by default NaN coordinates mark them.
     passes, alpha, stats, memory, replay, batch_size
         The learning (:func:`adapt_vectors`); ``alpha`` defaults to the
         :func:`adaptation_alpha` (3.2 for the default). The adapted dictionary recommends
@@ -635,6 +794,8 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
     filter : bool
         Drop duplicates, outliers and left/right swaps first.
     random_state : int
+        Seed of the sample, the held-back blocks, the guard's masks and the
+        learning's mini-batches.
     n_jobs : int or None
         Threads for the coding step and the guard's recovery; None: numba's
         (every core unless ``NUMBA_NUM_THREADS`` says otherwise), which is what
@@ -654,6 +815,8 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
     Returns
     -------
     AdaptationResult
+        The dictionary to recover with (adapted or the base), the guard's
+        errors, the pose counts and the reason in words.
     """
     t0 = time.perf_counter()
     if not isinstance(dictionary, Dictionary):
@@ -864,16 +1027,22 @@ def adapt(dictionary, complete_poses, *, passes=DEFAULT_PASSES, alpha=None, **kw
     Parameters
     ----------
     dictionary : Dictionary, str or path
+        The base dictionary (a name or path is loaded).
     complete_poses : array_like (n, N, 2)
         Poses in pixels; rows with NaN are ignored.
-    passes : float
+    passes : float, default 2
+        Passes of the online learning over the poses.
     alpha : float, optional
+        Lasso penalty of the learning's coding step; default
+        :func:`adaptation_alpha` of `dictionary`.
     **kwargs
         Any other argument of :func:`run_adaptation`.
 
     Returns
     -------
     Dictionary
+        The adapted dictionary, or `dictionary` itself when the adaptation was
+        refused or not better on the held-back poses.
 
     Examples
     --------
@@ -923,7 +1092,8 @@ def self_train(dictionary, result, adapt_poses, adapt_missing, poses, missing, *
     poses, missing
         The poses to be recovered: their incomplete rows (a seeded sample of
         at most `max_poses`) are recovered, and the filled poses learned from.
-    rounds : int
+    rounds : int, default SELF_TRAINING_ROUNDS
+        Rounds to run; 0 or fewer: none (`result` comes back).
     max_poses : int, optional
         Default :data:`SELF_TRAINING_MAX_POSES`.
     max_complete : int, optional
@@ -932,6 +1102,11 @@ def self_train(dictionary, result, adapt_poses, adapt_missing, poses, missing, *
     alpha_factor : float
         The sample is recovered at this times the current dictionary's
         ``alpha_recover`` (:data:`SELF_TRAINING_ALPHA_FACTOR`).
+    random_state : int, default 0
+        Seed of the sample and of every round's adaptation.
+    n_jobs : int or None, default 1
+        Threads of the rounds' recoveries and adaptations (as
+        :func:`run_adaptation`'s).
 
     Returns
     -------
@@ -998,12 +1173,47 @@ def resolve_adaptation(dictionary, poses, missing, adapt, *, n_jobs=1, random_st
     `adapt` is ``"auto"`` (adapt on the complete rows of `poses`), ``False``
     (nothing) or an array of separate poses to adapt on; then, when adopted,
     `self_training` rounds of :func:`self_train` on the incomplete rows of
-    `poses` (0: none; None: ``SELF_TRAINING_ROUNDS``). Returns ``(dictionary, AdaptationResult or None)``. A refusal is warned about
+    `poses` (0: none; None: ``SELF_TRAINING_ROUNDS``). A refusal is warned about
     (``UserWarning``) when adaptation poses were given explicitly (unless
     ``warn=False``); under ``"auto"`` it is said in the result's summary only
     (small batches of incomplete poses are the common case, not a problem),
-    and ``sparseedm recover`` says it on stderr. `min_poses` as
-    :func:`run_adaptation` (the temporal path lowers it for one clip).
+    and ``sparseedm recover`` says it on stderr.
+
+    Parameters
+    ----------
+    dictionary : Dictionary, str or path
+        The base dictionary (a name or path is loaded).
+    poses : ndarray (n, N, 2)
+        The poses to be recovered, in pixels.
+    missing : ndarray of bool (n, N) or None
+        True where a joint of `poses` is missing; None: NaN coordinates mark them.
+    adapt : "auto", False, None or array_like (n_adapt, N, 2)
+        ``"auto"``: adapt on the complete rows of `poses`; False or None: no
+        adaptation; an array: adapt on those poses instead.
+    n_jobs : int or None, default 1
+        Threads of the adaptation and of the self-training rounds.
+    random_state : int, default 0
+        Seed of the adaptation and the rounds.
+    warn : bool, default True
+        Warn when explicitly given adaptation poses are refused.
+    self_training : int, optional
+        Rounds of :func:`self_train` after an adopted adaptation; default
+        :data:`SELF_TRAINING_ROUNDS`.
+    min_poses : int, default MIN_COMPLETE_POSES
+        As :func:`run_adaptation`'s (the temporal path lowers it for one clip).
+
+    Returns
+    -------
+    dictionary : Dictionary
+        The dictionary to recover with: the adapted one when adopted, else
+        the base (as given when `adapt` is False or None).
+    adaptation : AdaptationResult or None
+        What was done; None when `adapt` is False or None.
+
+    Raises
+    ------
+    SparseEDMError
+        `adapt` is a string other than ``"auto"``.
     """
     if adapt is False or adapt is None:
         return dictionary, None
@@ -1062,6 +1272,16 @@ def sample_stream(chunks, max_poses=DEFAULT_MAX_POSES, random_state=0):
     same sample whatever the chunk size), in stream order, so memory stays
     at ``2 * max_poses`` poses however long the stream.
 
+    Parameters
+    ----------
+    chunks : iterable of (ndarray (n, N, 2), ndarray of bool (n, N) or None)
+        The stream's poses in pixels with their missing masks (None: NaN
+        coordinates mark the missing joints).
+    max_poses : int, default 5000
+        Poses at most in each sample.
+    random_state : int, default 0
+        Seed of the rows' keys.
+
     Returns
     -------
     complete : ndarray (<= max_poses, N, 2)
@@ -1099,6 +1319,20 @@ def sample_complete(chunks, max_poses=DEFAULT_MAX_POSES, random_state=0):
 
     The first sample of :func:`sample_stream` (the same rows).
 
+    Parameters
+    ----------
+    chunks : iterable of (ndarray (n, N, 2), ndarray of bool (n, N) or None)
+        The stream's poses in pixels with their missing masks.
+    max_poses : int, default 5000
+        Poses at most in the sample.
+    random_state : int, default 0
+        Seed of the rows' keys.
+
+    Returns
+    -------
+    ndarray (<= max_poses, N, 2)
+        Complete, finite poses of the stream.
+
     Examples
     --------
     >>> import numpy as np
@@ -1120,9 +1354,46 @@ def fine_tune_file(train_path, output, init="default", *, passes=DEFAULT_PASSES,
     of :func:`adapt_vectors` over every complete pose of TRAIN (no sample, no
     guard: the caller validates, e.g. with ``sparseedm evaluate``).
 
+    Parameters
+    ----------
+    train_path : str or path
+        A training ``.npz`` (``poses2d``, as ``sparseedm fit`` reads it).
+    output : str or path
+        Where the fine-tuned dictionary is saved (``.npz``).
+    init : Dictionary, str or path, default "default"
+        The dictionary to start from (a name or path is loaded).
+    passes : float, default 2
+        Passes of the online learning over the poses.
+    alpha : float, optional
+        Lasso penalty of the learning; default the base's ``alpha_train``.
+    alpha_recover : float, optional
+        The recovery alpha the new dictionary recommends; default the base's.
+    stats : {"fresh", "carried"}, default "fresh"
+        How the learning's inner statistics start (:func:`adapt_vectors`).
+    replay : float, default 0.0
+        Base atoms mixed into each mini-batch, as a share of its size
+        (:func:`adapt_vectors`).
+    batch_size : int, default 256
+        Poses per mini-batch.
+    random_state : int, default 0
+        Seed of the mini-batches.
+    n_jobs : int, optional
+        Threads of the coding step; None: numba's.
+
     Returns
     -------
     Dictionary
+        The fine-tuned dictionary (also saved to `output`), its provenance
+        naming the training file and the base's.
+
+    Raises
+    ------
+    FileFormatError
+        TRAIN is not a training file (no ``poses2d`` array of shape (n, N, 2)).
+    SparseEDMError
+        TRAIN holds no complete pose.
+    PoseError
+        TRAIN's poses have another number of joints than the dictionary.
     """
     base = init if isinstance(init, Dictionary) else load_dictionary(init)
     poses = load_training_poses(train_path)

@@ -47,15 +47,15 @@ _PARAMS = {"dictionary": [Dictionary], "max_atoms": [Interval(Integral, 1, None)
 class FileAtoms:
     """What :func:`with_file_atoms` returns.
 
-    Attributes
+    Parameters
     ----------
     dictionary : Dictionary
         The base atoms followed by the file's atoms (the base itself when
-        there were none).
+        there were none); its provenance records the atoms added.
     n_atoms : int
         File atoms appended.
     n_complete : int
-        Complete poses offered.
+        Complete usable poses offered (before the filter and the sample).
     """
 
     dictionary: Dictionary
@@ -70,20 +70,34 @@ def with_file_atoms(dictionary, poses, missing=None, *, max_atoms=MAX_FILE_ATOMS
     Parameters
     ----------
     dictionary : Dictionary
+        The base dictionary; its atoms come first and are not changed.
     poses : ndarray (n, N, 2)
         Poses in pixels; only usable complete rows are used
         (:func:`sparseedm.normalize.usable_rows`, no `missing` joint).
     missing : ndarray of bool (n, N), optional
-    max_atoms : int
+        True where a joint is missing: a row with one is not complete. Default:
+        NaN coordinates mark the missing joints.
+    max_atoms : int, default MAX_FILE_ATOMS
         At most this many poses become atoms (a seeded sample, order kept).
     filter : bool, default False
         Drop implausible poses first as adaptation does
         (:func:`sparseedm.adaptation.filter_poses`); else exact repeats only.
-    random_state : int
+    random_state : int, default 0
+        Seed of the sample when more than `max_atoms` poses are left.
 
     Returns
     -------
     FileAtoms
+        The dictionary with the file's atoms, and how many were appended out of
+        how many complete poses.
+
+    Raises
+    ------
+    ParameterError
+        `dictionary` is not a Dictionary, or `max_atoms` or `random_state` is
+        out of range.
+    PoseError
+        `poses` is not shaped (n, N, 2) for the dictionary's N joints.
 
     Examples
     --------

@@ -50,7 +50,45 @@ _PARAMS = dict(RECOVER_PARAMS, representation=[Options(REPRESENTATIONS), None])
 
 
 def check_options_apply(caller, *, method, model, backend, scheduler, adapt, ensemble):
-    """Refuse options that would be silently ignored (a ParameterError naming them)."""
+    """Refuse options that would be silently ignored (a ParameterError naming them).
+
+    Shared by :func:`recover` and :func:`sparseedm.batch.recover_file` (the
+    command line's path), which check these combinations before any work.
+
+    Parameters
+    ----------
+    caller : str
+        The function or command named in the message.
+    method : {"sparse", "fconv"}
+        The recovery method asked for.
+    model : object or None
+        The FConv network given, if any (used by ``method="fconv"`` only).
+    backend : str or None
+        The joblib backend asked for.
+    scheduler : str or None
+        The Dask scheduler address given, if any (used by ``backend="dask"``
+        only).
+    adapt : "auto", False, None or array_like
+        The adaptation asked for; False or None means none.
+    ensemble : int
+        Adapted dictionaries to average.
+
+    Raises
+    ------
+    ParameterError
+        A `model` with ``method="sparse"``, a `scheduler` without
+        ``backend="dask"``, or ``ensemble > 1`` without adaptation.
+
+    Examples
+    --------
+    >>> check_options_apply("recover", method="sparse", model=None, backend=None,
+    ...                     scheduler=None, adapt="auto", ensemble=1)
+    >>> check_options_apply("recover", method="sparse", model=None, backend=None,
+    ...                     scheduler=None, adapt=False, ensemble=3)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    sparseedm.exceptions.ParameterError: recover: ensemble=3 averages adapted dictionaries: ...
+    """
     if method == "sparse" and model is not None:
         raise ParameterError(f"{caller}: model is the FConv network of method='fconv'; "
                              "method='sparse' codes with dictionary=")
@@ -130,8 +168,8 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         round is guarded: :func:`sparseedm.adaptation.self_train`); default
         :data:`sparseedm.adaptation.SELF_TRAINING_ROUNDS`, 0 turns it off
         (with frames as well: there the rounds carry one clip's long
-        self-occlusions, dictionaries/README.md, "Self-training in the video
-        path").
+        self-occlusions). What the rounds gain and cost:
+        ``docs/explanation/settings.md``, "Adaptation and self-training".
     ensemble : int, default 1
         (with adaptation) Adapt this many times (seeds 0, 1, ...), recover
         with each adapted dictionary and return the mean of the filled poses
@@ -231,6 +269,22 @@ class OcclusionRecoverer:
     (``dictionary_``); :meth:`transform` returns filled poses and keeps the
     last :class:`RecoveryResult` in ``result_``.
 
+    Parameters
+    ----------
+    dictionary : Dictionary, str or path, optional
+        As :func:`recover`'s; None means the shipped default.
+    alpha : float, optional
+        Lasso penalty; default the dictionary's recommended ``alpha_recover``.
+    representation : {"average", "zero"}, optional
+        How occluded joints enter the EDM vector; default ``"average"``.
+    solver : {"fast", "clarabel", "cvxpy-naive"} or a BaseSolver, default "fast"
+        As :func:`recover`'s.
+    n_jobs : int, default 1
+        joblib workers over chunks of poses; -1 for all cores.
+    adapt : "auto", False or array_like (n_adapt, N, 2), default "auto"
+        As :func:`recover`'s: ``"auto"`` adapts the dictionary on the complete
+        poses given to :meth:`transform` when there are enough of them.
+
     Examples
     --------
     >>> import numpy as np
@@ -253,7 +307,25 @@ class OcclusionRecoverer:
         self.n_jobs = n_jobs
 
     def fit(self, X=None, y=None):
-        """Load the dictionary (nothing is learned from X)."""
+        """Load the dictionary (nothing is learned from X).
+
+        Parameters
+        ----------
+        X : array_like, optional
+            Ignored: present for scikit-learn's ``fit(X, y)`` convention.
+        y : None
+            Ignored.
+
+        Returns
+        -------
+        OcclusionRecoverer
+            This estimator, with ``dictionary_`` set.
+
+        Raises
+        ------
+        ParameterError
+            An argument given to ``__init__`` is out of its range.
+        """
         validate_params("OcclusionRecoverer", dict(
             dictionary=self.dictionary, alpha=self.alpha, representation=self.representation,
             solver=self.solver, n_jobs=self.n_jobs),
@@ -264,7 +336,24 @@ class OcclusionRecoverer:
         return self
 
     def transform(self, X, missing=None):
-        """Filled poses (n, N, 2); NaN coordinates (or `missing`) mark occlusions."""
+        """Filled poses (n, N, 2); NaN coordinates (or `missing`) mark occlusions.
+
+        Calls :meth:`fit` first when it was not called.
+
+        Parameters
+        ----------
+        X : array_like, shape (n, N, 2) or (N, 2)
+            Keypoints in the caller's own pixel frame.
+        missing : array_like of bool, shape (n, N), optional
+            True where a joint is occluded; by default NaN coordinates mark them.
+
+        Returns
+        -------
+        ndarray (n, N, 2)
+            The poses with their occluded joints filled (NaN where a pose was
+            refused: ``result_.status`` says why); the whole
+            :class:`RecoveryResult` is kept in ``result_``.
+        """
         if not hasattr(self, "dictionary_"):
             self.fit()
         self.result_ = recover(X, missing, dictionary=self.dictionary_, alpha=self.alpha,

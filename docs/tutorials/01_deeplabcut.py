@@ -70,6 +70,28 @@ with np.load(work / "filled.status.npz") as status:
     print("filled joints per frame:", status["filled"].sum(axis=1))
 
 # %%
+# See what was filled
+# -------------------
+# ``sparseedm plot`` draws the input beside the file recover wrote from it
+# (``--joint-map`` as for recover, so that it reads the body parts the same
+# way):
+sh("sparseedm plot dlc.csv filled.csv -o check.png --joint-map dlc_joints.json", work)
+
+# %%
+# The top row is the filled joint over time, x and y against the frame: black
+# dots where DeepLabCut's detection was kept, the blue line through the
+# recovered positions, orange crosses on a shaded band where the body part was
+# filled. Below, the poses as skeletons, the filled joint an orange cross: a
+# filled knee should sit where the thigh and shin make a plausible leg.
+# ``--frames``, ``--joints`` and ``--tracks`` choose what is drawn.
+import matplotlib.pyplot as plt  # noqa: E402
+
+fig, ax = plt.subplots(figsize=(9, 6.5))
+ax.imshow(plt.imread(work / "check.png"))
+ax.axis("off")
+plt.show()
+
+# %%
 # The same from Python
 # --------------------
 # :func:`~sparseedm.keypoints.read_keypoints` gives the poses in the 14-joint

@@ -53,8 +53,10 @@ print(sum(r["track"] == "02_01" for r in rows), "frames of track 02_01")
 # %%
 # Lift it
 # -------
-# ``--rate`` is the video's frame rate (the TRC's time column).
-sh("sparseedm lift walk.csv -o walk.trc --rate 30", work)
+# ``--rate`` is the video's frame rate (the TRC's time column); ``--plot``
+# also draws a few lifted poses, those of the frames ``--frames`` chooses
+# (at most 8; the first 4 without it).
+sh("sparseedm lift walk.csv -o walk.trc --rate 30 --plot walk3d.png --frames 0,28,56,84", work)
 
 # %%
 # The TRC file: a header, then a frame number, a time and x, y, z per joint.
@@ -79,17 +81,14 @@ height = np.linalg.norm(res.poses3d[:, 0] - res.poses3d[:, [10, 13]].mean(axis=1
 print(f"head top to ankles: {np.median(height):.2f} m (median over the frames)")
 
 # %%
-# A picture of a few frames, from the front and from the side
-# (:func:`sparseedm.lifting.plotting.plot_lifted`; needs the ``plot`` extra):
+# The picture ``--plot`` drew: the chosen frames from the front (top) and from
+# the side (bottom), left and right coloured; orange crosses mark the joints
+# that were occluded in the 2D input, placed in 3D after being filled across
+# time. From Python, :func:`sparseedm.lifting.plotting.plot_lifted` draws it
+# from ``res.poses3d`` (both need the ``plot`` extra).
 import matplotlib.pyplot as plt  # noqa: E402
 
-from sparseedm.lifting.plotting import plot_lifted  # noqa: E402
-
-picked = [0, 28, 56, 84]
-png = plot_lifted(res.poses3d[picked], work / "walk3d.png",
-                  titles=[f"frame {kps.frames[k]}" for k in picked],
-                  missing=kps.missing[picked])
 fig, ax = plt.subplots(figsize=(9, 5))
-ax.imshow(plt.imread(png))
+ax.imshow(plt.imread(work / "walk3d.png"))
 ax.axis("off")
 plt.show()
