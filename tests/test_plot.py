@@ -166,3 +166,20 @@ def test_the_command_matches_rows_of_a_file_written_frame_by_frame(clip, tmp_pat
     observed, recovered, filled = got["args"]
     np.testing.assert_allclose(recovered, truth, atol=1e-6)
     np.testing.assert_array_equal(filled, np.isnan(seen).any(-1))
+
+
+def test_the_command_takes_the_tracks_recover_linked(clip, tmp_path, monkeypatch):
+    """An input without track ids: the people are told apart by the tracks that
+    recover linked and wrote into the recovered file."""
+    pytest.importorskip("matplotlib", reason="needs the [plot] extra")
+    import sparseedm.plotting as plotting
+
+    seen, truth, frames, tracks = clip
+    src, out = tmp_path / "in.csv", tmp_path / "out.csv"
+    write_keypoints(src, seen, frames=frames)
+    write_keypoints(out, truth, tracks=tracks, frames=frames, filled=np.isnan(seen).any(-1))
+    got = {}
+    monkeypatch.setattr(plotting, "plot_recovery",
+                        lambda *a, **k: got.update(args=a, kwargs=k))
+    assert main(["plot", str(src), str(out), "-o", str(tmp_path / "f.png")]) == 0
+    np.testing.assert_array_equal(got["kwargs"]["tracks"], tracks)

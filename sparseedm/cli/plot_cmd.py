@@ -102,8 +102,11 @@ def run(args):
                              f"{len(seen.poses)}: is it the file recover wrote from it?")
     order = _aligned(seen.frames, done.frames, len(done.poses))
     filled = None if done.filled is None else done.filled[order]
+    # people linked by recover (an input without track ids): the recovered file's tracks
+    tracks = seen.tracks if seen.tracks is not None or done.tracks is None \
+        else done.tracks[order]
     plot_recovery(seen.poses, done.poses[order], filled, frames=seen.frames,
-                  tracks=seen.tracks, ids=seen.ids,
+                  tracks=tracks, ids=seen.ids,
                   show_tracks=split_list(args.tracks) if args.tracks else None,
                   show_frames=args.frames, show_rows=args.rows,
                   show_joints=split_list(args.joints) if args.joints else None,
