@@ -45,18 +45,30 @@ def nn_recover(truth, missing, A, K, alpha=0.0005):
         out[rows] = f * s[rr, None, None] + c[rr, None]
     return out
 
-D = load_dictionary().components
-ex = []
-for f in sys.argv[3:]:
-    ex.append(np.load(f, allow_pickle=False)['poses2d'])
-X, _ = complete_pose_vectors(np.concatenate(ex)); X = X[::2]
-X = X / np.linalg.norm(X, axis=1, keepdims=True)
-for src in sys.argv[1].split(','):
-    rs = real2d.load(H.FILES[src][0])
-    for p in sys.argv[2].split(','):
-        truth, missing = H.make_file(src, p, 0, None, rs)
-        row = {"cold": H.score(H.METHODS["cold"](truth, missing), truth, missing)}
-        for name, A in [("dict", D), ("exemplars", X)]:
-            for K in [200, 1000]:
-                row[f"{name}_K{K}"] = H.score(nn_recover(truth, missing, A, K), truth, missing)
-        print(src, p, {k: round(v, 3) for k, v in row.items()}, flush=True)
+
+def main(argv=None):
+    import argparse
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("sources", help="harness files, comma-separated (mpii, coco, bonn...)")
+    ap.add_argument("protocols", help="harness protocols, comma-separated (1,2,3,real)")
+    ap.add_argument("data", nargs="+", help="dataset .npz files: the exemplar atoms")
+    a = ap.parse_args(argv)
+    D = load_dictionary().components
+    ex = [np.load(f, allow_pickle=False)['poses2d'] for f in a.data]
+    X, _ = complete_pose_vectors(np.concatenate(ex)); X = X[::2]
+    X = X / np.linalg.norm(X, axis=1, keepdims=True)
+    for src in a.sources.split(','):
+        rs = real2d.load(H.FILES[src][0])
+        for p in a.protocols.split(','):
+            truth, missing = H.make_file(src, p, 0, None, rs)
+            row = {"cold": H.score(H.METHODS["cold"](truth, missing), truth, missing)}
+            for name, A in [("dict", D), ("exemplars", X)]:
+                for K in [200, 1000]:
+                    row[f"{name}_K{K}"] = H.score(nn_recover(truth, missing, A, K), truth,
+                                                  missing)
+            print(src, p, {k: round(v, 3) for k, v in row.items()}, flush=True)
+
+
+if __name__ == "__main__":
+    main()
