@@ -35,6 +35,28 @@ def min_tasks(n_jobs, backend, n_rows):
     return max(min(4 * max(effective_n_jobs(n_jobs), 1), n_rows // NUMPY_MAX), 1)
 
 
+#: the comms a scheduler in another process listens on (distributed's ``inproc://`` is
+#: this process's own: no address a user gives, and connecting to one that does not
+#: exist can wait without end once the process has run a cluster)
+REMOTE_SCHEMES = ("tcp", "tls", "ws", "wss", "ucx")
+
+
+def _check_scheduler(address):
+    """Refuse a scheduler address that is not ``scheme://host:port`` of a remote
+    comm (or a bare ``host:port``, which distributed reads as tcp), before the client
+    tries it."""
+    text = str(address)
+    scheme, sep, rest = text.partition("://")
+    if not sep:
+        scheme, rest = "tcp", text
+    host, _, port = rest.rpartition(":")
+    if scheme not in REMOTE_SCHEMES or not host or not port.isdigit():
+        raise ParameterError(
+            f"scheduler {address!r} is not an address the Dask client can connect to; "
+            f"give a running scheduler's address, e.g. tcp://host:8786 (schemes: "
+            f"{', '.join(REMOTE_SCHEMES)})")
+
+
 class dask_client:
     """Connect to `scheduler` (closed afterwards), or use this process's client."""
 
@@ -50,6 +72,7 @@ class dask_client:
                 "backend='dask' needs dask.distributed: pip install 'sparseedm[dask]'"
             ) from None
         if self.scheduler:
+            _check_scheduler(self.scheduler)
             try:
                 self.client = Client(self.scheduler, timeout="10s")
             except OSError as exc:
