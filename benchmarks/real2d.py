@@ -122,7 +122,7 @@ def _h5py():
         import h5py
     except ImportError as exc:  # pragma: no cover - depends on the environment
         raise ImportError("reading MPII / FLIC annotations needs h5py "
-                          "(pip install sparseedm[bench])") from exc
+                          "(pip install sparseedm[real])") from exc
     return h5py
 
 
