@@ -122,15 +122,16 @@ def with_file_atoms(dictionary, poses, missing=None, *, max_atoms=MAX_FILE_ATOMS
         return FileAtoms(dictionary, 0, 0)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
+        vectors = pose_vectors(poses)  # one vector per pose: the atoms are its rows
         keep = (filter_poses(poses, dictionary).keep if filter
-                else ~duplicate_rows(pose_vectors(poses)))
+                else ~duplicate_rows(vectors))
     rows = np.flatnonzero(keep)
     if len(rows) > max_atoms:
         rng = np.random.default_rng([int(random_state), 41])
         rows = np.sort(rng.choice(rows, int(max_atoms), replace=False))
     if len(rows) == 0:
         return FileAtoms(dictionary, 0, len(poses))
-    X = pose_vectors(poses[rows])
+    X = vectors[rows]
     X /= np.linalg.norm(X, axis=1, keepdims=True)
     prov = dict(dictionary.provenance or {})
     prov["file_atoms"] = {"atoms": int(len(rows)), "complete_poses": int(len(poses)),

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import fnmatch
 import json
-import re
 from pathlib import Path
 
 from docutils import nodes
@@ -63,19 +62,12 @@ TITLES = {
 }
 META_KEYS = {"machine", "versions", "meta", "date", "loadavg_start", "loadavg_end",
              "load_average", "load_average_before", "load_average_after", "load_start",
-             "load_end", "settings", "argv", "note", "what", "issue", "cfg"}
+             "load_end", "settings", "argv", "note", "what", "cfg"}
 MAX_ROWS = 40
 MAX_COLUMNS = 10
-_ISSUE = [re.compile(r"\s*\([^()]*\b(?:issues?|sessions?)\b[^()]*\)", re.I),
-          re.compile(r"\b(?:issues? \d+(?:'s)?(?: item \d+)?|#\d+)\s*", re.I)]
-
-
 def clean(text):
-    """Text for users: internal issue numbers and session notes removed."""
-    text = str(text)
-    for pattern in _ISSUE:
-        text = pattern.sub("", text)
-    return text.strip()
+    """A label or cell as text."""
+    return str(text).strip()
 
 
 def place(name):

@@ -43,7 +43,7 @@ from .._validation import Interval, validate_params
 from ..cameras import Cameras
 from ..dataset import load_dataset
 from ..exceptions import FileFormatError
-from ..skeleton import SKELETON_14
+from ..real_protocol import body_size
 
 __all__ = ["Sequence", "sequences_from_dataset", "load_sequences", "body_height",
            "MIN_FRAMES", "MAX_FRAMES"]
@@ -51,8 +51,6 @@ __all__ = ["Sequence", "sequences_from_dataset", "load_sequences", "body_height"
 #: sequences are cut to at most MAX_FRAMES frames; shorter than MIN_FRAMES are dropped
 MIN_FRAMES, MAX_FRAMES = 31, 300
 
-_HEAD = SKELETON_14.index("head_top")
-_ANKLES = [SKELETON_14.index("right_ankle"), SKELETON_14.index("left_ankle")]
 
 
 @dataclass(frozen=True)
@@ -114,9 +112,7 @@ def body_height(poses2d) -> float:
     >>> body_height(p)
     170.0
     """
-    p = np.asarray(poses2d, dtype=float)
-    extent = np.linalg.norm(p[:, _HEAD] - p[:, _ANKLES].mean(axis=1), axis=-1)
-    return float(np.median(extent))
+    return float(np.median(body_size(poses2d)))
 
 
 def sequences_from_dataset(data, *, min_frames=MIN_FRAMES, max_frames=MAX_FRAMES):
