@@ -23,7 +23,7 @@ the one-image shape; in a folder, the id is the file's name without
 one, else one track when no frame holds more than one instance, else none.
 ``keypoint_scores`` are the model's scores: heatmap or SimCC maxima, which
 are not probabilities and can exceed 1 (RTMPose gives 1.0-1.1 for clear
-joints: open-mmlab/mmpose issues 2755 and 3122), so any finite score >= 0 is
+joints: open-mmlab/mmpose GitHub threads 2755 and 3122), so any finite score >= 0 is
 accepted; a score <= 0 is a missing keypoint. A missing ``keypoint_scores``
 reads as 1 for every keypoint.
 
