@@ -527,6 +527,9 @@ class Rows:
         Each pose's id, track and frame number.
     filled_score : float
         Score a filled joint is written with.
+    likelihood : ndarray, shape (n, 14), optional
+        DeepLabCut: the likelihood each filled joint is written with instead
+        (:func:`filled_likelihood`).
     """
 
     poses: np.ndarray
@@ -536,6 +539,7 @@ class Rows:
     tracks: np.ndarray | None = None
     frames: np.ndarray | None = None
     filled_score: float = 0.0
+    likelihood: np.ndarray | None = None
 
     def score(self, r, j):
         """The score written for joint j of pose r (present joints only)."""
@@ -544,6 +548,42 @@ class Rows:
         if self.confidence is not None and np.isfinite(self.confidence[r, j]):
             return float(self.confidence[r, j])
         return 1.0
+
+
+#: the highest likelihood a filled joint gets in a DeepLabCut table: below
+#: DeepLabCut's default ``pcutoff`` (0.6), so a filled joint never passes for a detection
+FILLED_LIKELIHOOD_CAP = 0.5
+
+
+def filled_likelihood(poses, uncertainty, filled_score=0.0):
+    """DeepLabCut's likelihood of filled joints from their 90 % radius:
+    ``max(filled_score, FILLED_LIKELIHOOD_CAP * exp(-radius / size))``, ``size``
+    the pose's root-mean-square distance of its joints to their centroid;
+    `filled_score` where the radius is unknown (NaN).
+
+    Parameters
+    ----------
+    poses : ndarray (n, 14, 2)
+        The filled poses (NaN where missing).
+    uncertainty : ndarray (n, 14)
+        The 90 % radii, the poses' units.
+    filled_score : float, default 0.0
+
+    Returns
+    -------
+    ndarray (n, 14)
+
+    Examples
+    --------
+    >>> pose = np.array([[[0.0, 0.0], [2.0, 0.0]]])
+    >>> filled_likelihood(pose, np.array([[0.0, 1.0]])).round(3).tolist()
+    [[0.5, 0.184]]
+    """
+    with np.errstate(invalid="ignore"):
+        centred = poses - np.nanmean(poses, axis=1, keepdims=True)
+        size = np.sqrt(np.nanmean((centred ** 2).sum(axis=-1), axis=1))[:, None]
+        like = FILLED_LIKELIHOOD_CAP * np.exp(-np.asarray(uncertainty, float) / size)
+    return np.where(np.isfinite(like), np.maximum(like, filled_score), filled_score)
 
 
 def row_status(row_fields, r):
