@@ -43,10 +43,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._validation import frame_value
 from .skeleton import SKELETON_14
 
 __all__ = ["joint_uncertainty", "joint_features", "uncertainty_rule", "CALIBRATION",
-           "FEATURES", "MIN_RELATIVE", "NOISE_RADIUS", "radius_at"]
+           "FEATURES", "MIN_RELATIVE", "NOISE_RADIUS", "UNSOLVED_LOG_RESIDUAL", "radius_at"]
 
 #: the features each way of filling uses, in the order of its coefficients
 FEATURES = {
@@ -66,12 +67,17 @@ CALIBRATION = {
         "coef": (-3.5719, 0.7162, 0.3809, 0.522, 0.0207, 0.4292, 0.4012, 0.1827)},
 }
 
+#: log of the lasso residual a pose solved without a lasso (FConv) is given: the
+#: median of the validation photos' (studies/uncertainty/calibrate.py); FConv's
+#: own errors were not part of the calibration
+UNSOLVED_LOG_RESIDUAL = -4.5
 #: the radius never claims less than this fraction of the pose's size
 MIN_RELATIVE = 0.01
 #: a 2D isotropic Gaussian's 90 % radius in standard deviations, sqrt(2 ln 10)
 NOISE_RADIUS = float(np.sqrt(2 * np.log(10)))
 #: small numbers kept out of the logarithms
 _EPS = 1e-4
+_HUGE = np.finfo(float).max
 
 
 def _hops(missing, parents=SKELETON_14.parents):
@@ -101,32 +107,52 @@ def _depth(parents=SKELETON_14.parents):
     return depth
 
 
+def _in_own_units(poses):
+    """(poses centred and divided by their largest coordinate, that unit (n,)):
+    what follows squares no huge number."""
+    centred = poses - poses.mean(axis=1, keepdims=True)
+    unit = np.abs(centred).max(axis=(1, 2))
+    unit = np.where(np.isfinite(unit) & (unit > 0), unit, 1.0)
+    return centred / unit[:, None, None], unit
+
+
 def _pose_size(poses):
     """(n,) root-mean-square distance of a pose's joints to their centroid."""
-    centred = poses - poses.mean(axis=1, keepdims=True)
-    return np.sqrt((centred ** 2).sum(axis=-1).mean(axis=1))
+    own, unit = _in_own_units(poses)
+    return unit * np.sqrt((own ** 2).sum(axis=-1).mean(axis=1))
 
 
-def _disagreement(result):
-    """(n, N) per filled joint: the root-mean-square difference between its
-    placed distances to the observed joints and the recovered ones, pixels."""
+def _disagreement(result, poses):
+    """(n, N) per filled joint of `poses` (the result's, finite): the root-mean-
+    square difference between its placed distances to the observed joints and
+    the recovered ones, in the poses' own units (:func:`_in_own_units`)."""
     from .edm import vector_to_edm
 
-    poses, missing = result.poses, result.missing
+    own, unit = _in_own_units(poses)
+    missing = result.missing
     with np.errstate(invalid="ignore"):
-        placed = np.linalg.norm(poses[:, :, None] - poses[:, None], axis=-1)
-        wanted = vector_to_edm(np.nan_to_num(result.vectors) * np.nan_to_num(
-            result.scale)[:, None])
+        placed = np.linalg.norm(own[:, :, None] - own[:, None], axis=-1)
+        wanted = vector_to_edm(np.nan_to_num(result.vectors) * (
+            np.nan_to_num(result.scale) / unit)[:, None])
         diff = np.where(~missing[:, None, :], (placed - wanted) ** 2, 0.0)
         n_obs = np.maximum((~missing).sum(axis=1), 1)[:, None]
-        return np.sqrt(diff.sum(axis=2) / n_obs)
+        return np.sqrt(diff.sum(axis=2) / n_obs), unit
 
 
 def _time_layout(n, tracks, frames):
     """[(rows in frame order, their frames)] per track; rows whose frame is not
     a finite number are left out."""
-    frames = np.asarray(frames, dtype=float)
+    frames = np.asarray(frames)
+    if frames.dtype.kind in "iu":
+        frames = frames.astype(float)
+    else:  # the one frame-number rule; a refused number: NaN (its row is per frame)
+        frames = np.array([np.nan if why else float(v)
+                           for v, why in map(frame_value, frames.tolist())])
     tracks = np.zeros(n, int) if tracks is None else np.asarray(tracks)
+    try:
+        _, tracks = np.unique(tracks, return_inverse=True)
+    except TypeError:  # values numpy cannot order together: grouped by their text
+        _, tracks = np.unique(tracks.astype(str), return_inverse=True)
     out = []
     finite = np.isfinite(frames)
     for t in np.unique(tracks[finite]):
@@ -207,9 +233,12 @@ def joint_features(result, tracks=None, frames=None):
         "depth": np.repeat(_depth()[None].astype(float), n, axis=0),
         "adapted": np.full((n, N), float(bool(getattr(result, "adapted", False))))}
     noise = np.repeat((residual * np.nan_to_num(result.scale))[:, None], N, axis=1)
-    rel = _disagreement(result) / np.where(size > 0, size, 1.0)[:, None]
+    disagreement, unit = _disagreement(result, safe)
+    rel = disagreement / np.where(size > 0, size / unit, 1.0)[:, None]
     out["log_disagreement"] = np.log(np.nan_to_num(rel) + _EPS)
-    out["log_residual"] = np.repeat(np.log(residual + _EPS)[:, None], N, axis=1)
+    log_residual = np.where(np.isnan(result.objective), UNSOLVED_LOG_RESIDUAL,
+                            np.log(residual + _EPS))
+    out["log_residual"] = np.repeat(log_residual[:, None], N, axis=1)
     size = np.repeat(size[:, None], N, axis=1)
     time = _time_features(result, way, filled, safe, tracks, frames, size, noise)
     out.update(time)
@@ -278,7 +307,8 @@ def uncertainty_rule(features, calibration=None):
         x = np.stack([features[f][at] for f in names], axis=-1)
         relative = np.exp(x @ np.asarray(entry["coef"], float)) * entry["conformal"]
         floor = np.maximum(np.nan_to_num(features["noise"][at]), MIN_RELATIVE * size[at])
-        radius[at] = np.maximum(floor, size[at] * relative)
+        with np.errstate(over="ignore"):  # a pose near float's limit: the largest radius
+            radius[at] = np.minimum(np.maximum(floor, size[at] * relative), _HUGE)
     return radius
 
 

@@ -28,6 +28,8 @@ radii scaled to other levels by :func:`sparseedm.uncertainty.radius_at`).
     python studies/uncertainty/calibrate.py                 # collect + fit + report
     python studies/uncertainty/calibrate.py --fit-only      # re-fit from the cache
     python studies/uncertainty/calibrate.py --write-module  # also rewrite CALIBRATION
+    python studies/uncertainty/calibrate.py --mask-seed 1 --check \
+        --cache /tmp/check.npz      # new masks, the table as it is: check_seed1.json
     python studies/uncertainty/calibrate.py --fit-only \
         --figure docs/explanation/uncertainty_reliability.png   # the reliability diagram
 
@@ -63,6 +65,8 @@ GAP_LENGTHS = (3, 10, 30, 90)
 #: the conformal factor is raised until every real-people protocol covers this much
 MIN_COVERAGE = 0.86
 LEVELS = (0.5, 0.6, 0.7, 0.8, 0.9, 0.95)
+#: the options that say what was collected (kept with the cache)
+COLLECTION = ("photo_sources", "seeds", "coco_seeds", "max_clips", "mocap", "mask_seed")
 KEYS = sorted({f for names in FEATURES.values() for f in names} | {"size", "noise"})
 
 
@@ -126,13 +130,13 @@ def _video_call(truth, fr, mask, label, out):
     out.append(_record(res, truth, np.ones(len(fr), bool), label, tracks, fr))
 
 
-def video(max_clips):
+def video(max_clips, seed=0):
     """Bonn PoseTrack validation clips, one per call."""
     found, donors = _bonn_clips(max_clips)
     out = []
     for truth, fr, key in found:
         def rng(extra, key=key):
-            return np.random.default_rng([0, zlib.crc32(key.encode()), extra])
+            return np.random.default_rng([seed, zlib.crc32(key.encode()), extra])
         for L in GAP_LENGTHS:
             _video_call(truth, fr, gap_mask(len(fr), L, random_state=rng(L)),
                         f"bonn|video-gap{L}", out)
@@ -142,14 +146,14 @@ def video(max_clips):
     return out
 
 
-def mocap(data_dir, max_sequences):
+def mocap(data_dir, max_sequences, seed=0):
     """CMU clips through a virtual camera each (validation third)."""
     from studies.temporal.select_temporal import end_mask, sequences
 
     from studies.temporal.select_temporal import gap_mask as mocap_gaps
     out = []
     seqs = sequences(Path(data_dir) / "cmu-bvh-daz", 1, 300, max_sequences)
-    rng = np.random.default_rng(0)
+    rng = np.random.default_rng(seed)
     for truth in seqs:
         fr = np.arange(len(truth))
         for g in GAP_LENGTHS:
@@ -164,11 +168,11 @@ def collect(args):
     parts = []
     t0 = time.perf_counter()
     for source in args.photo_sources.split(","):
-        seeds = range(args.coco_seeds) if source == "coco" else range(args.seeds)
-        parts += photos(source, seeds)
-    parts += video(args.max_clips)
+        count = args.coco_seeds if source == "coco" else args.seeds
+        parts += photos(source, range(args.mask_seed * 100, args.mask_seed * 100 + count))
+    parts += video(args.max_clips, args.mask_seed)
     if args.mocap:
-        parts += mocap(args.data_dir, args.mocap)
+        parts += mocap(args.data_dir, args.mocap, args.mask_seed)
     joined = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
     joined["refused"] = np.array([int(joined["refused"].sum())])
     print(f"collected {len(joined['error'])} joints in {time.perf_counter() - t0:.0f} s")
@@ -311,18 +315,27 @@ def main(argv=None):
     ap.add_argument("--max-clips", type=int, default=0, help="0: every clip")
     ap.add_argument("--mocap", type=int, default=6, help="CMU sequences (0: none)")
     ap.add_argument("--data-dir", default=str(ROOT.parent / "shared" / "data"))
+    ap.add_argument("--mask-seed", type=int, default=0,
+                    help="seeds the hidden joints (another seed: a check on new masks)")
+    ap.add_argument("--check", action="store_true",
+                    help="report the module's table on the collected joints, no fit")
     ap.add_argument("--write-module", action="store_true")
     ap.add_argument("--figure", help="the reliability diagram (.png) to write")
-    ap.add_argument("-o", "--output", default=str(Path(__file__).with_name("calibration.json")))
+    ap.add_argument("-o", "--output", help="the JSON written; default calibration.json "
+                    "beside this script, check_seed<S>.json with --check")
     args = ap.parse_args(argv)
     if args.fit_only:
         with np.load(args.cache, allow_pickle=False) as f:
             data = {k: f[k] for k in f.files}
     else:
         data = collect(args)
+        data["settings"] = np.array(json.dumps(
+            {k: getattr(args, k) for k in COLLECTION}))
         np.savez(args.cache, **data)
+    settings = data.pop("settings", None)
+    settings = {} if settings is None else json.loads(str(settings))
     before = report(data, CALIBRATION)
-    table = fit(data)
+    table = CALIBRATION if args.check else fit(data)
     after = report(data, table)
     for lab, row in after.items():
         print(f"{lab:28s} n={row['joints']:6d} coverage {row['coverage']:.3f} "
@@ -331,8 +344,10 @@ def main(argv=None):
     print(json.dumps(table))
     out = {"split": "val", "calibration": table, "sources": after,
            "refused_hidden_joints": int(data["refused"][0]),
-           "settings": {k: v for k, v in vars(args).items() if k not in ("cache", "output")}}
-    Path(args.output).write_text(json.dumps(out, indent=1) + "\n")
+           "fitted": not args.check, "collection": settings}
+    output = args.output or Path(__file__).with_name(
+        f"check_seed{args.mask_seed}.json" if args.check else "calibration.json")
+    Path(output).write_text(json.dumps(out, indent=1) + "\n")
     if args.write_module:
         write_module(table)
     if args.figure:
