@@ -788,7 +788,7 @@ def _write_output(tmp, fmt, filled, ids, meta, in_fmt, fields, edm,
     without any) is written as its tracks (a ``track`` column, ``tracks`` array);
     `uncertainty` (the 90 % radii) where the format holds it."""
     flagged = dict(filled=flags, filled_score=filled_score)
-    if fmt in ("npz", "csv", "coco", "dlc"):
+    if fmt != "npy":  # .npy: in the status sidecar
         flagged["uncertainty"] = uncertainty
     if fmt in FOLDER_OR_TABLE_FORMATS:  # status in each person's "sparseedm" object
         write_keypoints(tmp, filled, format=fmt, ids=ids, meta=meta, row_fields=fields,

@@ -150,8 +150,9 @@ pixels of the circle that holds the true joint 9 times in 10;
 :func:`write_keypoints` and read back into ``KeypointSet.uncertainty``: CSV
 ``<joint>_uncertainty`` columns (all 14 or none; 0 for an observed joint,
 empty for a refused pose), ``.npz`` an ``uncertainty`` (n, 14) float array,
-COCO ``"uncertainty"`` in the ``"sparseedm"`` field (``{joint name: radius}``
-of the filled joints; null for a refused pose). ``.npy`` and DeepLabCut
+COCO, OpenPose and MMPose ``"uncertainty"`` in the ``"sparseedm"`` object
+(``{joint name: radius}`` of the joints whose radius is known, 0 for an
+observed one; null for a refused pose). ``.npy`` and DeepLabCut
 outputs of ``sparseedm recover`` hold it in the status sidecar. ``.npy`` and
 DeepLabCut tables cannot hold them (:data:`FLAGS_IN_SIDECAR`): ``sparseedm
 recover`` puts them in the ``<stem>.status.npz`` sidecar beside its output
@@ -200,7 +201,7 @@ from ._validation import NUMBER_TEXT, SCORE, Interval, check_poses, validate_par
 from .exceptions import FileFormatError, ParameterError, PoseError
 from .formats import posetrack
 from .formats.deeplabcut import H5_SUFFIXES
-from .formats._base import csv_cells, filled_likelihood, track_value
+from .formats._base import csv_cells, filled_likelihood, radii_object, read_radii, track_value
 from .skeleton import JOINT_NAMES, SKELETON_14
 
 __all__ = [
@@ -567,7 +568,8 @@ def _from_parsed(parsed, threshold):
                                   np.logical_or.reduce(kept) if kept else None)
     parsed.meta.update(read_missing=missing)
     return KeypointSet(poses, missing, parsed.confidence, parsed.ids, parsed.meta,
-                       tracks=parsed.tracks, frames=parsed.frames, filled=parsed.filled)
+                       tracks=parsed.tracks, frames=parsed.frames, filled=parsed.filled,
+                       uncertainty=parsed.uncertainty)
 
 
 _READ_PARAMS = {
@@ -1174,10 +1176,10 @@ def write_keypoints(
     uncertainty : array_like, shape (n, 14), optional
         The 90 % radius of each joint (``RecoveryResult.uncertainty``; >= 0,
         NaN unknown): npz ``uncertainty``, CSV ``<joint>_uncertainty``, COCO
-        ``"sparseedm"."uncertainty"`` (see the module docstring); DeepLabCut:
-        the filled joints' likelihood
-        (:func:`sparseedm.formats._base.filled_likelihood`); OpenPose and
-        MMPose do not hold it. Default: a KeypointSet's.
+        COCO / OpenPose / MMPose ``"sparseedm"."uncertainty"`` (see the
+        module docstring); DeepLabCut: the filled joints' likelihood
+        (:func:`sparseedm.formats._base.filled_likelihood`). Default: a
+        KeypointSet's.
 
     Returns
     -------
@@ -1235,7 +1237,8 @@ def write_keypoints(
         filled = _newly_filled(poses, meta) | _read_filled(meta, n)
     filled = _optional(filled, n, "filled", where, bool) & ~mask
     if fmt in formats.FORMATS:
-        rows = formats.Rows(poses, filled, confidence, ids, tracks, frames, filled_score)
+        rows = formats.Rows(poses, filled, confidence, ids, tracks, frames, filled_score,
+                            uncertainty=uncertainty)
         if fmt == "dlc" and uncertainty is not None:
             rows.likelihood = filled_likelihood(poses, uncertainty, filled_score)
         formats.write(fmt, path, rows, meta, filled_score=filled_score, row_fields=row_fields)
@@ -1370,42 +1373,12 @@ def _xy_or_none(p):
     return None if np.isnan(p).any() else [float(p[0]), float(p[1])]
 
 
-def _coco_radii(row):
-    """A pose's ``"uncertainty"`` in its COCO ``"sparseedm"`` field: {joint: radius}
-    of the joints with a radius above 0; None when unknown (a refused pose)."""
-    if np.isnan(row).all():
-        return None
-    return {JOINT_NAMES[j]: float(row[j]) for j in np.flatnonzero(row > 0)}
-
-
-def _coco_read_radii(ann, present, where):
-    """(14,) radii of an annotation's ``"sparseedm"."uncertainty"`` (0 for the
-    other present joints, NaN missing or null), or None without one."""
-    extra = ann.get("sparseedm")
-    if not isinstance(extra, dict) or "uncertainty" not in extra:
-        return None
-    value = extra["uncertainty"]
-    out = np.where(present, 0.0, np.nan)
-    if value is None:
-        return np.full(N_JOINTS, np.nan)
-    if not isinstance(value, dict) or not all(
-            k in JOINT_NAMES and isinstance(v, Real) and not isinstance(v, bool)
-            and math.isfinite(v) and v >= 0 for k, v in value.items()):
-        raise FileFormatError(f"{where}: 'sparseedm.uncertainty' must map joint names to "
-                              "radii >= 0, or be null")
-    for k, v in value.items():
-        out[JOINT_NAMES.index(k)] = v
-    return out
-
-
 def _coco_radii_of(anns, missing, path):
     """(n, 14) radii of a COCO document's annotations, None when none has one."""
-    radii = [_coco_read_radii(ann, ~missing[a], f"{path}: annotation {a}")
-             for a, ann in enumerate(anns)]
+    radii = [read_radii(ann, f"{path}: annotation {a}") for a, ann in enumerate(anns)]
     if all(r is None for r in radii):
         return None
-    return np.stack([np.where(missing[a], np.nan, 0.0) if r is None else r
-                     for a, r in enumerate(radii)])
+    return np.stack([np.full(N_JOINTS, np.nan) if r is None else r for r in radii])
 
 
 def _write_coco(path, poses, mask, ids, meta, where, filled, filled_score, tracks=None,
@@ -1453,7 +1426,7 @@ def _write_coco(path, poses, mask, ids, meta, where, filled, filled_score, track
             "filled": [JOINT_NAMES[j] for j in np.flatnonzero(filled[r])],
         }
         if uncertainty is not None:
-            ann["sparseedm"]["uncertainty"] = _coco_radii(uncertainty[r])
+            ann["sparseedm"]["uncertainty"] = radii_object(uncertainty[r])
         if tracks is not None and not fresh and ann.get("track_id") is None:
             ann["track_id"] = track_value(np.asarray(tracks)[r])  # linked, as read had none
     with atomic_path(path) as tmp:

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 import sparseedm
+from sparseedm.skeleton import JOINT_NAMES
 from sparseedm.keypoints import read_keypoints, write_keypoints
 from sparseedm.formats._base import FILLED_LIKELIHOOD_CAP, filled_likelihood
 from sparseedm.uncertainty import joint_uncertainty, radius_at
@@ -97,15 +98,17 @@ def test_radius_at_and_likelihood():
     assert like[0, 2] == 0.01
 
 
-@pytest.mark.parametrize("ext", ["npz", "csv", "json"])
-def test_round_trip_through_writer_and_reader(tmp_path, ext, cmu_poses):
+@pytest.mark.parametrize("name,fmt", [("out.npz", None), ("out.csv", None),
+                                      ("out.json", None), ("out.json", "mmpose"),
+                                      ("frames", "openpose")])
+def test_round_trip_through_writer_and_reader(tmp_path, name, fmt, cmu_poses):
     rng = np.random.default_rng(2)
     poses = cmu_poses[:5].copy()
     radii = np.zeros((5, 14))
     radii[:, [4, 7]] = rng.uniform(1.0, 30.0, (5, 2))
     radii[3] = np.nan  # a refused pose
-    path = write_keypoints(tmp_path / f"out.{ext}", poses, uncertainty=radii)
-    kps = read_keypoints(path)
+    path = write_keypoints(tmp_path / name, poses, uncertainty=radii, format=fmt)
+    kps = read_keypoints(path, format=fmt)
     np.testing.assert_allclose(kps.uncertainty, radii, equal_nan=True)
 
 
@@ -114,25 +117,29 @@ def test_writer_refuses_a_negative_radius(tmp_path, cmu_poses):
         write_keypoints(tmp_path / "out.npz", cmu_poses[:2], uncertainty=-np.ones((2, 14)))
 
 
-def test_coco_field_lists_filled_joints_only(tmp_path, cmu_poses):
+def test_coco_field_lists_the_joints_by_name(tmp_path, cmu_poses):
     radii = np.zeros((1, 14))
     radii[0, WRIST] = 12.5
     path = write_keypoints(tmp_path / "out.json", cmu_poses[:1], uncertainty=radii)
     with open(path) as f:
         doc = json.load(f)
-    assert doc[0]["sparseedm"]["uncertainty"] == {"right_wrist": 12.5}
+    assert doc[0]["sparseedm"]["uncertainty"] == {
+        name: (12.5 if name == "right_wrist" else 0.0) for name in JOINT_NAMES}
 
 
-@pytest.mark.parametrize("ext", ["npz", "csv", "json", "npy"])
-def test_recover_file_writes_what_reads_back(tmp_path, ext, cmu_poses, small_dictionary_path):
+@pytest.mark.parametrize("ext,fmt", [("npz", None), ("csv", None), ("json", None),
+                                     ("npy", None), ("", "openpose"), ("json", "mmpose"),
+                                     ("csv", "dlc")])
+def test_recover_file_writes_what_reads_back(tmp_path, ext, fmt, cmu_poses,
+                                             small_dictionary_path):
     from sparseedm.batch import recover_file
 
     poses = cmu_poses[:8].copy()
     poses[::2, WRIST] = np.nan
     src = write_keypoints(tmp_path / "in.npz", poses)
-    out = tmp_path / f"out.{ext}"
-    recover_file(src, out, dictionary=small_dictionary_path, adapt=False)
-    kps = read_keypoints(out)
+    out = tmp_path / (f"out.{ext}" if ext else "out")  # OpenPose: a folder of frames
+    recover_file(src, out, dictionary=small_dictionary_path, adapt=False, output_format=fmt)
+    kps = read_keypoints(out, format=fmt)
     assert kps.uncertainty is not None
     assert (kps.uncertainty[::2, WRIST] > 0).all()
     assert (kps.uncertainty[1::2] == 0).all()
