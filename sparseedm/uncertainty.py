@@ -44,6 +44,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._validation import frame_value
+from .edm import vector_to_edm
 from .skeleton import SKELETON_14
 
 __all__ = ["joint_uncertainty", "joint_features", "uncertainty_rule", "CALIBRATION",
@@ -122,18 +123,15 @@ def _pose_size(poses):
     return unit * np.sqrt((own ** 2).sum(axis=-1).mean(axis=1))
 
 
-def _disagreement(result, poses):
-    """(n, N) per filled joint of `poses` (the result's, finite): the root-mean-
-    square difference between its placed distances to the observed joints and
-    the recovered ones, in the poses' own units (:func:`_in_own_units`)."""
-    from .edm import vector_to_edm
-
+def _disagreement(missing, vectors, scale, poses):
+    """(n, N) per filled joint of `poses` (finite): the root-mean-square
+    difference between its placed distances to the observed joints and the
+    recovered ones (EDM `vectors` times `scale`), in the poses' own units
+    (:func:`_in_own_units`), and that unit (n,)."""
     own, unit = _in_own_units(poses)
-    missing = result.missing
     with np.errstate(invalid="ignore"):
         placed = np.linalg.norm(own[:, :, None] - own[:, None], axis=-1)
-        wanted = vector_to_edm(np.nan_to_num(result.vectors) * (
-            np.nan_to_num(result.scale) / unit)[:, None])
+        wanted = vector_to_edm(np.nan_to_num(vectors) * (np.nan_to_num(scale) / unit)[:, None])
         diff = np.where(~missing[:, None, :], (placed - wanted) ** 2, 0.0)
         n_obs = np.maximum((~missing).sum(axis=1), 1)[:, None]
         return np.sqrt(diff.sum(axis=2) / n_obs), unit
@@ -233,8 +231,12 @@ def joint_features(result, tracks=None, frames=None):
         "depth": np.repeat(_depth()[None].astype(float), n, axis=0),
         "adapted": np.full((n, N), float(bool(getattr(result, "adapted", False))))}
     noise = np.repeat((residual * np.nan_to_num(result.scale))[:, None], N, axis=1)
-    disagreement, unit = _disagreement(result, safe)
-    rel = disagreement / np.where(size > 0, size / unit, 1.0)[:, None]
+    rel = np.zeros((n, N))
+    rows = np.flatnonzero((way == "per_frame").any(axis=1))  # the feature's only users
+    if len(rows):
+        disagreement, unit = _disagreement(result.missing[rows], result.vectors[rows],
+                                           result.scale[rows], safe[rows])
+        rel[rows] = disagreement / np.where(size[rows] > 0, size[rows] / unit, 1.0)[:, None]
     out["log_disagreement"] = np.log(np.nan_to_num(rel) + _EPS)
     log_residual = np.where(np.isnan(result.objective), UNSOLVED_LOG_RESIDUAL,
                             np.log(residual + _EPS))
