@@ -29,7 +29,9 @@ radii scaled to other levels by :func:`sparseedm.uncertainty.radius_at`).
     python studies/uncertainty/calibrate.py --fit-only      # re-fit from the cache
     python studies/uncertainty/calibrate.py --write-module  # also rewrite CALIBRATION
     python studies/uncertainty/calibrate.py --mask-seed 1 --check \
-        --cache /tmp/check.npz      # new masks, the table as it is: check_seed1.json
+        --cache /tmp/check.npz      # new masks, the table as it is: check_val_seed1.json
+    python studies/uncertainty/calibrate.py --split test --check \
+        --cache /tmp/test.npz       # the held-out measurement: check_test_seed0.json
     python studies/uncertainty/calibrate.py --fit-only \
         --figure docs/explanation/uncertainty_reliability.png   # the reliability diagram
 
@@ -66,7 +68,8 @@ GAP_LENGTHS = (3, 10, 30, 90)
 MIN_COVERAGE = 0.86
 LEVELS = (0.5, 0.6, 0.7, 0.8, 0.9, 0.95)
 #: the options that say what was collected (kept with the cache)
-COLLECTION = ("photo_sources", "seeds", "coco_seeds", "max_clips", "mocap", "mask_seed")
+COLLECTION = ("split", "photo_sources", "seeds", "coco_seeds", "max_clips", "mocap",
+              "mask_seed")
 KEYS = sorted({f for names in FEATURES.values() for f in names} | {"size", "noise"})
 
 
@@ -85,10 +88,10 @@ def _record(res, truth, keep, label, tracks=None, frames=None):
     return out
 
 
-def photos(source, seeds):
-    """Photo-protocol records of one real2d source's validation poses."""
+def photos(source, seeds, part="val"):
+    """Photo-protocol records of one real2d source's poses of split `part`."""
     rs = real2d.load(source)
-    val = real2d.split(rs) == "val"
+    val = real2d.split(rs) == part
     rows = np.flatnonzero(rs.complete & val & (real2d.body_size(rs.poses) > 0))
     pool = ~rs.visible[val & ~rs.complete]
     out = []
@@ -109,15 +112,15 @@ def photos(source, seeds):
     return out
 
 
-def _bonn_clips(max_clips):
+def _bonn_clips(max_clips, part="val"):
     from studies.real_video.harness import clips, hidden_windows
 
     data = real2d.load("bonn")
-    found = clips(data, "val")
+    found = clips(data, part)
     if max_clips and len(found) > max_clips:
         pick = np.random.default_rng(5).choice(len(found), max_clips, replace=False)
         found = [found[i] for i in sorted(pick)]
-    return found, [d for d in hidden_windows(data, "val") if d.any()]
+    return found, [d for d in hidden_windows(data, part) if d.any()]
 
 
 def _video_call(truth, fr, mask, label, out):
@@ -130,9 +133,9 @@ def _video_call(truth, fr, mask, label, out):
     out.append(_record(res, truth, np.ones(len(fr), bool), label, tracks, fr))
 
 
-def video(max_clips, seed=0):
-    """Bonn PoseTrack validation clips, one per call."""
-    found, donors = _bonn_clips(max_clips)
+def video(max_clips, seed=0, part="val"):
+    """Bonn PoseTrack clips of split `part`, one per call."""
+    found, donors = _bonn_clips(max_clips, part)
     out = []
     for truth, fr, key in found:
         def rng(extra, key=key):
@@ -146,13 +149,14 @@ def video(max_clips, seed=0):
     return out
 
 
-def mocap(data_dir, max_sequences, seed=0):
-    """CMU clips through a virtual camera each (validation third)."""
+def mocap(data_dir, max_sequences, seed=0, part="val"):
+    """CMU clips through a virtual camera each (the validation or test third)."""
     from studies.temporal.select_temporal import end_mask, sequences
 
     from studies.temporal.select_temporal import gap_mask as mocap_gaps
     out = []
-    seqs = sequences(Path(data_dir) / "cmu-bvh-daz", 1, 300, max_sequences)
+    seqs = sequences(Path(data_dir) / "cmu-bvh-daz", 1 if part == "val" else 2, 300,
+                     max_sequences)
     rng = np.random.default_rng(seed)
     for truth in seqs:
         fr = np.arange(len(truth))
@@ -169,10 +173,11 @@ def collect(args):
     t0 = time.perf_counter()
     for source in args.photo_sources.split(","):
         count = args.coco_seeds if source == "coco" else args.seeds
-        parts += photos(source, range(args.mask_seed * 100, args.mask_seed * 100 + count))
-    parts += video(args.max_clips, args.mask_seed)
+        parts += photos(source, range(args.mask_seed * 100, args.mask_seed * 100 + count),
+                        args.split)
+    parts += video(args.max_clips, args.mask_seed, args.split)
     if args.mocap:
-        parts += mocap(args.data_dir, args.mocap, args.mask_seed)
+        parts += mocap(args.data_dir, args.mocap, args.mask_seed, args.split)
     joined = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
     joined["refused"] = np.array([int(joined["refused"].sum())])
     print(f"collected {len(joined['error'])} joints in {time.perf_counter() - t0:.0f} s")
@@ -317,13 +322,17 @@ def main(argv=None):
     ap.add_argument("--data-dir", default=str(ROOT.parent / "shared" / "data"))
     ap.add_argument("--mask-seed", type=int, default=0,
                     help="seeds the hidden joints (another seed: a check on new masks)")
+    ap.add_argument("--split", choices=("val", "test"), default="val",
+                    help="test: the held-out measurement, with --check only")
     ap.add_argument("--check", action="store_true",
                     help="report the module's table on the collected joints, no fit")
     ap.add_argument("--write-module", action="store_true")
     ap.add_argument("--figure", help="the reliability diagram (.png) to write")
     ap.add_argument("-o", "--output", help="the JSON written; default calibration.json "
-                    "beside this script, check_seed<S>.json with --check")
+                    "beside this script, check_<split>_seed<S>.json with --check")
     args = ap.parse_args(argv)
+    if args.split == "test" and not args.check:
+        ap.error("--split test measures the table as it is: add --check (fit on val only)")
     if args.fit_only:
         with np.load(args.cache, allow_pickle=False) as f:
             data = {k: f[k] for k in f.files}
@@ -342,11 +351,12 @@ def main(argv=None):
               f"(was {before[lab]['coverage']:.3f}) informativeness "
               f"{row['informativeness']:.2f} radius/size {row['mean_radius_of_size']:.3f}")
     print(json.dumps(table))
-    out = {"split": "val", "calibration": table, "sources": after,
+    out = {"split": settings.get("split", "val"), "calibration": table, "sources": after,
            "refused_hidden_joints": int(data["refused"][0]),
            "fitted": not args.check, "collection": settings}
-    output = args.output or Path(__file__).with_name(
-        f"check_seed{args.mask_seed}.json" if args.check else "calibration.json")
+    name = f"check_{args.split}_seed{args.mask_seed}.json" if args.check else \
+        "calibration.json"
+    output = args.output or Path(__file__).with_name(name)
     Path(output).write_text(json.dumps(out, indent=1) + "\n")
     if args.write_module:
         write_module(table)
