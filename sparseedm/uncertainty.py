@@ -337,10 +337,10 @@ def joint_uncertainty(result, tracks=None, frames=None, calibration=None):
     --------
     >>> import numpy as np
     >>> import sparseedm
-    >>> pose = np.array([[50, 10], [50, 30], [35, 32], [30, 55], [28, 78],
-    ...                  [65, 32], [70, 55], [72, 78], [40, 80], [40, 115],
-    ...                  [40, 150], [60, 80], [60, 115], [60, 150]], float)
-    >>> pose[4] = np.nan
+    >>> xs = [50, 50, 35, 30, 28, 65, 70, 72, 40, 40, 40, 60, 60, 60]
+    >>> ys = [10, 30, 32, 55, 78, 32, 55, 78, 80, 115, 150, 80, 115, 150]
+    >>> pose = np.column_stack([xs, ys]).astype(float)
+    >>> pose[4] = np.nan                      # the right wrist, hidden
     >>> r = joint_uncertainty(sparseedm.recover(pose, adapt=False))
     >>> bool(r[0, 4] > 0), float(r[0, 0])
     (True, 0.0)
