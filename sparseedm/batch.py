@@ -659,6 +659,7 @@ class _Columns:
         self.n_active = np.zeros(n, dtype=np.int64)
         self.fallback = np.zeros(n, dtype=bool)
         self.flags = np.zeros((n, N_JOINTS), dtype=bool)  # joints filled by this run
+        self.uncertainty = np.full((n, N_JOINTS), np.nan)  # the 90 % radius per joint
         self.recovered_joints = 0
         self.edm = None
         if save_edm:
@@ -675,6 +676,8 @@ class _Columns:
         self.n_active[rows] = res.n_active
         self.fallback[rows] = res.fallback
         self.flags[rows] = missing & res.ok[:, None] & np.isfinite(res.poses).all(axis=-1)
+        if res.uncertainty is not None:
+            self.uncertainty[rows] = res.uncertainty
         self.recovered_joints += int(
             res.missing[np.isin(res.status, ("recovered", "inaccurate"))].sum())
         if self.edm is not None:
@@ -714,8 +717,10 @@ def _run(source, outputs, recovery, chunk_size, progress, t0):
         if kps is not None and kps.filled is not None:
             flags |= kps.filled & np.isfinite(filled).all(axis=-1)  # flagged in the input
         _write_output(out_tmp, out_fmt, filled, source.ids, source.meta, outputs.in_fmt,
-                      fields, columns.edm, outputs.filled_score, kps, flags, source.linked)
-        _write_sidecars(side_tmp, dict(fields, filled=flags), source.ids, columns.edm)
+                      fields, columns.edm, outputs.filled_score, kps, flags, source.linked,
+                      columns.uncertainty)
+        _write_sidecars(side_tmp, dict(fields, filled=flags, uncertainty=columns.uncertainty),
+                        source.ids, columns.edm)
         if isinstance(filled, np.memmap):
             filled.flush()
             del filled
@@ -777,10 +782,14 @@ def _write_sidecars(side_tmp, fields, ids, edm):
 
 
 def _write_output(tmp, fmt, filled, ids, meta, in_fmt, fields, edm,
-                  filled_score=FILLED_SCORE, kps=None, flags=None, linked=None):
+                  filled_score=FILLED_SCORE, kps=None, flags=None, linked=None,
+                  uncertainty=None):
     """The output file; `linked` (the tracks :func:`link_tracks` gave a file
-    without any) is written as its tracks (a ``track`` column, ``tracks`` array)."""
+    without any) is written as its tracks (a ``track`` column, ``tracks`` array);
+    `uncertainty` (the 90 % radii) where the format holds it."""
     flagged = dict(filled=flags, filled_score=filled_score)
+    if fmt != "npy":  # .npy: in the status sidecar
+        flagged["uncertainty"] = uncertainty
     if fmt in FOLDER_OR_TABLE_FORMATS:  # status in each person's "sparseedm" object
         write_keypoints(tmp, filled, format=fmt, ids=ids, meta=meta, row_fields=fields,
                         **flagged,

@@ -140,7 +140,20 @@ Every format says which joints sparseedm filled (``filled=`` of
 :func:`write_keypoints`; by default the joints a read had missing that the
 poses now hold): CSV ``<joint>_filled`` columns (1/0, all 14 or none),
 ``.npz`` a ``filled`` (n, 14) bool array, COCO the ``"sparseedm"`` field, the
-detector formats as :mod:`sparseedm.formats` describes. ``.npy`` and
+detector formats as :mod:`sparseedm.formats` describes.
+
+Uncertainty
+-----------
+How sure each filled joint is (``RecoveryResult.uncertainty``, the radius in
+pixels of the circle that holds the true joint 9 times in 10;
+:mod:`sparseedm.uncertainty`), given as ``uncertainty=`` of
+:func:`write_keypoints` and read back into ``KeypointSet.uncertainty``: CSV
+``<joint>_uncertainty`` columns (all 14 or none; 0 for an observed joint,
+empty for a refused pose), ``.npz`` an ``uncertainty`` (n, 14) float array,
+COCO, OpenPose and MMPose ``"uncertainty"`` in the ``"sparseedm"`` object
+(``{joint name: radius}`` of the joints whose radius is known, 0 for an
+observed one; null for a refused pose). ``.npy`` and DeepLabCut
+outputs of ``sparseedm recover`` hold it in the status sidecar. ``.npy`` and
 DeepLabCut tables cannot hold them (:data:`FLAGS_IN_SIDECAR`): ``sparseedm
 recover`` puts them in the ``<stem>.status.npz`` sidecar beside its output
 (:func:`status_sidecar`), and :func:`read_keypoints` reads them back from
@@ -188,7 +201,7 @@ from ._validation import NUMBER_TEXT, SCORE, Interval, check_poses, validate_par
 from .exceptions import FileFormatError, ParameterError, PoseError
 from .formats import posetrack
 from .formats.deeplabcut import H5_SUFFIXES
-from .formats._base import csv_cells, track_value
+from .formats._base import csv_cells, filled_likelihood, radii_object, read_radii, track_value
 from .skeleton import JOINT_NAMES, SKELETON_14
 
 __all__ = [
@@ -216,7 +229,7 @@ EXTENSIONS = {".npz": "npz", ".npy": "npy", ".csv": "csv", ".json": "coco"}
 #: :func:`read_keypoints` reads them back from there
 FLAGS_IN_SIDECAR = ("npy", "dlc")
 #: CSV column suffixes of the joint columns
-_SUFFIXES = ("x", "y", "conf", "filled")
+_SUFFIXES = ("x", "y", "conf", "filled", "uncertainty")
 #: other suffixes detectors and tools give a joint's confidence column, read as ``_conf``
 CONF_SYNONYMS = ("score", "confidence", "likelihood")
 _CONF_SUFFIXES = ("conf",) + CONF_SYNONYMS
@@ -263,6 +276,9 @@ class KeypointSet:
         Frame number of each pose within its track (may skip and be unsorted).
     filled : ndarray of bool, shape (n, 14), optional
         Joints the file flags as filled by sparseedm (read as present).
+    uncertainty : ndarray, shape (n, 14), optional
+        The 90 % radius of each joint the file holds (pixels; 0 observed,
+        NaN unknown), as ``sparseedm recover`` writes it.
     meta : dict
         Format details for writing the file back (see the module docstring).
 
@@ -282,6 +298,7 @@ class KeypointSet:
     tracks: np.ndarray | None = None
     frames: np.ndarray | None = None
     filled: np.ndarray | None = None
+    uncertainty: np.ndarray | None = None
 
     def __post_init__(self):
         self.poses = np.asarray(self.poses, dtype=float)
@@ -313,6 +330,11 @@ class KeypointSet:
             self.filled = np.asarray(self.filled, dtype=bool)
             if self.filled.shape != (n, N_JOINTS):
                 raise PoseError(f"filled must have shape ({n}, 14), got {self.filled.shape}")
+        if self.uncertainty is not None:
+            self.uncertainty = np.asarray(self.uncertainty, dtype=float)
+            if self.uncertainty.shape != (n, N_JOINTS):
+                raise PoseError(f"uncertainty must have shape ({n}, 14), "
+                                f"got {self.uncertainty.shape}")
 
     def __len__(self) -> int:
         return len(self.poses)
@@ -511,6 +533,8 @@ def read_keypoints(path, *, format=None, confidence_threshold=None, joint_map=No
             if flags is not None:
                 parsed.filled = flags if parsed.filled is None else parsed.filled | flags
         kps = _from_parsed(parsed, confidence_threshold)
+        if fmt in FLAGS_IN_SIDECAR:
+            kps.uncertainty = sidecar_uncertainty(path, len(kps))
     else:
         reader = {"npz": _read_npz, "npy": _read_npy, "csv": _read_csv, "coco": _read_coco}
         kps = reader[fmt](path, confidence_threshold)
@@ -544,7 +568,8 @@ def _from_parsed(parsed, threshold):
                                   np.logical_or.reduce(kept) if kept else None)
     parsed.meta.update(read_missing=missing)
     return KeypointSet(poses, missing, parsed.confidence, parsed.ids, parsed.meta,
-                       tracks=parsed.tracks, frames=parsed.frames, filled=parsed.filled)
+                       tracks=parsed.tracks, frames=parsed.frames, filled=parsed.filled,
+                       uncertainty=parsed.uncertainty)
 
 
 _READ_PARAMS = {
@@ -574,7 +599,8 @@ def _read_npz(path, threshold):
         if f.read(4) != _ZIP_MAGIC:
             raise FileFormatError(f"{path}: expected an .npz archive, found no zip archive "
                                   "(a single .npy array?)")
-    known = ("poses", "missing", "confidence", "ids", "filled") + TIME_KEYS + RESULT_FIELDS
+    known = ("poses", "missing", "confidence", "ids", "filled", "uncertainty") + TIME_KEYS \
+        + RESULT_FIELDS
     arrays, names = load_npz(path, known)
     if "poses" not in arrays:
         raise FileFormatError(
@@ -596,6 +622,7 @@ def _read_npz(path, threshold):
     if confidence is not None:
         _kind(confidence, "fiu", path, "confidence", "real numbers")
         confidence = _optional(confidence, n, "confidence", path, float)
+    uncertainty = _radii(arrays.pop("uncertainty", None), n, path)
     ids = arrays.pop("ids", None)
     if ids is not None:
         ids = _optional(_ids_text(ids, path), n, "ids", path, str)
@@ -611,10 +638,23 @@ def _read_npz(path, threshold):
     poses, missing = finish_missing(poses, missing, confidence, threshold)
     poses, missing = _keep_filled(raw, poses, missing, filled)
     ignored = sorted(set(names) - set(arrays) - {"poses", "missing", "confidence", "ids",
-                                                 "filled"} - set(TIME_KEYS))
+                                                 "filled", "uncertainty"} - set(TIME_KEYS))
     return KeypointSet(poses, missing, confidence, ids,
                        {"npz_extra": arrays, "npz_ignored": ignored, **time_meta},
-                       tracks=tracks, frames=frames, filled=filled)
+                       tracks=tracks, frames=frames, filled=filled, uncertainty=uncertainty)
+
+
+def _radii(arr, n, where):
+    """An (n, 14) uncertainty array (pixels, >= 0 or NaN), or None; a negative or
+    infinite radius is refused."""
+    if arr is None:
+        return None
+    arr = np.asarray(arr)
+    _kind(arr, "fiu", where, "uncertainty", "real numbers")
+    arr = _optional(arr, n, "uncertainty", where, float)
+    if (arr < 0).any() or np.isinf(arr).any():
+        raise FileFormatError(f"{where}: 'uncertainty' must hold radii >= 0 (NaN: unknown)")
+    return arr
 
 
 #: .npz keys of a pose's track and frame (``clips``: as ``dataset build`` writes)
@@ -687,7 +727,8 @@ def _read_npy(path, threshold):
     filled = sidecar_flags(path, len(poses), None)
     poses, missing = finish_missing(poses, missing, confidence, threshold)
     poses, missing = _keep_filled(arr[..., :2], poses, missing, filled)
-    return KeypointSet(poses, missing, confidence, None, {}, filled=filled)
+    return KeypointSet(poses, missing, confidence, None, {}, filled=filled,
+                       uncertainty=sidecar_uncertainty(path, len(poses)))
 
 
 def beside(path, ending) -> Path:
@@ -759,6 +800,20 @@ def sidecar_flags(path, n, ids):
         warnings.warn(f"ignored {side} (the filled flags of {path}): {why}", stacklevel=4)
         return None
     return flags
+
+
+def sidecar_uncertainty(path, n):
+    """The 90 % radii (n, 14) a :data:`FLAGS_IN_SIDECAR` file's status sidecar
+    holds (``sparseedm recover`` writes them there); None without them (a
+    sidecar that cannot be read is reported by :func:`sidecar_flags`)."""
+    side = status_sidecar(path)
+    if is_stream(path) or not side.is_file():
+        return None
+    try:
+        arrays, _ = load_npz(side, ("uncertainty",), what=f"{side}:")
+        return _radii(arrays.get("uncertainty"), n, str(side))
+    except (FileFormatError, OSError):
+        return None
 
 
 #: a plain decimal number (or nan/inf): not Python's extras ("1_0", full-width digits)
@@ -851,9 +906,14 @@ def _csv_block(rows, columns, path, header):
         for r, (line, fields) in enumerate(rows):
             for j, c in columns["filled"].items():
                 filled[r, j] = _parse_flag(fields[c], path, line, header[c])
+    radii = None
+    if columns["uncertainty"]:
+        radii = np.full((m, N_JOINTS), np.nan)
+        radii[:, list(columns["uncertainty"])] = _float_columns(
+            rows, list(columns["uncertainty"].values()), path, header)
     ids = [fields[columns["id"]].strip() for _, fields in rows] if "id" in columns else None
     extra = {name: [fields[c] for _, fields in rows] for name, c in columns["extra"].items()}
-    return poses, conf, filled, ids, extra
+    return poses, conf, filled, ids, extra, radii
 
 
 def _joined(parts, shape, dtype):
@@ -881,6 +941,8 @@ def _read_csv(path, threshold):
     filled = _joined([b[2] for b in blocks], (0, N_JOINTS), bool) if columns["filled"] else None
     ids = [i for b in blocks for i in b[3]] if "id" in columns else None
     extra = {name: [v for b in blocks for v in b[4][name]] for name in columns["extra"]}
+    radii = _radii(_joined([b[5] for b in blocks], (0, N_JOINTS), float), n, path) \
+        if columns["uncertainty"] else None
     del blocks
     missing = np.zeros((n, N_JOINTS), dtype=bool)
     raw = poses
@@ -891,7 +953,7 @@ def _read_csv(path, threshold):
         if "track" in extra else None
     frames = _frame_cells(extra["frame"], n) if "frame" in extra else None
     return KeypointSet(poses, missing, conf, ids, {"extra_columns": extra},
-                       tracks=tracks, frames=frames, filled=filled)
+                       tracks=tracks, frames=frames, filled=filled, uncertainty=radii)
 
 
 def _frame_cells(cells, n):
@@ -914,8 +976,8 @@ def _parse_flag(text, path, line, column):
 
 def _csv_columns(header, path):
     """Map header names to column indices, with clear errors."""
-    xy, conf, filled, extra = {}, {}, {}, {}
-    out = {"xy": xy, "conf": conf, "filled": filled, "extra": extra}
+    xy, conf, filled, radii, extra = {}, {}, {}, {}, {}
+    out = {"xy": xy, "conf": conf, "filled": filled, "uncertainty": radii, "extra": extra}
     seen, conf_suffixes = set(), set()
     for c, name in enumerate(header):
         if name in seen:
@@ -937,6 +999,8 @@ def _csv_columns(header, path):
             j = JOINT_NAMES.index(stem)
             if suffix == "filled":
                 filled[j] = c
+            elif suffix == "uncertainty":
+                radii[j] = c
             else:
                 xy[(j, "xy".index(suffix))] = c
         else:
@@ -955,7 +1019,8 @@ def _csv_columns(header, path):
             f"{path}, line 1: the confidence columns mix the suffixes "
             f"{', '.join('_' + k for k in sorted(conf_suffixes))}; use one for all 14 "
             "joints (_conf, or one of " + ", ".join("_" + k for k in CONF_SYNONYMS) + ")")
-    for kind, cols in ((next(iter(conf_suffixes), "conf"), conf), ("filled", filled)):
+    for kind, cols in ((next(iter(conf_suffixes), "conf"), conf), ("filled", filled),
+                       ("uncertainty", radii)):
         if cols and len(cols) != N_JOINTS:
             absent = [f"{JOINT_NAMES[j]}_{kind}" for j in range(N_JOINTS) if j not in cols]
             raise FileFormatError(
@@ -1039,8 +1104,10 @@ def _read_coco(path, threshold):
         conf[:, _HEAD_TOP] = v[:, top]
     tracks, frames = posetrack.tracks_and_frames(doc, anns, path)
     meta = {"coco_document": doc, "coco_missing": coco_missing}
+    radii = _coco_radii_of(anns, missing, path)
     return KeypointSet(poses, missing, conf, np.asarray(ids, dtype=str).reshape(n), meta,
-                       tracks=tracks, frames=frames, filled=filled if filled.any() else None)
+                       tracks=tracks, frames=frames, filled=filled if filled.any() else None,
+                       uncertainty=radii)
 
 
 def _coco_to_14(xy, v, coco_missing):
@@ -1069,6 +1136,7 @@ def write_keypoints(
     filled=None,
     filled_score=formats.FILLED_SCORE,
     row_fields=None,
+    uncertainty=None,
 ):
     """Write 2D keypoints atomically; the format comes from the extension.
 
@@ -1105,6 +1173,13 @@ def write_keypoints(
     row_fields : dict of str -> sequence, optional
         OpenPose / MMPose: per-pose results (status, ...) stored in each
         person's ``"sparseedm"`` object.
+    uncertainty : array_like, shape (n, 14), optional
+        The 90 % radius of each joint (``RecoveryResult.uncertainty``; >= 0,
+        NaN unknown): npz ``uncertainty``, CSV ``<joint>_uncertainty``, COCO
+        COCO / OpenPose / MMPose ``"sparseedm"."uncertainty"`` (see the
+        module docstring); DeepLabCut: the filled joints' likelihood
+        (:func:`sparseedm.formats._base.filled_likelihood`). Default: a
+        KeypointSet's.
 
     Returns
     -------
@@ -1139,6 +1214,7 @@ def write_keypoints(
         frames = kps.frames if frames is None else frames
         if filled is None and kps.filled is not None:
             filled = kps.filled | _newly_filled(kps.poses, meta)
+        uncertainty = kps.uncertainty if uncertainty is None else uncertainty
     meta = meta or {}
     where = f"writing {path}"
     poses = check_poses(poses, "write_keypoints")
@@ -1155,12 +1231,16 @@ def write_keypoints(
     confidence = _optional(confidence, n, "confidence", where, float)
     if ids is not None:
         ids = _optional(np.asarray(ids).astype(str), n, "ids", where, str)
+    uncertainty = _radii(uncertainty, n, where)
 
     if filled is None:
         filled = _newly_filled(poses, meta) | _read_filled(meta, n)
     filled = _optional(filled, n, "filled", where, bool) & ~mask
     if fmt in formats.FORMATS:
-        rows = formats.Rows(poses, filled, confidence, ids, tracks, frames, filled_score)
+        rows = formats.Rows(poses, filled, confidence, ids, tracks, frames, filled_score,
+                            uncertainty=uncertainty)
+        if fmt == "dlc" and uncertainty is not None:
+            rows.likelihood = filled_likelihood(poses, uncertainty, filled_score)
         formats.write(fmt, path, rows, meta, filled_score=filled_score, row_fields=row_fields)
     elif fmt == "npz":
         arrays = dict(meta.get("npz_extra") or {})
@@ -1172,6 +1252,8 @@ def write_keypoints(
         arrays.update(_time_arrays(tracks, frames, meta))
         if filled.any():
             arrays["filled"] = filled
+        if uncertainty is not None:
+            arrays["uncertainty"] = uncertainty
         save_npz(path, arrays)
     elif fmt == "npy":
         arr = poses if confidence is None else np.concatenate(
@@ -1186,9 +1268,10 @@ def write_keypoints(
             extra_columns = meta.get("extra_columns") or {}
         extra_columns = _time_columns(tracks, frames, extra_columns)
         _write_csv(path, poses, confidence, ids, extra_columns, where,
-                   filled if filled.any() else None)
+                   filled if filled.any() else None, uncertainty)
     else:
-        _write_coco(path, poses, mask, ids, meta, where, filled, filled_score, tracks)
+        _write_coco(path, poses, mask, ids, meta, where, filled, filled_score, tracks,
+                    uncertainty)
     return path
 
 
@@ -1228,7 +1311,8 @@ def _time_columns(tracks, frames, extra_columns):
     return extra_columns
 
 
-def _write_csv(path, poses, confidence, ids, extra_columns, where, filled=None):
+def _write_csv(path, poses, confidence, ids, extra_columns, where, filled=None,
+               uncertainty=None):
     n = len(poses)
     header = [] if ids is None else ["id"]
     header += [f"{name}_{a}" for name in JOINT_NAMES for a in "xy"]
@@ -1236,6 +1320,8 @@ def _write_csv(path, poses, confidence, ids, extra_columns, where, filled=None):
         header += [f"{name}_conf" for name in JOINT_NAMES]
     if filled is not None:
         header += [f"{name}_filled" for name in JOINT_NAMES]
+    if uncertainty is not None:
+        header += [f"{name}_uncertainty" for name in JOINT_NAMES]
     extras = []
     for name, values in extra_columns.items():
         name = str(name)
@@ -1259,13 +1345,15 @@ def _write_csv(path, poses, confidence, ids, extra_columns, where, filled=None):
             flat = np.asarray(poses).reshape(n, 2 * N_JOINTS)
             for lo in range(0, n, CSV_BLOCK_ROWS):  # the cells of one block at a time
                 hi = min(n, lo + CSV_BLOCK_ROWS)
-                writer.writerows(_csv_out_rows(lo, hi, flat, confidence, ids, filled, extras))
+                writer.writerows(_csv_out_rows(lo, hi, flat, confidence, ids, filled, extras,
+                                               uncertainty))
 
 
-def _csv_out_rows(lo, hi, flat, confidence, ids, filled, extras):
+def _csv_out_rows(lo, hi, flat, confidence, ids, filled, extras, uncertainty=None):
     """The CSV rows ``lo:hi`` of :func:`_write_csv`, as lists of cells."""
     xy = csv_cells(flat[lo:hi])
     conf = None if confidence is None else csv_cells(np.asarray(confidence)[lo:hi])
+    radii = None if uncertainty is None else csv_cells(uncertainty[lo:hi])
     out = []
     for k, r in enumerate(range(lo, hi)):
         row = [] if ids is None else [ids[r]]
@@ -1274,6 +1362,8 @@ def _csv_out_rows(lo, hi, flat, confidence, ids, filled, extras):
             row += conf[k]
         if filled is not None:
             row += ["1" if f else "0" for f in filled[r]]
+        if radii is not None:
+            row += radii[k]
         row += ["" if col[r] is None else str(col[r]) for col in extras]
         out.append(row)
     return out
@@ -1283,7 +1373,16 @@ def _xy_or_none(p):
     return None if np.isnan(p).any() else [float(p[0]), float(p[1])]
 
 
-def _write_coco(path, poses, mask, ids, meta, where, filled, filled_score, tracks=None):
+def _coco_radii_of(anns, missing, path):
+    """(n, 14) radii of a COCO document's annotations, None when none has one."""
+    radii = [read_radii(ann, f"{path}: annotation {a}") for a, ann in enumerate(anns)]
+    if all(r is None for r in radii):
+        return None
+    return np.stack([np.full(N_JOINTS, np.nan) if r is None else r for r in radii])
+
+
+def _write_coco(path, poses, mask, ids, meta, where, filled, filled_score, tracks=None,
+                uncertainty=None):
     n = len(poses)
     fresh = meta.get("coco_document") is None
     if not fresh:
@@ -1326,6 +1425,8 @@ def _write_coco(path, poses, mask, ids, meta, where, filled, filled_score, track
             "head_top": _xy_or_none(poses[r, _HEAD_TOP]),
             "filled": [JOINT_NAMES[j] for j in np.flatnonzero(filled[r])],
         }
+        if uncertainty is not None:
+            ann["sparseedm"]["uncertainty"] = radii_object(uncertainty[r])
         if tracks is not None and not fresh and ann.get("track_id") is None:
             ann["track_id"] = track_value(np.asarray(tracks)[r])  # linked, as read had none
     with atomic_path(path) as tmp:

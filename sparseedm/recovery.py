@@ -36,6 +36,7 @@ from .dictionary import Dictionary, check_gram_memory, load_dictionary
 from .ensemble import adapt_members
 from .exceptions import ParameterError, SparseEDMError
 from .temporal.recover import recover_temporal
+from .uncertainty import joint_uncertainty
 
 __all__ = ["recover", "RecoveryResult", "OcclusionRecoverer", "STATUSES", "screen_poses",
            "check_options_apply"]
@@ -222,11 +223,13 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         representation = representation_for(representation)
     if frames is not None and temporal:
         check_frames(frames, "recover")
-        return _recover_in_time(poses, missing, tracks, frames, method, dict(
+        res = _recover_in_time(poses, missing, tracks, frames, method, dict(
             dictionary=dictionary, alpha=alpha, representation=representation, solver=solver,
             n_jobs=n_jobs, chunk_size=chunk_size, positive=positive, progress=progress,
             backend=backend, scheduler=scheduler, adapt=adapt, self_training=self_training,
             ensemble=ensemble))
+        linked = getattr(res, "linked_tracks", None)
+        return _with_uncertainty(res, tracks if linked is None else linked, frames)
     if method == "fconv":  # torch is imported only on this path
         from .fconv.recover import recover_fconv
 
@@ -234,8 +237,9 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
             raise SparseEDMError("ensemble averages adapted dictionaries: it needs "
                                  "method='sparse'")
 
-        return recover_fconv(poses, missing, model=model, representation=representation,
-                             chunk_size=chunk_size, progress=progress)
+        return _with_uncertainty(recover_fconv(
+            poses, missing, model=model, representation=representation,
+            chunk_size=chunk_size, progress=progress))
     if not isinstance(dictionary, Dictionary):
         dictionary = load_dictionary(dictionary)
     check_gram_memory(dictionary)
@@ -248,10 +252,16 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         members, adaptations = adapt_members(dictionary, poses, missing, adapt, ensemble,
                                              n_jobs=n_jobs, self_training=self_training,
                                              file_atoms=True)
-    return recover_members(poses, missing, members, adaptations, alpha=alpha,
-                           representation=representation, solver=solver, n_jobs=n_jobs,
-                           chunk_size=chunk_size, positive=positive, progress=progress,
-                           backend=backend, scheduler=scheduler)
+    return _with_uncertainty(recover_members(
+        poses, missing, members, adaptations, alpha=alpha, representation=representation,
+        solver=solver, n_jobs=n_jobs, chunk_size=chunk_size, positive=positive,
+        progress=progress, backend=backend, scheduler=scheduler))
+
+
+def _with_uncertainty(res, tracks=None, frames=None):
+    """`res` with its calibrated 90 % radius per joint (:mod:`sparseedm.uncertainty`)."""
+    res.uncertainty = joint_uncertainty(res, tracks, frames)
+    return res
 
 
 def _recover_in_time(poses, missing, tracks, frames, method, kwargs):

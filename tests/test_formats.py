@@ -20,7 +20,8 @@ import pytest
 from sparseedm.batch import recover_file
 from sparseedm.exceptions import FileFormatError, OutputPathError
 from sparseedm import formats
-from sparseedm.formats import detect
+from sparseedm.formats import DEFAULT_THRESHOLDS, detect
+from sparseedm.formats._base import FILLED_LIKELIHOOD_CAP
 from sparseedm.keypoints import read_keypoints, write_keypoints
 from sparseedm.skeleton import JOINT_NAMES
 
@@ -80,8 +81,14 @@ def test_round_trip_fills_and_flags_every_occluded_joint(case, tmp_path, small_d
     np.testing.assert_array_equal(back.frames, first.frames)
     if case != "openpose-file":  # an OpenPose pose's id is its file's name
         np.testing.assert_array_equal(back.ids, first.ids)
-    # filled joints carry the filled score, never a detection's
-    np.testing.assert_array_equal(back.confidence[first.missing], 0.0)
+    # filled joints carry the filled score, never a detection's; DeepLabCut's
+    # likelihood says how sure the fill is, below its default cutoff
+    if back.meta["format"] == "dlc":
+        like = back.confidence[first.missing]
+        assert ((0 < like) & (like <= FILLED_LIKELIHOOD_CAP)).all()
+        assert FILLED_LIKELIHOOD_CAP < DEFAULT_THRESHOLDS["dlc"]
+    else:
+        np.testing.assert_array_equal(back.confidence[first.missing], 0.0)
 
 
 def test_openpose_folder_round_trip_writes_the_same_files(tmp_path, small_dictionary):

@@ -48,7 +48,7 @@ LAYERS = [
     # 4 coding: parallel plumbing, dictionary learning, the baselines
     ("sparseedm._parallel", "sparseedm._coding", "sparseedm.learning", "sparseedm.baselines"),
     # 5 what every recovery path shares: statuses, result, screening, placement, combine
-    ("sparseedm._recovery_base",),
+    ("sparseedm._recovery_base", "sparseedm.uncertainty"),
     # 6 the sparse recovery kernel
     ("sparseedm._recovery_kernel",),
     # 7 methods on top of the kernel: adaptation, FConv, the lifters

@@ -90,6 +90,10 @@ def test_video_lift_fills_2d_across_time_first(video, lifted):
     # observed 2D joints are lifted as given; filled ones near the truth
     obs = ~kps.missing
     np.testing.assert_array_equal(in_time.poses2d[obs], kps.poses[obs])
+    # the 2D radius travels with the lift: 0 observed, positive filled, NaN per frame
+    assert (in_time.uncertainty2d[obs] == 0).all()
+    assert (in_time.uncertainty2d[kps.missing] > 0).all()
+    assert np.isnan(per_frame.uncertainty2d[kps.missing]).all()
     body = np.ptp(truth[..., 1], axis=1).mean()
     assert np.linalg.norm(in_time.poses2d - truth, axis=-1)[kps.missing].mean() < 0.03 * body
     # the 3D of the hidden frames lands much nearer what the complete 2D lifts to

@@ -118,6 +118,8 @@ class Parsed:
         What the writer needs to write the file back.
     stored : ndarray of bool, shape (n, 14), optional
         The neck / head top sparseedm wrote in its own object.
+    uncertainty : ndarray, shape (n, 14), optional
+        The 90 % radii sparseedm wrote in its own object (NaN: none).
     """
 
     poses: np.ndarray
@@ -129,6 +131,7 @@ class Parsed:
     filled: np.ndarray | None = None
     meta: dict = field(default_factory=dict)
     stored: np.ndarray | None = None
+    uncertainty: np.ndarray | None = None
 
 
 def csv_cells(values):
@@ -294,8 +297,39 @@ def read_extra(person, where):
     return points, [JOINT_NAMES.index(f) for f in filled]
 
 
-def write_extra(pose, filled_row, status=None):
-    """The ``"sparseedm"`` object written with a person: neck, head top, filled joints."""
+def radii_object(row):
+    """A pose's ``"uncertainty"`` in its ``"sparseedm"`` object: {joint name:
+    radius} of the joints whose radius is known (0 observed); None when none is
+    (a refused pose)."""
+    row = np.asarray(row, float)
+    if np.isnan(row).all():
+        return None
+    return {JOINT_NAMES[j]: float(row[j]) for j in np.flatnonzero(~np.isnan(row))}
+
+
+def read_radii(person, where):
+    """(14,) radii of a person's ``"sparseedm"."uncertainty"`` (NaN for a joint
+    not listed, all NaN for null), or None without one."""
+    extra = person.get(EXTRA_KEY)
+    if not isinstance(extra, dict) or "uncertainty" not in extra:
+        return None
+    value = extra["uncertainty"]
+    out = np.full(N_JOINTS, np.nan)
+    if value is None:
+        return out
+    if not isinstance(value, dict) or not all(
+            k in JOINT_NAMES and isinstance(v, Real) and not isinstance(v, bool)
+            and math.isfinite(v) and v >= 0 for k, v in value.items()):
+        raise FileFormatError(f"{where}: '{EXTRA_KEY}.uncertainty' must map joint names to "
+                              "radii >= 0, or be null")
+    for k, v in value.items():
+        out[JOINT_NAMES.index(k)] = v
+    return out
+
+
+def write_extra(pose, filled_row, status=None, radii=None):
+    """The ``"sparseedm"`` object written with a person: neck, head top, filled
+    joints, and the joints' 90 % radii when given (:func:`radii_object`)."""
     def xy(p):
         return None if np.isnan(p).any() else [float(p[0]), float(p[1])]
 
@@ -303,6 +337,8 @@ def write_extra(pose, filled_row, status=None):
            "filled": [JOINT_NAMES[j] for j in np.flatnonzero(filled_row)]}
     if status:
         out.update(status)
+    if radii is not None:
+        out["uncertainty"] = radii_object(radii)
     return out
 
 
@@ -418,6 +454,7 @@ class Person:
     track: object = None
     points: dict = field(default_factory=dict)
     filled: list = field(default_factory=list)
+    radii: np.ndarray | None = None
 
 
 def assemble(people, layout, meta, *, tracks=None, frames=None):
@@ -446,8 +483,12 @@ def assemble(people, layout, meta, *, tracks=None, frames=None):
     filled &= ~np.isnan(poses).any(axis=-1)
     present |= filled
     ids = np.asarray([p.id for p in people], dtype=str).reshape(n)
+    radii = None
+    if any(p.radii is not None for p in people):
+        radii = np.stack([np.full(N_JOINTS, np.nan) if p.radii is None else p.radii
+                          for p in people])
     return Parsed(poses, present, conf, ids, tracks, frames, filled if filled.any() else None,
-                  meta, stored if stored.any() else None)
+                  meta, stored if stored.any() else None, radii)
 
 
 def update_person(xy, score, pose, filled_row, layout, filled_score):
@@ -527,6 +568,12 @@ class Rows:
         Each pose's id, track and frame number.
     filled_score : float
         Score a filled joint is written with.
+    likelihood : ndarray, shape (n, 14), optional
+        DeepLabCut: the likelihood each filled joint is written with instead
+        (:func:`filled_likelihood`).
+    uncertainty : ndarray, shape (n, 14), optional
+        The 90 % radii, written in each person's ``"sparseedm"`` object
+        (OpenPose, MMPose).
     """
 
     poses: np.ndarray
@@ -536,6 +583,12 @@ class Rows:
     tracks: np.ndarray | None = None
     frames: np.ndarray | None = None
     filled_score: float = 0.0
+    likelihood: np.ndarray | None = None
+    uncertainty: np.ndarray | None = None
+
+    def radii(self, r):
+        """Pose r's radii for :func:`write_extra` (None without any)."""
+        return None if self.uncertainty is None else self.uncertainty[r]
 
     def score(self, r, j):
         """The score written for joint j of pose r (present joints only)."""
@@ -544,6 +597,42 @@ class Rows:
         if self.confidence is not None and np.isfinite(self.confidence[r, j]):
             return float(self.confidence[r, j])
         return 1.0
+
+
+#: the highest likelihood a filled joint gets in a DeepLabCut table: below
+#: DeepLabCut's default ``pcutoff`` (0.6), so a filled joint never passes for a detection
+FILLED_LIKELIHOOD_CAP = 0.5
+
+
+def filled_likelihood(poses, uncertainty, filled_score=0.0):
+    """DeepLabCut's likelihood of filled joints from their 90 % radius:
+    ``max(filled_score, FILLED_LIKELIHOOD_CAP * exp(-radius / size))``, ``size``
+    the pose's root-mean-square distance of its joints to their centroid;
+    `filled_score` where the radius is unknown (NaN).
+
+    Parameters
+    ----------
+    poses : ndarray (n, 14, 2)
+        The filled poses (NaN where missing).
+    uncertainty : ndarray (n, 14)
+        The 90 % radii, the poses' units.
+    filled_score : float, default 0.0
+
+    Returns
+    -------
+    ndarray (n, 14)
+
+    Examples
+    --------
+    >>> pose = np.array([[[0.0, 0.0], [2.0, 0.0]]])
+    >>> filled_likelihood(pose, np.array([[0.0, 1.0]])).round(3).tolist()
+    [[0.5, 0.184]]
+    """
+    with np.errstate(invalid="ignore"):
+        centred = poses - np.nanmean(poses, axis=1, keepdims=True)
+        size = np.sqrt(np.nanmean((centred ** 2).sum(axis=-1), axis=1))[:, None]
+        like = FILLED_LIKELIHOOD_CAP * np.exp(-np.asarray(uncertainty, float) / size)
+    return np.where(np.isfinite(like), np.maximum(like, filled_score), filled_score)
 
 
 def row_status(row_fields, r):

@@ -49,7 +49,10 @@ Writing back: DeepLabCut's own layout, so that its tools (``create_labeled_video
 ``filterpredictions``, which take the values as ``(frames, -1, 3)``: x, y,
 likelihood per body part) read the file: the same header rows (column levels
 in ``.h5``), the same columns in the same order, with each filled joint's
-``x``, ``y`` set and its ``likelihood`` set to ``filled_score``. The table
+``x``, ``y`` set and its ``likelihood`` set to ``filled_score``, or, when
+the radius of the joint's uncertainty is given, to
+:func:`~sparseedm.formats._base.filled_likelihood` (at most 0.5, below
+DeepLabCut's default ``pcutoff``; higher for a surer joint). The table
 has no room for the filled flags: ``sparseedm recover`` writes them to its
 ``<output stem>.status.npz`` sidecar (``filled``, (n, 14)), which
 :func:`sparseedm.keypoints.read_keypoints` reads them back from. A ``filled``
@@ -460,7 +463,8 @@ def _with_filled(names, columns, values, rows, mapping, individuals, filled_scor
                 values[:, c] = np.where(fill, rows.poses[sl, j, a], values[:, c])
             if (ind, part, "likelihood") in key:
                 c = key[(ind, part, "likelihood")]
-                values[:, c] = np.where(fill, filled_score, values[:, c])
+                score = filled_score if rows.likelihood is None else rows.likelihood[sl, j]
+                values[:, c] = np.where(fill, score, values[:, c])
     keep = [k for k, col in enumerate(columns) if col[-1] != "filled"]
     return [columns[k] for k in keep], values[:, keep]
 

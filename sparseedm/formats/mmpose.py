@@ -38,7 +38,8 @@ Layouts, told apart by the number of keypoints:
 Writing back: the input document with, per instance, the filled keypoints
 set to their recovered ``[x, y]`` and score ``filled_score``, and a
 ``"sparseedm"`` object (``neck``, ``head_top``, ``filled``: the 14-joint
-names filled; per-row status when written by ``sparseedm recover``).
+names filled; per-row status and ``uncertainty``, the joints' 90 % radii by
+name, when written by ``sparseedm recover``).
 Without an MMPose input: the demos' shape, COCO-17 instances grouped by frame.
 A path without ``.json`` is a folder of per-image files: a folder input's
 files under the same names, else one ``<frame>.json`` per frame (written as
@@ -133,7 +134,7 @@ def _instance(inst, where, frame, pose_id=None):
         raise FileFormatError(f"{where}: 'track_id' must be an integer or a string")
     points, filled = _base.read_extra(inst, where)
     return Person(xy, scores, str(frame) if pose_id is None else pose_id, frame, track,
-                  points, filled)
+                  points, filled, _base.read_radii(inst, where))
 
 
 def read(path, doc):
@@ -210,7 +211,7 @@ def _update(inst, rows, r, layout, filled_score, row_fields):
     inst["keypoints"] = xy.tolist()
     inst["keypoint_scores"] = scores.tolist()
     inst[EXTRA_KEY] = _base.write_extra(rows.poses[r], rows.filled[r],
-                                        _base.row_status(row_fields, r))
+                                        _base.row_status(row_fields, r), rows.radii(r))
     track = _base.linked_id(rows, r, inst.get("track_id") is not None)
     if track is not None:
         inst["track_id"] = track
@@ -239,7 +240,8 @@ def _fresh_instance(rows, r):
         if not np.isnan(rows.poses[r, j]).any():
             xy[k], scores[k] = rows.poses[r, j], rows.score(r, j)
     inst = {"keypoints": xy.tolist(), "keypoint_scores": scores.tolist(),
-            EXTRA_KEY: _base.write_extra(rows.poses[r], rows.filled[r])}
+            EXTRA_KEY: _base.write_extra(rows.poses[r], rows.filled[r],
+                                         radii=rows.radii(r))}
     if rows.tracks is not None:
         inst["track_id"] = _base.track_value(rows.tracks[r])
     return inst

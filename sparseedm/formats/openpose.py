@@ -44,7 +44,8 @@ Writing back: every file of the input, with the filled keypoints of each
 person set to ``[x, y, filled_score]`` and a ``"sparseedm"`` object per
 person (``neck``, ``head_top``, ``filled``: the 14-joint names filled,
 ``frame``, which a file renamed without the frame number is read with, plus
-per-row status when written by ``sparseedm recover``). A folder input is
+per-row status and ``uncertainty``, the joints' 90 % radii by name, when
+written by ``sparseedm recover``). A folder input is
 written as a folder (the same file names), a file as a file. Without an
 OpenPose input, BODY_25 files are written (one per frame; ``person_id`` the
 track).
@@ -116,7 +117,7 @@ def _person(person, path, p, frame):
     if frame is None and isinstance(stored, int) and not isinstance(stored, bool):
         frame = stored  # a file written here under a name without the frame number
     return Person(kp[:, :2], kp[:, 2], _stem(Path(path).name), frame,
-                  pid if pid >= 0 else None, points, filled)
+                  pid if pid >= 0 else None, points, filled, _base.read_radii(person, where))
 
 
 def _frame_file(path, frame):
@@ -192,7 +193,8 @@ def _updated(files, rows, meta, filled_score, row_fields):
                                 filled_score)
             person["pose_keypoints_2d"] = [float(v) for v in kp.ravel()]
             person[EXTRA_KEY] = _base.write_extra(rows.poses[r], rows.filled[r],
-                                                  _base.row_status(row_fields, r))
+                                                  _base.row_status(row_fields, r),
+                                                  rows.radii(r))
             if rows.frames is not None:
                 person[EXTRA_KEY]["frame"] = int(rows.frames[r])
             track = _base.linked_id(rows, r, _has_id(person))
@@ -217,7 +219,8 @@ def _fresh(rows, path):
             track = rows.tracks[r] if rows.tracks is not None else -1
             people.append({"person_id": [int(track) if _is_int(track) else -1],
                            "pose_keypoints_2d": [float(v) for v in kp.ravel()],
-                           EXTRA_KEY: _base.write_extra(rows.poses[r], rows.filled[r])})
+                           EXTRA_KEY: _base.write_extra(rows.poses[r], rows.filled[r],
+                                                        radii=rows.radii(r))})
         docs.append((f"{path.stem}_{frame:012d}{_SUFFIX}", {"version": 1.3, "people": people}))
     return docs, path.suffix.lower() != ".json"
 

@@ -76,6 +76,11 @@ class LiftResult:
         when frames came without tracks and some frame holds several poses
         (as ``linked_tracks`` of :func:`sparseedm.recover` with frames); None
         otherwise
+    uncertainty2d : (n, N) pixels, how sure each 2D joint lifted is: 0 for an
+        observed joint, the 90 % radius (:attr:`RecoveryResult.uncertainty`) of
+        a joint filled across time, NaN for a joint still missing (the lifter
+        places it from the others); no 3D radius is derived: weight or drop
+        a joint's 3D position by its 2D radius relative to the pose's size
     """
 
     poses3d: np.ndarray
@@ -89,6 +94,7 @@ class LiftResult:
     poses2d: np.ndarray = None
     filled: np.ndarray = None
     linked_tracks: np.ndarray = None
+    uncertainty2d: np.ndarray = None
 
     @property
     def edms3d(self):
@@ -184,11 +190,11 @@ def lift(poses, missing=None, *, tracks=None, frames=None, lifter=None, n_jobs=1
         lifter = adapt_lifter(lifter, adapt, n_jobs=n_jobs)
     N = lifter.n_joints
     poses, mask, bad = validate_poses(poses, missing, N, caller="lift", model="lifter")
-    filled, layout = np.zeros(mask.shape, bool), None
+    filled, layout, radius = np.zeros(mask.shape, bool), None, np.where(mask, np.nan, 0.0)
     if frames is not None:
-        poses, filled, layout = fill_in_time(poses, mask, tracks, frames,
-                                             dictionary=dictionary, n_jobs=n_jobs,
-                                             adapt=fill_adapt)
+        poses, filled, layout, radius = fill_in_time(poses, mask, tracks, frames,
+                                                     dictionary=dictionary, n_jobs=n_jobs,
+                                                     adapt=fill_adapt)
         mask = mask & ~filled
     out = _lift_rows(lifter, poses, mask, bad, representation, n_jobs, layout)
     if layout is not None:
@@ -205,7 +211,8 @@ def lift(poses, missing=None, *, tracks=None, frames=None, lifter=None, n_jobs=1
         out["reason"] = reason.astype(str)
     return LiftResult(**out, missing=mask | filled, seconds=time.perf_counter() - t0,
                       poses2d=np.where(mask[..., None], np.nan, poses), filled=filled,
-                      linked_tracks=None if layout is None else layout.linked)
+                      linked_tracks=None if layout is None else layout.linked,
+                      uncertainty2d=radius)
 
 
 def _lift_rows(lifter, poses, mask, bad, representation, n_jobs, layout):

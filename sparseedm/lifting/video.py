@@ -23,13 +23,16 @@ clips.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from ..temporal.recover import recover_temporal, time_layout
 from ..temporal.smoothing import smooth_trajectory
+from ..uncertainty import joint_uncertainty
 from .mds import reflection_path
 
-__all__ = ["fill_in_time", "choose_reflections", "smooth_tracks", "TIME_FILL_MAX_WEIGHT",
+__all__ = ["fill_in_time", "TimeFill", "choose_reflections", "smooth_tracks", "TIME_FILL_MAX_WEIGHT",
            "TRAJECTORY_SMOOTHNESS"]
 
 #: a joint time filled is lifted as filled when the per-frame 2D model's
@@ -44,8 +47,23 @@ TIME_FILL_MAX_WEIGHT = 1.0
 TRAJECTORY_SMOOTHNESS = 30.0
 
 
+class TimeFill(NamedTuple):
+    """What :func:`fill_in_time` returns."""
+
+    #: (n, N, 2) the poses with the filled joints' coordinates
+    poses: np.ndarray
+    #: (n, N) bool, the joints filled (a subset of the mask)
+    filled: np.ndarray
+    #: the segments time filled the poses in (TrackLayout)
+    layout: object
+    #: (n, N) the 2D 90 % radius (pixels): 0 observed, the calibrated radius of
+    #: a filled joint (:mod:`sparseedm.uncertainty`), NaN where still missing
+    uncertainty: np.ndarray
+
+
 def fill_in_time(poses, mask, tracks, frames, *, dictionary=None, n_jobs=1, adapt="auto"):
-    """The poses with the 2D joints time fills, which joints, and the track layout.
+    """The poses with the 2D joints time fills, which joints, the track layout
+    and the filled joints' 90 % radius.
 
     Parameters
     ----------
@@ -58,14 +76,14 @@ def fill_in_time(poses, mask, tracks, frames, *, dictionary=None, n_jobs=1, adap
 
     Returns
     -------
-    poses : ndarray (n, N, 2)
-        With the filled joints' coordinates.
-    filled : ndarray of bool (n, N)
-        Joints filled (a subset of `mask`); rows time cannot use fill none.
-    layout : TrackLayout
-        The segments time filled the poses in
-        (:func:`sparseedm.temporal.recover.time_layout`); its ``linked``: the
-        track ids linked when none were given and a frame holds several poses.
+    TimeFill
+        ``poses`` with the filled joints' coordinates; ``filled`` the joints
+        filled (a subset of `mask`; rows time cannot use fill none);
+        ``layout`` the segments time filled the poses in
+        (:func:`sparseedm.temporal.recover.time_layout`; its ``linked``: the
+        track ids linked when none were given and a frame holds several
+        poses); ``uncertainty`` the 2D radius of each joint (0 observed, NaN
+        still missing).
     """
     rec_input = np.where(mask[..., None], np.nan, poses)
     rec = recover_temporal(rec_input, mask, tracks=tracks,
@@ -78,7 +96,9 @@ def fill_in_time(poses, mask, tracks, frames, *, dictionary=None, n_jobs=1, adap
     layout = time_layout(rec_input, mask, tracks=tracks if linked is None else linked,
                          frames=frames)
     layout.linked = linked
-    return poses, filled, layout
+    radius = joint_uncertainty(rec, tracks if linked is None else linked, frames)
+    radius = np.where(mask & ~filled, np.nan, np.where(mask, radius, 0.0))
+    return TimeFill(poses, filled, layout, radius)
 
 
 def choose_reflections(front, back, score, rows, layout):

@@ -1,0 +1,375 @@
+"""How sure: a calibrated 90 % radius for every filled joint.
+
+:func:`joint_uncertainty` gives, for each joint of a recovery's result, the
+radius (in the input's units, pixels) of a circle centred on the filled joint
+that holds the true joint 9 times in 10: 0 for an observed joint, NaN for a
+joint of a refused pose. :func:`sparseedm.recover` puts it in
+``RecoveryResult.uncertainty``.
+
+The radius is the pose's size times a log-linear function of what the model
+knows about each filled joint (:func:`joint_features`)::
+
+    radius = max(noise, size * exp(coef . features) * conformal)
+
+with one set of coefficients per way of filling (:data:`CALIBRATION`):
+
+* ``per_frame`` (a photo, or a pose outside any track): the number of
+  hidden joints of the pose, the joint's hops along the skeleton to the
+  nearest observed joint, the disagreement between the recovered distances
+  and the placed joint, the lasso's residual on the observed distances, and
+  whether the dictionary was adapted to the file, and the joint's depth in
+  the skeleton (bones from the neck: a wrist 3, a hip 1);
+* ``temporal`` (a joint filled across time): the distance in frames to the
+  nearest frame where the joint is observed in its track, whether it is
+  observed on one side only (a clip's end) or never, the hops, the depth,
+  the hidden joints of the frame and the track's noise level relative to
+  its size (the per-frame prior's weight is left out: it is a function of
+  the same distance, and with it the radius would not grow steadily into a
+  gap).
+
+``size`` is the pose's root-mean-square distance of its joints to their
+centroid (per pose for ``per_frame``; the track's median for ``temporal``).
+``noise`` is what the observed joints say of the data's own noise: in time,
+the 90 % radius of the observed joints' frame-to-frame jitter (their second
+differences); per frame, the lasso's root-mean-square misfit of the observed
+distances; never less than :data:`MIN_RELATIVE` of the size. The
+coefficients are a 0.9-quantile regression of ``log(error / size)`` on
+validation data of real people and mocap, and ``conformal`` the factor that
+brings each way's coverage to 90 % on those data
+(``studies/uncertainty/calibrate.py`` re-fits the table in one command).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ._validation import frame_value
+from .edm import vector_to_edm
+from .skeleton import SKELETON_14
+
+__all__ = ["joint_uncertainty", "joint_features", "uncertainty_rule", "CALIBRATION",
+           "FEATURES", "MIN_RELATIVE", "NOISE_RADIUS", "UNSOLVED_LOG_RESIDUAL", "radius_at"]
+
+#: the features each way of filling uses, in the order of its coefficients
+FEATURES = {
+    "per_frame": ("const", "log_missing", "hops", "depth", "log_disagreement",
+                  "log_residual", "adapted"),
+    "temporal": ("const", "log_frames", "one_sided", "never", "hops", "depth",
+                 "log_missing", "log_noise"),
+}
+
+#: coefficients of log(radius / size) per way of filling, and the conformal
+#: factor; fitted by ``studies/uncertainty/calibrate.py`` on validation data
+#: (studies/uncertainty/calibration.json has the run's coverage per source)
+CALIBRATION = {
+    "per_frame": {"conformal": 1.0386,
+        "coef": (1.6374, 0.5864, 0.3629, 0.2736, 0.14, 0.8051, -0.0844)},
+    "temporal": {"conformal": 1.1438,
+        "coef": (-3.5719, 0.7162, 0.3809, 0.522, 0.0207, 0.4292, 0.4012, 0.1827)},
+}
+
+#: log of the lasso residual a pose solved without a lasso (FConv) is given: the
+#: median of the validation photos' (studies/uncertainty/calibrate.py); FConv's
+#: own errors were not part of the calibration
+UNSOLVED_LOG_RESIDUAL = -4.5
+#: the radius never claims less than this fraction of the pose's size
+MIN_RELATIVE = 0.01
+#: a 2D isotropic Gaussian's 90 % radius in standard deviations, sqrt(2 ln 10)
+NOISE_RADIUS = float(np.sqrt(2 * np.log(10)))
+#: small numbers kept out of the logarithms
+_EPS = 1e-4
+_HUGE = np.finfo(float).max
+
+
+def _hops(missing, parents=SKELETON_14.parents):
+    """(n, N) hops along the skeleton from each joint to the nearest observed
+    one (0 observed; N where nothing is observed)."""
+    n, N = missing.shape
+    hops = np.where(missing, N, 0)
+    edges = [(p, j) for j, p in enumerate(parents) if p >= 0]
+    for _ in range(N):
+        before = hops.copy()
+        for a, b in edges:
+            hops[:, a] = np.minimum(hops[:, a], hops[:, b] + 1)
+            hops[:, b] = np.minimum(hops[:, b], hops[:, a] + 1)
+        if (hops == before).all():
+            break
+    return hops
+
+
+def _depth(parents=SKELETON_14.parents):
+    """(N,) each joint's bones from the skeleton's root (the neck: 0; a wrist: 3)."""
+    depth = np.zeros(len(parents), int)
+    for j, p in enumerate(parents):
+        k = p
+        while k >= 0:
+            depth[j] += 1
+            k = parents[k]
+    return depth
+
+
+def _in_own_units(poses):
+    """(poses centred and divided by their largest coordinate, that unit (n,)):
+    what follows squares no huge number."""
+    centred = poses - poses.mean(axis=1, keepdims=True)
+    unit = np.abs(centred).max(axis=(1, 2))
+    unit = np.where(np.isfinite(unit) & (unit > 0), unit, 1.0)
+    return centred / unit[:, None, None], unit
+
+
+def _pose_size(poses):
+    """(n,) root-mean-square distance of a pose's joints to their centroid."""
+    own, unit = _in_own_units(poses)
+    return unit * np.sqrt((own ** 2).sum(axis=-1).mean(axis=1))
+
+
+def _disagreement(missing, vectors, scale, poses):
+    """(n, N) per filled joint of `poses` (finite): the root-mean-square
+    difference between its placed distances to the observed joints and the
+    recovered ones (EDM `vectors` times `scale`), in the poses' own units
+    (:func:`_in_own_units`), and that unit (n,)."""
+    own, unit = _in_own_units(poses)
+    with np.errstate(invalid="ignore"):
+        placed = np.linalg.norm(own[:, :, None] - own[:, None], axis=-1)
+        wanted = vector_to_edm(np.nan_to_num(vectors) * (np.nan_to_num(scale) / unit)[:, None])
+        diff = np.where(~missing[:, None, :], (placed - wanted) ** 2, 0.0)
+        n_obs = np.maximum((~missing).sum(axis=1), 1)[:, None]
+        return np.sqrt(diff.sum(axis=2) / n_obs), unit
+
+
+def _time_layout(n, tracks, frames):
+    """[(rows in frame order, their frames)] per track; rows whose frame is not
+    a finite number are left out."""
+    frames = np.asarray(frames)
+    if frames.dtype.kind in "iu":
+        frames = frames.astype(float)
+    else:  # the one frame-number rule; a refused number: NaN (its row is per frame)
+        frames = np.array([np.nan if why else float(v)
+                           for v, why in map(frame_value, frames.tolist())])
+    tracks = np.zeros(n, int) if tracks is None else np.asarray(tracks)
+    try:
+        _, tracks = np.unique(tracks, return_inverse=True)
+    except TypeError:  # values numpy cannot order together: grouped by their text
+        _, tracks = np.unique(tracks.astype(str), return_inverse=True)
+    out = []
+    finite = np.isfinite(frames)
+    for t in np.unique(tracks[finite]):
+        rows = np.flatnonzero((tracks == t) & finite)
+        rows = rows[np.argsort(frames[rows], kind="stable")]
+        out.append((rows, frames[rows]))
+    return out
+
+
+def _frames_to_observed(fr, observed):
+    """(T, N) frames from each row to the nearest row where the joint is
+    observed (inf: never) and (T, N) True where observations lie on one side only."""
+    T, N = observed.shape
+    dist = np.full((T, N), np.inf)
+    one_sided = np.zeros((T, N), bool)
+    for j in range(N):
+        at = fr[observed[:, j]]
+        if not len(at):
+            continue
+        k = np.searchsorted(at, fr)
+        before = np.where(k > 0, fr - at[np.maximum(k - 1, 0)], np.inf)
+        after = np.where(k < len(at), at[np.minimum(k, len(at) - 1)] - fr, np.inf)
+        dist[:, j] = np.minimum(before, after)
+        one_sided[:, j] = np.isinf(before) | np.isinf(after)
+    return dist, one_sided
+
+
+def _jitter(points, fr, observed):
+    """A track's noise level (pixels, one number): the robust spread of the
+    observed joints' second differences over consecutive frames, NaN if none."""
+    steps = (np.diff(fr[:-1]) == 1) & (np.diff(fr[1:]) == 1)
+    if not steps.any():
+        return np.nan
+    ok = observed[:-2] & observed[1:-1] & observed[2:] & steps[:, None]
+    second = points[2:] - 2 * points[1:-1] + points[:-2]
+    values = np.abs(second[ok]).ravel()
+    if not len(values):
+        return np.nan
+    # a second difference of white noise has variance 6 sigma^2
+    return float(np.median(values) / 0.6745 / np.sqrt(6))
+
+
+def joint_features(result, tracks=None, frames=None):
+    """The per-joint features the calibrated radius is computed from.
+
+    Parameters
+    ----------
+    result : RecoveryResult
+        What :func:`sparseedm.recover` returned (a ``TemporalResult`` when
+        frames were given).
+    tracks, frames : array_like (n,), optional
+        The tracks and frames given to recover (the linked tracks when it
+        linked them); None: poses on their own.
+
+    Returns
+    -------
+    dict
+        ``way`` (n, N) str: ``"per_frame"``, ``"temporal"`` or ``""``
+        (observed or refused); ``size`` and ``noise`` (n, N) pixels; one
+        (n, N) array per name of :data:`FEATURES`.
+    """
+    poses, missing = result.poses, result.missing
+    n, N = missing.shape
+    ok = np.asarray(result.ok) & np.isfinite(poses).all(axis=(1, 2))
+    filled = missing & ok[:, None]
+    source = getattr(result, "source", None)
+    way = np.where(filled, "per_frame", "").astype(object)
+    if source is not None:
+        way[filled & (source == "temporal")] = "temporal"
+    safe = np.where(np.isfinite(poses), poses, 0.0)
+    size = np.where(ok, _pose_size(safe), np.nan)
+    n_missing = missing.sum(axis=1)
+    residual = np.sqrt(2 * np.nan_to_num(result.objective) / np.maximum(
+        N * (N - 1) / 2 - n_missing * (2 * N - n_missing - 1) / 2, 1))
+    out = {"const": np.ones((n, N)), "log_missing": np.repeat(
+        np.log(np.maximum(n_missing, 1))[:, None], N, axis=1).astype(float),
+        "hops": _hops(missing).astype(float),
+        "depth": np.repeat(_depth()[None].astype(float), n, axis=0),
+        "adapted": np.full((n, N), float(bool(getattr(result, "adapted", False))))}
+    noise = np.repeat((residual * np.nan_to_num(result.scale))[:, None], N, axis=1)
+    rel = np.zeros((n, N))
+    rows = np.flatnonzero((way == "per_frame").any(axis=1))  # the feature's only users
+    if len(rows):
+        disagreement, unit = _disagreement(result.missing[rows], result.vectors[rows],
+                                           result.scale[rows], safe[rows])
+        rel[rows] = disagreement / np.where(size[rows] > 0, size[rows] / unit, 1.0)[:, None]
+    out["log_disagreement"] = np.log(np.nan_to_num(rel) + _EPS)
+    log_residual = np.where(np.isnan(result.objective), UNSOLVED_LOG_RESIDUAL,
+                            np.log(residual + _EPS))
+    out["log_residual"] = np.repeat(log_residual[:, None], N, axis=1)
+    size = np.repeat(size[:, None], N, axis=1)
+    time = _time_features(result, way, filled, safe, tracks, frames, size, noise)
+    out.update(time)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out["log_noise"] = np.log(np.nan_to_num(noise / size) + _EPS)
+    out.update(way=way.astype(str), size=size, noise=noise)
+    return out
+
+
+def _time_features(result, way, filled, safe, tracks, frames, size, noise):
+    """The temporal features (and the track's size and noise written into
+    `size` and `noise` for its time-filled joints)."""
+    n, N = filled.shape
+    log_frames = np.zeros((n, N))
+    one_sided = np.zeros((n, N))
+    never = np.zeros((n, N))
+    weight = getattr(result, "prior_weight", None)
+    prior = np.zeros((n, N)) if weight is None else np.nan_to_num(np.asarray(weight, float))
+    temporal = way == "temporal"
+    if frames is None or not temporal.any():
+        return dict(log_frames=log_frames, one_sided=one_sided, never=never,
+                    prior_weight=prior)
+    observed = ~result.missing & np.isfinite(result.poses).all(axis=-1)
+    for rows, fr in _time_layout(n, tracks, frames):
+        here = temporal[rows]
+        if not here.any():
+            continue
+        dist, side = _frames_to_observed(fr, observed[rows])
+        span = fr[-1] - fr[0] + 1
+        log_frames[rows] = np.log1p(np.where(np.isinf(dist), span, dist))
+        never[rows] = np.isinf(dist)
+        one_sided[rows] = side & ~np.isinf(dist)
+        ok = np.isfinite(size[rows, 0])
+        track_size = np.median(size[rows, 0][ok]) if ok.any() else np.nan
+        size[rows] = np.where(here, track_size, size[rows])
+        sigma = _jitter(safe[rows], fr, observed[rows])
+        if np.isfinite(sigma):
+            noise[rows] = np.where(here, NOISE_RADIUS * sigma, noise[rows])
+    return dict(log_frames=log_frames, one_sided=one_sided, never=never, prior_weight=prior)
+
+
+def uncertainty_rule(features, calibration=None):
+    """The radius (n, N) from :func:`joint_features`' output and a calibration.
+
+    Parameters
+    ----------
+    features : dict
+        :func:`joint_features`' output.
+    calibration : dict, optional
+        Shaped as :data:`CALIBRATION` (the default).
+
+    Returns
+    -------
+    ndarray (n, N)
+        The 90 % radius: 0 where no joint was filled, NaN on refused poses
+        (where ``size`` is NaN).
+    """
+    calibration = CALIBRATION if calibration is None else calibration
+    way, size = features["way"], features["size"]
+    radius = np.where(np.isnan(size), np.nan, 0.0)
+    for name, names in FEATURES.items():
+        at = way == name
+        if not at.any():
+            continue
+        entry = calibration[name]
+        x = np.stack([features[f][at] for f in names], axis=-1)
+        relative = np.exp(x @ np.asarray(entry["coef"], float)) * entry["conformal"]
+        floor = np.maximum(np.nan_to_num(features["noise"][at]), MIN_RELATIVE * size[at])
+        with np.errstate(over="ignore"):  # a pose near float's limit: the largest radius
+            radius[at] = np.minimum(np.maximum(floor, size[at] * relative), _HUGE)
+    return radius
+
+
+def joint_uncertainty(result, tracks=None, frames=None, calibration=None):
+    """The calibrated 90 % radius of every joint of a recovery's result.
+
+    Parameters
+    ----------
+    result : RecoveryResult
+        What :func:`sparseedm.recover` returned.
+    tracks, frames : array_like (n,), optional
+        The tracks and frames the poses were recovered with.
+    calibration : dict, optional
+        Shaped as :data:`CALIBRATION` (the default).
+
+    Returns
+    -------
+    ndarray (n, N)
+        Pixels (the input's units): 0 for an observed joint, NaN for every
+        joint of a refused pose, else the radius of the circle around the
+        filled joint that holds the true joint with 90 % probability.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import sparseedm
+    >>> xs = [50, 50, 35, 30, 28, 65, 70, 72, 40, 40, 40, 60, 60, 60]
+    >>> ys = [10, 30, 32, 55, 78, 32, 55, 78, 80, 115, 150, 80, 115, 150]
+    >>> pose = np.column_stack([xs, ys]).astype(float)
+    >>> pose[4] = np.nan                      # the right wrist, hidden
+    >>> r = joint_uncertainty(sparseedm.recover(pose, adapt=False))
+    >>> bool(r[0, 4] > 0), float(r[0, 0])
+    (True, 0.0)
+    """
+    radius = uncertainty_rule(joint_features(result, tracks, frames), calibration)
+    radius[~np.asarray(result.missing) & np.isfinite(radius)] = 0.0
+    return radius
+
+
+def radius_at(uncertainty, level):
+    """The radius at another coverage `level`, scaled from the 90 % one as a
+    2D isotropic Gaussian's radii scale: ``r * sqrt(-2 ln(1 - level)) /
+    sqrt(2 ln 10)``.
+
+    Parameters
+    ----------
+    uncertainty : array_like
+        90 % radii (:attr:`RecoveryResult.uncertainty`).
+    level : float
+        In (0, 1).
+
+    Returns
+    -------
+    ndarray
+        Radii at `level`.
+
+    Examples
+    --------
+    >>> float(radius_at(10.0, 0.9)), round(float(radius_at(10.0, 0.5)), 2)
+    (10.0, 5.49)
+    """
+    return np.asarray(uncertainty, float) * np.sqrt(-2 * np.log1p(-level)) / NOISE_RADIUS

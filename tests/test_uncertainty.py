@@ -1,0 +1,163 @@
+"""The calibrated 90 % radius per joint: its rules, its calibration on a known clip, files."""
+
+import json
+
+import numpy as np
+import pytest
+
+import sparseedm
+from sparseedm.skeleton import JOINT_NAMES
+from sparseedm.keypoints import read_keypoints, write_keypoints
+from sparseedm.formats._base import FILLED_LIKELIHOOD_CAP, filled_likelihood
+from sparseedm.uncertainty import joint_uncertainty, radius_at
+
+WRIST = 4
+
+
+def _mask(T, seed, runs=12, length=(3, 30)):
+    """Random runs of hidden joints (1-3 joints each) inside a clip of T frames."""
+    rng = np.random.default_rng(seed)
+    mask = np.zeros((T, 14), bool)
+    for _ in range(runs):
+        L = int(rng.integers(*length))
+        start = int(rng.integers(1, T - L - 1))
+        mask[start:start + L, rng.choice(14, int(rng.integers(1, 4)), replace=False)] = True
+    return mask
+
+
+@pytest.fixture(scope="module")
+def clip_result(track, small_dictionary):
+    mask = _mask(len(track), 0)
+    res = sparseedm.recover(track, mask, frames=np.arange(len(track)),
+                            dictionary=small_dictionary, adapt=False)
+    return res, mask
+
+
+def test_observed_zero_filled_positive_refused_nan(cmu_poses, small_dictionary):
+    poses = cmu_poses[:6].copy()
+    poses[0, WRIST] = np.nan
+    poses[1, [3, 4, 9]] = np.nan
+    poses[2, 2:] = np.nan  # two joints left: refused
+    res = sparseedm.recover(poses, dictionary=small_dictionary, adapt=False)
+    u = res.uncertainty
+    assert u.shape == (6, 14)
+    assert res.status[2] == "too_few_observed" and np.isnan(u[2]).all()
+    ok = res.ok
+    assert (u[ok][~res.missing[ok]] == 0).all()
+    assert (u[ok][res.missing[ok]] > 0).all()
+    assert np.isfinite(u[ok]).all() and (u[ok] >= 0).all()
+
+
+def test_joint_uncertainty_is_what_recover_attaches(clip_result, track):
+    res, _ = clip_result
+    again = joint_uncertainty(res, None, np.arange(len(track)))
+    np.testing.assert_array_equal(again, res.uncertainty)
+
+
+def test_coverage_on_a_clip_whose_truth_is_known(clip_result, track):
+    res, mask = clip_result
+    err = np.linalg.norm(res.poses - track, axis=-1)[mask]
+    radius = res.uncertainty[mask]
+    covered = (err <= radius).mean()
+    assert 0.8 <= covered <= 1.0, covered
+    # informative: the surest quarter errs less than the least sure quarter
+    order = np.argsort(radius)
+    q = len(order) // 4
+    assert err[order[:q]].mean() < err[order[-q:]].mean()
+
+
+def test_radius_grows_into_a_long_gap(track, small_dictionary):
+    mask = np.zeros(track.shape[:2], bool)
+    start, length = 60, 61
+    mask[start:start + length, WRIST] = True
+    res = sparseedm.recover(track, mask, frames=np.arange(len(track)),
+                            dictionary=small_dictionary, adapt=False)
+    r = res.uncertainty[start:start + length, WRIST]
+    middle = length // 2
+    assert np.all(np.diff(r[:middle + 1]) >= 0) and np.all(np.diff(r[middle:]) <= 0)
+    assert r[middle] > r[0] and r[middle] > r[-1]
+
+
+def test_never_below_the_observed_joints_noise(track, small_dictionary):
+    rng = np.random.default_rng(1)
+    noisy = track + rng.normal(0.0, 3.0, track.shape)  # pixels of jitter
+    mask = np.zeros(track.shape[:2], bool)
+    mask[50:52, WRIST] = True
+    res = sparseedm.recover(noisy, mask, frames=np.arange(len(track)),
+                            dictionary=small_dictionary, adapt=False)
+    # the jitter's own 90 % radius, sqrt(2 ln 10) sigma, give or take its estimate
+    assert (res.uncertainty[mask] >= 0.7 * 3.0 * np.sqrt(2 * np.log(10))).all()
+
+
+def test_radius_at_and_likelihood():
+    assert radius_at(2.0, 0.9) == pytest.approx(2.0)
+    assert radius_at(2.0, 0.99) > 2.0 > radius_at(2.0, 0.5)
+    pose = np.array([[[0.0, 0.0], [10.0, 0.0], [0.0, 10.0]]])
+    like = filled_likelihood(pose, np.array([[0.0, 5.0, np.nan]]), 0.01)
+    assert like[0, 0] == FILLED_LIKELIHOOD_CAP and 0.01 < like[0, 1] < like[0, 0]
+    assert like[0, 2] == 0.01
+
+
+@pytest.mark.parametrize("name,fmt", [("out.npz", None), ("out.csv", None),
+                                      ("out.json", None), ("out.json", "mmpose"),
+                                      ("frames", "openpose")])
+def test_round_trip_through_writer_and_reader(tmp_path, name, fmt, cmu_poses):
+    rng = np.random.default_rng(2)
+    poses = cmu_poses[:5].copy()
+    radii = np.zeros((5, 14))
+    radii[:, [4, 7]] = rng.uniform(1.0, 30.0, (5, 2))
+    radii[3] = np.nan  # a refused pose
+    path = write_keypoints(tmp_path / name, poses, uncertainty=radii, format=fmt)
+    kps = read_keypoints(path, format=fmt)
+    np.testing.assert_allclose(kps.uncertainty, radii, equal_nan=True)
+
+
+def test_writer_refuses_a_negative_radius(tmp_path, cmu_poses):
+    with pytest.raises(sparseedm.exceptions.FileFormatError, match="uncertainty"):
+        write_keypoints(tmp_path / "out.npz", cmu_poses[:2], uncertainty=-np.ones((2, 14)))
+
+
+def test_coco_field_lists_the_joints_by_name(tmp_path, cmu_poses):
+    radii = np.zeros((1, 14))
+    radii[0, WRIST] = 12.5
+    path = write_keypoints(tmp_path / "out.json", cmu_poses[:1], uncertainty=radii)
+    with open(path) as f:
+        doc = json.load(f)
+    assert doc[0]["sparseedm"]["uncertainty"] == {
+        name: (12.5 if name == "right_wrist" else 0.0) for name in JOINT_NAMES}
+
+
+@pytest.mark.parametrize("ext,fmt", [("npz", None), ("csv", None), ("json", None),
+                                     ("npy", None), ("", "openpose"), ("json", "mmpose"),
+                                     ("csv", "dlc")])
+def test_recover_file_writes_what_reads_back(tmp_path, ext, fmt, cmu_poses,
+                                             small_dictionary_path):
+    from sparseedm.batch import recover_file
+
+    poses = cmu_poses[:8].copy()
+    poses[::2, WRIST] = np.nan
+    src = write_keypoints(tmp_path / "in.npz", poses)
+    out = tmp_path / (f"out.{ext}" if ext else "out")  # OpenPose: a folder of frames
+    recover_file(src, out, dictionary=small_dictionary_path, adapt=False, output_format=fmt)
+    kps = read_keypoints(out, format=fmt)
+    assert kps.uncertainty is not None
+    assert (kps.uncertainty[::2, WRIST] > 0).all()
+    assert (kps.uncertainty[1::2] == 0).all()
+
+
+def test_deeplabcut_output_keeps_its_layout_with_a_likelihood(tmp_path, cmu_poses,
+                                                              small_dictionary_path):
+    from sparseedm.batch import recover_file
+
+    poses = cmu_poses[:6].copy()
+    poses[::2, WRIST] = np.nan
+    src = write_keypoints(tmp_path / "in.npz", poses)
+    out = tmp_path / "out.csv"
+    recover_file(src, out, dictionary=small_dictionary_path, adapt=False,
+                 output_format="dlc")
+    kps = read_keypoints(out, format="dlc")
+    assert (kps.uncertainty[::2, WRIST] > 0).all()  # from the status sidecar
+    like = kps.confidence[::2, WRIST]
+    assert ((0 < like) & (like <= FILLED_LIKELIHOOD_CAP)).all()
+    expected = filled_likelihood(kps.poses, kps.uncertainty)[::2, WRIST]
+    np.testing.assert_allclose(like, expected)
