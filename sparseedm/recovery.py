@@ -211,7 +211,11 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
     on its complete poses normalised by their bounding box, the training
     rule, and its filters use that box), ``method="fconv"`` (its networks
     were trained on box-normalised inputs) and a dictionary file whose
-    ``recovery_scale`` is ``"box"`` (files made before the field).
+    ``recovery_scale`` is ``"box"`` (files made before the field). A pose
+    whose observed joints are nearly collinear (only the neck and shoulders,
+    say) has two mirror placements across their line that fit its distances
+    almost equally; which one it gets can flip with rounding, hence with a
+    rotation.
 
     Examples
     --------
