@@ -89,6 +89,17 @@ def test_small_file_without_adaptation_fills_the_rotated_joints(cmu_poses, angle
     assert np.allclose(turned, plain, atol=1e-6)
 
 
+def test_small_file_on_the_file_atoms_path_fills_the_rotated_joints(cmu_poses):
+    poses = pixel_poses(cmu_poses, 60)
+    missing = random_occlusion(len(poses), 14, "mix", random_state=4)
+    missing[:20] = False  # 20 complete poses: atoms, too few to adapt
+    given = np.where(missing[..., None], np.nan, poses)
+    plain = sparseedm.recover(given, missing)
+    turned = sparseedm.recover(rotate(given, 0.7), missing)
+    assert plain.adaptation is not None and plain.adaptation.file_atoms == 20
+    assert np.allclose(rotate(turned.poses, -0.7), plain.poses, atol=1e-6)
+
+
 def test_a_box_dictionary_is_not_rotation_invariant(cmu_poses):
     """The check above can fail: under the bounding-box rule the answers move."""
     poses = pixel_poses(cmu_poses, 40)

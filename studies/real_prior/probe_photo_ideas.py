@@ -15,6 +15,10 @@ least-squares placement on distances.
 images as atoms (mirroring a pose in the image swaps its left and right joints
 and keeps its distances), on `cmu-all-k2000` and on `cmu-coco-k2466`.
 
+``--idea blend``: several dictionaries, their answers averaged: the mean of
+the filled joints from `cmu-all-k2000` and from `cmu-coco-k2466` (each with
+the file's atoms; "blend+mirror": the second with mirrored file atoms too).
+
 Each runs `recover(adapt=False)` on the shipped dictionary ("cold") and on it
 plus the file's complete poses as atoms ("atoms": the defaults' path on files
 below adaptation's size). Photo files from ``harness.FILES`` (validation
@@ -134,6 +138,14 @@ def run_case(idea, truth, missing):
                 row[f"{variant}+{tag}"] = harness.score(placed, truth, missing)
                 row[f"{variant}+avg-{tag}"] = harness.score((placed + res.poses) / 2, truth,
                                                             missing)
+    if idea == "blend":
+        coco = load_dictionary("cmu-coco-k2466")
+        mine = recover(with_file_atoms(base, given, missing).dictionary, truth, missing).poses
+        theirs = recover(with_file_atoms(coco, given, missing).dictionary, truth,
+                         missing).poses
+        mirrored = recover(mirrored_atoms(coco, truth, missing), truth, missing).poses
+        row["blend"] = harness.score((mine + theirs) / 2, truth, missing)
+        row["blend+mirror"] = harness.score((mine + mirrored) / 2, truth, missing)
     if idea == "mirror":
         coco = load_dictionary("cmu-coco-k2466")
         row["coco atoms"] = harness.score(recover(
@@ -147,7 +159,7 @@ def run_case(idea, truth, missing):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--idea", choices=("alpha", "placement", "mirror"), required=True)
+    ap.add_argument("--idea", choices=("alpha", "placement", "mirror", "blend"), required=True)
     ap.add_argument("--sources", default="mpii,coco-val,bonn")
     ap.add_argument("--mocap", default="", help="dataset .npz files, comma-separated")
     ap.add_argument("--out", type=Path)
