@@ -337,10 +337,12 @@ def screen_poses(poses, mask, bad_coord):
     return Screening(status, reason, n_obs, clean)
 
 
-def screen(poses, mask, bad_coord, representation):
-    """Statuses of every pose, and the usable ones' vectors under `representation`.
+def screen(poses, mask, bad_coord, representation, rule="box"):
+    """Statuses of every pose, and the usable ones' vectors under `representation`,
+    normalised by `rule` (:func:`sparseedm.normalize.normalize`).
 
-    Shared by the sparse path and the FConv path (:mod:`sparseedm.fconv`).
+    Shared by the sparse path (its dictionary's ``recovery_scale``) and the
+    FConv path (:mod:`sparseedm.fconv`, the box its models were trained on).
     """
     n, N = mask.shape
     status, reason, n_obs, clean = screen_poses(poses, mask, bad_coord)
@@ -355,7 +357,7 @@ def screen(poses, mask, bad_coord, representation):
     filled = np.full_like(poses, np.nan)
     usable = np.isin(status, ("recovered", "complete"))
     if usable.any():
-        T, c, s = represent(clean[usable], mask[usable], representation)
+        T, c, s = represent(clean[usable], mask[usable], representation, rule)
         vectors[usable], center[usable], scale[usable] = T, c, s
         filled[complete] = poses[complete]
     return Screened(status, reason, n_obs, clean, vectors, center, scale, filled)

@@ -245,7 +245,7 @@ def recover_sparse(poses, missing=None, *, dictionary=None, alpha=None,
     n = len(poses)
     m = dictionary.n_features
     components = dictionary.components
-    screened = screen(poses, mask, bad_coord, representation)
+    screened = screen(poses, mask, bad_coord, representation, dictionary.recovery_scale)
     status, reason, n_obs, clean, vectors, center, scale, filled = screened
     objective = np.full(n, np.nan)
     gap = np.full(n, np.nan)

@@ -950,7 +950,7 @@ def _adapted_dictionary(dictionary, components, alpha_train, record):
         alpha_train=alpha_train,
         alpha_scaling=dictionary.alpha_scaling, positive_code=dictionary.positive_code,
         representation=dictionary.representation, normalization=dictionary.normalization,
-        provenance=prov,
+        recovery_scale=dictionary.recovery_scale, provenance=prov,
     )
 
 
@@ -1418,6 +1418,7 @@ def fine_tune_file(train_path, output, init="default", *, passes=DEFAULT_PASSES,
     d = Dictionary(components=comps, joint_names=base.joint_names,
                    alpha_recover=base.alpha_recover if alpha_recover is None else alpha_recover,
                    alpha_train=alpha, alpha_scaling=base.alpha_scaling,
-                   positive_code=base.positive_code, provenance=prov)
+                   positive_code=base.positive_code, recovery_scale=base.recovery_scale,
+                   provenance=prov)
     d.save(output)
     return d

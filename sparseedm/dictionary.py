@@ -12,9 +12,12 @@ A dictionary file is a NumPy ``.npz`` archive, read with ``allow_pickle=False``
     a 0-d unicode array holding JSON: ``format_version``,
     ``representation`` and ``normalization`` of the training vectors,
     ``alpha_train``, ``alpha_recover`` (recommended recovery alpha),
-    ``alpha_scaling``, ``positive_code``, ``provenance`` (training
-    files, pose count, sha256 of the training poses, seed, passes,
-    batch size) and ``library_version``.
+    ``alpha_scaling``, ``recovery_scale`` (how recovery normalises a
+    pose: ``"radius"``, rotation-invariant, or ``"box"``, the bounding
+    box; a file without the field was made for ``"box"`` and keeps it),
+    ``positive_code``, ``provenance`` (training files, pose count, sha256
+    of the training poses, seed, passes, batch size) and
+    ``library_version``.
 
 :func:`load_dictionary` checks shape, dtype, finiteness and unit norm and
 refuses anything else with a :class:`~sparseedm.exceptions.DictionaryError`.
@@ -36,6 +39,7 @@ from ._safeio import available_memory, load_npz_file, parse_meta, require_file
 from ._shipped import resolve_shipped, shipped_names
 from ._validation import ALPHA_MAX, ALPHA_MIN, Interval, validate_params
 from .edm import num_joints_from_dim
+from .normalize import SCALE_RULES
 from .exceptions import DictionaryError, PoseError
 from .skeleton import JOINT_NAMES
 
@@ -66,6 +70,12 @@ class Dictionary:
     positive_code : bool
     representation, normalization : str
         How the training vectors were made.
+    recovery_scale : {"radius", "box"}
+        How recovery normalises a pose from its observed joints
+        (:func:`sparseedm.normalize.normalize`'s rule): ``"radius"`` (the
+        same whatever the body's rotation in the image plane) or ``"box"``
+        (the bounding box, which a rotation changes; files that predate the
+        field, whose alpha was chosen with it, keep it).
     provenance : dict
     library_version : str
 
@@ -86,6 +96,7 @@ class Dictionary:
     positive_code: bool = False
     representation: str = "complete"
     normalization: str = "bbox: center (min+max)/2, scale max(max-min)/2, one scale for x and y"
+    recovery_scale: str = "radius"
     provenance: dict = field(default_factory=dict)
     library_version: str = __version__
 
@@ -99,7 +110,8 @@ class Dictionary:
                      "alpha_train": self.alpha_train, "alpha_scaling": self.alpha_scaling,
                      "positive_code": self.positive_code,
                      "representation": self.representation,
-                     "normalization": self.normalization, "provenance": self.provenance,
+                     "normalization": self.normalization,
+                     "recovery_scale": self.recovery_scale, "provenance": self.provenance,
                      "library_version": self.library_version}, "Dictionary")
         if self.alpha_scaling not in ("entries", "none"):
             raise DictionaryError(
@@ -128,6 +140,7 @@ class Dictionary:
             "positive_code": bool(self.positive_code),
             "representation": self.representation,
             "normalization": self.normalization,
+            "recovery_scale": self.recovery_scale,
             "provenance": self.provenance,
             "library_version": self.library_version,
         }
@@ -153,6 +166,7 @@ class Dictionary:
             f"training alpha {self.alpha_train:g}; "
             f"{'non-negative' if self.positive_code else 'signed'} codes",
             f"training vectors: {self.representation} poses, normalised by {self.normalization}",
+            f"recovery normalises a pose by its observed joints' {_SCALE_WORDS[self.recovery_scale]}",
         ]
         if p:
             files = p.get("files", [])
@@ -241,13 +255,17 @@ _META_TYPES = {  # field -> (kind, required)
     "positive_code": (bool, False),
     "representation": (str, False),
     "normalization": (str, False),
+    "recovery_scale": (str, False),
     "provenance": (dict, False),
     "library_version": (str, False),
 }
 #: metadata fields with a closed set of values (anything else would be applied as
 #: if it were the one rule recovery knows); normalization: "bbox" or "bbox: ..."
 #: (the rule spelled out), or "" for files that predate the field
-_META_CHOICES = {"alpha_scaling": ("entries", "none"),
+#: how `describe` names each recovery_scale rule
+_SCALE_WORDS = {"radius": "centroid and RMS radius (rotation-invariant)",
+                "box": "bounding box"}
+_META_CHOICES = {"alpha_scaling": ("entries", "none"), "recovery_scale": SCALE_RULES,
                  "representation": ("complete", "average", "zero")}
 _PROVENANCE_TYPES = {"files": list, "n_poses": Integral, "sha256": str, "sha256_of": str}
 
@@ -405,6 +423,7 @@ def load_dictionary(name_or_path=None, *, n_joints=None) -> Dictionary:
             positive_code=bool(meta.get("positive_code", False)),
             representation=meta.get("representation", "complete"),
             normalization=meta.get("normalization", ""),
+            recovery_scale=meta.get("recovery_scale", "box"),
             provenance=meta.get("provenance", {}),
             library_version=meta.get("library_version", "?"),
         )

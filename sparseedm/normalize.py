@@ -13,6 +13,24 @@ so the longer axis spans exactly [-1, 1] and the other lies inside it, and
 the aspect ratio of the pose is kept. A pose whose used joints all coincide
 (scale 0) cannot be normalised and is refused.
 
+This box rule (``rule="box"``) is how training poses are normalised. A box
+changes with the body's rotation in the image plane, so recovery scales a
+pose by a measure that does not (``rule="radius"``, the rule a dictionary's
+``recovery_scale`` names)::
+
+    center = mean of the used joints
+    scale  = RADIUS_FACTOR * sqrt(mean ||p - center||^2)
+
+the root-mean-square distance of the used joints to their centroid, times
+:data:`RADIUS_FACTOR` (the median ratio of the box scale to that distance over
+complete mocap training poses), so a typical pose gets about the scale the
+box gives it and a dictionary's alpha keeps its meaning. Rotating, shifting or
+uniformly scaling the used joints rotates, shifts or scales ``center`` with
+them and scales ``scale`` alone: the normalised EDM vector does not change.
+The one exception: a pose whose coordinates lie within a factor of a few of
+float64's limits, where that radius overflows or is subnormal while the box
+is not, falls back to the box.
+
 Occlusion representations (Guo & Dai)
 -------------------------------------
 ``"zero"``
@@ -49,9 +67,17 @@ __all__ = [
     "represent",
     "representation_for",
     "DEFAULT_REPRESENTATION",
+    "SCALE_RULES",
+    "RADIUS_FACTOR",
 ]
 
 REPRESENTATIONS = ("average", "zero")
+#: how a pose's centre and scale are measured: its used joints' bounding box, or
+#: their centroid and root-mean-square distance to it (invariant to rotation)
+SCALE_RULES = ("box", "radius")
+#: the "radius" rule's scale is this times the RMS distance to the centroid: the
+#: median ratio of the box scale to that distance over complete CMU training poses
+RADIUS_FACTOR = 1.59
 #: the representation used when neither the caller nor a model or lifter file names one
 DEFAULT_REPRESENTATION = "average"
 
@@ -207,7 +233,7 @@ def _check_observed(poses, missing):
     return n_obs
 
 
-def normalize(poses, missing=None):
+def normalize(poses, missing=None, rule="box"):
     """Map each pose's used joints into [-1, 1] with one scale for both axes.
 
     Parameters
@@ -215,17 +241,23 @@ def normalize(poses, missing=None):
     poses : array_like, shape (..., N, 2)
         The poses' coordinates.
     missing : array_like of bool, shape (..., N), optional
-        Joints left out of the bounding box (they are normalised with the
+        Joints left out of the measure (they are normalised with the
         same transform; NaN stays NaN).
+    rule : {"box", "radius"}, default "box"
+        The used joints' bounding box (the longer side spans [-1, 1]), or
+        their centroid and :data:`RADIUS_FACTOR` times their RMS distance to
+        it (the same for the pose rotated in the image plane); see the
+        module docstring.
 
     Returns
     -------
     normalized : ndarray, shape (..., N, 2)
         The normalised poses.
     center : ndarray, shape (..., 2)
-        Centre of each pose's bounding box.
+        Centre of each pose's bounding box (``"radius"``: the centroid).
     scale : ndarray, shape (...)
-        Half the longer side of each bounding box:
+        Half the longer side of each bounding box (``"radius"``: the scaled
+        RMS distance):
         ``poses == normalized * scale[..., None, None] + center[..., None, :]``.
 
     Examples
@@ -233,6 +265,10 @@ def normalize(poses, missing=None):
     >>> out, center, scale = normalize([[0., 0.], [4., 0.], [4., 2.]])
     >>> out.tolist(), center.tolist(), float(scale)
     ([[-1.0, -0.5], [1.0, -0.5], [1.0, 0.5]], [2.0, 1.0], 2.0)
+    >>> square = [[0., 0.], [2., 0.], [2., 2.], [0., 2.]]
+    >>> out, center, scale = normalize(square, rule="radius")
+    >>> center.tolist(), round(float(scale) / RADIUS_FACTOR, 6)
+    ([1.0, 1.0], 1.414214)
     """
     poses = np.asarray(poses, dtype=float)
     if poses.ndim < 2 or poses.shape[-1] != 2:
@@ -241,12 +277,9 @@ def normalize(poses, missing=None):
         missing = np.zeros(poses.shape[:-1], dtype=bool)
     missing = np.asarray(missing, dtype=bool)
     _check_observed(poses, missing)
-    used = np.where(missing[..., None], np.nan, poses)
-    lo = np.nanmin(used, axis=-2)
-    hi = np.nanmax(used, axis=-2)
-    with np.errstate(over="ignore", invalid="ignore"):
-        center = lo / 2 + hi / 2
-        scale = (hi - lo).max(axis=-1) / 2
+    if rule not in SCALE_RULES:
+        raise ParameterError(f"unknown normalisation rule {rule!r}; use one of {SCALE_RULES}")
+    center, scale = (_radius if rule == "radius" else _box)(poses, missing)
     if (scale <= 0).any():
         idx = tuple(int(i) for i in np.argwhere(scale <= 0)[0])
         raise PoseError(f"pose {idx}: all observed joints coincide (zero extent)")
@@ -257,6 +290,37 @@ def normalize(poses, missing=None):
                         "overflows float64 or is subnormal; rescale the coordinates")
     normalized = (poses - center[..., None, :]) / scale[..., None, None]
     return normalized, center, scale
+
+
+def _box(poses, missing):
+    used = np.where(missing[..., None], np.nan, poses)
+    lo = np.nanmin(used, axis=-2)
+    hi = np.nanmax(used, axis=-2)
+    with np.errstate(over="ignore", invalid="ignore"):
+        return lo / 2 + hi / 2, (hi - lo).max(axis=-1) / 2
+
+
+def _radius(poses, missing):
+    used = ~missing[..., None]
+    count = used.sum(axis=-2)  # (..., 1)
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        center = np.where(used, poses, 0.0).sum(axis=-2) / count
+        # halved, then squared relative to the largest offset: coordinates near
+        # float64's limits neither overflow nor underflow
+        off = np.where(used, poses / 2 - center[..., None, :] / 2, 0.0)
+        top = np.abs(off).max(axis=(-1, -2))
+        ratio = off / np.where(top > 0, top, 1.0)[..., None, None]
+        mean_sq = (ratio**2).sum(axis=(-1, -2)) / count[..., 0]
+        scale = top * (2 * RADIUS_FACTOR * np.sqrt(mean_sq))
+    # the one place the rule is not rotation-invariant: a pose within a factor of
+    # a few of float64's limits, whose radius overflows or is subnormal where its
+    # box is not, falls back to the box (recover() refuses what the box refuses)
+    off_limits = ~np.isfinite(scale) | (scale < np.finfo(float).tiny)
+    if off_limits.any():
+        box_center, box_scale = _box(poses, missing)
+        center = np.where(off_limits[..., None], box_center, center)
+        scale = np.where(off_limits, box_scale, scale)
+    return center, scale
 
 
 def denormalize(normalized, center, scale):
@@ -282,7 +346,7 @@ def denormalize(normalized, center, scale):
     ]
 
 
-def represent(poses, missing=None, representation="average"):
+def represent(poses, missing=None, representation="average", rule="box"):
     """Normalised EDM vector of each pose under one occlusion representation.
 
     Parameters
@@ -293,6 +357,8 @@ def represent(poses, missing=None, representation="average"):
         Default: NaN coordinates mark missing joints.
     representation : {"average", "zero"}, default "average"
         How the occluded joints enter the EDM (see the module docstring).
+    rule : {"box", "radius"}, default "box"
+        How the observed joints set the normalisation (:func:`normalize`).
 
     Returns
     -------
@@ -333,9 +399,11 @@ def represent(poses, missing=None, representation="average"):
                 "rescale the coordinates"
             )
         poses = np.where(mask[..., None], mean[..., None, :], poses)
-        normalized, center, scale = normalize(poses)
+        # the fills sit at the observed joints' mean: inside their box, but they
+        # would shrink their RMS radius, so the measure is the observed joints'
+        normalized, center, scale = normalize(poses, mask, rule)
         return pose_to_vector(normalized), center, scale
-    normalized, center, scale = normalize(poses, mask)
+    normalized, center, scale = normalize(poses, mask, rule)
     normalized = np.where(mask[..., None], 0.0, normalized)
     vectors = pose_to_vector(normalized)
     return np.where(observed_entries(mask), vectors, 0.0), center, scale

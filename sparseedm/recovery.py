@@ -2,7 +2,9 @@
 
 For a pose with occluded joints (Guo & Dai, sec. 3):
 
-1. normalise it and form its EDM vector T under the chosen representation;
+1. normalise it (by the dictionary's ``recovery_scale`` rule:
+   :func:`sparseedm.normalize.normalize`) and form its EDM vector T under the
+   chosen representation;
 2. keep the entries of T that touch no occluded joint, T_sub, and the same
    rows of the dictionary, D_sub;
 3. solve ``min_c 0.5 ||T_sub - D_sub c||^2 + alpha_eff ||c||_1``;
@@ -197,6 +199,24 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
     RecoveryResult
         A :class:`~sparseedm.temporal.recover.TemporalResult` (per-joint
         ``source``) when `frames` turned temporal recovery on.
+
+    Notes
+    -----
+    Rotation in the image plane: a dictionary whose ``recovery_scale`` is
+    ``"radius"`` (the shipped ones) normalises each pose by its observed
+    joints' centroid and RMS radius, which turn with the body, and placement
+    is isotropic: a pose rotated about any point gets the same joints filled,
+    rotated (to rounding), with ``adapt=False`` and on the file-atoms path
+    (the file's complete poses enter as unit-norm EDM vectors, which a
+    rotation leaves alone). Not exact: a file that adapts (adaptation learns
+    on its complete poses normalised by their bounding box, the training
+    rule, and its filters use that box), ``method="fconv"`` (its networks
+    were trained on box-normalised inputs) and a dictionary file whose
+    ``recovery_scale`` is ``"box"`` (files made before the field). A pose
+    whose observed joints are nearly collinear (only the neck and shoulders,
+    say) has two mirror placements across their line that fit its distances
+    almost equally; which one it gets can flip with rounding, hence with a
+    rotation.
 
     Examples
     --------

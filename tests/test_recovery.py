@@ -63,7 +63,8 @@ def test_fast_objective_matches_naive_cvxpy(mix, mix_result, small_dictionary):
     poses, missing = mix
     res = mix_result
     assert (res.status[:N_AGREE] == "recovered").all()
-    T, _, _ = represent(np.where(missing[..., None], np.nan, poses), missing, "average")
+    T, _, _ = represent(np.where(missing[..., None], np.nan, poses), missing, "average",
+                        rule=res.dictionary.recovery_scale)
     tol = FastSolver().tol
     alpha = small_dictionary.alpha_recover
     for i in range(N_AGREE):
@@ -130,7 +131,8 @@ def test_sparse_combination_recovered_exactly(small_dictionary, seed):
 def test_observed_entries_and_joints_untouched(mix, mix_result):
     poses, missing = mix
     res = mix_result
-    T, _, _ = represent(np.where(missing[..., None], np.nan, poses), missing, "average")
+    T, _, _ = represent(np.where(missing[..., None], np.nan, poses), missing, "average",
+                        rule=res.dictionary.recovery_scale)
     obs = observed_entries(missing)
     # Eq. 10: the completed vector keeps the observed entries bit for bit
     assert (res.vectors[obs] == T[obs]).all()
