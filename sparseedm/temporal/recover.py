@@ -40,10 +40,11 @@ from .model import (DEFAULT_SETTINGS, choose_trust, fill_segment, prior_frames,
                     probe_errors, probe_mask, probe_settings, time_filled)
 from .tracks import split_tracks
 
-__all__ = ["recover_temporal", "recover_track", "adapt_in_time", "offered_poses",
+__all__ = ["recover_temporal", "recover_track", "adapt_in_time", "adapts", "offered_poses",
            "linked_tracks", "time_layout",
            "TemporalResult", "SOURCES",
-           "CLIP_NEAR", "CLIP_MIN_POSES"]
+           "CLIP_NEAR", "CLIP_MIN_POSES", "ADAPT_MIN_FRAMES", "SELF_TRAINING_MIN_FRAMES",
+           "OFFER_MAX"]
 
 #: Per-joint sources of :attr:`TemporalResult.source`.
 SOURCES = {
@@ -68,6 +69,25 @@ RESIDUAL_TOL = 1e-8
 #: --adapt``, ``studies/temporal/selection_temporal_adapt.json``)
 CLIP_NEAR = 3
 CLIP_MIN_POSES = 30
+#: under ``adapt="auto"`` a call adapts only when some row asks the per-frame
+#: model (a prior frame, a probe, a row answered alone: else no adapted
+#: dictionary would be used) and it holds at least ADAPT_MIN_FRAMES rows; the
+#: self-training rounds (``self_training=None``) run from
+#: SELF_TRAINING_MIN_FRAMES rows on. Chosen on validation clips given one per
+#: call (``studies/temporal/select_one_clip_cost.py``,
+#: ``studies/temporal/selection_one_clip_cost.json``): under 60 frames (every
+#: Bonn PoseTrack clip of real people, the shortest mocap ones) adapting
+#: changed no error by more than 0.1 %; from 60 frames on it cut the error on
+#: another lab's mocap by 10-40 %. Self-training rounds on clips of 60-300
+#: frames changed the mean error by 0.2 % at three times the call's time,
+#: while on whole files (1,600-15,000 frames) they cut it by 1-9 %.
+ADAPT_MIN_FRAMES = 60
+SELF_TRAINING_MIN_FRAMES = 1000
+#: at most this many offered poses are adapted on: a longer call's are taken
+#: at an even stride in track and frame order (neighbouring frames are near
+#: copies of each other), which bounds the adaptation's filter, learning and
+#: guard on long files (same study)
+OFFER_MAX = 100_000
 
 
 @dataclass
@@ -186,17 +206,55 @@ def _offered(layout, poses, mask, usable, settings):
         values, free = _dense(rows, off, poses, mask, usable)
         near, filled = time_filled(values, free, CLIP_NEAR, settings)
         parts.append(filled[off][near[off] & usable[rows]])
-    return np.concatenate(parts)
+    offered = np.concatenate(parts)
+    return offered[::-(-len(offered) // OFFER_MAX)] if len(offered) > OFFER_MAX else offered
 
 
-def _adapt(dictionary, poses, mask, layout, usable, adapt, ensemble, settings, kw):
+def adapts(n_rows, asks_per_frame):
+    """Whether ``adapt="auto"`` adapts a call in time, and whether it self-trains
+    (when ``self_training`` is left to its default): only when some row asks
+    the per-frame model, from :data:`ADAPT_MIN_FRAMES` and
+    :data:`SELF_TRAINING_MIN_FRAMES` rows on.
+
+    Parameters
+    ----------
+    n_rows : int
+        Poses in the call.
+    asks_per_frame : bool
+        Whether any row's answer comes from, or is tested against, the
+        per-frame model.
+
+    Returns
+    -------
+    adapt : bool
+    self_train : bool
+
+    Examples
+    --------
+    >>> adapts(1000, False)
+    (False, False)
+    """
+    adapt = bool(asks_per_frame) and n_rows >= ADAPT_MIN_FRAMES
+    return adapt, adapt and n_rows >= SELF_TRAINING_MIN_FRAMES
+
+
+def _adapt(dictionary, poses, mask, layout, usable, adapt, ensemble, settings, kw,
+           asks_per_frame=True):
     """Members and adaptations: under "auto" on what the poses offer
-    (:func:`_offered`, at least :data:`CLIP_MIN_POSES`), else as asked."""
+    (:func:`_offered`, at least :data:`CLIP_MIN_POSES`) where :func:`adapts`
+    says so, else as asked."""
+    auto = isinstance(adapt, str) and adapt == "auto"
+    if auto:
+        adapt_now, self_train = adapts(len(poses), asks_per_frame)
+        if not adapt_now:
+            adapt = False
+        elif not self_train and kw.get("self_training") is None:
+            kw = dict(kw, self_training=0)
     if adapt is False or adapt is None:
         return adapt_members(dictionary, poses, mask, adapt, ensemble, **kw)
     # self-training samples the rows: in track and frame order, whatever theirs
     ordered = poses[layout.order], mask[layout.order]
-    if isinstance(adapt, str) and adapt == "auto":
+    if auto:
         offered = _offered(layout, poses, mask, usable, settings)
         return adapt_members(dictionary, *ordered, offered, ensemble, warn=False,
                              min_poses=CLIP_MIN_POSES, **kw)
@@ -348,8 +406,10 @@ def adapt_in_time(dictionary, poses, missing=None, *, tracks=None, frames, ensem
     settings = DEFAULT_SETTINGS if settings is None else settings
     poses, mask, _, _, usable, layout = _in_time(poses, missing, tracks, frames,
                                                  dictionary.n_joints)
+    asks = _plan(layout, poses, mask, usable, settings).any() or _probes(
+        layout, poses, mask, usable, settings)[2].any()
     return _adapt(dictionary, poses, mask, layout, usable, "auto", ensemble, settings,
-                  dict(n_jobs=n_jobs, self_training=self_training))
+                  dict(n_jobs=n_jobs, self_training=self_training), asks_per_frame=asks)
 
 
 def _segment_prior(per, rows, off, T):
@@ -375,13 +435,14 @@ def _probes(layout, poses, mask, usable, settings):
     return probes, probed, need & usable
 
 
-def _trusts(layout, poses, mask, usable, per, settings, members, kwargs, track_of):
+def _trusts(layout, poses, mask, usable, per, settings, members, kwargs, track_of, planned):
     """Each segment's trust in the per-frame prior: the probes' errors
     (:func:`~sparseedm.temporal.model.probe_errors`, one batch of per-frame
-    answers with the probes hidden) pooled over the segments of one track
-    (`track_of`: a track key per row), so that a cut in a track does not
-    change what its other rows are filled with; and the rows asked."""
-    probes, probed, need = _probes(layout, poses, mask, usable, settings)
+    answers with the probes hidden; `planned`: :func:`_probes`) pooled over
+    the segments of one track (`track_of`: a track key per row), so that a
+    cut in a track does not change what its other rows are filled with; and
+    the rows asked."""
+    probes, probed, need = planned
     if not need.any():
         return [1.0] * len(probes), 0
     test = _per_frame(poses, probed, need, members, settings, kwargs)
@@ -516,16 +577,20 @@ def recover_temporal(poses, missing=None, *, tracks=None, frames, dictionary=Non
         dictionary = load_dictionary(dictionary)
     poses, mask, refusal, why, usable, layout = _in_time(poses, missing, tracks, frames,
                                                          dictionary.n_joints)
+    need = _plan(layout, poses, mask, usable, settings)
+    planned = _probes(layout, poses, mask, usable, settings)
     members, adaptations = _adapt(dictionary, poses, mask, layout, usable, adapt, ensemble,
                                   settings, dict(n_jobs=kwargs.get("n_jobs", 1),
-                                                 self_training=self_training))
-    need = _plan(layout, poses, mask, usable, settings)
-    kwargs["solver"] = compiled_solver(kwargs.get("solver", "fast"), adaptations)
+                                                 self_training=self_training),
+                                  asks_per_frame=bool(need.any() or planned[2].any()))
+    # the compiled kernel at any size: its answers equal the numpy homotopy's to
+    # round-off, 2-4x faster a row; a process's first call loads it once
+    kwargs["solver"] = compiled_solver(kwargs.get("solver", "fast"))
     per = _per_frame(poses, mask, need, members, settings, kwargs)
     track_of = layout.linked if layout.linked is not None else (
         np.zeros(len(poses), int) if tracks is None else np.asarray(tracks))
     trusts, probe_poses = _trusts(layout, poses, mask, usable, per, settings, members, kwargs,
-                                  track_of)
+                                  track_of, planned)
     filled, weight, residual = _fill_segments(layout, poses, mask, usable, per, settings,
                                               trusts)
     res = _assemble(poses, mask, refusal, why, layout, per, filled, weight, residual,
