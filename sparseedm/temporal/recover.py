@@ -83,11 +83,15 @@ CLIP_MIN_POSES = 30
 #: while on whole files (1,600-15,000 frames) they cut it by 1-9 %.
 ADAPT_MIN_FRAMES = 60
 SELF_TRAINING_MIN_FRAMES = 1000
-#: at most this many offered poses are adapted on: a longer call's are taken
-#: at an even stride in track and frame order (neighbouring frames are near
-#: copies of each other), which bounds the adaptation's filter, learning and
-#: guard on long files (same study)
-OFFER_MAX = 100_000
+#: at most this many offered poses are adapted on, a longer call's taken at an
+#: even stride in track and frame order (neighbouring frames are near copies);
+#: None: all of them (the adaptation then learns from its own seeded sample of
+#: 5,000). On the whole validation file of another lab's mocap (15,000 frames,
+#: 7,500-11,600 offered) 3,000 halved the adaptation's filter and learning and
+#: moved the error by +3.0 % (gaps) and -5.2 % (self-occlusion); 2,000 by +4.0 %
+#: and -2.5 %, 1,000 by +7.2 % and -0.2 %; a CMU file of 1,600 frames offers
+#: fewer (same study, ``--files``). Clips of a few hundred frames never reach it.
+OFFER_MAX = 3000
 
 
 @dataclass
@@ -207,7 +211,9 @@ def _offered(layout, poses, mask, usable, settings):
         near, filled = time_filled(values, free, CLIP_NEAR, settings)
         parts.append(filled[off][near[off] & usable[rows]])
     offered = np.concatenate(parts)
-    return offered[::-(-len(offered) // OFFER_MAX)] if len(offered) > OFFER_MAX else offered
+    if OFFER_MAX is None or len(offered) <= OFFER_MAX:
+        return offered
+    return offered[::-(-len(offered) // OFFER_MAX)]
 
 
 def adapts(n_rows, asks_per_frame):
@@ -558,7 +564,10 @@ def recover_temporal(poses, missing=None, *, tracks=None, frames, dictionary=Non
         As :func:`sparseedm.recover`; ``adapt="auto"`` adapts on the complete
         frames and the frames whose missing joints time fills from within
         :data:`CLIP_NEAR` frames, from :data:`CLIP_MIN_POSES` of them on (one
-        clip of a few hundred frames adapts), guarded as per frame.
+        clip of a few hundred frames adapts), guarded as per frame; only when
+        some row asks the per-frame model and the call has
+        :data:`ADAPT_MIN_FRAMES` rows, and ``self_training=None`` runs its
+        rounds from :data:`SELF_TRAINING_MIN_FRAMES` rows on (:func:`adapts`).
     settings : TemporalSettings, optional
         The temporal model's constants; default the validated ones.
     **kwargs

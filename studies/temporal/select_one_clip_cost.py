@@ -53,10 +53,12 @@ from studies.temporal.probe_temporal_self_training import whole_file  # noqa: E4
 #: recover_temporal's keyword arguments per variant
 VARIANTS = {
     "default": {},
-    "adapt every clip, 3 rounds": dict(adapt="always"),
+    "adapt every clip (3 rounds)": dict(adapt="always"),
     "self_training=0": dict(self_training=0),
     "adapt=False": dict(adapt=False),
 }
+#: the constants of sparseedm.temporal.recover this study chose
+RULE = ("ADAPT_MIN_FRAMES", "SELF_TRAINING_MIN_FRAMES", "OFFER_MAX")
 SIZE_BINS = ((0, 60), (60, 100), (100, 150), (150, 200), (200, 100_000))
 
 
@@ -153,7 +155,7 @@ def bonn_rows(variants, seed=0):
 
 
 #: the offered poses' bounds a long file is tried at (``--files``)
-OFFER_CAPS = (100_000, 2000, 1000)
+OFFER_CAPS = (None, 3000, 2000, 1000)
 
 
 def file_rows(source, offer_caps=OFFER_CAPS, self_training=0):
@@ -238,6 +240,7 @@ def main(argv=None):
             print(json.dumps(row), flush=True)
             rows.append(row)
     doc = dict(split="validation", variants={v: str(VARIANTS[v]) for v in variants},
+               rule={k: getattr(temporal_recover, k) for k in RULE},
                machine=f"{platform.platform()}, load average at the end "
                        f"{[round(x, 2) for x in __import__('os').getloadavg()]}",
                seconds=round(time.perf_counter() - t0, 1),
