@@ -408,6 +408,7 @@ def adapt_in_time(dictionary, poses, missing=None, *, tracks=None, frames, ensem
     -------
     members : list of Dictionary
     adaptations : list of AdaptationResult
+        Empty when :func:`adapts` says the call does not adapt.
     """
     settings = DEFAULT_SETTINGS if settings is None else settings
     poses, mask, _, _, usable, layout = _in_time(poses, missing, tracks, frames,
