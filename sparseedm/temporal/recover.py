@@ -78,8 +78,9 @@ CLIP_MIN_POSES = 30
 #: ``studies/temporal/selection_one_clip_cost.json``): under 60 frames (every
 #: Bonn PoseTrack clip of real people, the shortest mocap ones) adapting
 #: changed no error by more than 0.1 %; from 60 frames on it cut the error on
-#: another lab's mocap by 10-40 %. Self-training rounds on clips of 60-300
-#: frames changed the mean error by 0.2 % at three times the call's time,
+#: another lab's mocap by 10-40 %. Self-training rounds on mocap clips of
+#: 60-300 frames moved the mean error by 0.4 % (by 2.8 % on another lab's
+#: self-occlusions, all of it on two clips) at three times the call's time,
 #: while on whole files (1,600-15,000 frames) they cut it by 1-9 %.
 ADAPT_MIN_FRAMES = 60
 SELF_TRAINING_MIN_FRAMES = 1000
