@@ -14,10 +14,18 @@ what a user runs end to end:
 * the same with ``--no-temporal``: per-frame recovery with the default
   adaptation;
 * per-frame :func:`sparseedm.recover` with ``adapt=False`` on the poses in memory;
-* the temporal model with ``adapt=False`` on the poses in memory;
+* the temporal model on the poses in memory, with defaults and with ``adapt=False``;
 * a cubic spline (:func:`sparseedm.temporal.fillers.fill_cubic`) per track;
 * the constant-velocity Kalman smoother, its noise fitted per track
   (:func:`sparseedm.temporal.fillers.fill_kalman`).
+
+and one clip of 150 frames given alone (``--clip-frames``), the way most users
+call the video path: the first 150 frames of the file's first track (CMU,
+which the default dictionary learned from: its adaptation runs and is
+rejected by the guard) and, when the data folder has them, of another lab's
+clip (Bandai-Namco-1, which it never saw: adapted), each timed as the median of
+``--repeats`` calls after a first, untimed one, for ``recover(frames=...)``
+with defaults and ``adapt=False``, and for the Kalman smoother on the same clip.
 
 Every row in the same run, single process; the machine and its load are recorded.
 """
@@ -85,6 +93,46 @@ def timed(func):
     return out, time.perf_counter() - t0
 
 
+#: another lab's clips (read from the data folder; only timings written)
+OTHER_LAB = "bandai-namco-1/data"
+
+
+def _median_seconds(func, repeats):
+    func()  # the first call: numba's kernels loaded, the dictionary's Gram cached
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        func()
+        times.append(time.perf_counter() - t0)
+    return float(np.median(times))
+
+
+def one_clip(data_dir, n_frames=150, repeats=5):
+    """Seconds of one clip of `n_frames` given alone, after a first call: the
+    default video path, ``adapt=False`` and the Kalman smoother (module docstring)."""
+    rows = {}
+    for name, folder in (("cmu", "cmu-mocap"), ("other lab", OTHER_LAB)):
+        if not (Path(data_dir) / folder).is_dir():
+            continue
+        poses, missing, tracks, frames = build_video(data_dir, 20 * n_frames, folder=folder)
+        firsts = [t for t in dict.fromkeys(tracks.tolist()) if (tracks == t).sum() >= n_frames]
+        sel = np.flatnonzero(tracks == firsts[0])[:n_frames]
+        p, m, f = poses[sel], missing[sel], frames[sel]
+        res = sparseedm.recover(p, m, frames=f)
+        for label, kw in (("defaults", {}), ("adapt=False", dict(adapt=False))):
+            sec = _median_seconds(lambda kw=kw: sparseedm.recover(p, m, frames=f, **kw),
+                                  repeats)
+            rows[f"{name} clip: recover(frames=...), {label}"] = dict(
+                seconds=round(sec, 3), frames_per_second=round(len(p) / sec, 1))
+        rows[f"{name} clip: recover(frames=...), defaults"].update(
+            adapted=None if res.adaptation is None else bool(res.adaptation.adapted),
+            per_frame_poses=res.per_frame_poses, probe_poses=res.probe_poses)
+        sec = _median_seconds(lambda: fill_kalman(p, m, f), repeats)
+        rows[f"{name} clip: Kalman smoother (fill_kalman)"] = dict(
+            seconds=round(sec, 3), frames_per_second=round(len(p) / sec, 1))
+    return dict(frames=n_frames, repeats=repeats, rows=rows)
+
+
 def run(data_dir, n_frames):
     poses, missing, tracks, frames = build_video(data_dir, n_frames)
     n = len(poses)
@@ -105,6 +153,12 @@ def run(data_dir, n_frames):
     res, sec = timed(lambda: sparseedm.recover(poses, missing, adapt=False))
     rows["api: per-frame recover(adapt=False)"] = dict(seconds=round(sec, 2),
                                                        frames_per_second=round(n / sec, 1))
+    res, sec = timed(lambda: sparseedm.recover(poses, missing, tracks=tracks, frames=frames))
+    rows["api: temporal recover(frames=...), defaults"] = dict(
+        seconds=round(sec, 2), frames_per_second=round(n / sec, 1),
+        per_frame_poses=res.per_frame_poses,
+        adaptation_seconds=round(res.adaptation.seconds, 2) if res.adaptation else 0.0,
+        adapted=None if res.adaptation is None else bool(res.adaptation.adapted))
     res, sec = timed(lambda: sparseedm.recover(poses, missing, tracks=tracks, frames=frames,
                                                adapt=False))
     rows["api: temporal recover(frames=..., adapt=False)"] = dict(
@@ -131,8 +185,13 @@ def main(argv=None):
     ap.add_argument("--data-dir", default="../shared/data")
     ap.add_argument("--frames", type=int, default=10_000)
     ap.add_argument("--out", default=None)
+    ap.add_argument("--clip-frames", type=int, default=150)
+    ap.add_argument("--repeats", type=int, default=5)
     args = ap.parse_args(argv)
+    load = [round(x, 2) for x in os.getloadavg()]
+    clip = one_clip(args.data_dir, args.clip_frames, args.repeats)
     out = run(args.data_dir, args.frames)
+    out["one_clip"] = dict(clip, load_average_before=load)
     print(json.dumps(out, indent=1))
     if args.out:
         Path(args.out).write_text(json.dumps(out, indent=1) + "\n")

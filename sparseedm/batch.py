@@ -535,7 +535,8 @@ def _adapt(source, dictionary, adapt, chunk_size, threshold, n_jobs, self_traini
             dictionary, *source.chunk(0, source.n), tracks=source.tracks,
             frames=source.frames, ensemble=ensemble, n_jobs=n_jobs,
             self_training=self_training)
-        return members, results[0]
+        # no result when the call's size or gaps ask for no adaptation (adapts())
+        return members, results[0] if results else None
     chunks = (source.chunk(s, min(s + chunk_size, source.n))
               for s in range(0, source.n, chunk_size))
     complete, partial, partial_missing = sample_stream(chunks)

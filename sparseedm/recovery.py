@@ -170,8 +170,9 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         them, adapt again on the complete plus the filled poses; the last
         round is guarded: :func:`sparseedm.adaptation.self_train`); default
         :data:`sparseedm.adaptation.SELF_TRAINING_ROUNDS`, 0 turns it off
-        (with frames as well: there the rounds carry one clip's long
-        self-occlusions). What the rounds gain and cost:
+        (with frames, the default runs them from
+        :data:`sparseedm.temporal.recover.SELF_TRAINING_MIN_FRAMES` poses on:
+        :func:`sparseedm.temporal.recover.adapts`). What the rounds gain and cost:
         ``docs/explanation/settings.md``, "Adaptation and self-training".
     ensemble : int, default 1
         (with adaptation) Adapt this many times (seeds 0, 1, ...), recover

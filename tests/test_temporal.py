@@ -239,8 +239,9 @@ def test_results_independent_of_row_order(track, small_dictionary):
 
 
 def test_results_with_defaults_independent_of_row_order(track, small_dictionary):
-    # with adaptation (the default) too: the clip adapts and self-trains on
-    # samples of its rows, drawn in track and frame order, not the rows' order
+    # with adaptation (the default) too: the clip adapts and self-trains (asked
+    # for: a call this size does not by default) on samples of its rows, drawn
+    # in track and frame order, not the rows' order
     n = 120
     poses = np.concatenate([track[:n], track[n:2 * n] + 300.0])
     tracks = np.repeat(["left", "right"], n)
@@ -250,9 +251,9 @@ def test_results_with_defaults_independent_of_row_order(track, small_dictionary)
         mask[start:start + 25, j] = True
     perm = np.random.default_rng(0).permutation(len(poses))
     a = sparseedm.recover(poses, mask, tracks=tracks, frames=frames,
-                          dictionary=small_dictionary)
+                          dictionary=small_dictionary, self_training=3)
     b = sparseedm.recover(poses[perm], mask[perm], tracks=tracks[perm], frames=frames[perm],
-                          dictionary=small_dictionary)
+                          dictionary=small_dictionary, self_training=3)
     assert a.adaptation.adapted and a.adaptation.self_training  # the sampling ran
     np.testing.assert_allclose(b.poses, a.poses[perm], rtol=0, atol=1e-9)
 
@@ -556,12 +557,11 @@ def test_one_clip_adapts_on_its_complete_and_time_filled_frames(track, small_dic
     assert off.adaptation is None
 
 
-def test_a_clip_that_adapts_solves_on_the_compiled_kernel(track, small_dictionary,
-                                                          monkeypatch):
-    """Once a call has learned (its learning is compiled numba), its guard, its
-    self-training rounds and its per-frame answers take the compiled LARS at any
-    batch size; without adaptation a clip's few per-frame answers keep the numpy
-    homotopy (no compilation waited for). The answers agree to round-off."""
+def test_a_clip_solves_on_the_compiled_kernel(track, small_dictionary, monkeypatch):
+    """A call in time takes the compiled LARS at any batch size, whether it
+    adapts (its guard, its self-training rounds, its per-frame answers) or
+    not: the numpy homotopy only when the caller asks for it, and the answers
+    agree to round-off."""
     from sparseedm.solvers import fast
 
     sizes = []
@@ -574,12 +574,12 @@ def test_a_clip_that_adapts_solves_on_the_compiled_kernel(track, small_dictionar
                            self_training=1)
     assert res.adaptation.candidate is not None and res.adaptation.self_training
     assert 0 < res.per_frame_poses < fast.NUMPY_MAX and sizes == []
-    off = recover_temporal(track, mask, frames=frames, dictionary=small_dictionary,
-                           adapt=False)
-    assert len(sizes) == off.per_frame_poses + off.probe_poses and off.per_frame_poses > 0
-    monkeypatch.setattr(fast, "NUMPY_MAX", 0)  # the same rows on the compiled kernel
     compiled = recover_temporal(track, mask, frames=frames, dictionary=small_dictionary,
                                 adapt=False)
+    assert sizes == [] and compiled.per_frame_poses > 0
+    off = recover_temporal(track, mask, frames=frames, dictionary=small_dictionary,
+                           adapt=False, solver=fast.FastSolver(numpy_max=10 ** 6))
+    assert len(sizes) == off.per_frame_poses + off.probe_poses
     np.testing.assert_allclose(compiled.poses, off.poses, atol=1e-6)
 
 
@@ -729,3 +729,53 @@ def test_adapt_from_a_video_uses_the_one_clip_rule(tmp_path, small_dictionary_pa
         used[name] = s["adaptation"]
     assert used["video"]["poses_used"] > 56  # the time-completed frames count too
     assert used["still"]["poses_used"] == 0 and "250" in used["still"]["reason"]
+
+
+def test_the_size_rule_adapts_only_where_the_per_frame_model_is_asked(track,
+                                                                      small_dictionary):
+    """adapt="auto" adapts a call only when some row asks the per-frame model
+    and the call has ADAPT_MIN_FRAMES rows; self-training rounds by default
+    only from SELF_TRAINING_MIN_FRAMES rows; an explicit self_training runs."""
+    from sparseedm.temporal.recover import (ADAPT_MIN_FRAMES, SELF_TRAINING_MIN_FRAMES,
+                                            adapts)
+
+    def call(poses, mask, **kw):
+        return recover_temporal(poses, mask, frames=np.arange(len(poses)),
+                                dictionary=small_dictionary, **kw)
+
+    # short gaps only: time alone fills them, nothing to adapt for
+    short_gaps = np.zeros(track.shape[:2], bool)
+    for s in range(5, len(track) - 5, 20):
+        short_gaps[s:s + 3, WRIST] = True
+    res = call(track, short_gaps)
+    assert res.per_frame_poses == 0 and res.probe_poses == 0 and res.adaptation is None
+    np.testing.assert_array_equal(res.poses, call(track, short_gaps, adapt=False).poses)
+    # a long gap in a clip one frame under the size: asks, does not adapt
+    n = ADAPT_MIN_FRAMES - 1
+    mask = np.zeros((n, track.shape[1]), bool)
+    mask[10:45, WRIST] = True
+    small = call(track[:n], mask)
+    assert small.per_frame_poses > 0 and small.adaptation is None
+    np.testing.assert_array_equal(small.poses, call(track[:n], mask, adapt=False).poses)
+    # the same gap in a clip of the size adapts, without the rounds unless asked
+    n = ADAPT_MIN_FRAMES
+    assert n < SELF_TRAINING_MIN_FRAMES
+    mask = np.zeros((n, track.shape[1]), bool)
+    mask[10:45, WRIST] = True
+    big = call(track[:n], mask)
+    assert big.adaptation is not None and not big.adaptation.self_training
+    assert adapts(SELF_TRAINING_MIN_FRAMES, True) == (True, True)
+    assert adapts(SELF_TRAINING_MIN_FRAMES, False) == (False, False)
+
+
+def test_a_long_call_adapts_on_an_even_stride_of_its_offered_poses(track, small_dictionary,
+                                                                   monkeypatch):
+    """Past OFFER_MAX offered poses, adaptation takes every k-th in frame order."""
+    from sparseedm.temporal import recover as module
+
+    mask = _few_complete_frames(track)
+    frames = np.arange(len(track))
+    offered = module.offered_poses(track, mask, frames=frames)
+    monkeypatch.setattr(module, "OFFER_MAX", (len(offered) + 1) // 2)
+    bounded = module.offered_poses(track, mask, frames=frames)
+    np.testing.assert_array_equal(bounded, offered[::2])

@@ -141,7 +141,8 @@ def test_a_folder_of_photos_is_not_a_video(cmu_poses, small_dictionary):
     alone = sparseedm.recover(poses, dictionary=small_dictionary, adapt=False)
     assert res.segments == 0 and (res.source[:, WRIST] == "per_frame").all()
     assert all(JUMP_REASON in r for r in res.reason)
-    np.testing.assert_allclose(res.poses, alone.poses, rtol=0, atol=1e-9)
+    # the same lasso; in time on the compiled kernel, alone on the numpy homotopy
+    np.testing.assert_allclose(res.poses, alone.poses, rtol=0, atol=1e-6)
 
 
 def test_a_cut_in_the_video_splits_the_track(track, small_dictionary):

@@ -40,7 +40,7 @@ TITLES = {
     "results-quick.json": "The same, quick smoke test (k = 200)",
     "results-adaptation.json": "Adaptation on 5,000 poses",
     "results-default-path.json": "recover() with its defaults against adapt=False",
-    "results-temporal.json": "The video path on a 10,000-frame file",
+    "results-temporal.json": "The video path on a 10,000-frame file and on one 150-frame clip",
     "results-video-speed.json": "The video path by stage",
     "results-lifting-speed.json": "Lifting speed",
     "results-fconv.json": "FConv network speed and Table 1 (2D to 3D)",

@@ -40,10 +40,11 @@ from .model import (DEFAULT_SETTINGS, choose_trust, fill_segment, prior_frames,
                     probe_errors, probe_mask, probe_settings, time_filled)
 from .tracks import split_tracks
 
-__all__ = ["recover_temporal", "recover_track", "adapt_in_time", "offered_poses",
+__all__ = ["recover_temporal", "recover_track", "adapt_in_time", "adapts", "offered_poses",
            "linked_tracks", "time_layout",
            "TemporalResult", "SOURCES",
-           "CLIP_NEAR", "CLIP_MIN_POSES"]
+           "CLIP_NEAR", "CLIP_MIN_POSES", "ADAPT_MIN_FRAMES", "SELF_TRAINING_MIN_FRAMES",
+           "OFFER_MAX"]
 
 #: Per-joint sources of :attr:`TemporalResult.source`.
 SOURCES = {
@@ -68,6 +69,30 @@ RESIDUAL_TOL = 1e-8
 #: --adapt``, ``studies/temporal/selection_temporal_adapt.json``)
 CLIP_NEAR = 3
 CLIP_MIN_POSES = 30
+#: under ``adapt="auto"`` a call adapts only when some row asks the per-frame
+#: model (a prior frame, a probe, a row answered alone: else no adapted
+#: dictionary would be used) and it holds at least ADAPT_MIN_FRAMES rows; the
+#: self-training rounds (``self_training=None``) run from
+#: SELF_TRAINING_MIN_FRAMES rows on. Chosen on validation clips given one per
+#: call (``studies/temporal/select_one_clip_cost.py``,
+#: ``studies/temporal/selection_one_clip_cost.json``): under 60 frames (every
+#: Bonn PoseTrack clip of real people, the shortest mocap ones) adapting
+#: changed no error by more than 0.1 %; from 60 frames on it cut the error on
+#: another lab's mocap by 10-40 %. Self-training rounds on mocap clips of
+#: 60-300 frames moved the mean error by 0.4 % (by 2.8 % on another lab's
+#: self-occlusions, all of it on two clips) at three times the call's time,
+#: while on whole files (1,600-15,000 frames) they cut it by 1-9 %.
+ADAPT_MIN_FRAMES = 60
+SELF_TRAINING_MIN_FRAMES = 1000
+#: at most this many offered poses are adapted on, a longer call's taken at an
+#: even stride in track and frame order (neighbouring frames are near copies);
+#: None: all of them (the adaptation then learns from its own seeded sample of
+#: 5,000). On the whole validation file of another lab's mocap (15,000 frames,
+#: 7,500-11,600 offered) 3,000 halved the adaptation's filter and learning and
+#: moved the error by +3.0 % (gaps) and -5.2 % (self-occlusion); 2,000 by +4.0 %
+#: and -2.5 %, 1,000 by +7.2 % and -0.2 %; a CMU file of 1,600 frames offers
+#: fewer (same study, ``--files``). Clips of a few hundred frames never reach it.
+OFFER_MAX = 3000
 
 
 @dataclass
@@ -186,17 +211,57 @@ def _offered(layout, poses, mask, usable, settings):
         values, free = _dense(rows, off, poses, mask, usable)
         near, filled = time_filled(values, free, CLIP_NEAR, settings)
         parts.append(filled[off][near[off] & usable[rows]])
-    return np.concatenate(parts)
+    offered = np.concatenate(parts)
+    if OFFER_MAX is None or len(offered) <= OFFER_MAX:
+        return offered
+    return offered[::-(-len(offered) // OFFER_MAX)]
 
 
-def _adapt(dictionary, poses, mask, layout, usable, adapt, ensemble, settings, kw):
+def adapts(n_rows, asks_per_frame):
+    """Whether ``adapt="auto"`` adapts a call in time, and whether it self-trains
+    (when ``self_training`` is left to its default): only when some row asks
+    the per-frame model, from :data:`ADAPT_MIN_FRAMES` and
+    :data:`SELF_TRAINING_MIN_FRAMES` rows on.
+
+    Parameters
+    ----------
+    n_rows : int
+        Poses in the call.
+    asks_per_frame : bool
+        Whether any row's answer comes from, or is tested against, the
+        per-frame model.
+
+    Returns
+    -------
+    adapt : bool
+    self_train : bool
+
+    Examples
+    --------
+    >>> adapts(1000, False)
+    (False, False)
+    """
+    adapt = bool(asks_per_frame) and n_rows >= ADAPT_MIN_FRAMES
+    return adapt, adapt and n_rows >= SELF_TRAINING_MIN_FRAMES
+
+
+def _adapt(dictionary, poses, mask, layout, usable, adapt, ensemble, settings, kw,
+           asks_per_frame=True):
     """Members and adaptations: under "auto" on what the poses offer
-    (:func:`_offered`, at least :data:`CLIP_MIN_POSES`), else as asked."""
+    (:func:`_offered`, at least :data:`CLIP_MIN_POSES`) where :func:`adapts`
+    says so, else as asked."""
+    auto = isinstance(adapt, str) and adapt == "auto"
+    if auto:
+        adapt_now, self_train = adapts(len(poses), asks_per_frame)
+        if not adapt_now:
+            adapt = False
+        elif not self_train and kw.get("self_training") is None:
+            kw = dict(kw, self_training=0)
     if adapt is False or adapt is None:
         return adapt_members(dictionary, poses, mask, adapt, ensemble, **kw)
     # self-training samples the rows: in track and frame order, whatever theirs
     ordered = poses[layout.order], mask[layout.order]
-    if isinstance(adapt, str) and adapt == "auto":
+    if auto:
         offered = _offered(layout, poses, mask, usable, settings)
         return adapt_members(dictionary, *ordered, offered, ensemble, warn=False,
                              min_poses=CLIP_MIN_POSES, **kw)
@@ -344,12 +409,15 @@ def adapt_in_time(dictionary, poses, missing=None, *, tracks=None, frames, ensem
     -------
     members : list of Dictionary
     adaptations : list of AdaptationResult
+        Empty when :func:`adapts` says the call does not adapt.
     """
     settings = DEFAULT_SETTINGS if settings is None else settings
     poses, mask, _, _, usable, layout = _in_time(poses, missing, tracks, frames,
                                                  dictionary.n_joints)
+    asks = _plan(layout, poses, mask, usable, settings).any() or _probes(
+        layout, poses, mask, usable, settings)[2].any()
     return _adapt(dictionary, poses, mask, layout, usable, "auto", ensemble, settings,
-                  dict(n_jobs=n_jobs, self_training=self_training))
+                  dict(n_jobs=n_jobs, self_training=self_training), asks_per_frame=asks)
 
 
 def _segment_prior(per, rows, off, T):
@@ -375,13 +443,14 @@ def _probes(layout, poses, mask, usable, settings):
     return probes, probed, need & usable
 
 
-def _trusts(layout, poses, mask, usable, per, settings, members, kwargs, track_of):
+def _trusts(layout, poses, mask, usable, per, settings, members, kwargs, track_of, planned):
     """Each segment's trust in the per-frame prior: the probes' errors
     (:func:`~sparseedm.temporal.model.probe_errors`, one batch of per-frame
-    answers with the probes hidden) pooled over the segments of one track
-    (`track_of`: a track key per row), so that a cut in a track does not
-    change what its other rows are filled with; and the rows asked."""
-    probes, probed, need = _probes(layout, poses, mask, usable, settings)
+    answers with the probes hidden; `planned`: :func:`_probes`) pooled over
+    the segments of one track (`track_of`: a track key per row), so that a
+    cut in a track does not change what its other rows are filled with; and
+    the rows asked."""
+    probes, probed, need = planned
     if not need.any():
         return [1.0] * len(probes), 0
     test = _per_frame(poses, probed, need, members, settings, kwargs)
@@ -497,7 +566,10 @@ def recover_temporal(poses, missing=None, *, tracks=None, frames, dictionary=Non
         As :func:`sparseedm.recover`; ``adapt="auto"`` adapts on the complete
         frames and the frames whose missing joints time fills from within
         :data:`CLIP_NEAR` frames, from :data:`CLIP_MIN_POSES` of them on (one
-        clip of a few hundred frames adapts), guarded as per frame.
+        clip of a few hundred frames adapts), guarded as per frame; only when
+        some row asks the per-frame model and the call has
+        :data:`ADAPT_MIN_FRAMES` rows, and ``self_training=None`` runs its
+        rounds from :data:`SELF_TRAINING_MIN_FRAMES` rows on (:func:`adapts`).
     settings : TemporalSettings, optional
         The temporal model's constants; default the validated ones.
     **kwargs
@@ -516,16 +588,20 @@ def recover_temporal(poses, missing=None, *, tracks=None, frames, dictionary=Non
         dictionary = load_dictionary(dictionary)
     poses, mask, refusal, why, usable, layout = _in_time(poses, missing, tracks, frames,
                                                          dictionary.n_joints)
+    need = _plan(layout, poses, mask, usable, settings)
+    planned = _probes(layout, poses, mask, usable, settings)
     members, adaptations = _adapt(dictionary, poses, mask, layout, usable, adapt, ensemble,
                                   settings, dict(n_jobs=kwargs.get("n_jobs", 1),
-                                                 self_training=self_training))
-    need = _plan(layout, poses, mask, usable, settings)
-    kwargs["solver"] = compiled_solver(kwargs.get("solver", "fast"), adaptations)
+                                                 self_training=self_training),
+                                  asks_per_frame=bool(need.any() or planned[2].any()))
+    # the compiled kernel at any size: its answers equal the numpy homotopy's to
+    # round-off, 2-4x faster a row; a process's first call loads it once
+    kwargs["solver"] = compiled_solver(kwargs.get("solver", "fast"))
     per = _per_frame(poses, mask, need, members, settings, kwargs)
     track_of = layout.linked if layout.linked is not None else (
         np.zeros(len(poses), int) if tracks is None else np.asarray(tracks))
     trusts, probe_poses = _trusts(layout, poses, mask, usable, per, settings, members, kwargs,
-                                  track_of)
+                                  track_of, planned)
     filled, weight, residual = _fill_segments(layout, poses, mask, usable, per, settings,
                                               trusts)
     res = _assemble(poses, mask, refusal, why, layout, per, filled, weight, residual,
