@@ -178,7 +178,8 @@ def run(args):
     )
     out = sys.stderr if args.quiet or is_stream(args.output) else sys.stdout  # -o /dev/stdout
     ad = summary.get("adaptation")
-    if ad is not None and not ad["adapted"] and ad["poses_used"] == 0:
+    fast = args.preset == "fast"  # its summary line says what it did: not a refusal
+    if ad is not None and not ad["adapted"] and ad["poses_used"] == 0 and not fast:
         print(f"sparseedm recover: no adaptation: {ad['reason']}", file=sys.stderr)
     if summary.get("linked_tracks") is not None:
         print(f"sparseedm recover: {args.input} has frames, no track ids and several poses in "
