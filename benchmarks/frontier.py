@@ -203,15 +203,18 @@ def plot(results, path=PLOT):
     import matplotlib.pyplot as plt
 
     files = results["files"]
-    fig, axes = plt.subplots(1, len(files), figsize=(5 * len(files), 4.2), squeeze=False)
+    from matplotlib.ticker import NullFormatter
+
+    fig, axes = plt.subplots(1, len(files), figsize=(5.5 * len(files), 4.6), squeeze=False)
     for ax, (name, rows) in zip(axes[0], files.items()):
-        for r in rows:
+        for i, r in enumerate(sorted(rows, key=lambda r: r["poses_per_s"])):
             ours = r["method"].startswith("recover")
             ax.scatter(r["poses_per_s"], r["err"], marker="o" if ours else "s",
                        color="C0" if ours else "C3")
-            ax.annotate(r["method"], (r["poses_per_s"], r["err"]), fontsize=7,
-                        xytext=(3, 3), textcoords="offset points")
+            ax.annotate(r["method"], (r["poses_per_s"], r["err"]), fontsize=6.5,
+                        xytext=(4, 4 if i % 2 else -9), textcoords="offset points")
         ax.set_xscale("log")
+        ax.xaxis.set_minor_formatter(NullFormatter())
         ax.set_xlabel("poses (frames) per second")
         ax.set_ylabel("Err_ave of the occluded poses (%)")
         ax.set_title(name, fontsize=9)
