@@ -212,7 +212,7 @@ def plot(results, path=PLOT):
             ax.scatter(r["poses_per_s"], r["err"], marker="o" if ours else "s",
                        color="C0" if ours else "C3")
             ax.annotate(r["method"], (r["poses_per_s"], r["err"]), fontsize=6.5,
-                        xytext=(4, 4 if i % 2 else -9), textcoords="offset points")
+                        xytext=(4, (4, -10, 14)[i % 3]), textcoords="offset points")
         ax.set_xscale("log")
         ax.xaxis.set_minor_formatter(NullFormatter())
         ax.set_xlabel("poses (frames) per second")

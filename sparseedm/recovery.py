@@ -216,11 +216,12 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         :data:`~sparseedm.file_atoms.FAST_ALPHA` unless `alpha` is given
         (:func:`sparseedm.file_atoms.resolve_fast`; with fewer complete poses
         they join the base dictionary's atoms). The lasso, its certificate
-        and every status are the same as with the defaults. Several times
-        faster than the defaults on a file of thousands of poses with many
-        complete ones, and less accurate: ``docs/explanation/settings.md``,
-        "Presets". Per pose only: with `frames` it needs ``temporal=False``;
-        `ensemble` and `self_training` are refused with it.
+        and every status are the same as with the defaults. It skips the
+        defaults' fixed cost of adaptation and self-training (tens of
+        seconds); its work per occluded pose grows with the atoms
+        (``docs/explanation/settings.md``, "Presets", and the accuracy-speed
+        frontier of the results pages). Per pose only: with `frames` it needs
+        ``temporal=False``; `ensemble` and `self_training` are refused with it.
 
     Returns
     -------
