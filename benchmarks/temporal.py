@@ -51,9 +51,10 @@ from sparseedm.mocap import load_mocap
 from sparseedm.temporal.fillers import fill_cubic, fill_kalman
 
 
-def build_video(data_dir, n_frames, seed=0, folder="cmu-mocap"):
+def build_video(data_dir, n_frames, seed=0, folder="cmu-mocap", return_truth=False):
     """(poses with NaN, missing, tracks, frames) of about `n_frames` rows from
-    the motion files under ``data_dir / folder``, in sorted order."""
+    the motion files under ``data_dir / folder``, in sorted order (and the
+    poses before the NaN with `return_truth`)."""
     rng = np.random.default_rng(seed)
     files = sorted(find_mocap_files([Path(data_dir) / folder]))
     chunks, tracks, frames, total = [], [], [], 0
@@ -83,7 +84,10 @@ def build_video(data_dir, n_frames, seed=0, folder="cmu-mocap"):
                 gap = int(rng.choice([3, 10, 30, 90]))
                 missing[rows[t:t + gap], j] = True
                 t += gap + int(rng.integers(gap, 4 * gap + 1))
+    truth = poses.copy()
     poses[missing] = np.nan
+    if return_truth:
+        return poses, missing, tracks, np.array(frames), truth
     return poses, missing, tracks, np.array(frames)
 
 

@@ -31,7 +31,11 @@ from .solvers import SOLVERS, BaseSolver, get_solver
 from .solvers.fast import FastSolver
 
 __all__ = ["recover_sparse", "recover_members", "solve_chunk", "compiled_solver",
-           "RECOVER_PARAMS"]
+           "RECOVER_PARAMS", "PRESETS"]
+
+#: recover()'s presets: "default" (adaptation and self-training) and "fast"
+#: (the file's complete poses as the atoms, nothing learned: sparseedm.file_atoms)
+PRESETS = ("default", "fast")
 
 #: constraints of recover()'s arguments (see sparseedm._validation)
 RECOVER_PARAMS = {
@@ -49,6 +53,7 @@ RECOVER_PARAMS = {
     "self_training": [Interval(Integral, 0, None), None],
     "ensemble": ENSEMBLE,
     "temporal": BOOLEAN,
+    "preset": [Options(PRESETS)],
 }
 
 

@@ -717,6 +717,8 @@ class AdaptationResult:
             ``"adaptation: "`` then what was done and why, the poses used, the
             guard's errors, the self-training rounds and the time.
         """
+        if self.settings.get("preset") == "fast":  # nothing adapted, nothing to compare
+            return f"adaptation: none ({self.reason}); {self.seconds:.1f} s"
         if np.isfinite(self.err_base) and np.isfinite(self.err_adapted):
             errs = (f"validation Mix Err_ave {self.err_base:.2f}% -> {self.err_adapted:.2f}% "
                     f"on {self.n_validation} held-back poses")

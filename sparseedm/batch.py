@@ -94,7 +94,7 @@ from .adaptation import MIN_COMPLETE_POSES, sample_stream
 from .dictionary import Dictionary, dictionary_path, check_gram_memory, load_dictionary
 from ._safeio import resolved
 from .ensemble import adapt_members
-from .exceptions import FileFormatError, OutputPathError, SparseEDMError
+from .exceptions import FileFormatError, OutputPathError, ParameterError, SparseEDMError
 from .fconv.model import load_model
 from .formats import FILLED_SCORE, count_below, default_threshold, threshold_line
 from .formats import FORMATS as FOLDER_OR_TABLE_FORMATS
@@ -104,7 +104,7 @@ from .keypoints import (FLAGS_IN_SIDECAR, N_JOINTS, EXTENSIONS, beside, check_jo
                         read_keypoints, status_sidecar, write_keypoints)
 from .keypoints import output_format as keypoint_output_format
 from ._recovery_base import OK_STATUSES, combine, recovery_summary
-from ._recovery_kernel import compiled_solver
+from ._recovery_kernel import PRESETS, compiled_solver
 from .normalize import REPRESENTATIONS, representation_for
 from .recovery import STATUSES, check_options_apply, recover
 from .skeleton import JOINT_NAMES
@@ -272,7 +272,8 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
                  confidence_threshold=None, backend=None, scheduler=None,
                  method="sparse", model=None, adapt="auto", save_dictionary=None,
                  self_training=None, ensemble=1, joint_map=None,
-                 filled_score=FILLED_SCORE, temporal=True, input_format=None):
+                 filled_score=FILLED_SCORE, temporal=True, input_format=None,
+                 preset="default"):
     """Recover every pose of a keypoint file and write the filled poses.
 
     Parameters
@@ -350,6 +351,11 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
         The input's keypoint format when its name does not tell (a pipe such
         as ``/dev/stdin``): as :func:`~sparseedm.keypoints.read_keypoints`'
         `format`; default told from the input.
+    preset : {"default", "fast"}, default "default"
+        As :func:`sparseedm.recover`'s: ``"fast"`` takes the sampled complete
+        poses of the file (or of `adapt`) as the atoms, nothing learned
+        (refused with self-training rounds, an ensemble, FConv, and on a
+        file with frames unless ``temporal=False``).
 
     Returns
     -------
@@ -378,9 +384,11 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
         save_edm=save_edm, confidence_threshold=confidence_threshold, backend=backend,
         scheduler=scheduler, method=method, save_dictionary=save_dictionary,
         self_training=self_training, ensemble=ensemble, joint_map=joint_map,
-        filled_score=filled_score, temporal=temporal, input_format=input_format), _PARAMS)
+        filled_score=filled_score, temporal=temporal, input_format=input_format,
+        preset=preset), _PARAMS)
     check_options_apply("recover_file", method=method, model=model, backend=backend,
-                        scheduler=scheduler, adapt=adapt, ensemble=ensemble)
+                        scheduler=scheduler, adapt=adapt, ensemble=ensemble, preset=preset,
+                        self_training=self_training)
     if method == "fconv" and ensemble > 1:
         raise SparseEDMError("ensemble averages adapted dictionaries: it needs "
                              "method='sparse'")
@@ -422,7 +430,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
         if method == "sparse":
             members, adaptation = _adapt(source, dictionary, adapt, chunk_size,
                                          confidence_threshold, n_jobs, self_training, ensemble,
-                                         in_time)
+                                         in_time, preset)
             dictionary = members[0]
         else:
             members, adaptation = [dictionary], None
@@ -522,12 +530,16 @@ def _solver_after(requested, solver, adaptation):
 
 
 def _adapt(source, dictionary, adapt, chunk_size, threshold, n_jobs, self_training,
-           ensemble=1, in_time=False):
+           ensemble=1, in_time=False, preset="default"):
     """The dictionaries to recover with (one unless an ensemble is asked for) and
     the first one's AdaptationResult: adapted on the file's complete poses or
     on other poses, then self-trained on the file's incomplete poses (bounded
     seeded samples of both, one pass over the source), or as given; `in_time`
-    under "auto": as recover(frames=...) adapts (the whole file, read once)."""
+    under "auto": as recover(frames=...) adapts (the whole file, read once);
+    `preset` "fast": the sampled complete poses as atoms, nothing learned."""
+    if in_time and preset == "fast":
+        raise ParameterError("recover_file: preset 'fast' recovers each pose on its own: "
+                             "the file has frames, add --no-temporal (temporal=False)")
     if adapt is False or adapt is None:
         return [dictionary], None
     if in_time and isinstance(adapt, str) and adapt == "auto":
@@ -547,7 +559,8 @@ def _adapt(source, dictionary, adapt, chunk_size, threshold, n_jobs, self_traini
         partial, partial_missing = np.zeros((0, n_joints, 2)), np.zeros((0, n_joints), bool)
     poses = np.concatenate([complete, partial])
     missing = np.concatenate([np.zeros(complete.shape[:2], bool), partial_missing])
-    kw = dict(n_jobs=n_jobs, warn=False, self_training=self_training, file_atoms=True)
+    kw = dict(n_jobs=n_jobs, warn=False, self_training=self_training, file_atoms=True,
+              preset=preset)
     if isinstance(adapt, str) and adapt == "auto":
         members, results = adapt_members(dictionary, poses, missing, "auto", ensemble, **kw)
     else:
@@ -587,6 +600,7 @@ _PARAMS = {
     "ensemble": ENSEMBLE,
     "temporal": BOOLEAN,
     "input_format": [str, None],
+    "preset": [Options(PRESETS)],
 }
 
 

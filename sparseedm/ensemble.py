@@ -29,7 +29,7 @@ from threadpoolctl import threadpool_limits
 
 from . import _progress
 from .adaptation import MIN_COMPLETE_POSES, resolve_adaptation
-from .file_atoms import with_file_atoms
+from .file_atoms import resolve_fast, with_file_atoms
 from ._recovery_base import combine
 
 __all__ = ["adapt_members", "combine"]
@@ -37,7 +37,7 @@ __all__ = ["adapt_members", "combine"]
 
 def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
                   self_training=None, warn=True, min_poses=MIN_COMPLETE_POSES,
-                  file_atoms=False):
+                  file_atoms=False, preset="default"):
     """Dictionaries adapted with seeds 0 .. n_members - 1, and what each did.
 
     Parameters
@@ -57,6 +57,9 @@ def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
         (:func:`sparseedm.file_atoms.with_file_atoms`; the result's
         ``file_atoms`` counts them). :func:`sparseedm.recover` and
         :func:`sparseedm.batch.recover_file` pass True.
+    preset : {"default", "fast"}, default "default"
+        ``"fast"``: no adaptation; the complete poses offered become the
+        atoms (:func:`sparseedm.file_atoms.resolve_fast`), one member.
 
     Returns
     -------
@@ -67,6 +70,9 @@ def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
         One per dictionary; empty when `adapt` asks for none (False or None,
         as :func:`~sparseedm.adaptation.resolve_adaptation` reads it).
     """
+    if preset == "fast":
+        d, res = resolve_fast(dictionary, poses, missing, adapt, min_poses=min_poses)
+        return [d], ([] if res is None else [res])
     # the work is many small BLAS calls beside numba's threads: BLAS threads
     # would only spin against them (measured 2x slower), so BLAS gets one. Held
     # here for every member: the members' guards' recover() calls set and

@@ -23,21 +23,30 @@ with COCO's) (``studies/real_prior/README.md``).
 
 from __future__ import annotations
 
+import time
 import warnings
 from dataclasses import dataclass, replace
 from numbers import Integral
 
 import numpy as np
 
-from .adaptation import duplicate_rows, filter_poses, pose_vectors
+from .adaptation import (MIN_COMPLETE_POSES, AdaptationResult, duplicate_rows, filter_poses,
+                         pose_vectors)
 from ._validation import BOOLEAN, Interval, check_pose_shape, validate_params
 from .dictionary import Dictionary
 from .normalize import usable_rows
 
-__all__ = ["MAX_FILE_ATOMS", "FileAtoms", "with_file_atoms"]
+__all__ = ["MAX_FILE_ATOMS", "MAX_FAST_ATOMS", "FAST_ALPHA", "FileAtoms",
+           "with_file_atoms", "file_dictionary", "resolve_fast"]
 
 #: at most this many of a file's complete poses become atoms (a seeded sample)
 MAX_FILE_ATOMS = 1000
+
+#: ``recover(preset="fast")``: at most this many complete poses make the file's
+#: dictionary, and its recovery alpha (chosen on CMU validation files:
+#: ``studies/fast/select_fast.py``)
+MAX_FAST_ATOMS = 3000
+FAST_ALPHA = 0.0005
 
 _PARAMS = {"dictionary": [Dictionary], "max_atoms": [Interval(Integral, 1, None)],
            "filter": BOOLEAN, "random_state": [Interval(Integral, 0, None)]}
@@ -112,6 +121,75 @@ def with_file_atoms(dictionary, poses, missing=None, *, max_atoms=MAX_FILE_ATOMS
     """
     validate_params("with_file_atoms", dict(dictionary=dictionary, max_atoms=max_atoms,
                                            filter=filter, random_state=random_state), _PARAMS)
+    atoms, n_complete = _file_vectors(dictionary, poses, missing, max_atoms, filter,
+                                      random_state)
+    if not len(atoms):
+        return FileAtoms(dictionary, 0, n_complete)
+    prov = dict(dictionary.provenance or {})
+    prov["file_atoms"] = {"atoms": int(len(atoms)), "complete_poses": int(n_complete),
+                          "seed": int(random_state)}
+    out = replace(dictionary, components=np.vstack([dictionary.components, atoms]),
+                  provenance=prov)
+    return FileAtoms(out, int(len(atoms)), int(n_complete))
+
+
+def file_dictionary(dictionary, poses, missing=None, *, max_atoms=MAX_FAST_ATOMS,
+                    alpha_recover=FAST_ALPHA, random_state=0):
+    """A dictionary of the complete rows of `poses` alone: ``recover(preset="fast")``'s.
+
+    Each usable complete pose (exact repeats dropped; at most `max_atoms`, a
+    seeded sample) becomes a unit-norm atom, as in :func:`with_file_atoms`,
+    but without the base's atoms: the lasso then codes each occluded pose
+    over exemplars of the same file only, which are in-domain, and nothing is
+    learned. The result keeps `dictionary`'s settings (normalisation,
+    representation, alpha scaling) and recommends `alpha_recover`.
+
+    Parameters
+    ----------
+    dictionary : Dictionary
+        Where the settings come from (its atoms are not used).
+    poses : ndarray (n, N, 2)
+        Poses in pixels; only usable complete rows are used.
+    missing : ndarray of bool (n, N), optional
+        True where a joint is missing; default the NaN coordinates.
+    max_atoms : int, default MAX_FAST_ATOMS
+        At most this many poses become atoms (a seeded sample, order kept).
+    alpha_recover : float, default FAST_ALPHA
+        The recovery alpha the dictionary recommends.
+    random_state : int, default 0
+        Seed of the sample.
+
+    Returns
+    -------
+    FileAtoms
+        The file's dictionary (`dictionary` itself when no pose was usable),
+        its atom count and the complete poses offered.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sparseedm.dictionary import load_dictionary
+    >>> poses = np.random.default_rng(0).normal(size=(30, 14, 2))
+    >>> out = file_dictionary(load_dictionary(), poses)
+    >>> out.n_atoms, out.dictionary.n_components, out.dictionary.alpha_recover
+    (30, 30, 0.0005)
+    """
+    atoms, n_complete = _file_vectors(dictionary, poses, missing, max_atoms, False,
+                                      random_state)
+    if not len(atoms):
+        return FileAtoms(dictionary, 0, n_complete)
+    prov = {"file_dictionary": {"atoms": int(len(atoms)), "complete_poses": int(n_complete),
+                                "seed": int(random_state),
+                                "settings_from": (dictionary.provenance or {}).get("sha256", "")}}
+    out = replace(dictionary, components=atoms, alpha_recover=float(alpha_recover),
+                  provenance=prov)
+    return FileAtoms(out, int(len(atoms)), int(n_complete))
+
+
+def _file_vectors(dictionary, poses, missing, max_atoms, filter, random_state):
+    """The unit-norm EDM vectors of the usable complete rows of `poses` (repeats or,
+    with `filter`, implausible poses dropped; a seeded sample of at most
+    `max_atoms`), and how many complete rows were offered."""
     poses = np.asarray(poses, dtype=float)
     check_pose_shape(poses, n_joints=dictionary.n_joints)
     complete = usable_rows(poses)  # finite, with an extent recover() accepts
@@ -119,7 +197,7 @@ def with_file_atoms(dictionary, poses, missing=None, *, max_atoms=MAX_FILE_ATOMS
         complete &= ~np.asarray(missing, dtype=bool).any(axis=-1)
     poses = poses[complete]
     if len(poses) == 0:
-        return FileAtoms(dictionary, 0, 0)
+        return np.zeros((0, dictionary.n_features)), 0
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         vectors = pose_vectors(poses)  # one vector per pose: the atoms are its rows
@@ -129,13 +207,63 @@ def with_file_atoms(dictionary, poses, missing=None, *, max_atoms=MAX_FILE_ATOMS
     if len(rows) > max_atoms:
         rng = np.random.default_rng([int(random_state), 41])
         rows = np.sort(rng.choice(rows, int(max_atoms), replace=False))
-    if len(rows) == 0:
-        return FileAtoms(dictionary, 0, len(poses))
     X = vectors[rows]
-    X /= np.linalg.norm(X, axis=1, keepdims=True)
-    prov = dict(dictionary.provenance or {})
-    prov["file_atoms"] = {"atoms": int(len(rows)), "complete_poses": int(len(poses)),
-                          "seed": int(random_state)}
-    out = replace(dictionary, components=np.vstack([dictionary.components, X]),
-                  provenance=prov)
-    return FileAtoms(out, int(len(rows)), int(len(poses)))
+    return X / np.linalg.norm(X, axis=1, keepdims=True), len(poses)
+
+
+def resolve_fast(dictionary, poses, missing, adapt, *, min_poses=MIN_COMPLETE_POSES):
+    """The dictionary ``recover(preset="fast")`` codes with, and what was done.
+
+    With at least `min_poses` usable complete poses offered (the file's own
+    under ``adapt="auto"``, or the array `adapt`), those poses alone are the
+    atoms (:func:`file_dictionary`); with fewer, they join `dictionary`'s
+    atoms (:func:`with_file_atoms`), as the default path does when it cannot
+    adapt. Nothing is learned either way.
+
+    Parameters
+    ----------
+    dictionary : Dictionary
+        The base dictionary (its settings in both cases, its atoms in the second).
+    poses, missing : ndarray
+        The poses to be recovered and their missing joints (None: the NaN ones).
+    adapt : "auto", False, None or array_like (n_adapt, N, 2)
+        Where the complete poses come from; False or None: `dictionary` as given.
+    min_poses : int, default MIN_COMPLETE_POSES
+        Fewest complete poses that make a dictionary on their own.
+
+    Returns
+    -------
+    dictionary : Dictionary
+        The dictionary to recover with.
+    adaptation : AdaptationResult or None
+        What was done (``adapted`` False, ``file_atoms`` the atoms taken from
+        the poses); None when `adapt` is False or None.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sparseedm.dictionary import load_dictionary
+    >>> base = load_dictionary()
+    >>> d, res = resolve_fast(base, np.random.default_rng(0).normal(size=(40, 14, 2)), None,
+    ...                       "auto")
+    >>> d.n_components == base.n_components + 40, res.file_atoms
+    (True, 40)
+    """
+    if adapt is False or adapt is None:
+        return dictionary, None
+    t0 = time.perf_counter()
+    source = (poses, missing) if isinstance(adapt, str) else (np.asarray(adapt, float), None)
+    found = file_dictionary(dictionary, *source)
+    if found.n_atoms >= min_poses:
+        reason = (f"preset 'fast': {found.n_atoms} complete poses are the dictionary's atoms "
+                  "(nothing learned)")
+    else:
+        found = with_file_atoms(dictionary, *source)
+        reason = (f"preset 'fast': {found.n_complete} complete poses, fewer than the "
+                  f"{min_poses} a dictionary of their own needs: the base dictionary"
+                  + (" with them as extra atoms" if found.n_atoms else ""))
+    res = AdaptationResult(dictionary=found.dictionary, adapted=False, reason=reason,
+                           n_given=len(source[0]), n_complete=found.n_complete,
+                           file_atoms=found.n_atoms, settings={"preset": "fast"},
+                           seconds=time.perf_counter() - t0)
+    return found.dictionary, res

@@ -52,7 +52,8 @@ _recover, _recover_members, _solve_chunk = recover_sparse, recover_members, solv
 _PARAMS = dict(RECOVER_PARAMS, representation=[Options(REPRESENTATIONS), None])
 
 
-def check_options_apply(caller, *, method, model, backend, scheduler, adapt, ensemble):
+def check_options_apply(caller, *, method, model, backend, scheduler, adapt, ensemble,
+                        preset="default", self_training=None):
     """Refuse options that would be silently ignored (a ParameterError naming them).
 
     Shared by :func:`recover` and :func:`sparseedm.batch.recover_file` (the
@@ -75,12 +76,18 @@ def check_options_apply(caller, *, method, model, backend, scheduler, adapt, ens
         The adaptation asked for; False or None means none.
     ensemble : int
         Adapted dictionaries to average.
+    preset : {"default", "fast"}, default "default"
+        The preset asked for.
+    self_training : int or None, default None
+        The self-training rounds asked for (None: the default).
 
     Raises
     ------
     ParameterError
         A `model` with ``method="sparse"``, a `scheduler` without
-        ``backend="dask"``, or ``ensemble > 1`` without adaptation.
+        ``backend="dask"``, ``ensemble > 1`` without adaptation, or
+        ``preset="fast"`` (which learns nothing) with ``method="fconv"``,
+        ``ensemble > 1`` or self-training rounds.
 
     Examples
     --------
@@ -102,13 +109,22 @@ def check_options_apply(caller, *, method, model, backend, scheduler, adapt, ens
         raise ParameterError(f"{caller}: ensemble={ensemble} averages adapted "
                              "dictionaries: it needs adaptation (drop adapt=False / "
                              "--no-adapt)")
+    if preset == "fast":
+        asked = [name for name, used in (("method='fconv'", method == "fconv"),
+                                         (f"ensemble={ensemble}", ensemble > 1),
+                                         (f"self_training={self_training}",
+                                          bool(self_training))) if used]
+        if asked:
+            raise ParameterError(f"{caller}: preset='fast' learns no dictionary, so "
+                                 f"{' and '.join(asked)} would be ignored: drop "
+                                 f"{'them' if len(asked) > 1 else 'it'} or the preset")
 
 
 def recover(poses, missing=None, *, dictionary=None, alpha=None,
             representation=None, solver="fast", n_jobs=1, chunk_size=2048,
             positive=None, progress=False, backend=None, scheduler=None,
             method="sparse", model=None, adapt="auto", self_training=None, ensemble=1,
-            tracks=None, frames=None, temporal=True):
+            tracks=None, frames=None, temporal=True, preset="default"):
     """Recover the occluded joints of 2D poses.
 
     Parameters
@@ -194,6 +210,22 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
     temporal : bool, default True
         False ignores `tracks` and `frames`: every pose on its own, exactly as
         without them.
+    preset : {"default", "fast"}, default "default"
+        ``"default"``: the settings above as they are. ``"fast"``: no
+        adaptation and no self-training; under ``adapt="auto"`` (or an array)
+        the complete poses (at least
+        :data:`~sparseedm.adaptation.MIN_COMPLETE_POSES`, at most
+        :data:`~sparseedm.file_atoms.MAX_FAST_ATOMS`, a seeded sample) are the
+        dictionary's only atoms, at the recovery alpha
+        :data:`~sparseedm.file_atoms.FAST_ALPHA` unless `alpha` is given
+        (:func:`sparseedm.file_atoms.resolve_fast`; with fewer complete poses
+        they join the base dictionary's atoms). The lasso, its certificate
+        and every status are the same as with the defaults. It skips the
+        defaults' fixed cost of adaptation and self-training (tens of
+        seconds); its work per occluded pose grows with the atoms
+        (``docs/explanation/settings.md``, "Presets", and the accuracy-speed
+        frontier of the results pages). Per pose only: with `frames` it needs
+        ``temporal=False``; `ensemble` and `self_training` are refused with it.
 
     Returns
     -------
@@ -237,12 +269,16 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         dictionary=dictionary, alpha=alpha, representation=representation, solver=solver,
         n_jobs=n_jobs, chunk_size=chunk_size, positive=positive, progress=progress,
         backend=backend, scheduler=scheduler, method=method, self_training=self_training,
-        ensemble=ensemble, temporal=temporal), _PARAMS)
+        ensemble=ensemble, temporal=temporal, preset=preset), _PARAMS)
     check_options_apply("recover", method=method, model=model, backend=backend,
-                        scheduler=scheduler, adapt=adapt, ensemble=ensemble)
+                        scheduler=scheduler, adapt=adapt, ensemble=ensemble, preset=preset,
+                        self_training=self_training)
     if method != "fconv":  # an FConv model says its own (recover_fconv)
         representation = representation_for(representation)
     if frames is not None and temporal:
+        if preset == "fast":
+            raise ParameterError("recover: preset='fast' recovers each pose on its own: "
+                                 "pass temporal=False with frames")
         check_frames(frames, "recover")
         res = _recover_in_time(poses, missing, tracks, frames, method, dict(
             dictionary=dictionary, alpha=alpha, representation=representation, solver=solver,
@@ -272,7 +308,7 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         # one member unless an ensemble was asked for (seed 0 is the default's)
         members, adaptations = adapt_members(dictionary, poses, missing, adapt, ensemble,
                                              n_jobs=n_jobs, self_training=self_training,
-                                             file_atoms=True)
+                                             file_atoms=True, preset=preset)
     return _with_uncertainty(recover_members(
         poses, missing, members, adaptations, alpha=alpha, representation=representation,
         solver=solver, n_jobs=n_jobs, chunk_size=chunk_size, positive=positive,

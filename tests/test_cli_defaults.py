@@ -31,7 +31,8 @@ CASES = [  # (command line, option dest, API function, its parameter)
         ("joint_map", recover_file, "joint_map"),
         ("input_format", recover_file, "input_format"),
         ("filled_score", recover_file, "filled_score"),
-        ("representation", recover_file, "representation")]),
+        ("representation", recover_file, "representation"),
+        ("preset", recover_file, "preset")]),
     (["evaluate", "--data", "t.npz", "-o", "rep"], [
         ("max_train", evaluate, "max_train"),
         ("seed", evaluate, "random_state"),
@@ -133,3 +134,14 @@ def test_fit_leaves_unset_options_to_the_api(tmp_path, monkeypatch, init):
     with pytest.raises(Stop):
         main(argv + (["--init", init] if init else []) + ["--batch-size", "64"])
     assert seen["batch_size"] == 64
+
+
+def test_recover_presets_are_the_apis(capsys):
+    """--preset takes every preset recover() validates, and no other."""
+    from sparseedm._recovery_kernel import PRESETS
+
+    for preset in PRESETS:
+        args = build_parser().parse_args(["recover", "in", "-o", "o.csv", "--preset", preset])
+        assert args.preset == preset
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["recover", "in", "-o", "o.csv", "--preset", "fastest"])

@@ -29,7 +29,8 @@ ROOT = Path(__file__).resolve().parents[2]
 PATTERN = "benchmarks/results*.json"
 #: page -> file name patterns, tried in this order; unmatched files go to "accuracy"
 PAGES = {
-    "speed": ["results.json", "results-quick.json", "results-adaptation.json",
+    "speed": ["results-frontier.json", "results.json", "results-quick.json",
+              "results-adaptation.json",
               "results-default-path.json", "results-temporal.json", "results-video-speed*.json",
               "results-lifting-speed.json", "results-fconv.json"],
     "accuracy": ["results-real-people*.json", "results-video*.json", "results-lifting*.json"],
@@ -40,6 +41,7 @@ TITLES = {
     "results-quick.json": "The same, quick smoke test (k = 200)",
     "results-adaptation.json": "Adaptation on 5,000 poses",
     "results-default-path.json": "recover() with its defaults against adapt=False",
+    "results-frontier.json": "Accuracy against speed: every setting and every peer",
     "results-temporal.json": "The video path on a 10,000-frame file and on one 150-frame clip",
     "results-video-speed.json": "The video path by stage",
     "results-lifting-speed.json": "Lifting speed",

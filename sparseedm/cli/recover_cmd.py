@@ -125,6 +125,12 @@ def _add_adaptation_options(p):
         "sample, adapt again with them; the last round guarded); default 3, 0 turns it off",
         "adapt K times (seeds 0..K-1) and average the K recoveries: lower error, K times "
         "the work (default 1; sparseedm.ensemble)")
+    p.add_argument("--preset", choices=("default", "fast"), default="default",
+                   help="'default': adaptation and self-training as set above; 'fast': "
+                   "INPUT's complete poses (or --adapt-from's) are the dictionary's atoms, "
+                   "nothing learned: several times faster on a file with many complete "
+                   "poses, less accurate (per pose: needs --no-temporal on a file with "
+                   "frames; sparseedm.file_atoms)")
     p.add_argument("--save-dictionary", default=None, metavar="FILE",
                    help="write the dictionary used (adapted or not; with --ensemble, the "
                    "first member's) to FILE (.npz)")
@@ -168,10 +174,12 @@ def run(args):
         save_dictionary=args.save_dictionary, self_training=args.self_training,
         ensemble=args.ensemble, joint_map=args.joint_map, filled_score=args.filled_score,
         temporal=not args.no_temporal, input_format=args.input_format,
+        preset=args.preset,
     )
     out = sys.stderr if args.quiet or is_stream(args.output) else sys.stdout  # -o /dev/stdout
     ad = summary.get("adaptation")
-    if ad is not None and not ad["adapted"] and ad["poses_used"] == 0:
+    fast = args.preset == "fast"  # its summary line says what it did: not a refusal
+    if ad is not None and not ad["adapted"] and ad["poses_used"] == 0 and not fast:
         print(f"sparseedm recover: no adaptation: {ad['reason']}", file=sys.stderr)
     if summary.get("linked_tracks") is not None:
         print(f"sparseedm recover: {args.input} has frames, no track ids and several poses in "

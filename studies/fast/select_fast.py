@@ -1,0 +1,83 @@
+"""``python -m studies.fast.select_fast``: the settings of ``recover(preset="fast")``.
+
+The fast preset codes each occluded pose over the file's own complete poses
+as atoms (:func:`sparseedm.file_atoms.file_dictionary`) with the certified
+fast solver, nothing learned. Its two settings, the most atoms
+(``MAX_FAST_ATOMS``: the solver's time grows with them) and the recovery alpha
+(``FAST_ALPHA``), are chosen here on validation files made of CMU clips held
+out by ``benchmarks.split_clips`` (every 5th clip): a seeded sample of 6,000
+poses, half of them complete and half under the evaluation protocol's Mix
+masks (1-3 joints), as ``benchmarks/default_path.py`` makes its files. Each
+setting is scored by the Err_ave (%) of the occluded poses' returned poses'
+EDMs (what a user gets) and its seconds (n_jobs=2), beside scikit-learn's
+IterativeImputer fitted on and filling the whole file (pixel coordinates,
+``max_iter=10, tol=0``) in the same run. Writes ``selection_fast.json``
+beside this script.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+GRID_ATOMS = (1000, 2000, 3000, 4000)
+GRID_ALPHA = (0.0002, 0.0005, 0.001)
+
+
+def pose_error(filled, truth, mask):
+    """Mean Err_ave (%) of the occluded poses' EDMs of `filled` against `truth`."""
+    from sparseedm.edm import pose_to_vector
+    from sparseedm.metrics import err_ave
+
+    e = err_ave(pose_to_vector(filled), pose_to_vector(truth))
+    return float(np.nanmean(e[mask.any(axis=1)]))
+
+
+def validation_file(n=6000, seed=0):
+    """(poses, mask): n poses of the held-out CMU clips, half under Mix masks."""
+    from benchmarks import load_cmu, split_clips
+    from benchmarks.default_path import make_file
+
+    poses, clips, _ = load_cmu()
+    held, _ = split_clips(clips)
+    return make_file(np.asarray(poses[held], dtype=float), n, seed=seed)
+
+
+def main():
+    import sparseedm
+    from sklearn.experimental import enable_iterative_imputer  # noqa: F401
+    from sklearn.impute import IterativeImputer
+    from sparseedm.file_atoms import file_dictionary
+
+    P, mask = validation_file()
+    X = np.where(mask[..., None], np.nan, P)
+    base = sparseedm.load_dictionary()
+    warnings.simplefilter("ignore")
+    sparseedm.recover(X[:300], mask[:300], adapt=False, n_jobs=2)  # JIT caches
+    t0 = time.perf_counter()
+    imp = IterativeImputer(max_iter=10, tol=0).fit_transform(X.reshape(len(X), -1))
+    rows = [{"what": "IterativeImputer", "seconds": time.perf_counter() - t0,
+             "err": pose_error(imp.reshape(P.shape), P, mask)}]
+    print(rows[-1], flush=True)
+    for k in GRID_ATOMS:
+        for a in GRID_ALPHA:
+            t0 = time.perf_counter()
+            d = file_dictionary(base, X, mask, max_atoms=k, alpha_recover=a).dictionary
+            res = sparseedm.recover(X, mask, dictionary=d, adapt=False, n_jobs=2)
+            rows.append({"what": "file dictionary", "max_atoms": k, "alpha": a,
+                         "atoms": d.n_components, "seconds": time.perf_counter() - t0,
+                         "err": pose_error(res.poses, P, mask),
+                         "statuses": {s: int(c) for s, c in
+                                      zip(*np.unique(res.status, return_counts=True))}})
+            print(rows[-1], flush=True)
+    out = Path(__file__).with_name("selection_fast.json")
+    out.write_text(json.dumps({"file": "6,000 CMU held-out-clip poses, half under Mix",
+                               "rows": rows}, indent=1))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,108 @@
+"""recover(preset="fast"): the file's complete poses as the atoms, the same statuses and
+certificate as every other path; the CLI's --preset round trip."""
+
+import numpy as np
+import pytest
+
+from sparseedm import recover
+from sparseedm._recovery_base import STATUSES
+from sparseedm.adaptation import MIN_COMPLETE_POSES, pose_vectors
+from sparseedm.cli import main
+from sparseedm.exceptions import ParameterError
+from sparseedm.file_atoms import file_dictionary, resolve_fast
+from sparseedm.keypoints import read_keypoints, write_keypoints
+
+
+@pytest.fixture(scope="module")
+def file_poses(cmu_poses):
+    """The fixture poses: the first 300 complete, the rest with 1-3 joints hidden,
+    one row with too few joints left and one with a non-finite coordinate."""
+    poses = cmu_poses.copy()
+    missing = np.zeros(poses.shape[:2], bool)
+    rng = np.random.default_rng(0)
+    for i in range(300, len(poses)):
+        missing[i, rng.choice(14, rng.integers(1, 4), replace=False)] = True
+    missing[-1, :12] = True                     # 2 joints left: refused
+    poses[-2, 3, 0] = np.inf                    # refused as invalid coordinates
+    return poses, missing
+
+
+def test_fast_dictionary_is_the_complete_poses(file_poses, small_dictionary):
+    poses, missing = file_poses
+    d, res = resolve_fast(small_dictionary, poses, missing, "auto")
+    assert 300 >= MIN_COMPLETE_POSES
+    assert d.n_components == res.file_atoms == 300
+    X = pose_vectors(poses[:300])
+    np.testing.assert_allclose(d.components, X / np.linalg.norm(X, axis=1, keepdims=True))
+    assert d.alpha_scaling == small_dictionary.alpha_scaling
+    assert not res.adapted and res.line().startswith("adaptation: none (preset 'fast'")
+
+
+def test_too_few_complete_poses_join_the_base(file_poses, small_dictionary):
+    poses, missing = file_poses
+    few = np.concatenate([poses[:20], poses[300:]])
+    few_missing = np.concatenate([missing[:20], missing[300:]])
+    d, res = resolve_fast(small_dictionary, few, few_missing, "auto")
+    assert d.n_components == small_dictionary.n_components + 20
+    assert d.alpha_recover == small_dictionary.alpha_recover
+    assert resolve_fast(small_dictionary, poses, missing, False) == (small_dictionary, None)
+
+
+def test_fast_statuses_and_certificates(file_poses, small_dictionary):
+    poses, missing = file_poses
+    fast = recover(poses, missing, dictionary=small_dictionary, preset="fast")
+    plain = recover(poses, missing, dictionary=small_dictionary, adapt=False)
+    assert set(fast.status) <= set(STATUSES)
+    # screening is the same for every preset: the same refusals, the same reasons
+    refused = ~np.isin(plain.status, ("recovered", "complete", "inaccurate"))
+    np.testing.assert_array_equal(fast.status[refused], plain.status[refused])
+    np.testing.assert_array_equal(fast.reason[refused], plain.reason[refused])
+    assert {"too_few_observed", "invalid_coordinates"} <= set(fast.status)
+    rec = fast.status == "recovered"
+    assert rec.sum() > 0
+    # the certificate: every recovered row's duality gap within the tolerance
+    assert (fast.gap[rec] <= 1e-6 * fast.objective[rec]).all()
+    assert np.isfinite(fast.poses[rec]).all()
+    np.testing.assert_array_equal(fast.poses[rec][~missing[rec]], poses[rec][~missing[rec]])
+    assert fast.dictionary.n_components == 300
+    assert fast.summary()["adaptation"]["file_atoms"] == 300
+
+
+def test_fast_alpha_given_wins(file_poses, small_dictionary):
+    poses, missing = file_poses
+    res = recover(poses[:320], missing[:320], dictionary=small_dictionary, preset="fast",
+                  alpha=0.01)
+    assert res.alpha == 0.01
+
+
+@pytest.mark.parametrize("kw", [dict(ensemble=2), dict(self_training=2),
+                                dict(frames=np.arange(334)), dict(method="fconv")])
+def test_fast_refuses_what_it_would_ignore(file_poses, small_dictionary, kw):
+    poses, missing = file_poses
+    with pytest.raises(ParameterError, match="preset"):
+        recover(poses, missing, dictionary=small_dictionary, preset="fast", **kw)
+
+
+def test_unknown_preset_is_refused(file_poses):
+    with pytest.raises(ParameterError, match="preset"):
+        recover(file_poses[0][:2], preset="quick")
+
+
+def test_file_dictionary_default_alpha(cmu_poses, small_dictionary):
+    out = file_dictionary(small_dictionary, cmu_poses[:50], alpha_recover=0.003)
+    assert out.dictionary.alpha_recover == 0.003 and out.n_atoms == 50
+
+
+def test_cli_preset_round_trip(tmp_path, file_poses, small_dictionary_path, capsys):
+    poses, missing = file_poses
+    ok = np.isfinite(poses).all(axis=(1, 2))
+    inp, out = tmp_path / "in.csv", tmp_path / "out.csv"
+    write_keypoints(inp, np.where(missing[..., None], np.nan, poses)[ok])
+    code = main(["recover", str(inp), "-o", str(out), "--dictionary",
+                 str(small_dictionary_path), "--preset", "fast", "-q"])
+    assert code == 1                                   # the one row with 2 joints left
+    filled = read_keypoints(out).poses
+    api = recover(np.where(missing[..., None], np.nan, poses)[ok],
+                  dictionary=small_dictionary_path, preset="fast")
+    np.testing.assert_allclose(filled[api.ok], api.poses[api.ok], atol=1e-6)
+    assert "preset 'fast'" in capsys.readouterr().err
