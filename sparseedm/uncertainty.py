@@ -62,10 +62,10 @@ FEATURES = {
 #: factor; fitted by ``studies/uncertainty/calibrate.py`` on validation data
 #: (studies/uncertainty/calibration.json has the run's coverage per source)
 CALIBRATION = {
-    "per_frame": {"conformal": 1.0386,
-        "coef": (1.6374, 0.5864, 0.3629, 0.2736, 0.14, 0.8051, -0.0844)},
-    "temporal": {"conformal": 1.1438,
-        "coef": (-3.5719, 0.7162, 0.3809, 0.522, 0.0207, 0.4292, 0.4012, 0.1827)},
+    "per_frame": {"conformal": 1.0137,
+        "coef": (1.3412, 0.6294, 0.3714, 0.2449, 0.1763, 0.6969, -0.0053)},
+    "temporal": {"conformal": 1.1423,
+        "coef": (-3.5724, 0.7192, 0.373, 0.5214, 0.0036, 0.4353, 0.4053, 0.1817)},
 }
 
 #: log of the lasso residual a pose solved without a lasso (FConv) is given: the
