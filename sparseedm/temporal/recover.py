@@ -111,6 +111,9 @@ class TemporalResult(RecoveryResult):
         filled by the temporal model).
     status, reason, fallback, alpha, seconds, adaptation, dictionary, members : object
         As :class:`~sparseedm.recovery.RecoveryResult`.
+    uncertainty : ndarray (n, N) or None
+        As :class:`~sparseedm.recovery.RecoveryResult`: the calibrated 90 %
+        radius of each joint, here from the features of time as well.
     source : ndarray of str (n, N)
         Where each joint comes from, one of :data:`SOURCES`.
     prior_weight : ndarray (n, N)
