@@ -30,9 +30,7 @@ whole dictionary; the others per pattern group).
 
 from __future__ import annotations
 
-from contextlib import contextmanager
-
-from ._parallel import dask_client
+from ._parallel import one_client
 from ._recovery_base import STATUSES, RecoveryResult, screen_poses, validate_poses
 from ._recovery_kernel import RECOVER_PARAMS, recover_members, recover_sparse, solve_chunk
 from ._validation import Options, check_frames, validate_params
@@ -310,7 +308,7 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         dictionary = load_dictionary(dictionary)
     check_gram_memory(dictionary)
     adaptations, members = [], [dictionary]
-    with _one_client(backend, scheduler) as dist:
+    with one_client(backend, scheduler) as dist:
         if adapt is not False:
             poses, missing, _ = validate_poses(poses, missing, dictionary.n_joints)
             # one member unless an ensemble was asked for (seed 0 is the default's)
@@ -323,17 +321,6 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
             progress=progress, **(dist or dict(backend=backend, scheduler=scheduler)))
     return _with_uncertainty(res)
 
-
-@contextmanager
-def _one_client(backend, scheduler):
-    """``backend="dask"``: one Dask client for the whole call, which the adaptation's
-    and the final recovery's steps use (the settings they take: scheduler None, this
-    client); any other backend: the adaptation stays in this process (no settings)."""
-    if backend != "dask":
-        yield {}
-        return
-    with dask_client(scheduler):
-        yield dict(backend="dask", scheduler=None)
 
 
 def _with_uncertainty(res, tracks=None, frames=None):

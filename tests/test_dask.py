@@ -85,3 +85,32 @@ def test_the_default_path_adaptation_included_runs_on_the_cluster(cross_domain,
     assert remote.adaptation.self_training == local.adaptation.self_training
     assert remote.adaptation.err_adapted == pytest.approx(local.adaptation.err_adapted,
                                                           abs=1e-9)
+
+
+def test_recover_file_adapts_on_the_cluster_too(cross_domain, shifted_dictionary, tmp_path,
+                                                monkeypatch):
+    from sparseedm import adaptation
+    from sparseedm.batch import recover_file
+    from sparseedm.keypoints import read_keypoints, write_keypoints
+
+    adapt_on, inputs, _, _ = cross_domain  # one file: 260 complete poses, 74 occluded
+    src = tmp_path / "in.npz"
+    write_keypoints(src, np.concatenate([adapt_on, inputs]))
+    kw = dict(dictionary=shifted_dictionary, self_training=2, temporal=False)
+    recover_file(src, tmp_path / "local.npz", **kw)
+    backends = []
+    inner = adaptation.recover_sparse
+
+    def spy(*args, **kwargs):
+        backends.append(kwargs.get("backend"))
+        return inner(*args, **kwargs)
+
+    monkeypatch.setattr(adaptation, "recover_sparse", spy)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster, \
+            distributed.Client(cluster):
+        recover_file(src, tmp_path / "remote.npz", backend="dask", **kw)
+    assert backends == ["dask", "dask"]
+    local = read_keypoints(tmp_path / "local.npz").poses
+    remote = read_keypoints(tmp_path / "remote.npz").poses
+    np.testing.assert_allclose(remote, local, rtol=0, atol=1e-9)
