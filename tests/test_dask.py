@@ -51,24 +51,29 @@ def test_a_scheduler_address_the_client_cannot_use_is_bad_input(address, tmp_pat
     assert not (tmp_path / "out.csv").exists()
 
 
-def test_the_default_path_adaptation_included_runs_on_the_cluster(cross_domain,
-                                                                   shifted_dictionary,
-                                                                   monkeypatch):
+@pytest.fixture
+def round_backends(monkeypatch):
+    """The backend each self-training round's recovery is called with, in call order (a spy)."""
     from sparseedm import adaptation
 
+    seen, inner = [], adaptation.recover_sparse
+
+    def spy(*args, **kwargs):
+        seen.append(kwargs.get("backend"))
+        return inner(*args, **kwargs)
+
+    monkeypatch.setattr(adaptation, "recover_sparse", spy)
+    return seen
+
+
+def test_the_default_path_adaptation_included_runs_on_the_cluster(cross_domain,
+                                                                   shifted_dictionary,
+                                                                   round_backends):
     adapt_on, inputs, mask, _ = cross_domain  # the dictionary's wrong domain: adopted
     kw = dict(dictionary=shifted_dictionary, adapt=adapt_on, self_training=2, chunk_size=16)
     local = recover(inputs, mask, **kw)
     assert local.adapted and len(local.adaptation.self_training) == 2
 
-    backends = []  # the self-training rounds' recoveries, as called
-    inner = adaptation.recover_sparse
-
-    def spy(*args, **kwargs):
-        backends.append(kwargs.get("backend"))
-        return inner(*args, **kwargs)
-
-    monkeypatch.setattr(adaptation, "recover_sparse", spy)
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
                                   dashboard_address=None) as cluster, \
             distributed.Client(cluster) as client:
@@ -77,7 +82,7 @@ def test_the_default_path_adaptation_included_runs_on_the_cluster(cross_domain,
         with distributed.get_task_stream(client) as final_only:
             recover(inputs, mask, dictionary=remote.adaptation.dictionary, adapt=False,
                     chunk_size=16, backend="dask")
-    assert backends == ["dask", "dask"]
+    assert round_backends == [None, None, "dask", "dask"]  # the local run, then the cluster
     # the guard's and the rounds' recoveries were tasks too, not only the final one's
     assert len(adapted_run.data) > len(final_only.data) > 0
     np.testing.assert_allclose(remote.poses, local.poses, rtol=0, atol=1e-9)
@@ -88,8 +93,7 @@ def test_the_default_path_adaptation_included_runs_on_the_cluster(cross_domain,
 
 
 def test_recover_file_adapts_on_the_cluster_too(cross_domain, shifted_dictionary, tmp_path,
-                                                monkeypatch):
-    from sparseedm import adaptation
+                                                round_backends):
     from sparseedm.batch import recover_file
     from sparseedm.keypoints import read_keypoints, write_keypoints
 
@@ -98,19 +102,11 @@ def test_recover_file_adapts_on_the_cluster_too(cross_domain, shifted_dictionary
     write_keypoints(src, np.concatenate([adapt_on, inputs]))
     kw = dict(dictionary=shifted_dictionary, self_training=2, temporal=False)
     recover_file(src, tmp_path / "local.npz", **kw)
-    backends = []
-    inner = adaptation.recover_sparse
-
-    def spy(*args, **kwargs):
-        backends.append(kwargs.get("backend"))
-        return inner(*args, **kwargs)
-
-    monkeypatch.setattr(adaptation, "recover_sparse", spy)
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
                                   dashboard_address=None) as cluster, \
             distributed.Client(cluster):
         recover_file(src, tmp_path / "remote.npz", backend="dask", **kw)
-    assert backends == ["dask", "dask"]
+    assert round_backends == [None, None, "dask", "dask"]  # the local run, then the cluster
     local = read_keypoints(tmp_path / "local.npz").poses
     remote = read_keypoints(tmp_path / "remote.npz").poses
     np.testing.assert_allclose(remote, local, rtol=0, atol=1e-9)
