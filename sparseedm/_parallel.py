@@ -3,6 +3,8 @@ lifter: chunks of rows for joblib, numba's thread count, the Dask client."""
 
 from __future__ import annotations
 
+from contextlib import contextmanager
+
 import numba
 import numpy as np
 from joblib import effective_n_jobs
@@ -10,7 +12,7 @@ from joblib import effective_n_jobs
 from .exceptions import ParameterError, SparseEDMError
 from .solvers.fast import NUMPY_MAX
 
-__all__ = ["chunk_tasks", "min_tasks", "dask_client", "numba_threads"]
+__all__ = ["chunk_tasks", "min_tasks", "dask_client", "one_client", "numba_threads"]
 
 
 def chunk_tasks(rows, chunk_size, n_jobs, backend=None):
@@ -98,6 +100,19 @@ class dask_client:
     def __exit__(self, *exc):
         if self.client is not None:
             self.client.close()
+
+
+@contextmanager
+def one_client(backend, scheduler):
+    """``backend="dask"``: one Dask client (:class:`dask_client`) held for a whole call,
+    and the settings its inner steps take to use it (``backend="dask"``, scheduler None:
+    this client); any other backend: no client and no settings (the adaptation's
+    recoveries stay in this process)."""
+    if backend != "dask":
+        yield {}
+        return
+    with dask_client(scheduler):
+        yield dict(backend="dask", scheduler=None)
 
 
 class numba_threads:

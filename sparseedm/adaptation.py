@@ -558,7 +558,7 @@ def guard_masks(n_poses, n_joints, n_patterns=None, random_state=0):
 
 
 def masked_error(dictionary, poses, *, random_state=0, alpha=None, n_jobs=1, n_patterns=None,
-                 solver="fast"):
+                 solver="fast", backend=None, scheduler=None):
     """Mean Mix Err_ave (%) of recovering `poses` with seeded masks.
 
     The masks are :func:`guard_masks`: by default the evaluation protocol's
@@ -584,6 +584,9 @@ def masked_error(dictionary, poses, *, random_state=0, alpha=None, n_jobs=1, n_p
         Distinct occlusion patterns (:func:`guard_masks`); None: one per pose.
     solver : str or BaseSolver, default "fast"
         The recovery's solver.
+    backend, scheduler : optional
+        As :func:`sparseedm.recover`'s: ``backend="dask"`` recovers the
+        poses' chunks on the cluster (the same numbers).
 
     Returns
     -------
@@ -596,14 +599,15 @@ def masked_error(dictionary, poses, *, random_state=0, alpha=None, n_jobs=1, n_p
         `dictionary`, `alpha` or `n_jobs` is not one :func:`sparseedm.recover`
         accepts.
     """
-    validate_params("recover", dict(dictionary=dictionary, alpha=alpha, n_jobs=n_jobs),
-                    RECOVER_PARAMS)
+    validate_params("recover", dict(dictionary=dictionary, alpha=alpha, n_jobs=n_jobs,
+                                    backend=backend, scheduler=scheduler), RECOVER_PARAMS)
     poses = np.asarray(poses, dtype=float)
     mask = guard_masks(len(poses), poses.shape[1], n_patterns, random_state)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         res = recover_members(np.where(mask[..., None], np.nan, poses), mask, [dictionary], [],
-                              alpha=alpha, n_jobs=n_jobs, solver=solver)
+                              alpha=alpha, n_jobs=n_jobs, solver=solver, backend=backend,
+                              scheduler=scheduler)
     e = err_ave(res.vectors * res.scale[:, None], pose_to_vector(poses))
     e = e[res.ok & np.isfinite(e)]
     return float(e.mean()) if len(e) else float("nan")
@@ -768,7 +772,7 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
                    max_poses=DEFAULT_MAX_POSES,
                    validation_fraction=DEFAULT_VALIDATION_FRACTION, guard=True,
                    filter=True, random_state=0, n_jobs=1, extra=None, reuse=None,
-                   max_train=None):
+                   max_train=None, backend=None, scheduler=None):
     """Adapt `dictionary` on the complete rows of `poses`, guarded; see the module docstring.
 
     Parameters
@@ -813,6 +817,9 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
     max_train : int, optional
         At most this many of the complete poses not held back are learned
         from (a seeded sample, order kept); None: all of them.
+    backend, scheduler : optional
+        As :func:`sparseedm.recover`'s: ``backend="dask"`` runs the guard's
+        recoveries on the cluster; the learning stays in this process.
 
     Returns
     -------
@@ -852,7 +859,9 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
         _progress.say(f"adapting the dictionary on {len(train):,} complete poses, "
                       f"{len(held):,} held back to check it (seed {random_state})")
     t_step = time.perf_counter()
-    with _BaseGuard(dictionary, held if guard else held[:0], reuse, random_state) as base:
+    dist = dict(backend=backend, scheduler=scheduler)
+    with _BaseGuard(dictionary, held if guard else held[:0], reuse, random_state,
+                    dist) as base:
         comps = adapt_vectors(dictionary.components, pose_vectors(train), alpha_train,
                               passes=passes, stats=stats, memory=memory, replay=replay,
                               batch_size=batch_size, random_state=random_state,
@@ -868,7 +877,7 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
     if not guard or len(held) == 0:
         return done("unchecked: no held-back poses", adapted=True, use=candidate, **kw)
     t_step = time.perf_counter()
-    e1 = _guard_error(candidate, held, random_state, n_jobs)
+    e1 = _guard_error(candidate, held, random_state, n_jobs, dist)
     steps["guard"] = time.perf_counter() - t_step + base.seconds_waited
     candidate.provenance["adaptation"].update(validation_err_base=e0, validation_err_adapted=e1)
     if e1 < e0:
@@ -956,17 +965,18 @@ def _adapted_dictionary(dictionary, components, alpha_train, record):
     )
 
 
-def _guard_kw(held, random_state, n_jobs):
+def _guard_kw(held, random_state, n_jobs, dist=None):
     """:func:`masked_error`'s settings in the guard: a pattern per 12 poses, the
-    compiled kernel at any size (the learning has compiled numba already)."""
+    compiled kernel at any size (the learning has compiled numba already);
+    `dist` the recovery's ``backend`` and ``scheduler``, if any."""
     return dict(random_state=random_state, n_jobs=n_jobs, solver=compiled_solver(),
-                n_patterns=max(1, len(held) // GUARD_POSES_PER_PATTERN))
+                n_patterns=max(1, len(held) // GUARD_POSES_PER_PATTERN), **(dist or {}))
 
 
-def _guard_error(dictionary, held, random_state, n_jobs):
+def _guard_error(dictionary, held, random_state, n_jobs, dist=None):
     """Mix Err_ave of `dictionary` on the held-back poses (the guard's masks)."""
     with numba_threads(n_jobs):
-        return masked_error(dictionary, held, **_guard_kw(held, random_state, n_jobs))
+        return masked_error(dictionary, held, **_guard_kw(held, random_state, n_jobs, dist))
 
 
 class _BaseGuard:
@@ -984,8 +994,8 @@ class _BaseGuard:
     main thread's).
     """
 
-    def __init__(self, dictionary, held, reuse, random_state):
-        self.args = (dictionary, held, random_state, 1)
+    def __init__(self, dictionary, held, reuse, random_state, dist=None):
+        self.args = (dictionary, held, random_state, 1, dist)
         self.known = reuse.err_base if reuse is not None else float("nan")
         self.seconds_waited = 0.0
 
@@ -1079,7 +1089,8 @@ def _incomplete_rows(poses, missing, max_poses, random_state):
 
 def self_train(dictionary, result, adapt_poses, adapt_missing, poses, missing, *,
                rounds=SELF_TRAINING_ROUNDS, max_poses=None, max_complete=None,
-               alpha_factor=SELF_TRAINING_ALPHA_FACTOR, random_state=0, n_jobs=1):
+               alpha_factor=SELF_TRAINING_ALPHA_FACTOR, random_state=0, n_jobs=1,
+               backend=None, scheduler=None):
     """Transductive self-training after :func:`run_adaptation` (module docstring).
 
     Parameters
@@ -1109,6 +1120,9 @@ def self_train(dictionary, result, adapt_poses, adapt_missing, poses, missing, *
     n_jobs : int or None, default 1
         Threads of the rounds' recoveries and adaptations (as
         :func:`run_adaptation`'s).
+    backend, scheduler : optional
+        As :func:`sparseedm.recover`'s: ``backend="dask"`` runs the rounds'
+        recoveries and guard on the cluster; the learning stays here.
 
     Returns
     -------
@@ -1143,14 +1157,16 @@ def self_train(dictionary, result, adapt_poses, adapt_missing, poses, missing, *
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             rec = recover_sparse(inc, mask, dictionary=current.dictionary, n_jobs=n_jobs,
-                                 solver=compiled_solver(),
+                                 solver=compiled_solver(), backend=backend,
+                                 scheduler=scheduler,
                                  alpha=current.dictionary.alpha_recover * alpha_factor)
         spent[f"round {r + 1} recovery"] = time.perf_counter() - t_rec
         filled = rec.poses[rec.status == "recovered"]
         last = r == rounds - 1  # only the last round is judged (module docstring)
         current = run_adaptation(dictionary, adapt_poses, adapt_missing, extra=filled,
                                  random_state=random_state, n_jobs=n_jobs, reuse=result,
-                                 guard=last, max_train=max_complete)
+                                 guard=last, max_train=max_complete, backend=backend,
+                                 scheduler=scheduler)
         for step, secs in current.step_seconds.items():
             spent[f"round {r + 1} {step}"] = secs
         history.append({"round": r + 1, "poses": int(len(filled)), "checked": last,
@@ -1169,7 +1185,8 @@ def self_train(dictionary, result, adapt_poses, adapt_missing, poses, missing, *
 
 
 def resolve_adaptation(dictionary, poses, missing, adapt, *, n_jobs=1, random_state=0,
-                       warn=True, self_training=None, min_poses=MIN_COMPLETE_POSES):
+                       warn=True, self_training=None, min_poses=MIN_COMPLETE_POSES,
+                       backend=None, scheduler=None):
     """The dictionary :func:`sparseedm.recover` should use, and what was done.
 
     `adapt` is ``"auto"`` (adapt on the complete rows of `poses`), ``False``
@@ -1203,6 +1220,9 @@ def resolve_adaptation(dictionary, poses, missing, adapt, *, n_jobs=1, random_st
         :data:`SELF_TRAINING_ROUNDS`.
     min_poses : int, default MIN_COMPLETE_POSES
         As :func:`run_adaptation`'s (the temporal path lowers it for one clip).
+    backend, scheduler : optional
+        As :func:`sparseedm.recover`'s: ``backend="dask"`` runs the guard's and
+        the self-training rounds' recoveries on the cluster.
 
     Returns
     -------
@@ -1230,13 +1250,14 @@ def resolve_adaptation(dictionary, poses, missing, adapt, *, n_jobs=1, random_st
     else:
         source = (adapt, None)
         explicit = True
+    dist = dict(backend=backend, scheduler=scheduler)
     res = run_adaptation(dictionary, *source, n_jobs=n_jobs, random_state=random_state,
-                         min_poses=min_poses)
+                         min_poses=min_poses, **dist)
     if warn and explicit and not res.adapted and res.candidate is None:
         warnings.warn(f"no adaptation: {res.reason}", UserWarning, stacklevel=3)
     rounds = SELF_TRAINING_ROUNDS if self_training is None else self_training
     res = self_train(dictionary, res, *source, poses, missing, rounds=rounds,
-                     random_state=random_state, n_jobs=n_jobs)
+                     random_state=random_state, n_jobs=n_jobs, **dist)
     return res.dictionary, res
 
 

@@ -88,6 +88,7 @@ from numbers import Integral, Real
 from . import _progress
 from ._atomic import atomic_path, check_folder, check_paths
 from ._extras import require as require_extra
+from ._parallel import one_client
 from ._validation import (ALPHA, BOOLEAN, CHUNK_SIZE, ENSEMBLE, N_JOBS, PATH, SCORE,
                           Interval, Options, validate_params)
 from .adaptation import MIN_COMPLETE_POSES, sample_stream
@@ -428,9 +429,10 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
     try:
         in_time = _in_time(source, temporal and method == "sparse")
         if method == "sparse":
-            members, adaptation = _adapt(source, dictionary, adapt, chunk_size,
-                                         confidence_threshold, n_jobs, self_training, ensemble,
-                                         in_time, preset)
+            with one_client(backend, scheduler) as dist:  # the adaptation's recoveries
+                members, adaptation = _adapt(source, dictionary, adapt, chunk_size,
+                                             confidence_threshold, n_jobs, self_training,
+                                             ensemble, in_time, preset, dist)
             dictionary = members[0]
         else:
             members, adaptation = [dictionary], None
@@ -530,13 +532,14 @@ def _solver_after(requested, solver, adaptation):
 
 
 def _adapt(source, dictionary, adapt, chunk_size, threshold, n_jobs, self_training,
-           ensemble=1, in_time=False, preset="default"):
+           ensemble=1, in_time=False, preset="default", dist=None):
     """The dictionaries to recover with (one unless an ensemble is asked for) and
     the first one's AdaptationResult: adapted on the file's complete poses or
     on other poses, then self-trained on the file's incomplete poses (bounded
     seeded samples of both, one pass over the source), or as given; `in_time`
     under "auto": as recover(frames=...) adapts (the whole file, read once);
-    `preset` "fast": the sampled complete poses as atoms, nothing learned."""
+    `preset` "fast": the sampled complete poses as atoms, nothing learned; `dist`
+    the adaptation's recovery backend (:func:`~sparseedm._parallel.one_client`'s)."""
     if in_time and preset == "fast":
         raise ParameterError("recover_file: preset 'fast' recovers each pose on its own: "
                              "the file has frames, add --no-temporal (temporal=False)")
@@ -560,7 +563,7 @@ def _adapt(source, dictionary, adapt, chunk_size, threshold, n_jobs, self_traini
     poses = np.concatenate([complete, partial])
     missing = np.concatenate([np.zeros(complete.shape[:2], bool), partial_missing])
     kw = dict(n_jobs=n_jobs, warn=False, self_training=self_training, file_atoms=True,
-              preset=preset)
+              preset=preset, **(dist or {}))
     if isinstance(adapt, str) and adapt == "auto":
         members, results = adapt_members(dictionary, poses, missing, "auto", ensemble, **kw)
     else:

@@ -37,7 +37,7 @@ __all__ = ["adapt_members", "combine"]
 
 def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
                   self_training=None, warn=True, min_poses=MIN_COMPLETE_POSES,
-                  file_atoms=False, preset="default"):
+                  file_atoms=False, preset="default", backend=None, scheduler=None):
     """Dictionaries adapted with seeds 0 .. n_members - 1, and what each did.
 
     Parameters
@@ -60,6 +60,10 @@ def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
     preset : {"default", "fast"}, default "default"
         ``"fast"``: no adaptation; the complete poses offered become the
         atoms (:func:`sparseedm.file_atoms.resolve_fast`), one member.
+    backend, scheduler : optional
+        As :func:`sparseedm.recover`'s: ``backend="dask"`` runs every member's
+        guard and self-training recoveries on the cluster (the learning stays
+        in this process).
 
     Returns
     -------
@@ -84,7 +88,8 @@ def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
         d, res = resolve_adaptation(dictionary, poses, missing, adapt,
                                     n_jobs=None if n_jobs == 1 else n_jobs,
                                     random_state=0, warn=warn, self_training=self_training,
-                                    min_poses=min_poses)
+                                    min_poses=min_poses, backend=backend,
+                                    scheduler=scheduler)
         if res is None:  # adaptation off
             return [d], []
         if file_atoms and not res.adapted:
@@ -110,7 +115,8 @@ def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
                                             n_jobs=1 if workers > 1 else n_jobs,
                                             random_state=seed, warn=False,
                                             self_training=self_training,
-                                            min_poses=min_poses)
+                                            min_poses=min_poses, backend=backend,
+                                            scheduler=scheduler)
                 for seed in range(1, int(n_members)))
     for seed, (d, res) in enumerate(rest, start=1):
         if res is not None and res.adapted:  # else this seed's guard kept the base:

@@ -30,6 +30,7 @@ whole dictionary; the others per pattern group).
 
 from __future__ import annotations
 
+from ._parallel import one_client
 from ._recovery_base import STATUSES, RecoveryResult, screen_poses, validate_poses
 from ._recovery_kernel import RECOVER_PARAMS, recover_members, recover_sparse, solve_chunk
 from ._validation import Options, check_frames, validate_params
@@ -157,7 +158,13 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         joblib backend for the chunks when ``n_jobs != 1``; None means
         threads for the "fast" solver (its compiled kernels release the GIL)
         and loky processes for the others. ``"dask"`` sends the chunks to a Dask
-        cluster (``pip install sparseedm[dask]``), all its workers being used.
+        cluster (``pip install sparseedm[dask]``), all its workers being used:
+        those of the final recovery and, with adaptation, those of the guard's
+        and the self-training rounds' recoveries (every ensemble member's too),
+        over one client for the whole call; the same seeds and chunks, so the
+        same poses as the local run. The online learning of the adapted atoms
+        and the filters' coding stay in this process (the learning is sequential
+        by nature: each mini-batch updates the atoms the next one is coded on).
     scheduler : str, optional
         With ``backend="dask"``: the scheduler address (``tcp://host:8786``);
         None uses the Dask client already created in this process.
@@ -301,18 +308,19 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         dictionary = load_dictionary(dictionary)
     check_gram_memory(dictionary)
     adaptations, members = [], [dictionary]
-    if adapt is not False:
-        if not isinstance(dictionary, Dictionary):
-            dictionary = load_dictionary(dictionary)
-        poses, missing, _ = validate_poses(poses, missing, dictionary.n_joints)
-        # one member unless an ensemble was asked for (seed 0 is the default's)
-        members, adaptations = adapt_members(dictionary, poses, missing, adapt, ensemble,
-                                             n_jobs=n_jobs, self_training=self_training,
-                                             file_atoms=True, preset=preset)
-    return _with_uncertainty(recover_members(
-        poses, missing, members, adaptations, alpha=alpha, representation=representation,
-        solver=solver, n_jobs=n_jobs, chunk_size=chunk_size, positive=positive,
-        progress=progress, backend=backend, scheduler=scheduler))
+    with one_client(backend, scheduler) as dist:
+        if adapt is not False:
+            poses, missing, _ = validate_poses(poses, missing, dictionary.n_joints)
+            # one member unless an ensemble was asked for (seed 0 is the default's)
+            members, adaptations = adapt_members(dictionary, poses, missing, adapt, ensemble,
+                                                 n_jobs=n_jobs, self_training=self_training,
+                                                 file_atoms=True, preset=preset, **dist)
+        res = recover_members(
+            poses, missing, members, adaptations, alpha=alpha, representation=representation,
+            solver=solver, n_jobs=n_jobs, chunk_size=chunk_size, positive=positive,
+            progress=progress, **(dist or dict(backend=backend, scheduler=scheduler)))
+    return _with_uncertainty(res)
+
 
 
 def _with_uncertainty(res, tracks=None, frames=None):

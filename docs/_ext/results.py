@@ -31,7 +31,8 @@ PATTERN = "benchmarks/results*.json"
 PAGES = {
     "speed": ["results-frontier.json", "results.json", "results-quick.json",
               "results-adaptation.json",
-              "results-default-path.json", "results-temporal.json", "results-video-speed*.json",
+              "results-default-path.json", "results-dask-default.json",
+              "results-temporal.json", "results-video-speed*.json",
               "results-lifting-speed.json", "results-fconv.json"],
     "accuracy": ["results-real-people*.json", "results-video*.json", "results-lifting*.json"],
 }
@@ -41,6 +42,7 @@ TITLES = {
     "results-quick.json": "The same, quick smoke test (k = 200)",
     "results-adaptation.json": "Adaptation on 5,000 poses",
     "results-default-path.json": "recover() with its defaults against adapt=False",
+    "results-dask-default.json": "recover() defaults on a Dask cluster, 1 and 2 workers",
     "results-frontier.json": "Accuracy against speed: every setting and every peer",
     "results-temporal.json": "The video path on a 10,000-frame file and on one 150-frame clip",
     "results-video-speed.json": "The video path by stage",

@@ -71,7 +71,10 @@ print("any NaN left:", bool(np.isnan(filled).any()))
 # ``LocalCluster`` of two workers (threads of this process) stands in for a
 # real one. Poses are grouped
 # by their missing joints and cut into chunks that joblib's Dask backend sends
-# to the workers.
+# to the workers. Without ``--no-adapt`` the adaptation's recoveries (the
+# guard's and every self-training round's) go to the workers too, with the same
+# results as on one machine; the online learning of the adapted atoms runs on
+# the client (each mini-batch updates the atoms the next is coded on).
 import sparseedm  # noqa: E402
 
 try:
