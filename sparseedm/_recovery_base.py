@@ -132,6 +132,11 @@ class RecoveryResult:
         ensemble, the first member's.
     members : int
         Dictionaries averaged (``recover(ensemble=K)``, :mod:`sparseedm.ensemble`).
+    outliers : ndarray of bool (n, N) or None
+        Points given with a low confidence that the pose model and the track
+        both contradicted, treated as missing and filled
+        (:mod:`sparseedm.outliers`); None when no confidence was given or the
+        check was off.
     """
 
     poses: np.ndarray
@@ -150,6 +155,7 @@ class RecoveryResult:
     adaptation: object = None
     dictionary: Dictionary | None = None
     members: int = 1
+    outliers: np.ndarray | None = None
 
     @property
     def edms(self) -> np.ndarray:
