@@ -56,6 +56,12 @@ a filled joint's score is ``filled_score`` (default 0: below every threshold,
 never a detection's), and COCO's ``num_keypoints`` counts the keypoints with
 ``v > 0`` again. Readers read flagged joints as present.
 
+When the input has scores, the outlier check (:mod:`sparseedm.outliers`,
+``outliers=True``) adds one more per-row field, ``outliers``: the names of the
+joints it treated as missing, separated by spaces (a CSV column, an ``.npz``
+or status-sidecar array, a field of the ``"sparseedm"`` object in the JSON
+formats); those joints are flagged as filled too.
+
 ``save_edm=True`` also stores the completed EDM vectors (normalised units,
 ``edm_vectors`` (n, 91)) with their normalisation ``center`` (n, 2) and
 ``scale`` (n,): inside an ``.npz`` output, else in a sidecar
@@ -169,8 +175,10 @@ class _MemorySource:
         ``outliers``."""
         if self.kps.confidence is None:
             return
+        scores = self.kps.confidence if self.kps.filled is None else np.where(
+            self.kps.filled, np.nan, self.kps.confidence)  # joints sparseedm filled: not checked
         self.kps.poses, self.kps.missing, self.outliers = mark_outliers(
-            self.kps.poses, self.kps.missing, self.kps.confidence, dictionary,
+            self.kps.poses, self.kps.missing, scores, dictionary,
             tracks=self.tracks, frames=self.frames if in_time else None, alpha=alpha,
             representation=representation, solver=solver, n_jobs=n_jobs)
 

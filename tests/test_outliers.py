@@ -83,6 +83,12 @@ def test_openpose_output_names_the_outliers_and_reads_back(case, tmp_path, small
     assert "left_wrist" in person["sparseedm"]["filled"]
     kps = read_keypoints(out)  # the filled wrist reads back as present
     assert not kps.missing[100, WRIST]
+    # run again on the output: the joints sparseedm filled (score 0) are not checked
+    again = recover_file(out, tmp_path / "again.npz", dictionary=small_dictionary,
+                         adapt=False)
+    assert again["outliers"] == 0
+    with np.load(tmp_path / "again.npz", allow_pickle=False) as res:
+        np.testing.assert_array_equal(res["poses"][100, WRIST], kps.poses[100, WRIST])
 
 
 def test_csv_output_has_an_outliers_column(case, tmp_path, small_dictionary):

@@ -131,7 +131,7 @@ def row_order(case, ids):
 class Measure(NamedTuple):
     """Errors in % of body size; counts of points."""
 
-    wrong_error: float      # mean over the wrong points kept by the cut-off
+    wrong_error: float      # mean over the wrong points kept by the cut-off (None: none)
     wrong_count: int
     right_error: float      # mean over the right low-scored points kept by the cut-off
     right_count: int
@@ -145,5 +145,6 @@ def measure(case, out, outlier=None, cut=0.05):
     kept = case.score >= cut
     w, r = case.wrong & kept, case.low_right & kept & (case.score < 0.3)
     outlier = np.zeros_like(w) if outlier is None else outlier
-    return Measure(float(np.nanmean(err[w])), int(w.sum()), float(np.nanmean(err[r])),
-                   int(r.sum()), int((outlier & r).sum()), int((outlier & w).sum()))
+    return Measure(float(np.nanmean(err[w])) if w.any() else None, int(w.sum()),
+                   float(np.nanmean(err[r])) if r.any() else None, int(r.sum()),
+                   int((outlier & r).sum()), int((outlier & w).sum()))
