@@ -148,3 +148,29 @@ def measure(case, out, outlier=None, cut=0.05):
     return Measure(float(np.nanmean(err[w])) if w.any() else None, int(w.sum()),
                    float(np.nanmean(err[r])) if r.any() else None, int(r.sum()),
                    int((outlier & r).sum()), int((outlier & w).sum()))
+
+
+def main():
+    """Write one Bonn clip of a split as such an OpenPose folder."""
+    import argparse
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
+    from benchmarks import real2d
+
+    ap = argparse.ArgumentParser(description="Write a Bonn PoseTrack clip as an OpenPose "
+                                 "folder with wrong and right low-scored points.")
+    ap.add_argument("output", help="the folder to write")
+    ap.add_argument("--split", choices=("val", "test"), default="val")
+    ap.add_argument("--clip", type=int, default=0, help="the clip's index in the split")
+    args = ap.parse_args()
+    s = real2d.load("bonn")
+    groups = sorted(set(s.group[real2d.split(s) == args.split]))
+    c = s.take(s.group == groups[args.clip])
+    write_openpose(imitate(c.poses, c.visible, c.tracks, c.frames, seed=args.clip),
+                   args.output)
+    print(f"{groups[args.clip]} -> {args.output}")
+
+
+if __name__ == "__main__":
+    main()
