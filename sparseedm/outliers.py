@@ -17,15 +17,18 @@ Both distances are in units of the row's body size (head top to the ankles'
 midpoint of the pose model's answer, :func:`sparseedm.real_protocol.body_size`).
 A suspect point is an *outlier* when the pose model puts it further than
 ``pose_limit`` body sizes away and time, where it can tell, further than
-``time_limit``; where time cannot tell (a photo, a joint not seen confidently
-nearby), when the pose model alone puts it further than ``alone_limit``. An
+``time_limit``; in a track where time cannot tell (a joint not seen
+confidently within ``time_reach`` frames: a long occlusion), when the pose
+model alone puts it further than ``far_limit``; in a photo (no track), the
+stricter ``alone_limit``. An
 outlier is then treated as missing and filled; results and outputs name it
 (source ``"outlier"``). A correct point with a low score agrees with one of the
 two predictions and stays observed.
 
 The limits were chosen on validation clips of Bonn PoseTrack written as
-OpenPose folders with wrong and right low-scored points: the fewest wrong
-points kept with at most 2 % of the right low-scored ones flagged
+OpenPose folders with wrong and right low-scored points (60 % and all of the
+occluded joints wrong): the least error left at the wrong points with at most
+2 % of the right low-scored ones flagged
 (``studies/outliers/select_outliers.py``, ``studies/outliers/selection.json``).
 """
 
@@ -58,18 +61,22 @@ class OutlierSettings(NamedTuple):
         Distance to the track's prediction, in body sizes, above which time
         contradicts a point.
     alone_limit : float
-        The pose model's limit where time cannot tell (photos, joints not seen
-        confidently within `time_reach` frames).
+        The pose model's limit where there is no time (photos, rows outside
+        any track).
+    far_limit : float
+        The pose model's limit in a track where time cannot tell (the joint
+        not seen confidently within `time_reach` frames: a long occlusion).
     time_reach : int
         Frames within which a confident observation of the joint must lie on
         both sides (or one side, held) for time to predict it.
     """
 
     suspect_below: float = 0.3
-    pose_limit: float = 0.1
+    pose_limit: float = 0.06
     time_limit: float = 0.15
-    alone_limit: float = 0.4
-    time_reach: int = 6
+    alone_limit: float = 0.5
+    far_limit: float = 0.1
+    time_reach: int = 12
 
 
 DEFAULT_OUTLIER_SETTINGS = OutlierSettings()
@@ -89,12 +96,15 @@ class OutlierCheck(NamedTuple):
         checked or no prediction).
     time_error : ndarray
         Distance to the track's prediction in body sizes (NaN: time cannot tell).
+    tracked : ndarray of bool (n,)
+        Rows in a track time can be read from.
     """
 
     outlier: np.ndarray
     suspect: np.ndarray
     pose_error: np.ndarray
     time_error: np.ndarray
+    tracked: np.ndarray
 
 
 def check_confidence(confidence, shape, caller):
@@ -219,6 +229,7 @@ def find_outliers(poses, missing, confidence, members, *, tracks=None, frames=No
         suspect = ~missing & (confidence < settings.suspect_below)
     pose_error = np.full((n, N), np.nan)
     time_error = np.full((n, N), np.nan)
+    tracked = np.zeros(n, dtype=bool)
     rows = np.flatnonzero(suspect.any(axis=1))
     if len(rows):
         hidden = missing[rows] | suspect[rows]
@@ -228,22 +239,23 @@ def find_outliers(poses, missing, confidence, members, *, tracks=None, frames=No
         with np.errstate(invalid="ignore", divide="ignore"):
             pose_error[rows] = np.linalg.norm(res.poses - poses[rows], axis=-1) / size[:, None]
             if frames is not None:
-                predicted = _time_predictions(poses, missing | suspect, tracks, frames,
-                                              settings.time_reach)
+                predicted, tracked = _time_predictions(poses, missing | suspect, tracks,
+                                                       frames, settings.time_reach)
                 time_error[rows] = np.linalg.norm(predicted[rows] - poses[rows],
                                                   axis=-1) / size[:, None]
     pose_error[~suspect] = np.nan
     time_error[~suspect] = np.nan
-    return OutlierCheck(decide(pose_error, time_error, settings), suspect, pose_error,
-                        time_error)
+    return OutlierCheck(decide(pose_error, time_error, tracked, settings), suspect,
+                        pose_error, time_error, tracked)
 
 
-def decide(pose_error, time_error, settings):
+def decide(pose_error, time_error, tracked, settings):
     """Outliers (n, N) from the two distances (NaN: no prediction) and the limits.
 
     Parameters
     ----------
     pose_error, time_error : ndarray (n, N)
+    tracked : ndarray of bool (n,)
         As :class:`OutlierCheck`'s.
     settings : OutlierSettings
 
@@ -253,18 +265,20 @@ def decide(pose_error, time_error, settings):
     """
     with np.errstate(invalid="ignore"):
         timed = np.isfinite(time_error)
+        alone = np.where(tracked, settings.far_limit, settings.alone_limit)[:, None]
         return np.where(timed, (pose_error > settings.pose_limit)
-                        & (time_error > settings.time_limit),
-                        pose_error > settings.alone_limit)
+                        & (time_error > settings.time_limit), pose_error > alone)
 
 
 def _time_predictions(poses, hidden, tracks, frames, reach):
     """Each joint of each row predicted from its track's other rows where the
     joint is not `hidden`: linear in time between the nearest ones within
     `reach` frames (held from one side); NaN where none is that near, and
-    for the rows of a track that holds one frame twice."""
+    for the rows of a track that holds one frame twice; and the rows (n,) of
+    the tracks time was read from."""
     n, N = hidden.shape
     out = np.full(poses.shape, np.nan)
+    tracked = np.zeros(n, dtype=bool)
     keys = np.zeros(n, int) if tracks is None else np.unique(
         np.asarray(tracks).astype(str), return_inverse=True)[1].ravel()
     t_all = np.asarray(frames, dtype=float)
@@ -274,11 +288,12 @@ def _time_predictions(poses, hidden, tracks, frames, reach):
         t = t_all[rows]
         if len(rows) < 2 or not np.all(np.diff(t) > 0):
             continue
+        tracked[rows] = True
         for j in range(N):
             seen = ~hidden[rows, j]
             if seen.any():
                 out[rows, j] = _interpolate(t, poses[rows, j], seen, reach)
-    return out
+    return out, tracked
 
 
 def _interpolate(t, xy, seen, reach):

@@ -5,8 +5,9 @@ BODY_25 folder (one file per frame, ``person_id`` the track; the head top
 through the nose, so that the reader's face rule gives it back). A detector
 is imitated per annotated joint:
 
-- a joint annotated as occluded is, with probability ``WRONG``, placed at a
-  wrong place scored U(0.02, 0.2): half of them at the other side's joint
+- a joint annotated as occluded is, with probability `wrong_share` (default
+  ``WRONG``; 1: every occluded stretch wrong throughout), placed at a wrong
+  place scored U(0.02, 0.2): half of them at the other side's joint
   (a left/right confusion), half moved 0.15-0.5 body sizes in a random
   direction; the other occluded joints are placed near right, scored
   U(0.1, 0.6);
@@ -66,7 +67,7 @@ def track_sizes(truth, tracks):
     return out
 
 
-def imitate(truth, visible, tracks, frames, seed):
+def imitate(truth, visible, tracks, frames, seed, wrong_share=WRONG):
     """The detector's points and scores for one clip (a :class:`Case`)."""
     rng = np.random.default_rng(seed)
     n = len(truth)
@@ -78,7 +79,7 @@ def imitate(truth, visible, tracks, frames, seed):
     low_right = annotated & visible & (rng.random((n, 14)) < LOW_RIGHT)
     score[low_right] = rng.uniform(0.02, 0.2, low_right.sum())
     score[occluded] = rng.uniform(0.1, 0.6, occluded.sum())
-    wrong = occluded & (rng.random((n, 14)) < WRONG)
+    wrong = occluded & (rng.random((n, 14)) < wrong_share)
     score[wrong] = rng.uniform(0.02, 0.2, wrong.sum())
     low_right |= occluded & ~wrong & (score < 0.3)
     swap = wrong & (rng.random((n, 14)) < 0.5)

@@ -1,7 +1,9 @@
 """The outlier check's limits (:mod:`sparseedm.outliers`), chosen on validation clips.
 
 Every Bonn PoseTrack clip of a split is written as an OpenPose folder with
-wrong and right low-scored points (``studies/outliers/case.py``), read back
+wrong and right low-scored points (``studies/outliers/case.py``) twice: with
+60 % of the occluded joints wrong (mixed with right ones: time can tell) and
+with all of them wrong (whole occluded stretches: time mostly cannot), read back
 with OpenPose's cut-off (0.05) and checked (:func:`sparseedm.outliers.find_outliers`)
 once; the limits are then chosen on the distances found: the fewest wrong
 points kept with at most ``MAX_RIGHT_FLAGGED`` of the right low-scored points
@@ -41,19 +43,25 @@ from studies.outliers.case import imitate, measure, row_order, write_openpose  #
 HERE = Path(__file__).resolve().parent
 MAX_RIGHT_FLAGGED = 0.02
 REACHES = (3, 6, 12, 30)
-GRID = dict(pose_limit=(0.04, 0.06, 0.08, 0.1, 0.12, 0.15),
-            time_limit=(0.08, 0.1, 0.12, 0.15, 0.2, 0.25, 0.3),
-            alone_limit=(0.15, 0.2, 0.25, 0.3, 0.4, 0.5))
+WRONG_SHARES = (0.6, 1.0)
+GRID = dict(pose_limit=(0.06, 0.08, 0.1, 0.12, 0.15),
+            time_limit=(0.1, 0.12, 0.15, 0.2, 0.25),
+            far_limit=(0.1, 0.12, 0.15, 0.2, 0.25, 0.3, 0.4))
+#: photos (no track): the pose model alone, chosen as far_limit's strictest
+#: value that flags no right point of the clips' rows taken one by one
+ALONE_LIMITS = (0.2, 0.25, 0.3, 0.4, 0.5)
 
 
-def clips(part, max_clips=None):
-    """(name, Case) of every Bonn clip of `part`."""
+def clips(part, max_clips=None, wrong_shares=WRONG_SHARES):
+    """(name, Case) of every Bonn clip of `part`, once per share of wrong points."""
     s = real2d.load("bonn")
     sp = real2d.split(s)
     groups = sorted(set(s.group[sp == part]))[:max_clips]
-    for k, g in enumerate(groups):
-        c = s.take(s.group == g)
-        yield g, imitate(c.poses, c.visible, c.tracks, c.frames, seed=k)
+    for share in wrong_shares:
+        for k, g in enumerate(groups):
+            c = s.take(s.group == g)
+            yield f"{g}@{share:g}", imitate(c.poses, c.visible, c.tracks, c.frames, seed=k,
+                                            wrong_share=share)
 
 
 def scores(part, reach, max_clips=None):
@@ -66,8 +74,8 @@ def scores(part, reach, max_clips=None):
             kps = read_keypoints(folder)
             order = row_order(case, kps.ids)
             check = find_outliers(kps.poses, kps.missing, kps.confidence, [dictionary],
-                                  tracks=kps.tracks, frames=kps.frames,
-                                  settings=OutlierSettings(time_reach=reach))
+                                  tracks=kps.tracks, frames=None if reach is None else
+                                  kps.frames, settings=OutlierSettings(time_reach=reach or 0))
             out.append((name, case, order, check))
     return out
 
@@ -82,7 +90,7 @@ def choose(found, reach):
         wrong = right = right_flagged = wrong_kept = 0
         kept_error = 0.0
         for _, case, order, check in found:
-            flagged = decide(check.pose_error, check.time_error, settings)
+            flagged = decide(check.pose_error, check.time_error, check.tracked, settings)
             w = case.wrong[order] & check.suspect
             r = case.low_right[order] & check.suspect
             away = np.linalg.norm(case.given[order] - case.truth[order], axis=-1) / \
@@ -98,6 +106,23 @@ def choose(found, reach):
                 best is None or row["kept_error"] < best["kept_error"]):
             best = row
     return best
+
+
+def choose_alone(found):
+    """alone_limit: the rows as photos (no time), the strictest limit with at
+    most MAX_RIGHT_FLAGGED of the right low-scored points flagged."""
+    rows = []
+    for limit in ALONE_LIMITS:
+        settings = OutlierSettings(alone_limit=limit)
+        counts = np.zeros(4, int)
+        for _, case, order, check in found:
+            flagged = decide(check.pose_error, check.time_error, check.tracked, settings)
+            w, r = case.wrong[order] & check.suspect, case.low_right[order] & check.suspect
+            counts += [w.sum(), (w & ~flagged).sum(), r.sum(), (r & flagged).sum()]
+        rows.append(dict(alone_limit=limit, wrong=int(counts[0]), wrong_kept=int(counts[1]),
+                         right=int(counts[2]), right_flagged=int(counts[3])))
+    ok = [r for r in rows if r["right_flagged"] <= MAX_RIGHT_FLAGGED * r["right"]]
+    return dict(min(ok, key=lambda r: r["alone_limit"]), table=rows)
 
 
 def report(part, max_clips=None):
@@ -153,9 +178,12 @@ def main():
         path = HERE / f"results-{args.report}.json"
     else:
         per_reach = [choose(scores("val", reach, args.max_clips), reach) for reach in REACHES]
-        doc = dict(meta, split="val", grid=dict(GRID, time_reach=REACHES),
-                   max_right_flagged=MAX_RIGHT_FLAGGED, per_reach=per_reach,
-                   chosen=min(per_reach, key=lambda r: r["kept_error"]))
+        chosen = min(per_reach, key=lambda r: r["kept_error"])
+        photos = choose_alone(scores("val", None, args.max_clips))
+        doc = dict(meta, split="val", grid=dict(GRID, time_reach=REACHES,
+                                                alone_limit=ALONE_LIMITS),
+                   max_right_flagged=MAX_RIGHT_FLAGGED, per_reach=per_reach, photos=photos,
+                   chosen=dict(chosen, alone_limit=photos["alone_limit"]))
         path = HERE / "selection.json"
     path.write_text(json.dumps(doc, indent=1) + "\n")
     print(json.dumps(doc.get("chosen") or doc["pooled"], indent=1))
