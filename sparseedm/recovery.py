@@ -234,6 +234,8 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
     if method != "fconv":  # an FConv model says its own (recover_fconv)
         representation = representation_for(representation)
     if confidence is not None and outliers:
+        if frames is not None and temporal:
+            check_frames(frames, "recover")
         if not isinstance(dictionary, Dictionary):
             dictionary = load_dictionary(dictionary)
         poses, missing, _ = validate_poses(poses, missing, dictionary.n_joints)

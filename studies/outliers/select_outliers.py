@@ -8,8 +8,10 @@ with OpenPose's cut-off (0.05) and checked (:func:`sparseedm.outliers.find_outli
 once; the limits are then chosen on the distances found: the fewest wrong
 points kept with at most ``MAX_RIGHT_FLAGGED`` of the right low-scored points
 flagged. ``--report`` runs ``recover_file`` on every clip of the split with
-the check off and on (the defaults) and writes the errors
-(``studies/outliers/results-<split>.json``).
+the check off, on (the defaults) and, for reference, off with every point
+below 0.3 read as missing (MMPose's default cut: the wrong points' fill error
+when all of them are caught, and every right low-scored point lost), and
+writes the errors (``studies/outliers/results-<split>.json``).
 
     python studies/outliers/select_outliers.py               # choose on val
     python studies/outliers/select_outliers.py --report val  # before / after
@@ -125,6 +127,10 @@ def choose_alone(found):
     return dict(min(ok, key=lambda r: r["alone_limit"]), table=rows)
 
 
+RUNS = {"off": dict(outliers=False), "on": {},
+        "cut0.3": dict(outliers=False, confidence_threshold=0.3)}
+
+
 def report(part, max_clips=None):
     """recover_file on each clip with the check off and on: the errors."""
     rows = []
@@ -132,10 +138,10 @@ def report(part, max_clips=None):
         for name, case in clips(part, max_clips):
             folder = write_openpose(case, Path(tmp) / name.replace("/", "_"))
             row = {"clip": name, "poses": len(case.truth)}
-            for label, on in (("off", False), ("on", True)):
+            for label, kw in RUNS.items():
                 out = Path(tmp) / f"{label}.npz"
                 t0 = time.perf_counter()
-                recover_file(folder, out, outliers=on)
+                recover_file(folder, out, **kw)
                 seconds = time.perf_counter() - t0
                 res = np.load(out, allow_pickle=False)
                 order = row_order(case, res["ids"])
@@ -152,8 +158,9 @@ def report(part, max_clips=None):
     return rows
 
 
-def pooled(rows, label):
-    """Point-weighted means of the clips' errors."""
+def pooled(rows, label, share=None):
+    """Point-weighted means of the clips' errors (of one share of wrong points)."""
+    rows = [r for r in rows if share is None or r["clip"].endswith(f"@{share:g}")]
     out = {}
     for kind in ("wrong", "right"):
         n = sum(r[label][f"{kind}_count"] for r in rows)
@@ -174,7 +181,9 @@ def main():
     if args.report:
         rows = report(args.report, args.max_clips)
         doc = dict(meta, split=args.report, clips=rows,
-                   pooled={k: pooled(rows, k) for k in ("off", "on")})
+                   pooled={k: pooled(rows, k) for k in RUNS},
+                   pooled_by_share={f"{share:g}": {k: pooled(rows, k, share) for k in RUNS}
+                                    for share in WRONG_SHARES})
         path = HERE / f"results-{args.report}.json"
     else:
         per_reach = [choose(scores("val", reach, args.max_clips), reach) for reach in REACHES]
