@@ -8,7 +8,8 @@ and is checked against two predictions made without it:
 
 - the pose model: the row recovered with all its suspect points hidden
   (the sparse per-frame model on its confident joints,
-  :func:`sparseedm._recovery_kernel.recover_members`);
+  :func:`sparseedm._recovery_kernel.recover_members`), or, where that leaves
+  too few joints, with each suspect point alone hidden;
 - its track: the joint interpolated linearly over time between the
   confident observations of the same joint in the same track, where one lies
   within :attr:`OutlierSettings.time_reach` frames.
@@ -72,9 +73,9 @@ class OutlierSettings(NamedTuple):
     """
 
     suspect_below: float = 0.3
-    pose_limit: float = 0.06
+    pose_limit: float = 0.08
     time_limit: float = 0.15
-    alone_limit: float = 0.5
+    alone_limit: float = 0.6
     far_limit: float = 0.1
     time_reach: int = 12
 
@@ -232,21 +233,40 @@ def find_outliers(poses, missing, confidence, members, *, tracks=None, frames=No
     tracked = np.zeros(n, dtype=bool)
     rows = np.flatnonzero(suspect.any(axis=1))
     if len(rows):
-        hidden = missing[rows] | suspect[rows]
-        res = recover_members(np.where(hidden[..., None], np.nan, poses[rows]), hidden,
-                              list(members)[:1], [], **kwargs)
-        size = body_size(res.poses)
+        predicted, size = _pose_predictions(poses[rows], missing[rows], suspect[rows],
+                                            list(members)[:1], kwargs)
         with np.errstate(invalid="ignore", divide="ignore"):
-            pose_error[rows] = np.linalg.norm(res.poses - poses[rows], axis=-1) / size[:, None]
+            pose_error[rows] = np.linalg.norm(predicted - poses[rows], axis=-1) / size
             if frames is not None:
                 predicted, tracked = _time_predictions(poses, missing | suspect, tracks,
                                                        frames, settings.time_reach)
                 time_error[rows] = np.linalg.norm(predicted[rows] - poses[rows],
-                                                  axis=-1) / size[:, None]
+                                                  axis=-1) / size
     pose_error[~suspect] = np.nan
     time_error[~suspect] = np.nan
     return OutlierCheck(decide(pose_error, time_error, tracked, settings), suspect,
                         pose_error, time_error, tracked)
+
+
+def _pose_predictions(poses, missing, suspect, members, kwargs):
+    """The pose model's prediction of every suspect point (m, N, 2) and each
+    one's body size (m, N): each row with all its suspect points hidden; a row
+    that leaves too few joints so (refused) once per suspect point, that point
+    alone hidden. NaN where the pose model gave no answer."""
+    hidden = missing | suspect
+    res = recover_members(np.where(hidden[..., None], np.nan, poses), hidden, members, [],
+                          **kwargs)
+    predicted = res.poses
+    size = np.repeat(body_size(predicted)[:, None], missing.shape[1], axis=1)
+    r, j = np.nonzero(suspect & ~res.ok[:, None])
+    if len(r):
+        one = missing[r].copy()
+        one[np.arange(len(r)), j] = True
+        again = recover_members(np.where(one[..., None], np.nan, poses[r]), one, members,
+                                [], **kwargs)
+        predicted[r, j] = again.poses[np.arange(len(r)), j]
+        size[r, j] = body_size(again.poses)
+    return predicted, size
 
 
 def decide(pose_error, time_error, tracked, settings):

@@ -2,6 +2,7 @@
 both contradict are treated as missing, filled and named; right ones stay."""
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,6 +12,7 @@ from sparseedm.batch import recover_file
 from sparseedm.cli import main
 from sparseedm.exceptions import ParameterError
 from sparseedm.keypoints import read_keypoints
+from sparseedm.outliers import DEFAULT_OUTLIER_SETTINGS, OutlierSettings
 from sparseedm.real_protocol import body_size
 from sparseedm.skeleton import JOINT_NAMES
 
@@ -146,7 +148,7 @@ def test_photo_alone_flags_only_a_gross_error(track, small_dictionary):
     conf[0, WRIST] = 0.1
     near = recover(pose, confidence=conf, dictionary=small_dictionary, adapt=False)
     assert not near.outliers.any()
-    pose[0, WRIST] += (0.6 * size, 0.0)
+    pose[0, WRIST] += ((DEFAULT_OUTLIER_SETTINGS.alone_limit + 0.3) * size, 0.0)
     far = recover(pose, confidence=conf, dictionary=small_dictionary, adapt=False)
     assert far.outliers[0, WRIST] and far.status[0] == "recovered"
 
@@ -156,3 +158,10 @@ def test_confidence_is_checked(track):
         recover(track[:2], confidence=np.ones((2, 13)))
     with pytest.raises(ParameterError, match="outside"):
         recover(track[:2], confidence=np.full((2, 14), 1.5))
+
+
+def test_defaults_are_the_ones_the_study_chose():
+    chosen = json.loads((Path(__file__).resolve().parents[1] / "studies" / "outliers"
+                         / "selection.json").read_text())["chosen"]
+    assert DEFAULT_OUTLIER_SETTINGS == OutlierSettings(
+        **{k: chosen[k] for k in OutlierSettings._fields})

@@ -51,7 +51,7 @@ GRID = dict(pose_limit=(0.06, 0.08, 0.1, 0.12, 0.15),
             far_limit=(0.1, 0.12, 0.15, 0.2, 0.25, 0.3, 0.4))
 #: photos (no track): the pose model alone, chosen as far_limit's strictest
 #: value that flags no right point of the clips' rows taken one by one
-ALONE_LIMITS = (0.2, 0.25, 0.3, 0.4, 0.5)
+ALONE_LIMITS = (0.3, 0.4, 0.5, 0.6, 0.8, 1.0, 1.5)
 
 
 def clips(part, max_clips=None, wrong_shares=WRONG_SHARES):
@@ -123,7 +123,7 @@ def choose_alone(found):
             counts += [w.sum(), (w & ~flagged).sum(), r.sum(), (r & flagged).sum()]
         rows.append(dict(alone_limit=limit, wrong=int(counts[0]), wrong_kept=int(counts[1]),
                          right=int(counts[2]), right_flagged=int(counts[3])))
-    ok = [r for r in rows if r["right_flagged"] <= MAX_RIGHT_FLAGGED * r["right"]]
+    ok = [r for r in rows if r["right_flagged"] <= MAX_RIGHT_FLAGGED * r["right"]] or rows[-1:]
     return dict(min(ok, key=lambda r: r["alone_limit"]), table=rows)
 
 
