@@ -137,6 +137,11 @@ class RecoveryResult:
         around the joint that holds the true joint 9 times in 10; 0 for an
         observed joint, NaN on a refused pose (:mod:`sparseedm.uncertainty`).
         Set by :func:`sparseedm.recover`; None from the lower layers.
+    outliers : ndarray of bool (n, N) or None
+        Points given with a low confidence that the pose model and the track
+        both contradicted, treated as missing and filled
+        (:mod:`sparseedm.outliers`); None when no confidence was given or the
+        check was off.
     """
 
     poses: np.ndarray
@@ -156,6 +161,7 @@ class RecoveryResult:
     dictionary: Dictionary | None = None
     members: int = 1
     uncertainty: np.ndarray | None = None
+    outliers: np.ndarray | None = None
 
     @property
     def edms(self) -> np.ndarray:

@@ -56,6 +56,12 @@ a filled joint's score is ``filled_score`` (default 0: below every threshold,
 never a detection's), and COCO's ``num_keypoints`` counts the keypoints with
 ``v > 0`` again. Readers read flagged joints as present.
 
+When the input has scores, the outlier check (:mod:`sparseedm.outliers`,
+``outliers=True``) adds one more per-row field, ``outliers``: the names of the
+joints it treated as missing, separated by spaces (a CSV column, an ``.npz``
+or status-sidecar array, a field of the ``"sparseedm"`` object in the JSON
+formats); those joints are flagged as filled too.
+
 ``save_edm=True`` also stores the completed EDM vectors (normalised units,
 ``edm_vectors`` (n, 91)) with their normalisation ``center`` (n, 2) and
 ``scale`` (n,): inside an ``.npz`` output, else in a sidecar
@@ -107,6 +113,7 @@ from .keypoints import output_format as keypoint_output_format
 from ._recovery_base import OK_STATUSES, combine, recovery_summary
 from ._recovery_kernel import PRESETS, compiled_solver
 from .normalize import REPRESENTATIONS, representation_for
+from .outliers import mark_outliers, outlier_names
 from .recovery import STATUSES, check_options_apply, recover
 from .skeleton import JOINT_NAMES
 from .temporal.recover import CLIP_MIN_POSES, adapt_in_time, linked_tracks, offered_poses
@@ -160,6 +167,21 @@ class _MemorySource:
         self.meta = self.kps.meta
         self.tracks, self.frames = self.kps.tracks, self.kps.frames
         self.linked = None
+        self.outliers = None  # (n, 14): points the outlier check made missing
+
+    def mark_outliers(self, dictionary, in_time, alpha, representation, solver, n_jobs):
+        """Run the outlier check (:func:`sparseedm.outliers.mark_outliers`, the
+        pose model `dictionary` with the run's settings, time when `in_time`)
+        when the file has scores: its outliers made missing here, kept in
+        ``outliers``."""
+        if self.kps.confidence is None:
+            return
+        scores = self.kps.confidence if self.kps.filled is None else np.where(
+            self.kps.filled, np.nan, self.kps.confidence)  # joints sparseedm filled: not checked
+        self.kps.poses, self.kps.missing, self.outliers = mark_outliers(
+            self.kps.poses, self.kps.missing, scores, dictionary,
+            tracks=self.tracks, frames=self.frames if in_time else None, alpha=alpha,
+            representation=representation, solver=solver, n_jobs=n_jobs)
 
     def link(self):
         """Track ids linked by pose, as :func:`recover` links them (:func:`linked_tracks`),
@@ -216,6 +238,11 @@ class _NpySource:
         self.ids = None
         self.meta = {}
         self.tracks = self.frames = self.linked = None  # a .npy holds poses only
+        self.outliers = None  # streamed: no outlier check
+
+    def mark_outliers(self, *settings):
+        """A streamed .npy is not checked for outliers (the check needs the
+        whole file's tracks)."""
 
     def below(self, threshold, chunk_size=1 << 20):
         """Joints scored below `threshold` (None: no confidence column), chunk by chunk."""
@@ -274,7 +301,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
                  method="sparse", model=None, adapt="auto", save_dictionary=None,
                  self_training=None, ensemble=1, joint_map=None,
                  filled_score=FILLED_SCORE, temporal=True, input_format=None,
-                 preset="default"):
+                 preset="default", outliers=True):
     """Recover every pose of a keypoint file and write the filled poses.
 
     Parameters
@@ -357,6 +384,15 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
         poses of the file (or of `adapt`) as the atoms, nothing learned
         (refused with self-training rounds, an ensemble, FConv, and on a
         file with frames unless ``temporal=False``).
+    outliers : bool, default True
+        When the file has per-joint scores (not a ``.npy``, streamed): the
+        outlier check (:mod:`sparseedm.outliers`): a point kept by the
+        threshold but scored below 0.3 that the pose model and its track both
+        contradict is treated as missing and filled; the output names such
+        joints per row (``outliers``: joint names separated by spaces, a CSV
+        column, an ``.npz`` / status-sidecar array, a field of each person's
+        ``"sparseedm"`` object in JSON formats) and ``summary["outliers"]``
+        counts them (None: not checked). False turns it off.
 
     Returns
     -------
@@ -386,7 +422,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
         scheduler=scheduler, method=method, save_dictionary=save_dictionary,
         self_training=self_training, ensemble=ensemble, joint_map=joint_map,
         filled_score=filled_score, temporal=temporal, input_format=input_format,
-        preset=preset), _PARAMS)
+        preset=preset, outliers=outliers), _PARAMS)
     check_options_apply("recover_file", method=method, model=model, backend=backend,
                         scheduler=scheduler, adapt=adapt, ensemble=ensemble, preset=preset,
                         self_training=self_training)
@@ -428,6 +464,8 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
                               "folder; give an output path without .json")
     try:
         in_time = _in_time(source, temporal and method == "sparse")
+        if outliers:  # scored points its track and the pose model contradict: missing
+            source.mark_outliers(dictionary, in_time, alpha, representation, solver, n_jobs)
         if method == "sparse":
             with one_client(backend, scheduler) as dist:  # the adaptation's recoveries
                 members, adaptation = _adapt(source, dictionary, adapt, chunk_size,
@@ -604,6 +642,7 @@ _PARAMS = {
     "temporal": BOOLEAN,
     "input_format": [str, None],
     "preset": [Options(PRESETS)],
+    "outliers": BOOLEAN,
 }
 
 
@@ -730,6 +769,8 @@ def _run(source, outputs, recovery, chunk_size, progress, t0):
         temporal_summary = _recover_chunks_into(filled, columns, source, recovery,
                                                 chunk_size, progress)
         fields = columns.fields()
+        if source.outliers is not None:  # named per row, in every format
+            fields["outliers"] = outlier_names(source.outliers, JOINT_NAMES)
         flags = columns.flags
         kps = getattr(source, "kps", None)
         if kps is not None and kps.filled is not None:
@@ -750,7 +791,8 @@ def _run(source, outputs, recovery, chunk_size, progress, t0):
                                time.perf_counter() - t0)
     return dict(summary, output=str(out_path), format=out_fmt,
                 errors=str(outputs.errors_path) if refused.any() or skipped else None,
-                sidecars=[str(p) for p in sidecars.values()], temporal=temporal_summary)
+                sidecars=[str(p) for p in sidecars.values()], temporal=temporal_summary,
+                outliers=None if source.outliers is None else int(source.outliers.sum()))
 
 
 def _recover_chunks_into(filled, columns, source, recovery, chunk_size, progress):
@@ -835,6 +877,8 @@ def _write_output(tmp, fmt, filled, ids, meta, in_fmt, fields, edm,
             "gap": [_num(v) for v in fields["gap"]],
             "n_active": fields["n_active"],
         })
+        if "outliers" in fields:
+            extra["outliers"] = fields["outliers"]
         write_keypoints(tmp, filled, format="csv", ids=ids, extra_columns=extra,
                         **_time_axis(kps, linked, in_fmt, fmt), **flagged)
     else:  # coco: the original document (or a results list), status in "sparseedm"
@@ -852,6 +896,8 @@ def _write_output(tmp, fmt, filled, ids, meta, in_fmt, fields, edm,
                 "gap": _json_num(fields["gap"][r]),
                 "n_active": int(fields["n_active"][r]),
             })
+            if "outliers" in fields:
+                ann["sparseedm"]["outliers"] = str(fields["outliers"][r])
         with open(tmp, "w", encoding="utf-8") as f:
             json.dump(doc, f)
 

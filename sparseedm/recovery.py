@@ -38,6 +38,7 @@ from .normalize import REPRESENTATIONS, representation_for
 from .dictionary import Dictionary, check_gram_memory, load_dictionary
 from .ensemble import adapt_members
 from .exceptions import ParameterError, SparseEDMError
+from .outliers import check_confidence, mark_outliers, note_outliers
 from .temporal.recover import recover_temporal
 from .uncertainty import joint_uncertainty
 
@@ -50,7 +51,8 @@ _recover, _recover_members, _solve_chunk = recover_sparse, recover_members, solv
 
 #: constraints of recover()'s arguments (defined with the kernel, which the guard
 #: of adaptation also validates against)
-_PARAMS = dict(RECOVER_PARAMS, representation=[Options(REPRESENTATIONS), None])
+_PARAMS = dict(RECOVER_PARAMS, representation=[Options(REPRESENTATIONS), None],
+               outliers=["boolean"])
 
 
 def check_options_apply(caller, *, method, model, backend, scheduler, adapt, ensemble,
@@ -125,7 +127,8 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
             representation=None, solver="fast", n_jobs=1, chunk_size=2048,
             positive=None, progress=False, backend=None, scheduler=None,
             method="sparse", model=None, adapt="auto", self_training=None, ensemble=1,
-            tracks=None, frames=None, temporal=True, preset="default"):
+            tracks=None, frames=None, temporal=True, preset="default",
+            confidence=None, outliers=True):
     """Recover the occluded joints of 2D poses.
 
     Parameters
@@ -233,12 +236,23 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         (``docs/explanation/settings.md``, "Presets", and the accuracy-speed
         frontier of the results pages). Per pose only: with `frames` it needs
         ``temporal=False``; `ensemble` and `self_training` are refused with it.
+    confidence : array_like (n, N), optional
+        The detector's score of each joint in [0, 1] (NaN: none). Turns on the
+        outlier check: an observed joint scored below 0.3 that the pose model
+        and its track (with `frames`) both contradict is treated as missing
+        and filled (:mod:`sparseedm.outliers`). Scores do not make joints
+        missing here: drop those under your cut-off first (the file readers
+        do, :func:`sparseedm.keypoints.read_keypoints`).
+    outliers : bool, default True
+        False turns the outlier check off (the scores are then unused).
 
     Returns
     -------
     RecoveryResult
         A :class:`~sparseedm.temporal.recover.TemporalResult` (per-joint
-        ``source``) when `frames` turned temporal recovery on.
+        ``source``) when `frames` turned temporal recovery on. With the
+        outlier check, ``outliers`` (n, N) says which joints it treated as
+        missing (their ``source`` is ``"outlier"``).
 
     Notes
     -----
@@ -276,12 +290,30 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         dictionary=dictionary, alpha=alpha, representation=representation, solver=solver,
         n_jobs=n_jobs, chunk_size=chunk_size, positive=positive, progress=progress,
         backend=backend, scheduler=scheduler, method=method, self_training=self_training,
-        ensemble=ensemble, temporal=temporal, preset=preset), _PARAMS)
+        ensemble=ensemble, temporal=temporal, preset=preset, outliers=outliers), _PARAMS)
     check_options_apply("recover", method=method, model=model, backend=backend,
                         scheduler=scheduler, adapt=adapt, ensemble=ensemble, preset=preset,
                         self_training=self_training)
     if method != "fconv":  # an FConv model says its own (recover_fconv)
         representation = representation_for(representation)
+    if confidence is not None and outliers:
+        if frames is not None and temporal:
+            check_frames(frames, "recover")
+        if not isinstance(dictionary, Dictionary):
+            dictionary = load_dictionary(dictionary)
+        poses, missing, _ = validate_poses(poses, missing, dictionary.n_joints)
+        poses, missing, outlier = mark_outliers(
+            poses, missing, check_confidence(confidence, missing.shape, "recover"),
+            dictionary, tracks=tracks,
+            frames=frames if temporal else None, alpha=alpha,
+            representation=representation_for(representation), solver=solver, n_jobs=n_jobs,
+            chunk_size=chunk_size, positive=positive)
+        return note_outliers(recover(
+            poses, missing, dictionary=dictionary, alpha=alpha, representation=representation,
+            solver=solver, n_jobs=n_jobs, chunk_size=chunk_size, positive=positive,
+            progress=progress, backend=backend, scheduler=scheduler, method=method,
+            model=model, adapt=adapt, self_training=self_training, ensemble=ensemble,
+            tracks=tracks, frames=frames, temporal=temporal, preset=preset), outlier)
     if frames is not None and temporal:
         if preset == "fast":
             raise ParameterError("recover: preset='fast' recovers each pose on its own: "

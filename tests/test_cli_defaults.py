@@ -84,6 +84,13 @@ def test_cli_defaults_are_the_apis(argv, pairs):
         assert getattr(args, dest) == api(func, name), (argv[0], dest)
 
 
+def test_outlier_check_is_on_by_default_in_both():
+    args = build_parser().parse_args(["recover", "in.csv", "-o", "out.csv"])
+    assert (not args.no_outliers) is api(recover_file, "outliers") is True
+    args = build_parser().parse_args(["recover", "in.csv", "-o", "out.csv", "--no-outliers"])
+    assert args.no_outliers
+
+
 def test_input_formats_are_the_ones_read_keypoints_reads():
     """--input-format names every format read_keypoints reads (and its aliases), no other."""
     from pathlib import Path

@@ -28,7 +28,8 @@ import sparseedm
 #: top-level modules users import from directly (besides the root and the subpackages)
 USER_MODULES = ("sparseedm.keypoints", "sparseedm.batch", "sparseedm.dictionary",
                 "sparseedm.learning", "sparseedm.skeleton", "sparseedm.edm",
-                "sparseedm.dataset", "sparseedm.exceptions", "sparseedm.uncertainty")
+                "sparseedm.dataset", "sparseedm.exceptions", "sparseedm.uncertainty",
+                "sparseedm.outliers")
 
 
 def public_modules():

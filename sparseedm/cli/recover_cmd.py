@@ -84,6 +84,11 @@ def _add_format_options(p):
     p.add_argument("--filled-score", type=float, default=0.0, metavar="S",
                    help="score in [0, 1] written for filled joints (OpenPose, MMPose, "
                    "DeepLabCut, COCO); default 0, below every threshold")
+    p.add_argument("--no-outliers", action="store_true",
+                   help="trust every point the threshold keeps (by default a point scored "
+                   "below 0.3 that the pose model and its track both contradict is treated "
+                   "as missing, filled and named in the output's 'outliers': "
+                   "sparseedm.outliers)")
 
 
 def _add_run_options(p):
@@ -175,6 +180,7 @@ def run(args):
         ensemble=args.ensemble, joint_map=args.joint_map, filled_score=args.filled_score,
         temporal=not args.no_temporal, input_format=args.input_format,
         preset=args.preset,
+        outliers=not args.no_outliers,
     )
     out = sys.stderr if args.quiet or is_stream(args.output) else sys.stdout  # -o /dev/stdout
     ad = summary.get("adaptation")
@@ -190,6 +196,10 @@ def run(args):
         print(f"sparseedm recover: {args.input} has frames: recovered across time "
               f"({t['segments']} track segment(s), {t['per_frame_poses']} per-frame answers)"
               f"{_alone_note(t)}; --no-temporal turns it off", file=sys.stderr)
+    if summary.get("outliers"):
+        print(f"sparseedm recover: {summary['outliers']} low-scored point(s) contradicted by "
+              "the pose model and their track were treated as missing (named in 'outliers'); "
+              "--no-outliers keeps them", file=sys.stderr)
     print(format_summary(summary), file=out)
     return refusals_said("recover", summary)
 

@@ -51,6 +51,8 @@ SOURCES = {
     "observed": "given by the caller, returned exactly",
     "temporal": "filled by the temporal model (time and the per-frame pose model)",
     "per_frame": "filled by the per-frame pose model alone (the row is outside any track)",
+    "outlier": "given with a low score, contradicted by the pose model and the track, "
+               "treated as missing and filled (sparseedm.outliers)",
     "": "not filled (the row was refused)",
 }
 #: a per-frame answer that places a joint further than this many times the
