@@ -440,13 +440,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
     if not isinstance(dictionary, Dictionary):
         dictionary = load_dictionary(dictionary)
     check_gram_memory(dictionary)
-    requested = solver
-    try:
-        solver = get_solver(solver)  # one instance: its per-pattern caches serve every chunk
-    except ImportError as exc:
-        raise SparseEDMError(f"solver {solver!r} is not available ({exc})") from None
-    except ValueError as exc:
-        raise SparseEDMError(str(exc)) from None
+    requested, solver = solver, _one_solver(solver)
     if method == "fconv":  # checked before anything is read or written
         model = load_model(model, representation=representation, kind="recover")
     representation = representation_for(  # None: the model's own, else the default
@@ -495,6 +489,17 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
     if save_dictionary is not None:
         summary["dictionary"] = str(dictionary.save(save_dictionary))
     return summary
+
+
+def _one_solver(solver):
+    """One solver instance for the whole file: its per-pattern caches serve every
+    chunk (a SparseEDMError when the name is unknown or its backend missing)."""
+    try:
+        return get_solver(solver)
+    except ImportError as exc:
+        raise SparseEDMError(f"solver {solver!r} is not available ({exc})") from None
+    except ValueError as exc:
+        raise SparseEDMError(str(exc)) from None
 
 
 def _input_format(in_path, joint_map, input_format=None):
