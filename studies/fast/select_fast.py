@@ -17,12 +17,17 @@ beside this script.
 
 from __future__ import annotations
 
+import argparse
 import json
+import sys
 import time
 import warnings
 from pathlib import Path
 
 import numpy as np
+
+ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT))  # `python studies/fast/select_fast.py` finds benchmarks/
 
 GRID_ATOMS = (1000, 2000, 3000, 4000)
 GRID_ALPHA = (0.0002, 0.0005, 0.001)
@@ -47,7 +52,8 @@ def validation_file(n=6000, seed=0):
     return make_file(np.asarray(poses[held], dtype=float), n, seed=seed)
 
 
-def main():
+def main(argv=None):
+    argparse.ArgumentParser(description=__doc__.split("\n")[0]).parse_args(argv)
     import sparseedm
     from sklearn.experimental import enable_iterative_imputer  # noqa: F401
     from sklearn.impute import IterativeImputer
