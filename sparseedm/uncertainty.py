@@ -345,7 +345,8 @@ def joint_uncertainty(result, tracks=None, frames=None, calibration=None):
     >>> bool(r[0, 4] > 0), float(r[0, 0])
     (True, 0.0)
     """
-    radius = uncertainty_rule(joint_features(result, tracks, frames), calibration)
+    with np.errstate(over="ignore", invalid="ignore"):  # poses near float's limits
+        radius = uncertainty_rule(joint_features(result, tracks, frames), calibration)
     radius[~np.asarray(result.missing) & np.isfinite(radius)] = 0.0
     return radius
 
