@@ -51,7 +51,7 @@ __all__ = ["OutlierSettings", "OutlierCheck", "DEFAULT_OUTLIER_SETTINGS", "find_
 class OutlierSettings(NamedTuple):
     """The outlier check's constants.
 
-    Attributes
+    Parameters
     ----------
     suspect_below : float
         Points scored below it (and kept by the reader's threshold) are checked.
@@ -86,7 +86,7 @@ DEFAULT_OUTLIER_SETTINGS = OutlierSettings()
 class OutlierCheck(NamedTuple):
     """What :func:`find_outliers` found, per joint (n, N).
 
-    Attributes
+    Parameters
     ----------
     outlier : ndarray of bool
         Points to treat as missing.
@@ -109,8 +109,26 @@ class OutlierCheck(NamedTuple):
 
 
 def check_confidence(confidence, shape, caller):
-    """`confidence` as an (n, N) float array of scores in [0, 1] (NaN: none);
-    a ParameterError naming `caller` otherwise.
+    """`confidence` as an (n, N) float array of scores in [0, 1] (NaN: none).
+
+    Parameters
+    ----------
+    confidence : array_like (n, N) or (N,)
+        The detector's score of each joint.
+    shape : tuple
+        The poses' (n, N).
+    caller : str
+        Named in the error.
+
+    Returns
+    -------
+    ndarray (n, N)
+        The scores as floats.
+
+    Raises
+    ------
+    ParameterError
+        A shape other than `shape`, or a score outside [0, 1].
 
     Examples
     --------

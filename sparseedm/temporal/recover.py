@@ -116,6 +116,9 @@ class TemporalResult(RecoveryResult):
     uncertainty : ndarray (n, N) or None
         As :class:`~sparseedm.recovery.RecoveryResult`: the calibrated 90 %
         radius of each joint, here from the features of time as well.
+    outliers : ndarray of bool (n, N) or None
+        As :class:`~sparseedm.recovery.RecoveryResult`: low-scored points
+        treated as missing (their ``source`` is ``"outlier"``).
     source : ndarray of str (n, N)
         Where each joint comes from, one of :data:`SOURCES`.
     prior_weight : ndarray (n, N)
