@@ -47,6 +47,7 @@ import warnings
 import zlib
 from dataclasses import dataclass, field
 from numbers import Integral
+from typing import NamedTuple
 from pathlib import Path
 
 import numpy as np
@@ -64,7 +65,8 @@ from .temporal import fillers
 from .temporal.evaluation import resolve_methods
 from .temporal.protocols import GAP_LENGTHS, RUN_BINS, gap_mask, run_bin, run_lengths
 
-__all__ = ["evaluate_photos", "evaluate_tracks", "track_clips", "video_methods",
+__all__ = ["evaluate_photos", "evaluate_tracks", "track_clips", "clip_cases", "ClipCase",
+           "video_methods",
            "RealReport", "PHOTO_METHODS", "PHOTO_CONDITIONS", "MIN_CLIP_FRAMES"]
 
 #: evaluate_photos' methods, in table order
@@ -489,6 +491,60 @@ def _clip_masks(n_frames, gap_lengths, donors, transplanted, rng_for):
     return {k: v for k, v in masks.items() if v.any()}
 
 
+class ClipCase(NamedTuple):
+    """One clip of the real-video protocol and the masks hidden on it."""
+
+    #: the clip's track and its first frame, ``"track:frame"`` (seeds its masks)
+    clip_id: str
+    #: the clip's rows, in frame order
+    rows: np.ndarray
+    #: {condition label ("gap L" or "transplanted"): (T, 14) mask}, none empty
+    masks: dict
+
+
+def clip_cases(poses, tracks, frames, hidden, *, gap_lengths=GAP_LENGTHS, transplanted=True,
+               min_frames=MIN_CLIP_FRAMES, max_clips=None, random_state=0, notes=None):
+    """The clips of :func:`evaluate_tracks` and their masks, drawn as it draws them.
+
+    Parameters
+    ----------
+    poses : ndarray (n, 14, 2)
+        Pixels, NaN where a joint is missing.
+    tracks, frames : ndarray (n,)
+        Person and frame number of each pose.
+    hidden : ndarray of bool (n, 14)
+        The real missing joints the transplanted runs come from.
+    gap_lengths, transplanted, min_frames, max_clips, random_state
+        As :func:`evaluate_tracks`.
+    notes : list, optional
+        Receives what was left out (no clip, a sample of the clips).
+
+    Yields
+    ------
+    ClipCase
+        One per clip, in :func:`track_clips`' order.
+    """
+    clips = track_clips(poses, tracks, frames, min_frames=min_frames)
+    notes = [] if notes is None else notes
+    if not clips:
+        notes.append(f"no clip of {min_frames} consecutive complete frames")
+    if max_clips is not None and len(clips) > max_clips:
+        pick = np.sort(np.random.default_rng([int(random_state), 5]).choice(
+            len(clips), max_clips, replace=False))
+        notes.append(f"a seeded sample of {max_clips} of {len(clips)} clips")
+        clips = [clips[i] for i in pick]
+    by_track = _track_rows(tracks, frames)
+    for track, rows in clips:
+        donors = [hidden[r] for t, r in by_track.items() if t != track and hidden[r].any()]
+        clip_id = f"{track}:{frames[rows[0]]}"
+
+        def rng_for(extra, clip_id=clip_id):
+            return np.random.default_rng([int(random_state), zlib.crc32(clip_id.encode()), extra])
+
+        yield ClipCase(clip_id, rows,
+                       _clip_masks(len(rows), gap_lengths, donors, transplanted, rng_for))
+
+
 def evaluate_tracks(poses, tracks, frames, *, occluded=None, gap_lengths=GAP_LENGTHS,
                     transplanted=True, methods=None, head_size=None,
                     min_frames=MIN_CLIP_FRAMES, max_clips=None, dictionary=None,
@@ -539,26 +595,16 @@ def evaluate_tracks(poses, tracks, frames, *, occluded=None, gap_lengths=GAP_LEN
     if occluded is not None:
         hidden |= check_mask(occluded, "evaluate_tracks", "occluded")
     fills = _video_fillers(video_methods() if methods is None else tuple(methods), dictionary)
-    clips = track_clips(poses, tracks, frames, min_frames=min_frames)
-    notes = [] if clips else [f"no clip of {min_frames} consecutive complete frames"]
-    if max_clips is not None and len(clips) > max_clips:
-        pick = np.sort(np.random.default_rng([int(random_state), 5]).choice(
-            len(clips), max_clips, replace=False))
-        notes.append(f"a seeded sample of {max_clips} of {len(clips)} clips")
-        clips = [clips[i] for i in pick]
-    by_track = _track_rows(tracks, frames)
+    notes, n_clips, n_frames = [], 0, 0
     errors, labels, seconds = {}, {}, {}
-    for track, rows in clips:
-        donors = [hidden[r] for t, r in by_track.items() if t != track and hidden[r].any()]
-        clip_id = f"{track}:{frames[rows[0]]}"
-
-        def rng_for(extra, clip_id=clip_id):
-            return np.random.default_rng([int(random_state), zlib.crc32(clip_id.encode()), extra])
-
+    for _, rows, masks in clip_cases(poses, tracks, frames, hidden, gap_lengths=gap_lengths,
+                                     transplanted=transplanted, min_frames=min_frames,
+                                     max_clips=max_clips, random_state=random_state,
+                                     notes=notes):
+        n_clips, n_frames = n_clips + 1, n_frames + len(rows)
         truth, fr = poses[rows], frames[rows]
         size = np.full(len(rows), np.nanmedian(body_size(truth)))
-        for label, mask in _clip_masks(len(rows), gap_lengths, donors, transplanted,
-                                       rng_for).items():
+        for label, mask in masks.items():
             cond = "transplanted" if label == "transplanted" else "gaps"
             group = run_bin(run_lengths(mask)[0])[mask] if cond == "transplanted" \
                 else np.full(int(mask.sum()), label)
@@ -578,8 +624,8 @@ def evaluate_tracks(poses, tracks, frames, *, occluded=None, gap_lengths=GAP_LEN
             [label for _, _, label in RUN_BINS]
         joined = {m: _concat(parts) for m, parts in per_method.items()}
         rows_out += _rows(cond, joined, np.concatenate(labels[cond]), order)
-    settings = {"clips": len(clips), "frames": int(sum(len(r) for _, r in clips)),
-                "tracks": int(len(by_track)), "min_frames": int(min_frames),
+    settings = {"clips": n_clips, "frames": int(n_frames),
+                "tracks": int(len(np.unique(tracks))), "min_frames": int(min_frames),
                 "gap_lengths": [int(L) for L in gap_lengths], "transplanted": transplanted,
                 "random_state": int(random_state), "pckh": head_size is not None,
                 "notes": notes}

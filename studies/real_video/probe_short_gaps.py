@@ -26,7 +26,6 @@ import json
 import sys
 import time
 import warnings
-import zlib
 from dataclasses import replace
 from pathlib import Path
 
@@ -37,12 +36,12 @@ sys.path.insert(0, str(ROOT))
 
 from benchmarks import real2d  # noqa: E402
 from sparseedm.dictionary import load_dictionary  # noqa: E402
-from sparseedm.evaluation_real import track_clips  # noqa: E402
-from sparseedm.real_protocol import body_size, transplant_track_mask  # noqa: E402
+from sparseedm.evaluation_real import clip_cases  # noqa: E402
+from sparseedm.real_protocol import body_size  # noqa: E402
 from sparseedm.temporal.evaluation import edge_jumps  # noqa: E402
 from sparseedm.temporal.fillers import fill_akima, fill_kalman  # noqa: E402
 from sparseedm.temporal.model import DEFAULT_SETTINGS  # noqa: E402
-from sparseedm.temporal.protocols import gap_mask, run_bin, run_lengths  # noqa: E402
+from sparseedm.temporal.protocols import run_bin, run_lengths  # noqa: E402
 from sparseedm.temporal.recover import recover_temporal  # noqa: E402
 from studies.real_video.harness import excess_jumps  # noqa: E402
 
@@ -64,20 +63,10 @@ def cases(seed=0):
     s = d.take(real2d.split(d) == "val")
     tracks = np.char.add(np.char.add(s.group.astype(str), "#"), s.tracks.astype(str))
     hidden = ~np.isfinite(s.poses).all(axis=-1) | ~s.visible
-    by_track = {t: np.flatnonzero(tracks == t)[np.argsort(s.frames[tracks == t],
-                                                          kind="stable")]
-                for t in np.unique(tracks)}
-    for track, rows in track_clips(s.poses, tracks, s.frames):
-        donors = [hidden[r] for t, r in by_track.items() if t != track and hidden[r].any()]
-        key = f"{track}:{s.frames[rows[0]]}"
-
-        def rng(extra, key=key):
-            return np.random.default_rng([seed, zlib.crc32(key.encode()), extra])
-
+    for _, rows, masks in clip_cases(s.poses, tracks, s.frames, hidden, gap_lengths=(3, 10, 30),
+                                     random_state=seed):
         truth, frames = s.poses[rows], s.frames[rows]
         size = float(np.nanmedian(body_size(truth)))
-        masks = {f"gap {L}": gap_mask(len(rows), L, random_state=rng(L)) for L in (3, 10, 30)}
-        masks["transplanted"] = transplant_track_mask(len(rows), donors, random_state=rng(0))[0]
         for label, mask in masks.items():
             if mask.any():
                 bins = (np.char.add("transplanted ", run_bin(run_lengths(mask)[0])[mask])

@@ -34,7 +34,6 @@ import platform
 import sys
 import time
 import warnings
-import zlib
 from pathlib import Path
 
 import numpy as np
@@ -42,10 +41,9 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository root
 from benchmarks import real2d, video_protocols  # noqa: E402
 from sparseedm.dictionary import load_dictionary  # noqa: E402
-from sparseedm.evaluation_real import track_clips  # noqa: E402
-from sparseedm.real_protocol import body_size, transplant_track_mask  # noqa: E402
+from sparseedm.evaluation_real import clip_cases  # noqa: E402
+from sparseedm.real_protocol import body_size  # noqa: E402
 from sparseedm.temporal.evaluation import protocol_masks  # noqa: E402
-from sparseedm.temporal.protocols import gap_mask  # noqa: E402
 from sparseedm.temporal import recover as temporal_recover  # noqa: E402
 from sparseedm.temporal.recover import recover_temporal  # noqa: E402
 from studies.temporal.probe_temporal_self_training import whole_file  # noqa: E402
@@ -131,21 +129,11 @@ def bonn_rows(variants, seed=0):
     s = d.take(real2d.split(d) == "val")
     tracks = np.char.add(np.char.add(s.group.astype(str), "#"), s.tracks.astype(str))
     hidden = ~np.isfinite(s.poses).all(axis=-1) | ~s.visible
-    by_track = {t: np.flatnonzero(tracks == t)[np.argsort(s.frames[tracks == t],
-                                                          kind="stable")]
-                for t in np.unique(tracks)}
     dictionary = load_dictionary()
-    for track, rows in track_clips(s.poses, tracks, s.frames):
-        donors = [hidden[r] for t, r in by_track.items() if t != track and hidden[r].any()]
-        clip_id = f"{track}:{s.frames[rows[0]]}"
-
-        def rng(extra, clip_id=clip_id):
-            return np.random.default_rng([seed, zlib.crc32(clip_id.encode()), extra])
-
+    for clip_id, rows, masks in clip_cases(s.poses, tracks, s.frames, hidden,
+                                           gap_lengths=(3, 10, 30), random_state=seed):
         truth, frames = s.poses[rows], s.frames[rows]
         size = np.full((len(rows), 1), np.nanmedian(body_size(truth)))
-        masks = {f"gap {L}": gap_mask(len(rows), L, random_state=rng(L)) for L in (3, 10, 30)}
-        masks["transplanted"] = transplant_track_mask(len(rows), donors, random_state=rng(0))[0]
         for key, mask in masks.items():
             if mask.any():
                 given = np.where(mask[..., None], np.nan, truth)
