@@ -126,7 +126,8 @@ of the joints filled::
                   "filled": ["left_wrist", ...]}
 
 A reader reads the joints listed in ``filled`` as present (and flagged in
-``KeypointSet.filled``), whatever their score.
+``KeypointSet.filled``), whatever their score; a null neck or head top as
+missing (as written; left out, it is derived from the keypoints).
 
 Without COCO ``meta`` a results-style list is written: one annotation per
 pose with ``image_id`` (the id, as int when it is one), ``category_id`` 1,
@@ -1095,8 +1096,8 @@ def _read_coco(path, threshold):
     poses, missing, conf = _coco_to_14(xy, v, coco_missing)
     for a, (points, _) in stored.items():
         for j, value in points.items():
-            poses[a, j] = value
-            missing[a, j] = False
+            poses[a, j] = np.nan if value is None else value
+            missing[a, j] = value is None
     if posetrack.uses_posetrack_order(doc):  # PoseTrack's own head_top keypoint
         top = posetrack.HEAD_TOP_INDEX
         poses[:, _HEAD_TOP] = np.where(coco_missing[:, top, None], np.nan, xy[:, top])

@@ -260,7 +260,8 @@ def keypoint_rows(obj, where, key, width, layouts, described):
 
 def read_extra(person, where):
     """The ``"sparseedm"`` object of a person: {joint index: (x, y)} overrides for
-    neck / head top, and the 14-joint indices flagged filled.
+    neck / head top (None: written missing, not derived again), and the 14-joint
+    indices flagged filled.
 
     Parameters
     ----------
@@ -272,7 +273,7 @@ def read_extra(person, where):
     Returns
     -------
     points : dict
-        {joint index: (x, y)}.
+        {joint index: (x, y) or None (missing)}.
     filled : list of int
         Joint indices flagged filled.
     """
@@ -281,8 +282,11 @@ def read_extra(person, where):
         return {}, []
     points = {}
     for j, key in ((NECK, "neck"), (HEAD_TOP, "head_top")):
-        value = extra.get(key)
-        if value is None:
+        if key not in extra:
+            continue
+        value = extra[key]
+        if value is None:  # written missing: not derived from the keypoints again
+            points[j] = None
             continue
         if (not isinstance(value, list) or len(value) != 2
                 or not all(isinstance(x, Real) and not isinstance(x, bool)
@@ -478,7 +482,8 @@ def assemble(people, layout, meta, *, tracks=None, frames=None):
     stored = np.zeros((n, N_JOINTS), dtype=bool)
     for r, p in enumerate(people):
         for j, value in p.points.items():
-            poses[r, j], present[r, j], stored[r, j] = value, True, True
+            poses[r, j] = np.nan if value is None else value
+            present[r, j] = stored[r, j] = value is not None
         filled[r, p.filled] = True
     filled &= ~np.isnan(poses).any(axis=-1)
     present |= filled

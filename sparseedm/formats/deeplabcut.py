@@ -237,7 +237,9 @@ def _read_csv_table(path):
             raise FileFormatError(f"{path}: header row {level!r} has {len(row)} fields, "
                                   f"'scorer' has {width}")
     keys = _index_columns(header, width)
-    columns = [tuple(h[c].strip() for h in header) for c in range(keys, width)]
+    # names as written (a body part may start or end with a space); coords trimmed
+    columns = [tuple(h[c] for h in header[:-1]) + (header[-1][c].strip(),)
+               for c in range(keys, width)]
     index, values = [], np.empty((len(body), width - keys))
     for r, (line, row) in enumerate(body):
         if len(row) != width:

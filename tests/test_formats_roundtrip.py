@@ -1,0 +1,236 @@
+"""Writer/reader round trips of the detector and tracker formats, with hypothesis.
+
+Each format: what :func:`sparseedm.keypoints.write_keypoints` writes (poses with
+NaN for missing joints, scores, filled flags, 90 % radii, tracks and frames where
+the format can hold them), :func:`sparseedm.keypoints.read_keypoints` reads back
+equal, or the writer refuses with a SparseEDMError; never a file its reader
+refuses or reads differently. Files are read with ``confidence_threshold=0``:
+the threshold is a reading policy, not part of the file.
+"""
+
+import json
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from hypothesis.extra import numpy as hnp
+
+from sparseedm._atomic import save_npz
+from sparseedm.exceptions import SparseEDMError
+from sparseedm.keypoints import read_keypoints, status_sidecar, write_keypoints
+from sparseedm.skeleton import JOINT_NAMES
+
+N = 14
+HEAD_TOP, NECK = JOINT_NAMES.index("head_top"), JOINT_NAMES.index("neck")
+SETTINGS = settings(max_examples=30, deadline=None,
+                    suppress_health_check=[HealthCheck.function_scoped_fixture,
+                                           HealthCheck.too_slow])
+#: finite coordinates from 1e-3 to 1e12 pixels, either sign, and 0
+coordinate = st.one_of(st.just(0.0), st.floats(-1e12, 1e12, allow_nan=False,
+                                               allow_infinity=False))
+#: a detector's score of an observed joint (read with threshold 0: > 0 is present)
+score = st.floats(1e-6, 1.0)
+radius = st.floats(0.0, 1e9)
+
+
+@st.composite
+def cases(draw, frame_max=2**53, track=st.integers(0, 2**31 - 1), tracks=True):
+    """Poses, missing / filled masks, scores, radii, tracks and frames."""
+    n = draw(st.integers(1, 5))
+    poses = draw(hnp.arrays(float, (n, N, 2), elements=coordinate))
+    missing = draw(hnp.arrays(bool, (n, N)))
+    filled = draw(hnp.arrays(bool, (n, N))) & ~missing
+    confidence = draw(hnp.arrays(float, (n, N), elements=score))
+    radii = np.where(filled, draw(hnp.arrays(float, (n, N), elements=radius)), 0.0)
+    refused = draw(hnp.arrays(bool, n))  # a refused pose: no radii at all
+    radii[refused] = np.nan
+    case = dict(poses=np.where(missing[..., None], np.nan, poses), missing=missing,
+                filled=filled, confidence=confidence, uncertainty=radii)
+    case["frames"] = np.asarray(draw(st.lists(st.integers(0, frame_max), min_size=n,
+                                              max_size=n)), dtype=np.int64)
+    if tracks:
+        case["tracks"] = np.asarray(draw(st.lists(track, min_size=n, max_size=n)))
+    return case
+
+
+def _write(path, case, fmt, **extra):
+    """The written path, or None when the writer refuses (naming the problem)."""
+    try:
+        return write_keypoints(path, case["poses"], format=fmt, confidence=case["confidence"],
+                               filled=case["filled"], uncertainty=case["uncertainty"],
+                               tracks=case.get("tracks"), frames=case.get("frames"), **extra)
+    except SparseEDMError as exc:
+        assert str(exc) and not path.exists()
+        return None
+
+
+def _order(case, by_frame):
+    """Row order of the file: by frame (stable) for formats grouping rows by frame."""
+    n = len(case["poses"])
+    return np.argsort(case["frames"], kind="stable") if by_frame else np.arange(n)
+
+
+def _assert_read_back(kps, case, order, *, scores=True, radii=True, frames=True,
+                      tracks=True, derived=()):
+    missing = case["missing"][order]
+    np.testing.assert_array_equal(kps.missing, missing)
+    np.testing.assert_array_equal(kps.poses, case["poses"][order])
+    filled = case["filled"][order]
+    np.testing.assert_array_equal(False if kps.filled is None else kps.filled, filled)
+    if scores:
+        seen = ~missing & ~filled
+        seen[:, list(derived)] = False  # no keypoint of the format's own: no score
+        np.testing.assert_array_equal(kps.confidence[seen], case["confidence"][order][seen])
+    if radii:
+        np.testing.assert_array_equal(kps.uncertainty, case["uncertainty"][order])
+    if frames:
+        np.testing.assert_array_equal(kps.frames, case["frames"][order])
+    if tracks and "tracks" in case:
+        np.testing.assert_array_equal(kps.tracks.astype(str),
+                                      case["tracks"][order].astype(str))
+
+
+# OpenPose: a folder of per-frame files; the frame is in each file's name (a
+# non-negative integer), the track in ``person_id`` (a non-negative integer; -1 is
+# "no id"), the neck / head top, filled joints and radii in the "sparseedm" object.
+@SETTINGS
+@given(case=cases(track=st.integers(0, 2**53)))
+def test_openpose_folder_round_trip(tmp_path_factory, case):
+    path = _write(tmp_path_factory.mktemp("op") / "frames", case, "openpose")
+    if path is not None:
+        kps = read_keypoints(path, format="openpose", confidence_threshold=0)
+        _assert_read_back(kps, case, _order(case, True), derived=[HEAD_TOP])
+
+
+# MMPose: one JSON (``instance_info``: ``frame_id`` per frame, ``track_id`` per
+# instance, any int or text) or, for a path without .json, a folder of per-image
+# files named by the frame number (non-negative).
+@SETTINGS
+@given(case=cases(track=st.one_of(st.integers(-2**53, 2**53), st.text(min_size=1))),
+       folder=st.booleans())
+def test_mmpose_round_trip(tmp_path_factory, case, folder):
+    path = tmp_path_factory.mktemp("mm") / ("frames" if folder else "out.json")
+    path = _write(path, case, "mmpose")
+    if path is not None:
+        kps = read_keypoints(path, format="mmpose", confidence_threshold=0)
+        _assert_read_back(kps, case, _order(case, True), derived=[NECK, HEAD_TOP])
+
+
+# COCO / PoseTrack keypoints JSON: a list of annotations; ``image_id`` from the
+# ids, ``track_id`` from the tracks (PoseTrack); frames are not written (a COCO
+# file has none without PoseTrack's ``frame_id``). Scores are COCO's ``v``: a
+# fresh file's observed keypoints are v = 2, so scores are not compared.
+@SETTINGS
+@given(case=cases(tracks=False), ids=st.booleans())
+def test_coco_round_trip(tmp_path_factory, case, ids):
+    n = len(case["poses"])
+    case.pop("frames")
+    extra = {"ids": [f"img{r}" for r in range(n)]} if ids else {}
+    path = _write(tmp_path_factory.mktemp("coco") / "out.json", case, "coco", **extra)
+    if path is not None:
+        kps = read_keypoints(path, format="coco", confidence_threshold=0)
+        _assert_read_back(kps, case, np.arange(n), scores=False, frames=False)
+        if ids:
+            assert kps.ids.tolist() == extra["ids"]
+
+
+def _sidecar(path, case):
+    """The status sidecar ``sparseedm recover`` writes beside a DeepLabCut table."""
+    save_npz(status_sidecar(path), {"filled": case["filled"],
+                                    "uncertainty": case["uncertainty"]})
+
+
+# DeepLabCut, written fresh: one single-animal table whose body parts are the
+# joint names; rows are frames 0..n-1 (its index holds the ids), so tracks and
+# frames are not written; the filled flags and radii live in the status sidecar.
+@SETTINGS
+@given(case=cases(tracks=False), ext=st.sampled_from(["csv", "h5"]))
+def test_deeplabcut_fresh_round_trip(tmp_path_factory, case, ext):
+    if ext == "h5":
+        pytest.importorskip("tables")
+    n = len(case["poses"])
+    case["frames"] = np.arange(n)
+    path = _write(tmp_path_factory.mktemp("dlc") / f"out.{ext}", case, "dlc")
+    if path is not None:
+        _sidecar(path, case)
+        kps = read_keypoints(path, format="dlc", confidence_threshold=0)
+        _assert_read_back(kps, case, np.arange(n))
+
+
+#: body part and scorer names a user's project could have
+name = st.text(st.characters(blacklist_categories=("Cs",), blacklist_characters="\x00"),
+               min_size=1, max_size=12)
+
+
+@st.composite
+def dlc_tables(draw):
+    """A user's DeepLabCut CSV table: scorer, body parts (mapped to the joints),
+    x / y / likelihood per part, NaN for an undetected part."""
+    parts = draw(st.lists(name, min_size=N, max_size=N, unique=True))
+    scorer = draw(name)
+    case = draw(cases(tracks=False))
+    case["frames"] = np.arange(len(case["poses"]))
+    return parts, scorer, case
+
+
+@SETTINGS
+@given(table=dlc_tables())
+def test_deeplabcut_user_table_round_trip(tmp_path_factory, table):
+    """A table with the user's names: read, joints filled, written back, read again."""
+    import csv
+
+    parts, scorer, case = table
+    folder = tmp_path_factory.mktemp("dlcu")
+    src, out, jmap = folder / "in.csv", folder / "out.csv", folder / "map.json"
+    read_missing = case["missing"] | case["filled"]
+    with open(src, "w", newline="", encoding="utf-8") as f:
+        w = csv.writer(f)
+        w.writerow(["scorer"] + [scorer] * (3 * N))
+        w.writerow(["bodyparts"] + [p for p in parts for _ in range(3)])
+        w.writerow(["coords"] + ["x", "y", "likelihood"] * N)
+        for r in range(len(case["poses"])):
+            cells = []
+            for j in range(N):
+                x, y = case["poses"][r, j]
+                if read_missing[r, j]:
+                    cells += ["", "", ""]
+                else:
+                    cells += [repr(float(v)) for v in (x, y, case["confidence"][r, j])]
+            w.writerow([str(r)] + cells)
+    jmap.write_text(json.dumps({"joints": dict(zip(JOINT_NAMES, parts))}))
+    try:
+        kps = read_keypoints(src, format="dlc", joint_map=jmap, confidence_threshold=0)
+    except SparseEDMError as exc:
+        pytest.fail(f"a DeepLabCut table with names {parts!r} / {scorer!r}: {exc}")
+    np.testing.assert_array_equal(kps.missing, read_missing)
+    kps.poses = case["poses"]  # the filled joints now hold coordinates
+    path = _write(out, case | {"poses": kps.poses}, "dlc", meta=kps.meta)
+    if path is not None:
+        _sidecar(path, case)
+        back = read_keypoints(path, format="dlc", joint_map=jmap, confidence_threshold=0)
+        _assert_read_back(back, case, np.arange(len(kps)), scores=False, tracks=False)
+        seen = ~read_missing
+        np.testing.assert_array_equal(back.confidence[seen], case["confidence"][seen])
+
+
+# ------------------------------------------------------------- regressions
+
+
+@pytest.mark.parametrize("name,fmt", [("out.json", "coco"), ("out.json", "mmpose"),
+                                      ("frames", "openpose")])
+def test_a_missing_neck_is_not_derived_again(tmp_path, name, fmt):
+    poses = np.arange(N * 2, dtype=float).reshape(1, N, 2)
+    poses[0, NECK] = np.nan  # the shoulders are there
+    kps = read_keypoints(write_keypoints(tmp_path / name, poses, format=fmt), format=fmt)
+    assert kps.missing[0, NECK]
+
+
+def test_deeplabcut_body_part_names_keep_their_spaces(tmp_path):
+    path = tmp_path / "t.csv"
+    parts = [f" {n}" for n in JOINT_NAMES]
+    path.write_text("scorer" + ",s,s,s" * N + "\nbodyparts" + "".join(
+        f",{p},{p},{p}" for p in parts) + "\ncoords" + ",x,y,likelihood" * N
+        + "\n0" + ",1.0,2.0,0.9" * N + "\n")
+    (tmp_path / "map.json").write_text(json.dumps({"joints": dict(zip(JOINT_NAMES, parts))}))
+    assert not read_keypoints(path, joint_map=tmp_path / "map.json").missing.any()
