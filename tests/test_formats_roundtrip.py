@@ -32,6 +32,9 @@ coordinate = st.one_of(st.just(0.0), st.floats(-1e12, 1e12, allow_nan=False,
 #: a detector's score of an observed joint (read with threshold 0: > 0 is present)
 score = st.floats(1e-6, 1.0)
 radius = st.floats(0.0, 1e9)
+#: body part and scorer names a user's project could have
+name = st.text(st.characters(blacklist_categories=("Cs",), blacklist_characters="\x00"),
+               min_size=1, max_size=12)
 
 
 @st.composite
@@ -92,10 +95,12 @@ def _assert_read_back(kps, case, order, *, scores=True, radii=True, frames=True,
 
 
 # OpenPose: a folder of per-frame files; the frame is in each file's name (a
-# non-negative integer), the track in ``person_id`` (a non-negative integer; -1 is
-# "no id"), the neck / head top, filled joints and radii in the "sparseedm" object.
+# non-negative integer), the track in ``person_id`` (an integer >= 0, -1 is "no
+# id": other tracks are refused), the neck / head top, filled joints and radii in
+# the "sparseedm" object.
 @SETTINGS
-@given(case=cases(track=st.integers(0, 2**53)))
+@given(case=cases(track=st.one_of(st.integers(0, 2**63 - 1), st.integers(-3, -1),
+                                  st.text(max_size=2))))
 def test_openpose_folder_round_trip(tmp_path_factory, case):
     path = _write(tmp_path_factory.mktemp("op") / "frames", case, "openpose")
     if path is not None:
@@ -145,22 +150,19 @@ def _sidecar(path, case):
 # joint names; rows are frames 0..n-1 (its index holds the ids), so tracks and
 # frames are not written; the filled flags and radii live in the status sidecar.
 @SETTINGS
-@given(case=cases(tracks=False), ext=st.sampled_from(["csv", "h5"]))
-def test_deeplabcut_fresh_round_trip(tmp_path_factory, case, ext):
+@given(case=cases(tracks=False), ext=st.sampled_from(["csv", "h5"]), data=st.data())
+def test_deeplabcut_fresh_round_trip(tmp_path_factory, case, ext, data):
     if ext == "h5":
         pytest.importorskip("tables")
     n = len(case["poses"])
     case["frames"] = np.arange(n)
-    path = _write(tmp_path_factory.mktemp("dlc") / f"out.{ext}", case, "dlc")
+    ids = data.draw(st.none() | st.lists(name, min_size=n, max_size=n, unique=True))
+    path = _write(tmp_path_factory.mktemp("dlc") / f"out.{ext}", case, "dlc", ids=ids)
     if path is not None:
         _sidecar(path, case)
         kps = read_keypoints(path, format="dlc", confidence_threshold=0)
         _assert_read_back(kps, case, np.arange(n))
-
-
-#: body part and scorer names a user's project could have
-name = st.text(st.characters(blacklist_categories=("Cs",), blacklist_characters="\x00"),
-               min_size=1, max_size=12)
+        assert kps.ids.tolist() == (ids or [str(r) for r in range(n)])
 
 
 @st.composite
@@ -226,6 +228,12 @@ def test_a_missing_neck_is_not_derived_again(tmp_path, name, fmt):
     assert kps.missing[0, NECK]
 
 
+def test_openpose_refuses_a_track_it_cannot_hold(tmp_path):
+    with pytest.raises(SparseEDMError, match="track -1 cannot be an OpenPose"):
+        write_keypoints(tmp_path / "f", np.ones((1, N, 2)), format="openpose", tracks=[-1])
+    assert not (tmp_path / "f").exists()
+
+
 def test_deeplabcut_body_part_names_keep_their_spaces(tmp_path):
     path = tmp_path / "t.csv"
     parts = [f" {n}" for n in JOINT_NAMES]
@@ -234,3 +242,12 @@ def test_deeplabcut_body_part_names_keep_their_spaces(tmp_path):
         + "\n0" + ",1.0,2.0,0.9" * N + "\n")
     (tmp_path / "map.json").write_text(json.dumps({"joints": dict(zip(JOINT_NAMES, parts))}))
     assert not read_keypoints(path, joint_map=tmp_path / "map.json").missing.any()
+
+
+@pytest.mark.parametrize("ext", ["csv", "h5"])
+def test_deeplabcut_ids_read_back_as_written(tmp_path, ext):
+    if ext == "h5":
+        pytest.importorskip("tables")
+    ids = [" a", "7", "007", "²"]
+    path = write_keypoints(tmp_path / f"t.{ext}", np.ones((4, N, 2)), ids=ids, format="dlc")
+    assert read_keypoints(path, format="dlc").ids.tolist() == ids
