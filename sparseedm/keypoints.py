@@ -198,7 +198,8 @@ import numpy as np
 from ._atomic import atomic_path, fit_name, is_stream, save_npy, save_npz
 from ._safeio import MAX_LINE_BYTES, load_json, load_npy, load_npz, text_lines
 from . import formats
-from ._validation import NUMBER_TEXT, SCORE, Interval, check_poses, validate_params
+from ._validation import (NUMBER_TEXT, SCORE, Interval, check_poses, frame_value,
+                          validate_params)
 from .exceptions import FileFormatError, ParameterError, PoseError
 from .formats import posetrack
 from .formats.deeplabcut import H5_SUFFIXES
@@ -1272,8 +1273,25 @@ def write_keypoints(
                    filled if filled.any() else None, uncertainty)
     else:
         _write_coco(path, poses, mask, ids, meta, where, filled, filled_score, tracks,
-                    uncertainty)
+                    uncertainty, frames)
     return path
+
+
+def _posetrack_images(anns, frames, where):
+    """PoseTrack's ``images`` of fresh annotations: ``{"id", "frame_id"}`` per
+    image id, each frame number checked by the readers' rule (refused when one
+    is not a whole number, or one image is given two frames)."""
+    frame_of = {}
+    for r, (ann, frame) in enumerate(zip(anns, np.asarray(frames).tolist())):
+        value, why = frame_value(frame)
+        if why:
+            raise FileFormatError(f"{where}: pose {r}: {why}")
+        image = ann["image_id"]
+        if frame_of.setdefault(repr(image), (image, value))[1] != value:
+            raise FileFormatError(f"{where}: pose {r}: image {image!r} is given frames "
+                                  f"{frame_of[repr(image)][1]} and {value}; give each "
+                                  "image (id) one frame")
+    return [{"id": image, "frame_id": value} for image, value in frame_of.values()]
 
 
 def _newly_filled(poses, meta):
@@ -1383,7 +1401,7 @@ def _coco_radii_of(anns, missing, path):
 
 
 def _write_coco(path, poses, mask, ids, meta, where, filled, filled_score, tracks=None,
-                uncertainty=None):
+                uncertainty=None, frames=None):
     n = len(poses)
     fresh = meta.get("coco_document") is None
     if not fresh:
@@ -1410,6 +1428,8 @@ def _write_coco(path, poses, mask, ids, meta, where, filled, filled_score, track
             if tracks is not None:  # PoseTrack's person over time
                 anns[-1]["track_id"] = track_value(np.asarray(tracks)[r])
         doc = anns
+        if tracks is not None and frames is not None:  # PoseTrack: frames of the images
+            doc = {"images": _posetrack_images(anns, frames, where), "annotations": anns}
         coco_missing = np.ones((n, 17), dtype=bool)
     for r, ann in enumerate(anns):
         kp = list(ann["keypoints"])

@@ -122,20 +122,23 @@ def test_mmpose_round_trip(tmp_path_factory, case, folder):
         _assert_read_back(kps, case, _order(case, True), derived=[NECK, HEAD_TOP])
 
 
-# COCO / PoseTrack keypoints JSON: a list of annotations; ``image_id`` from the
-# ids, ``track_id`` from the tracks (PoseTrack); frames are not written (a COCO
-# file has none without PoseTrack's ``frame_id``). Scores are COCO's ``v``: a
-# fresh file's observed keypoints are v = 2, so scores are not compared.
+# COCO / PoseTrack keypoints JSON: annotations with ``image_id`` from the ids,
+# ``track_id`` from the tracks and, with tracks, PoseTrack's ``images`` holding
+# each image's ``frame_id`` (any whole number up to 2**53; without tracks a COCO
+# file has no frames). Scores are COCO's ``v``: a fresh file's observed keypoints
+# are v = 2, so scores are not compared.
 @SETTINGS
-@given(case=cases(tracks=False), ids=st.booleans())
-def test_coco_round_trip(tmp_path_factory, case, ids):
+@given(case=cases(frame_max=2**53, track=st.integers(-2**53, 2**53) | st.text(min_size=1)),
+       ids=st.booleans(), tracks=st.booleans())
+def test_coco_round_trip(tmp_path_factory, case, ids, tracks):
     n = len(case["poses"])
-    case.pop("frames")
+    if not tracks:
+        case.pop("frames"), case.pop("tracks")
     extra = {"ids": [f"img{r}" for r in range(n)]} if ids else {}
     path = _write(tmp_path_factory.mktemp("coco") / "out.json", case, "coco", **extra)
     if path is not None:
         kps = read_keypoints(path, format="coco", confidence_threshold=0)
-        _assert_read_back(kps, case, np.arange(n), scores=False, frames=False)
+        _assert_read_back(kps, case, np.arange(n), scores=False, frames=tracks)
         if ids:
             assert kps.ids.tolist() == extra["ids"]
 
@@ -251,3 +254,11 @@ def test_deeplabcut_ids_read_back_as_written(tmp_path, ext):
     ids = [" a", "7", "007", "²"]
     path = write_keypoints(tmp_path / f"t.{ext}", np.ones((4, N, 2)), ids=ids, format="dlc")
     assert read_keypoints(path, format="dlc").ids.tolist() == ids
+
+
+def test_posetrack_frames_read_back(tmp_path):
+    path = write_keypoints(tmp_path / "t.json", np.ones((2, N, 2)), tracks=[0, 0],
+                           frames=[10, 20])
+    assert read_keypoints(path).frames.tolist() == [10, 20]
+    with pytest.raises(SparseEDMError, match="frame number 2.5"):
+        write_keypoints(tmp_path / "u.json", np.ones((1, N, 2)), tracks=[0], frames=[2.5])
