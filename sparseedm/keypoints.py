@@ -458,7 +458,7 @@ def _optional(arr, n, name, where, dtype):
     if arr is None:
         return None
     arr = np.asarray(arr, dtype=dtype)
-    expected = (n,) if name == "ids" else (n, N_JOINTS)
+    expected = (n,) if name in ("ids", "frames") else (n, N_JOINTS)
     if arr.shape != expected:
         raise FileFormatError(
             f"{where}: {name} must have shape {expected}, got {arr.shape}"
@@ -1238,6 +1238,10 @@ def write_keypoints(
     if filled is None:
         filled = _newly_filled(poses, meta) | _read_filled(meta, n)
     filled = _optional(filled, n, "filled", where, bool) & ~mask
+    if fmt in ("openpose", "mmpose") and frames is not None and meta.get("format") != fmt:
+        # a fresh file: frames as the readers take them (a read's documents go back as read)
+        named = fmt == "openpose" or path.suffix.lower() != ".json"  # files named by frame
+        frames = _frame_numbers(frames, n, where, named)
     if fmt in formats.FORMATS:
         rows = formats.Rows(poses, filled, confidence, ids, tracks, frames, filled_score,
                             uncertainty=uncertainty)
@@ -1275,6 +1279,21 @@ def write_keypoints(
         _write_coco(path, poses, mask, ids, meta, where, filled, filled_score, tracks,
                     uncertainty, frames)
     return path
+
+
+def _frame_numbers(frames, n, where, named):
+    """`frames` as ints by the readers' rule (:func:`frame_value`), refused (naming
+    the pose) when one is not a whole number, or is negative where frame numbers
+    go into file names (OpenPose and MMPose frame folders)."""
+    values = []
+    for r, frame in enumerate(_optional(frames, n, "frames", where, None).tolist()):
+        value, why = frame_value(frame)
+        if not why and named and value < 0:
+            why = f"frame number {value} is negative; frame file names hold numbers >= 0"
+        if why:
+            raise FileFormatError(f"{where}: pose {r}: {why}")
+        values.append(value)
+    return np.asarray(values, dtype=np.int64)
 
 
 def _posetrack_images(anns, frames, where):

@@ -38,7 +38,7 @@ name = st.text(st.characters(blacklist_categories=("Cs",), blacklist_characters=
 
 
 @st.composite
-def cases(draw, frame_max=2**53, track=st.integers(0, 2**31 - 1), tracks=True):
+def cases(draw, track=st.integers(0, 2**31 - 1), tracks=True):
     """Poses, missing / filled masks, scores, radii, tracks and frames."""
     n = draw(st.integers(1, 5))
     poses = draw(hnp.arrays(float, (n, N, 2), elements=coordinate))
@@ -50,8 +50,11 @@ def cases(draw, frame_max=2**53, track=st.integers(0, 2**31 - 1), tracks=True):
     radii[refused] = np.nan
     case = dict(poses=np.where(missing[..., None], np.nan, poses), missing=missing,
                 filled=filled, confidence=confidence, uncertainty=radii)
-    case["frames"] = np.asarray(draw(st.lists(st.integers(0, frame_max), min_size=n,
-                                              max_size=n)), dtype=np.int64)
+    # frame numbers: whole numbers up to 2**53 either sign (past it, or a fraction: refused)
+    frame = st.integers(-2**53 - 1, 2**53 + 1) | st.integers(-2, 20)
+    if draw(st.booleans()):
+        frame = st.sampled_from([0.0, 3.0, 2.5, -1.0, 1e300])
+    case["frames"] = np.asarray(draw(st.lists(frame, min_size=n, max_size=n)))
     if tracks:
         case["tracks"] = np.asarray(draw(st.lists(track, min_size=n, max_size=n)))
     return case
@@ -95,7 +98,7 @@ def _assert_read_back(kps, case, order, *, scores=True, radii=True, frames=True,
 
 
 # OpenPose: a folder of per-frame files; the frame is in each file's name (a
-# non-negative integer), the track in ``person_id`` (an integer >= 0, -1 is "no
+# whole number from 0 to 2**53), the track in ``person_id`` (an integer >= 0, -1 is "no
 # id": other tracks are refused), the neck / head top, filled joints and radii in
 # the "sparseedm" object.
 @SETTINGS
@@ -110,7 +113,7 @@ def test_openpose_folder_round_trip(tmp_path_factory, case):
 
 # MMPose: one JSON (``instance_info``: ``frame_id`` per frame, ``track_id`` per
 # instance, any int or text) or, for a path without .json, a folder of per-image
-# files named by the frame number (non-negative).
+# files named by the frame number (from 0: a negative one is refused there).
 @SETTINGS
 @given(case=cases(track=st.one_of(st.integers(-2**53, 2**53), st.text(min_size=1))),
        folder=st.booleans())
@@ -128,7 +131,7 @@ def test_mmpose_round_trip(tmp_path_factory, case, folder):
 # file has no frames). Scores are COCO's ``v``: a fresh file's observed keypoints
 # are v = 2, so scores are not compared.
 @SETTINGS
-@given(case=cases(frame_max=2**53, track=st.integers(-2**53, 2**53) | st.text(min_size=1)),
+@given(case=cases(track=st.integers(-2**53, 2**53) | st.text(min_size=1)),
        ids=st.booleans(), tracks=st.booleans())
 def test_coco_round_trip(tmp_path_factory, case, ids, tracks):
     n = len(case["poses"])
@@ -262,3 +265,11 @@ def test_posetrack_frames_read_back(tmp_path):
     assert read_keypoints(path).frames.tolist() == [10, 20]
     with pytest.raises(SparseEDMError, match="frame number 2.5"):
         write_keypoints(tmp_path / "u.json", np.ones((1, N, 2)), tracks=[0], frames=[2.5])
+
+
+@pytest.mark.parametrize("frame,fmt,name", [(0.5, "mmpose", "m.json"), (-1, "openpose", "f"),
+                                            (-1, "mmpose", "f")])
+def test_a_frame_its_files_cannot_hold_is_refused(tmp_path, frame, fmt, name):
+    with pytest.raises(SparseEDMError, match=f"frame number {frame}"):
+        write_keypoints(tmp_path / name, np.ones((1, N, 2)), format=fmt, frames=[frame])
+    assert not (tmp_path / name).exists()
