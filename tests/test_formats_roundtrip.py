@@ -9,6 +9,7 @@ the threshold is a reading policy, not part of the file.
 """
 
 import json
+import warnings
 
 import numpy as np
 import pytest
@@ -273,3 +274,44 @@ def test_a_frame_its_files_cannot_hold_is_refused(tmp_path, frame, fmt, name):
     with pytest.raises(SparseEDMError, match=f"frame number {frame}"):
         write_keypoints(tmp_path / name, np.ones((1, N, 2)), format=fmt, frames=[frame])
     assert not (tmp_path / name).exists()
+
+
+# The CLI's own path: a file read, some missing joints filled, written back with
+# the read's meta (the documents as read, the filled keypoints set, per-pose status
+# and radii in the "sparseedm" objects), read again.
+@SETTINGS
+@given(case=cases(), where=st.sampled_from([("frames", "openpose"), ("out.json", "mmpose"),
+                                            ("frames", "mmpose"), ("out.json", "coco")]),
+       data=st.data())
+def test_written_back_after_a_read_round_trip(tmp_path_factory, case, where, data):
+    name, fmt = where
+    folder = tmp_path_factory.mktemp("back")
+    first = case | {"filled": np.zeros_like(case["filled"]),
+                    "uncertainty": None, "poses": case["poses"].copy()}
+    first["poses"][first["filled"] | case["filled"]] = np.nan  # missing before the fill
+    src = _write(folder / name, first, fmt)
+    if src is None:
+        return
+    kps = read_keypoints(src, format=fmt, confidence_threshold=0)
+    order = _order(case, fmt != "coco")
+    kps.poses, kps.missing = case["poses"][order], case["missing"][order]  # the fill
+    status = data.draw(st.lists(st.sampled_from(["recovered", "refused"]),
+                                min_size=len(kps), max_size=len(kps)))
+    out = write_keypoints(folder / f"2{name}", kps, format=fmt,
+                          filled=case["filled"][order], uncertainty=case["uncertainty"][order],
+                          row_fields={"status": status} if fmt != "coco" else None)
+    back = read_keypoints(out, format=fmt, confidence_threshold=0)
+    again = case | {k: v[order] for k, v in case.items() if k != "frames"}
+    again["frames"] = kps.frames
+    _assert_read_back(back, again, np.arange(len(kps)), scores=fmt != "coco",
+                      frames=kps.frames is not None, tracks=kps.tracks is not None,
+                      derived=[NECK, HEAD_TOP])
+
+
+def test_filled_likelihood_of_a_pose_without_joints_warns_nothing():
+    from sparseedm.formats._base import filled_likelihood
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # PYTHONWARNINGS=error: no internal error
+        like = filled_likelihood(np.full((1, N, 2), np.nan), np.zeros((1, N)), 0.1)
+    assert (like == 0.1).all()

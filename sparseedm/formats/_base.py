@@ -633,7 +633,8 @@ def filled_likelihood(poses, uncertainty, filled_score=0.0):
     >>> filled_likelihood(pose, np.array([[0.0, 1.0]])).round(3).tolist()
     [[0.5, 0.184]]
     """
-    with np.errstate(invalid="ignore"):
+    with np.errstate(invalid="ignore", divide="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # a pose with no joint: NaN
         centred = poses - np.nanmean(poses, axis=1, keepdims=True)
         size = np.sqrt(np.nanmean((centred ** 2).sum(axis=-1), axis=1))[:, None]
         like = FILLED_LIKELIHOOD_CAP * np.exp(-np.asarray(uncertainty, float) / size)
