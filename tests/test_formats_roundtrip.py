@@ -174,51 +174,67 @@ def test_deeplabcut_fresh_round_trip(tmp_path_factory, case, ext, data):
 
 @st.composite
 def dlc_tables(draw):
-    """A user's DeepLabCut CSV table: scorer, body parts (mapped to the joints),
-    x / y / likelihood per part, NaN for an undetected part."""
-    parts = draw(st.lists(name, min_size=N, max_size=N, unique=True))
-    scorer = draw(name)
+    """A user's DeepLabCut table: scorer, individuals (multi-animal) and body parts
+    of the user's names (mapped to the joints), x / y / likelihood per part, NaN
+    (an empty CSV cell) for an undetected part; rows frame-major per individual."""
+    # pandas writes a line break of a name unquoted: no reader can read it back
+    user = name.filter(lambda t: "\r" not in t and "\n" not in t)
+    parts = draw(st.lists(user, min_size=N, max_size=N, unique=True))
+    scorer = draw(user)
+    individuals = draw(st.none() | st.lists(user, min_size=1, max_size=3, unique=True))
     case = draw(cases(tracks=False))
-    case["frames"] = np.arange(len(case["poses"]))
-    return parts, scorer, case
+    k = len(individuals or [0])
+    n = len(case["poses"]) // k * k
+    if n == 0:
+        individuals, k, n = None, 1, len(case["poses"])
+    case = {key: v[:n] for key, v in case.items()}
+    case["frames"] = np.repeat(np.arange(n // k), k)
+    if individuals is not None:
+        case["tracks"] = np.tile(np.asarray(individuals), n // k)
+    return parts, scorer, individuals, case
+
+
+def _dlc_table(path, parts, scorer, individuals, case):
+    """The table as DeepLabCut writes it (.csv, or .h5 with pandas)."""
+    pd = pytest.importorskip("pandas")
+    inds = individuals or [None]
+    columns = [(scorer,) + ((i,) if individuals else ()) + (p, c)
+               for i in inds for p in parts for c in ("x", "y", "likelihood")]
+    present = ~(case["missing"] | case["filled"])
+    values = np.where(present[..., None], np.concatenate(
+        [case["poses"], case["confidence"][..., None]], axis=-1), np.nan)
+    table = values.reshape(len(values) // len(inds), -1)
+    levels = ["scorer"] + (["individuals"] if individuals else []) + ["bodyparts", "coords"]
+    df = pd.DataFrame(table, columns=pd.MultiIndex.from_tuples(columns, names=levels))
+    if path.suffix == ".h5":
+        pytest.importorskip("tables")
+        df.to_hdf(path, key="df_with_missing", format="table", mode="w")
+    else:
+        df.to_csv(path)
 
 
 @SETTINGS
-@given(table=dlc_tables())
-def test_deeplabcut_user_table_round_trip(tmp_path_factory, table):
+@given(table=dlc_tables(), ext=st.sampled_from([".csv", ".h5"]))
+def test_deeplabcut_user_table_round_trip(tmp_path_factory, table, ext):
     """A table with the user's names: read, joints filled, written back, read again."""
-    import csv
-
-    parts, scorer, case = table
+    parts, scorer, individuals, case = table
     folder = tmp_path_factory.mktemp("dlcu")
-    src, out, jmap = folder / "in.csv", folder / "out.csv", folder / "map.json"
-    read_missing = case["missing"] | case["filled"]
-    with open(src, "w", newline="", encoding="utf-8") as f:
-        w = csv.writer(f)
-        w.writerow(["scorer"] + [scorer] * (3 * N))
-        w.writerow(["bodyparts"] + [p for p in parts for _ in range(3)])
-        w.writerow(["coords"] + ["x", "y", "likelihood"] * N)
-        for r in range(len(case["poses"])):
-            cells = []
-            for j in range(N):
-                x, y = case["poses"][r, j]
-                if read_missing[r, j]:
-                    cells += ["", "", ""]
-                else:
-                    cells += [repr(float(v)) for v in (x, y, case["confidence"][r, j])]
-            w.writerow([str(r)] + cells)
+    src, out, jmap = folder / f"in{ext}", folder / f"out{ext}", folder / "map.json"
+    _dlc_table(src, parts, scorer, individuals, case)
     jmap.write_text(json.dumps({"joints": dict(zip(JOINT_NAMES, parts))}))
     try:
         kps = read_keypoints(src, format="dlc", joint_map=jmap, confidence_threshold=0)
     except SparseEDMError as exc:
         pytest.fail(f"a DeepLabCut table with names {parts!r} / {scorer!r}: {exc}")
+    read_missing = case["missing"] | case["filled"]
     np.testing.assert_array_equal(kps.missing, read_missing)
-    kps.poses = case["poses"]  # the filled joints now hold coordinates
-    path = _write(out, case | {"poses": kps.poses}, "dlc", meta=kps.meta)
+    kps.poses, kps.missing = case["poses"], case["missing"]  # the filled joints
+    path = _write(out, case, "dlc", meta=kps.meta)
     if path is not None:
         _sidecar(path, case)
         back = read_keypoints(path, format="dlc", joint_map=jmap, confidence_threshold=0)
-        _assert_read_back(back, case, np.arange(len(kps)), scores=False, tracks=False)
+        _assert_read_back(back, case, np.arange(len(kps)), scores=False,
+                          tracks=individuals is not None)
         seen = ~read_missing
         np.testing.assert_array_equal(back.confidence[seen], case["confidence"][seen])
 
