@@ -99,14 +99,16 @@ def _assert_read_back(kps, case, order, *, scores=True, radii=True, frames=True,
 
 
 # OpenPose: a folder of per-frame files; the frame is in each file's name (a
-# whole number from 0 to 2**53), the track in ``person_id`` (an integer >= 0, -1 is "no
+# whole number from 0 to 2**53; in the "sparseedm" object of a single file), the track in ``person_id`` (an integer >= 0, -1 is "no
 # id": other tracks are refused), the neck / head top, filled joints and radii in
 # the "sparseedm" object.
 @SETTINGS
 @given(case=cases(track=st.one_of(st.integers(0, 2**63 - 1), st.integers(-3, -1),
-                                  st.text(max_size=2))))
-def test_openpose_folder_round_trip(tmp_path_factory, case):
-    path = _write(tmp_path_factory.mktemp("op") / "frames", case, "openpose")
+                                  st.text(max_size=2))),
+       name=st.sampled_from(["frames", "out.json"]))
+def test_openpose_round_trip(tmp_path_factory, case, name):
+    """A folder, or one frame's file (several frames there: refused)."""
+    path = _write(tmp_path_factory.mktemp("op") / name, case, "openpose")
     if path is not None:
         kps = read_keypoints(path, format="openpose", confidence_threshold=0)
         _assert_read_back(kps, case, _order(case, True), derived=[HEAD_TOP])
@@ -239,6 +241,19 @@ def test_deeplabcut_user_table_round_trip(tmp_path_factory, table, ext):
         np.testing.assert_array_equal(back.confidence[seen], case["confidence"][seen])
 
 
+# .npy: poses (and a score column) only; the filled flags and radii in the status
+# sidecar ``sparseedm recover`` writes; no ids, tracks or frames.
+@SETTINGS
+@given(case=cases(tracks=False))
+def test_npy_with_its_status_sidecar_round_trip(tmp_path_factory, case):
+    case.pop("frames")
+    path = _write(tmp_path_factory.mktemp("npy") / "out.npy", case, "npy")
+    if path is not None:
+        _sidecar(path, case)
+        kps = read_keypoints(path, format="npy", confidence_threshold=0)
+        _assert_read_back(kps, case, np.arange(len(case["poses"])), frames=False)
+
+
 # ------------------------------------------------------------- regressions
 
 
@@ -331,3 +346,12 @@ def test_filled_likelihood_of_a_pose_without_joints_warns_nothing():
         warnings.simplefilter("error")  # PYTHONWARNINGS=error: no internal error
         like = filled_likelihood(np.full((1, N, 2), np.nan), np.zeros((1, N)), 0.1)
     assert (like == 0.1).all()
+
+
+def test_openpose_single_file_keeps_its_frame(tmp_path):
+    path = write_keypoints(tmp_path / "x.json", np.ones((1, N, 2)), format="openpose",
+                           frames=[7])
+    assert read_keypoints(path, format="openpose").frames.tolist() == [7]
+    with pytest.raises(SparseEDMError, match="the name says frame 12"):
+        write_keypoints(tmp_path / "v_000000000012.json", np.ones((1, N, 2)),
+                        format="openpose", frames=[7])

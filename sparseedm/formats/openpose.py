@@ -174,6 +174,11 @@ def write(path, rows, meta, filled_score, row_fields=None):
         if len(docs) != 1:
             raise FileFormatError(f"writing {path}: {len(docs)} frames need a folder "
                                   "(give an output path without .json)")
+        named = _base.frame_number(path.name)
+        if files is None and rows.frames is not None and named not in (None, int(
+                rows.frames[0])):  # the reader takes the frame from the name
+            raise FileFormatError(f"writing {path}: the name says frame {named}, the poses "
+                                  f"are of frame {int(rows.frames[0])}; rename the output")
         _base.write_json(path, docs[0][1])
         return
     _base.write_json_folder(path, docs)
@@ -217,10 +222,12 @@ def _fresh(rows, path):
                 if not np.isnan(rows.poses[r, j]).any():
                     kp[k] = (*rows.poses[r, j], rows.score(r, j))
             track = -1 if rows.tracks is None else _person_id(rows.tracks[r], r, path)
+            extra = _base.write_extra(rows.poses[r], rows.filled[r], radii=rows.radii(r))
+            if rows.frames is not None:  # read back where the file name has none
+                extra["frame"] = int(frame)
             people.append({"person_id": [track],
                            "pose_keypoints_2d": [float(v) for v in kp.ravel()],
-                           EXTRA_KEY: _base.write_extra(rows.poses[r], rows.filled[r],
-                                                        radii=rows.radii(r))})
+                           EXTRA_KEY: extra})
         docs.append((f"{path.stem}_{frame:012d}{_SUFFIX}", {"version": 1.3, "people": people}))
     return docs, path.suffix.lower() != ".json"
 
