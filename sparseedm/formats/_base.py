@@ -186,17 +186,16 @@ def to_14(xy, score, present, layout):
     ls, rs = layout.index("left_shoulder"), layout.index("right_shoulder")
     if layout.neck is None:
         ok[:, NECK] = present[:, ls] & present[:, rs]
-        poses[:, NECK] = (xy[:, ls] + xy[:, rs]) / 2
+        poses[:, NECK] = xy[:, ls] / 2 + xy[:, rs] / 2  # no overflow near 1.8e308
         conf[:, NECK] = np.minimum(score[:, ls], score[:, rs])
     if layout.head_top is None:
         face = [layout.index(f) for f in FACE if f in layout.keypoints]
         seen = present[:, face]
         count = seen.sum(axis=1)
         total = np.where(seen[..., None], xy[:, face], 0.0).sum(axis=1)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            centre = total / count[:, None]
-        neck = poses[:, NECK]
-        poses[:, HEAD_TOP] = centre + HEAD_TOP_FACTOR * (centre - neck)
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            centre = total / count[:, None]  # past the float range: inf, a bad row
+            poses[:, HEAD_TOP] = centre + HEAD_TOP_FACTOR * (centre - poses[:, NECK])
         low = np.where(seen, score[:, face], np.inf).min(axis=1)
         conf[:, HEAD_TOP] = np.where(count > 0, np.minimum(low, conf[:, NECK]), 0.0)
         ok[:, HEAD_TOP] = ok[:, NECK] & (count > 0)
