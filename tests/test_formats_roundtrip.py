@@ -19,6 +19,7 @@ from hypothesis.extra import numpy as hnp
 
 from sparseedm._atomic import save_npz
 from sparseedm.exceptions import SparseEDMError
+from sparseedm.formats._base import filled_likelihood
 from sparseedm.keypoints import read_keypoints, status_sidecar, write_keypoints
 from sparseedm.skeleton import JOINT_NAMES
 
@@ -340,8 +341,6 @@ def test_written_back_after_a_read_round_trip(tmp_path_factory, case, where, dat
 
 
 def test_filled_likelihood_of_a_pose_without_joints_warns_nothing():
-    from sparseedm.formats._base import filled_likelihood
-
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # PYTHONWARNINGS=error: no internal error
         like = filled_likelihood(np.full((1, N, 2), np.nan), np.zeros((1, N)), 0.1)
