@@ -126,7 +126,8 @@ of the joints filled::
                   "filled": ["left_wrist", ...]}
 
 A reader reads the joints listed in ``filled`` as present (and flagged in
-``KeypointSet.filled``), whatever their score.
+``KeypointSet.filled``), whatever their score; a null neck or head top as
+missing (as written; left out, it is derived from the keypoints).
 
 Without COCO ``meta`` a results-style list is written: one annotation per
 pose with ``image_id`` (the id, as int when it is one), ``category_id`` 1,
@@ -197,7 +198,8 @@ import numpy as np
 from ._atomic import atomic_path, fit_name, is_stream, save_npy, save_npz
 from ._safeio import MAX_LINE_BYTES, load_json, load_npy, load_npz, text_lines
 from . import formats
-from ._validation import NUMBER_TEXT, SCORE, Interval, check_poses, validate_params
+from ._validation import (NUMBER_TEXT, SCORE, Interval, check_poses, frame_value,
+                          validate_params)
 from .exceptions import FileFormatError, ParameterError, PoseError
 from .formats import posetrack
 from .formats.deeplabcut import H5_SUFFIXES
@@ -456,7 +458,7 @@ def _optional(arr, n, name, where, dtype):
     if arr is None:
         return None
     arr = np.asarray(arr, dtype=dtype)
-    expected = (n,) if name == "ids" else (n, N_JOINTS)
+    expected = (n,) if name in ("ids", "frames") else (n, N_JOINTS)
     if arr.shape != expected:
         raise FileFormatError(
             f"{where}: {name} must have shape {expected}, got {arr.shape}"
@@ -1095,8 +1097,8 @@ def _read_coco(path, threshold):
     poses, missing, conf = _coco_to_14(xy, v, coco_missing)
     for a, (points, _) in stored.items():
         for j, value in points.items():
-            poses[a, j] = value
-            missing[a, j] = False
+            poses[a, j] = np.nan if value is None else value
+            missing[a, j] = value is None
     if posetrack.uses_posetrack_order(doc):  # PoseTrack's own head_top keypoint
         top = posetrack.HEAD_TOP_INDEX
         poses[:, _HEAD_TOP] = np.where(coco_missing[:, top, None], np.nan, xy[:, top])
@@ -1236,6 +1238,10 @@ def write_keypoints(
     if filled is None:
         filled = _newly_filled(poses, meta) | _read_filled(meta, n)
     filled = _optional(filled, n, "filled", where, bool) & ~mask
+    if fmt in ("openpose", "mmpose") and frames is not None and meta.get("format") != fmt:
+        # a fresh file: frames as the readers take them (a read's documents go back as read)
+        named = fmt == "openpose" or path.suffix.lower() != ".json"  # files named by frame
+        frames = _frame_numbers(frames, n, where, named)
     if fmt in formats.FORMATS:
         rows = formats.Rows(poses, filled, confidence, ids, tracks, frames, filled_score,
                             uncertainty=uncertainty)
@@ -1271,8 +1277,40 @@ def write_keypoints(
                    filled if filled.any() else None, uncertainty)
     else:
         _write_coco(path, poses, mask, ids, meta, where, filled, filled_score, tracks,
-                    uncertainty)
+                    uncertainty, frames)
     return path
+
+
+def _frame_numbers(frames, n, where, named):
+    """`frames` as ints by the readers' rule (:func:`frame_value`), refused (naming
+    the pose) when one is not a whole number, or is negative where frame numbers
+    go into file names (OpenPose and MMPose frame folders)."""
+    values = []
+    for r, frame in enumerate(_optional(frames, n, "frames", where, None).tolist()):
+        value, why = frame_value(frame)
+        if not why and named and value < 0:
+            why = f"frame number {value} is negative; frame file names hold numbers >= 0"
+        if why:
+            raise FileFormatError(f"{where}: pose {r}: {why}")
+        values.append(value)
+    return np.asarray(values, dtype=np.int64)
+
+
+def _posetrack_images(anns, frames, where):
+    """PoseTrack's ``images`` of fresh annotations: ``{"id", "frame_id"}`` per
+    image id, each frame number checked by the readers' rule (refused when one
+    is not a whole number, or one image is given two frames)."""
+    frame_of = {}
+    for r, (ann, frame) in enumerate(zip(anns, np.asarray(frames).tolist())):
+        value, why = frame_value(frame)
+        if why:
+            raise FileFormatError(f"{where}: pose {r}: {why}")
+        image = ann["image_id"]
+        if frame_of.setdefault(repr(image), (image, value))[1] != value:
+            raise FileFormatError(f"{where}: pose {r}: image {image!r} is given frames "
+                                  f"{frame_of[repr(image)][1]} and {value}; give each "
+                                  "image (id) one frame")
+    return [{"id": image, "frame_id": value} for image, value in frame_of.values()]
 
 
 def _newly_filled(poses, meta):
@@ -1382,7 +1420,7 @@ def _coco_radii_of(anns, missing, path):
 
 
 def _write_coco(path, poses, mask, ids, meta, where, filled, filled_score, tracks=None,
-                uncertainty=None):
+                uncertainty=None, frames=None):
     n = len(poses)
     fresh = meta.get("coco_document") is None
     if not fresh:
@@ -1409,6 +1447,8 @@ def _write_coco(path, poses, mask, ids, meta, where, filled, filled_score, track
             if tracks is not None:  # PoseTrack's person over time
                 anns[-1]["track_id"] = track_value(np.asarray(tracks)[r])
         doc = anns
+        if tracks is not None and frames is not None:  # PoseTrack: frames of the images
+            doc = {"images": _posetrack_images(anns, frames, where), "annotations": anns}
         coco_missing = np.ones((n, 17), dtype=bool)
     for r, ann in enumerate(anns):
         kp = list(ann["keypoints"])

@@ -481,6 +481,10 @@ def test_coco_sparseedm_field_overrides_derived_joints(tmp_path):
     path.write_text(json.dumps([ann]))
     kps = read_keypoints(path)
     assert kps.poses[0, J("neck")].tolist() == [1, 2]
+    assert kps.missing[0, J("head_top")]  # null: written missing, not derived again
+    del ann["sparseedm"]["head_top"]       # left out: derived from the face
+    path.write_text(json.dumps([ann]))
+    kps = read_keypoints(path)
     np.testing.assert_allclose(kps.poses[0, J("head_top")][1], 48 + 0.8 * (48 - 100))
 
 

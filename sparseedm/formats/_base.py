@@ -186,17 +186,16 @@ def to_14(xy, score, present, layout):
     ls, rs = layout.index("left_shoulder"), layout.index("right_shoulder")
     if layout.neck is None:
         ok[:, NECK] = present[:, ls] & present[:, rs]
-        poses[:, NECK] = (xy[:, ls] + xy[:, rs]) / 2
+        poses[:, NECK] = xy[:, ls] / 2 + xy[:, rs] / 2  # no overflow near 1.8e308
         conf[:, NECK] = np.minimum(score[:, ls], score[:, rs])
     if layout.head_top is None:
         face = [layout.index(f) for f in FACE if f in layout.keypoints]
         seen = present[:, face]
         count = seen.sum(axis=1)
         total = np.where(seen[..., None], xy[:, face], 0.0).sum(axis=1)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            centre = total / count[:, None]
-        neck = poses[:, NECK]
-        poses[:, HEAD_TOP] = centre + HEAD_TOP_FACTOR * (centre - neck)
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            centre = total / count[:, None]  # past the float range: inf, a bad row
+            poses[:, HEAD_TOP] = centre + HEAD_TOP_FACTOR * (centre - poses[:, NECK])
         low = np.where(seen, score[:, face], np.inf).min(axis=1)
         conf[:, HEAD_TOP] = np.where(count > 0, np.minimum(low, conf[:, NECK]), 0.0)
         ok[:, HEAD_TOP] = ok[:, NECK] & (count > 0)
@@ -260,7 +259,8 @@ def keypoint_rows(obj, where, key, width, layouts, described):
 
 def read_extra(person, where):
     """The ``"sparseedm"`` object of a person: {joint index: (x, y)} overrides for
-    neck / head top, and the 14-joint indices flagged filled.
+    neck / head top (None: written missing, not derived again), and the 14-joint
+    indices flagged filled.
 
     Parameters
     ----------
@@ -272,7 +272,7 @@ def read_extra(person, where):
     Returns
     -------
     points : dict
-        {joint index: (x, y)}.
+        {joint index: (x, y) or None (missing)}.
     filled : list of int
         Joint indices flagged filled.
     """
@@ -281,8 +281,11 @@ def read_extra(person, where):
         return {}, []
     points = {}
     for j, key in ((NECK, "neck"), (HEAD_TOP, "head_top")):
-        value = extra.get(key)
-        if value is None:
+        if key not in extra:
+            continue
+        value = extra[key]
+        if value is None:  # written missing: not derived from the keypoints again
+            points[j] = None
             continue
         if (not isinstance(value, list) or len(value) != 2
                 or not all(isinstance(x, Real) and not isinstance(x, bool)
@@ -478,7 +481,8 @@ def assemble(people, layout, meta, *, tracks=None, frames=None):
     stored = np.zeros((n, N_JOINTS), dtype=bool)
     for r, p in enumerate(people):
         for j, value in p.points.items():
-            poses[r, j], present[r, j], stored[r, j] = value, True, True
+            poses[r, j] = np.nan if value is None else value
+            present[r, j] = stored[r, j] = value is not None
         filled[r, p.filled] = True
     filled &= ~np.isnan(poses).any(axis=-1)
     present |= filled
@@ -628,7 +632,8 @@ def filled_likelihood(poses, uncertainty, filled_score=0.0):
     >>> filled_likelihood(pose, np.array([[0.0, 1.0]])).round(3).tolist()
     [[0.5, 0.184]]
     """
-    with np.errstate(invalid="ignore"):
+    with np.errstate(invalid="ignore", divide="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # a pose with no joint: NaN
         centred = poses - np.nanmean(poses, axis=1, keepdims=True)
         size = np.sqrt(np.nanmean((centred ** 2).sum(axis=-1), axis=1))[:, None]
         like = FILLED_LIKELIHOOD_CAP * np.exp(-np.asarray(uncertainty, float) / size)

@@ -237,13 +237,15 @@ def _read_csv_table(path):
             raise FileFormatError(f"{path}: header row {level!r} has {len(row)} fields, "
                                   f"'scorer' has {width}")
     keys = _index_columns(header, width)
-    columns = [tuple(h[c].strip() for h in header) for c in range(keys, width)]
+    # names as written (a body part may start or end with a space); coords trimmed
+    columns = [tuple(h[c] for h in header[:-1]) + (header[-1][c].strip(),)
+               for c in range(keys, width)]
     index, values = [], np.empty((len(body), width - keys))
     for r, (line, row) in enumerate(body):
         if len(row) != width:
             raise FileFormatError(f"{path}, line {line}: {len(row)} fields, the header "
                                   f"has {width}")
-        index.append("/".join(cell.strip() for cell in row[:keys]))
+        index.append("/".join(row[:keys]))  # ids as written (spaces kept)
         for c, text in enumerate(row[keys:]):
             values[r, c] = _number(text, path, line, columns[c])
     return names, columns, index, values, keys
@@ -482,10 +484,21 @@ def _write_csv(path, names, columns, index, values, keys=1):
                 w.writerow(cells_of_index + [""] * (keys - len(cells_of_index)) + cells)
 
 
+def _canonical_int(text):
+    """Whether `text` is an int64 that ``str`` writes back as `text`."""
+    try:
+        return str(int(text)) == text and -2**63 <= int(text) < 2**63
+    except ValueError:
+        return False
+
+
 def _write_h5(path, names, columns, index, values):
     pd = _pandas()
     cols = pd.MultiIndex.from_tuples(columns, names=names)
-    idx = [int(i) if i.lstrip("-").isdigit() else i for i in index]
+    # frame numbers as DeepLabCut writes them (ints) when every id is one, as
+    # written back by str(); else all text (PyTables stores no mixed index)
+    as_int = all(_canonical_int(i) for i in index)
+    idx = [int(i) if as_int else i for i in index]
     df = pd.DataFrame(values, columns=cols, index=idx)
     with atomic_path(path, suffix=".h5") as tmp:
         df.to_hdf(tmp, key=H5_KEY, format="table", mode="w")

@@ -48,7 +48,7 @@ per-row status and ``uncertainty``, the joints' 90 % radii by name, when
 written by ``sparseedm recover``). A folder input is
 written as a folder (the same file names), a file as a file. Without an
 OpenPose input, BODY_25 files are written (one per frame; ``person_id`` the
-track).
+track, an integer >= 0: other tracks are refused before anything is written).
 """
 
 from __future__ import annotations
@@ -168,18 +168,23 @@ def write(path, rows, meta, filled_score, row_fields=None):
     if files is None:
         docs, folder = _fresh(rows, path)
     else:
-        docs, folder = _updated(files, rows, meta, filled_score, row_fields), \
+        docs, folder = _updated(files, rows, meta, filled_score, row_fields, path), \
             meta.get("openpose_folder", False)
     if not folder:
         if len(docs) != 1:
             raise FileFormatError(f"writing {path}: {len(docs)} frames need a folder "
                                   "(give an output path without .json)")
+        named = _base.frame_number(path.name)
+        if files is None and rows.frames is not None and named not in (None, int(
+                rows.frames[0])):  # the reader takes the frame from the name
+            raise FileFormatError(f"writing {path}: the name says frame {named}, the poses "
+                                  f"are of frame {int(rows.frames[0])}; rename the output")
         _base.write_json(path, docs[0][1])
         return
     _base.write_json_folder(path, docs)
 
 
-def _updated(files, rows, meta, filled_score, row_fields):
+def _updated(files, rows, meta, filled_score, row_fields, path):
     layout = LAYOUTS[{lay.name: n for n, lay in LAYOUTS.items()}[meta["layout"]]]
     total = sum(f["rows"] for f in files)
     if total != len(rows.poses):
@@ -199,7 +204,7 @@ def _updated(files, rows, meta, filled_score, row_fields):
                 person[EXTRA_KEY]["frame"] = int(rows.frames[r])
             track = _base.linked_id(rows, r, _has_id(person))
             if track is not None:
-                person["person_id"] = [track]
+                person["person_id"] = [_person_id(track, r, path)]
             r += 1
         docs.append((f["name"], doc))
     return docs
@@ -216,13 +221,26 @@ def _fresh(rows, path):
             for j, k in layout.sources().items():
                 if not np.isnan(rows.poses[r, j]).any():
                     kp[k] = (*rows.poses[r, j], rows.score(r, j))
-            track = rows.tracks[r] if rows.tracks is not None else -1
-            people.append({"person_id": [int(track) if _is_int(track) else -1],
+            track = -1 if rows.tracks is None else _person_id(rows.tracks[r], r, path)
+            extra = _base.write_extra(rows.poses[r], rows.filled[r], radii=rows.radii(r))
+            if rows.frames is not None:  # read back where the file name has none
+                extra["frame"] = int(frame)
+            people.append({"person_id": [track],
                            "pose_keypoints_2d": [float(v) for v in kp.ravel()],
-                           EXTRA_KEY: _base.write_extra(rows.poses[r], rows.filled[r],
-                                                        radii=rows.radii(r))})
+                           EXTRA_KEY: extra})
         docs.append((f"{path.stem}_{frame:012d}{_SUFFIX}", {"version": 1.3, "people": people}))
     return docs, path.suffix.lower() != ".json"
+
+
+def _person_id(track, r, path):
+    """Pose r's track as an OpenPose ``person_id``: an integer >= 0 (-1 is "no
+    id"), else refused before any file is written (it would read back lost)."""
+    if (isinstance(track, (bool, np.bool_)) or not _is_int(track)
+            or not 0 <= int(track) < 2**63):
+        raise FileFormatError(f"writing {path}: pose {r}: track {track!r} cannot be an OpenPose "
+                              "'person_id' (an integer from 0 to 2**63 - 1); give tracks as such "
+                              "integers, or write another format")
+    return int(track)
 
 
 def _has_id(person):
@@ -235,5 +253,5 @@ def _has_id(person):
 def _is_int(value):
     try:
         return float(value) == int(value)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         return False
