@@ -65,3 +65,31 @@ def test_coverage_of_complete_poses_in_a_sane_band(cmu):
     err = np.linalg.norm((P - pelvis(P)[:, None]) - (t - pelvis(t)[:, None]), axis=-1)
     cover = float(np.mean(err <= res.uncertainty3d[res.ok]))
     assert 0.75 <= cover <= 1.0, cover
+
+
+def test_lift_npz_output_holds_both_radii(cmu, tmp_path):
+    from sparseedm.cli import main
+    from sparseedm.keypoints import write_keypoints
+
+    poses = cmu["poses2d"][:5].copy()
+    poses[1, 4] = np.nan
+    poses[3, 2:] = np.nan                     # refused
+    src = write_keypoints(tmp_path / "in.csv", poses, ids=[f"f{i}" for i in range(5)])
+    assert main(["lift", str(src), "-o", str(tmp_path / "out.npz"), "-q"]) == 1
+    with np.load(tmp_path / "out.npz", allow_pickle=False) as npz:
+        r3, r2 = npz["uncertainty3d"], npz["uncertainty2d"]
+    assert r3.shape == r2.shape == (5, 14)
+    assert np.isnan(r3[3]).all() and (r3[[0, 1, 2, 4]] > 0).all()
+    assert np.isnan(r2[1, 4]) and r2[0, 4] == 0
+
+
+def test_filled_joint_of_a_video_less_sure_than_observed(cmu):
+    ix = np.flatnonzero(cmu["clips"] == "01_01")
+    poses = cmu["poses2d"][ix].copy()
+    poses[10:14, 4] = np.nan                  # a 4-frame gap in the right wrist
+    res = sparseedm.lift(poses, frames=np.arange(len(ix)), uncertainty3d=True)
+    filled = res.filled[:, 4]
+    assert filled[10:14].all() and not filled[:8].any()
+    r = res.uncertainty3d[:, 4]
+    assert (r[filled] > r[:8].max()).all()
+    assert np.isfinite(res.uncertainty3d).all() and (res.uncertainty3d > 0).all()
