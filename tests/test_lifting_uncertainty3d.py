@@ -93,3 +93,28 @@ def test_filled_joint_of_a_video_less_sure_than_observed(cmu):
     r = res.uncertainty3d[:, 4]
     assert (r[filled] > r[:8].max()).all()
     assert np.isfinite(res.uncertainty3d).all() and (res.uncertainty3d > 0).all()
+
+
+def test_weights_leave_complete_poses_unchanged_and_move_filled_ones(cmu):
+    from sparseedm.normalize import represent
+
+    lf = load_lifter()
+    poses = cmu["poses2d"][:3]
+    none = np.zeros((3, 14), bool)
+    X2, _, _ = represent(poses, none, "average")
+    plain, _ = lf.predict(X2, none)
+    ones, _ = lf.predict(X2, none, weights=np.ones((3, 14)))
+    assert np.array_equal(plain, ones)
+    assert (u3.filled_weights(poses, none, none, np.zeros((3, 14))) == 1).all()
+    # a filled wrist with a growing 2D radius counts less and less
+    filled = none.copy()
+    filled[:, 4] = True
+    dropped, _ = lf.predict(X2, filled)
+    dist = []
+    for r in (1.0, 5.0, 50.0):
+        w = u3.filled_weights(poses, none, filled, np.where(filled, r, 0.0))
+        assert (w[:, 4] < 1).all() and (w[:, :4] == 1).all()
+        Y, info = lf.predict(X2, none, weights=w)
+        assert (info["status"] != "failed").all()
+        dist.append(np.linalg.norm(Y - dropped, axis=1).mean())
+    assert dist[2] < dist[1] < dist[0]

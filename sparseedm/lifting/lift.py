@@ -3,7 +3,10 @@
 1. Each pose is normalised by its observed joints (:mod:`sparseedm.normalize`)
    and becomes its 2D EDM vector (the ``"average"`` representation; a
    dictionary lifter reads only the observed entries, an MLP the whole vector).
-2. The lifter predicts the 3D EDM vector (:mod:`.dictionary`, :mod:`.mlp`, :mod:`.fconv`).
+2. The lifter predicts the 3D EDM vector (:mod:`.dictionary`, :mod:`.mlp`, :mod:`.fconv`);
+   the dictionary lifter's lasso down-weights the 2D entries touching a joint
+   filled across time by its 2D radius
+   (:func:`~sparseedm.lifting.uncertainty3d.filled_weights`).
 3. :func:`sparseedm.lifting.mds.reconstruct` turns it into coordinates:
    MDS + SMACOF, rotated to agree with the 2D input (weak perspective), the
    depth reflection chosen by the lifter's chirality prior.
@@ -33,7 +36,7 @@ from .adaptation import adapt_lifter
 from .base import Lifter, load_lifter, rms
 from .mds import reflections
 from .metrics import pelvis
-from .uncertainty3d import base_radius, combine_radius, spread3d
+from .uncertainty3d import base_radius, combine_radius, filled_weights, spread3d
 from .video import choose_reflections, fill_in_time, smooth_tracks
 
 __all__ = ["lift", "LiftResult", "STATUSES", "poses_from_vectors", "lift_reflections"]
@@ -212,7 +215,8 @@ def lift(poses, missing=None, *, tracks=None, frames=None, lifter=None, n_jobs=1
                                                      dictionary=dictionary, n_jobs=n_jobs,
                                                      adapt=fill_adapt)
         mask = mask & ~filled
-    out = _lift_rows(lifter, poses, mask, bad, representation, n_jobs, layout)
+    weights = filled_weights(poses, mask, filled, radius) if filled.any() else None
+    out = _lift_rows(lifter, poses, mask, bad, representation, n_jobs, layout, weights)
     if layout is not None:
         smooth_tracks(out["poses3d"], layout)
     lifted = np.isin(out["status"], ("lifted", "lifted_occluded")) & filled.any(axis=1)
@@ -227,14 +231,14 @@ def lift(poses, missing=None, *, tracks=None, frames=None, lifter=None, n_jobs=1
         out["reason"] = reason.astype(str)
     if uncertainty3d:
         out["uncertainty3d"] = _radius3d(lifter, poses, mask, filled, radius, out["status"],
-                                         representation, n_jobs)
+                                         representation, n_jobs, weights)
     return LiftResult(**out, missing=mask | filled, seconds=time.perf_counter() - t0,
                       poses2d=np.where(mask[..., None], np.nan, poses), filled=filled,
                       linked_tracks=None if layout is None else layout.linked,
                       uncertainty2d=radius)
 
 
-def _radius3d(lifter, poses, mask, filled, radius2d, status, representation, n_jobs):
+def _radius3d(lifter, poses, mask, filled, radius2d, status, representation, n_jobs, weights):
     """LiftResult.uncertainty3d: the base table, plus the filled joints' spread."""
     ok = np.isin(status, _OK)
     base = base_radius(lifter.size_prior_, mask, ok)
@@ -244,13 +248,14 @@ def _radius3d(lifter, poses, mask, filled, radius2d, status, representation, n_j
         kept = np.where(mask[rows, :, None], np.nan, poses[rows])
 
         def relift(p):
-            return lift_reflections(lifter, p, representation=representation, n_jobs=n_jobs)
+            return lift_reflections(lifter, p, representation=representation, n_jobs=n_jobs,
+                                    weights=weights[rows])
 
         spread[rows] = spread3d(relift, kept, filled[rows], radius2d[rows])
     return combine_radius(base, spread)
 
 
-def lift_reflections(lifter, poses, *, representation="average", n_jobs=1):
+def lift_reflections(lifter, poses, *, representation="average", n_jobs=1, weights=None):
     """Both metric reflections (n, N, 3) of each 2D pose lifted on its own.
 
     Parameters
@@ -260,6 +265,9 @@ def lift_reflections(lifter, poses, *, representation="average", n_jobs=1):
         Validated poses, NaN at missing joints.
     representation, n_jobs
         As :func:`lift`.
+    weights : ndarray (n, N), optional
+        Per-joint weights of a dictionary lifter's lasso (other lifters
+        ignore them).
 
     Returns
     -------
@@ -267,13 +275,15 @@ def lift_reflections(lifter, poses, *, representation="average", n_jobs=1):
     """
     mask = ~np.isfinite(poses).all(axis=-1)
     out = _lift_rows(lifter, np.nan_to_num(poses), mask, np.zeros(len(poses), bool),
-                     representation, n_jobs, None, both=True)
+                     representation, n_jobs, None, weights, both=True)
     return out["front"], out["back"]
 
 
-def _lift_rows(lifter, poses, mask, bad, representation, n_jobs, layout, both=False):
+def _lift_rows(lifter, poses, mask, bad, representation, n_jobs, layout, weights=None,
+               both=False):
     """Screen, predict and reconstruct every row: the LiftResult's per-row fields
-    (`both`: the two reflections instead, as ``front`` and ``back``)."""
+    (`weights`: per-joint weights a dictionary lifter's lasso applies; `both`: the
+    two reflections instead, as ``front`` and ``back``)."""
     N = lifter.n_joints
     n = len(poses)
     m = N * (N - 1) // 2
@@ -288,7 +298,9 @@ def _lift_rows(lifter, poses, mask, bad, representation, n_jobs, layout, both=Fa
     rows = np.flatnonzero(np.isin(status, ("lifted", "lifted_occluded")))
     if len(rows):
         X2, _, _ = represent(clean[rows], mask[rows], representation)
-        Y, info = lifter.predict(X2, mask[rows], n_jobs=n_jobs)
+        weighted = {} if weights is None or not lifter.codes_observed_only else {
+            "weights": weights[rows]}
+        Y, info = lifter.predict(X2, mask[rows], n_jobs=n_jobs, **weighted)
         st = info["status"]
         status[rows[st == "inaccurate"]] = "inaccurate"
         reason[rows[st == "inaccurate"]] = "duality gap above tolerance"

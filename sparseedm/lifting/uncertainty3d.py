@@ -28,7 +28,8 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["BASE_OBSERVED", "BASE_MISSING", "SPREAD_FACTOR", "N_PERTURBATIONS",
-           "base_radius", "perturb_filled", "spread3d", "combine_radius"]
+           "FILLED_WEIGHT_SCALE", "base_radius", "perturb_filled", "spread3d",
+           "combine_radius", "filled_weights"]
 
 #: per joint (SKELETON_14 order), the 90 % quantile of the 3D error of a joint
 #: seen in 2D, as a fraction of the lifter's size prior (CMU validation clips)
@@ -41,6 +42,9 @@ BASE_MISSING = np.array([0.2430, 0.1634, 0.1306, 0.2202, 0.3537, 0.1723, 0.1682,
 SPREAD_FACTOR = 1.5
 #: seeded re-lifts per pose holding filled joints
 N_PERTURBATIONS = 4
+#: s of :func:`filled_weights`, relative to the pose's 2D size (chosen on CMU
+#: validation clips: studies/lifting/selection_weight.json)
+FILLED_WEIGHT_SCALE = 0.01
 #: a 2D Gaussian's 90 % radius in standard deviations, sqrt(2 ln 10)
 _R90_2D = float(np.sqrt(2 * np.log(10)))
 
@@ -108,3 +112,16 @@ def spread3d(relift, poses, filled, radius2d, *, n_draws=None, seed=0):
 def combine_radius(base, spread):
     """``sqrt(base^2 + (SPREAD_FACTOR * spread)^2)`` (NaN stays NaN)."""
     return np.sqrt(base ** 2 + (SPREAD_FACTOR * spread) ** 2)
+
+
+def filled_weights(poses, missing, filled, radius2d, scale=None):
+    """Per-joint weights (n, N) of the dictionary lifter's lasso: ``1 / (1 + (r / (s h))^2)``
+    for a joint filled across time (r its 2D radius, h the diagonal of the 2D bounding box
+    of the pose's joints not missing, s `scale`, default :data:`FILLED_WEIGHT_SCALE`),
+    1 elsewhere (an observed joint, or one still missing: the lasso ignores it)."""
+    scale = FILLED_WEIGHT_SCALE if scale is None else float(scale)
+    pts = np.where(missing[..., None], np.nan, poses)
+    lo, hi = np.nanmin(pts, axis=1), np.nanmax(pts, axis=1)
+    size = np.linalg.norm(np.nan_to_num(hi - lo), axis=-1)[:, None]
+    ratio = np.nan_to_num(radius2d) / np.maximum(scale * size, 1e-12)
+    return np.where(filled, 1.0 / (1.0 + ratio ** 2), 1.0)
