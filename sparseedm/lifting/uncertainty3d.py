@@ -39,7 +39,7 @@ BASE_OBSERVED = np.array([0.1784, 0.1309, 0.1423, 0.1699, 0.2246, 0.1357, 0.1777
 BASE_MISSING = np.array([0.2430, 0.1634, 0.1306, 0.2202, 0.3537, 0.1723, 0.1682,
                          0.2730, 0.0287, 0.2364, 0.3492, 0.0287, 0.2227, 0.3492])
 #: times the RMS 3D displacement under perturbed filled joints (CMU validation)
-SPREAD_FACTOR = 1.5
+SPREAD_FACTOR = 2.0
 #: seeded re-lifts per pose holding filled joints
 N_PERTURBATIONS = 4
 #: s of :func:`filled_weights`, relative to the pose's 2D size (chosen on CMU

@@ -13,9 +13,10 @@ are chosen on the first ("calib") and their coverage checked on the second.
   of joints seen in 2D (complete and Mix-occluded poses) and of joints missing
   in 2D (Mix, 1-3 joints);
 * filled joints: the Mix-occluded joints are put back at the truth plus 2D
-  Gaussian noise whose 90 % circle is a radius r drawn between 2 % and 20 % of
-  the pose's 2D height (what a calibrated time fill claims), the pose is lifted
-  as observed, and the factor on the re-lift spread is the grid value whose
+  Gaussian noise whose 90 % circle is a radius r drawn log-uniformly between
+  0.5 % and 20 % of the diagonal of the pose's 2D bounding box (what a
+  calibrated time fill claims), the pose is lifted as lift() lifts filled
+  joints (their 2D entries down-weighted by their radius), and the factor on the re-lift spread is the grid value whose
   coverage of the filled joints is closest to 90 %.
 """
 
@@ -31,9 +32,10 @@ import numpy as np
 from sparseedm.lifting import fit_lifter, lift, load_lifter, training_pairs
 from sparseedm.lifting import uncertainty3d as u3
 from sparseedm.lifting.defaults import DEFAULTS
-from sparseedm.lifting.lift import lift_reflections
+from sparseedm.lifting.lift import lift_reflections, poses_from_vectors
 from sparseedm.lifting.metrics import mpjpe, pelvis
 from sparseedm.metrics import random_occlusion
+from sparseedm.normalize import represent
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "lifting"))
 from select_lifter import arrays, split  # noqa: E402
@@ -57,13 +59,17 @@ def measure(lf, data, ix, seed):
     full = lift(p2, lifter=lf)
     occ = lift(p2, mask, lifter=lf)
     rng = np.random.default_rng(seed)
-    height = np.ptp(p2[..., 1], axis=1)
-    r2 = np.where(mask, (rng.uniform(0.02, 0.2, len(ix)) * height)[:, None], 0.0)
+    size = np.linalg.norm(np.ptp(p2, axis=1), axis=-1)
+    frac = np.exp(rng.uniform(np.log(0.005), np.log(0.2), len(ix)))
+    r2 = np.where(mask, (frac * size)[:, None], 0.0)
     noisy = p2 + rng.standard_normal(p2.shape) * (r2 / np.sqrt(2 * np.log(10)))[..., None]
-    fil = lift(noisy, lifter=lf)
-    spread = u3.spread3d(lambda p: lift_reflections(lf, p), noisy, mask, r2) / k
+    none = np.zeros_like(mask)
+    w = u3.filled_weights(noisy, none, mask, r2)   # as lift() weighs filled joints
+    Y, _ = lf.predict(represent(noisy, none, "average")[0], none, weights=w)
+    fil = poses_from_vectors(lf, Y, noisy, none)[0]
+    spread = u3.spread3d(lambda p: lift_reflections(lf, p, weights=w), noisy, mask, r2) / k
     return {"complete": errors(full.poses3d, truth, k), "mix": errors(occ.poses3d, truth, k),
-            "filled": errors(fil.poses3d, truth, k), "mask": mask, "spread": spread,
+            "filled": errors(fil, truth, k), "mask": mask, "spread": spread,
             "mpjpe_complete": float(np.nanmean(mpjpe(full.poses3d, truth))),
             "n_mpjpe_complete": float(np.nanmean(mpjpe(full.poses3d, truth, align="scale"))),
             "mpjpe_mix": float(np.nanmean(mpjpe(occ.poses3d, truth))),
