@@ -60,14 +60,34 @@ def base_radius(size_prior, missing, ok):
         Joints still missing in 2D when lifted.
     ok : ndarray of bool (n,)
         Rows lifted.
+
+    Returns
+    -------
+    ndarray (n, N)
+        :data:`BASE_MISSING` or :data:`BASE_OBSERVED` times `size_prior`.
     """
     r = np.where(missing, BASE_MISSING, BASE_OBSERVED) * float(size_prior)
     return np.where(ok[:, None], r, np.nan)
 
 
 def perturb_filled(poses, filled, radius2d, n_draws, seed=0):
-    """`n_draws` copies of `poses` (n_draws, n, N, 2) with each filled joint moved by a
-    Gaussian whose 90 % circle is its 2D radius (other joints unchanged)."""
+    """Copies of the poses with each filled joint moved at random inside its 2D radius.
+
+    Parameters
+    ----------
+    poses : ndarray (n, N, 2)
+    filled : ndarray of bool (n, N)
+    radius2d : ndarray (n, N)
+        The filled joints' 2D 90 % radius (pixels; ignored elsewhere).
+    n_draws : int
+    seed : int
+
+    Returns
+    -------
+    ndarray (n_draws, n, N, 2)
+        Each filled joint moved by a 2D Gaussian whose 90 % circle is its
+        radius; the other joints unchanged.
+    """
     rng = np.random.default_rng(seed)
     sigma = np.where(filled, np.nan_to_num(radius2d), 0.0) / _R90_2D
     noise = rng.standard_normal((n_draws,) + poses.shape) * sigma[None, ..., None]
@@ -110,15 +130,45 @@ def spread3d(relift, poses, filled, radius2d, *, n_draws=None, seed=0):
 
 
 def combine_radius(base, spread):
-    """``sqrt(base^2 + (SPREAD_FACTOR * spread)^2)`` (NaN stays NaN)."""
+    """The 3D radius from its two parts, in quadrature.
+
+    Parameters
+    ----------
+    base : ndarray (n, N)
+        :func:`base_radius`.
+    spread : ndarray (n, N)
+        :func:`spread3d`, same units.
+
+    Returns
+    -------
+    ndarray (n, N)
+        ``sqrt(base^2 + (SPREAD_FACTOR * spread)^2)`` (NaN stays NaN).
+    """
     return np.sqrt(base ** 2 + (SPREAD_FACTOR * spread) ** 2)
 
 
 def filled_weights(poses, missing, filled, radius2d, scale=None):
-    """Per-joint weights (n, N) of the dictionary lifter's lasso: ``1 / (1 + (r / (s h))^2)``
-    for a joint filled across time (r its 2D radius, h the diagonal of the 2D bounding box
-    of the pose's joints not missing, s `scale`, default :data:`FILLED_WEIGHT_SCALE`),
-    1 elsewhere (an observed joint, or one still missing: the lasso ignores it)."""
+    """Per-joint weights of the dictionary lifter's lasso for joints filled across time.
+
+    Parameters
+    ----------
+    poses : ndarray (n, N, 2)
+        The 2D poses, filled joints included.
+    missing : ndarray of bool (n, N)
+        Joints still missing (not filled).
+    filled : ndarray of bool (n, N)
+    radius2d : ndarray (n, N)
+        The filled joints' 2D 90 % radius (pixels).
+    scale : float, optional
+        s; default :data:`FILLED_WEIGHT_SCALE`.
+
+    Returns
+    -------
+    ndarray (n, N)
+        ``1 / (1 + (r / (s h))^2)`` for a filled joint (r its 2D radius, h the
+        diagonal of the 2D bounding box of the pose's joints not missing), 1
+        elsewhere (an observed joint, or one still missing: the lasso ignores it).
+    """
     scale = FILLED_WEIGHT_SCALE if scale is None else float(scale)
     pts = np.where(missing[..., None], np.nan, poses)
     lo, hi = np.nanmin(pts, axis=1), np.nanmax(pts, axis=1)
