@@ -170,8 +170,12 @@ def filled_weights(poses, missing, filled, radius2d, scale=None):
         elsewhere (an observed joint, or one still missing: the lasso ignores it).
     """
     scale = FILLED_WEIGHT_SCALE if scale is None else float(scale)
-    pts = np.where(missing[..., None], np.nan, poses)
-    lo, hi = np.nanmin(pts, axis=1), np.nanmax(pts, axis=1)
-    size = np.linalg.norm(np.nan_to_num(hi - lo), axis=-1)[:, None]
-    ratio = np.nan_to_num(radius2d) / np.maximum(scale * size, 1e-12)
-    return np.where(filled, 1.0 / (1.0 + ratio ** 2), 1.0)
+    weights = np.ones(filled.shape)
+    rows = np.flatnonzero(filled.any(axis=1))  # each holds a joint not missing
+    pts = np.where(missing[rows, :, None], np.nan, poses[rows])
+    with np.errstate(all="ignore"):  # a row with a bad coordinate keeps weight 1
+        extent = np.nanmax(pts, axis=1) - np.nanmin(pts, axis=1)
+        ratio = np.nan_to_num(radius2d[rows]) / (scale * np.hypot(*extent.T)[:, None])
+        w = 1.0 / (1.0 + ratio ** 2)
+    weights[rows] = np.where(filled[rows] & np.isfinite(w), w, 1.0)
+    return weights
