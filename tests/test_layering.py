@@ -40,7 +40,7 @@ LAYERS = [
     ("sparseedm.edm", "sparseedm.normalize", "sparseedm.metrics", "sparseedm.placement",
      "sparseedm.cameras", "sparseedm.plotting", "sparseedm.lifting.metrics",
      "sparseedm.lifting.mds", "sparseedm.lifting.plotting", "sparseedm.lifting.defaults",
-     "sparseedm.lifting.trc", "sparseedm.real_protocol"),
+     "sparseedm.lifting.trc", "sparseedm.lifting.uncertainty3d", "sparseedm.real_protocol"),
     # 3 file formats and the lasso solvers
     ("sparseedm.dictionary", "sparseedm.keypoints", "sparseedm.formats", "sparseedm.mocap",
      "sparseedm.dataset",

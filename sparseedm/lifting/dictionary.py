@@ -45,7 +45,7 @@ from .. import _progress
 from .._coding import atoms_key, pattern_order
 from .._parallel import chunk_tasks
 from .._validation import usable_jobs
-from ..edm import num_joints_from_dim, observed_entries
+from ..edm import num_joints_from_dim, observed_entries, triu_indices
 from ..learning import OnlineDictionaryLearning
 from ..solvers import get_solver
 from .base import Lifter, LifterError
@@ -204,7 +204,25 @@ class DictionaryLifter(Lifter):
                 return [run(t) for t in tasks]
             return Parallel(n_jobs=n_jobs, backend="threading")(delayed(run)(t) for t in tasks)
 
-    def predict(self, X2, missing=None, *, n_jobs=1, chunk_size=2048):
+    def _weighted_rows(self, X2, missing, weights):
+        """The lasso of each row on its observed entries scaled by ``sqrt(w_i w_j)``
+        (joint weights `weights`): one solve per row, no cached Gram."""
+        m = X2.shape[1]
+        C = self.components_
+        rows, cols = triu_indices(num_joints_from_dim(m))
+        keep = observed_entries(missing)
+        solver = get_solver(self.solver)
+        out = []
+        for i in range(len(X2)):
+            k = keep[i]
+            sw = np.sqrt(weights[i, rows[k]] * weights[i, cols[k]])
+            res = solver.solve(C[:, :m][:, k].T * sw[:, None], (X2[i, k] * sw)[None],
+                               self.alpha_lift * k.sum() / m)
+            out.append((np.array([i]), res.coef @ C, res.status, res.objective, res.gap,
+                        (res.coef != 0).sum(axis=1), res.fallback))
+        return out
+
+    def predict(self, X2, missing=None, *, n_jobs=1, chunk_size=2048, weights=None):
         """3D EDM vectors from the observed entries of 2D EDM vectors.
 
         Parameters
@@ -214,6 +232,11 @@ class DictionaryLifter(Lifter):
         missing : (n, N) bool, optional
             None: every entry is used.
         n_jobs : threads over chunks (the fast solver releases the GIL)
+        weights : (n, N) floats in (0, 1], optional
+            Per-joint weights: the lasso's 2D entry (i, j) counts ``w_i w_j``
+            (:func:`sparseedm.lifting.uncertainty3d.filled_weights` down-weights
+            joints filled across time). Rows whose weights are all 1 are coded
+            as without them.
 
         Returns
         -------
@@ -226,10 +249,17 @@ class DictionaryLifter(Lifter):
         C = self.components_
         if C.shape[1] != 2 * m:
             raise LifterError(f"the lifter codes {C.shape[1] // 2}-entry vectors, got {m}")
-        out = self._lasso_chunks(
-            X2, missing, n_jobs, chunk_size,
-            lambda rows, res: (rows, res.coef @ C, res.status, res.objective, res.gap,
+        mask = np.zeros((n, num_joints_from_dim(m)), bool) if missing is None else missing
+        plain = np.ones(n, bool) if weights is None else (weights >= 1).all(axis=1)
+        sub = np.flatnonzero(plain)
+        out = [] if not len(sub) else self._lasso_chunks(
+            X2[sub], mask[sub], n_jobs, chunk_size,
+            lambda rows, res: (sub[rows], res.coef @ C, res.status, res.objective, res.gap,
                                (res.coef != 0).sum(axis=1), res.fallback))
+        if not plain.all():
+            other = np.flatnonzero(~plain)
+            for rows, *rest in self._weighted_rows(X2[other], mask[other], weights[other]):
+                out.append((other[rows], *rest))
         full = np.full((n, 2 * m), np.nan)
         info = {"status": np.full(n, "failed", dtype=object), "objective": np.full(n, np.nan),
                 "gap": np.full(n, np.nan), "n_active": np.zeros(n, int),

@@ -12,7 +12,11 @@ Input: any keypoint file :func:`sparseedm.keypoints.read_keypoints` reads
 ``.npz``   ``poses3d`` (n, 14, 3), ``vectors3d`` (n, 91) in the lifter's
            normalisation, ``scale_metric`` (n,), ``missing`` (n, 14),
            ``status``, ``reason``, ``chirality_margin``, ``joint_names`` and
-           ``ids`` (``tracks``, ``frames`` when the input had them);
+           ``ids`` (``tracks``, ``frames`` when the input had them), and
+           ``uncertainty2d`` / ``uncertainty3d`` (n, 14): each lifted joint's
+           2D 90 % radius (pixels) and 3D 90 % radius (metres,
+           :attr:`LiftResult.uncertainty3d`: ``lift_file`` derives it for an
+           .npz output only; the other formats have no field for it);
 ``.json``  a list of ``{"id", "status", "reason", "joints": {name: [x, y, z] or
            null}}`` (with ``"track"`` (text) and ``"frame"`` (a number when it is
            an integer, else text) when the input had them);
@@ -204,6 +208,8 @@ def write_poses3d(path, result, ids=None, output_format=None, rate=30.0, *, trac
                             reason=result.reason.astype(str),
                             chirality_margin=result.chirality_margin, ids=ids,
                             joint_names=np.array(JOINT_NAMES),
+                            **{k: v for k in ("uncertainty2d", "uncertainty3d")
+                               if (v := getattr(result, k)) is not None},
                             **{f"{k}s": v for k, v in when}))
     elif fmt == "trc":
         order, numbers = _trc_order(frames, n, path, rate)
@@ -341,7 +347,8 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
                   + (" across time (the input has frames: missing 2D joints filled across "
                      "time first; --no-temporal lifts each row alone)" if in_time else ""))
     result, tracks = _lift_chunks(kps, in_time, chunk_size, fill, lifter=load_lifter(lifter),
-                                  n_jobs=n_jobs, representation=representation)
+                                  n_jobs=n_jobs, representation=representation,
+                                  uncertainty3d=_output_format(output, output_format) == "npz")
     write_poses3d(output, result, kps.ids, output_format, rate=rate, tracks=tracks,
                   frames=kps.frames)
     refused = ~result.ok
@@ -427,8 +434,10 @@ def _joined(parts, n):
     first = parts[0][1]
     out = {}
     for name in ("poses3d", "vectors3d", "scale_metric", "missing", "status", "reason",
-                 "chirality_margin", "poses2d", "filled"):
+                 "chirality_margin", "poses2d", "filled", "uncertainty2d", "uncertainty3d"):
         a = getattr(first, name)
+        if a is None:
+            continue
         fill = np.nan if a.dtype.kind == "f" else ("" if a.dtype.kind == "U" else False)
         out[name] = np.full((n,) + a.shape[1:], fill, dtype=object if a.dtype.kind == "U"
                             else a.dtype)

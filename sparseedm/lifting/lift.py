@@ -3,7 +3,10 @@
 1. Each pose is normalised by its observed joints (:mod:`sparseedm.normalize`)
    and becomes its 2D EDM vector (the ``"average"`` representation; a
    dictionary lifter reads only the observed entries, an MLP the whole vector).
-2. The lifter predicts the 3D EDM vector (:mod:`.dictionary`, :mod:`.mlp`, :mod:`.fconv`).
+2. The lifter predicts the 3D EDM vector (:mod:`.dictionary`, :mod:`.mlp`, :mod:`.fconv`);
+   the dictionary lifter's lasso down-weights the 2D entries touching a joint
+   filled across time by its 2D radius
+   (:func:`~sparseedm.lifting.uncertainty3d.filled_weights`).
 3. :func:`sparseedm.lifting.mds.reconstruct` turns it into coordinates:
    MDS + SMACOF, rotated to agree with the 2D input (weak perspective), the
    depth reflection chosen by the lifter's chirality prior.
@@ -33,9 +36,10 @@ from .adaptation import adapt_lifter
 from .base import Lifter, load_lifter, rms
 from .mds import reflections
 from .metrics import pelvis
+from .uncertainty3d import base_radius, combine_radius, filled_weights, spread3d
 from .video import choose_reflections, fill_in_time, smooth_tracks
 
-__all__ = ["lift", "LiftResult", "STATUSES", "poses_from_vectors"]
+__all__ = ["lift", "LiftResult", "STATUSES", "poses_from_vectors", "lift_reflections"]
 
 #: Per-pose statuses and what they mean: lifting's own, then the refusals it shares
 #: with recovery (:data:`sparseedm.recovery.STATUSES`), every screening refusal
@@ -79,8 +83,15 @@ class LiftResult:
     uncertainty2d : (n, N) pixels, how sure each 2D joint lifted is: 0 for an
         observed joint, the 90 % radius (:attr:`RecoveryResult.uncertainty`) of
         a joint filled across time, NaN for a joint still missing (the lifter
-        places it from the others); no 3D radius is derived: weight or drop
-        a joint's 3D position by its 2D radius relative to the pose's size
+        places it from the others)
+    uncertainty3d : (n, N) metres or None, with ``lift(..., uncertainty3d=True)``:
+        the radius of a sphere centred on each joint of poses3d meant to hold
+        the true joint 9 times in 10 (:mod:`sparseedm.lifting.uncertainty3d`):
+        the lifter's own per-joint validation error (depth ambiguity and
+        size included, so never 0, larger for a joint missing in 2D) and, for
+        rows with joints filled across time, their 2D radius carried through
+        the lift by seeded re-lifts; NaN for refused poses. Not covered: the
+        smoothing of a video's trajectories, a wrong depth reflection
     """
 
     poses3d: np.ndarray
@@ -95,6 +106,7 @@ class LiftResult:
     filled: np.ndarray = None
     linked_tracks: np.ndarray = None
     uncertainty2d: np.ndarray = None
+    uncertainty3d: np.ndarray = None
 
     @property
     def edms3d(self):
@@ -123,7 +135,8 @@ class LiftResult:
 
 
 def lift(poses, missing=None, *, tracks=None, frames=None, lifter=None, n_jobs=1,
-         representation=None, adapt=None, dictionary=None, fill_adapt="auto"):
+         representation=None, adapt=None, dictionary=None, fill_adapt="auto",
+         uncertainty3d=False):
     """Lift 2D poses to 3D.
 
     Parameters
@@ -161,6 +174,11 @@ def lift(poses, missing=None, *, tracks=None, frames=None, lifter=None, n_jobs=1
         With `frames`: how that dictionary adapts to the poses first (as
         :func:`sparseedm.recover`'s `adapt`; ``sparseedm lift`` adapts once
         per file and passes False for its chunks).
+    uncertainty3d : bool, default False
+        Also derive :attr:`LiftResult.uncertainty3d`. Cheap without frames
+        (a table lookup); with frames, rows holding filled joints are lifted
+        again a few times (:data:`~sparseedm.lifting.uncertainty3d.N_PERTURBATIONS`),
+        hence opt-in.
 
     Returns
     -------
@@ -180,9 +198,10 @@ def lift(poses, missing=None, *, tracks=None, frames=None, lifter=None, n_jobs=1
     True
     """
     t0 = time.perf_counter()
-    validate_params("lift", dict(representation=representation, n_jobs=n_jobs, lifter=lifter),
+    validate_params("lift", dict(representation=representation, n_jobs=n_jobs, lifter=lifter,
+                                 uncertainty3d=uncertainty3d),
                     {"representation": [Options(REPRESENTATIONS), None], "n_jobs": N_JOBS,
-                     "lifter": [Lifter, "path", None]})
+                     "lifter": [Lifter, "path", None], "uncertainty3d": ["boolean"]})
     lifter = load_lifter(lifter)
     representation = representation_for(representation, lifter.representation,
                                         f"the {lifter.method} lifter")
@@ -196,7 +215,8 @@ def lift(poses, missing=None, *, tracks=None, frames=None, lifter=None, n_jobs=1
                                                      dictionary=dictionary, n_jobs=n_jobs,
                                                      adapt=fill_adapt)
         mask = mask & ~filled
-    out = _lift_rows(lifter, poses, mask, bad, representation, n_jobs, layout)
+    weights = filled_weights(poses, mask, filled, radius) if filled.any() else None
+    out = _lift_rows(lifter, poses, mask, bad, representation, n_jobs, layout, weights)
     if layout is not None:
         smooth_tracks(out["poses3d"], layout)
     lifted = np.isin(out["status"], ("lifted", "lifted_occluded")) & filled.any(axis=1)
@@ -209,14 +229,61 @@ def lift(poses, missing=None, *, tracks=None, frames=None, lifter=None, n_jobs=1
             why = f"lifted on its own, not across time: {layout.reason[r]}"
             reason[r] = f"{reason[r]}; {why}" if reason[r] else why
         out["reason"] = reason.astype(str)
+    if uncertainty3d:
+        out["uncertainty3d"] = _radius3d(lifter, poses, mask, filled, radius, out["status"],
+                                         representation, n_jobs, weights)
     return LiftResult(**out, missing=mask | filled, seconds=time.perf_counter() - t0,
                       poses2d=np.where(mask[..., None], np.nan, poses), filled=filled,
                       linked_tracks=None if layout is None else layout.linked,
                       uncertainty2d=radius)
 
 
-def _lift_rows(lifter, poses, mask, bad, representation, n_jobs, layout):
-    """Screen, predict and reconstruct every row: the LiftResult's per-row fields."""
+def _radius3d(lifter, poses, mask, filled, radius2d, status, representation, n_jobs, weights):
+    """LiftResult.uncertainty3d: the base table, plus the filled joints' spread."""
+    ok = np.isin(status, _OK)
+    base = base_radius(lifter.size_prior_, mask, ok)
+    spread = np.zeros(mask.shape)
+    rows = np.flatnonzero(ok & filled.any(axis=1))
+    if len(rows):
+        kept = np.where(mask[rows, :, None], np.nan, poses[rows])
+
+        def relift(p):
+            return lift_reflections(lifter, p, representation=representation, n_jobs=n_jobs,
+                                    weights=weights[rows])
+
+        spread[rows] = spread3d(relift, kept, filled[rows], radius2d[rows])
+    return combine_radius(base, spread)
+
+
+def lift_reflections(lifter, poses, *, representation="average", n_jobs=1, weights=None):
+    """Both metric reflections (n, N, 3) of each 2D pose lifted on its own.
+
+    Parameters
+    ----------
+    lifter : Lifter
+    poses : ndarray (n, N, 2)
+        Validated poses, NaN at missing joints.
+    representation, n_jobs
+        As :func:`lift`.
+    weights : ndarray (n, N), optional
+        Per-joint weights of a dictionary lifter's lasso (other lifters
+        ignore them).
+
+    Returns
+    -------
+    (front, back) : ndarrays (n, N, 3), pelvis at the origin, NaN where refused
+    """
+    mask = ~np.isfinite(poses).all(axis=-1)
+    out = _lift_rows(lifter, np.nan_to_num(poses), mask, np.zeros(len(poses), bool),
+                     representation, n_jobs, None, weights, both=True)
+    return out["front"], out["back"]
+
+
+def _lift_rows(lifter, poses, mask, bad, representation, n_jobs, layout, weights=None,
+               both=False):
+    """Screen, predict and reconstruct every row: the LiftResult's per-row fields
+    (`weights`: per-joint weights a dictionary lifter's lasso applies; `both`: the
+    two reflections instead, as ``front`` and ``back``)."""
     N = lifter.n_joints
     n = len(poses)
     m = N * (N - 1) // 2
@@ -227,10 +294,13 @@ def _lift_rows(lifter, poses, mask, bad, representation, n_jobs, layout):
     vec3 = np.full((n, m), np.nan)
     scale_metric = np.full(n, np.nan)
     margin = np.full(n, np.nan)
+    pair = np.full((2, n, N, 3), np.nan)
     rows = np.flatnonzero(np.isin(status, ("lifted", "lifted_occluded")))
     if len(rows):
         X2, _, _ = represent(clean[rows], mask[rows], representation)
-        Y, info = lifter.predict(X2, mask[rows], n_jobs=n_jobs)
+        weighted = {} if weights is None or not lifter.codes_observed_only else {
+            "weights": weights[rows]}
+        Y, info = lifter.predict(X2, mask[rows], n_jobs=n_jobs, **weighted)
         st = info["status"]
         status[rows[st == "inaccurate"]] = "inaccurate"
         reason[rows[st == "inaccurate"]] = "duality gap above tolerance"
@@ -246,6 +316,9 @@ def _lift_rows(lifter, poses, mask, bad, representation, n_jobs, layout):
             out[rows] = np.where(flip[:, None, None], back, front)
             margin[rows] = np.abs(score)
             vec3[rows] = Y
+            pair[0, rows], pair[1, rows] = front, back
+    if both:
+        return {"front": pair[0], "back": pair[1]}
     return dict(poses3d=out, vectors3d=vec3, scale_metric=scale_metric,
                 status=status.astype(object), reason=reason.astype(str),
                 chirality_margin=margin)
