@@ -14,6 +14,7 @@ and without them, and with them the share of joints inside their 3D radius
 and the mean radius of the filled joints (metres).
 """
 
+import argparse
 import json
 import sys
 from pathlib import Path
@@ -57,9 +58,14 @@ def one(acc, key, res, cam, rows, with_radius):
         a["radius_filled_m"].append(res.uncertainty3d[f])
 
 
-def main():
-    n_seq = int(sys.argv[1]) if len(sys.argv) > 1 else 10
-    lifter = load_lifter(sys.argv[2] if len(sys.argv) > 2 else None)
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("sequences", nargs="?", type=int, default=10,
+                    help="the first N CMU validation sequences")
+    ap.add_argument("lifter", nargs="?", help="a lifter file (default: the shipped one)")
+    args = ap.parse_args(argv)
+    n_seq = args.sequences
+    lifter = load_lifter(args.lifter)
     dictionary = load_dictionary(vp.DICTIONARY["cmu"])
     acc = {}
     for seq in vp.sequences("cmu", "validation", n_seq, 0):
@@ -72,7 +78,7 @@ def main():
             with mock.patch.object(u3, "FILLED_WEIGHT_SCALE", np.inf):  # w = 1: no weight
                 one(acc, (cond, "unweighted"), lift(given, missing, **kw), cam,
                     missing.any(axis=1), False)
-    out = {"sequences": n_seq, "lifter": sys.argv[2] if len(sys.argv) > 2 else "shipped"}
+    out = {"sequences": n_seq, "lifter": args.lifter or "shipped"}
     for (cond, name), a in acc.items():
         out[f"{cond}, {name}"] = {
             k: round(float(np.concatenate(v).mean()), 3) for k, v in a.items()
