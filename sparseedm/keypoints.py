@@ -158,7 +158,10 @@ outputs of ``sparseedm recover`` hold it in the status sidecar. ``.npy`` and
 DeepLabCut tables cannot hold them (:data:`FLAGS_IN_SIDECAR`): ``sparseedm
 recover`` puts them in the ``<stem>.status.npz`` sidecar beside its output
 (:func:`status_sidecar`), and :func:`read_keypoints` reads them back from
-there, the flagged joints present whatever their score.
+there, the flagged joints present whatever their score. A new DeepLabCut
+table's rows are frames (one individual per track), not the poses in order:
+its sidecar then holds the poses' ``tracks`` and ``frames`` too, and its rows
+are matched to the table's by them.
 
 PoseTrack, OpenPose, MMPose, DeepLabCut
 ---------------------------------------

@@ -417,3 +417,14 @@ def test_deeplabcut_output_keeps_two_tracks_and_their_frames(tmp_path, cmu_poses
     seen = ~missing
     np.testing.assert_allclose(back.poses[seen], poses[seen])
     np.testing.assert_array_equal(back.filled, missing)
+
+
+@pytest.mark.parametrize("tracks,frames,why", [
+    ([0, 0], [4, 4], "pose 1: frame 4 is already pose 0's"),
+    (["a", "b"], [0, 1.5], "pose 1: frame number 1.5"),
+    ([0, 1], None, "tracks need frame numbers")])
+def test_deeplabcut_fresh_refuses_what_it_cannot_hold(tmp_path, tracks, frames, why):
+    with pytest.raises(SparseEDMError, match=why):
+        write_keypoints(tmp_path / "t.csv", np.ones((2, N, 2)), format="dlc",
+                        tracks=tracks, frames=frames)
+    assert not (tmp_path / "t.csv").exists()

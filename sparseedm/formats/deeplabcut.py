@@ -472,7 +472,10 @@ def _fresh(rows, path):
 def _individuals(tracks, path):
     """The individuals' names (the tracks as text, in order of appearance), or
     None for a single-animal table (no tracks, or every track the integer 0)."""
-    if tracks is None or (tracks.dtype.kind in "iu" and not tracks.any()):
+    if tracks is None:
+        return None
+    tracks = np.asarray(tracks)
+    if tracks.dtype.kind in "iu" and not tracks.any():
         return None
     names = list(dict.fromkeys(str(t) for t in tracks.tolist()))
     bad = [t for t in names if "\n" in t or "\r" in t]
@@ -488,7 +491,7 @@ def _cells(rows, individuals, path):
     refused, naming the poses."""
     n = len(rows.poses)
     ind = [0] * n if individuals is None else \
-        [individuals.index(str(t)) for t in rows.tracks.tolist()]
+        [individuals.index(str(t)) for t in np.asarray(rows.tracks).tolist()]
     if rows.frames is None:
         if individuals is not None:
             raise FileFormatError(
@@ -496,7 +499,7 @@ def _cells(rows, individuals, path):
                 "a multi-animal DeepLabCut table, whose rows are frames")
         ids = rows.ids if rows.ids is not None else range(n)
         return [(r, 0) for r in range(n)], [str(i) for i in ids]
-    frames = [int(f) for f in rows.frames.tolist()]
+    frames = [int(f) for f in np.asarray(rows.frames).tolist()]
     row_of = {f: k for k, f in enumerate(sorted(set(frames)))}
     seen = {}
     for r, (f, i) in enumerate(zip(frames, ind)):
