@@ -783,7 +783,8 @@ def _run(source, outputs, recovery, chunk_size, progress, t0):
         _write_output(out_tmp, out_fmt, filled, source.ids, source.meta, outputs.in_fmt,
                       fields, columns.edm, outputs.filled_score, kps, flags, source.linked,
                       columns.uncertainty)
-        _write_sidecars(side_tmp, dict(fields, filled=flags, uncertainty=columns.uncertainty),
+        _write_sidecars(side_tmp, dict(fields, filled=flags, uncertainty=columns.uncertainty,
+                                       **_table_keys(out_fmt, source, kps)),
                         source.ids, columns.edm)
         if isinstance(filled, np.memmap):
             filled.flush()
@@ -828,6 +829,18 @@ def _recover_chunks_into(filled, columns, source, recovery, chunk_size, progress
             del res
             bar.update(len(poses))
     return temporal_summary
+
+
+def _table_keys(out_fmt, source, kps):
+    """The tracks and frames of the poses, for the status sidecar of a new
+    DeepLabCut table (its rows are frames, not the poses in order: the flags are
+    matched to its rows by track and frame when read back); else nothing."""
+    if out_fmt != "dlc" or source.meta.get("dlc_columns") is not None or kps is None \
+            or kps.frames is None:
+        return {}
+    tracks = source.linked if source.linked is not None else kps.tracks
+    return {"frames": kps.frames} if tracks is None else {"frames": kps.frames,
+                                                           "tracks": tracks}
 
 
 def _write_sidecars(side_tmp, fields, ids, edm):

@@ -158,7 +158,10 @@ outputs of ``sparseedm recover`` hold it in the status sidecar. ``.npy`` and
 DeepLabCut tables cannot hold them (:data:`FLAGS_IN_SIDECAR`): ``sparseedm
 recover`` puts them in the ``<stem>.status.npz`` sidecar beside its output
 (:func:`status_sidecar`), and :func:`read_keypoints` reads them back from
-there, the flagged joints present whatever their score.
+there, the flagged joints present whatever their score. A new DeepLabCut
+table's rows are frames (one individual per track), not the poses in order:
+its sidecar then holds the poses' ``tracks`` and ``frames`` too, and its rows
+are matched to the table's by them.
 
 PoseTrack, OpenPose, MMPose, DeepLabCut
 ---------------------------------------
@@ -531,12 +534,13 @@ def read_keypoints(path, *, format=None, confidence_threshold=None, joint_map=No
     if fmt in formats.FORMATS:
         parsed = formats.read(fmt, path, joint_map=joint_map)
         if fmt in FLAGS_IN_SIDECAR:
-            flags = sidecar_flags(path, len(parsed.poses), parsed.ids)
+            keys = (parsed.tracks, parsed.frames)
+            flags = sidecar_flags(path, len(parsed.poses), parsed.ids, keys)
             if flags is not None:
                 parsed.filled = flags if parsed.filled is None else parsed.filled | flags
         kps = _from_parsed(parsed, confidence_threshold)
         if fmt in FLAGS_IN_SIDECAR:
-            kps.uncertainty = sidecar_uncertainty(path, len(kps))
+            kps.uncertainty = sidecar_uncertainty(path, len(kps), keys)
     else:
         reader = {"npz": _read_npz, "npy": _read_npy, "csv": _read_csv, "coco": _read_coco}
         kps = reader[fmt](path, confidence_threshold)
@@ -779,42 +783,69 @@ def status_sidecar(path) -> Path:
     return beside(path, ".status.npz")
 
 
-def sidecar_flags(path, n, ids):
+def sidecar_flags(path, n, ids, keys=None):
     """The filled flags (n, 14) of a :data:`FLAGS_IN_SIDECAR` file, read from its
     status sidecar; None without one. A sidecar that is not this file's (another
-    row count, other ids) or cannot be read is ignored with a warning naming it."""
+    row count, other ids) or cannot be read is ignored with a warning naming it.
+    A sidecar holding ``frames`` (and ``tracks``) has its rows matched to the
+    file's poses by track and frame (`keys`, the file's (tracks, frames)): a
+    DeepLabCut table's rows are frames, and a pose of no sidecar row has none
+    filled."""
     side = status_sidecar(path)
     if is_stream(path) or not side.is_file():
         return None
     try:
-        arrays, _ = load_npz(side, ("filled", "ids"), what=f"{side}:")
+        arrays, _ = load_npz(side, ("filled", "ids", "tracks", "frames"), what=f"{side}:")
     except (FileFormatError, OSError) as exc:
         warnings.warn(f"ignored {side} (the filled flags of {path}): {exc}", stacklevel=4)
         return None
     flags, side_ids = arrays.get("filled"), arrays.get("ids")
+    rows = _sidecar_rows(arrays, keys)
+    m = n if rows is None else len(arrays["frames"])
     why = None
-    if flags is None or flags.dtype != bool or flags.shape != (n, N_JOINTS):
-        why = f"no 'filled' (bool, {n} x {N_JOINTS}) array for its {n} poses"
-    elif side_ids is not None and ids is not None and not np.array_equal(
+    if flags is None or flags.dtype != bool or flags.shape != (m, N_JOINTS):
+        why = f"no 'filled' (bool, {m} x {N_JOINTS}) array for its {m} poses"
+    elif rows is None and side_ids is not None and ids is not None and not np.array_equal(
             np.asarray(side_ids).astype(str), np.asarray(ids).astype(str)):
         why = "its ids are not the file's"
     if why is not None:
         warnings.warn(f"ignored {side} (the filled flags of {path}): {why}", stacklevel=4)
         return None
-    return flags
+    return flags if rows is None else np.where((rows >= 0)[:, None], flags[rows], False)
 
 
-def sidecar_uncertainty(path, n):
+def _sidecar_rows(arrays, keys):
+    """The sidecar's row of each of the file's poses (-1: none) when the sidecar
+    keys its rows by track and frame and the file has frames; else None (in order)."""
+    frames = arrays.get("frames")
+    if frames is None or keys is None or keys[1] is None:
+        return None
+    tracks = arrays.get("tracks")
+    tracks = np.zeros(len(frames), dtype=np.int64) if tracks is None else tracks
+    row = {(str(t), int(f)): k for k, (t, f) in enumerate(zip(tracks.tolist(),
+                                                              frames.tolist()))}
+    file_tracks = np.zeros(len(keys[1]), dtype=np.int64) if keys[0] is None else keys[0]
+    return np.asarray([row.get((str(t), int(f)), -1)
+                       for t, f in zip(file_tracks.tolist(), keys[1].tolist())], dtype=int)
+
+
+def sidecar_uncertainty(path, n, keys=None):
     """The 90 % radii (n, 14) a :data:`FLAGS_IN_SIDECAR` file's status sidecar
     holds (``sparseedm recover`` writes them there); None without them (a
-    sidecar that cannot be read is reported by :func:`sidecar_flags`)."""
+    sidecar that cannot be read is reported by :func:`sidecar_flags`). `keys`:
+    as :func:`sidecar_flags` (a pose of no sidecar row: NaN, unknown)."""
     side = status_sidecar(path)
     if is_stream(path) or not side.is_file():
         return None
     try:
-        arrays, _ = load_npz(side, ("uncertainty",), what=f"{side}:")
-        return _radii(arrays.get("uncertainty"), n, str(side))
-    except (FileFormatError, OSError):
+        arrays, _ = load_npz(side, ("uncertainty", "tracks", "frames"), what=f"{side}:")
+        rows = _sidecar_rows(arrays, keys)
+        if rows is None:
+            return _radii(arrays.get("uncertainty"), n, str(side))
+        radii = _radii(arrays.get("uncertainty"), len(arrays["frames"]), str(side))
+        return None if radii is None else \
+            np.where((rows >= 0)[:, None], radii[rows], np.nan)
+    except (FileFormatError, OSError, ValueError, TypeError):
         return None
 
 
@@ -1238,10 +1269,7 @@ def write_keypoints(
     if filled is None:
         filled = _newly_filled(poses, meta) | _read_filled(meta, n)
     filled = _optional(filled, n, "filled", where, bool) & ~mask
-    if fmt in ("openpose", "mmpose") and frames is not None and meta.get("format") != fmt:
-        # a fresh file: frames as the readers take them (a read's documents go back as read)
-        named = fmt == "openpose" or path.suffix.lower() != ".json"  # files named by frame
-        frames = _frame_numbers(frames, n, where, named)
+    frames = _fresh_frames(fmt, frames, n, where, meta, path)
     if fmt in formats.FORMATS:
         rows = formats.Rows(poses, filled, confidence, ids, tracks, frames, filled_score,
                             uncertainty=uncertainty)
@@ -1279,6 +1307,20 @@ def write_keypoints(
         _write_coco(path, poses, mask, ids, meta, where, filled, filled_score, tracks,
                     uncertainty, frames)
     return path
+
+
+def _fresh_frames(fmt, frames, n, where, meta, path):
+    """The frames of a fresh OpenPose / MMPose file or DeepLabCut table as the
+    readers take them (:func:`_frame_numbers`); else `frames` (a read's documents
+    and a DeepLabCut input's table go back as read)."""
+    if frames is None:
+        return None
+    if fmt in ("openpose", "mmpose") and meta.get("format") != fmt:
+        named = fmt == "openpose" or path.suffix.lower() != ".json"  # files named by frame
+        return _frame_numbers(frames, n, where, named)
+    if fmt == "dlc" and meta.get("dlc_columns") is None:
+        return _frame_numbers(frames, n, where, False)  # the table's row index
+    return frames
 
 
 def _frame_numbers(frames, n, where, named):

@@ -10,6 +10,7 @@ the threshold is a reading policy, not part of the file.
 
 import json
 import warnings
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -18,6 +19,7 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 from sparseedm._atomic import save_npz
+from sparseedm.batch import recover_file
 from sparseedm.exceptions import SparseEDMError
 from sparseedm.formats._base import filled_likelihood
 from sparseedm.keypoints import read_keypoints, status_sidecar, write_keypoints
@@ -150,29 +152,58 @@ def test_coco_round_trip(tmp_path_factory, case, ids, tracks):
             assert kps.ids.tolist() == extra["ids"]
 
 
-def _sidecar(path, case):
-    """The status sidecar ``sparseedm recover`` writes beside a DeepLabCut table."""
+def _sidecar(path, case, keyed=False):
+    """The status sidecar ``sparseedm recover`` writes beside a DeepLabCut table
+    (`keyed`: with the poses' tracks and frames, which its rows are matched by)."""
+    keys = {"tracks": case["tracks"], "frames": case["frames"].astype(np.int64)} \
+        if keyed else {}
     save_npz(status_sidecar(path), {"filled": case["filled"],
-                                    "uncertainty": case["uncertainty"]})
+                                    "uncertainty": case["uncertainty"], **keys})
 
 
-# DeepLabCut, written fresh: one single-animal table whose body parts are the
-# joint names; rows are frames 0..n-1 (its index holds the ids), so tracks and
-# frames are not written; the filled flags and radii live in the status sidecar.
+# DeepLabCut, written fresh: body parts the joint names; one individual per track
+# (multi-animal) unless the only track is 0; rows the frames (sorted, the index
+# their numbers: an individual absent from a frame reads back as a pose with
+# every joint missing), or without frames the poses in order (the index their
+# ids); the filled flags and radii live in the status sidecar.
 @SETTINGS
-@given(case=cases(tracks=False), ext=st.sampled_from(["csv", "h5"]), data=st.data())
+@given(case=cases(track=st.integers(0, 2) | st.text(max_size=2)),
+       ext=st.sampled_from(["csv", "h5"]), data=st.data())
 def test_deeplabcut_fresh_round_trip(tmp_path_factory, case, ext, data):
     if ext == "h5":
         pytest.importorskip("tables")
     n = len(case["poses"])
-    case["frames"] = np.arange(n)
-    ids = data.draw(st.none() | st.lists(name, min_size=n, max_size=n, unique=True))
+    timed = data.draw(st.booleans())
+    ids = None
+    if not timed:  # the index holds the ids
+        del case["tracks"], case["frames"]
+        ids = data.draw(st.none() | st.lists(name, min_size=n, max_size=n, unique=True))
     path = _write(tmp_path_factory.mktemp("dlc") / f"out.{ext}", case, "dlc", ids=ids)
-    if path is not None:
-        _sidecar(path, case)
-        kps = read_keypoints(path, format="dlc", confidence_threshold=0)
-        _assert_read_back(kps, case, np.arange(n))
+    if path is None:
+        return
+    _sidecar(path, case, keyed=timed)
+    kps = read_keypoints(path, format="dlc", confidence_threshold=0)
+    if not timed:
+        _assert_read_back(kps, case, np.arange(n), frames=False)
+        if ids is None:  # the index: row numbers
+            assert kps.frames.tolist() == list(range(n))
         assert kps.ids.tolist() == (ids or [str(r) for r in range(n)])
+        return
+    row = {(t, f): k for k, (t, f) in enumerate(zip(kps.tracks.astype(str).tolist(),
+                                                     kps.frames.tolist()))}
+    assert len(row) == len(kps)  # one pose per track and frame
+    hit = np.asarray([row[(str(t), int(f))] for t, f in zip(case["tracks"].tolist(),
+                                                             case["frames"].tolist())])
+    _assert_read_back(_rows_of(kps, hit), case, np.arange(n))
+    holes = np.setdiff1d(np.arange(len(kps)), hit)  # a track absent from a frame
+    assert kps.missing[holes].all() and np.isnan(kps.uncertainty[holes]).all()
+
+
+def _rows_of(kps, rows):
+    """The read keypoints' arrays at `rows`."""
+    return SimpleNamespace(**{a: None if getattr(kps, a) is None else getattr(kps, a)[rows]
+                              for a in ("poses", "missing", "filled", "confidence",
+                                        "uncertainty", "frames", "tracks")})
 
 
 @st.composite
@@ -367,3 +398,33 @@ def test_a_neck_between_huge_shoulders_is_their_midpoint(tmp_path):
         warnings.simplefilter("error")
         assert read_keypoints(path).poses[0, NECK].tolist() == [1.7e308, 1.7e308]
 
+
+
+def test_deeplabcut_output_keeps_two_tracks_and_their_frames(tmp_path, cmu_poses,
+                                                             small_dictionary):
+    """recover_file from an .npz with 2 tracks x 5 frames into a new DeepLabCut .csv."""
+    poses = cmu_poses[:10].copy()
+    tracks, frames = np.tile([3, 8], 5), np.repeat([10, 11, 12, 14, 20], 2)
+    missing = np.zeros((10, N), dtype=bool)
+    missing[[1, 6], JOINT_NAMES.index("left_wrist")] = True
+    src, out = tmp_path / "in.npz", tmp_path / "out.csv"
+    save_npz(src, {"poses": poses, "missing": missing, "tracks": tracks, "frames": frames})
+    recover_file(src, out, dictionary=small_dictionary, output_format="dlc")
+    assert "individuals" in out.read_text().splitlines()[1]
+    back = read_keypoints(out, format="dlc")
+    assert len(back) == 10 and back.tracks.tolist() == [str(t) for t in tracks]
+    assert back.frames.tolist() == frames.tolist()
+    seen = ~missing
+    np.testing.assert_allclose(back.poses[seen], poses[seen])
+    np.testing.assert_array_equal(back.filled, missing)
+
+
+@pytest.mark.parametrize("tracks,frames,why", [
+    ([0, 0], [4, 4], "pose 1: frame 4 is already pose 0's"),
+    (["a", "b"], [0, 1.5], "pose 1: frame number 1.5"),
+    ([0, 1], None, "tracks need frame numbers")])
+def test_deeplabcut_fresh_refuses_what_it_cannot_hold(tmp_path, tracks, frames, why):
+    with pytest.raises(SparseEDMError, match=why):
+        write_keypoints(tmp_path / "t.csv", np.ones((2, N, 2)), format="dlc",
+                        tracks=tracks, frames=frames)
+    assert not (tmp_path / "t.csv").exists()

@@ -31,8 +31,9 @@ back unchanged.
 
 Rows: one pose per frame (per frame and individual, frame-major, for
 multi-animal tables); ``ids`` are the table's index (the frame number, or an
-image path), ``frames`` the row number, ``tracks`` the individual (``0`` for
-single-animal tables). An individual whose mapped body parts are all absent
+image path), ``frames`` the index when every row's index is a distinct whole
+number (a video's frame numbers), else the row number, ``tracks`` the
+individual (``0`` for single-animal tables). An individual whose mapped body parts are all absent
 in a frame is still a row (all missing). ``likelihood`` is the confidence;
 NaN coordinates or a NaN likelihood mark a missing body part; a likelihood
 outside [0, 1] is an error naming the file, row and body part.
@@ -58,8 +59,15 @@ has no room for the filled flags: ``sparseedm recover`` writes them to its
 :func:`sparseedm.keypoints.read_keypoints` reads them back from. A ``filled``
 coords column of a file an earlier sparseedm wrote is still read (its flagged
 body parts as present) and is left out when the table is written back.
-Without a DeepLabCut input, a single-animal table is written whose body parts
-are the 14 joint names (scorer ``sparseedm``).
+Without a DeepLabCut input, a new table is written whose body parts are the 14
+joint names (scorer ``sparseedm``): multi-animal (as maDLC writes it) with one
+individual per track (named by the track as text) when the poses have tracks
+other than the single track 0, else single-animal. With frame numbers, its
+rows are the frames (sorted, the index their numbers; an individual absent
+from a frame is a row of NaN, read back as a pose with every joint missing);
+a frame that is not a whole number, or given twice to one track, is refused
+naming the pose, and tracks without frame numbers are refused. Without frame
+numbers, the rows are the poses in order and the index their ids.
 """
 
 from __future__ import annotations
@@ -74,6 +82,7 @@ from .._atomic import atomic_path
 from .._extras import EXTRAS
 from .._extras import require as require_extra
 from .._safeio import load_json, require_file, text_lines
+from .._validation import MAX_FRAME
 from ..exceptions import FileFormatError
 from ..normalize import MIN_OBSERVED_JOINTS
 from ..skeleton import JOINT_NAMES
@@ -373,7 +382,7 @@ def read(path, joint_map=None):
     present |= filled & ~np.isnan(poses).any(axis=-1)
     _neck_from_shoulders(poses, present, conf, mapping)
     poses = np.where(present[..., None], poses, np.nan)
-    frames = np.repeat(np.arange(len(index)), len(individuals))
+    frames = np.repeat(_row_frames(index, keys), len(individuals))
     tracks = np.tile(np.asarray(individuals if multi else [0]), len(index))
     ids = np.repeat(np.asarray(index, dtype=str), len(individuals))
     meta = {"dlc_names": names, "dlc_columns": columns, "dlc_index": index,
@@ -382,6 +391,18 @@ def read(path, joint_map=None):
             "dlc_index_columns": keys}
     return _base.Parsed(poses, present, conf if has_conf else None, ids, tracks, frames,
                         filled if filled.any() else None, meta)
+
+
+def _row_frames(index, keys):
+    """Each row's frame: its index when every index is a distinct whole number
+    (a video's frame numbers, as DeepLabCut writes them), else its row number
+    (labelled data's image paths, ids)."""
+    if keys == 1 and index and all(_canonical_int(i) and abs(int(i)) <= MAX_FRAME
+                                   for i in index):
+        frames = np.asarray([int(i) for i in index], dtype=np.int64)
+        if len(np.unique(frames)) == len(frames):
+            return frames
+    return np.arange(len(index))
 
 
 def _likelihood(column, path, index, part):
@@ -417,31 +438,89 @@ def write(path, rows, meta, filled_score, row_fields=None):
     """Write a DeepLabCut table (``.h5`` by the path's extension, else ``.csv``)."""
     path = Path(path)
     if meta.get("dlc_columns") is None:
-        names, columns, index, values, mapping, individuals = _fresh(rows)
+        names, columns, index, values = _fresh(rows, path)
     else:
         names, columns, index, values = (meta["dlc_names"], list(meta["dlc_columns"]),
                                          meta["dlc_index"], meta["dlc_values"])
-        mapping, individuals = meta["dlc_map"], meta["dlc_individuals"]
-    columns, values = _with_filled(names, columns, values, rows, mapping, individuals,
-                                   filled_score)  # the filled flags: the status sidecar
+        columns, values = _with_filled(names, columns, values, rows, meta["dlc_map"],
+                                       meta["dlc_individuals"], filled_score)
     if path.suffix.lower() in H5_SUFFIXES:
         _write_h5(path, names, columns, index, values)
     else:
         _write_csv(path, names, columns, index, values, meta.get("dlc_index_columns", 1))
 
 
-def _fresh(rows):
+def _fresh(rows, path):
+    """A new table of `rows`: body parts the 14 joint names (scorer ``sparseedm``);
+    one individual per track (multi-animal) unless every track is 0 or there are
+    none; rows the frames (sorted; the index their numbers), else the poses in
+    order (the index their ids)."""
+    individuals = _individuals(rows.tracks, path)
+    cells, index = _cells(rows, individuals, path)
+    width = 3 * N_JOINTS
+    values = np.full((len(index), width * len(individuals or [""])), np.nan)
+    for r, (k, i) in enumerate(cells):
+        values[k, i * width:(i + 1) * width] = _pose_values(rows, r)
+    coords = [(name, coord) for name in JOINT_NAMES for coord in ("x", "y", "likelihood")]
+    if individuals is None:
+        return (["scorer", "bodyparts", "coords"],
+                [("sparseedm",) + c for c in coords], index, values)
+    return (["scorer", "individuals", "bodyparts", "coords"],
+            [("sparseedm", ind) + c for ind in individuals for c in coords], index, values)
+
+
+def _individuals(tracks, path):
+    """The individuals' names (the tracks as text, in order of appearance), or
+    None for a single-animal table (no tracks, or every track the integer 0)."""
+    if tracks is None:
+        return None
+    tracks = np.asarray(tracks)
+    if tracks.dtype.kind in "iu" and not tracks.any():
+        return None
+    names = list(dict.fromkeys(str(t) for t in tracks.tolist()))
+    bad = [t for t in names if "\n" in t or "\r" in t]
+    if bad:
+        raise FileFormatError(f"{path}: track {bad[0]!r} holds a line break; a "
+                              "DeepLabCut individual's name cannot")
+    return names
+
+
+def _cells(rows, individuals, path):
+    """Each pose's (table row, individual) and the table's index: one row per
+    frame (sorted), or per pose without frames; a frame twice in one track is
+    refused, naming the poses."""
     n = len(rows.poses)
-    columns = [("sparseedm", name, coord) for name in JOINT_NAMES
-               for coord in ("x", "y", "likelihood")]
-    values = np.full((n, len(columns)), np.nan)
-    for j in range(N_JOINTS):
-        ok = ~np.isnan(rows.poses[:, j]).any(axis=-1)
-        values[:, 3 * j: 3 * j + 2] = rows.poses[:, j]
-        values[ok, 3 * j + 2] = [rows.score(r, j) for r in np.flatnonzero(ok)]
-    index = [str(i) for i in (rows.ids if rows.ids is not None else range(n))]
-    return (["scorer", "bodyparts", "coords"], columns, index, values,
-            {name: name for name in JOINT_NAMES}, [""])
+    ind = [0] * n if individuals is None else \
+        [individuals.index(str(t)) for t in np.asarray(rows.tracks).tolist()]
+    if rows.frames is None:
+        if individuals is not None:
+            raise FileFormatError(
+                f"{path}: poses with tracks need frame numbers (frames=) to be written as "
+                "a multi-animal DeepLabCut table, whose rows are frames")
+        ids = rows.ids if rows.ids is not None else range(n)
+        return [(r, 0) for r in range(n)], [str(i) for i in ids]
+    frames = [int(f) for f in np.asarray(rows.frames).tolist()]
+    row_of = {f: k for k, f in enumerate(sorted(set(frames)))}
+    seen = {}
+    for r, (f, i) in enumerate(zip(frames, ind)):
+        q = seen.setdefault((f, i), r)
+        if q != r:
+            track = "" if individuals is None else f" of track {individuals[i]!r}"
+            raise FileFormatError(
+                f"{path}: pose {r}: frame {f}{track} is already pose {q}'s; a DeepLabCut "
+                "table holds one pose per frame and individual")
+    return [(row_of[f], i) for f, i in zip(frames, ind)], [str(f) for f in row_of]
+
+
+def _pose_values(rows, r):
+    """Pose r's x, y, likelihood per joint: NaN where missing; a filled joint's
+    likelihood ``rows.likelihood`` (from its radius) or the filled score."""
+    out = np.full((N_JOINTS, 3), np.nan)
+    out[:, :2] = rows.poses[r]
+    for j in np.flatnonzero(~np.isnan(rows.poses[r]).any(axis=-1)):
+        filled_here = rows.filled[r, j] and rows.likelihood is not None
+        out[j, 2] = rows.likelihood[r, j] if filled_here else rows.score(r, j)
+    return out.ravel()
 
 
 def _with_filled(names, columns, values, rows, mapping, individuals, filled_score):
