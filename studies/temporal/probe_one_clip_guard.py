@@ -33,29 +33,34 @@ def _error(res, poses, mask, height):
     return float(np.nanmean(joint_error(res.poses, poses, mask)) / height * 100)
 
 
-def clip_rows(source, max_sequences):
-    """One row per (validation sequence, protocol) of `source`."""
-    seqs = video_protocols.sequences(source, "validation", max_sequences, 0)
-    dictionary = load_dictionary(video_protocols.DICTIONARY[source])
-    for i, s in enumerate(seqs):
+def mocap_cases(source, max_sequences):
+    """(sequence index, sequence, protocol, condition, mask, given) of the first
+    `max_sequences` validation sequences of `source`: one condition per protocol,
+    taken in turn by sequence; empty masks left out."""
+    for i, s in enumerate(video_protocols.sequences(source, "validation", max_sequences, 0)):
         for protocol in ("gaps", "self-occlusion"):
             masks = protocol_masks(s, protocol)
             key = sorted(masks)[i % len(masks)]
             mask = masks[key]
-            if not mask.any():
-                continue
-            given = np.where(mask[..., None], np.nan, s.poses2d)
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                on = recover_temporal(given, mask, frames=s.frames, dictionary=dictionary)
-                off = recover_temporal(given, mask, frames=s.frames, dictionary=dictionary,
-                                       adapt=False)
-            a = on.adaptation
-            yield dict(source=source, sequence=i, frames=len(s), protocol=protocol,
-                       condition=key, adopted=bool(a is not None and a.adapted),
-                       guard=[getattr(a, "err_base", None), getattr(a, "err_adapted", None)],
-                       error=round(_error(on, s.poses2d, mask, s.height), 4),
-                       error_adapt_false=round(_error(off, s.poses2d, mask, s.height), 4))
+            if mask.any():
+                yield i, s, protocol, key, mask, np.where(mask[..., None], np.nan, s.poses2d)
+
+
+def clip_rows(source, max_sequences):
+    """One row per (validation sequence, protocol) of `source`."""
+    dictionary = load_dictionary(video_protocols.DICTIONARY[source])
+    for i, s, protocol, key, mask, given in mocap_cases(source, max_sequences):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            on = recover_temporal(given, mask, frames=s.frames, dictionary=dictionary)
+            off = recover_temporal(given, mask, frames=s.frames, dictionary=dictionary,
+                                   adapt=False)
+        a = on.adaptation
+        yield dict(source=source, sequence=i, frames=len(s), protocol=protocol,
+                   condition=key, adopted=bool(a is not None and a.adapted),
+                   guard=[getattr(a, "err_base", None), getattr(a, "err_adapted", None)],
+                   error=round(_error(on, s.poses2d, mask, s.height), 4),
+                   error_adapt_false=round(_error(off, s.poses2d, mask, s.height), 4))
 
 
 def summary(rows):

@@ -43,9 +43,9 @@ from benchmarks import real2d, video_protocols  # noqa: E402
 from sparseedm.dictionary import load_dictionary  # noqa: E402
 from sparseedm.evaluation_real import clip_cases  # noqa: E402
 from sparseedm.real_protocol import body_size  # noqa: E402
-from sparseedm.temporal.evaluation import protocol_masks  # noqa: E402
 from sparseedm.temporal import recover as temporal_recover  # noqa: E402
 from sparseedm.temporal.recover import recover_temporal  # noqa: E402
+from studies.temporal.probe_one_clip_guard import mocap_cases  # noqa: E402
 from studies.temporal.probe_temporal_self_training import whole_file  # noqa: E402
 
 #: recover_temporal's keyword arguments per variant
@@ -109,18 +109,10 @@ def _row(source, clip, protocol, condition, truth, mask, size, answers):
 
 def mocap_rows(source, max_sequences, variants):
     """One row per (validation sequence, protocol) of a mocap source."""
-    seqs = video_protocols.sequences(source, "validation", max_sequences, 0)
     dictionary = load_dictionary(video_protocols.DICTIONARY[source])
-    for i, s in enumerate(seqs):
-        for protocol in ("gaps", "self-occlusion"):
-            masks = protocol_masks(s, protocol)
-            key = sorted(masks)[i % len(masks)]
-            mask = masks[key]
-            if not mask.any():
-                continue
-            given = np.where(mask[..., None], np.nan, s.poses2d)
-            answers = _run(given, mask, s.frames, dictionary, variants)
-            yield _row(source, i, protocol, key, s.poses2d, mask, s.height, answers)
+    for i, s, protocol, key, mask, given in mocap_cases(source, max_sequences):
+        answers = _run(given, mask, s.frames, dictionary, variants)
+        yield _row(source, i, protocol, key, s.poses2d, mask, s.height, answers)
 
 
 def bonn_rows(variants, seed=0):
