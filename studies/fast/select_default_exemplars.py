@@ -9,7 +9,8 @@ each call timed (``n_jobs=2``):
 
 * ``cmu``: CMU clips held out by ``benchmarks.split_clips``, files of n poses
   with half of them under Mix masks (``select_fast.validation_file(n, seed)``);
-  several sizes and seeds.
+  several sizes and seeds (the held-out clips hold 7,282 poses: a larger n
+  takes them all).
 * ``--mocap``: dataset .npz files (``sparseedm dataset build ...``, e.g. the
   Daz-retargeted CMU clips ``cmu-bvh-daz/indian``), C complete + M Mix poses
   drawn as ``studies/real_prior/mocap_check.py`` draws them.
@@ -21,8 +22,8 @@ the Err_ave (%) of its returned pose's EDM; the paired difference, fast minus
 defaults, with its standard error over the occluded poses. Results are
 written after every file.
 
-    python studies/fast/select_default_exemplars.py --cmu 2000,6000,12000 --seeds 0,1 \
-        --mocap /tmp/daz_indian.npz --photos mpii-large,bonn --protocols 2,real
+    sparseedm dataset build ../shared/data/cmu-bvh-daz/indian -o daz_indian.npz
+    python studies/fast/select_default_exemplars.py --mocap daz_indian.npz
 """
 
 from __future__ import annotations
@@ -107,9 +108,10 @@ def files(a):
             out.append((f"{source} protocol {protocol}",
                         lambda s=source, p=protocol: harness.make_file(s, p, 0)))
     for path in filter(None, a.mocap.split(",")):
-        c, m = a.mocap_size
-        out.append((f"{Path(path).stem} {c}+{m}",
-                    lambda p=path, c=c, m=m: mocap_file(p, c, m, 0)))
+        for size in filter(None, a.mocap_sizes.split(",")):
+            c, m = (int(x) for x in size.split("+"))
+            out.append((f"{Path(path).stem} {c}+{m}",
+                        lambda p=path, c=c, m=m: mocap_file(p, c, m, 0)))
     for n in sorted(int(x) for x in a.cmu.split(",") if x):
         for seed in (int(s) for s in a.seeds.split(",")):
             out.append((f"cmu n={n} seed={seed}",
@@ -119,11 +121,11 @@ def files(a):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--cmu", default="2000,6000,12000", help="CMU file sizes (poses)")
-    ap.add_argument("--seeds", default="0,1", help="seeds of the CMU files")
+    ap.add_argument("--cmu", default="2000,4000,6000,12000", help="CMU file sizes (poses)")
+    ap.add_argument("--seeds", default="0,1,2", help="seeds of the CMU files")
     ap.add_argument("--mocap", default="", help="dataset .npz paths, comma-separated")
-    ap.add_argument("--mocap-size", type=int, nargs=2, default=(1000, 1000),
-                    metavar=("C", "M"), help="complete and Mix poses of a mocap file")
+    ap.add_argument("--mocap-sizes", default="1000+1000,2500+2500",
+                    help="C+M (complete + Mix poses) of the mocap files, comma-separated")
     ap.add_argument("--photos", default="mpii-large,bonn", help="harness.py files")
     ap.add_argument("--protocols", default="2,real", help="harness.py protocols")
     ap.add_argument("--out", type=Path,
