@@ -17,7 +17,7 @@ def test_local_cluster_two_workers_equals_local_run(cmu_poses, small_dictionary)
     mask = random_occlusion(len(poses), 14, "mix", random_state=5)
     local = recover(poses, mask, dictionary=small_dictionary, chunk_size=16)
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  host="127.0.0.1", dashboard_address=None) as cluster:
+                                  host="127.0.0.1", dashboard_address=":0") as cluster:
         remote = recover(poses, mask, dictionary=small_dictionary, chunk_size=16,
                          backend="dask", scheduler=cluster.scheduler_address)
     np.testing.assert_array_equal(remote.poses, local.poses)
@@ -75,7 +75,7 @@ def test_the_default_path_adaptation_included_runs_on_the_cluster(cross_domain,
     assert local.adapted and len(local.adaptation.self_training) == 2
 
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
-                                  dashboard_address=None) as cluster, \
+                                  dashboard_address=":0") as cluster, \
             distributed.Client(cluster) as client:
         with distributed.get_task_stream(client) as adapted_run:
             remote = recover(inputs, mask, backend="dask", **kw)
@@ -103,7 +103,7 @@ def test_recover_file_adapts_on_the_cluster_too(cross_domain, shifted_dictionary
     kw = dict(dictionary=shifted_dictionary, self_training=2, temporal=False)
     recover_file(src, tmp_path / "local.npz", **kw)
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
-                                  dashboard_address=None) as cluster, \
+                                  dashboard_address=":0") as cluster, \
             distributed.Client(cluster):
         recover_file(src, tmp_path / "remote.npz", backend="dask", **kw)
     assert round_backends == [None, None, "dask", "dask"]  # the local run, then the cluster
