@@ -296,63 +296,64 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
                         self_training=self_training)
     if method != "fconv":  # an FConv model says its own (recover_fconv)
         representation = representation_for(representation)
-    if confidence is not None and outliers:
-        if frames is not None and temporal:
-            check_frames(frames, "recover")
-        if not isinstance(dictionary, Dictionary):
-            dictionary = load_dictionary(dictionary)
-        poses, missing, _ = validate_poses(poses, missing, dictionary.n_joints)
-        poses, missing, outlier = mark_outliers(
-            poses, missing, check_confidence(confidence, missing.shape, "recover"),
-            dictionary, tracks=tracks,
-            frames=frames if temporal else None, alpha=alpha,
-            representation=representation_for(representation), solver=solver, n_jobs=n_jobs,
-            chunk_size=chunk_size, positive=positive)
-        return note_outliers(recover(
-            poses, missing, dictionary=dictionary, alpha=alpha, representation=representation,
-            solver=solver, n_jobs=n_jobs, chunk_size=chunk_size, positive=positive,
-            progress=progress, backend=backend, scheduler=scheduler, method=method,
-            model=model, adapt=adapt, self_training=self_training, ensemble=ensemble,
-            tracks=tracks, frames=frames, temporal=temporal, preset=preset), outlier)
     if frames is not None and temporal:
         if preset == "fast":
             raise ParameterError("recover: preset='fast' recovers each pose on its own: "
                                  "pass temporal=False with frames")
         check_frames(frames, "recover")
-        res = _recover_in_time(poses, missing, tracks, frames, method, dict(
-            dictionary=dictionary, alpha=alpha, representation=representation, solver=solver,
-            n_jobs=n_jobs, chunk_size=chunk_size, positive=positive, progress=progress,
-            backend=backend, scheduler=scheduler, adapt=adapt, self_training=self_training,
-            ensemble=ensemble))
+    opts = dict(dictionary=dictionary, alpha=alpha, representation=representation,
+                solver=solver, n_jobs=n_jobs, chunk_size=chunk_size, positive=positive,
+                progress=progress, backend=backend, scheduler=scheduler, adapt=adapt,
+                self_training=self_training, ensemble=ensemble)
+    if confidence is None or not outliers:
+        return _dispatch(poses, missing, tracks, frames if temporal else None, method, model,
+                         preset, opts)
+    if not isinstance(dictionary, Dictionary):
+        opts["dictionary"] = dictionary = load_dictionary(dictionary)
+    poses, missing, _ = validate_poses(poses, missing, dictionary.n_joints)
+    poses, missing, outlier = mark_outliers(
+        poses, missing, check_confidence(confidence, missing.shape, "recover"), dictionary,
+        tracks=tracks, frames=frames if temporal else None, alpha=alpha,
+        representation=representation_for(representation), solver=solver, n_jobs=n_jobs,
+        chunk_size=chunk_size, positive=positive)
+    return note_outliers(_dispatch(poses, missing, tracks, frames if temporal else None,
+                                   method, model, preset, opts), outlier)
+
+
+def _dispatch(poses, missing, tracks, frames, method, model, preset, opts):
+    """recover() once its arguments are checked: in time, FConv or the sparse path."""
+    if frames is not None:
+        res = _recover_in_time(poses, missing, tracks, frames, method, opts)
         linked = getattr(res, "linked_tracks", None)
         return _with_uncertainty(res, tracks if linked is None else linked, frames)
     if method == "fconv":  # torch is imported only on this path
         from .fconv.recover import recover_fconv
 
-        if ensemble > 1:
+        if opts["ensemble"] > 1:
             raise SparseEDMError("ensemble averages adapted dictionaries: it needs "
                                  "method='sparse'")
 
         return _with_uncertainty(recover_fconv(
-            poses, missing, model=model, representation=representation,
-            chunk_size=chunk_size, progress=progress))
+            poses, missing, model=model, representation=opts["representation"],
+            chunk_size=opts["chunk_size"], progress=opts["progress"]))
+    dictionary, adapt = opts["dictionary"], opts["adapt"]
     if not isinstance(dictionary, Dictionary):
         dictionary = load_dictionary(dictionary)
     check_gram_memory(dictionary)
     adaptations, members = [], [dictionary]
-    with one_client(backend, scheduler) as dist:
+    kernel = {k: opts[k] for k in ("alpha", "representation", "solver", "n_jobs",
+                                   "chunk_size", "positive", "progress")}
+    with one_client(opts["backend"], opts["scheduler"]) as dist:
         if adapt is not False:
             poses, missing, _ = validate_poses(poses, missing, dictionary.n_joints)
             # one member unless an ensemble was asked for (seed 0 is the default's)
-            members, adaptations = adapt_members(dictionary, poses, missing, adapt, ensemble,
-                                                 n_jobs=n_jobs, self_training=self_training,
-                                                 file_atoms=True, preset=preset, **dist)
+            members, adaptations = adapt_members(
+                dictionary, poses, missing, adapt, opts["ensemble"], n_jobs=opts["n_jobs"],
+                self_training=opts["self_training"], file_atoms=True, preset=preset, **dist)
         res = recover_members(
-            poses, missing, members, adaptations, alpha=alpha, representation=representation,
-            solver=solver, n_jobs=n_jobs, chunk_size=chunk_size, positive=positive,
-            progress=progress, **(dist or dict(backend=backend, scheduler=scheduler)))
+            poses, missing, members, adaptations, **kernel,
+            **(dist or dict(backend=opts["backend"], scheduler=opts["scheduler"])))
     return _with_uncertainty(res)
-
 
 
 def _with_uncertainty(res, tracks=None, frames=None):
