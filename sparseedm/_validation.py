@@ -49,7 +49,7 @@ __all__ = ["Interval", "Options", "validate_params", "check_poses", "check_pose_
            "check_mask", "ALPHA", "ALPHA_MIN", "ALPHA_MAX", "ENSEMBLE", "MAX_ENSEMBLE", "N_JOBS",
            "CHUNK_SIZE", "PATH", "BOOLEAN", "THRESHOLD", "SCORE", "usable_jobs",
            "unmask", "environment_problem", "MAX_FRAME", "NUMBER_TEXT", "frame_value", "frame_array",
-           "check_frames"]
+           "frame_numbers", "check_frames"]
 
 
 class Interval:
@@ -377,6 +377,60 @@ def frame_value(v):
     if f != round(f):
         return 0, f"frame number {v!r} is not an integer"
     return int(f), ""
+
+
+def frame_numbers(frames, n):
+    """Frames as int64 (n,) and the reason each unusable one is refused (`""` if usable).
+
+    A frame number must be a whole number of magnitude at most :data:`MAX_FRAME`
+    (whatever its dtype: a larger one is refused as too large, never wrapped):
+    the one rule, :func:`frame_value`, row by row.
+
+    Parameters
+    ----------
+    frames : array_like (n,)
+        Frame numbers, one per pose, of any dtype.
+    n : int
+        The number of poses.
+
+    Returns
+    -------
+    values : ndarray of int64 (n,)
+        The frame numbers (0 where refused).
+    reason : ndarray of str (n,)
+        Why each refused frame number is unusable; ``""`` where usable.
+
+    Raises
+    ------
+    ParameterError
+        If `frames` does not have shape ``(n,)``.
+
+    Examples
+    --------
+    >>> values, reason = frame_numbers(np.array([3, 2**63 + 5], dtype=np.uint64), 2)
+    >>> values.tolist(), reason.tolist()
+    ([3, 0], ['', 'frame number 9223372036854775813 is too large (over 2**53)'])
+    """
+    arr = np.asarray(frames)
+    if arr.shape != (n,):
+        raise ParameterError(f"frames must have shape ({n},) (one per pose), got {arr.shape}")
+    values = np.zeros(n, dtype=np.int64)
+    reason = np.full(n, "", dtype=object)
+    rows = np.arange(n)
+    if arr.dtype.kind in "iuf":  # the usual cases at once; only the others get a reason
+        if arr.dtype.kind == "u":
+            usable = arr <= MAX_FRAME
+        elif arr.dtype.kind == "i":
+            usable = (arr <= MAX_FRAME) & (arr >= -MAX_FRAME)
+        else:  # floats (CSV columns): finite whole numbers
+            f = arr.astype(float)
+            usable = np.isfinite(f) & (np.abs(f) <= MAX_FRAME)
+            usable[usable] = f[usable] == np.round(f[usable])
+        values[usable] = arr[usable].astype(np.int64)
+        rows = np.flatnonzero(~usable)
+    for i, v in zip(rows, arr[rows].tolist()):
+        values[i], reason[i] = frame_value(v)
+    return values, reason
 
 
 def frame_array(values):

@@ -40,7 +40,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ._recovery_kernel import recover_members
-from ._validation import check_poses
+from ._validation import check_poses, frame_numbers
 from .exceptions import ParameterError
 from .real_protocol import body_size
 
@@ -190,15 +190,12 @@ def mark_outliers(poses, missing, confidence, dictionary, *, tracks=None, frames
 
 
 def _whole_frames(frames, n):
-    """Frame numbers as floats when every one is a finite whole number, else None
+    """Frame numbers as floats when every one is usable by the one rule, else None
     (time cannot tell: the pose model alone decides)."""
-    try:
-        t = np.asarray(frames, dtype=float).ravel()
-    except (TypeError, ValueError):
+    if np.shape(frames) != (n,):
         return None
-    if t.shape != (n,) or not np.isfinite(t).all() or (t != np.round(t)).any():
-        return None
-    return t
+    values, reason = frame_numbers(frames, n)  # the one frame-number rule
+    return None if (reason != "").any() else values.astype(float)
 
 
 def find_outliers(poses, missing, confidence, members, *, tracks=None, frames=None,

@@ -43,7 +43,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._validation import frame_value
+from ._validation import frame_numbers
 from .edm import vector_to_edm
 from .skeleton import SKELETON_14
 
@@ -140,12 +140,8 @@ def _disagreement(missing, vectors, scale, poses):
 def _time_layout(n, tracks, frames):
     """[(rows in frame order, their frames)] per track; rows whose frame is not
     a finite number are left out."""
-    frames = np.asarray(frames)
-    if frames.dtype.kind in "iu":
-        frames = frames.astype(float)
-    else:  # the one frame-number rule; a refused number: NaN (its row is per frame)
-        frames = np.array([np.nan if why else float(v)
-                           for v, why in map(frame_value, frames.tolist())])
+    values, reason = frame_numbers(frames, n)  # a refused number: NaN (its row is per frame)
+    frames = np.where(reason == "", values, np.nan)
     tracks = np.zeros(n, int) if tracks is None else np.asarray(tracks)
     try:
         _, tracks = np.unique(tracks, return_inverse=True)
