@@ -63,6 +63,7 @@ __all__ = [
     "missing_mask",
     "usable_rows",
     "normalize",
+    "rms_radius",
     "denormalize",
     "represent",
     "representation_for",
@@ -300,18 +301,47 @@ def _box(poses, missing):
         return lo / 2 + hi / 2, (hi - lo).max(axis=-1) / 2
 
 
-def _radius(poses, missing):
+def rms_radius(poses, missing):
+    """The observed joints' centroid and root-mean-square distance to it.
+
+    Computed relative to the largest offset, so coordinates near float64's
+    limits neither overflow nor underflow (a pose beyond them gets a non-finite
+    or zero distance).
+
+    Parameters
+    ----------
+    poses : ndarray (..., N, 2)
+    missing : ndarray of bool (..., N)
+        Joints left out.
+
+    Returns
+    -------
+    center : ndarray (..., 2)
+    radius : ndarray (...)
+
+    Examples
+    --------
+    >>> square = np.array([[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]])
+    >>> center, radius = rms_radius(square, np.zeros(4, bool))
+    >>> center.tolist(), round(float(radius), 6)
+    ([1.0, 1.0], 1.414214)
+    """
     used = ~missing[..., None]
     count = used.sum(axis=-2)  # (..., 1)
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         center = np.where(used, poses, 0.0).sum(axis=-2) / count
-        # halved, then squared relative to the largest offset: coordinates near
-        # float64's limits neither overflow nor underflow
+        # halved, then squared relative to the largest offset
         off = np.where(used, poses / 2 - center[..., None, :] / 2, 0.0)
         top = np.abs(off).max(axis=(-1, -2))
         ratio = off / np.where(top > 0, top, 1.0)[..., None, None]
         mean_sq = (ratio**2).sum(axis=(-1, -2)) / count[..., 0]
-        scale = top * (2 * RADIUS_FACTOR * np.sqrt(mean_sq))
+        return center, top * (2 * np.sqrt(mean_sq))
+
+
+def _radius(poses, missing):
+    center, radius = rms_radius(poses, missing)
+    with np.errstate(over="ignore"):
+        scale = RADIUS_FACTOR * radius
     # the one place the rule is not rotation-invariant: a pose within a factor of
     # a few of float64's limits, whose radius overflows or is subnormal where its
     # box is not, falls back to the box (recover() refuses what the box refuses)

@@ -45,6 +45,7 @@ import numpy as np
 
 from ._validation import frame_numbers
 from .edm import vector_to_edm
+from .normalize import rms_radius
 from .skeleton import SKELETON_14
 
 __all__ = ["joint_uncertainty", "joint_features", "uncertainty_rule", "CALIBRATION",
@@ -119,8 +120,7 @@ def _in_own_units(poses):
 
 def _pose_size(poses):
     """(n,) root-mean-square distance of a pose's joints to their centroid."""
-    own, unit = _in_own_units(poses)
-    return unit * np.sqrt((own ** 2).sum(axis=-1).mean(axis=1))
+    return rms_radius(poses, np.zeros(poses.shape[:2], bool))[1]
 
 
 def _disagreement(missing, vectors, scale, poses):
