@@ -9,6 +9,7 @@ imports nothing above the geometry, the dictionary format and validation.
 - :data:`STATUSES`, :data:`OK_STATUSES`  the per-pose statuses and the usable ones
 - :class:`RecoveryResult`                what every recovery path returns
 - :func:`validate_poses`                 poses and mask checked, bad rows flagged
+- :func:`bad_coordinates`                those rows, for inner callers that trust their input
 - :func:`screen_poses`, :func:`screen`   why a pose cannot be used; the usable ones represented
 - :func:`place_occluded_inplace`         occluded joints placed from recovered distances
 - :func:`combine`                        one result from several members' results
@@ -29,7 +30,8 @@ from .normalize import MIN_OBSERVED_JOINTS, represent
 from .placement import WEIGHT_POWER, place_missing_joints
 
 __all__ = ["STATUSES", "OK_STATUSES", "RecoveryResult", "Screened", "Screening",
-           "validate_poses", "screen_poses", "screen", "place_occluded_inplace", "combine",
+           "validate_poses", "bad_coordinates", "screen_poses", "screen",
+           "place_occluded_inplace", "combine",
            "SCREENING_REFUSALS", "status_counts", "poses_per_second", "recovery_summary",
            "take_rows"]
 
@@ -244,18 +246,28 @@ def validate_poses(poses, missing, n_joints, caller="recover", model="dictionary
     if poses.ndim == 2:
         poses = poses[None]
     check_pose_shape(poses, n_joints=n_joints, model=model, given=given)
-    nan = np.isnan(poses).any(axis=-1)
-    if missing is None:
-        mask = nan
-        bad_coord = np.isinf(poses).any(axis=-1).any(axis=-1)
-    else:
-        mask = check_mask(missing, caller)
-        if mask.ndim == 1:
-            mask = mask[None]
-        if mask.shape != poses.shape[:2]:
-            raise PoseError(f"missing must have shape {poses.shape[:2]}, got {mask.shape}")
-        bad_coord = ((~np.isfinite(poses)).any(axis=-1) & ~mask).any(axis=-1)
-    return poses, mask, bad_coord
+    if missing is None:  # a joint with NaN and inf coordinates is a bad one, not missing
+        return poses, np.isnan(poses).any(axis=-1), np.isinf(poses).any(axis=-1).any(axis=-1)
+    mask = check_mask(missing, caller)
+    if mask.ndim == 1:
+        mask = mask[None]
+    if mask.shape != poses.shape[:2]:
+        raise PoseError(f"missing must have shape {poses.shape[:2]}, got {mask.shape}")
+    return poses, mask, bad_coordinates(poses, mask)
+
+
+def bad_coordinates(poses, mask):
+    """Rows (n,) with a NaN or infinite coordinate at an observed joint: what
+    :func:`validate_poses` flags, for inner callers that trust their (already
+    validated) poses and mask and check nothing again.
+
+    Examples
+    --------
+    >>> poses = np.zeros((2, 3, 2)); poses[0, 1] = np.inf; poses[1, 2] = np.nan
+    >>> bad_coordinates(poses, np.array([[0, 0, 0], [0, 0, 1]], bool)).tolist()
+    [True, False]
+    """
+    return ((~np.isfinite(poses)).any(axis=-1) & ~mask).any(axis=-1)
 
 
 class Screening(NamedTuple):

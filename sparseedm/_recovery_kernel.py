@@ -19,8 +19,8 @@ from threadpoolctl import threadpool_limits
 
 from ._coding import atoms_key, pattern_order
 from ._parallel import chunk_tasks, dask_client
-from ._recovery_base import (RecoveryResult, combine, place_occluded_inplace, screen,
-                             validate_poses)
+from ._recovery_base import (RecoveryResult, bad_coordinates, combine,
+                             place_occluded_inplace, screen, validate_poses)
 from ._validation import (ALPHA, BOOLEAN, CHUNK_SIZE, ENSEMBLE, N_JOBS, Interval, Options,
                           usable_jobs)
 from .dictionary import Dictionary, check_layout, load_dictionary
@@ -193,7 +193,7 @@ def recover_members(poses, missing, members, adaptations, **kwargs):
 
 def recover_sparse(poses, missing=None, *, dictionary=None, alpha=None,
              representation="average", solver="fast", n_jobs=1, chunk_size=2048,
-             positive=None, progress=False, backend=None, scheduler=None):
+             positive=None, progress=False, backend=None, scheduler=None, check_input=True):
     """One dictionary's sparse recovery of a batch of poses.
 
     The kernel of :func:`sparseedm.recover`, its arguments already validated.
@@ -231,6 +231,10 @@ def recover_sparse(poses, missing=None, *, dictionary=None, alpha=None,
     scheduler : str, optional
         With ``backend="dask"``: the scheduler's address; None: the client
         already created in this process.
+    check_input : bool, default True
+        Validate `poses` and `missing` (:func:`validate_poses`). False: the
+        caller did (poses a float array (n, N, 2), `missing` a bool array
+        (n, N)), as scikit-learn's ``check_input=False``.
 
     Returns
     -------
@@ -246,7 +250,10 @@ def recover_sparse(poses, missing=None, *, dictionary=None, alpha=None,
     positive = dictionary.positive_code if positive is None else bool(positive)
     solver = get_solver(solver)
     N = dictionary.n_joints
-    poses, mask, bad_coord = validate_poses(poses, missing, N)
+    if check_input:
+        poses, mask, bad_coord = validate_poses(poses, missing, N)
+    else:
+        poses, mask, bad_coord = poses, missing, bad_coordinates(poses, missing)
     n = len(poses)
     m = dictionary.n_features
     components = dictionary.components

@@ -558,7 +558,7 @@ def guard_masks(n_poses, n_joints, n_patterns=None, random_state=0):
 
 
 def masked_error(dictionary, poses, *, random_state=0, alpha=None, n_jobs=1, n_patterns=None,
-                 solver="fast", backend=None, scheduler=None):
+                 solver="fast", backend=None, scheduler=None, check_input=True):
     """Mean Mix Err_ave (%) of recovering `poses` with seeded masks.
 
     The masks are :func:`guard_masks`: by default the evaluation protocol's
@@ -587,6 +587,9 @@ def masked_error(dictionary, poses, *, random_state=0, alpha=None, n_jobs=1, n_p
     backend, scheduler : optional
         As :func:`sparseedm.recover`'s: ``backend="dask"`` recovers the
         poses' chunks on the cluster (the same numbers).
+    check_input : bool, default True
+        Validate `poses`; False: the caller did (the guard's held-back poses,
+        a float array (n, N, 2)).
 
     Returns
     -------
@@ -607,7 +610,7 @@ def masked_error(dictionary, poses, *, random_state=0, alpha=None, n_jobs=1, n_p
         warnings.simplefilter("ignore")
         res = recover_members(np.where(mask[..., None], np.nan, poses), mask, [dictionary], [],
                               alpha=alpha, n_jobs=n_jobs, solver=solver, backend=backend,
-                              scheduler=scheduler)
+                              scheduler=scheduler, check_input=check_input)
     e = err_ave(res.vectors * res.scale[:, None], pose_to_vector(poses))
     e = e[res.ok & np.isfinite(e)]
     return float(e.mean()) if len(e) else float("nan")
@@ -747,9 +750,13 @@ class AdaptationResult:
         return "adaptation: " + "; ".join(parts)
 
 
-def _complete_input(poses, missing):
+def _complete_input(poses, missing, check_input=True):
     """The complete rows of user poses (NaN, `missing` or a masked array's mask mark
-    occlusions); refused as recover() refuses them (strings, complex, objects...)."""
+    occlusions); refused as recover() refuses them (strings, complex, objects...);
+    `check_input` False: validated by the caller (recover()'s poses and mask)."""
+    if not check_input:
+        ok = np.isfinite(poses).all(axis=(-1, -2))
+        return poses[ok if missing is None else ok & ~missing.any(axis=1)], len(poses)
     poses, missing = unmask(poses, missing, "adapt")
     poses = check_poses(poses, "adapt")
     if poses.ndim == 2:
@@ -772,7 +779,7 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
                    max_poses=DEFAULT_MAX_POSES,
                    validation_fraction=DEFAULT_VALIDATION_FRACTION, guard=True,
                    filter=True, random_state=0, n_jobs=1, extra=None, reuse=None,
-                   max_train=None, backend=None, scheduler=None):
+                   max_train=None, backend=None, scheduler=None, check_input=True):
     """Adapt `dictionary` on the complete rows of `poses`, guarded; see the module docstring.
 
     Parameters
@@ -820,6 +827,9 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
     backend, scheduler : optional
         As :func:`sparseedm.recover`'s: ``backend="dask"`` runs the guard's
         recoveries on the cluster; the learning stays in this process.
+    check_input : bool, default True
+        Validate `poses` and `missing`; False: the caller did (a float array
+        (n, N, 2) and a bool array (n, N) or None).
 
     Returns
     -------
@@ -839,7 +849,8 @@ def run_adaptation(dictionary, poses, missing=None, *, passes=DEFAULT_PASSES, al
             if reuse is not None  # the same poses, filtered and bounded once
             else _filtered_pool(dictionary, poses, missing, filter=filter,
                                 min_poses=min_poses, max_poses=max_poses,
-                                random_state=random_state, steps=steps))
+                                random_state=random_state, steps=steps,
+                                check_input=check_input))
 
     def done(reason, **kw):
         return AdaptationResult(dictionary=kw.pop("use", dictionary), reason=reason,
@@ -900,13 +911,13 @@ class _Pool:
 
 
 def _filtered_pool(dictionary, poses, missing, *, filter, min_poses, max_poses, random_state,
-                   steps):
+                   steps, check_input=True):
     """Step 1-2 of :func:`run_adaptation`: the complete rows bounded to a seeded
     sample of `max_poses` and filtered (its time recorded in ``steps["filter"]``;
     no poses when fewer than `min_poses` are left). The bound comes first: the
     filters code every pose they check with the lasso, and a sample's outliers
     are as far out as the file's (15,000 complete poses: 4.9 s -> 1.6 s)."""
-    complete, n_given = _complete_input(poses, missing)
+    complete, n_given = _complete_input(poses, missing, check_input)
     if complete.shape[1] != dictionary.n_joints:
         raise PoseError(f"adaptation poses have {complete.shape[1]} joints but the "
                         f"dictionary is for {dictionary.n_joints}")
@@ -970,7 +981,8 @@ def _guard_kw(held, random_state, n_jobs, dist=None):
     compiled kernel at any size (the learning has compiled numba already);
     `dist` the recovery's ``backend`` and ``scheduler``, if any."""
     return dict(random_state=random_state, n_jobs=n_jobs, solver=compiled_solver(),
-                n_patterns=max(1, len(held) // GUARD_POSES_PER_PATTERN), **(dist or {}))
+                n_patterns=max(1, len(held) // GUARD_POSES_PER_PATTERN), check_input=False,
+                **(dist or {}))
 
 
 def _guard_error(dictionary, held, random_state, n_jobs, dist=None):
@@ -1186,7 +1198,7 @@ def self_train(dictionary, result, adapt_poses, adapt_missing, poses, missing, *
 
 def resolve_adaptation(dictionary, poses, missing, adapt, *, n_jobs=1, random_state=0,
                        warn=True, self_training=None, min_poses=MIN_COMPLETE_POSES,
-                       backend=None, scheduler=None):
+                       backend=None, scheduler=None, check_input=True):
     """The dictionary :func:`sparseedm.recover` should use, and what was done.
 
     `adapt` is ``"auto"`` (adapt on the complete rows of `poses`), ``False``
@@ -1203,7 +1215,8 @@ def resolve_adaptation(dictionary, poses, missing, adapt, *, n_jobs=1, random_st
     dictionary : Dictionary, str or path
         The base dictionary (a name or path is loaded).
     poses : ndarray (n, N, 2)
-        The poses to be recovered, in pixels.
+        The poses to be recovered, in pixels, as
+        :func:`~sparseedm._recovery_base.validate_poses` gives them (trusted).
     missing : ndarray of bool (n, N) or None
         True where a joint of `poses` is missing; None: NaN coordinates mark them.
     adapt : "auto", False, None or array_like (n_adapt, N, 2)
@@ -1223,6 +1236,9 @@ def resolve_adaptation(dictionary, poses, missing, adapt, *, n_jobs=1, random_st
     backend, scheduler : optional
         As :func:`sparseedm.recover`'s: ``backend="dask"`` runs the guard's and
         the self-training rounds' recoveries on the cluster.
+    check_input : bool, default True
+        Validate an `adapt` array; False: it was made from validated poses
+        (the temporal path's offered poses). `poses` are never checked again.
 
     Returns
     -------
@@ -1251,8 +1267,9 @@ def resolve_adaptation(dictionary, poses, missing, adapt, *, n_jobs=1, random_st
         source = (adapt, None)
         explicit = True
     dist = dict(backend=backend, scheduler=scheduler)
+    # the poses to be recovered come validated (recover()); separate ones are checked here
     res = run_adaptation(dictionary, *source, n_jobs=n_jobs, random_state=random_state,
-                         min_poses=min_poses, **dist)
+                         min_poses=min_poses, check_input=explicit and check_input, **dist)
     if warn and explicit and not res.adapted and res.candidate is None:
         warnings.warn(f"no adaptation: {res.reason}", UserWarning, stacklevel=3)
     rounds = SELF_TRAINING_ROUNDS if self_training is None else self_training

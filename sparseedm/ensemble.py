@@ -37,7 +37,8 @@ __all__ = ["adapt_members", "combine"]
 
 def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
                   self_training=None, warn=True, min_poses=MIN_COMPLETE_POSES,
-                  file_atoms=False, preset="default", backend=None, scheduler=None):
+                  file_atoms=False, preset="default", backend=None, scheduler=None,
+                  check_input=True):
     """Dictionaries adapted with seeds 0 .. n_members - 1, and what each did.
 
     Parameters
@@ -48,7 +49,7 @@ def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
     adapt : "auto" or array_like
     n_members : int
         At least 1.
-    n_jobs, self_training, warn, min_poses
+    n_jobs, self_training, warn, min_poses, check_input
         As :func:`sparseedm.adaptation.resolve_adaptation` (`min_poses`: as
         :func:`~sparseedm.adaptation.run_adaptation`).
     file_atoms : bool, default False
@@ -89,6 +90,7 @@ def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
                                     n_jobs=None if n_jobs == 1 else n_jobs,
                                     random_state=0, warn=warn, self_training=self_training,
                                     min_poses=min_poses, backend=backend,
+                                    check_input=check_input,
                                     scheduler=scheduler)
         if res is None:  # adaptation off
             return [d], []
@@ -116,6 +118,7 @@ def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
                                             random_state=seed, warn=False,
                                             self_training=self_training,
                                             min_poses=min_poses, backend=backend,
+                                            check_input=check_input,
                                             scheduler=scheduler)
                 for seed in range(1, int(n_members)))
     for seed, (d, res) in enumerate(rest, start=1):

@@ -305,12 +305,14 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
                 solver=solver, n_jobs=n_jobs, chunk_size=chunk_size, positive=positive,
                 progress=progress, backend=backend, scheduler=scheduler, adapt=adapt,
                 self_training=self_training, ensemble=ensemble)
-    if confidence is None or not outliers:
+    check_outliers = confidence is not None and outliers
+    if method == "sparse" or check_outliers:  # validated once here; the paths below trust them
+        if not isinstance(dictionary, Dictionary):
+            opts["dictionary"] = dictionary = load_dictionary(dictionary)
+        poses, missing, _ = validate_poses(poses, missing, dictionary.n_joints)
+    if not check_outliers:
         return _dispatch(poses, missing, tracks, frames if temporal else None, method, model,
                          preset, opts)
-    if not isinstance(dictionary, Dictionary):
-        opts["dictionary"] = dictionary = load_dictionary(dictionary)
-    poses, missing, _ = validate_poses(poses, missing, dictionary.n_joints)
     poses, missing, outlier = mark_outliers(
         poses, missing, check_confidence(confidence, missing.shape, "recover"), dictionary,
         tracks=tracks, frames=frames if temporal else None, alpha=alpha,
@@ -337,21 +339,18 @@ def _dispatch(poses, missing, tracks, frames, method, model, preset, opts):
             poses, missing, model=model, representation=opts["representation"],
             chunk_size=opts["chunk_size"], progress=opts["progress"]))
     dictionary, adapt = opts["dictionary"], opts["adapt"]
-    if not isinstance(dictionary, Dictionary):
-        dictionary = load_dictionary(dictionary)
     check_gram_memory(dictionary)
     adaptations, members = [], [dictionary]
     kernel = {k: opts[k] for k in ("alpha", "representation", "solver", "n_jobs",
                                    "chunk_size", "positive", "progress")}
     with one_client(opts["backend"], opts["scheduler"]) as dist:
         if adapt is not False:
-            poses, missing, _ = validate_poses(poses, missing, dictionary.n_joints)
             # one member unless an ensemble was asked for (seed 0 is the default's)
             members, adaptations = adapt_members(
                 dictionary, poses, missing, adapt, opts["ensemble"], n_jobs=opts["n_jobs"],
                 self_training=opts["self_training"], file_atoms=True, preset=preset, **dist)
         res = recover_members(
-            poses, missing, members, adaptations, **kernel,
+            poses, missing, members, adaptations, **kernel, check_input=False,
             **(dist or dict(backend=opts["backend"], scheduler=opts["scheduler"])))
     return _with_uncertainty(res)
 
@@ -367,7 +366,8 @@ def _recover_in_time(poses, missing, tracks, frames, method, kwargs):
     if method != "sparse":
         raise SparseEDMError("temporal recovery uses the sparse method: pass "
                              "method='sparse', or temporal=False")
-    return recover_temporal(poses, missing, tracks=tracks, frames=frames, **kwargs)
+    return recover_temporal(poses, missing, tracks=tracks, frames=frames, check_input=False,
+                            **kwargs)
 
 
 class OcclusionRecoverer:

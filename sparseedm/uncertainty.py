@@ -137,11 +137,13 @@ def _disagreement(missing, vectors, scale, poses):
         return np.sqrt(diff.sum(axis=2) / n_obs), unit
 
 
-def _time_layout(n, tracks, frames):
+def _time_layout(n, tracks, frames, read=None):
     """[(rows in frame order, their frames)] per track; rows whose frame is not
-    a finite number are left out."""
-    values, reason = frame_numbers(frames, n)  # a refused number: NaN (its row is per frame)
-    frames = np.where(reason == "", values, np.nan)
+    a finite number are left out (`read`: the frames as the recovery read them)."""
+    if read is None:
+        values, reason = frame_numbers(frames, n)  # refused: NaN (its row is per frame)
+        read = np.where(reason == "", values, np.nan)
+    frames = read
     tracks = np.zeros(n, int) if tracks is None else np.asarray(tracks)
     try:
         _, tracks = np.unique(tracks, return_inverse=True)
@@ -260,7 +262,7 @@ def _time_features(result, way, filled, safe, tracks, frames, size, noise):
         return dict(log_frames=log_frames, one_sided=one_sided, never=never,
                     prior_weight=prior)
     observed = ~result.missing & np.isfinite(result.poses).all(axis=-1)
-    for rows, fr in _time_layout(n, tracks, frames):
+    for rows, fr in _time_layout(n, tracks, frames, getattr(result, "frames", None)):
         here = temporal[rows]
         if not here.any():
             continue

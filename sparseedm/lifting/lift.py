@@ -30,7 +30,7 @@ from ..edm import vector_to_edm
 from .._recovery_base import STATUSES as RECOVERY_STATUSES
 from .._recovery_base import (SCREENING_REFUSALS, poses_per_second, screen_poses, take_rows,
                               status_counts, validate_poses)
-from .._validation import N_JOBS, Options, validate_params
+from .._validation import N_JOBS, Options, check_frames, validate_params
 from ..normalize import REPRESENTATIONS, normalize, represent, representation_for
 from .adaptation import adapt_lifter
 from .base import Lifter, load_lifter, rms
@@ -211,6 +211,7 @@ def lift(poses, missing=None, *, tracks=None, frames=None, lifter=None, n_jobs=1
     poses, mask, bad = validate_poses(poses, missing, N, caller="lift", model="lifter")
     filled, layout, radius = np.zeros(mask.shape, bool), None, np.where(mask, np.nan, 0.0)
     if frames is not None:
+        check_frames(frames, "lift")
         poses, filled, layout, radius = fill_in_time(poses, mask, tracks, frames,
                                                      dictionary=dictionary, n_jobs=n_jobs,
                                                      adapt=fill_adapt)

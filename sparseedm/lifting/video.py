@@ -71,7 +71,10 @@ def fill_in_time(poses, mask, tracks, frames, *, dictionary=None, n_jobs=1, adap
         Validated poses (coordinates at masked joints are ignored).
     mask : ndarray of bool (n, N)
         Missing joints.
-    tracks, frames, dictionary, n_jobs, adapt
+    tracks, frames
+        As :func:`sparseedm.recover`'s, `frames` checked
+        (:func:`~sparseedm._validation.check_frames`) by the caller.
+    dictionary, n_jobs, adapt
         As :func:`sparseedm.recover` with frames (`adapt` of the 2D dictionary).
 
     Returns
@@ -88,13 +91,13 @@ def fill_in_time(poses, mask, tracks, frames, *, dictionary=None, n_jobs=1, adap
     rec_input = np.where(mask[..., None], np.nan, poses)
     rec = recover_temporal(rec_input, mask, tracks=tracks,
                            frames=frames, dictionary=dictionary, n_jobs=n_jobs,
-                           adapt=adapt, progress=False)
+                           adapt=adapt, progress=False, check_input=False)
     filled = ((rec.source == "temporal") & mask & np.isfinite(rec.poses).all(axis=-1)
               & (rec.prior_weight <= TIME_FILL_MAX_WEIGHT))
     poses = np.where(filled[..., None], rec.poses, poses)
     linked = rec.linked_tracks
     layout = time_layout(rec_input, mask, tracks=tracks if linked is None else linked,
-                         frames=frames)
+                         frames=frames, check_input=False)
     layout.linked = linked
     radius = joint_uncertainty(rec, tracks if linked is None else linked, frames)
     radius = np.where(mask & ~filled, np.nan, np.where(mask, radius, 0.0))

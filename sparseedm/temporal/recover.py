@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._recovery_base import RecoveryResult, screen_poses, validate_poses
+from .._recovery_base import RecoveryResult, bad_coordinates, screen_poses, validate_poses
 from .._recovery_kernel import compiled_solver, recover_members
 from .._validation import check_frames
 from ..dictionary import Dictionary, load_dictionary
@@ -146,6 +146,9 @@ class TemporalResult(RecoveryResult):
         Why a row was answered frame by frame instead of across time (a bad
         frame number, the only frame of its stretch, a jump); ``""`` for the
         rows of a segment.
+    frames : ndarray of float (n,)
+        Each row's frame number as read (NaN where refused), once: what the
+        uncertainty's time features use.
     """
 
     source: np.ndarray = field(default=None)
@@ -157,6 +160,7 @@ class TemporalResult(RecoveryResult):
     segments: int = 0
     linked_tracks: np.ndarray = field(default=None)
     alone_reason: np.ndarray = field(default=None)
+    frames: np.ndarray = field(default=None)
 
     def summary(self) -> dict:
         """:meth:`RecoveryResult.summary` plus the temporal model's counts.
@@ -272,13 +276,15 @@ def _adapt(dictionary, poses, mask, layout, usable, adapt, ensemble, settings, k
     if auto:
         offered = _offered(layout, poses, mask, usable, settings)
         return adapt_members(dictionary, *ordered, offered, ensemble, warn=False,
-                             min_poses=CLIP_MIN_POSES, **kw)
+                             min_poses=CLIP_MIN_POSES, check_input=False, **kw)
     return adapt_members(dictionary, *ordered, adapt, ensemble, **kw)
 
 
-def _screened(poses, missing, n_joints):
-    """Validated poses, mask, screening and the rows time can use."""
-    poses, mask, bad_coord = validate_poses(poses, missing, n_joints)
+def _screened(poses, missing, n_joints, check_input=True):
+    """Validated poses, mask, screening and the rows time can use (`check_input`
+    False: `poses` and the mask `missing` were validated by the caller)."""
+    poses, mask, bad_coord = (validate_poses(poses, missing, n_joints) if check_input
+                              else (poses, missing, bad_coordinates(poses, missing)))
     refusal, why, _, _ = screen_poses(poses, mask, bad_coord)
     # rows whose observed coordinates cannot be used are absent from time too
     usable = ~np.isin(refusal, ("invalid_coordinates", "out_of_range"))
@@ -323,11 +329,11 @@ def linked_tracks(poses, missing, tracks, frames, n_joints=SKELETON_14.num_joint
     return _linked(poses, mask, usable, tracks, frames)
 
 
-def _in_time(poses, missing, tracks, frames, n_joints):
+def _in_time(poses, missing, tracks, frames, n_joints, check_input=True):
     """Validated poses, mask, screening, usable rows and the track layout (tracks
     linked by :func:`~sparseedm.temporal.linking.link_tracks` when none are
     given and a frame holds several poses)."""
-    poses, mask, refusal, why, usable = _screened(poses, missing, n_joints)
+    poses, mask, refusal, why, usable = _screened(poses, missing, n_joints, check_input)
     linked = _linked(poses, mask, usable, tracks, frames)
     layout = split_at_jumps(split_tracks(len(poses), tracks if linked is None else linked,
                                          frames),
@@ -337,7 +343,7 @@ def _in_time(poses, missing, tracks, frames, n_joints):
 
 
 def time_layout(poses, missing=None, *, tracks=None, frames,
-                n_joints=SKELETON_14.num_joints):
+                n_joints=SKELETON_14.num_joints, check_input=True):
     """The segments :func:`recover_temporal` fills the poses in: each track's
     rows in frame order (:func:`~sparseedm.temporal.tracks.split_tracks`; the
     tracks linked when none are given and a frame holds several poses), cut
@@ -356,13 +362,15 @@ def time_layout(poses, missing=None, *, tracks=None, frames,
         Frame number of each pose.
     n_joints : int, default 14
         Joints per pose.
+    check_input : bool, default True
+        As :func:`recover_temporal`'s.
 
     Returns
     -------
     TrackLayout
         The segments, the rows answered alone and why, and the linked tracks.
     """
-    return _in_time(poses, missing, tracks, frames, n_joints)[-1]
+    return _in_time(poses, missing, tracks, frames, n_joints, check_input)[-1]
 
 
 def offered_poses(poses, missing=None, *, tracks=None, frames, settings=None):
@@ -556,7 +564,7 @@ def _runaway(filled, mask):
 
 def recover_temporal(poses, missing=None, *, tracks=None, frames, dictionary=None,
                      adapt="auto", self_training=None, ensemble=1, settings=None,
-                     **kwargs):
+                     check_input=True, **kwargs):
     """Recover occluded joints across time: one call, every track.
 
     Parameters
@@ -580,6 +588,10 @@ def recover_temporal(poses, missing=None, *, tracks=None, frames, dictionary=Non
         rounds from :data:`SELF_TRAINING_MIN_FRAMES` rows on (:func:`adapts`).
     settings : TemporalSettings, optional
         The temporal model's constants; default the validated ones.
+    check_input : bool, default True
+        Validate `poses`, `missing` and `frames`. False: the caller did
+        (:func:`sparseedm.recover`: poses a float array (n, N, 2), `missing`
+        a bool array (n, N)), as scikit-learn's ``check_input=False``.
     **kwargs
         The per-frame recovery's settings (alpha, representation, solver,
         n_jobs, chunk_size, positive, progress, backend, scheduler).
@@ -591,11 +603,12 @@ def recover_temporal(poses, missing=None, *, tracks=None, frames, dictionary=Non
     """
     t0 = time.perf_counter()
     settings = DEFAULT_SETTINGS if settings is None else settings
-    check_frames(frames, "recover_temporal")
+    if check_input:
+        check_frames(frames, "recover_temporal")
     if not isinstance(dictionary, Dictionary):
         dictionary = load_dictionary(dictionary)
     poses, mask, refusal, why, usable, layout = _in_time(poses, missing, tracks, frames,
-                                                         dictionary.n_joints)
+                                                         dictionary.n_joints, check_input)
     need = _plan(layout, poses, mask, usable, settings)
     planned = _probes(layout, poses, mask, usable, settings)
     members, adaptations = _adapt(dictionary, poses, mask, layout, usable, adapt, ensemble,
@@ -605,6 +618,7 @@ def recover_temporal(poses, missing=None, *, tracks=None, frames, dictionary=Non
     # the compiled kernel at any size: its answers equal the numpy homotopy's to
     # round-off, 2-4x faster a row; a process's first call loads it once
     kwargs["solver"] = compiled_solver(kwargs.get("solver", "fast"))
+    kwargs["check_input"] = False  # rows of the poses validated above
     per = _per_frame(poses, mask, need, members, settings, kwargs)
     track_of = layout.linked if layout.linked is not None else (
         np.zeros(len(poses), int) if tracks is None else np.asarray(tracks))
@@ -614,7 +628,7 @@ def recover_temporal(poses, missing=None, *, tracks=None, frames, dictionary=Non
                                               trusts)
     res = _assemble(poses, mask, refusal, why, layout, per, filled, weight, residual,
                     len(members))
-    res.probe_poses = probe_poses
+    res.probe_poses, res.frames = probe_poses, layout.frames
     res.prior_trust = np.full(len(poses), np.nan)
     for rows, trust in zip(layout.segments, trusts):
         res.prior_trust[rows] = trust

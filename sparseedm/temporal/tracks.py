@@ -55,6 +55,9 @@ class TrackLayout:
     linked : ndarray of int (n,) or None
         The track ids :func:`sparseedm.temporal.linking.link_tracks` gave
         rows that came without any (None when the caller's tracks were used).
+    frames : ndarray of float (n,) or None
+        Each row's frame number as :func:`frame_numbers` read it; NaN where
+        it refused the number (what later steps use instead of reading them again).
     """
 
     segments: list
@@ -63,6 +66,7 @@ class TrackLayout:
     reason: np.ndarray
     order: np.ndarray = None
     linked: np.ndarray = None
+    frames: np.ndarray = None
 
 
 
@@ -129,6 +133,7 @@ def split_tracks(n, tracks, frames):
     ([[2, 0], [1, 3]], 'frame number 2.5 is not an integer')
     """
     values, reason = frame_numbers(frames, n)
+    read = np.where(reason == "", values, np.nan)
     ids = _track_ids(tracks, n)
     good = np.flatnonzero(reason == "")
     order = good[np.lexsort((values[good], ids[good]))]
@@ -149,7 +154,7 @@ def split_tracks(n, tracks, frames):
             offsets.append(values[rows] - values[rows[0]])
     bad = reason != ""
     canonical = np.lexsort((values, bad & (reason != _DUPLICATE), ids))  # stable: then by row
-    return TrackLayout(segments, offsets, bad, reason.astype(str), canonical)
+    return TrackLayout(segments, offsets, bad, reason.astype(str), canonical, frames=read)
 
 
 def distance_to_observed(free):

@@ -1,0 +1,96 @@
+"""The user's poses, masks and frames are validated once, at the public entrance.
+
+Every module's reference to a checker is wrapped with a counter; a recovery or
+a lift that checks its input again further in (a second ``validate_poses``, the
+kernel's own checks, the frames read twice) fails here.
+"""
+
+import collections
+import sys
+
+import numpy as np
+import pytest
+
+import sparseedm
+from sparseedm import _recovery_base, _validation
+from sparseedm.exceptions import SparseEDMError
+from sparseedm.temporal import tracks as temporal_tracks
+
+WRIST = 4
+CHECKERS = [(_validation, "unmask"), (_validation, "check_poses"), (_validation, "check_mask"),
+            (_validation, "check_frames"), (_recovery_base, "validate_poses"),
+            (temporal_tracks, "frame_numbers")]
+
+
+@pytest.fixture
+def counted(monkeypatch):
+    """Counts of each checker's calls, from wherever they are imported."""
+    counts = collections.Counter()
+
+    def counting(name, f):
+        def wrapper(*args, **kwargs):
+            counts[name] += 1
+            return f(*args, **kwargs)
+        return wrapper
+
+    for home, name in CHECKERS:
+        original = getattr(home, name)
+        wrapped = counting(name, original)
+        for module in list(sys.modules.values()):
+            if (getattr(module, "__name__", "").startswith("sparseedm")
+                    and getattr(module, name, None) is original):
+                monkeypatch.setattr(module, name, wrapped)
+    return counts
+
+
+def _clip(track):
+    """Two people, 60 frames each, a wrist and a knee hidden for a stretch."""
+    n = 60
+    truth = np.concatenate([track[:n], track[n:2 * n] + 250.0])
+    mask = np.zeros(truth.shape[:2], bool)
+    mask[20:32, WRIST] = True
+    mask[n + 30:n + 45, 10] = True
+    tracks = np.repeat(["p1", "p2"], n)
+    frames = np.concatenate([np.arange(n), np.arange(n)])
+    return np.where(mask[..., None], np.nan, truth), mask, tracks, frames
+
+
+def _once(counts, names):
+    assert {name: counts[name] for name in names} == dict.fromkeys(names, 1), dict(counts)
+
+
+def test_recover_on_a_video_validates_once(track, small_dictionary, counted):
+    poses, mask, tracks, frames = _clip(track)
+    res = sparseedm.recover(poses, mask, tracks=tracks, frames=frames,
+                            dictionary=small_dictionary)
+    assert res.segments > 0  # the temporal path ran
+    _once(counted, ["validate_poses", "unmask", "check_poses", "check_mask", "check_frames",
+                    "frame_numbers"])
+
+
+@pytest.mark.parametrize("adapt", ["auto", False])
+def test_recover_per_pose_validates_once(track, small_dictionary, counted, adapt):
+    poses, mask, _, _ = _clip(track)
+    sparseedm.recover(poses, mask, dictionary=small_dictionary, adapt=adapt)
+    _once(counted, ["validate_poses", "unmask", "check_poses", "check_mask"])
+    assert counted["check_frames"] == counted["frame_numbers"] == 0
+
+
+def test_lift_validates_once(track, small_dictionary, counted):
+    poses, mask, tracks, frames = _clip(track)
+    sparseedm.lift(poses, mask)
+    _once(counted, ["validate_poses", "unmask", "check_poses", "check_mask"])
+    counted.clear()
+    sparseedm.lift(poses, mask, tracks=tracks, frames=frames, dictionary=small_dictionary)
+    _once(counted, ["validate_poses", "unmask", "check_poses", "check_mask", "check_frames"])
+
+
+def test_inner_calls_trust_what_the_entrance_refuses(small_dictionary):
+    """The checks still run once: a bad mask or bad frames are refused."""
+    poses = np.zeros((3, 14, 2)) + np.arange(14)[None, :, None]
+    with pytest.raises(SparseEDMError, match="missing"):
+        sparseedm.recover(poses, np.zeros((3, 13), bool), dictionary=small_dictionary)
+    with pytest.raises(SparseEDMError, match="frames"):
+        sparseedm.recover(poses, frames=[True, False, True], dictionary=small_dictionary)
+    with pytest.raises(SparseEDMError, match="frames"):
+        sparseedm.lift(poses, frames=[True, False, True])
