@@ -133,7 +133,9 @@ Without COCO ``meta`` a results-style list is written: one annotation per
 pose with ``image_id`` (the id, as int when it is one), ``category_id`` 1,
 the limb keypoints (``v = 2`` when present, the filled score when filled,
 ``[0, 0, 0]`` when missing), head keypoints ``[0, 0, 0]``, the ``"sparseedm"``
-field, and ``track_id`` when the poses have tracks.
+field, and ``track_id`` when the poses have tracks; with frames (tracks or
+not) a PoseTrack document ``{"images": [{"id", "frame_id"}], "annotations"}``,
+whose frames read back (without ``track_id``: frames only).
 
 Filled flags
 ------------
@@ -165,7 +167,8 @@ are matched to the table's by them.
 
 PoseTrack, OpenPose, MMPose, DeepLabCut
 ---------------------------------------
-COCO annotations with ``track_id`` fill ``tracks`` and ``frames``
+COCO annotations with ``track_id`` fill ``tracks`` and ``frames``, those
+without it ``frames`` when every image has a ``frame_id``
 (:mod:`sparseedm.formats.posetrack`); the detector formats are read and
 written by :mod:`sparseedm.formats`, which :func:`read_keypoints` and
 :func:`write_keypoints` dispatch to.
@@ -1489,7 +1492,7 @@ def _write_coco(path, poses, mask, ids, meta, where, filled, filled_score, track
             if tracks is not None:  # PoseTrack's person over time
                 anns[-1]["track_id"] = track_value(np.asarray(tracks)[r])
         doc = anns
-        if tracks is not None and frames is not None:  # PoseTrack: frames of the images
+        if frames is not None:  # PoseTrack: frames of the images (with tracks or not)
             doc = {"images": _posetrack_images(anns, frames, where), "annotations": anns}
         coco_missing = np.ones((n, 17), dtype=bool)
     for r, ann in enumerate(anns):

@@ -132,24 +132,45 @@ def test_mmpose_round_trip(tmp_path_factory, case, folder):
 
 
 # COCO / PoseTrack keypoints JSON: annotations with ``image_id`` from the ids,
-# ``track_id`` from the tracks and, with tracks, PoseTrack's ``images`` holding
-# each image's ``frame_id`` (any whole number up to 2**53; without tracks a COCO
-# file has no frames). Scores are COCO's ``v``: a fresh file's observed keypoints
-# are v = 2, so scores are not compared.
+# ``track_id`` from the tracks and, with frames (tracks or not), PoseTrack's
+# ``images`` holding each image's ``frame_id`` (any whole number up to 2**53;
+# an image given two frames is refused). Scores are COCO's ``v``: a fresh file's
+# observed keypoints are v = 2, so scores are not compared.
 @SETTINGS
 @given(case=cases(track=st.integers(-2**53, 2**53) | st.text(min_size=1)),
-       ids=st.booleans(), tracks=st.booleans())
-def test_coco_round_trip(tmp_path_factory, case, ids, tracks):
+       ids=st.booleans(), tracks=st.booleans(), frames=st.booleans())
+def test_coco_round_trip(tmp_path_factory, case, ids, tracks, frames):
     n = len(case["poses"])
     if not tracks:
-        case.pop("frames"), case.pop("tracks")
+        case.pop("tracks")
+    if not frames:
+        case.pop("frames")
     extra = {"ids": [f"img{r}" for r in range(n)]} if ids else {}
     path = _write(tmp_path_factory.mktemp("coco") / "out.json", case, "coco", **extra)
     if path is not None:
         kps = read_keypoints(path, format="coco", confidence_threshold=0)
-        _assert_read_back(kps, case, np.arange(n), scores=False, frames=tracks)
+        _assert_read_back(kps, case, np.arange(n), scores=False, frames=frames)
+        if not frames and not tracks:  # (tracked, a COCO file's frames are its image ids)
+            assert kps.frames is None
         if ids:
             assert kps.ids.tolist() == extra["ids"]
+
+
+def test_coco_frames_without_tracks_read_back_as_frames(tmp_path):
+    poses = np.arange(3 * N * 2, dtype=float).reshape(3, N, 2)
+    path = write_keypoints(tmp_path / "f.json", poses, format="coco", frames=[7, 8, 9])
+    doc = json.loads(path.read_text())
+    assert [img["frame_id"] for img in doc["images"]] == [7, 8, 9]
+    assert not any("track_id" in ann for ann in doc["annotations"])
+    kps = read_keypoints(path)
+    assert kps.tracks is None and kps.frames.tolist() == [7, 8, 9]
+
+
+def test_plain_coco_image_ids_are_no_frames(tmp_path):
+    """Without ``frame_id`` images, integer image ids stay ids, not frames."""
+    path = write_keypoints(tmp_path / "p.json", np.ones((2, N, 2)), format="coco",
+                           ids=["3", "4"])
+    assert read_keypoints(path).frames is None
 
 
 def _sidecar(path, case, keyed=False):

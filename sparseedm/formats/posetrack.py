@@ -9,7 +9,9 @@ document is written back whole, ``track_id`` included); this module adds:
 * ``tracks``: each annotation's ``track_id``;
 * ``frames``: the ``frame_id`` of its image when the document lists
   ``images``, else its ``image_id`` when that is an integer, else the
-  annotation's position;
+  annotation's position; without any ``track_id``, the ``frame_id`` of each
+  annotation's image when every one has one (frames not yet tracked, as the
+  writer gives poses with frames and no tracks), else none;
 * PoseTrack's own keypoint order, used when the document's category names
   its keypoints with ``head_bottom`` and ``head_top`` (PoseTrack's 17:
   nose, head_bottom, head_top, ears, then COCO's limbs): ``head_top`` is then
@@ -55,8 +57,9 @@ def uses_posetrack_order(doc):
 
 
 def tracks_and_frames(doc, anns, path):
-    """``(tracks, frames)`` of a COCO document's annotations, or ``(None, None)``
-    when no annotation has a ``track_id``.
+    """``(tracks, frames)`` of a COCO document's annotations: ``(None, frames)``
+    when no annotation has a ``track_id`` but every one's image has a
+    ``frame_id`` (frames not yet tracked), ``(None, None)`` when neither.
 
     Examples
     --------
@@ -64,10 +67,13 @@ def tracks_and_frames(doc, anns, path):
     ...        "annotations": [{"image_id": 10, "track_id": 1, "keypoints": []}]}
     >>> tracks_and_frames(doc, doc["annotations"], "x.json")
     (array([1]), array([3]))
+    >>> del doc["annotations"][0]["track_id"]
+    >>> tracks_and_frames(doc, doc["annotations"], "x.json")
+    (None, array([3]))
     """
     have = [isinstance(a, dict) and "track_id" in a for a in anns]
     if not any(have):
-        return None, None
+        return None, _untracked_frames(doc, anns, path)
     if not all(have):
         a = have.index(False)
         raise FileFormatError(f"{path}: annotation {a} has no 'track_id' while others do")
@@ -78,13 +84,7 @@ def tracks_and_frames(doc, anns, path):
             raise FileFormatError(f"{path}: annotation {a}: 'track_id' must be an integer "
                                   "or a string")
         tracks.append(t)
-    frame_of, video_of = {}, {}
-    if isinstance(doc, dict) and isinstance(doc.get("images"), list):
-        for img in doc["images"]:
-            if isinstance(img, dict) and isinstance(img.get("frame_id"), int):
-                frame_of[img.get("id")] = img["frame_id"]
-            if isinstance(img, dict) and "vid_id" in img:
-                video_of[_key(img.get("id"))] = img["vid_id"]
+    frame_of, video_of = _images(doc)
     _one_video(anns, video_of, path)
     frames = []
     for a, ann in enumerate(anns):
@@ -98,6 +98,33 @@ def tracks_and_frames(doc, anns, path):
     kinds = {type(t) for t in tracks}
     tracks = np.asarray(tracks if len(kinds) == 1 else [str(t) for t in tracks])
     return tracks, frame_array(frames)  # huge numbers: refused per row
+
+
+def _images(doc):
+    """``{image id: frame_id}`` and ``{image key: vid_id}`` of a document's ``images``."""
+    frame_of, video_of = {}, {}
+    if isinstance(doc, dict) and isinstance(doc.get("images"), list):
+        for img in doc["images"]:
+            if isinstance(img, dict) and isinstance(img.get("frame_id"), int):
+                frame_of[img.get("id")] = img["frame_id"]
+            if isinstance(img, dict) and "vid_id" in img:
+                video_of[_key(img.get("id"))] = img["vid_id"]
+    return frame_of, video_of
+
+
+def _untracked_frames(doc, anns, path):
+    """The frames of annotations without ``track_id`` when every one's image has a
+    ``frame_id`` (what the writer gives frames without tracks); else None (a
+    plain COCO file: its ``image_id`` values are no frame numbers)."""
+    frame_of, video_of = _images(doc)
+    if not anns or not frame_of:
+        return None
+    images = [a.get("image_id") if isinstance(a, dict) else None for a in anns]
+    if not all(isinstance(i, (int, str)) and not isinstance(i, bool) and i in frame_of
+               for i in images):
+        return None
+    _one_video(anns, video_of, path)
+    return frame_array([frame_of[i] for i in images])
 
 
 def _key(value):
