@@ -190,3 +190,53 @@ def test_lift_trc_refuses_rows_it_cannot_place_in_time(fixtures_dir, tmp_path, c
     assert words in err and "a .trc places each row at its frame's time" in err
     assert not out.exists()
     assert main(["lift", str(src), "-o", str(tmp_path / "p.csv"), "--no-temporal", "-q"]) == 0
+
+
+def test_every_lift_output_with_room_carries_the_3d_radius(fixtures_dir, tmp_path, capsys):
+    """`sparseedm lift` to .csv, .json and .npz: the same 3D 90 % radius per
+    joint in each (a CSV column per joint, a JSON object per pose), read back
+    equal to the .npz's; NaN (a refused pose) as an empty cell / null."""
+    import csv
+    import json
+
+    src = str(fixtures_dir.parents[1] / "examples" / "occluded_poses.csv")
+    outs = {ext: tmp_path / f"p.{ext}" for ext in ("npz", "csv", "json")}
+    for out in outs.values():
+        assert main(["lift", src, "-o", str(out), "-q"]) == 0
+    with np.load(outs["npz"], allow_pickle=False) as data:
+        radius = data["uncertainty3d"]
+    assert radius.shape == (50, len(JOINT_NAMES)) and (radius[np.isfinite(radius)] > 0).all()
+    with open(outs["csv"], newline="") as f:
+        rows = list(csv.DictReader(f))
+    from_csv = np.array([[float(r[f"{j}_uncertainty3d"] or "nan") for j in JOINT_NAMES]
+                         for r in rows])
+    from_json = np.array([[np.nan if row["uncertainty3d"][j] is None
+                           else row["uncertainty3d"][j] for j in JOINT_NAMES]
+                          for row in json.loads(outs["json"].read_text())])
+    np.testing.assert_array_equal(from_csv, radius)
+    np.testing.assert_array_equal(from_json, radius)
+
+
+def test_write_poses3d_refused_pose_radius_is_empty_and_null(tmp_path):
+    import csv
+    import json
+
+    from sparseedm.lifting.io import write_poses3d
+    from sparseedm.lifting.lift import LiftResult
+
+    n, N = 2, len(JOINT_NAMES)
+    poses = np.random.default_rng(0).normal(size=(n, N, 3))
+    poses[1] = np.nan
+    radius = np.full((n, N), 0.12)
+    radius[1] = np.nan
+    res = LiftResult(poses3d=poses, vectors3d=np.zeros((n, 91)), scale_metric=np.ones(n),
+                     missing=np.zeros((n, N), bool), status=np.array(["lifted", "refused"]),
+                     reason=np.array(["", "x"]), chirality_margin=np.zeros(n),
+                     seconds=0.0, uncertainty3d=radius)
+    write_poses3d(tmp_path / "r.csv", res)
+    write_poses3d(tmp_path / "r.json", res)
+    with open(tmp_path / "r.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert rows[0]["neck_uncertainty3d"] == "0.12" and rows[1]["neck_uncertainty3d"] == ""
+    doc = json.loads((tmp_path / "r.json").read_text())
+    assert doc[0]["uncertainty3d"]["neck"] == 0.12 and doc[1]["uncertainty3d"]["neck"] is None

@@ -8,18 +8,20 @@ Input: any keypoint file :func:`sparseedm.keypoints.read_keypoints` reads
            them), ``<joint>_x, <joint>_y, <joint>_z`` for the 14
            joints (metres, pelvis at the origin, camera axes: x right, y down,
            z away from the camera; empty for refused rows), then ``status``,
-           ``reason``, ``chirality_margin``;
+           ``reason``, ``chirality_margin`` and, when the result has them,
+           ``<joint>_uncertainty3d`` (the 3D 90 % radius, metres; empty when NaN);
 ``.npz``   ``poses3d`` (n, 14, 3), ``vectors3d`` (n, 91) in the lifter's
            normalisation, ``scale_metric`` (n,), ``missing`` (n, 14),
            ``status``, ``reason``, ``chirality_margin``, ``joint_names`` and
            ``ids`` (``tracks``, ``frames`` when the input had them), and
            ``uncertainty2d`` / ``uncertainty3d`` (n, 14): each lifted joint's
            2D 90 % radius (pixels) and 3D 90 % radius (metres,
-           :attr:`LiftResult.uncertainty3d`: ``lift_file`` derives it for an
-           .npz output only; the other formats have no field for it);
+           :attr:`LiftResult.uncertainty3d`: ``lift_file`` derives it for every
+           output but .trc, which has no field for it);
 ``.json``  a list of ``{"id", "status", "reason", "joints": {name: [x, y, z] or
            null}}`` (with ``"track"`` (text) and ``"frame"`` (a number when it is
-           an integer, else text) when the input had them);
+           an integer, else text) when the input had them, and
+           ``"uncertainty3d": {name: radius or null}`` when the result has it);
 ``.trc``   OpenSim's marker-trajectory format (:mod:`sparseedm.lifting.trc`): one
            frame per pose at ``rate`` frames per second, one marker per joint,
            metres, turned to y up; refused poses as empty fields. With frame
@@ -178,7 +180,8 @@ def write_poses3d(path, result, ids=None, output_format=None, rate=30.0, *, trac
         The output file: .csv, .npz, .json or .trc (see the module's
         description).
     result : LiftResult
-        The lifted poses, their statuses and reasons.
+        The lifted poses, their statuses and reasons; its ``uncertainty3d``,
+        when derived, goes into every format but .trc (no field for it).
     ids : array_like (n,), optional
         Each row's id; default the row numbers.
     output_format : {"csv", "npz", "json", "trc"}, optional
@@ -215,16 +218,19 @@ def write_poses3d(path, result, ids=None, output_format=None, rate=30.0, *, trac
         order, numbers = _trc_order(frames, n, path, rate)
         write_trc(path, P[order], rate=rate, frames=numbers)
     elif fmt == "csv":
+        radius = result.uncertainty3d
         with atomic_path(path) as tmp, open(tmp, "w", newline="", encoding="utf-8") as f:
             w = csv.writer(f)
             w.writerow(["id"] + [k for k, _ in when]
                        + [f"{j}_{a}" for j in JOINT_NAMES for a in "xyz"]
-                       + ["status", "reason", "chirality_margin"])
+                       + ["status", "reason", "chirality_margin"]
+                       + ([] if radius is None else [f"{j}_uncertainty3d" for j in JOINT_NAMES]))
             for r in range(n):
                 w.writerow([ids[r]] + [str(v[r]) for _, v in when]
                            + [_num(v) for v in P[r].ravel()]
                            + [result.status[r], result.reason[r],
-                              _num(result.chirality_margin[r])])
+                              _num(result.chirality_margin[r])]
+                           + ([] if radius is None else [_num(v) for v in radius[r]]))
     else:
         doc = []
         for r in range(n):
@@ -234,6 +240,10 @@ def write_poses3d(path, result, ids=None, output_format=None, rate=30.0, *, trac
                         "reason": str(result.reason[r]),
                         "joints": {j: ([float(v) for v in P[r, i]] if ok else None)
                                    for i, j in enumerate(JOINT_NAMES)}})
+            if result.uncertainty3d is not None:
+                doc[-1]["uncertainty3d"] = {j: (float(v) if np.isfinite(v) else None)
+                                            for j, v in zip(JOINT_NAMES,
+                                                            result.uncertainty3d[r])}
         with atomic_path(path) as tmp, open(tmp, "w", encoding="utf-8") as f:
             json.dump(doc, f)
     return path
@@ -348,7 +358,7 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
                      "time first; --no-temporal lifts each row alone)" if in_time else ""))
     result, tracks = _lift_chunks(kps, in_time, chunk_size, fill, lifter=load_lifter(lifter),
                                   n_jobs=n_jobs, representation=representation,
-                                  uncertainty3d=_output_format(output, output_format) == "npz")
+                                  uncertainty3d=_output_format(output, output_format) != "trc")
     write_poses3d(output, result, kps.ids, output_format, rate=rate, tracks=tracks,
                   frames=kps.frames)
     refused = ~result.ok
