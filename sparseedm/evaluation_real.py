@@ -52,6 +52,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import _progress
 from ._atomic import atomic_path
 from ._validation import Interval, check_mask, check_pose_shape, check_poses, validate_params
 from .baselines import NearestNeighbourBaseline, mean_fill
@@ -376,6 +377,7 @@ def evaluate_photos(poses, pool=None, *, complete=None, n_complete=None, n_occlu
         context = {"dictionary": dictionary, "random_state": int(random_state)}
         errors, seconds[cond] = {}, {}
         for name in methods:
+            _progress.say(f"evaluating {name} on {len(given):,} poses ({cond})")
             start = time.perf_counter()
             filled = _PHOTO_FILLERS[name](given, missing, context)
             seconds[cond][name] = time.perf_counter() - start
@@ -597,10 +599,10 @@ def evaluate_tracks(poses, tracks, frames, *, occluded=None, gap_lengths=GAP_LEN
     fills = _video_fillers(video_methods() if methods is None else tuple(methods), dictionary)
     notes, n_clips, n_frames = [], 0, 0
     errors, labels, seconds = {}, {}, {}
-    for _, rows, masks in clip_cases(poses, tracks, frames, hidden, gap_lengths=gap_lengths,
-                                     transplanted=transplanted, min_frames=min_frames,
-                                     max_clips=max_clips, random_state=random_state,
-                                     notes=notes):
+    for _, rows, masks in _progress.steps(clip_cases(
+            poses, tracks, frames, hidden, gap_lengths=gap_lengths, transplanted=transplanted,
+            min_frames=min_frames, max_clips=max_clips, random_state=random_state,
+            notes=notes), f"evaluating {', '.join(fills)} clip by clip", unit="clip"):
         n_clips, n_frames = n_clips + 1, n_frames + len(rows)
         truth, fr = poses[rows], frames[rows]
         size = np.full(len(rows), np.nanmedian(body_size(truth)))

@@ -15,6 +15,7 @@ import time
 
 import numpy as np
 
+from .. import _progress
 from ..edm import observed_entries
 from ..exceptions import SparseEDMError
 from ..normalize import REPRESENTATIONS
@@ -22,6 +23,20 @@ from .._recovery_base import RecoveryResult, place_occluded_inplace, screen, val
 from .model import load_model
 
 __all__ = ["recover_fconv"]
+
+
+def _predict(model, X, chunk_size, progress):
+    """The network's output for `X`, `chunk_size` rows at a time, a bar over them."""
+    from tqdm.auto import tqdm
+
+    starts = range(0, len(X), chunk_size)
+    if not progress:  # else the bar says it (shown by the command line, off in the API)
+        _progress.say(f"the FConv network on {len(X):,} poses")
+    out = np.empty(X.shape)
+    for s in tqdm(starts, total=len(starts), disable=not progress, unit="chunk",
+                  desc="recover (FConv)"):
+        out[s:s + chunk_size] = model.predict(X[s:s + chunk_size], batch_size=chunk_size)
+    return out
 
 
 def recover_fconv(poses, missing=None, *, model=None, representation=None,
@@ -44,8 +59,8 @@ def recover_fconv(poses, missing=None, *, model=None, representation=None,
     chunk_size : int, default 4096
         Poses per batch through the network.
     progress : bool, default False
-        Accepted for the signature of :func:`sparseedm.recover`; unused here
-        (no progress bar is shown).
+        Show a progress bar over the chunks of poses through the network (on
+        stderr), as the sparse path's over its chunks.
 
     Returns
     -------
@@ -70,7 +85,7 @@ def recover_fconv(poses, missing=None, *, model=None, representation=None,
     status, reason, vectors = screened.status, screened.reason, screened.vectors
     todo = np.flatnonzero(status == "recovered")
     if len(todo):
-        out = model.predict(vectors[todo], batch_size=max(1, int(chunk_size)))
+        out = _predict(model, vectors[todo], max(1, int(chunk_size)), progress)
         keep = observed_entries(mask[todo])
         vectors[todo] = np.where(keep, vectors[todo], out)  # Eq. 10
         reason[todo] = "FConv network (not certified)"

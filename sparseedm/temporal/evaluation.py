@@ -60,6 +60,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import _progress
 from .._atomic import atomic_path
 from ..dictionary import Dictionary, load_dictionary
 from ..exceptions import ParameterError
@@ -538,7 +539,9 @@ def evaluate_video(sequences, methods=DEFAULT_METHODS, protocol="gaps", *,
     seconds = dict.fromkeys(fillers, 0.0)
     hidden = total = filled_frames = 0
     conditions = []
-    for index, seq in enumerate(sequences):
+    told = _progress.steps(sequences, f"evaluating {', '.join(fillers)} on the sequences "
+                           f"(protocol {protocol!r})", unit="sequence")
+    for index, seq in enumerate(told):
         truth, height = seq.poses2d, seq.height
         observed = truth + detector_jitter(seq, noise, random_state) if noise else truth
         for condition, missing in protocol_masks(seq, protocol, gap_lengths=gap_lengths,
