@@ -118,3 +118,36 @@ def test_weights_leave_complete_poses_unchanged_and_move_filled_ones(cmu):
         assert (info["status"] != "failed").all()
         dist.append(np.linalg.norm(Y - dropped, axis=1).mean())
     assert dist[2] < dist[1] < dist[0]
+
+
+def test_weighted_rows_sharing_a_pattern_solve_together_as_each_alone(cmu, monkeypatch):
+    """Rows with the same observed entries and weights are coded in one solve
+    (from WEIGHTED_GROUP_MIN rows on, lowered here): the same 3D vectors and
+    statuses as each row lifted alone (one solve per row)."""
+    from sparseedm.lifting import dictionary as dictionary_lifter
+    from sparseedm.normalize import represent
+
+    lf = load_lifter()
+    n = 30
+    poses = cmu["poses2d"][:n]
+    missing = np.zeros((n, 14), bool)
+    missing[n // 2:, 7] = True  # two observed-entry patterns
+    X2, _, _ = represent(poses, missing, "average")
+    w = np.ones((n, 14))
+    w[:, 3] = np.where(np.arange(n) % 3 == 0, 0.4, 0.7)  # groups of 5 and 10 rows
+    w[27, 10] = 0.2  # a row alone (the second pattern's 0.4 group: 4 rows)
+    solves = []
+    solver = type(dictionary_lifter.get_solver(lf.solver))
+    real_solve = solver.solve
+    monkeypatch.setattr(solver, "solve",
+                        lambda self, D, X, *a, **k: solves.append(len(X)) or
+                        real_solve(self, D, X, *a, **k))
+    monkeypatch.setattr(dictionary_lifter, "WEIGHTED_GROUP_MIN", 10)
+    together, info = lf.predict(X2, missing, weights=w)
+    assert sorted(solves) == [1] * 10 + [10, 10]  # groups under 10 rows: row by row
+    monkeypatch.setattr(solver, "solve", real_solve)
+    for i in range(n):
+        alone, one = lf.predict(X2[i:i + 1], missing[i:i + 1], weights=w[i:i + 1])
+        np.testing.assert_allclose(together[i], alone[0], rtol=1e-9, atol=1e-12)
+        assert info["status"][i] == one["status"][0]
+        assert info["n_active"][i] == one["n_active"][0]

@@ -50,7 +50,13 @@ from ..learning import OnlineDictionaryLearning
 from ..solvers import get_solver
 from .base import Lifter, LifterError
 
-__all__ = ["DictionaryLifter"]
+__all__ = ["DictionaryLifter", "WEIGHTED_GROUP_MIN"]
+
+#: weighted rows sharing one weighted sub-dictionary are solved together from this
+#: many on: the solve then forms its k x k Gram once (about 0.3 s at k = 2000)
+#: and takes about 3 ms a row against 7 ms a row alone (benchmarks/lift_weighted.py:
+#: 60 rows together 0.7x, 200 rows 1.6x, 400 rows 1.85x on 2 loaded cores)
+WEIGHTED_GROUP_MIN = 100
 
 
 class DictionaryLifter(Lifter):
@@ -206,19 +212,26 @@ class DictionaryLifter(Lifter):
 
     def _weighted_rows(self, X2, missing, weights):
         """The lasso of each row on its observed entries scaled by ``sqrt(w_i w_j)``
-        (joint weights `weights`): one solve per row, no cached Gram."""
+        (joint weights `weights`), no cached Gram: one solve per row, except that
+        :data:`WEIGHTED_GROUP_MIN` or more rows sharing their observed entries and
+        weights (one weighted sub-dictionary) are solved together."""
         m = X2.shape[1]
         C = self.components_
         rows, cols = triu_indices(num_joints_from_dim(m))
         keep = observed_entries(missing)
+        sw = np.where(keep, np.sqrt(weights[:, rows] * weights[:, cols]), 0.0)
+        _, group = np.unique(np.hstack([keep, sw]), axis=0, return_inverse=True)
+        group = group.reshape(-1)
         solver = get_solver(self.solver)
+        groups = np.split(np.argsort(group, kind="stable"),
+                          np.flatnonzero(np.diff(np.sort(group))) + 1)
         out = []
-        for i in range(len(X2)):
-            k = keep[i]
-            sw = np.sqrt(weights[i, rows[k]] * weights[i, cols[k]])
-            res = solver.solve(C[:, :m][:, k].T * sw[:, None], (X2[i, k] * sw)[None],
+        for idx in [g for g in groups if len(g) >= WEIGHTED_GROUP_MIN] + [
+                g[i:i + 1] for g in groups if len(g) < WEIGHTED_GROUP_MIN for i in range(len(g))]:
+            k, w = keep[idx[0]], sw[idx[0], keep[idx[0]]]
+            res = solver.solve(C[:, :m][:, k].T * w[:, None], X2[idx][:, k] * w,
                                self.alpha_lift * k.sum() / m)
-            out.append((np.array([i]), res.coef @ C, res.status, res.objective, res.gap,
+            out.append((idx, res.coef @ C, res.status, res.objective, res.gap,
                         (res.coef != 0).sum(axis=1), res.fallback))
         return out
 
