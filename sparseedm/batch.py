@@ -592,7 +592,7 @@ def _adapt(source, dictionary, adapt, chunk_size, threshold, n_jobs, self_traini
         members, results = adapt_in_time(
             dictionary, *source.chunk(0, source.n), tracks=source.tracks,
             frames=source.frames, ensemble=ensemble, n_jobs=n_jobs,
-            self_training=self_training)
+            self_training=self_training, check_input=False)  # as the reader checked them
         # no result when the call's size or gaps ask for no adaptation (adapts())
         return members, results[0] if results else None
     chunks = (source.chunk(s, min(s + chunk_size, source.n))

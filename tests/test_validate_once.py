@@ -94,3 +94,18 @@ def test_inner_calls_trust_what_the_entrance_refuses(small_dictionary):
         sparseedm.recover(poses, frames=[True, False, True], dictionary=small_dictionary)
     with pytest.raises(SparseEDMError, match="frames"):
         sparseedm.lift(poses, frames=[True, False, True])
+
+
+def test_recover_file_on_a_video_validates_each_row_once(track, small_dictionary_path,
+                                                         tmp_path, counted):
+    """The reader checks the file; adapting on the whole file trusts it, and the
+    one chunk's recovery validates its rows once (frame numbers: not yet once)."""
+    from sparseedm.batch import recover_file
+    from sparseedm.keypoints import KeypointSet, write_keypoints
+
+    poses, mask, tracks, frames = _clip(track)
+    src = write_keypoints(tmp_path / "clip.npz",
+                          KeypointSet(poses, mask, tracks=tracks, frames=frames))
+    counted.clear()
+    recover_file(src, tmp_path / "out.npz", dictionary=str(small_dictionary_path))
+    _once(counted, ["validate_poses", "unmask", "check_mask", "check_frames"])

@@ -407,7 +407,7 @@ def offered_poses(poses, missing=None, *, tracks=None, frames, settings=None):
 
 
 def adapt_in_time(dictionary, poses, missing=None, *, tracks=None, frames, ensemble=1,
-                  n_jobs=1, self_training=None, settings=None):
+                  n_jobs=1, self_training=None, settings=None, check_input=True):
     """The dictionaries ``adapt="auto"`` gives poses in time, and what was done.
 
     What :func:`recover_temporal` does first, for callers that adapt once and
@@ -416,8 +416,9 @@ def adapt_in_time(dictionary, poses, missing=None, *, tracks=None, frames, ensem
     Parameters
     ----------
     dictionary : Dictionary
-    poses, missing, tracks, frames, settings
-        As :func:`recover_temporal`.
+    poses, missing, tracks, frames, settings, check_input
+        As :func:`recover_temporal` (``sparseedm recover`` passes a file's
+        poses as its reader checked them, with ``check_input=False``).
     ensemble, n_jobs, self_training
         As :func:`sparseedm.ensemble.adapt_members`.
 
@@ -429,7 +430,7 @@ def adapt_in_time(dictionary, poses, missing=None, *, tracks=None, frames, ensem
     """
     settings = DEFAULT_SETTINGS if settings is None else settings
     poses, mask, _, _, usable, layout = _in_time(poses, missing, tracks, frames,
-                                                 dictionary.n_joints)
+                                                 dictionary.n_joints, check_input)
     asks = _plan(layout, poses, mask, usable, settings).any() or _probes(
         layout, poses, mask, usable, settings)[2].any()
     return _adapt(dictionary, poses, mask, layout, usable, "auto", ensemble, settings,
