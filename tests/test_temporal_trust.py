@@ -46,6 +46,25 @@ def test_a_joint_still_on_both_sides_of_a_gap_comes_back_still(track):
     assert moved < 0.005 * height < 0.05 * height < away, (moved, away, height)
 
 
+def test_a_still_joint_between_noisy_observations_stays_at_rest(track):
+    """With a detector's jitter on the observations the smoothed curve would
+    carry the motion before and after the rest into the run; a still run is
+    held on the line between its neighbours instead."""
+    truth = _noisy(_resting_legs(track), 0.003)
+    free = np.zeros(truth.shape[:2], bool)
+    free[60:100, ANKLE] = True
+    values = np.where(free[..., None], 0.0, truth)
+    prior, confidence = _off_by(truth, 0.3)
+    out = fill_segment(values, free, prior, confidence)[0]
+    rest = truth[55:60, ANKLE].mean(axis=0)
+    spread = np.linalg.norm(truth[60:100, ANKLE] - rest, axis=-1).max()
+    moved = np.linalg.norm(out[60:100, ANKLE] - rest, axis=-1).max()
+    assert moved <= spread, (moved, spread)
+    ends = [np.linalg.norm(out[60, ANKLE] - truth[59, ANKLE]),
+            np.linalg.norm(out[99, ANKLE] - truth[100, ANKLE])]
+    assert max(ends) <= 2 * spread, (ends, spread)
+
+
 def test_a_moving_joint_is_not_still(track):
     free = np.zeros(track.shape[:2], bool)
     free[60:100, WRIST] = True
@@ -162,7 +181,7 @@ def test_fused_still_joint_comes_back_still(track):
     moved = np.linalg.norm(out[60:100, ANKLE] - rest, axis=-1).max()
     dragged = fill_segment(values, free, prior, confidence, replace(fused, still=0))[0]
     away = np.linalg.norm(dragged[60:100, ANKLE] - rest, axis=-1).max()
-    assert moved < 0.05 * height < away, (moved, away, height)
+    assert moved < 0.01 * height < 0.05 * height < away, (moved, away, height)
 
 
 def test_fused_fill_is_continuous_at_both_ends_of_a_gap(track):

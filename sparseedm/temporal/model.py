@@ -22,7 +22,8 @@ is smoothed relative to its parent's trajectory, so a hidden wrist follows
 its elbow (:func:`reference_trajectories`, :func:`coupling`); noisy
 observations become data of a weight instead of exact anchors
 (:func:`observation_weight`); still joints are filled by time alone
-(:func:`still_runs`), filled runs are joined to their observed neighbours
+(:func:`still_runs`, on the line between their neighbours: :func:`held`),
+filled runs are joined to their observed neighbours
 (:func:`joined`) and each segment tests how far to trust its prior
 (:func:`probe_mask`, :func:`clip_trust`). :func:`fill_segment` runs it all.
 
@@ -48,7 +49,7 @@ from .tracks import distance_to_observed
 __all__ = ["TemporalSettings", "prior_weights", "needs_prior", "prior_frames",
            "spread_prior", "reference_trajectories", "coupling", "observation_noise",
            "body_extent", "observation_weight", "segment_settings", "free_runs",
-           "still_runs", "joined", "fill_segment", "probe_settings", "probe_mask",
+           "still_runs", "joined", "held", "fill_segment", "probe_settings", "probe_mask",
            "clip_trust", "probe_errors", "ProbeScore", "choose_trust", "prior_scale",
            "time_filled", "TRUST_LEVELS", "FUSED_POOL"]
 
@@ -106,6 +107,9 @@ class TemporalSettings:
         A joint whose observed frames within :data:`STILL_FRAMES` of a run's
         both ends stay within this fraction of the body's extent is still
         there: time alone fills the run (:func:`still_runs`). 0: never.
+    hold_still : bool
+        Fill still runs on the straight line between their observed
+        neighbours (:func:`held`); False: the smoothed curve without the prior.
     probe : bool
         Test the per-frame prior on each segment's own observed joints and
         scale its weight by what the test shows (:func:`probe_mask`,
@@ -145,6 +149,7 @@ class TemporalSettings:
     noisy_acceleration: float = 100.0
     edge_decay: float = 3.0
     still: float = 0.04
+    hold_still: bool = True
     probe: bool = True
     fusion: bool = False
     fusion_share: float = 0.25
@@ -644,6 +649,42 @@ def joined(filled, values, free, settings=DEFAULT_SETTINGS):
     return out
 
 
+def held(filled, values, still):
+    """`filled` with every still run (:func:`still_runs`) on the straight line
+    between its two observed neighbours: a joint at rest on both sides stays
+    at rest, joined to both ends, instead of following the smoothed curve,
+    whose velocity at the run's edges comes from the noise and the motion
+    before and after the rest.
+
+    Parameters
+    ----------
+    filled : ndarray (T, N, 2)
+        The smoothed segment.
+    values : ndarray (T, N, 2)
+        The segment's coordinates (read at the frames next to each still run,
+        which are observed).
+    still : ndarray of bool (T, N)
+        The still runs' frames (:func:`still_runs`; never at a segment's ends).
+
+    Returns
+    -------
+    ndarray (T, N, 2)
+        A copy of `filled`, the still runs replaced.
+
+    Examples
+    --------
+    >>> values = np.zeros((6, 1, 2)); values[5, 0] = 4.0
+    >>> still = np.zeros((6, 1), bool); still[1:5] = True
+    >>> held(np.full((6, 1, 2), 9.0), values, still)[:, 0, 0].tolist()
+    [9.0, 0.8, 1.6, 2.4, 3.2, 9.0]
+    """
+    out = filled.copy()
+    for j, a, b in free_runs(still):
+        share = ((np.arange(a, b) - a + 1) / (b - a + 1))[:, None]
+        out[a:b, j] = (1 - share) * values[a - 1, j] + share * values[b, j]
+    return out
+
+
 def _smooth_joints(values, free, prior, weight, settings, joints=None):
     """Every joint with a free frame (of `joints`, default all) through
     :func:`smooth_trajectory`."""
@@ -712,7 +753,10 @@ def fill_segment(values, free, prior, confidence, settings=DEFAULT_SETTINGS, par
     if not free.any():
         return values.copy(), weight, np.zeros(values.shape[1])
     weight[:, (~free).any(axis=0)] *= trust
-    weight[still_runs(values, free, settings)] = 0.0
+    still = still_runs(values, free, settings)
+    weight[still] = 0.0
+    if not settings.hold_still:
+        still = np.zeros_like(still)
     unknown, data, data_weight, settings = _data_terms(values, free, prior, weight, settings)
     filled, residual = _smooth_joints(values, unknown, data, data_weight, settings)
     if parents is None and values.shape[1] == SKELETON_14.num_joints:
@@ -724,8 +768,9 @@ def fill_segment(values, free, prior, confidence, settings=DEFAULT_SETTINGS, par
         second, residual2 = _smooth_joints(values - ref, unknown, data - ref, data_weight,
                                            settings, joints=free.any(axis=0))
         filled, residual = second + ref, np.maximum(residual, residual2)
-    if unknown is not free:  # observations were data: join the runs to them
-        filled = joined(filled, values, free, settings)
+    if unknown is not free:  # observations were data: join the runs to them;
+        # and hold the still runs (the exact anchors' spline holds them already)
+        filled = held(joined(filled, values, free, settings), values, still)
     return np.where(free[..., None], filled, values), weight, residual
 
 
