@@ -122,8 +122,8 @@ class TemporalSettings:
         error the probes measure in its per-frame answers
         (:func:`prior_scale`). Clean input (motion capture) keeps the ramp.
         Off by default: on Bonn PoseTrack's validation clips it moved the
-        error by -3 % (3-frame gaps) to +2 % (long runs), no bin by 20 %
-        (``studies/real_video/select_fusion.py``).
+        error by -3 % (3-frame gaps) to +2 % (long runs), no bin by 20 %, at
+        1.7 times the seconds (``studies/real_video/select_fusion.py``).
     fusion_share : float
         Share of the measured variance ratio :func:`prior_scale` takes: a
         per-frame answer's error persists over neighbouring frames (lag-one
