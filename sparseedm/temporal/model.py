@@ -122,8 +122,9 @@ class TemporalSettings:
         error the probes measure in its per-frame answers
         (:func:`prior_scale`). Clean input (motion capture) keeps the ramp.
         Off by default: on Bonn PoseTrack's validation clips it moved the
-        error by -3 % (3-frame gaps) to +2 % (long runs), no bin by 20 %, at
-        1.7 times the seconds (``studies/real_video/select_fusion.py``).
+        error by -3 % (3-frame gaps) to +3 % (transplanted runs of 6-15
+        frames), no bin by 20 %, at 1.8 times the seconds
+        (``studies/real_video/select_fusion.py``).
     fusion_share : float
         Share of the measured variance ratio :func:`prior_scale` takes: a
         per-frame answer's error persists over neighbouring frames (lag-one
@@ -908,18 +909,26 @@ def clip_trust(values, free, probe, prior, confidence, settings=DEFAULT_SETTINGS
 
 class ProbeScore(NamedTuple):
     """What one segment's probes measured (:func:`probe_errors`), to be pooled
-    over the segments of a track."""
+    over the segments of a track.
 
-    #: summed distances (pixels) of the probed joint-frames per trust level
-    #: (:data:`TRUST_LEVELS`; inf where a fill was not finite)
+    Parameters
+    ----------
+    errors : ndarray (len(TRUST_LEVELS),)
+        Summed distances (pixels) of the probed joint-frames per trust level
+        (:data:`TRUST_LEVELS`; inf where a fill was not finite).
+    count : int
+        Joint-frames scored (0: nothing to score).
+    prior_error : float
+        Summed squared coordinate errors of the per-frame answers at the
+        probed joint-frames that have one, over the squared body extent (0
+        unless :func:`segment_settings` fuses the segment).
+    prior_count : int
+        Joint-frames summed in ``prior_error``.
+    """
+
     errors: np.ndarray
-    #: joint-frames scored (0: nothing to score)
     count: int
-    #: summed squared coordinate errors of the per-frame answers at the scored
-    #: joint-frames that have one, over the squared body extent (0 unless
-    #: :func:`segment_settings` fuses the segment)
     prior_error: float
-    #: joint-frames in ``prior_error``
     prior_count: int
 
 
@@ -927,6 +936,11 @@ def probe_errors(values, free, probe, prior, confidence, settings=DEFAULT_SETTIN
                  parents=None):
     """What :func:`clip_trust` ranks the levels by and :func:`prior_scale`
     weighs the prior by, to be pooled over segments.
+
+    The levels are ranked by fills without ``settings.fusion`` (over the
+    probed joint-frames where the ramp weighs), so a track's trust level is
+    the one it has without fusion; a fused segment's per-frame answers are
+    scored at every probed joint-frame that has one.
 
     Parameters
     ----------
@@ -953,19 +967,21 @@ def probe_errors(values, free, probe, prior, confidence, settings=DEFAULT_SETTIN
     """
     probed = free | probe
     fused = segment_settings(values, free, settings)
-    measure = fused is not settings
-    scored = probe & (_ramp(distance_to_observed(probed), fused) > 0) \
-        & ~still_runs(values, probed, settings)
-    if not scored.any():
-        return ProbeScore(np.zeros(len(TRUST_LEVELS)), 0, 0.0, 0)
-    settings = probe_settings(settings)
-    errors = []
-    for level in TRUST_LEVELS:
-        out = fill_segment(values, probed, prior, confidence, settings, parents, level)[0]
-        errors.append(np.linalg.norm(out[scored] - values[scored], axis=-1).sum())
-    errors = np.nan_to_num(np.asarray(errors), nan=np.inf)
-    answered = scored & np.isfinite(prior).all(axis=-1) & (confidence[:, None] > 0)
-    if not measure or not answered.any():
+    settings = replace(settings, fusion=False)  # the levels are ranked as without fusion
+    still = still_runs(values, probed, settings)
+    distance = distance_to_observed(probed)
+    scored = probe & (_ramp(distance, settings) > 0) & ~still
+    errors = np.zeros(len(TRUST_LEVELS))
+    if scored.any():
+        errors = []
+        for level in TRUST_LEVELS:
+            out = fill_segment(values, probed, prior, confidence, probe_settings(settings),
+                               parents, level)[0]
+            errors.append(np.linalg.norm(out[scored] - values[scored], axis=-1).sum())
+        errors = np.nan_to_num(np.asarray(errors), nan=np.inf)
+    answered = probe & (_ramp(distance, fused) > 0) & ~still \
+        & np.isfinite(prior).all(axis=-1) & (confidence[:, None] > 0)
+    if fused.ramp_floor == settings.ramp_floor or not answered.any():
         return ProbeScore(errors, int(scored.sum()), 0.0, 0)
     square = float(((prior[answered] - values[answered]) ** 2).sum())
     return ProbeScore(errors, int(scored.sum()), square / body_extent(values, free) ** 2,

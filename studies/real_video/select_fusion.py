@@ -1,4 +1,4 @@
-"""Where time is the better evidence: held still runs and the fused prior, against time alone and the peers.
+"""Where time is the better evidence: held still runs and the fused prior against time and the peers.
 
 Bonn PoseTrack's ``val`` clips, one clip per call, the masks of
 :func:`sparseedm.evaluation_real.evaluate_tracks` (contiguous gaps of 3, 10
