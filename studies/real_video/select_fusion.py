@@ -127,8 +127,19 @@ def ratios(table):
     """Each arm's figures over the best peer's, per bin (and the excess jump)."""
     keys = [k for k in table["akima"] if k not in ("jump", "seconds")]
     best = {k: min(table[p][k] for p in PEERS) for k in keys}
-    return {name: {k: round(row[k] / best[k], 3) for k in keys}
+    return {name: {k: round(row[k] / best[k], 3) if np.isfinite(best[k]) else None
+                   for k in keys}
             for name, row in table.items() if name not in PEERS}
+
+
+def finite(tree):
+    """`tree` with every non-finite float as None (JSON has no NaN; a bin no
+    filler answered, e.g. a joint hidden throughout, has no mean)."""
+    if isinstance(tree, dict):
+        return {k: finite(v) for k, v in tree.items()}
+    if isinstance(tree, float) and not np.isfinite(tree):
+        return None
+    return tree
 
 
 def main(argv=None):
@@ -144,9 +155,10 @@ def main(argv=None):
                results=table, ratios=ratios(table), noise_floor=noise_floor(args.part))
     if args.mocap:
         doc["mocap_validation"] = mocap(args.mocap, args.shares)
-    print(json.dumps(doc, indent=1))
+    doc = finite(doc)
+    print(json.dumps(doc, indent=1, allow_nan=False))
     if args.out:
-        Path(args.out).write_text(json.dumps(doc, indent=1) + "\n")
+        Path(args.out).write_text(json.dumps(doc, indent=1, allow_nan=False) + "\n")
 
 
 if __name__ == "__main__":
