@@ -1,10 +1,15 @@
 """The temporal model where time is the better evidence: still joints, joined
 edges, and a per-frame prior a segment's own probes find wrong."""
 
+from dataclasses import replace
+
 import numpy as np
 
-from sparseedm.temporal.model import (TRUST_LEVELS, TemporalSettings, clip_trust,
-                                      fill_segment, free_runs, probe_mask, still_runs)
+from sparseedm.temporal.model import (DEFAULT_SETTINGS, TRUST_LEVELS, TemporalSettings,
+                                      choose_trust, clip_trust, fill_segment, free_runs,
+                                      prior_scale, probe_errors, probe_mask,
+                                      segment_settings, still_runs)
+from sparseedm.temporal.tracks import distance_to_observed
 
 ANKLE, WRIST = 10, 4
 LOWER_BODY = list(range(8, 14))
@@ -39,6 +44,25 @@ def test_a_joint_still_on_both_sides_of_a_gap_comes_back_still(track):
     away = np.linalg.norm(dragged[60:100, ANKLE] - truth[60, ANKLE], axis=-1).max()
     height = _height(truth)
     assert moved < 0.005 * height < 0.05 * height < away, (moved, away, height)
+
+
+def test_a_still_joint_between_noisy_observations_stays_at_rest(track):
+    """With a detector's jitter on the observations the smoothed curve would
+    carry the motion before and after the rest into the run; a still run is
+    held on the line between its neighbours instead."""
+    truth = _noisy(_resting_legs(track), 0.003)
+    free = np.zeros(truth.shape[:2], bool)
+    free[60:100, ANKLE] = True
+    values = np.where(free[..., None], 0.0, truth)
+    prior, confidence = _off_by(truth, 0.3)
+    out = fill_segment(values, free, prior, confidence)[0]
+    rest = truth[55:60, ANKLE].mean(axis=0)
+    spread = np.linalg.norm(truth[60:100, ANKLE] - rest, axis=-1).max()
+    moved = np.linalg.norm(out[60:100, ANKLE] - rest, axis=-1).max()
+    assert moved <= spread, (moved, spread)
+    ends = [np.linalg.norm(out[60, ANKLE] - truth[59, ANKLE]),
+            np.linalg.norm(out[99, ANKLE] - truth[100, ANKLE])]
+    assert max(ends) <= 2 * spread, (ends, spread)
 
 
 def test_a_moving_joint_is_not_still(track):
@@ -110,3 +134,92 @@ def test_no_probe_where_the_prior_has_no_weight():
     free = np.zeros((60, 14), bool)
     free[20:26, WRIST] = True  # every frame within ramp_start of an observation
     assert not probe_mask(np.zeros((60, 14, 2)), free).any()
+
+
+# ------------------------------------------------------------ the fused prior (fusion=True)
+FUSED = TemporalSettings(fusion=True)
+
+
+def _noisy(track, share=0.005, seed=0):
+    """The track with white keypoint noise of `share` of its height (a detector's)."""
+    rng = np.random.default_rng(seed)
+    return track + rng.normal(scale=share * _height(track), size=track.shape)
+
+
+def _fused_probe(values, free, prior, confidence):
+    """The fused segment's prior scale from its own probes, as recover_temporal pools it."""
+    probe = probe_mask(values, free, FUSED)
+    score = probe_errors(values, free, probe, prior, confidence, FUSED)
+    return probe, score, prior_scale(score.prior_error, score.prior_count, FUSED)
+
+
+def test_fusion_is_for_noisy_keypoints_only(track):
+    free = _long_gaps(track)
+    clean = np.where(free[..., None], 0.0, track)
+    noisy = np.where(free[..., None], 0.0, _noisy(track))
+    assert segment_settings(clean, free, FUSED) is FUSED
+    assert segment_settings(noisy, free, FUSED).ramp_floor == 1.0
+    assert segment_settings(noisy, free) is DEFAULT_SETTINGS  # off by default
+
+
+def test_fused_still_joint_comes_back_still(track):
+    """A still run is left to time under the fused prior too: the fill is the
+    prior-free one, while a joint not taken as still is dragged to the prior."""
+    truth = _noisy(_resting_legs(track), 0.003)
+    free = np.zeros(truth.shape[:2], bool)
+    free[60:100, ANKLE] = True
+    values = np.where(free[..., None], 0.0, truth)
+    prior, confidence = _off_by(truth, 0.3)
+    fused = segment_settings(values, free, FUSED)
+    assert fused.ramp_floor == 1.0 and still_runs(values, free, fused)[60:100, ANKLE].all()
+    out = fill_segment(values, free, prior, confidence, fused)[0]
+    alone = fill_segment(values, free, np.full_like(prior, np.nan), np.zeros(len(prior)),
+                         fused)[0]
+    np.testing.assert_allclose(out[60:100, ANKLE], alone[60:100, ANKLE], atol=1e-6)
+    rest = truth[55:60, ANKLE].mean(axis=0)
+    height = _height(truth)
+    moved = np.linalg.norm(out[60:100, ANKLE] - rest, axis=-1).max()
+    dragged = fill_segment(values, free, prior, confidence, replace(fused, still=0))[0]
+    away = np.linalg.norm(dragged[60:100, ANKLE] - rest, axis=-1).max()
+    assert moved < 0.01 * height < 0.05 * height < away, (moved, away, height)
+
+
+def test_fused_fill_is_continuous_at_both_ends_of_a_gap(track):
+    noisy = _noisy(track)
+    free = np.zeros(track.shape[:2], bool)
+    for start in range(20, 220, 40):
+        free[start:start + 15, WRIST] = True
+    values = np.where(free[..., None], 0.0, noisy)
+    prior, confidence = _off_by(track, 0.05)  # a prior off by 5 % of the height
+    scale = _fused_probe(values, free, prior, confidence)[2]
+    fused = replace(segment_settings(values, free, FUSED), ramp_floor=scale)
+    out = fill_segment(values, free, prior, confidence, fused)[0]
+    steps = _edge_jumps(track, track, free)
+    noise = 0.005 * _height(track)
+    jumps = _edge_jumps(out, noisy, free)
+    assert (jumps <= steps + noise).all(), (jumps - steps, noise)
+    apart = fill_segment(values, free, prior, confidence, replace(fused, edge_decay=0))[0]
+    assert (_edge_jumps(apart, noisy, free) > steps + noise).any()
+    np.testing.assert_array_equal(out[~free], noisy[~free])
+
+
+def test_a_wrong_prior_measured_by_the_probes_leaves_the_fused_fill_to_time(track):
+    noisy = _noisy(track)
+    free = _long_gaps(track)
+    values = np.where(free[..., None], 0.0, noisy)
+    wrong, confidence = _off_by(track, 0.4)
+    right, _ = _off_by(track, 0.0)
+    probe, score, scale = _fused_probe(values, free, wrong, confidence)
+    assert probe.any() and score.prior_count > 0
+    assert _fused_probe(values, free, right, confidence)[2] > 20 * scale
+    trust = choose_trust(score.errors, score.count)
+    assert trust < TRUST_LEVELS[-1] and scale < 0.01
+    nothing = np.full_like(values, np.nan)
+    alone = fill_segment(values, free, nothing, np.zeros(len(values)), FUSED)[0]
+    fused = replace(segment_settings(values, free, FUSED), ramp_floor=scale)
+    err = {name: np.linalg.norm(out - track, axis=-1)[free].mean() for name, out in (
+        ("time", alone),
+        ("measured", fill_segment(values, free, wrong, confidence, fused, trust=trust)[0]),
+        ("trusted", fill_segment(values, free, wrong, confidence,
+                                 replace(fused, ramp_floor=1.0))[0]))}
+    assert err["measured"] < 1.1 * err["time"] < 0.5 * err["trusted"], err

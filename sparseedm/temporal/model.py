@@ -22,7 +22,8 @@ is smoothed relative to its parent's trajectory, so a hidden wrist follows
 its elbow (:func:`reference_trajectories`, :func:`coupling`); noisy
 observations become data of a weight instead of exact anchors
 (:func:`observation_weight`); still joints are filled by time alone
-(:func:`still_runs`), filled runs are joined to their observed neighbours
+(:func:`still_runs`, on the line between their neighbours: :func:`held`),
+filled runs are joined to their observed neighbours
 (:func:`joined`) and each segment tests how far to trust its prior
 (:func:`probe_mask`, :func:`clip_trust`). :func:`fill_segment` runs it all.
 
@@ -37,6 +38,7 @@ and what each refinement changed, is in the documentation:
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import NamedTuple
 
 import numpy as np
 
@@ -46,10 +48,10 @@ from .tracks import distance_to_observed
 
 __all__ = ["TemporalSettings", "prior_weights", "needs_prior", "prior_frames",
            "spread_prior", "reference_trajectories", "coupling", "observation_noise",
-           "body_extent", "observation_weight", "free_runs", "still_runs", "joined",
-           "fill_segment", "probe_settings", "probe_mask", "clip_trust", "probe_errors", "choose_trust",
-           "time_filled",
-           "TRUST_LEVELS"]
+           "body_extent", "observation_weight", "segment_settings", "free_runs",
+           "still_runs", "joined", "held", "fill_segment", "probe_settings", "probe_mask",
+           "clip_trust", "probe_errors", "ProbeScore", "choose_trust", "prior_scale",
+           "time_filled", "TRUST_LEVELS", "FUSED_POOL"]
 
 
 @dataclass(frozen=True)
@@ -105,10 +107,34 @@ class TemporalSettings:
         A joint whose observed frames within :data:`STILL_FRAMES` of a run's
         both ends stay within this fraction of the body's extent is still
         there: time alone fills the run (:func:`still_runs`). 0: never.
+    hold_still : bool
+        Fill still runs on the straight line between their observed
+        neighbours (:func:`held`); False: the smoothed curve without the prior.
     probe : bool
         Test the per-frame prior on each segment's own observed joints and
         scale its weight by what the test shows (:func:`probe_mask`,
         :func:`clip_trust`); False: full trust, no extra per-frame answers.
+    fusion : bool
+        Where the observations are noisy (data, not anchors:
+        :func:`observation_weight`), time is uncertain from the first hidden
+        frame on: there the prior weighs from the first free frame (no ramp,
+        :func:`segment_settings`), and its weight is scaled per track by the
+        error the probes measure in its per-frame answers
+        (:func:`prior_scale`). Clean input (motion capture) keeps the ramp.
+        Off by default: on Bonn PoseTrack's validation clips it moved the
+        error by -3 % (3-frame gaps) to +3 % (transplanted runs of 6-15
+        frames), no bin by 20 %, at 1.8 times the seconds
+        (``studies/real_video/select_fusion.py``).
+    fusion_share : float
+        Share of the measured variance ratio :func:`prior_scale` takes: a
+        per-frame answer's error persists over neighbouring frames (lag-one
+        correlation 0.83 on Bonn PoseTrack's validation clips), so the answers
+        of a run are worth fewer independent measurements than frames.
+    ramp_floor : float
+        The prior's weight at free frames where the ramp is below it (before
+        the confidence and the trust): 0 for clean input; a fused segment's
+        is its track's :func:`prior_scale` (1 while it is being measured,
+        :func:`segment_settings`).
     """
 
     acceleration: float = 30.0
@@ -124,7 +150,11 @@ class TemporalSettings:
     noisy_acceleration: float = 100.0
     edge_decay: float = 3.0
     still: float = 0.04
+    hold_still: bool = True
     probe: bool = True
+    fusion: bool = False
+    fusion_share: float = 0.25
+    ramp_floor: float = 0.0
 
 
 DEFAULT_SETTINGS = TemporalSettings()
@@ -132,7 +162,7 @@ DEFAULT_SETTINGS = TemporalSettings()
 
 def _ramp(distance, settings):
     span = max(settings.ramp_full - settings.ramp_start, 1e-9)
-    return np.clip((distance - settings.ramp_start) / span, 0.0, 1.0)
+    return np.clip((distance - settings.ramp_start) / span, settings.ramp_floor, 1.0)
 
 
 def needs_prior(free, settings=DEFAULT_SETTINGS):
@@ -458,6 +488,53 @@ def observation_weight(values, free, settings=DEFAULT_SETTINGS):
     return (settings.prior_error * extent / noise) ** 2
 
 
+def segment_settings(values, free, settings=DEFAULT_SETTINGS):
+    """The settings one segment is filled with (``settings.fusion``).
+
+    Where the observations are noisy (:func:`observation_weight` is not
+    None) the smoothed curve passes beside them, and time's own error at a
+    hidden frame is of the order of the noise from the first hidden frame
+    on: the per-frame prior then weighs there too, at least
+    ``ramp_floor`` (the ramp still takes it to 1 deep inside long runs).
+    A segment whose ``ramp_floor`` is not set yet gets 1 (every free frame
+    then asks for a per-frame answer and its probes measure the prior);
+    :func:`sparseedm.temporal.recover.recover_temporal` fills it with its
+    track's :func:`prior_scale`. Clean observations keep the ramp alone: next
+    to an exact anchor the spline is nearly exact.
+
+    Parameters
+    ----------
+    values : ndarray (T, N, 2)
+        The segment's coordinates (read where not free).
+    free : ndarray of bool (T, N)
+        The segment's unknown joints (missing, or in a frame absent from the track).
+    settings : TemporalSettings, optional
+        The temporal model's constants; default :class:`TemporalSettings`'s.
+
+    Returns
+    -------
+    TemporalSettings
+        `settings`, or a copy with ``ramp_floor`` 1.
+
+    Examples
+    --------
+    >>> t = np.arange(60.0)
+    >>> clean = np.stack([np.sin(t / 9), np.cos(t / 7)], -1)[:, None, :] * 50
+    >>> clean = np.repeat(clean, 3, axis=1) + [[0, 0], [10, 40], [0, 90]]
+    >>> free = np.zeros((60, 3), bool)
+    >>> fused = TemporalSettings(fusion=True)
+    >>> segment_settings(clean, free, fused).ramp_floor
+    0.0
+    >>> noisy = clean + np.random.default_rng(0).normal(scale=2.0, size=clean.shape)
+    >>> segment_settings(noisy, free, fused).ramp_floor, segment_settings(noisy, free).ramp_floor
+    (1.0, 0.0)
+    """
+    if not settings.fusion or settings.ramp_floor > 0 \
+            or observation_weight(values, free, settings) is None:
+        return settings
+    return replace(settings, ramp_floor=1.0)
+
+
 #: observed frames on each side of a run that :func:`still_runs` reads
 STILL_FRAMES = 5
 
@@ -573,6 +650,42 @@ def joined(filled, values, free, settings=DEFAULT_SETTINGS):
     return out
 
 
+def held(filled, values, still):
+    """`filled` with every still run (:func:`still_runs`) on the straight line
+    between its two observed neighbours: a joint at rest on both sides stays
+    at rest, joined to both ends, instead of following the smoothed curve,
+    whose velocity at the run's edges comes from the noise and the motion
+    before and after the rest.
+
+    Parameters
+    ----------
+    filled : ndarray (T, N, 2)
+        The smoothed segment.
+    values : ndarray (T, N, 2)
+        The segment's coordinates (read at the frames next to each still run,
+        which are observed).
+    still : ndarray of bool (T, N)
+        The still runs' frames (:func:`still_runs`; never at a segment's ends).
+
+    Returns
+    -------
+    ndarray (T, N, 2)
+        A copy of `filled`, the still runs replaced.
+
+    Examples
+    --------
+    >>> values = np.zeros((6, 1, 2)); values[5, 0] = 4.0
+    >>> still = np.zeros((6, 1), bool); still[1:5] = True
+    >>> held(np.full((6, 1, 2), 9.0), values, still)[:, 0, 0].tolist()
+    [9.0, 0.8, 1.6, 2.4, 3.2, 9.0]
+    """
+    out = filled.copy()
+    for j, a, b in free_runs(still):
+        share = ((np.arange(a, b) - a + 1) / (b - a + 1))[:, None]
+        out[a:b, j] = (1 - share) * values[a - 1, j] + share * values[b, j]
+    return out
+
+
 def _smooth_joints(values, free, prior, weight, settings, joints=None):
     """Every joint with a free frame (of `joints`, default all) through
     :func:`smooth_trajectory`."""
@@ -610,7 +723,7 @@ def fill_segment(values, free, prior, confidence, settings=DEFAULT_SETTINGS, par
     trust : float, default 1
         Scale of the prior's weight at joints observed somewhere in the
         segment (a joint never observed keeps the full weight: only the pose
-        model places it); see :func:`sparseedm.temporal.recover.clip_trust`.
+        model places it); see :func:`clip_trust` and :func:`prior_scale`.
 
     Returns
     -------
@@ -634,13 +747,17 @@ def fill_segment(values, free, prior, confidence, settings=DEFAULT_SETTINGS, par
     >>> out[3:6, 0, 0].round(6).tolist(), float(w.max())
     ([3.0, 4.0, 5.0], 0.0)
     """
+    settings = segment_settings(values, free, settings)
     prior, confidence = spread_prior(free, prior, confidence, settings)
     confidence = np.where(np.isfinite(prior).all(axis=(1, 2)), confidence, 0.0)
     weight = prior_weights(free, confidence, settings)
     if not free.any():
         return values.copy(), weight, np.zeros(values.shape[1])
     weight[:, (~free).any(axis=0)] *= trust
-    weight[still_runs(values, free, settings)] = 0.0
+    still = still_runs(values, free, settings)
+    weight[still] = 0.0
+    if not settings.hold_still:
+        still = np.zeros_like(still)
     unknown, data, data_weight, settings = _data_terms(values, free, prior, weight, settings)
     filled, residual = _smooth_joints(values, unknown, data, data_weight, settings)
     if parents is None and values.shape[1] == SKELETON_14.num_joints:
@@ -652,8 +769,9 @@ def fill_segment(values, free, prior, confidence, settings=DEFAULT_SETTINGS, par
         second, residual2 = _smooth_joints(values - ref, unknown, data - ref, data_weight,
                                            settings, joints=free.any(axis=0))
         filled, residual = second + ref, np.maximum(residual, residual2)
-    if unknown is not free:  # observations were data: join the runs to them
-        filled = joined(filled, values, free, settings)
+    if unknown is not free:  # observations were data: join the runs to them;
+        # and hold the still runs (the exact anchors' spline holds them already)
+        filled = held(joined(filled, values, free, settings), values, still)
     return np.where(free[..., None], filled, values), weight, residual
 
 
@@ -731,6 +849,7 @@ def probe_mask(values, free, settings=DEFAULT_SETTINGS):
     out = np.zeros_like(free)
     if not settings.probe:
         return out
+    settings = segment_settings(values, free, settings)
     seen = (~free).any(axis=0)
     deep = free & seen & (_ramp(distance_to_observed(free), settings) > 0)
     if not deep.any():
@@ -784,15 +903,44 @@ def clip_trust(values, free, probe, prior, confidence, settings=DEFAULT_SETTINGS
         full trust's (the last level) by :data:`TRUST_MARGIN`; else, or with
         nothing to score, 1.0.
     """
-    return choose_trust(*probe_errors(values, free, probe, prior, confidence, settings,
-                                      parents))
+    score = probe_errors(values, free, probe, prior, confidence, settings, parents)
+    return choose_trust(score.errors, score.count)
+
+
+class ProbeScore(NamedTuple):
+    """What one segment's probes measured (:func:`probe_errors`), to be pooled
+    over the segments of a track.
+
+    Parameters
+    ----------
+    errors : ndarray (len(TRUST_LEVELS),)
+        Summed distances (pixels) of the probed joint-frames per trust level
+        (:data:`TRUST_LEVELS`; inf where a fill was not finite).
+    count : int
+        Joint-frames scored (0: nothing to score).
+    prior_error : float
+        Summed squared coordinate errors of the per-frame answers at the
+        probed joint-frames that have one, over the squared body extent (0
+        unless :func:`segment_settings` fuses the segment).
+    prior_count : int
+        Joint-frames summed in ``prior_error``.
+    """
+
+    errors: np.ndarray
+    count: int
+    prior_error: float
+    prior_count: int
 
 
 def probe_errors(values, free, probe, prior, confidence, settings=DEFAULT_SETTINGS,
                  parents=None):
-    """What :func:`clip_trust` ranks the levels by, to be pooled over segments:
-    the summed distances (pixels) of the probed joint-frames for each of
-    :data:`TRUST_LEVELS`, and how many joint-frames were scored.
+    """What :func:`clip_trust` ranks the levels by and :func:`prior_scale`
+    weighs the prior by, to be pooled over segments.
+
+    The levels are ranked by fills without ``settings.fusion`` (over the
+    probed joint-frames where the ramp weighs), so a track's trust level is
+    the one it has without fusion; a fused segment's per-frame answers are
+    scored at every probed joint-frame that has one.
 
     Parameters
     ----------
@@ -813,22 +961,31 @@ def probe_errors(values, free, probe, prior, confidence, settings=DEFAULT_SETTIN
 
     Returns
     -------
-    errors : ndarray (len(TRUST_LEVELS),)
-        Summed distances per trust level (inf where a fill was not finite).
-    count : int
-        Number of joint-frames scored (0: nothing to score).
+    ProbeScore
+        The fills' summed distances per trust level, the joint-frames scored,
+        and the per-frame answers' own squared error there.
     """
     probed = free | probe
-    scored = probe & (_ramp(distance_to_observed(probed), settings) > 0) \
-        & ~still_runs(values, probed, settings)
-    if not scored.any():
-        return np.zeros(len(TRUST_LEVELS)), 0
-    settings = probe_settings(settings)
-    errors = []
-    for level in TRUST_LEVELS:
-        out = fill_segment(values, probed, prior, confidence, settings, parents, level)[0]
-        errors.append(np.linalg.norm(out[scored] - values[scored], axis=-1).sum())
-    return np.nan_to_num(np.asarray(errors), nan=np.inf), int(scored.sum())
+    fused = segment_settings(values, free, settings)
+    settings = replace(settings, fusion=False)  # the levels are ranked as without fusion
+    still = still_runs(values, probed, settings)
+    distance = distance_to_observed(probed)
+    scored = probe & (_ramp(distance, settings) > 0) & ~still
+    errors = np.zeros(len(TRUST_LEVELS))
+    if scored.any():
+        errors = []
+        for level in TRUST_LEVELS:
+            out = fill_segment(values, probed, prior, confidence, probe_settings(settings),
+                               parents, level)[0]
+            errors.append(np.linalg.norm(out[scored] - values[scored], axis=-1).sum())
+        errors = np.nan_to_num(np.asarray(errors), nan=np.inf)
+    answered = probe & (_ramp(distance, fused) > 0) & ~still \
+        & np.isfinite(prior).all(axis=-1) & (confidence[:, None] > 0)
+    if fused.ramp_floor == settings.ramp_floor or not answered.any():
+        return ProbeScore(errors, int(scored.sum()), 0.0, 0)
+    square = float(((prior[answered] - values[answered]) ** 2).sum())
+    return ProbeScore(errors, int(scored.sum()), square / body_extent(values, free) ** 2,
+                      int(answered.sum()))
 
 
 def choose_trust(errors, count):
@@ -855,6 +1012,52 @@ def choose_trust(errors, count):
         return 1.0
     best = int(np.argmin(errors))
     return float(TRUST_LEVELS[best]) if errors[best] < TRUST_MARGIN * errors[-1] else 1.0
+
+
+#: the probes' joint-frames are few and their errors run together over
+#: frames: :func:`prior_scale` pools them with this many joint-frames of the
+#: settings' ``prior_error``
+FUSED_POOL = 10
+
+
+def prior_scale(prior_error, prior_count, settings=DEFAULT_SETTINGS):
+    """The scale of the prior's weight in a fused segment (``settings.fusion``).
+
+    The prior's weight 1 stands for per-frame answers off by
+    ``settings.prior_error`` of the body's extent (per coordinate, RMS); the
+    probes measured ``prior_error / prior_count`` (squared, over the squared
+    extent, :func:`probe_errors`). The weight is the ratio of the two
+    variances, the measured one pooled with :data:`FUSED_POOL` joint-frames
+    of the nominal one, times ``settings.fusion_share``, at most 1.
+
+    Parameters
+    ----------
+    prior_error : float
+        Summed squared coordinate errors over the squared extent (pooled
+        :attr:`ProbeScore.prior_error`).
+    prior_count : int
+        Joint-frames summed (0: nothing measured).
+    settings : TemporalSettings, optional
+        The temporal model's constants; default :class:`TemporalSettings`'s.
+
+    Returns
+    -------
+    float
+        The scale, in (0, 1]: the fused segment's ``ramp_floor``.
+
+    Examples
+    --------
+    Answers twice as far off as nominal, measured on many joint-frames:
+
+    >>> round(prior_scale(2 * 1000 * (2 * 0.03) ** 2, 1000), 3)
+    0.063
+    >>> prior_scale(0.0, 0)    # nothing measured: the nominal error
+    0.25
+    """
+    nominal = settings.prior_error ** 2
+    measured = (FUSED_POOL * nominal + prior_error / 2) / (FUSED_POOL + prior_count)
+    share = settings.fusion_share
+    return float(min(1.0, share * nominal / max(measured, np.finfo(float).tiny)))
 
 
 def time_filled(values, free, near, settings=DEFAULT_SETTINGS):

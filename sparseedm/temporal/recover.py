@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import time
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -37,7 +37,8 @@ from ..normalize import normalize
 from ..skeleton import SKELETON_14
 from .linking import link_tracks, needs_linking, split_at_jumps
 from .model import (DEFAULT_SETTINGS, choose_trust, fill_segment, prior_frames,
-                    probe_errors, probe_mask, probe_settings, time_filled)
+                    prior_scale, probe_errors, probe_mask, probe_settings, segment_settings,
+                    time_filled)
 from .tracks import split_tracks
 
 __all__ = ["recover_temporal", "recover_track", "adapt_in_time", "adapts", "offered_poses",
@@ -208,8 +209,9 @@ def _plan(layout, poses, mask, usable, settings):
     """Rows that need a per-frame answer: alone rows and prior frames."""
     need = layout.alone & usable
     for rows, off in zip(layout.segments, layout.offsets):
-        _, free = _dense(rows, off, poses, mask, usable)
-        need[rows] |= prior_frames(free, settings)[off] & mask[rows].any(axis=1)
+        values, free = _dense(rows, off, poses, mask, usable)
+        asked = prior_frames(free, segment_settings(values, free, settings))
+        need[rows] |= asked[off] & mask[rows].any(axis=1)
     return need & usable
 
 
@@ -455,7 +457,8 @@ def _probes(layout, poses, mask, usable, settings):
         probe = probe_mask(values, free, settings)
         probes.append(probe)
         probed[rows] |= probe[off]
-        asked = prior_frames(free | probe, probe_settings(settings))
+        asked = prior_frames(free | probe,
+                             probe_settings(segment_settings(values, free, settings)))
         need[rows] |= (asked & probe.any(axis=1))[off]
     return probes, probed, need & usable
 
@@ -465,21 +468,24 @@ def _trusts(layout, poses, mask, usable, per, settings, members, kwargs, track_o
     (:func:`~sparseedm.temporal.model.probe_errors`, one batch of per-frame
     answers with the probes hidden; `planned`: :func:`_probes`) pooled over
     the segments of one track (`track_of`: a track key per row), so that a
-    cut in a track does not change what its other rows are filled with; and
-    the rows asked."""
+    cut in a track does not change what its other rows are filled with: the
+    trust level times the fused prior's scale
+    (:func:`~sparseedm.temporal.model.prior_scale`); and the rows asked."""
     probes, probed, need = planned
     if not need.any():
-        return [1.0] * len(probes), 0
+        return [(1.0, 1.0)] * len(probes), 0
     test = _per_frame(poses, probed, need, members, settings, kwargs)
     pooled = {}
     for rows, off, probe in zip(layout.segments, layout.offsets, probes):
         if probe.any():
-            errors, count = probe_errors(*_probed_segment(rows, off, probe, poses, mask,
-                                                          usable, per, test), settings)
-            sums = pooled.setdefault(track_of[rows[0]], [0.0, 0])
-            sums[0], sums[1] = sums[0] + errors, sums[1] + count
-    trust = {key: choose_trust(*sums) for key, sums in pooled.items()}
-    return [trust.get(track_of[rows[0]], 1.0) for rows in layout.segments], int(need.sum())
+            score = probe_errors(*_probed_segment(rows, off, probe, poses, mask, usable, per,
+                                                  test), settings)
+            sums = pooled.setdefault(track_of[rows[0]], [0.0, 0, 0.0, 0])
+            sums[:] = [a + b for a, b in zip(sums, score)]
+    trust = {key: (choose_trust(errors, count), prior_scale(square, answered, settings))
+             for key, (errors, count, square, answered) in pooled.items()}
+    return [trust.get(track_of[rows[0]], (1.0, 1.0)) for rows in layout.segments], \
+        int(need.sum())
 
 
 def _probed_segment(rows, off, probe, poses, mask, usable, per, test):
@@ -499,10 +505,13 @@ def _fill_segments(layout, poses, mask, usable, per, settings, trusts):
     filled = np.full_like(poses, np.nan)
     weight = np.zeros((n, N))
     residual = np.full(n, np.nan)
-    for rows, off, trust in zip(layout.segments, layout.offsets, trusts):
+    for rows, off, (trust, scale) in zip(layout.segments, layout.offsets, trusts):
         values, free = _dense(rows, off, poses, mask, usable)
         prior, confidence = _segment_prior(per, rows, off, len(values))
-        out, w, r = fill_segment(values, free, prior, confidence, settings, trust=trust)
+        fused = segment_settings(values, free, settings)
+        if fused is not settings:
+            fused = replace(fused, ramp_floor=scale)
+        out, w, r = fill_segment(values, free, prior, confidence, fused, trust=trust)
         filled[rows], weight[rows] = out[off], w[off]
         residual[rows] = np.max(np.where(free[off], r[None, :], 0.0), axis=1)
     return filled, weight, residual
@@ -631,7 +640,7 @@ def recover_temporal(poses, missing=None, *, tracks=None, frames, dictionary=Non
                     len(members))
     res.probe_poses, res.frames = probe_poses, layout.frames
     res.prior_trust = np.full(len(poses), np.nan)
-    for rows, trust in zip(layout.segments, trusts):
+    for rows, (trust, _) in zip(layout.segments, trusts):
         res.prior_trust[rows] = trust
     res.dictionary = members[0] if members else dictionary
     if adaptations:

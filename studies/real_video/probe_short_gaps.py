@@ -57,10 +57,11 @@ def variant(text):
     return name, replace(DEFAULT_SETTINGS, **kw)
 
 
-def cases(seed=0):
-    """(truth, frames, body size, label, mask, bin labels) of every val clip and mask."""
+def cases(seed=0, part="val"):
+    """(truth, frames, body size, label, mask, bin labels) of every clip and mask of
+    the `part` split."""
     d = real2d.load("bonn")
-    s = d.take(real2d.split(d) == "val")
+    s = d.take(real2d.split(d) == part)
     tracks = np.char.add(np.char.add(s.group.astype(str), "#"), s.tracks.astype(str))
     hidden = ~np.isfinite(s.poses).all(axis=-1) | ~s.visible
     for _, rows, masks in clip_cases(s.poses, tracks, s.frames, hidden, gap_lengths=(3, 10, 30),
@@ -74,13 +75,13 @@ def cases(seed=0):
                 yield truth, frames, size, label, mask, bins
 
 
-def measure(fills, seed=0):
-    """{method: {bin: mean error, 'jump', 'excess_jump', 'seconds'}}."""
+def measure(fills, seed=0, part="val"):
+    """{method: {bin: mean error, 'jump', 'excess_jump', 'seconds'}} on the `part` split."""
     errors = {n: {} for n in fills}
     jumps = {n: [] for n in fills}
     excess = {n: [] for n in fills}
     seconds = dict.fromkeys(fills, 0.0)
-    for truth, frames, size, label, mask, bins in cases(seed):
+    for truth, frames, size, label, mask, bins in cases(seed, part):
         given = np.where(mask[..., None], np.nan, truth)
         for name, fill in fills.items():
             t0 = time.perf_counter()
