@@ -26,6 +26,22 @@ The homotopy's inner loop (scan k atoms for the next event, rank-one Cholesky
 updates) is scalar code that numpy cannot batch, so it is compiled with numba;
 that is what earns numba its place in the dependencies.
 
+Working sets
+------------
+A file's own poses as atoms (``recover(preset="fast")``: 3,000 of them) make
+the homotopy above walk ~110 steps over every atom per pose. With
+``FastSolver(working_set=True)`` (:func:`lars_lasso_working_set`) a row's path
+runs over a few atoms: the 64 most correlated with it, then, while any atom's
+correlation with the residual exceeds alpha on the full problem (one k x m
+product a round), the worst 48 join and the path goes on from the answer so
+far, only the new atoms' bound falling from their correlation to alpha (no
+restart, no Gram matrix of the k atoms). It stops at the full problem's
+optimum, as the certificate checks. The support of this lasso is not local
+(on the 6,000-pose Bandai file only 9 % of a pose's atoms are among its 100
+most correlated, and 11 % are shared with its nearest pose's), so the sets
+grow to ~250 atoms over ~6 rounds and the paths take ~3x the full path's
+steps, each far cheaper: about 1.7x less time per pose.
+
 Certificate and fallback
 ------------------------
 The answer is checked by the shared duality gap of :mod:`.base` on the full
