@@ -179,6 +179,42 @@ _drop_atom_jit = numba.njit(cache=True, inline="always")(_drop_atom)
 
 
 @numba.njit(cache=True, inline="always")
+def _atom_event(pen, rate, cj, aj, positive, tiny, gamma, event, best, j):
+    """The event so far, or free atom j reaching its bound first: its
+    correlation cj (changing at -aj per unit step) meets +pen (event 1) or
+    -pen (event 2), the bound falling at `rate`."""
+    # g = (pen -/+ c_j) / (rate -/+ a_j), compared by multiplication: a
+    # division only when a new minimum is found
+    d1 = rate - aj
+    num = pen - cj
+    if d1 > 1e-12 and num < gamma * d1 and num > tiny * d1:
+        gamma = num / d1
+        event = 1
+        best = j
+    if not positive:
+        d2 = rate + aj
+        num = pen + cj
+        if d2 > 1e-12 and num < gamma * d2 and num > tiny * d2:
+            gamma = num / d2
+            event = 2
+            best = j
+    return gamma, event, best
+
+
+@numba.njit(cache=True, inline="always")
+def _drop_event(w, sign, beta, n, tiny, gamma, event, best):
+    """The event so far, or an active coefficient reaching zero first (event 3)."""
+    for i in range(n):
+        if w[i] * sign[i] < 0.0:  # coefficient heading to zero
+            g = -beta[i] / w[i]
+            if g > tiny and g < gamma:
+                gamma = g
+                event = 3
+                best = i
+    return gamma, event, best
+
+
+@numba.njit(cache=True, inline="always")
 def _next_event(state, dropped, a, c, lam, alpha, tiny, positive, w, sign, beta, n):
     """The homotopy's next event from lam: ``(gamma, event, best)``.
 
@@ -193,29 +229,19 @@ def _next_event(state, dropped, a, c, lam, alpha, tiny, positive, w, sign, beta,
     for j in range(a.shape[0]):
         if state[j] != 0 or j == dropped:
             continue
-        # g = (lam -/+ c_j) / (1 -/+ a_j), compared by multiplication: a
-        # division only when a new minimum is found
-        d1 = 1.0 - a[j]
-        num = lam - c[j]
-        if d1 > 1e-12 and num < gamma * d1 and num > tiny * d1:
-            gamma = num / d1
-            event = 1
-            best = j
-        if not positive:
-            d2 = 1.0 + a[j]
-            num = lam + c[j]
-            if d2 > 1e-12 and num < gamma * d2 and num > tiny * d2:
-                gamma = num / d2
-                event = 2
-                best = j
+        gamma, event, best = _atom_event(lam, 1.0, c[j], a[j], positive, tiny, gamma, event,
+                                         best, j)
+    return _drop_event(w, sign, beta, n, tiny, gamma, event, best)
+
+
+@numba.njit(cache=True, inline="always")
+def _advance(beta, w, n, c, a, gamma, k):
+    """One homotopy step of length gamma: the n active coefficients along w,
+    the k correlations along a."""
     for i in range(n):
-        if w[i] * sign[i] < 0.0:  # coefficient heading to zero
-            g = -beta[i] / w[i]
-            if g > tiny and g < gamma:
-                gamma = g
-                event = 3
-                best = i
-    return gamma, event, best
+        beta[i] += gamma * w[i]
+    for j in range(k):
+        c[j] -= gamma * a[j]
 
 
 @numba.njit(cache=True)
@@ -275,10 +301,7 @@ def _lars_core(G, DW, mode, miss, dtx, alpha, positive, max_steps, rank, coef):
             a[:] = 0.0
         gamma, event, best = _next_event(state, dropped, a, c, lam, alpha, tiny, positive,
                                          w, sign, beta, n)
-        for i in range(n):
-            beta[i] += gamma * w[i]
-        for j in range(k):
-            c[j] -= gamma * a[j]
+        _advance(beta, w, n, c, a, gamma, k)
         lam -= gamma
         dropped = -1
         if event == 0:
@@ -526,27 +549,9 @@ def _ws_event(state, dropped, moving, a, c, mu, alpha, tiny, positive, w, sign, 
         if state[j] != 0 or j == dropped:
             continue
         pen, rate = (mu, 1.0) if moving[j] else (alpha, 0.0)
-        d1 = rate - a[j]
-        num = pen - c[j]
-        if d1 > 1e-12 and num < gamma * d1 and num > tiny * d1:
-            gamma = num / d1
-            event = 1
-            best = j
-        if not positive:
-            d2 = rate + a[j]
-            num = pen + c[j]
-            if d2 > 1e-12 and num < gamma * d2 and num > tiny * d2:
-                gamma = num / d2
-                event = 2
-                best = j
-    for i in range(n):
-        if w[i] * sign[i] < 0.0:
-            g = -beta[i] / w[i]
-            if g > tiny and g < gamma:
-                gamma = g
-                event = 3
-                best = i
-    return gamma, event, best
+        gamma, event, best = _atom_event(pen, rate, c[j], a[j], positive, tiny, gamma, event,
+                                         best, j)
+    return _drop_event(w, sign, beta, n, tiny, gamma, event, best)
 
 
 @numba.njit(cache=True, inline="always")
@@ -619,10 +624,7 @@ def _ws_path(Dw, K, c, moving, state, active, sign, beta, L, R, w, rhs, a, n, al
                 a[j] += wi * R[i, j]
         gamma, event, best = _ws_event(state, dropped, moving, a, c, mu, alpha, tiny,
                                        positive, w, sign, beta, n, K)
-        for i in range(n):
-            beta[i] += gamma * w[i]
-        for j in range(K):
-            c[j] -= gamma * a[j]
+        _advance(beta, w, n, c, a, gamma, K)
         mu -= gamma
         dropped = -1
         if event == 0:
