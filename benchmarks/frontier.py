@@ -56,7 +56,11 @@ SPARSE = {"recover(adapt=False)": dict(adapt=False),
           "recover(preset='fast')": dict(preset="fast"),
           "recover() defaults": {},
           "recover(ensemble=3)": dict(ensemble=3)}
-REPEATED = ("recover(preset='fast')", "IterativeImputer, 1 BLAS thread")
+REPEATED = ("recover(preset='fast')", "IterativeImputer, 1 BLAS thread",
+            "recover(preset='fast'), full-dictionary LARS")
+#: rows run only when named by --only: the fast preset's former solver (the
+#: homotopy over every atom from one Gram matrix), beside the working sets
+EXTRA = {"recover(preset='fast'), full-dictionary LARS": dict(preset="fast", solver="full")}
 
 
 def pose_error(filled, truth, rows):
@@ -95,11 +99,13 @@ def _peers(default_threads=True):
 
 def _sparse(kw):
     import sparseedm
+    from sparseedm.solvers.fast import FastSolver
 
     def fill(X, mask, **more):
+        args = dict(kw, solver=FastSolver()) if kw.get("solver") == "full" else kw
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            return sparseedm.recover(X, mask, n_jobs=2, **kw, **more).poses
+            return sparseedm.recover(X, mask, n_jobs=2, **args, **more).poses
     return fill
 
 
@@ -116,7 +122,7 @@ def _timed(fill, X, mask, truth, rows, repeats, **more):
             "runs": len(secs)}
 
 
-def pose_file(pool, n, repeats, with_ensemble):
+def pose_file(pool, n, repeats, with_ensemble, only=None):
     from .default_path import make_file
 
     P, mask = make_file(pool, n)
@@ -125,6 +131,9 @@ def pose_file(pool, n, repeats, with_ensemble):
     methods = _peers(default_threads=n <= 6000)
     methods.update({k: _sparse(v) for k, v in SPARSE.items()
                     if with_ensemble or "ensemble" not in k})
+    if only:
+        methods.update({k: _sparse(v) for k, v in EXTRA.items()})
+        methods = {k: f for k, f in methods.items() if k in only}
     out = []
     for name, fill in methods.items():
         log(f"  {n:,} poses: {name}")
@@ -171,7 +180,7 @@ def video_file(n_frames, repeats):
     return out
 
 
-def run(quick=False, repeats=3, done=None):
+def run(quick=False, repeats=3, done=None, only=None):
     import sparseedm
     from sparseedm.adaptation import run_adaptation
 
@@ -184,12 +193,15 @@ def run(quick=False, repeats=3, done=None):
         run_adaptation(base, pool[:300], min_poses=1, passes=1)
         P, mask = make_file(pool, 400, seed=1)
         sparseedm.recover(np.where(mask[..., None], np.nan, P), mask, adapt=False, n_jobs=2)
+        sparseedm.recover(np.where(mask[..., None], np.nan, P), mask, preset="fast", n_jobs=2)
     files = {}
     for n in ((1200,) if quick else (6000, 30000)):
         files[f"{n:,} poses (Bandai-Namco-1, half under Mix)"] = pose_file(
-            pool, n, repeats if n <= 6000 else 1, with_ensemble=n <= 6000)
+            pool, n, repeats if n <= 6000 else 1, with_ensemble=n <= 6000, only=only)
         if done is not None:
             done(files)
+    if only:
+        return files
     n_frames = 2000 if quick else 10000
     files[f"{n_frames:,}-frame video (CMU clips)"] = video_file(n_frames, 1)
     return files
@@ -238,6 +250,10 @@ def main(argv=None):
                     "(the median; default 3)")
     ap.add_argument("--write-docs", action="store_true",
                     help="write results-frontier.json and docs/frontier.png")
+    ap.add_argument("--only", nargs="+", metavar="ROW",
+                    help="run only these rows, on the pose files (no video; never "
+                    "written by --write-docs); besides the frontier's rows: "
+                    + ", ".join(f'"{k}"' for k in EXTRA))
     ap.add_argument("--plot-only", action="store_true",
                     help="redraw docs/frontier.png from results-frontier.json")
     args = ap.parse_args(argv)
@@ -247,7 +263,8 @@ def main(argv=None):
     meta = dict(date=time.strftime("%Y-%m-%d %H:%M %Z"), machine=machine(),
                 versions=versions(), loadavg_start=loadavg(), quick=args.quick,
                 repeats=args.repeats)
-    write = args.write_docs and not args.quick
+    write = args.write_docs and not args.quick and not args.only
+    meta["only"] = args.only
 
     def done(files, final=False):
         meta["loadavg_end"] = loadavg()
@@ -258,7 +275,7 @@ def main(argv=None):
         if write:
             RESULTS.write_text(json.dumps(dict(meta=meta, files=files), indent=1, default=str))
 
-    files = run(args.quick, args.repeats, done)
+    files = run(args.quick, args.repeats, done, args.only)
     done(files, final=True)
     print(json.dumps(files, indent=1))
     if write:

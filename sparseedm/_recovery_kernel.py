@@ -31,7 +31,7 @@ from .solvers import SOLVERS, BaseSolver, get_solver
 from .solvers.fast import FastSolver
 
 __all__ = ["recover_sparse", "recover_members", "solve_chunk", "compiled_solver",
-           "RECOVER_PARAMS", "PRESETS"]
+           "preset_solver", "RECOVER_PARAMS", "PRESETS"]
 
 #: recover()'s presets: "default" (adaptation and self-training) and "fast"
 #: (the file's complete poses as the atoms, nothing learned: sparseedm.file_atoms)
@@ -150,6 +150,32 @@ def compiled_solver(solver="fast", adaptations=None):
                                          for a in adaptations)
     if isinstance(solver, str) and solver == "fast" and learned:
         return FastSolver(numpy_max=0)
+    return solver
+
+
+def preset_solver(solver="fast", preset="default"):
+    """The lasso backend `preset` codes with: ``"fast"`` runs the fast solver on
+    working sets of atoms (``FastSolver(working_set=True)``: the same lasso,
+    and no Gram matrix of the file's thousands of atoms); any other preset or
+    solver: `solver` as given.
+
+    Parameters
+    ----------
+    solver : str or BaseSolver, default "fast"
+        The solver the caller asked for.
+    preset : {"default", "fast"}, default "default"
+
+    Returns
+    -------
+    str or BaseSolver
+
+    Examples
+    --------
+    >>> preset_solver("fast", "fast").working_set, preset_solver("fast")
+    (True, 'fast')
+    """
+    if preset == "fast" and isinstance(solver, str) and solver == "fast":
+        return FastSolver(working_set=True)
     return solver
 
 

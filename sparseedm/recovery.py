@@ -32,7 +32,8 @@ from __future__ import annotations
 
 from ._parallel import one_client
 from ._recovery_base import STATUSES, RecoveryResult, screen_poses, validate_poses
-from ._recovery_kernel import RECOVER_PARAMS, recover_members, recover_sparse, solve_chunk
+from ._recovery_kernel import (RECOVER_PARAMS, preset_solver, recover_members, recover_sparse,
+                                solve_chunk)
 from ._validation import Options, check_frames, validate_params
 from .normalize import REPRESENTATIONS, representation_for
 from .dictionary import Dictionary, check_gram_memory, load_dictionary
@@ -343,6 +344,7 @@ def _dispatch(poses, missing, tracks, frames, method, model, preset, opts):
     adaptations, members = [], [dictionary]
     kernel = {k: opts[k] for k in ("alpha", "representation", "solver", "n_jobs",
                                    "chunk_size", "positive", "progress")}
+    kernel["solver"] = preset_solver(kernel["solver"], preset)
     with one_client(opts["backend"], opts["scheduler"]) as dist:
         if adapt is not False:
             # one member unless an ensemble was asked for (seed 0 is the default's)

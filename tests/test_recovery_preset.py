@@ -106,3 +106,28 @@ def test_cli_preset_round_trip(tmp_path, file_poses, small_dictionary_path, caps
                   dictionary=small_dictionary_path, preset="fast")
     np.testing.assert_allclose(filled[api.ok], api.poses[api.ok], atol=1e-6)
     assert "preset 'fast'" in capsys.readouterr().err
+
+
+def test_fast_preset_codes_on_working_sets(cmu_poses, small_dictionary):
+    """preset="fast" codes on working sets of atoms (preset_solver), checked on all of
+    them: the same lasso as the full-dictionary homotopy, so the same statuses,
+    objectives and poses to round-off (enough occluded rows for the compiled path)."""
+    from sparseedm._recovery_kernel import preset_solver
+    from sparseedm.solvers.fast import NUMPY_MAX, FastSolver
+
+    poses = cmu_poses.copy()
+    missing = np.zeros(poses.shape[:2], bool)
+    rng = np.random.default_rng(1)
+    for i in range(150, len(poses)):
+        missing[i, rng.choice(14, rng.integers(1, 4), replace=False)] = True
+    assert missing.any(axis=1).sum() >= NUMPY_MAX
+    assert preset_solver("fast", "fast").working_set
+    ws = recover(poses, missing, dictionary=small_dictionary, preset="fast")
+    full = recover(poses, missing, dictionary=small_dictionary, preset="fast",
+                   solver=FastSolver())
+    np.testing.assert_array_equal(ws.status, full.status)
+    rec = ws.status == "recovered"
+    assert rec.sum() >= NUMPY_MAX
+    assert (ws.gap[rec] <= 1e-6 * ws.objective[rec]).all()
+    np.testing.assert_allclose(ws.objective[rec], full.objective[rec], rtol=1e-7)
+    np.testing.assert_allclose(ws.poses[rec], full.poses[rec], atol=1e-4)

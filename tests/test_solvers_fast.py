@@ -202,3 +202,66 @@ def test_refinement_on_masked_rows_keeps_the_patterns():
         o = obs[rows][0]
         ref = get_solver("clarabel").solve(D[o], X[rows][:, o], 0.01)
         np.testing.assert_allclose(res.objective[rows], ref.objective, rtol=1e-6)
+
+
+def _masked_problems(seed, n=96, m=60, k=600):
+    """Coherent non-negative unit atoms (as EDM vectors are), rows of a few of
+    them plus noise, each with its own random hidden entries, and alphas small
+    enough for supports of tens of atoms."""
+    rng = np.random.default_rng(seed)
+    D = np.abs(rng.standard_normal((m, k))) + 0.5
+    D /= np.linalg.norm(D, axis=0)
+    X = (D[:, rng.integers(0, k, (n, 8))] * rng.uniform(0.2, 1, (1, n, 8))).sum(-1).T
+    X += 0.01 * rng.standard_normal(X.shape)
+    obs = rng.random((n, m)) > rng.uniform(0.1, 0.4, (n, 1))
+    alpha = rng.uniform(5e-3, 2e-2, n) * obs.sum(axis=1) / m
+    return D, np.where(obs, X, 0.0), obs, alpha
+
+
+@pytest.mark.parametrize("positive", [False, True])
+def test_working_set_answer_is_the_full_dictionary_lasso(positive):
+    """The working-set solve ends at the full problem's optimum: objectives and codes
+    of the full-dictionary homotopy to round-off, certified by the shared duality gap,
+    and the check did have to add atoms beyond the first (for most rows' supports
+    leave the 4 atoms it starts from)."""
+    from sparseedm.solvers.fast import lars_lasso_masked, lars_lasso_working_set
+
+    D, X, obs, alpha = _masked_problems(3)
+    full, steps_f = lars_lasso_masked(D.T @ D, D, X, obs, alpha, positive=positive,
+                                      numpy_max=0)
+    ws, steps = lars_lasso_working_set(D, X, obs, alpha, positive=positive, n_init=4, add=3)
+    assert (steps > 0).all() and (steps_f > 0).all()
+    # most rows finish on their set (the others were solved again over all atoms)
+    _, own = lars_lasso_working_set(D, X, obs, alpha, positive=positive, n_init=4, add=3,
+                                    resolve=False)
+    assert np.mean(own > 0) > 0.75
+    obj_f, _ = duality_gap(D, X, full, alpha, positive, obs)
+    obj, gap = duality_gap(D, X, ws, alpha, positive, obs)
+    assert (gap <= 1e-9 * obj).all()
+    np.testing.assert_allclose(obj, obj_f, rtol=1e-9)
+    np.testing.assert_allclose(ws, full, atol=1e-6 * np.abs(full).max())
+    first = np.argsort(-(X @ D if positive else np.abs(X @ D)), axis=1)[:, :4]
+    outside = [np.setdiff1d(np.flatnonzero(c), f).size for c, f in zip(ws, first)]
+    assert np.mean(np.array(outside) > 0) > 0.9
+    if positive:
+        assert (ws >= 0).all()
+
+
+def test_working_set_too_small_is_solved_again():
+    """A row whose set cannot hold its answer stops (steps negative) and is solved
+    again over all atoms; FastSolver(working_set=True) certifies the same optimum."""
+    from sparseedm.solvers.fast import lars_lasso_working_set
+
+    D, X, obs, alpha = _masked_problems(4)
+    _, stopped = lars_lasso_working_set(D, X, obs, alpha, n_init=4, add=3, max_ws=10,
+                                        resolve=False)
+    assert (stopped < 0).all()
+    coef, steps = lars_lasso_working_set(D, X, obs, alpha, n_init=4, add=3, max_ws=10)
+    assert (steps > 0).all()
+    obj, gap = duality_gap(D, X, coef, alpha, False, obs)
+    assert (gap <= 1e-9 * obj).all()
+    res = FastSolver(working_set=True).solve_masked(D, X, obs, alpha)
+    ref = FastSolver().solve_masked(D, X, obs, alpha)
+    assert (res.status == "optimal").all() and not res.fallback.any()
+    assert (res.gap <= 1e-6 * res.objective).all()
+    np.testing.assert_allclose(res.objective, ref.objective, rtol=1e-8)

@@ -13,6 +13,18 @@ EDMs (what a user gets) and its seconds (n_jobs=2), beside scikit-learn's
 IterativeImputer fitted on and filling the whole file (pixel coordinates,
 ``max_iter=10, tol=0``) in the same run. Writes ``selection_fast.json``
 beside this script.
+
+``--solvers`` instead times the preset's solver (the lasso on working sets
+of atoms, ``FastSolver(working_set=True)``) against the homotopy over every
+atom (``FastSolver()``) at the shipped setting, both on the same file in the
+same run (``--repeats``, median): the same lasso, so the same error, and
+what the working sets save. Writes ``selection_fast_solvers.json``.
+
+``--caps`` asks whether more atoms than ``MAX_FAST_ATOMS`` would pay: the
+validation files above hold at most 3,641 complete poses, so it uses every
+held-out pose with a quarter under Mix masks (about 5,460 complete), and
+scores the preset at several caps (error and seconds, working sets).
+Writes ``selection_fast_caps.json``.
 """
 
 from __future__ import annotations
@@ -42,28 +54,95 @@ def pose_error(filled, truth, mask):
     return float(np.nanmean(e[mask.any(axis=1)]))
 
 
-def validation_file(n=6000, seed=0):
-    """(poses, mask): n poses of the held-out CMU clips, half under Mix masks."""
+def validation_file(n=6000, seed=0, occluded=None):
+    """(poses, mask): n poses of the held-out CMU clips, half under Mix masks
+    (or the fraction `occluded`)."""
     from benchmarks import load_cmu, split_clips
     from benchmarks.default_path import make_file
 
     poses, clips, _ = load_cmu()
     held, _ = split_clips(clips)
-    return make_file(np.asarray(poses[held], dtype=float), n, seed=seed)
+    P, mask = make_file(np.asarray(poses[held], dtype=float), n, seed=seed)
+    if occluded is not None:  # unmask rows at random down to the fraction asked
+        rows = np.flatnonzero(mask.any(axis=1))
+        keep = np.random.default_rng(seed + 1).permutation(rows)[:int(occluded * len(P))]
+        mask[np.setdiff1d(rows, keep)] = False
+    return P, mask
+
+
+def caps(base):
+    """The preset's error and seconds at several atom caps on a file with more
+    complete poses than ``validation_file`` (rows of a JSON)."""
+    import sparseedm
+    from sparseedm.file_atoms import FAST_ALPHA, file_dictionary
+    from sparseedm.solvers.fast import FastSolver
+
+    P, mask = validation_file(n=10 ** 6, occluded=0.25)
+    X = np.where(mask[..., None], np.nan, P)
+    rows = []
+    for k in (2000, 3000, 4000, 5000, 10 ** 6):
+        t0 = time.perf_counter()
+        d = file_dictionary(base, X, mask, max_atoms=k, alpha_recover=FAST_ALPHA).dictionary
+        res = sparseedm.recover(X, mask, dictionary=d, adapt=False, n_jobs=2,
+                                solver=FastSolver(working_set=True))
+        rows.append({"max_atoms": k, "atoms": d.n_components, "poses": len(P),
+                     "occluded": int(mask.any(axis=1).sum()),
+                     "seconds": time.perf_counter() - t0, "err": pose_error(res.poses, P, mask)})
+        print(rows[-1], flush=True)
+    return rows
+
+
+def solvers(X, P, mask, repeats):
+    """The preset's working-set solver against the full homotopy (rows of a JSON)."""
+    import sparseedm
+    from sparseedm.solvers.fast import FastSolver
+
+    rows = []
+    for name, ws in (("working sets", True), ("full-dictionary LARS", False)):
+        secs = []
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            res = sparseedm.recover(X, mask, preset="fast", n_jobs=2,
+                                    solver=FastSolver(working_set=ws))
+            secs.append(time.perf_counter() - t0)
+        rows.append({"what": f"preset 'fast', {name}", "seconds": float(np.median(secs)),
+                     "runs": secs, "err": pose_error(res.poses, P, mask),
+                     "statuses": {s: int(c) for s, c in
+                                  zip(*np.unique(res.status, return_counts=True))}})
+        print(rows[-1], flush=True)
+    return rows
 
 
 def main(argv=None):
-    argparse.ArgumentParser(description=__doc__.split("\n")[0]).parse_args(argv)
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--solvers", action="store_true",
+                    help="time the preset's working-set solver against the full homotopy")
+    ap.add_argument("--repeats", type=int, default=3, help="runs per solver (--solvers)")
+    ap.add_argument("--caps", action="store_true",
+                    help="score more atoms than MAX_FAST_ATOMS on a file with more complete poses")
+    args = ap.parse_args(argv)
     import sparseedm
     from sklearn.experimental import enable_iterative_imputer  # noqa: F401
     from sklearn.impute import IterativeImputer
     from sparseedm.file_atoms import file_dictionary
+    from sparseedm.solvers.fast import FastSolver
 
     P, mask = validation_file()
     X = np.where(mask[..., None], np.nan, P)
     base = sparseedm.load_dictionary()
     warnings.simplefilter("ignore")
     sparseedm.recover(X[:300], mask[:300], adapt=False, n_jobs=2)  # JIT caches
+    sparseedm.recover(X[:300], mask[:300], preset="fast", n_jobs=2)
+    if args.caps:
+        out = Path(__file__).with_name("selection_fast_caps.json")
+        out.write_text(json.dumps({"file": "every held-out CMU pose, a quarter under Mix",
+                                   "rows": caps(base)}, indent=1))
+        return
+    if args.solvers:
+        out = Path(__file__).with_name("selection_fast_solvers.json")
+        out.write_text(json.dumps({"file": "6,000 CMU held-out-clip poses, half under Mix",
+                                   "rows": solvers(X, P, mask, args.repeats)}, indent=1))
+        return
     t0 = time.perf_counter()
     imp = IterativeImputer(max_iter=10, tol=0).fit_transform(X.reshape(len(X), -1))
     rows = [{"what": "IterativeImputer", "seconds": time.perf_counter() - t0,
@@ -73,7 +152,8 @@ def main(argv=None):
         for a in GRID_ALPHA:
             t0 = time.perf_counter()
             d = file_dictionary(base, X, mask, max_atoms=k, alpha_recover=a).dictionary
-            res = sparseedm.recover(X, mask, dictionary=d, adapt=False, n_jobs=2)
+            res = sparseedm.recover(X, mask, dictionary=d, adapt=False, n_jobs=2,
+                                    solver=FastSolver(working_set=True))  # the preset's
             rows.append({"what": "file dictionary", "max_atoms": k, "alpha": a,
                          "atoms": d.n_components, "seconds": time.perf_counter() - t0,
                          "err": pose_error(res.poses, P, mask),
