@@ -1,0 +1,304 @@
+"""The default path's choice: a file's own complete poses as the only atoms, or adaptation.
+
+``recover()`` with its defaults can code the occluded poses of a file two ways:
+
+* over the file's own complete poses as the only atoms (exemplars, nothing
+  learned: :func:`sparseedm.file_atoms.file_dictionary`, what
+  ``preset="fast"`` does), or
+* over the shipped dictionary adapted on those poses and self-trained on the
+  incomplete ones (:mod:`sparseedm.adaptation`; when its guard keeps the
+  base, the base with the complete poses as extra atoms).
+
+Which one is better depends on the file (``studies/fast/README.md``). On the
+validation files the exemplars won on every file with at least
+:data:`EXEMPLAR_MIN_POSES` complete poses, mocap and real people, and took a
+fraction of the time; below that it depended on the source. So
+(:func:`choose_exemplars`, then :func:`check_adapted`):
+
+1. fewer than :data:`~sparseedm.adaptation.MIN_COMPLETE_POSES` complete
+   poses: too few to be a dictionary on their own; the default path as it
+   was (no adaptation, the complete poses join the base's atoms);
+2. at least :data:`EXEMPLAR_MIN_POSES`: the exemplars, no adaptation and no
+   self-training;
+3. in between, an evidence check on held-back complete poses (whole
+   contiguous blocks of rows, at most 300, hidden by the guard's Mix masks),
+   scored on the hidden joints themselves (their distance to the truth in %
+   of the pose's size, the RMS distance of its joints to their centroid),
+   not on the EDM: first the exemplars (built from the other complete poses)
+   against the base with those poses as extra atoms, which costs no
+   learning; when the exemplars win by more than :data:`SKIP_MARGIN` they are
+   taken without adapting. Otherwise the file adapts as before, and the
+   adapted dictionary is scored against the exemplars on the adaptation's own
+   held-back poses (which it never learned from); the better one recovers.
+
+``res.adaptation.summary()["path"]`` says which ran (``"file atoms"``,
+``"adapted"``, ``"base + file atoms"``, ``"base"``), and ``reason`` why, with
+the check's errors. ``recover(..., exemplars=False)`` adapts whatever the
+check would say (the path without this rule).
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ._recovery_kernel import compiled_solver, recover_members
+from .adaptation import (DEFAULT_VALIDATION_FRACTION, GUARD_POSES_PER_PATTERN,
+                         MIN_COMPLETE_POSES, AdaptationResult, guard_masks, holdout_blocks)
+from .file_atoms import file_dictionary, with_file_atoms
+from .normalize import rms_radius, usable_rows
+
+__all__ = ["EXEMPLAR_MIN_POSES", "SKIP_MARGIN", "EXEMPLAR_OPTIONS", "ExemplarCheck",
+           "hidden_joint_error", "choose_exemplars", "check_adapted"]
+
+#: From this many usable complete poses the file's own poses are the atoms,
+#: no check, no adaptation (chosen on validation files: studies/fast/README.md)
+EXEMPLAR_MIN_POSES = 2000
+
+#: Below EXEMPLAR_MIN_POSES: the exemplars are taken without adapting when
+#: their held-back hidden-joint error is below (1 - SKIP_MARGIN) times the
+#: base-with-file-atoms' (adaptation rarely gains more than that on it)
+SKIP_MARGIN = 0.10
+
+#: recover()'s ``exemplars`` values: "auto" applies the rule, False never
+#: takes the exemplars instead of adapting
+EXEMPLAR_OPTIONS = ("auto", False)
+
+
+@dataclass
+class ExemplarCheck:
+    """What :func:`choose_exemplars` found.
+
+    Parameters
+    ----------
+    dictionary : Dictionary or None
+        The exemplars' dictionary (the file's complete poses as the only atoms)
+        when they were chosen; None: adapt (and call :func:`check_adapted`).
+    result : AdaptationResult or None
+        What was done when the exemplars were chosen.
+    complete : ndarray (m, N, 2)
+        The file's usable complete poses.
+    err_atoms, err_base : float
+        The held-back poses' hidden-joint error (% of pose size) of the
+        exemplars and of the base with file atoms (NaN: not checked).
+    seconds : float
+        Time spent choosing.
+    """
+
+    dictionary: object
+    result: AdaptationResult | None
+    complete: np.ndarray
+    err_atoms: float = float("nan")
+    err_base: float = float("nan")
+    seconds: float = 0.0
+
+    @property
+    def checked(self) -> bool:
+        """True when the held-back poses were scored (enough complete poses)."""
+        return bool(np.isfinite(self.err_atoms))
+
+
+def hidden_joint_error(dictionary, poses, mask, *, alpha=None, n_jobs=1, backend=None,
+                       scheduler=None):
+    """Mean error of the hidden joints when `dictionary` recovers `poses` under `mask`.
+
+    Parameters
+    ----------
+    dictionary : Dictionary
+        The dictionary (recovered with as given: no adaptation).
+    poses : ndarray (n, N, 2)
+        Complete poses, the truth.
+    mask : ndarray of bool (n, N)
+        The joints to hide (at least one per pose).
+    alpha : float, optional
+        Recovery alpha; default the dictionary's ``alpha_recover``.
+    n_jobs : int or None, default 1
+        Workers of the recovery.
+    backend, scheduler : optional
+        As :func:`sparseedm.recover`'s (``"dask"``: on the cluster).
+
+    Returns
+    -------
+    float
+        Mean over the poses recovered of their hidden joints' mean distance to
+        the truth, in % of the pose's size (the RMS distance of its joints to
+        their centroid); NaN when none was recovered.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sparseedm.dictionary import load_dictionary
+    >>> from sparseedm.adaptation import guard_masks
+    >>> poses = np.random.default_rng(0).normal(size=(6, 14, 2))
+    >>> e = hidden_joint_error(load_dictionary(), poses, guard_masks(6, 14))
+    >>> bool(e > 0)
+    True
+    """
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = recover_members(np.where(mask[..., None], np.nan, poses), mask, [dictionary],
+                              [], alpha=alpha, n_jobs=n_jobs, solver=compiled_solver(),
+                              backend=backend, scheduler=scheduler)
+        _, size = rms_radius(poses, np.zeros(mask.shape, bool))
+        err = np.linalg.norm(res.poses - poses, axis=-1) / size[:, None] * 100
+        per_pose = np.nanmean(np.where(mask, err, np.nan), axis=1)
+    per_pose = per_pose[res.ok & np.isfinite(per_pose)]
+    return float(per_pose.mean()) if len(per_pose) else float("nan")
+
+
+def _complete(poses, missing):
+    """The usable complete rows of `poses` (as the file atoms take them)."""
+    poses = np.asarray(poses, dtype=float)
+    ok = usable_rows(poses)
+    if missing is not None:
+        ok &= ~np.asarray(missing, dtype=bool).any(axis=-1)
+    return poses[ok]
+
+
+def _scores(dictionary, complete, held, random_state, kw, base=True):
+    """Hidden-joint errors on ``complete[held]`` of the exemplars made of the other
+    complete poses, and (with `base`) of the base with those as extra atoms."""
+    truth = complete[held]
+    mask = guard_masks(len(truth), truth.shape[1],
+                       max(1, len(truth) // GUARD_POSES_PER_PATTERN), random_state)
+    rest = complete[~held]
+    atoms = file_dictionary(dictionary, rest).dictionary
+    e_atoms = hidden_joint_error(atoms, truth, mask, **kw)
+    if not base:
+        return e_atoms, truth, mask
+    e_base = hidden_joint_error(with_file_atoms(dictionary, rest).dictionary, truth, mask,
+                                **kw)
+    return e_atoms, e_base
+
+
+def _atoms_result(dictionary, found, n_given, reason, t0, **errs):
+    """The AdaptationResult of the exemplars' path."""
+    return AdaptationResult(dictionary=found.dictionary, adapted=False, reason=reason,
+                            n_given=n_given, n_complete=found.n_complete,
+                            file_atoms=found.n_atoms,
+                            settings={"path": "file atoms", **errs},
+                            seconds=time.perf_counter() - t0)
+
+
+def choose_exemplars(dictionary, poses, missing, *, n_jobs=1, random_state=0,
+                     min_poses=EXEMPLAR_MIN_POSES, skip_margin=SKIP_MARGIN, backend=None,
+                     scheduler=None):
+    """The exemplars when the size rule or the check before adapting picks them.
+
+    Parameters
+    ----------
+    dictionary : Dictionary
+        The base dictionary (its settings for the exemplars).
+    poses, missing : ndarray
+        The file's poses and their missing joints (None: the NaN ones).
+    n_jobs : int or None, default 1
+        Workers of the check's recoveries.
+    random_state : int, default 0
+        Seed of the held-back blocks and their masks.
+    min_poses : int, default EXEMPLAR_MIN_POSES
+        Complete poses from which the exemplars are taken unchecked.
+    skip_margin : float, default SKIP_MARGIN
+        Below `min_poses`: the exemplars are taken when their held-back error
+        is below ``1 - skip_margin`` times the base-with-file-atoms'.
+    backend, scheduler : optional
+        As :func:`sparseedm.recover`'s: where the check's recoveries run.
+
+    Returns
+    -------
+    ExemplarCheck
+        ``dictionary`` and ``result`` set when the exemplars were chosen.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sparseedm.dictionary import load_dictionary
+    >>> few = np.random.default_rng(0).normal(size=(40, 14, 2))
+    >>> choose_exemplars(load_dictionary(), few, None).dictionary is None  # too few
+    True
+    """
+    t0 = time.perf_counter()
+    complete = _complete(poses, missing)
+    n = len(complete)
+    if n < MIN_COMPLETE_POSES:
+        return ExemplarCheck(None, None, complete, seconds=time.perf_counter() - t0)
+    if n >= min_poses:
+        found = file_dictionary(dictionary, complete)
+        reason = (f"{n} complete poses, at least {min_poses}: they are the dictionary's "
+                  "atoms, nothing learned")
+        return ExemplarCheck(found.dictionary, _atoms_result(dictionary, found, len(poses),
+                                                             reason, t0), complete,
+                             seconds=time.perf_counter() - t0)
+    held = holdout_blocks(n, DEFAULT_VALIDATION_FRACTION, random_state)
+    kw = dict(n_jobs=n_jobs, backend=backend, scheduler=scheduler)
+    e_atoms, e_base = _scores(dictionary, complete, held, random_state, kw)
+    out = ExemplarCheck(None, None, complete, e_atoms, e_base)
+    if e_atoms < (1 - skip_margin) * e_base:
+        reason = (f"{n} complete poses: as the only atoms they beat the base dictionary with "
+                  f"them on {int(held.sum())} held-back poses' hidden joints "
+                  f"({e_atoms:.2f} vs {e_base:.2f} % of pose size), nothing learned")
+        found = file_dictionary(dictionary, complete)
+        out.dictionary = found.dictionary
+        out.result = _atoms_result(dictionary, found, len(poses), reason, t0,
+                                   held_err_atoms=e_atoms, held_err_base=e_base)
+    out.seconds = time.perf_counter() - t0
+    return out
+
+
+def check_adapted(check, dictionary, chosen, result, *, n_jobs=1, backend=None,
+                  scheduler=None):
+    """After adapting: the exemplars or the default path's dictionary, whichever
+    recovers the adaptation's held-back poses' hidden joints better.
+
+    Parameters
+    ----------
+    check : ExemplarCheck
+        :func:`choose_exemplars`'s, which did not choose the exemplars.
+    dictionary : Dictionary
+        The base dictionary.
+    chosen : Dictionary
+        What the default path chose (adapted, or the base with file atoms).
+    result : AdaptationResult
+        Its adaptation.
+    n_jobs, backend, scheduler : optional
+        As :func:`choose_exemplars`'.
+
+    Returns
+    -------
+    chosen : Dictionary
+        The dictionary to recover with.
+    result : AdaptationResult
+        What was done: the exemplars' own result when they won, else `result`
+        with the check's errors added to its ``settings``.
+    """
+    t0 = time.perf_counter()
+    seed = result.settings.get("random_state", 0)
+    if result.adapted and result.pool is not None:  # its own held-back poses: unseen by it
+        pool = result.pool
+        fraction = result.settings.get("validation_fraction", DEFAULT_VALIDATION_FRACTION)
+        held_rows = pool[holdout_blocks(len(pool), fraction, seed)]
+        seen = {p.tobytes() for p in held_rows}
+        held = np.array([p.tobytes() in seen for p in check.complete])
+        kw = dict(n_jobs=n_jobs, backend=backend, scheduler=scheduler)
+        e_atoms, truth, mask = _scores(dictionary, check.complete, held, seed, kw,
+                                       base=False)
+        e_other = hidden_joint_error(chosen, truth, mask, **kw)
+        n_held, other = int(held.sum()), "the adapted dictionary"
+    else:  # not adapted: the check before adapting compared the same two
+        e_atoms, e_other, n_held = check.err_atoms, check.err_base, None
+        other = "the base dictionary with them"
+    errs = dict(held_err_atoms=e_atoms, held_err_default=e_other)
+    if not e_atoms < e_other:
+        return chosen, replace(result, settings=dict(result.settings, **errs),
+                               seconds=result.seconds + time.perf_counter() - t0)
+    found = file_dictionary(dictionary, check.complete)
+    where = f"{n_held} held-back" if n_held is not None else "held-back"
+    reason = (f"{len(check.complete)} complete poses: as the only atoms they beat {other} "
+              f"on {where} poses' hidden joints ({e_atoms:.2f} vs {e_other:.2f} % of pose "
+              "size)")
+    res = _atoms_result(dictionary, found, result.n_given, reason, t0, **errs)
+    res.seconds += result.seconds + check.seconds
+    res.step_seconds = dict(result.step_seconds, exemplar_check=time.perf_counter() - t0)
+    return found.dictionary, res

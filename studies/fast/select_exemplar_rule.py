@@ -1,0 +1,183 @@
+"""The default path's exemplar rule: its size threshold and its check's margin, on validation files.
+
+``recover()``'s default path takes a file's own complete poses as its only
+atoms (the exemplars) instead of adapting when :mod:`sparseedm.exemplars`
+says so: from ``EXEMPLAR_MIN_POSES`` complete poses always; in between, when
+an evidence check on held-back complete poses' hidden joints prefers them
+(before adapting, against the base with file atoms, by more than
+``SKIP_MARGIN``; after adapting, against the adapted dictionary). This script
+measures, per validation file, what every branch of the rule needs:
+
+* ``adapt``: ``recover(..., exemplars=False)``, the default path without the
+  rule (guarded adaptation + self-training, or the base with file atoms);
+* ``atoms``: the exemplars' recovery (``recover(..., preset="fast")``, the
+  same dictionary the rule takes);
+* the check's scores: before adapting (``pre``: exemplars vs base with file
+  atoms on held-back blocks of the complete poses) and after (``post``:
+  exemplars vs what ``adapt`` used, on the adaptation's own held-back poses);
+
+then replays the rule for each threshold and margin asked for (which branch,
+the test error of the occluded poses it would return, its seconds) and runs
+``recover()`` itself (``rule``) to confirm the replay at the shipped settings.
+Errors per occluded pose: its hidden joints' error (% of body size) and its
+EDM's Err_ave (%); paired differences with standard errors. Files (validation
+only): held-out CMU clips (``select_fast.validation_file``), Daz-retargeted CMU
+clips (``--mocap``, dataset .npz files), real people of
+``studies/real_prior/harness.py`` (``mpii-large``: MPII train+val, ``bonn``:
+Bonn val) under 2 random hidden joints and real masks.
+
+    sparseedm dataset build ../shared/data/cmu-bvh-daz/indian -o daz_indian.npz
+    python studies/fast/select_exemplar_rule.py --mocap daz_indian.npz
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT))  # `python studies/fast/select_exemplar_rule.py` finds benchmarks/
+
+from studies.fast.select_default_exemplars import mocap_file, paired, per_pose  # noqa: E402
+
+
+def timed(fn):
+    t0 = time.perf_counter()
+    out = fn()
+    return out, time.perf_counter() - t0
+
+
+def measure(truth, missing):
+    """The rule's parts on one file: both paths' errors and seconds, the check's scores."""
+    import sparseedm
+    from sparseedm.exemplars import check_adapted, choose_exemplars
+
+    base = sparseedm.load_dictionary()
+    given = np.where(missing[..., None], np.nan, truth)
+    row, scores = {"poses": len(truth), "complete": int((~missing.any(axis=1)).sum())}, {}
+    runs = {"adapt": dict(exemplars=False), "atoms": dict(preset="fast"), "rule": {}}
+    for name, kw in runs.items():
+        res, secs = timed(lambda: sparseedm.recover(given, missing, dictionary=base,
+                                                    n_jobs=2, **kw))
+        scores[name] = per_pose(res.poses, truth, missing)
+        ad = res.adaptation
+        row[name] = {"pct_body": round(float(scores[name][0].mean()), 3),
+                     "err_ave": round(float(np.nanmean(scores[name][1])), 3),
+                     "seconds": round(secs, 2), "path": ad.path if ad else "base",
+                     "reason": ad.reason if ad else ""}
+        if name == "adapt":
+            kept = res
+    check, secs = timed(lambda: choose_exemplars(base, given, missing, n_jobs=None,
+                                                 skip_margin=1.0, min_poses=10 ** 9))
+    row["pre"] = {"atoms": check.err_atoms, "base_file_atoms": check.err_base,
+                  "seconds": round(secs, 2)}
+    if check.checked:
+        (_, post), secs = timed(lambda: check_adapted(check, base, kept.dictionary,
+                                                      kept.adaptation, n_jobs=None))
+        row["post"] = {"atoms": post.settings["held_err_atoms"],
+                       "default": post.settings["held_err_default"],
+                       "adapted": bool(kept.adapted), "seconds": round(secs, 2)}
+    for a, b in (("atoms", "adapt"), ("rule", "adapt")):
+        row[f"{a}_minus_{b}"] = {"pct_body": paired(scores[a][0], scores[b][0]),
+                                 "err_ave": paired(scores[a][1], scores[b][1])}
+    return row
+
+
+def replay(row, threshold, margin):
+    """(branch, % body, seconds) the rule would give at `threshold` and `margin`."""
+    n, pre, post = row["complete"], row["pre"], row.get("post")
+    atoms = ("atoms", row["atoms"]["pct_body"], row["atoms"]["seconds"])
+    if n < 250 or not np.isfinite(pre["atoms"]):
+        return "too few", row["adapt"]["pct_body"], row["adapt"]["seconds"]
+    if n >= threshold:
+        return atoms
+    extra = pre["seconds"]
+    if pre["atoms"] < (1 - margin) * pre["base_file_atoms"]:
+        return "atoms (before adapting)", atoms[1], atoms[2] + extra
+    extra += post["seconds"]
+    if post["atoms"] < post["default"]:
+        return "atoms (after adapting)", atoms[1], row["adapt"]["seconds"] + extra
+    return "adapt", row["adapt"]["pct_body"], row["adapt"]["seconds"] + extra
+
+
+def files(a):
+    """(name, loader) of every file asked for."""
+    from studies.fast.select_fast import validation_file
+    from studies.real_prior import harness
+
+    out = []
+    for source in filter(None, a.photos.split(",")):
+        for protocol in filter(None, a.protocols.split(",")):
+            out.append((f"{source} protocol {protocol}",
+                        lambda s=source, p=protocol: harness.make_file(s, p, 0)))
+    for path in filter(None, a.mocap.split(",")):
+        for size in filter(None, a.mocap_sizes.split(",")):
+            c, m = (int(x) for x in size.split("+"))
+            out.append((f"{Path(path).stem} {c}+{m}",
+                        lambda p=path, c=c, m=m: mocap_file(p, c, m, 0)))
+    for n in sorted(int(x) for x in a.cmu.split(",") if x):
+        for seed in (int(s) for s in a.seeds.split(",")):
+            out.append((f"cmu n={n} seed={seed}",
+                        lambda n=n, seed=seed: validation_file(n, seed)))
+    return out
+
+
+def replays(doc, thresholds, margins):
+    """Per threshold and margin: the rule's mean change against ``adapt`` and its worst file."""
+    out = {}
+    for t in thresholds:
+        for m in margins:
+            diffs, secs = [], []
+            for r in doc["files"].values():
+                branch, err, s = replay(r, t, m)
+                diffs.append(err - r["adapt"]["pct_body"])
+                secs.append(s / r["adapt"]["seconds"])
+            out[f"T={t} margin={m}"] = {"mean_change_pct_body": round(float(np.mean(diffs)), 4),
+                                        "worst_change_pct_body": round(float(max(diffs)), 4),
+                                        "mean_time_ratio": round(float(np.mean(secs)), 3)}
+    return out
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--cmu", default="1000,2000,3000,4000", help="CMU file sizes (poses)")
+    ap.add_argument("--seeds", default="0,1", help="seeds of the CMU files")
+    ap.add_argument("--mocap", default="", help="dataset .npz paths, comma-separated")
+    ap.add_argument("--mocap-sizes", default="500+500,1000+1000,1500+1500",
+                    help="C+M (complete + Mix poses) of the mocap files, comma-separated")
+    ap.add_argument("--photos", default="bonn,mpii-large", help="harness.py files")
+    ap.add_argument("--protocols", default="2,real", help="harness.py protocols")
+    ap.add_argument("--thresholds", default="1000,1500,2000,2500")
+    ap.add_argument("--margins", default="0,0.05,0.1,0.2,1")
+    ap.add_argument("--out", type=Path,
+                    default=Path(__file__).with_name("selection_exemplar_rule.json"))
+    a = ap.parse_args(argv)
+    import sparseedm
+
+    warnings.simplefilter("ignore")
+    probe = np.random.default_rng(0).normal(size=(300, 14, 2))
+    sparseedm.recover(probe, np.eye(14, dtype=bool)[np.arange(300) % 14], adapt=False)
+    doc = {"runs": "recover(..., n_jobs=2): adapt = exemplars=False, atoms = preset='fast', "
+                   "rule = the defaults",
+           "score": "per occluded pose: % body size of its hidden joints, Err_ave % of its "
+                    "EDM; x_minus_y: [mean, standard error]; pre/post: held-back hidden-joint "
+                    "error, % of pose size (RMS radius)", "files": {}}
+    for name, load in files(a):
+        truth, missing = load()
+        doc["files"][name] = measure(np.asarray(truth, float), missing)
+        print(name, json.dumps(doc["files"][name]), flush=True)
+        a.out.write_text(json.dumps(doc, indent=1) + "\n")
+    doc["replay"] = replays(doc, [int(t) for t in a.thresholds.split(",")],
+                            [float(m) for m in a.margins.split(",")])
+    a.out.write_text(json.dumps(doc, indent=1) + "\n")
+    print(json.dumps(doc["replay"], indent=1))
+
+
+if __name__ == "__main__":
+    main()
