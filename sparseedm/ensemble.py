@@ -29,7 +29,7 @@ from threadpoolctl import threadpool_limits
 
 from . import _progress
 from .adaptation import MIN_COMPLETE_POSES, resolve_adaptation
-from .exemplars import check_adapted, choose_exemplars
+from .exemplars import choose_exemplars
 from .file_atoms import resolve_fast, with_file_atoms
 from ._recovery_base import combine
 
@@ -64,9 +64,8 @@ def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
         atoms (:func:`sparseedm.file_atoms.resolve_fast`), one member.
     exemplars : {"auto", False}, default False
         ``"auto"`` (with ``adapt="auto"``): the file's complete poses as the
-        only atoms when :mod:`sparseedm.exemplars`'s rule finds them better
-        (one member; no adaptation when the size rule or the check before
-        adapting picks them). :func:`sparseedm.recover` and
+        only atoms, nothing learned and one member, when
+        :func:`sparseedm.exemplars.choose_exemplars` picks them. :func:`sparseedm.recover` and
         :func:`sparseedm.batch.recover_file` pass their own (``"auto"`` by
         default); the video path does not.
     backend, scheduler : optional
@@ -111,10 +110,8 @@ def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
             return [d], []
         if file_atoms and not res.adapted:
             d, res = _file_atoms(dictionary, poses, missing, adapt, res)
-        if check is not None and check.checked:
-            d, res = check_adapted(check, dictionary, d, res,
-                                   n_jobs=None if n_jobs == 1 else n_jobs, backend=backend,
-                                   scheduler=scheduler)
+        if check is not None:  # what the check found, beside what adapting did
+            res = check.note(res)
         dictionaries, adaptations = [d], [res]
         if int(n_members) <= 1 or not res.adapted:
             _say_one_member(n_members, res.reason)

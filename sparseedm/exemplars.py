@@ -11,30 +11,29 @@
 
 Which one is better depends on the file (``studies/fast/README.md``). On the
 validation files the exemplars won on every file with at least
-:data:`EXEMPLAR_MIN_POSES` complete poses, mocap and real people, and took a
-fraction of the time; below that it depended on the source. So
-(:func:`choose_exemplars`, then :func:`check_adapted`):
+:data:`EXEMPLAR_MIN_POSES` complete poses and took a fraction of the time;
+below that it depended on the source. So :func:`choose_exemplars` decides:
 
-1. fewer than :data:`~sparseedm.adaptation.MIN_COMPLETE_POSES` complete
-   poses: too few to be a dictionary on their own; the default path as it
-   was (no adaptation, the complete poses join the base's atoms);
+1. fewer than :data:`~sparseedm.adaptation.MIN_COMPLETE_POSES` usable
+   complete poses: too few to be a dictionary on their own; the default
+   path as it was (no adaptation, the complete poses join the base's atoms);
 2. at least :data:`EXEMPLAR_MIN_POSES`: the exemplars, no adaptation and no
    self-training;
-3. in between, an evidence check on held-back complete poses (whole
-   contiguous blocks of rows, at most 300, hidden by the guard's Mix masks),
-   scored on the hidden joints themselves (their distance to the truth in %
-   of the pose's size, the RMS distance of its joints to their centroid),
-   not on the EDM: first the exemplars (built from the other complete poses)
-   against the base with those poses as extra atoms, which costs no
-   learning; when the exemplars win by more than :data:`SKIP_MARGIN` they are
-   taken without adapting. Otherwise the file adapts as before, and the
-   adapted dictionary is scored against the exemplars on the adaptation's own
-   held-back poses (which it never learned from); the better one recovers.
+3. in between, an evidence check on held-back complete poses (20 %, at most
+   300, whole contiguous blocks of rows; hidden by the guard's Mix masks of
+   1-3 joints), scored on the hidden joints themselves (their distance to the
+   truth in % of the pose's size, the RMS distance of its joints to their
+   centroid), not on the EDM: the exemplars made of the other complete
+   poses against the base dictionary with those poses as extra atoms (what
+   the default path recovers with when its guard keeps the base). Neither
+   learns, so the check costs two small recoveries. When the exemplars'
+   error is below ``1 - EXEMPLAR_MARGIN`` times the other's they are taken,
+   nothing learned; otherwise the file adapts and self-trains as before.
 
 ``res.adaptation.summary()["path"]`` says which ran (``"file atoms"``,
-``"adapted"``, ``"base + file atoms"``, ``"base"``), and ``reason`` why, with
-the check's errors. ``recover(..., exemplars=False)`` adapts whatever the
-check would say (the path without this rule).
+``"adapted"``, ``"base + file atoms"``, ``"base"``), ``reason`` why, and
+``settings`` the check's two errors. ``recover(..., exemplars=False)``
+(``--no-exemplars``) adapts whatever the check would say.
 """
 
 from __future__ import annotations
@@ -51,17 +50,16 @@ from .adaptation import (DEFAULT_VALIDATION_FRACTION, GUARD_POSES_PER_PATTERN,
 from .file_atoms import file_dictionary, with_file_atoms
 from .normalize import rms_radius, usable_rows
 
-__all__ = ["EXEMPLAR_MIN_POSES", "SKIP_MARGIN", "EXEMPLAR_OPTIONS", "ExemplarCheck",
-           "hidden_joint_error", "choose_exemplars", "check_adapted"]
+__all__ = ["EXEMPLAR_MIN_POSES", "EXEMPLAR_MARGIN", "EXEMPLAR_OPTIONS", "ExemplarCheck",
+           "hidden_joint_error", "choose_exemplars"]
 
 #: From this many usable complete poses the file's own poses are the atoms,
 #: no check, no adaptation (chosen on validation files: studies/fast/README.md)
 EXEMPLAR_MIN_POSES = 2000
 
-#: Below EXEMPLAR_MIN_POSES: the exemplars are taken without adapting when
-#: their held-back hidden-joint error is below (1 - SKIP_MARGIN) times the
-#: base-with-file-atoms' (adaptation rarely gains more than that on it)
-SKIP_MARGIN = 0.10
+#: Below EXEMPLAR_MIN_POSES: the exemplars are taken when their held-back
+#: hidden-joint error is below (1 - EXEMPLAR_MARGIN) times the base-with-file-atoms'
+EXEMPLAR_MARGIN = 0.0
 
 #: recover()'s ``exemplars`` values: "auto" applies the rule, False never
 #: takes the exemplars instead of adapting
@@ -76,10 +74,10 @@ class ExemplarCheck:
     ----------
     dictionary : Dictionary or None
         The exemplars' dictionary (the file's complete poses as the only atoms)
-        when they were chosen; None: adapt (and call :func:`check_adapted`).
+        when they were chosen; None: the default path adapts.
     result : AdaptationResult or None
         What was done when the exemplars were chosen.
-    complete : ndarray (m, N, 2)
+    n_complete : int
         The file's usable complete poses.
     err_atoms, err_base : float
         The held-back poses' hidden-joint error (% of pose size) of the
@@ -90,15 +88,20 @@ class ExemplarCheck:
 
     dictionary: object
     result: AdaptationResult | None
-    complete: np.ndarray
+    n_complete: int
     err_atoms: float = float("nan")
     err_base: float = float("nan")
     seconds: float = 0.0
 
-    @property
-    def checked(self) -> bool:
-        """True when the held-back poses were scored (enough complete poses)."""
-        return bool(np.isfinite(self.err_atoms))
+    def note(self, result):
+        """`result` (the adaptation that ran instead) with the check's errors in its
+        ``settings`` and time in its ``seconds``; `result` itself when nothing was checked."""
+        if not np.isfinite(self.err_atoms):
+            return result
+        return replace(result, settings=dict(result.settings, held_err_atoms=self.err_atoms,
+                                             held_err_base=self.err_base),
+                       seconds=result.seconds + self.seconds,
+                       step_seconds=dict(result.step_seconds, exemplar_check=self.seconds))
 
 
 def hidden_joint_error(dictionary, poses, mask, *, alpha=None, n_jobs=1, backend=None,
@@ -158,20 +161,15 @@ def _complete(poses, missing):
     return poses[ok]
 
 
-def _scores(dictionary, complete, held, random_state, kw, base=True):
+def _scores(dictionary, complete, held, random_state, kw):
     """Hidden-joint errors on ``complete[held]`` of the exemplars made of the other
-    complete poses, and (with `base`) of the base with those as extra atoms."""
-    truth = complete[held]
+    complete poses and of the base with those as extra atoms."""
+    truth, rest = complete[held], complete[~held]
     mask = guard_masks(len(truth), truth.shape[1],
                        max(1, len(truth) // GUARD_POSES_PER_PATTERN), random_state)
-    rest = complete[~held]
-    atoms = file_dictionary(dictionary, rest).dictionary
-    e_atoms = hidden_joint_error(atoms, truth, mask, **kw)
-    if not base:
-        return e_atoms, truth, mask
-    e_base = hidden_joint_error(with_file_atoms(dictionary, rest).dictionary, truth, mask,
-                                **kw)
-    return e_atoms, e_base
+    return tuple(hidden_joint_error(d, truth, mask, **kw)
+                 for d in (file_dictionary(dictionary, rest).dictionary,
+                           with_file_atoms(dictionary, rest).dictionary))
 
 
 def _atoms_result(dictionary, found, n_given, reason, t0, **errs):
@@ -184,9 +182,9 @@ def _atoms_result(dictionary, found, n_given, reason, t0, **errs):
 
 
 def choose_exemplars(dictionary, poses, missing, *, n_jobs=1, random_state=0,
-                     min_poses=EXEMPLAR_MIN_POSES, skip_margin=SKIP_MARGIN, backend=None,
+                     min_poses=EXEMPLAR_MIN_POSES, margin=EXEMPLAR_MARGIN, backend=None,
                      scheduler=None):
-    """The exemplars when the size rule or the check before adapting picks them.
+    """The exemplars when the size rule or the check on held-back poses picks them.
 
     Parameters
     ----------
@@ -200,9 +198,9 @@ def choose_exemplars(dictionary, poses, missing, *, n_jobs=1, random_state=0,
         Seed of the held-back blocks and their masks.
     min_poses : int, default EXEMPLAR_MIN_POSES
         Complete poses from which the exemplars are taken unchecked.
-    skip_margin : float, default SKIP_MARGIN
+    margin : float, default EXEMPLAR_MARGIN
         Below `min_poses`: the exemplars are taken when their held-back error
-        is below ``1 - skip_margin`` times the base-with-file-atoms'.
+        is below ``1 - margin`` times the base-with-file-atoms'.
     backend, scheduler : optional
         As :func:`sparseedm.recover`'s: where the check's recoveries run.
 
@@ -223,19 +221,19 @@ def choose_exemplars(dictionary, poses, missing, *, n_jobs=1, random_state=0,
     complete = _complete(poses, missing)
     n = len(complete)
     if n < MIN_COMPLETE_POSES:
-        return ExemplarCheck(None, None, complete, seconds=time.perf_counter() - t0)
+        return ExemplarCheck(None, None, n, seconds=time.perf_counter() - t0)
     if n >= min_poses:
         found = file_dictionary(dictionary, complete)
         reason = (f"{n} complete poses, at least {min_poses}: they are the dictionary's "
                   "atoms, nothing learned")
         return ExemplarCheck(found.dictionary, _atoms_result(dictionary, found, len(poses),
-                                                             reason, t0), complete,
+                                                             reason, t0), n,
                              seconds=time.perf_counter() - t0)
     held = holdout_blocks(n, DEFAULT_VALIDATION_FRACTION, random_state)
     kw = dict(n_jobs=n_jobs, backend=backend, scheduler=scheduler)
     e_atoms, e_base = _scores(dictionary, complete, held, random_state, kw)
-    out = ExemplarCheck(None, None, complete, e_atoms, e_base)
-    if e_atoms < (1 - skip_margin) * e_base:
+    out = ExemplarCheck(None, None, n, e_atoms, e_base)
+    if e_atoms < (1 - margin) * e_base:
         reason = (f"{n} complete poses: as the only atoms they beat the base dictionary with "
                   f"them on {int(held.sum())} held-back poses' hidden joints "
                   f"({e_atoms:.2f} vs {e_base:.2f} % of pose size), nothing learned")
@@ -245,60 +243,3 @@ def choose_exemplars(dictionary, poses, missing, *, n_jobs=1, random_state=0,
                                    held_err_atoms=e_atoms, held_err_base=e_base)
     out.seconds = time.perf_counter() - t0
     return out
-
-
-def check_adapted(check, dictionary, chosen, result, *, n_jobs=1, backend=None,
-                  scheduler=None):
-    """After adapting: the exemplars or the default path's dictionary, whichever
-    recovers the adaptation's held-back poses' hidden joints better.
-
-    Parameters
-    ----------
-    check : ExemplarCheck
-        :func:`choose_exemplars`'s, which did not choose the exemplars.
-    dictionary : Dictionary
-        The base dictionary.
-    chosen : Dictionary
-        What the default path chose (adapted, or the base with file atoms).
-    result : AdaptationResult
-        Its adaptation.
-    n_jobs, backend, scheduler : optional
-        As :func:`choose_exemplars`'.
-
-    Returns
-    -------
-    chosen : Dictionary
-        The dictionary to recover with.
-    result : AdaptationResult
-        What was done: the exemplars' own result when they won, else `result`
-        with the check's errors added to its ``settings``.
-    """
-    t0 = time.perf_counter()
-    seed = result.settings.get("random_state", 0)
-    if result.adapted and result.pool is not None:  # its own held-back poses: unseen by it
-        pool = result.pool
-        fraction = result.settings.get("validation_fraction", DEFAULT_VALIDATION_FRACTION)
-        held_rows = pool[holdout_blocks(len(pool), fraction, seed)]
-        seen = {p.tobytes() for p in held_rows}
-        held = np.array([p.tobytes() in seen for p in check.complete])
-        kw = dict(n_jobs=n_jobs, backend=backend, scheduler=scheduler)
-        e_atoms, truth, mask = _scores(dictionary, check.complete, held, seed, kw,
-                                       base=False)
-        e_other = hidden_joint_error(chosen, truth, mask, **kw)
-        n_held, other = int(held.sum()), "the adapted dictionary"
-    else:  # not adapted: the check before adapting compared the same two
-        e_atoms, e_other, n_held = check.err_atoms, check.err_base, None
-        other = "the base dictionary with them"
-    errs = dict(held_err_atoms=e_atoms, held_err_default=e_other)
-    if not e_atoms < e_other:
-        return chosen, replace(result, settings=dict(result.settings, **errs),
-                               seconds=result.seconds + time.perf_counter() - t0)
-    found = file_dictionary(dictionary, check.complete)
-    where = f"{n_held} held-back" if n_held is not None else "held-back"
-    reason = (f"{len(check.complete)} complete poses: as the only atoms they beat {other} "
-              f"on {where} poses' hidden joints ({e_atoms:.2f} vs {e_other:.2f} % of pose "
-              "size)")
-    res = _atoms_result(dictionary, found, result.n_given, reason, t0, **errs)
-    res.seconds += result.seconds + check.seconds
-    res.step_seconds = dict(result.step_seconds, exemplar_check=time.perf_counter() - t0)
-    return found.dictionary, res

@@ -3,22 +3,24 @@
 ``recover()``'s default path takes a file's own complete poses as its only
 atoms (the exemplars) instead of adapting when :mod:`sparseedm.exemplars`
 says so: from ``EXEMPLAR_MIN_POSES`` complete poses always; in between, when
-an evidence check on held-back complete poses' hidden joints prefers them
-(before adapting, against the base with file atoms, by more than
-``SKIP_MARGIN``; after adapting, against the adapted dictionary). This script
-measures, per validation file, what every branch of the rule needs:
+a check on held-back complete poses' hidden joints prefers them to the base
+dictionary with those poses as extra atoms (by ``EXEMPLAR_MARGIN``). This
+script measures, per validation file, what every branch of the rule needs:
 
 * ``adapt``: ``recover(..., exemplars=False)``, the default path without the
   rule (guarded adaptation + self-training, or the base with file atoms);
 * ``atoms``: the exemplars' recovery (``recover(..., preset="fast")``, the
   same dictionary the rule takes);
-* the check's scores: before adapting (``pre``: exemplars vs base with file
-  atoms on held-back blocks of the complete poses) and after (``post``:
-  exemplars vs what ``adapt`` used, on the adaptation's own held-back poses);
+* the check's scores: ``pre``, the shipped check (exemplars vs base with file
+  atoms on held-back blocks of the complete poses, before any learning), and
+  ``post``, a check after adapting that was measured and dropped (exemplars
+  vs what ``adapt`` used, on the adaptation's own held-back poses, which its
+  guard had chosen the adapted dictionary on);
 
-then replays the rule for each threshold and margin asked for (which branch,
-the test error of the occluded poses it would return, its seconds) and runs
-``recover()`` itself (``rule``) to confirm the replay at the shipped settings.
+then replays the rule for each threshold and margin asked for, with and
+without the check after adapting (which branch, the test error of the
+occluded poses it would return, its seconds), and runs ``recover()`` itself
+(``rule``) to confirm the replay at the shipped settings.
 Errors per occluded pose: its hidden joints' error (% of body size) and its
 EDM's Err_ave (%); paired differences with standard errors. Files (validation
 only): held-out CMU clips (``select_fast.validation_file``), Daz-retargeted CMU
@@ -53,10 +55,30 @@ def timed(fn):
     return out, time.perf_counter() - t0
 
 
+def post_check(base, complete, chosen, result):
+    """The check after adapting, measured and dropped: the exemplars made of the
+    complete poses outside the adaptation's own held-back slice against what the
+    default path chose, on that slice's hidden joints (the guard's masks)."""
+    from sparseedm.adaptation import (DEFAULT_VALIDATION_FRACTION, GUARD_POSES_PER_PATTERN,
+                                      guard_masks, holdout_blocks)
+    from sparseedm.exemplars import hidden_joint_error
+    from sparseedm.file_atoms import file_dictionary
+
+    pool = result.pool
+    rows = pool[holdout_blocks(len(pool), DEFAULT_VALIDATION_FRACTION, 0)]
+    seen = {p.tobytes() for p in rows}
+    held = np.array([p.tobytes() in seen for p in complete])
+    truth = complete[held]
+    mask = guard_masks(len(truth), 14, max(1, len(truth) // GUARD_POSES_PER_PATTERN), 0)
+    atoms = file_dictionary(base, complete[~held]).dictionary
+    return (hidden_joint_error(atoms, truth, mask, n_jobs=None),
+            hidden_joint_error(chosen, truth, mask, n_jobs=None))
+
+
 def measure(truth, missing):
     """The rule's parts on one file: both paths' errors and seconds, the check's scores."""
     import sparseedm
-    from sparseedm.exemplars import check_adapted, choose_exemplars
+    from sparseedm.exemplars import choose_exemplars
 
     base = sparseedm.load_dictionary()
     given = np.where(missing[..., None], np.nan, truth)
@@ -74,24 +96,28 @@ def measure(truth, missing):
         if name == "adapt":
             kept = res
     check, secs = timed(lambda: choose_exemplars(base, given, missing, n_jobs=None,
-                                                 skip_margin=1.0, min_poses=10 ** 9))
+                                                 margin=1.0, min_poses=10 ** 9))
     row["pre"] = {"atoms": check.err_atoms, "base_file_atoms": check.err_base,
                   "seconds": round(secs, 2)}
-    if check.checked:
-        (_, post), secs = timed(lambda: check_adapted(check, base, kept.dictionary,
-                                                      kept.adaptation, n_jobs=None))
-        row["post"] = {"atoms": post.settings["held_err_atoms"],
-                       "default": post.settings["held_err_default"],
-                       "adapted": bool(kept.adapted), "seconds": round(secs, 2)}
+    if np.isfinite(check.err_atoms):
+        complete = truth[~missing.any(axis=1) & np.isfinite(truth).all(axis=(1, 2))]
+        if kept.adapted:
+            (e_atoms, e_default), secs = timed(lambda: post_check(
+                base, complete, kept.dictionary, kept.adaptation))
+        else:  # not adapted: the check before adapting compared the same two
+            (e_atoms, e_default), secs = (check.err_atoms, check.err_base), 0.0
+        row["post"] = {"atoms": e_atoms, "default": e_default, "adapted": bool(kept.adapted),
+                       "seconds": round(secs, 2)}
     for a, b in (("atoms", "adapt"), ("rule", "adapt")):
         row[f"{a}_minus_{b}"] = {"pct_body": paired(scores[a][0], scores[b][0]),
                                  "err_ave": paired(scores[a][1], scores[b][1])}
     return row
 
 
-def replay(row, threshold, margin):
-    """(branch, % body, seconds) the rule would give at `threshold` and `margin`."""
-    n, pre, post = row["complete"], row["pre"], row.get("post")
+def replay(row, threshold, margin, post=True):
+    """(branch, % body, seconds) the rule would give at `threshold` and `margin`
+    (without `post`: no check after adapting, the adaptation's answer kept)."""
+    n, pre = row["complete"], row["pre"]
     atoms = ("atoms", row["atoms"]["pct_body"], row["atoms"]["seconds"])
     if n < 250 or not np.isfinite(pre["atoms"]):
         return "too few", row["adapt"]["pct_body"], row["adapt"]["seconds"]
@@ -100,8 +126,11 @@ def replay(row, threshold, margin):
     extra = pre["seconds"]
     if pre["atoms"] < (1 - margin) * pre["base_file_atoms"]:
         return "atoms (before adapting)", atoms[1], atoms[2] + extra
-    extra += post["seconds"]
-    if post["atoms"] < post["default"]:
+    if not post:
+        return "adapt", row["adapt"]["pct_body"], row["adapt"]["seconds"] + extra
+    after = row["post"]
+    extra += after["seconds"]
+    if after["atoms"] < after["default"]:
         return "atoms (after adapting)", atoms[1], row["adapt"]["seconds"] + extra
     return "adapt", row["adapt"]["pct_body"], row["adapt"]["seconds"] + extra
 
@@ -129,18 +158,24 @@ def files(a):
 
 
 def replays(doc, thresholds, margins):
-    """Per threshold and margin: the rule's mean change against ``adapt`` and its worst file."""
+    """Per threshold, margin and with or without the check after adapting: the rule's
+    mean change against ``adapt`` (% body), its worst file, the files it made worse by
+    more than 0.05, its mean time ratio, and its branch per file."""
     out = {}
     for t in thresholds:
         for m in margins:
-            diffs, secs = [], []
-            for r in doc["files"].values():
-                branch, err, s = replay(r, t, m)
-                diffs.append(err - r["adapt"]["pct_body"])
-                secs.append(s / r["adapt"]["seconds"])
-            out[f"T={t} margin={m}"] = {"mean_change_pct_body": round(float(np.mean(diffs)), 4),
-                                        "worst_change_pct_body": round(float(max(diffs)), 4),
-                                        "mean_time_ratio": round(float(np.mean(secs)), 3)}
+            for post in (False, True):
+                diffs, secs, branches = [], [], {}
+                for name, r in doc["files"].items():
+                    branch, err, s = replay(r, t, m, post)
+                    diffs.append(err - r["adapt"]["pct_body"])
+                    secs.append(s / r["adapt"]["seconds"])
+                    branches[name] = branch
+                out[f"T={t} margin={m} post={post}"] = {
+                    "mean_change_pct_body": round(float(np.mean(diffs)), 4),
+                    "worst_change_pct_body": round(float(max(diffs)), 4),
+                    "files_worse": int(sum(d > 0.05 for d in diffs)),
+                    "mean_time_ratio": round(float(np.mean(secs)), 3), "branches": branches}
     return out
 
 
@@ -155,9 +190,20 @@ def main(argv=None):
     ap.add_argument("--protocols", default="2,real", help="harness.py protocols")
     ap.add_argument("--thresholds", default="1000,1500,2000,2500")
     ap.add_argument("--margins", default="0,0.05,0.1,0.2,1")
+    ap.add_argument("--replay", nargs="+", type=Path, metavar="JSON",
+                    help="only replay the rule on these result files (merged), no runs")
     ap.add_argument("--out", type=Path,
                     default=Path(__file__).with_name("selection_exemplar_rule.json"))
     a = ap.parse_args(argv)
+    thresholds = [int(t) for t in a.thresholds.split(",")]
+    margins = [float(m) for m in a.margins.split(",")]
+    if a.replay:
+        doc = json.loads(a.replay[0].read_text())
+        for extra in a.replay[1:]:
+            doc["files"].update(json.loads(extra.read_text())["files"])
+        doc["replay"] = replays(doc, thresholds, margins)
+        a.out.write_text(json.dumps(doc, indent=1) + "\n")
+        return
     import sparseedm
 
     warnings.simplefilter("ignore")
@@ -173,8 +219,7 @@ def main(argv=None):
         doc["files"][name] = measure(np.asarray(truth, float), missing)
         print(name, json.dumps(doc["files"][name]), flush=True)
         a.out.write_text(json.dumps(doc, indent=1) + "\n")
-    doc["replay"] = replays(doc, [int(t) for t in a.thresholds.split(",")],
-                            [float(m) for m in a.margins.split(",")])
+    doc["replay"] = replays(doc, thresholds, margins)
     a.out.write_text(json.dumps(doc, indent=1) + "\n")
     print(json.dumps(doc["replay"], indent=1))
 
