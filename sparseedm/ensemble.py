@@ -65,9 +65,9 @@ def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
     exemplars : {"auto", False}, default False
         ``"auto"`` (with ``adapt="auto"``): the file's complete poses as the
         only atoms, nothing learned and one member, when
-        :func:`sparseedm.exemplars.choose_exemplars` picks them. :func:`sparseedm.recover` and
-        :func:`sparseedm.batch.recover_file` pass their own (``"auto"`` by
-        default); the video path does not.
+        :func:`sparseedm.exemplars.choose_exemplars` picks them.
+        :func:`sparseedm.recover` and :func:`sparseedm.batch.recover_file`
+        pass their own (``"auto"`` by default); the video path does not.
     backend, scheduler : optional
         As :func:`sparseedm.recover`'s: ``backend="dask"`` runs every member's
         guard and self-training recoveries on the cluster (the learning stays

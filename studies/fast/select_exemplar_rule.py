@@ -1,4 +1,4 @@
-"""The default path's exemplar rule: its size threshold and its check's margin, on validation files.
+"""The default path's exemplar rule: its size threshold and its check's margin, on validation.
 
 ``recover()``'s default path takes a file's own complete poses as its only
 atoms (the exemplars) instead of adapting when :mod:`sparseedm.exemplars`
@@ -12,15 +12,18 @@ script measures, per validation file, what every branch of the rule needs:
 * ``atoms``: the exemplars' recovery (``recover(..., preset="fast")``, the
   same dictionary the rule takes);
 * the check's scores: ``pre``, the shipped check (exemplars vs base with file
-  atoms on held-back blocks of the complete poses, before any learning), and
+  atoms on held-back complete poses, before any learning; ``--pre-only``
+  adds it with held-back single rows and with the guard's contiguous blocks),
+  and
   ``post``, a check after adapting that was measured and dropped (exemplars
   vs what ``adapt`` used, on the adaptation's own held-back poses, which its
   guard had chosen the adapted dictionary on);
 
-then replays the rule for each threshold and margin asked for, with and
-without the check after adapting (which branch, the test error of the
-occluded poses it would return, its seconds), and runs ``recover()`` itself
-(``rule``) to confirm the replay at the shipped settings.
+then replays the rule for each threshold and margin asked for, rows or
+blocks held back, with and without the check after adapting (which branch,
+the test error of the occluded poses it would return, its seconds).
+``benchmarks/real_people.py`` and ``benchmarks/default_path.py`` run the
+shipped rule itself.
 Errors per occluded pose: its hidden joints' error (% of body size) and its
 EDM's Err_ave (%); paired differences with standard errors. Files (validation
 only): held-out CMU clips (``select_fast.validation_file``), Daz-retargeted CMU
@@ -83,7 +86,7 @@ def measure(truth, missing):
     base = sparseedm.load_dictionary()
     given = np.where(missing[..., None], np.nan, truth)
     row, scores = {"poses": len(truth), "complete": int((~missing.any(axis=1)).sum())}, {}
-    runs = {"adapt": dict(exemplars=False), "atoms": dict(preset="fast"), "rule": {}}
+    runs = {"adapt": dict(exemplars=False), "atoms": dict(preset="fast")}
     for name, kw in runs.items():
         res, secs = timed(lambda: sparseedm.recover(given, missing, dictionary=base,
                                                     n_jobs=2, **kw))
@@ -96,7 +99,7 @@ def measure(truth, missing):
         if name == "adapt":
             kept = res
     check, secs = timed(lambda: choose_exemplars(base, given, missing, n_jobs=None,
-                                                 margin=1.0, min_poses=10 ** 9))
+                                                 margin=-1.0, min_poses=10 ** 9))
     row["pre"] = {"atoms": check.err_atoms, "base_file_atoms": check.err_base,
                   "seconds": round(secs, 2)}
     if np.isfinite(check.err_atoms):
@@ -108,24 +111,65 @@ def measure(truth, missing):
             (e_atoms, e_default), secs = (check.err_atoms, check.err_base), 0.0
         row["post"] = {"atoms": e_atoms, "default": e_default, "adapted": bool(kept.adapted),
                        "seconds": round(secs, 2)}
-    for a, b in (("atoms", "adapt"), ("rule", "adapt")):
+    for a, b in (("atoms", "adapt"),):
         row[f"{a}_minus_{b}"] = {"pct_body": paired(scores[a][0], scores[b][0]),
                                  "err_ave": paired(scores[a][1], scores[b][1])}
     return row
 
 
-def replay(row, threshold, margin, post=True):
-    """(branch, % body, seconds) the rule would give at `threshold` and `margin`
-    (without `post`: no check after adapting, the adaptation's answer kept)."""
-    n, pre = row["complete"], row["pre"]
+def held_rows(n, how, seed=0):
+    """The check's held-back rows among n complete poses: ``blocks`` (whole
+    contiguous blocks, as the adaptation's guard holds back) or ``rows`` (a
+    seeded sample of rows); 20 %, at most 300."""
+    from sparseedm.adaptation import DEFAULT_VALIDATION_FRACTION, MAX_VALIDATION, holdout_blocks
+
+    if how == "blocks":
+        return holdout_blocks(n, DEFAULT_VALIDATION_FRACTION, seed)
+    want = min(int(round(DEFAULT_VALIDATION_FRACTION * n)), MAX_VALIDATION)
+    held = np.zeros(n, bool)
+    held[np.random.default_rng([seed, 43]).choice(n, want, replace=False)] = True
+    return held
+
+
+def pre_checks(truth, missing, hows=("blocks", "rows")):
+    """The check before adapting with each way of holding poses back: the
+    exemplars' and the base-with-file-atoms' held-back hidden-joint errors."""
+    import sparseedm
+    from sparseedm.adaptation import GUARD_POSES_PER_PATTERN, guard_masks
+    from sparseedm.exemplars import hidden_joint_error
+    from sparseedm.file_atoms import file_dictionary, with_file_atoms
+
+    base = sparseedm.load_dictionary()
+    complete = truth[~missing.any(axis=1)]
+    out = {}
+    for how in hows:
+        t0 = time.perf_counter()
+        held = held_rows(len(complete), how)
+        mask = guard_masks(int(held.sum()), 14, max(1, int(held.sum()) // GUARD_POSES_PER_PATTERN), 0)
+        rest = complete[~held]
+        out[how] = {"atoms": hidden_joint_error(file_dictionary(base, rest).dictionary,
+                                                complete[held], mask, n_jobs=None),
+                    "base_file_atoms": hidden_joint_error(
+                        with_file_atoms(base, rest).dictionary, complete[held], mask,
+                        n_jobs=None)}
+        out[how]["seconds"] = round(time.perf_counter() - t0, 2)
+    return out
+
+
+def replay(row, threshold, margin, post=False, how="rows"):
+    """(branch, % body, seconds) the rule would give at `threshold` and `margin`,
+    its check holding back `how` (``rows`` or ``blocks``); with `post`, the dropped
+    check after adapting too."""
+    n = row["complete"]
+    pre = row.get("pre_by_holdout", {}).get(how, row["pre"])
     atoms = ("atoms", row["atoms"]["pct_body"], row["atoms"]["seconds"])
     if n < 250 or not np.isfinite(pre["atoms"]):
         return "too few", row["adapt"]["pct_body"], row["adapt"]["seconds"]
     if n >= threshold:
         return atoms
     extra = pre["seconds"]
-    if pre["atoms"] < (1 - margin) * pre["base_file_atoms"]:
-        return "atoms (before adapting)", atoms[1], atoms[2] + extra
+    if pre["atoms"] <= (1 + margin) * pre["base_file_atoms"]:
+        return "atoms (checked)", atoms[1], atoms[2] + extra
     if not post:
         return "adapt", row["adapt"]["pct_body"], row["adapt"]["seconds"] + extra
     after = row["post"]
@@ -158,20 +202,21 @@ def files(a):
 
 
 def replays(doc, thresholds, margins):
-    """Per threshold, margin and with or without the check after adapting: the rule's
-    mean change against ``adapt`` (% body), its worst file, the files it made worse by
-    more than 0.05, its mean time ratio, and its branch per file."""
+    """Per threshold, margin, held-back rows and with or without the check after
+    adapting: the rule's mean change against ``adapt`` (% body), its worst file,
+    the files it made worse by more than 0.05, its mean time ratio, and its branch
+    per file."""
     out = {}
     for t in thresholds:
         for m in margins:
-            for post in (False, True):
+            for how, post in (("rows", False), ("blocks", False), ("blocks", True)):
                 diffs, secs, branches = [], [], {}
                 for name, r in doc["files"].items():
-                    branch, err, s = replay(r, t, m, post)
+                    branch, err, s = replay(r, t, m, post, how)
                     diffs.append(err - r["adapt"]["pct_body"])
                     secs.append(s / r["adapt"]["seconds"])
                     branches[name] = branch
-                out[f"T={t} margin={m} post={post}"] = {
+                out[f"T={t} margin={m} held={how} post={post}"] = {
                     "mean_change_pct_body": round(float(np.mean(diffs)), 4),
                     "worst_change_pct_body": round(float(max(diffs)), 4),
                     "files_worse": int(sum(d > 0.05 for d in diffs)),
@@ -189,7 +234,10 @@ def main(argv=None):
     ap.add_argument("--photos", default="bonn,mpii-large", help="harness.py files")
     ap.add_argument("--protocols", default="2,real", help="harness.py protocols")
     ap.add_argument("--thresholds", default="1000,1500,2000,2500")
-    ap.add_argument("--margins", default="0,0.05,0.1,0.2,1")
+    ap.add_argument("--margins", default="-0.1,-0.05,0,0.05,0.1,0.2")
+    ap.add_argument("--pre-only", action="store_true",
+                    help="only the check before adapting, blocks and rows held back, "
+                    "added to the files of --replay's JSON")
     ap.add_argument("--replay", nargs="+", type=Path, metavar="JSON",
                     help="only replay the rule on these result files (merged), no runs")
     ap.add_argument("--out", type=Path,
@@ -201,6 +249,14 @@ def main(argv=None):
         doc = json.loads(a.replay[0].read_text())
         for extra in a.replay[1:]:
             doc["files"].update(json.loads(extra.read_text())["files"])
+        if a.pre_only:
+            warnings.simplefilter("ignore")
+            for name, load in files(a):
+                if name in doc["files"]:
+                    truth, missing = load()
+                    doc["files"][name]["pre_by_holdout"] = pre_checks(
+                        np.asarray(truth, float), missing)
+                    print(name, doc["files"][name]["pre_by_holdout"], flush=True)
         doc["replay"] = replays(doc, thresholds, margins)
         a.out.write_text(json.dumps(doc, indent=1) + "\n")
         return
@@ -209,8 +265,7 @@ def main(argv=None):
     warnings.simplefilter("ignore")
     probe = np.random.default_rng(0).normal(size=(300, 14, 2))
     sparseedm.recover(probe, np.eye(14, dtype=bool)[np.arange(300) % 14], adapt=False)
-    doc = {"runs": "recover(..., n_jobs=2): adapt = exemplars=False, atoms = preset='fast', "
-                   "rule = the defaults",
+    doc = {"runs": "recover(..., n_jobs=2): adapt = exemplars=False, atoms = preset='fast'",
            "score": "per occluded pose: % body size of its hidden joints, Err_ave % of its "
                     "EDM; x_minus_y: [mean, standard error]; pre/post: held-back hidden-joint "
                     "error, % of pose size (RMS radius)", "files": {}}
