@@ -49,7 +49,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))  # `python studies/fast/select_exemplar_rule.py` finds benchmarks/
 
-from studies.fast.select_default_exemplars import mocap_file, paired, per_pose  # noqa: E402
+from studies.fast.select_default_exemplars import files, paired, per_pose  # noqa: E402
 
 
 def timed(fn):
@@ -179,28 +179,6 @@ def replay(row, threshold, margin, post=False, how="rows"):
     return "adapt", row["adapt"]["pct_body"], row["adapt"]["seconds"] + extra
 
 
-def files(a):
-    """(name, loader) of every file asked for."""
-    from studies.fast.select_fast import validation_file
-    from studies.real_prior import harness
-
-    out = []
-    for source in filter(None, a.photos.split(",")):
-        for protocol in filter(None, a.protocols.split(",")):
-            out.append((f"{source} protocol {protocol}",
-                        lambda s=source, p=protocol: harness.make_file(s, p, 0)))
-    for path in filter(None, a.mocap.split(",")):
-        for size in filter(None, a.mocap_sizes.split(",")):
-            c, m = (int(x) for x in size.split("+"))
-            out.append((f"{Path(path).stem} {c}+{m}",
-                        lambda p=path, c=c, m=m: mocap_file(p, c, m, 0)))
-    for n in sorted(int(x) for x in a.cmu.split(",") if x):
-        for seed in (int(s) for s in a.seeds.split(",")):
-            out.append((f"cmu n={n} seed={seed}",
-                        lambda n=n, seed=seed: validation_file(n, seed)))
-    return out
-
-
 def replays(doc, thresholds, margins):
     """Per threshold, margin, held-back rows and with or without the check after
     adapting: the rule's mean change against ``adapt`` (% body), its worst file,
@@ -212,6 +190,8 @@ def replays(doc, thresholds, margins):
             for how, post in (("rows", False), ("blocks", False), ("blocks", True)):
                 diffs, secs, branches = [], [], {}
                 for name, r in doc["files"].items():
+                    if "adapt" not in r:  # the check measured alone
+                        continue
                     branch, err, s = replay(r, t, m, post, how)
                     diffs.append(err - r["adapt"]["pct_body"])
                     secs.append(s / r["adapt"]["seconds"])
@@ -222,6 +202,27 @@ def replays(doc, thresholds, margins):
                     "files_worse": int(sum(d > 0.05 for d in diffs)),
                     "mean_time_ratio": round(float(np.mean(secs)), 3), "branches": branches}
     return out
+
+
+def table(doc, threshold, margin):
+    """Markdown: per file, both paths' errors and seconds, the check's ratio and
+    what the rule (rows held back) does."""
+    lines = ["| file | complete | adapt: % body / s (path) | exemplars: % body / s | "
+             "exemplars − adapt, % body | check: exemplars / base+atoms | rule |",
+             "|---|---:|---|---|---|---:|---|"]
+    for name, r in doc["files"].items():
+        if "adapt" not in r:
+            continue
+        pre = r.get("pre_by_holdout", {}).get("rows")  # the shipped check's holdout
+        ratio = pre["atoms"] / pre["base_file_atoms"] if pre else None
+        branch = replay(r, threshold, margin)[0]
+        d, se = r["atoms_minus_adapt"]["pct_body"]
+        lines.append(f"| {name} | {r['complete']:,} | {r['adapt']['pct_body']:.2f} / "
+                     f"{r['adapt']['seconds']:.0f} ({r['adapt']['path']}) | "
+                     f"{r['atoms']['pct_body']:.2f} / {r['atoms']['seconds']:.0f} | "
+                     f"{d:+.2f} ± {se:.2f} | {'—' if ratio is None else f'{ratio:.3f}'} | "
+                     f"{branch} |")
+    return "\n".join(lines)
 
 
 def main(argv=None):
@@ -238,6 +239,8 @@ def main(argv=None):
     ap.add_argument("--pre-only", action="store_true",
                     help="only the check before adapting, blocks and rows held back, "
                     "added to the files of --replay's JSON")
+    ap.add_argument("--table", default=None, metavar="T,MARGIN",
+                    help="with --replay: print the Markdown table of the rule at T, MARGIN")
     ap.add_argument("--replay", nargs="+", type=Path, metavar="JSON",
                     help="only replay the rule on these result files (merged), no runs")
     ap.add_argument("--out", type=Path,
@@ -246,19 +249,23 @@ def main(argv=None):
     thresholds = [int(t) for t in a.thresholds.split(",")]
     margins = [float(m) for m in a.margins.split(",")]
     if a.replay:
-        doc = json.loads(a.replay[0].read_text())
-        for extra in a.replay[1:]:
-            doc["files"].update(json.loads(extra.read_text())["files"])
+        doc = {"files": {}}
+        for path in a.replay:  # merged per file: a later file's fields win
+            for name, row in json.loads(path.read_text())["files"].items():
+                doc["files"].setdefault(name, {}).update(row)
         if a.pre_only:
             warnings.simplefilter("ignore")
             for name, load in files(a):
-                if name in doc["files"]:
-                    truth, missing = load()
-                    doc["files"][name]["pre_by_holdout"] = pre_checks(
-                        np.asarray(truth, float), missing)
-                    print(name, doc["files"][name]["pre_by_holdout"], flush=True)
+                truth, missing = load()
+                doc["files"].setdefault(name, {})["pre_by_holdout"] = pre_checks(
+                    np.asarray(truth, float), missing)
+                print(name, doc["files"][name]["pre_by_holdout"], flush=True)
+                a.out.write_text(json.dumps(doc, indent=1) + "\n")
         doc["replay"] = replays(doc, thresholds, margins)
         a.out.write_text(json.dumps(doc, indent=1) + "\n")
+        if a.table:
+            t, m = a.table.split(",")
+            print(table(doc, int(t), float(m)))
         return
     import sparseedm
 
