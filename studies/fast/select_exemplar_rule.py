@@ -252,7 +252,8 @@ def main(argv=None):
         doc = {"files": {}}
         for path in a.replay:  # merged per file: a later file's fields win
             for name, row in json.loads(path.read_text())["files"].items():
-                doc["files"].setdefault(name, {}).update(row)
+                doc["files"].setdefault(name, {}).update(
+                    {k: v for k, v in row.items() if not k.startswith("rule")})
         if a.pre_only:
             warnings.simplefilter("ignore")
             for name, load in files(a):
@@ -261,6 +262,12 @@ def main(argv=None):
                     np.asarray(truth, float), missing)
                 print(name, doc["files"][name]["pre_by_holdout"], flush=True)
                 a.out.write_text(json.dumps(doc, indent=1) + "\n")
+        for row in doc["files"].values():  # the shipped check: single rows held back
+            if "rows" in row.get("pre_by_holdout", {}):
+                row["pre"] = row["pre_by_holdout"]["rows"]
+        doc["runs"] = ("recover(..., n_jobs=2): adapt = exemplars=False, atoms = "
+                       "preset='fast'; pre = the check (rows held back), pre_by_holdout: "
+                       "rows and blocks; post: the dropped check after adapting")
         doc["replay"] = replays(doc, thresholds, margins)
         a.out.write_text(json.dumps(doc, indent=1) + "\n")
         if a.table:
