@@ -1,6 +1,8 @@
 """``python -m benchmarks.default_path [--quick] [--write-docs]``: what users run,
-``recover()`` with its defaults (adaptation and self-training), against the
-certified lasso path ``recover(adapt=False)``, measured in the same run.
+``recover()`` with its defaults (on these files, with thousands of complete
+poses, the file's own complete poses as the atoms: :mod:`sparseedm.exemplars`;
+``exemplars=False`` adapts and self-trains), against the certified lasso path
+``recover(adapt=False)``, measured in the same run.
 
 Data: poses no shipped dictionary has seen, as users' are: the Bandai-Namco-1
 set (``sparseedm dataset build ../shared/data/bandai-namco-1 --seed 0``, 31,914
@@ -12,9 +14,9 @@ file order. Dictionary: the shipped default (k = 2000). Both calls get
 ``n_jobs=2``; the JIT caches are warmed first (a fit, a recovery and a lift of
 a few poses). Reported per file: seconds and poses/s of each call, the
 throughput ratio (goal: defaults >= 0.8x ``adapt=False`` on the 6,000-pose
-file), the default path's own breakdown (``res.adaptation.step_seconds``:
-filters, learning, guard, and each self-training round's recovery, learning
-and guard), and the Err_ave (%) of the occluded poses' completed EDMs, which
+file), the default path's own breakdown when it adapts
+(``res.adaptation.step_seconds``: filters, learning, guard, and each
+self-training round's recovery, learning and guard), and the Err_ave (%) of the occluded poses' completed EDMs, which
 says what the time buys. Peer: scikit-learn's IterativeImputer fitted on and
 filling the same file.
 
