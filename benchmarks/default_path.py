@@ -11,13 +11,14 @@ poses, built once into the user's cache folder; CC BY-NC 4.0: used here, never
 committed); a seeded sample of 6,000 and of 30,000 poses (``--quick``:
 1,200), half of them complete and half occluded by the evaluation protocol's
 Mix masks (1-3 joints, :func:`sparseedm.metrics.occlusion_masks`), rows in
-file order. Dictionary: the shipped default (k = 2000). Both calls get
+file order. Dictionary: the shipped default (k = 2000). Every call gets
 ``n_jobs=2``; the JIT caches are warmed first (a fit, a recovery and a lift of
 a few poses). Reported per file: seconds and poses/s of each call, the
 throughput ratio (goal: defaults >= 0.8x ``adapt=False`` on the 6,000-pose
-file), the default path's own breakdown when it adapts
-(``res.adaptation.step_seconds``: filters, learning, guard, and each
-self-training round's recovery, learning and guard), and the Err_ave (%) of the occluded poses' completed EDMs, which
+file), the path the defaults took and its fixed cost, adaptation's own
+breakdown (``res.adaptation.step_seconds`` of ``exemplars=False``: filters,
+learning, guard, and each self-training round's recovery, learning and
+guard), and the Err_ave (%) of the occluded poses' completed EDMs, which
 says what the time buys. Peer: scikit-learn's IterativeImputer fitted on and
 filling the same file.
 

@@ -145,7 +145,8 @@ def pre_checks(truth, missing, hows=("blocks", "rows")):
     for how in hows:
         t0 = time.perf_counter()
         held = held_rows(len(complete), how)
-        mask = guard_masks(int(held.sum()), 14, max(1, int(held.sum()) // GUARD_POSES_PER_PATTERN), 0)
+        n_held = int(held.sum())
+        mask = guard_masks(n_held, 14, max(1, n_held // GUARD_POSES_PER_PATTERN), 0)
         rest = complete[~held]
         out[how] = {"atoms": hidden_joint_error(file_dictionary(base, rest).dictionary,
                                                 complete[held], mask, n_jobs=None),
