@@ -154,3 +154,26 @@ def test_cli_no_exemplars_flag():
     args = build_parser().parse_args(["recover", "in.csv", "-o", "o.csv", "--no-exemplars"])
     assert args.no_exemplars
     assert not build_parser().parse_args(["recover", "in.csv", "-o", "o.csv"]).no_exemplars
+
+
+def test_cli_large_file_takes_the_atoms_and_says_so(tmp_path, large_file,
+                                                    small_dictionary_path, capsys):
+    """`sparseedm recover` (recover_file) takes the same rule: the line says which path
+    ran, no refusal is printed, and --no-exemplars adapts."""
+    from sparseedm.cli import main
+    from sparseedm.keypoints import write_keypoints
+
+    poses, missing = large_file
+    ok = np.isfinite(poses).all(axis=-1).any(axis=-1) & ~np.isinf(poses).any(axis=(1, 2))
+    inp = tmp_path / "in.npz"
+    write_keypoints(inp, poses[ok])
+    assert main(["recover", str(inp), "-o", str(tmp_path / "out.npz"), "--dictionary",
+                 str(small_dictionary_path), "--self-training", "0"]) in (0, 1)
+    cap = capsys.readouterr()
+    assert "adaptation: none, the file's own poses are the atoms" in cap.out
+    assert "no adaptation:" not in cap.err
+    assert main(["recover", str(inp), "-o", str(tmp_path / "out2.npz"), "--dictionary",
+                 str(small_dictionary_path), "--self-training", "0", "--no-exemplars"]) in (0, 1)
+    line = next(ln for ln in capsys.readouterr().out.splitlines()
+                if ln.startswith("adaptation:"))
+    assert "the file's own poses are the atoms" not in line and "poses used" in line
