@@ -692,7 +692,7 @@ class AdaptationResult:
         Returns
         -------
         dict
-            ``adapted``, ``reason``, the pose counts (``poses_given``,
+            ``path`` (:attr:`path`), ``adapted``, ``reason``, the pose counts (``poses_given``,
             ``complete_poses``, ``poses_used``, ``validation_poses``),
             ``dropped``, the guard's ``validation_err_base`` and
             ``validation_err_adapted`` (None when not measured),
@@ -702,7 +702,7 @@ class AdaptationResult:
         def num(v):
             return None if not np.isfinite(v) else round(float(v), 4)
         return {
-            "adapted": bool(self.adapted), "reason": self.reason,
+            "path": self.path, "adapted": bool(self.adapted), "reason": self.reason,
             "poses_given": self.n_given, "complete_poses": self.n_complete,
             "poses_used": self.n_used, "validation_poses": self.n_validation,
             "dropped": dict(self.dropped),
@@ -715,6 +715,17 @@ class AdaptationResult:
                                for k, v in r.items()} for r in self.self_training],
         }
 
+    @property
+    def path(self) -> str:
+        """Which dictionary recovered: ``"file atoms"`` (the poses' own complete
+        poses as the only atoms: :mod:`sparseedm.exemplars`, ``preset="fast"``),
+        ``"adapted"``, ``"base + file atoms"`` or ``"base"``."""
+        if "file_dictionary" in (self.dictionary.provenance or {}):
+            return "file atoms"
+        if self.adapted:
+            return "adapted"
+        return "base + file atoms" if self.file_atoms else "base"
+
     def line(self) -> str:
         """One line a person reads (what ``sparseedm recover`` prints).
 
@@ -726,6 +737,9 @@ class AdaptationResult:
         """
         if self.settings.get("preset") == "fast":  # nothing adapted, nothing to compare
             return f"adaptation: none ({self.reason}); {self.seconds:.1f} s"
+        if self.settings.get("path") == "file atoms":  # sparseedm.exemplars chose them
+            return (f"adaptation: none, the file's own poses are the atoms ({self.reason}); "
+                    f"{self.seconds:.1f} s")
         if np.isfinite(self.err_base) and np.isfinite(self.err_adapted):
             errs = (f"validation Mix Err_ave {self.err_base:.2f}% -> {self.err_adapted:.2f}% "
                     f"on {self.n_validation} held-back poses")

@@ -101,6 +101,7 @@ from .adaptation import MIN_COMPLETE_POSES, sample_stream
 from .dictionary import Dictionary, dictionary_path, check_gram_memory, load_dictionary
 from ._safeio import resolved
 from .ensemble import adapt_members
+from .exemplars import EXEMPLAR_OPTIONS
 from .exceptions import FileFormatError, OutputPathError, ParameterError, SparseEDMError
 from .fconv.model import load_model
 from .formats import FILLED_SCORE, count_below, default_threshold, threshold_line
@@ -301,7 +302,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
                  method="sparse", model=None, adapt="auto", save_dictionary=None,
                  self_training=None, ensemble=1, joint_map=None,
                  filled_score=FILLED_SCORE, temporal=True, input_format=None,
-                 preset="default", outliers=True):
+                 preset="default", outliers=True, exemplars="auto"):
     """Recover every pose of a keypoint file and write the filled poses.
 
     Parameters
@@ -384,6 +385,11 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
         poses of the file (or of `adapt`) as the atoms, nothing learned
         (refused with self-training rounds, an ensemble, FConv, and on a
         file with frames unless ``temporal=False``).
+    exemplars : {"auto", False}, default "auto"
+        As :func:`sparseedm.recover`'s: under ``adapt="auto"``, per pose, the
+        file's (sampled) complete poses are the only atoms, nothing learned,
+        when :mod:`sparseedm.exemplars`'s rule finds them better than
+        adapting; False: adapt as before (``--no-exemplars``).
     outliers : bool, default True
         When the file has per-joint scores (not a ``.npy``, streamed): the
         outlier check (:mod:`sparseedm.outliers`): a point kept by the
@@ -422,7 +428,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
         scheduler=scheduler, method=method, save_dictionary=save_dictionary,
         self_training=self_training, ensemble=ensemble, joint_map=joint_map,
         filled_score=filled_score, temporal=temporal, input_format=input_format,
-        preset=preset, outliers=outliers), _PARAMS)
+        preset=preset, outliers=outliers, exemplars=exemplars), _PARAMS)
     check_options_apply("recover_file", method=method, model=model, backend=backend,
                         scheduler=scheduler, adapt=adapt, ensemble=ensemble, preset=preset,
                         self_training=self_training)
@@ -464,7 +470,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
             with one_client(backend, scheduler) as dist:  # the adaptation's recoveries
                 members, adaptation = _adapt(source, dictionary, adapt, chunk_size,
                                              confidence_threshold, n_jobs, self_training,
-                                             ensemble, in_time, preset, dist)
+                                             ensemble, in_time, preset, dist, exemplars)
             dictionary = members[0]
         else:
             members, adaptation = [dictionary], None
@@ -575,14 +581,15 @@ def _solver_after(requested, solver, adaptation):
 
 
 def _adapt(source, dictionary, adapt, chunk_size, threshold, n_jobs, self_training,
-           ensemble=1, in_time=False, preset="default", dist=None):
+           ensemble=1, in_time=False, preset="default", dist=None, exemplars=False):
     """The dictionaries to recover with (one unless an ensemble is asked for) and
     the first one's AdaptationResult: adapted on the file's complete poses or
     on other poses, then self-trained on the file's incomplete poses (bounded
     seeded samples of both, one pass over the source), or as given; `in_time`
     under "auto": as recover(frames=...) adapts (the whole file, read once);
     `preset` "fast": the sampled complete poses as atoms, nothing learned; `dist`
-    the adaptation's recovery backend (:func:`~sparseedm._parallel.one_client`'s)."""
+    the adaptation's recovery backend (:func:`~sparseedm._parallel.one_client`'s);
+    `exemplars` as :func:`~sparseedm.ensemble.adapt_members`' (per pose, "auto" only)."""
     if in_time and preset == "fast":
         raise ParameterError("recover_file: preset 'fast' recovers each pose on its own: "
                              "the file has frames, add --no-temporal (temporal=False)")
@@ -606,7 +613,7 @@ def _adapt(source, dictionary, adapt, chunk_size, threshold, n_jobs, self_traini
     poses = np.concatenate([complete, partial])
     missing = np.concatenate([np.zeros(complete.shape[:2], bool), partial_missing])
     kw = dict(n_jobs=n_jobs, warn=False, self_training=self_training, file_atoms=True,
-              preset=preset, **(dist or {}))
+              preset=preset, exemplars=exemplars, **(dist or {}))
     if isinstance(adapt, str) and adapt == "auto":
         members, results = adapt_members(dictionary, poses, missing, "auto", ensemble, **kw)
     else:
@@ -647,6 +654,7 @@ _PARAMS = {
     "temporal": BOOLEAN,
     "input_format": [str, None],
     "preset": [Options(PRESETS)],
+    "exemplars": [Options(EXEMPLAR_OPTIONS)],
     "outliers": BOOLEAN,
 }
 

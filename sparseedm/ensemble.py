@@ -29,6 +29,7 @@ from threadpoolctl import threadpool_limits
 
 from . import _progress
 from .adaptation import MIN_COMPLETE_POSES, resolve_adaptation
+from .exemplars import choose_exemplars
 from .file_atoms import resolve_fast, with_file_atoms
 from ._recovery_base import combine
 
@@ -37,8 +38,8 @@ __all__ = ["adapt_members", "combine"]
 
 def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
                   self_training=None, warn=True, min_poses=MIN_COMPLETE_POSES,
-                  file_atoms=False, preset="default", backend=None, scheduler=None,
-                  check_input=True):
+                  file_atoms=False, preset="default", exemplars=False, backend=None,
+                  scheduler=None, check_input=True):
     """Dictionaries adapted with seeds 0 .. n_members - 1, and what each did.
 
     Parameters
@@ -61,6 +62,12 @@ def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
     preset : {"default", "fast"}, default "default"
         ``"fast"``: no adaptation; the complete poses offered become the
         atoms (:func:`sparseedm.file_atoms.resolve_fast`), one member.
+    exemplars : {"auto", False}, default False
+        ``"auto"`` (with ``adapt="auto"``): the file's complete poses as the
+        only atoms, nothing learned and one member, when
+        :func:`sparseedm.exemplars.choose_exemplars` picks them.
+        :func:`sparseedm.recover` and :func:`sparseedm.batch.recover_file`
+        pass their own (``"auto"`` by default); the video path does not.
     backend, scheduler : optional
         As :func:`sparseedm.recover`'s: ``backend="dask"`` runs every member's
         guard and self-training recoveries on the cluster (the learning stays
@@ -78,6 +85,14 @@ def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
     if preset == "fast":
         d, res = resolve_fast(dictionary, poses, missing, adapt, min_poses=min_poses)
         return [d], ([] if res is None else [res])
+    check = None
+    if exemplars == "auto" and isinstance(adapt, str) and adapt == "auto":
+        check = choose_exemplars(dictionary, poses, missing,
+                                 n_jobs=None if n_jobs == 1 else n_jobs, backend=backend,
+                                 scheduler=scheduler)
+        if check.dictionary is not None:
+            _say_one_member(n_members, check.result.reason)
+            return [check.dictionary], [check.result]
     # the work is many small BLAS calls beside numba's threads: BLAS threads
     # would only spin against them (measured 2x slower), so BLAS gets one. Held
     # here for every member: the members' guards' recover() calls set and
@@ -96,12 +111,11 @@ def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
             return [d], []
         if file_atoms and not res.adapted:
             d, res = _file_atoms(dictionary, poses, missing, adapt, res)
+        if check is not None:  # what the check found, beside what adapting did
+            res = check.note(res)
         dictionaries, adaptations = [d], [res]
         if int(n_members) <= 1 or not res.adapted:
-            if int(n_members) > 1:
-                _progress.say(f"ensemble: seed 0's adaptation was not adopted ({res.reason}): "
-                              f"the other {int(n_members) - 1} members are not fitted, the "
-                              "base dictionary recovers alone")
+            _say_one_member(n_members, res.reason)
             return dictionaries, adaptations  # seed 0 not adopted: too few poses, or base better
         more = int(n_members) - 1
         _progress.say(f"ensemble: adapting {more} more "
@@ -129,6 +143,14 @@ def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
             _progress.say(f"ensemble: member seed {seed} dropped: "
                           f"{res.reason if res is not None else 'not adapted'}")
     return dictionaries, adaptations
+
+
+def _say_one_member(n_members, reason):
+    """Say why an ensemble asked for stops at one member."""
+    if int(n_members) > 1:
+        _progress.say(f"ensemble: seed 0's adaptation was not adopted ({reason}): the other "
+                      f"{int(n_members) - 1} members are not fitted, one dictionary recovers "
+                      "alone")
 
 
 def _file_atoms(dictionary, poses, missing, adapt, res):

@@ -38,6 +38,7 @@ from ._validation import Options, check_frames, validate_params
 from .normalize import REPRESENTATIONS, representation_for
 from .dictionary import Dictionary, check_gram_memory, load_dictionary
 from .ensemble import adapt_members
+from .exemplars import EXEMPLAR_OPTIONS
 from .exceptions import ParameterError, SparseEDMError
 from .outliers import check_confidence, mark_outliers, note_outliers
 from .temporal.recover import recover_temporal
@@ -53,7 +54,7 @@ _recover, _recover_members, _solve_chunk = recover_sparse, recover_members, solv
 #: constraints of recover()'s arguments (defined with the kernel, which the guard
 #: of adaptation also validates against)
 _PARAMS = dict(RECOVER_PARAMS, representation=[Options(REPRESENTATIONS), None],
-               outliers=["boolean"])
+               outliers=["boolean"], exemplars=[Options(EXEMPLAR_OPTIONS)])
 
 
 def check_options_apply(caller, *, method, model, backend, scheduler, adapt, ensemble,
@@ -129,7 +130,7 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
             positive=None, progress=False, backend=None, scheduler=None,
             method="sparse", model=None, adapt="auto", self_training=None, ensemble=1,
             tracks=None, frames=None, temporal=True, preset="default",
-            confidence=None, outliers=True):
+            confidence=None, outliers=True, exemplars="auto"):
     """Recover the occluded joints of 2D poses.
 
     Parameters
@@ -183,8 +184,9 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         (sparse method only)
         ``"auto"`` (default): when the poses hold at least
         :data:`sparseedm.adaptation.MIN_COMPLETE_POSES` complete plausible
-        poses, the dictionary is first adapted on them (guarded: kept only if
-        better on a held-back slice, see :mod:`sparseedm.adaptation`).
+        poses, either those poses become the dictionary's only atoms (see
+        `exemplars`) or the dictionary is first adapted on them (guarded:
+        kept only if better on a held-back slice, see :mod:`sparseedm.adaptation`).
         ``False``: recover with the dictionary as given. An array: adapt on
         those (complete) poses instead, e.g. other files of the same source.
         When the adaptation is not adopted (too few complete poses, or the
@@ -237,6 +239,18 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         (``docs/explanation/settings.md``, "Presets", and the accuracy-speed
         frontier of the results pages). Per pose only: with `frames` it needs
         ``temporal=False``; `ensemble` and `self_training` are refused with it.
+    exemplars : {"auto", False}, default "auto"
+        (with ``adapt="auto"``, per pose; the video path, with `frames`, does
+        not use it) ``"auto"``: the file's own complete poses are the only
+        atoms, nothing learned and no self-training, when they are the better
+        choice (:mod:`sparseedm.exemplars`): always from
+        :data:`~sparseedm.exemplars.EXEMPLAR_MIN_POSES` complete poses; from
+        :data:`~sparseedm.adaptation.MIN_COMPLETE_POSES` on when they recover
+        held-back complete poses' hidden joints better than the base
+        dictionary with them as extra atoms (then nothing is learned) or than
+        the adapted dictionary (checked after adapting). An ensemble then
+        stays at one member. ``False``: adapt as described under `adapt`.
+        ``res.adaptation.summary()["path"]`` says which ran.
     confidence : array_like (n, N), optional
         The detector's score of each joint in [0, 1] (NaN: none). Turns on the
         outlier check: an observed joint scored below 0.3 that the pose model
@@ -291,7 +305,8 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         dictionary=dictionary, alpha=alpha, representation=representation, solver=solver,
         n_jobs=n_jobs, chunk_size=chunk_size, positive=positive, progress=progress,
         backend=backend, scheduler=scheduler, method=method, self_training=self_training,
-        ensemble=ensemble, temporal=temporal, preset=preset, outliers=outliers), _PARAMS)
+        ensemble=ensemble, temporal=temporal, preset=preset, outliers=outliers,
+        exemplars=exemplars), _PARAMS)
     check_options_apply("recover", method=method, model=model, backend=backend,
                         scheduler=scheduler, adapt=adapt, ensemble=ensemble, preset=preset,
                         self_training=self_training)
@@ -305,7 +320,7 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
     opts = dict(dictionary=dictionary, alpha=alpha, representation=representation,
                 solver=solver, n_jobs=n_jobs, chunk_size=chunk_size, positive=positive,
                 progress=progress, backend=backend, scheduler=scheduler, adapt=adapt,
-                self_training=self_training, ensemble=ensemble)
+                self_training=self_training, ensemble=ensemble, exemplars=exemplars)
     check_outliers = confidence is not None and outliers
     if method == "sparse" or check_outliers:  # validated once here; the paths below trust them
         if not isinstance(dictionary, Dictionary):
@@ -350,7 +365,8 @@ def _dispatch(poses, missing, tracks, frames, method, model, preset, opts):
             # one member unless an ensemble was asked for (seed 0 is the default's)
             members, adaptations = adapt_members(
                 dictionary, poses, missing, adapt, opts["ensemble"], n_jobs=opts["n_jobs"],
-                self_training=opts["self_training"], file_atoms=True, preset=preset, **dist)
+                self_training=opts["self_training"], file_atoms=True, preset=preset,
+                exemplars=opts["exemplars"], **dist)
         res = recover_members(
             poses, missing, members, adaptations, **kernel, check_input=False,
             **(dist or dict(backend=opts["backend"], scheduler=opts["scheduler"])))
@@ -368,6 +384,7 @@ def _recover_in_time(poses, missing, tracks, frames, method, kwargs):
     if method != "sparse":
         raise SparseEDMError("temporal recovery uses the sparse method: pass "
                              "method='sparse', or temporal=False")
+    kwargs = {k: v for k, v in kwargs.items() if k != "exemplars"}  # per pose only
     return recover_temporal(poses, missing, tracks=tracks, frames=frames, check_input=False,
                             **kwargs)
 

@@ -100,7 +100,10 @@ def test_recover_file_adapts_on_the_cluster_too(cross_domain, shifted_dictionary
     adapt_on, inputs, _, _ = cross_domain  # one file: 260 complete poses, 74 occluded
     src = tmp_path / "in.npz"
     write_keypoints(src, np.concatenate([adapt_on, inputs]))
-    kw = dict(dictionary=shifted_dictionary, self_training=2, temporal=False)
+    # exemplars=False: adaptation itself (the file's 260 complete poses might
+    # otherwise be taken as its atoms: sparseedm.exemplars)
+    kw = dict(dictionary=shifted_dictionary, self_training=2, temporal=False,
+              exemplars=False)
     recover_file(src, tmp_path / "local.npz", **kw)
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
                                   dashboard_address=":0") as cluster, \

@@ -71,10 +71,12 @@ print("any NaN left:", bool(np.isnan(filled).any()))
 # ``LocalCluster`` of two workers (threads of this process) stands in for a
 # real one. Poses are grouped
 # by their missing joints and cut into chunks that joblib's Dask backend sends
-# to the workers. Without ``--no-adapt`` the adaptation's recoveries (the
-# guard's and every self-training round's) go to the workers too, with the same
-# results as on one machine; the online learning of the adapted atoms runs on
-# the client (each mini-batch updates the atoms the next is coded on).
+# to the workers. Without ``--no-adapt`` the check that chooses between the
+# file's own atoms and adaptation, and the adaptation's recoveries when it
+# adapts (the guard's and every self-training round's), go to the workers too,
+# with the same results as on one machine; the online learning of the adapted
+# atoms runs on the client (each mini-batch updates the atoms the next is coded
+# on).
 import sparseedm  # noqa: E402
 
 try:
@@ -102,4 +104,5 @@ if LocalCluster is not None:
 # machine in the same run; see :doc:`/results/speed`. On two cores the
 # certified path recovers several hundred poses a second with the dictionary
 # as shipped; adapting the dictionary costs a fixed few seconds to half a
-# minute per file.
+# minute per file, and a file with 2,000 or more complete poses skips it (its
+# own complete poses are the atoms).

@@ -136,6 +136,11 @@ def _add_adaptation_options(p):
                    "nothing learned: several times faster on a file with many complete "
                    "poses, less accurate (per pose: needs --no-temporal on a file with "
                    "frames; sparseedm.file_atoms)")
+    p.add_argument("--no-exemplars", action="store_true",
+                   help="adapt even where INPUT's own complete poses, as the dictionary's only "
+                   "atoms, would be chosen (by default they are from 2000 complete poses, "
+                   "and from 250 when a check on held-back poses prefers them: "
+                   "sparseedm.exemplars)")
     p.add_argument("--save-dictionary", default=None, metavar="FILE",
                    help="write the dictionary used (adapted or not; with --ensemble, the "
                    "first member's) to FILE (.npz)")
@@ -180,12 +185,13 @@ def run(args):
         ensemble=args.ensemble, joint_map=args.joint_map, filled_score=args.filled_score,
         temporal=not args.no_temporal, input_format=args.input_format,
         preset=args.preset,
-        outliers=not args.no_outliers,
+        outliers=not args.no_outliers, exemplars=False if args.no_exemplars else "auto",
     )
     out = sys.stderr if args.quiet or is_stream(args.output) else sys.stdout  # -o /dev/stdout
     ad = summary.get("adaptation")
     fast = args.preset == "fast"  # its summary line says what it did: not a refusal
-    if ad is not None and not ad["adapted"] and ad["poses_used"] == 0 and not fast:
+    chosen = ad is not None and ad.get("path") == "file atoms"  # not a refusal either
+    if ad is not None and not ad["adapted"] and ad["poses_used"] == 0 and not (fast or chosen):
         print(f"sparseedm recover: no adaptation: {ad['reason']}", file=sys.stderr)
     if summary.get("linked_tracks") is not None:
         print(f"sparseedm recover: {args.input} has frames, no track ids and several poses in "

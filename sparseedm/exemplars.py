@@ -1,0 +1,261 @@
+"""The default path's choice: a file's own complete poses as the only atoms, or adaptation.
+
+``recover()`` with its defaults can code the occluded poses of a file two ways:
+
+* over the file's own complete poses as the only atoms (exemplars, nothing
+  learned: :func:`sparseedm.file_atoms.file_dictionary`, what
+  ``preset="fast"`` does), or
+* over the shipped dictionary adapted on those poses and self-trained on the
+  incomplete ones (:mod:`sparseedm.adaptation`; when its guard keeps the
+  base, the base with the complete poses as extra atoms).
+
+Which one is better depends on the file (``studies/fast/README.md``). On the
+validation files the exemplars won on every file with at least
+:data:`EXEMPLAR_MIN_POSES` complete poses and took a fraction of the time;
+below that it depended on the source. So :func:`choose_exemplars` decides:
+
+1. fewer than :data:`~sparseedm.adaptation.MIN_COMPLETE_POSES` usable
+   complete poses: too few to be a dictionary on their own; the default
+   path as it was (no adaptation, the complete poses join the base's atoms);
+2. at least :data:`EXEMPLAR_MIN_POSES`: the exemplars, no adaptation and no
+   self-training;
+3. in between, an evidence check on held-back complete poses (a seeded
+   20 % of them, at most 300; hidden by the guard's Mix masks of 1-3
+   joints), scored on the hidden joints themselves (their distance to the
+   truth in % of the pose's size, the RMS distance of its joints to their
+   centroid), not on the EDM: the exemplars made of the other complete
+   poses against the base dictionary with those poses as extra atoms (what
+   the default path recovers with when its guard keeps the base). Neither
+   learns, so the check costs two small recoveries. The exemplars are taken,
+   nothing learned, unless the other's error is below theirs by more than
+   :data:`EXEMPLAR_MARGIN` (relative: ties go to the exemplars, which are
+   faster); otherwise the file adapts and self-trains as before.
+
+   The held-back poses are single rows, not the guard's contiguous blocks:
+   an occluded pose of a video keeps its neighbouring complete frames in the
+   file, and so does a held-back pose here (with blocks, the check judged
+   the exemplars on poses whose neighbours were gone, and preferred the base
+   on CMU files where the two were equal). A check after adapting, against
+   the adapted dictionary on the guard's own held-back poses, was measured
+   and dropped: the guard had chosen the adapted dictionary on those very
+   poses, so it looked better there than it was
+   (``studies/fast/README.md``).
+
+``res.adaptation.summary()["path"]`` says which ran (``"file atoms"``,
+``"adapted"``, ``"base + file atoms"``, ``"base"``), ``reason`` why, and
+``settings`` the check's two errors. ``recover(..., exemplars=False)``
+(``--no-exemplars``) adapts whatever the check would say.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ._recovery_kernel import compiled_solver, recover_members
+from .adaptation import (GUARD_POSES_PER_PATTERN, MIN_COMPLETE_POSES, AdaptationResult,
+                         guard_masks)
+from .file_atoms import file_dictionary, with_file_atoms
+from .normalize import rms_radius, usable_rows
+
+__all__ = ["EXEMPLAR_MIN_POSES", "EXEMPLAR_MARGIN", "EXEMPLAR_OPTIONS", "ExemplarCheck",
+           "hidden_joint_error", "choose_exemplars", "HELD_FRACTION", "MAX_HELD"]
+
+#: From this many usable complete poses the file's own poses are the atoms,
+#: no check, no adaptation (chosen on validation files: studies/fast/README.md)
+EXEMPLAR_MIN_POSES = 2000
+
+#: Below EXEMPLAR_MIN_POSES: the exemplars are taken unless their held-back
+#: hidden-joint error is above (1 + EXEMPLAR_MARGIN) times the base-with-file-atoms'
+EXEMPLAR_MARGIN = 0.05
+
+#: The check's held-back share of the complete poses, and its cap
+HELD_FRACTION, MAX_HELD = 0.2, 300
+
+#: recover()'s ``exemplars`` values: "auto" applies the rule, False never
+#: takes the exemplars instead of adapting
+EXEMPLAR_OPTIONS = ("auto", False)
+
+
+@dataclass
+class ExemplarCheck:
+    """What :func:`choose_exemplars` found.
+
+    Parameters
+    ----------
+    dictionary : Dictionary or None
+        The exemplars' dictionary (the file's complete poses as the only atoms)
+        when they were chosen; None: the default path adapts.
+    result : AdaptationResult or None
+        What was done when the exemplars were chosen.
+    n_complete : int
+        The file's usable complete poses.
+    err_atoms, err_base : float
+        The held-back poses' hidden-joint error (% of pose size) of the
+        exemplars and of the base with file atoms (NaN: not checked).
+    seconds : float
+        Time spent choosing.
+    """
+
+    dictionary: object
+    result: AdaptationResult | None
+    n_complete: int
+    err_atoms: float = float("nan")
+    err_base: float = float("nan")
+    seconds: float = 0.0
+
+    def note(self, result):
+        """`result` (the adaptation that ran instead) with the check's errors in its
+        ``settings`` and time in its ``seconds``; `result` itself when nothing was checked."""
+        if not np.isfinite(self.err_atoms):
+            return result
+        return replace(result, settings=dict(result.settings, held_err_atoms=self.err_atoms,
+                                             held_err_base=self.err_base),
+                       seconds=result.seconds + self.seconds,
+                       step_seconds=dict(result.step_seconds, exemplar_check=self.seconds))
+
+
+def hidden_joint_error(dictionary, poses, mask, *, alpha=None, n_jobs=1, backend=None,
+                       scheduler=None):
+    """Mean error of the hidden joints when `dictionary` recovers `poses` under `mask`.
+
+    Parameters
+    ----------
+    dictionary : Dictionary
+        The dictionary (recovered with as given: no adaptation).
+    poses : ndarray (n, N, 2)
+        Complete poses, the truth.
+    mask : ndarray of bool (n, N)
+        The joints to hide (at least one per pose).
+    alpha : float, optional
+        Recovery alpha; default the dictionary's ``alpha_recover``.
+    n_jobs : int or None, default 1
+        Workers of the recovery.
+    backend, scheduler : optional
+        As :func:`sparseedm.recover`'s (``"dask"``: on the cluster).
+
+    Returns
+    -------
+    float
+        Mean over the poses recovered of their hidden joints' mean distance to
+        the truth, in % of the pose's size (the RMS distance of its joints to
+        their centroid); NaN when none was recovered.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sparseedm.dictionary import load_dictionary
+    >>> from sparseedm.adaptation import guard_masks
+    >>> poses = np.random.default_rng(0).normal(size=(6, 14, 2))
+    >>> e = hidden_joint_error(load_dictionary(), poses, guard_masks(6, 14))
+    >>> bool(e > 0)
+    True
+    """
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = recover_members(np.where(mask[..., None], np.nan, poses), mask, [dictionary],
+                              [], alpha=alpha, n_jobs=n_jobs, solver=compiled_solver(),
+                              backend=backend, scheduler=scheduler)
+        _, size = rms_radius(poses, np.zeros(mask.shape, bool))
+        err = np.linalg.norm(res.poses - poses, axis=-1) / size[:, None] * 100
+        per_pose = np.nanmean(np.where(mask, err, np.nan), axis=1)
+    per_pose = per_pose[res.ok & np.isfinite(per_pose)]
+    return float(per_pose.mean()) if len(per_pose) else float("nan")
+
+
+def _complete(poses, missing):
+    """The usable complete rows of `poses` (as the file atoms take them)."""
+    poses = np.asarray(poses, dtype=float)
+    ok = usable_rows(poses)
+    if missing is not None:
+        ok &= ~np.asarray(missing, dtype=bool).any(axis=-1)
+    return poses[ok]
+
+
+def _scores(dictionary, complete, held, random_state, kw):
+    """Hidden-joint errors on ``complete[held]`` of the exemplars made of the other
+    complete poses and of the base with those as extra atoms."""
+    truth, rest = complete[held], complete[~held]
+    mask = guard_masks(len(truth), truth.shape[1],
+                       max(1, len(truth) // GUARD_POSES_PER_PATTERN), random_state)
+    return tuple(hidden_joint_error(d, truth, mask, **kw)
+                 for d in (file_dictionary(dictionary, rest).dictionary,
+                           with_file_atoms(dictionary, rest).dictionary))
+
+
+def _atoms_result(dictionary, found, n_given, reason, t0, **errs):
+    """The AdaptationResult of the exemplars' path."""
+    return AdaptationResult(dictionary=found.dictionary, adapted=False, reason=reason,
+                            n_given=n_given, n_complete=found.n_complete,
+                            file_atoms=found.n_atoms,
+                            settings={"path": "file atoms", **errs},
+                            seconds=time.perf_counter() - t0)
+
+
+def choose_exemplars(dictionary, poses, missing, *, n_jobs=1, random_state=0,
+                     min_poses=EXEMPLAR_MIN_POSES, margin=EXEMPLAR_MARGIN, backend=None,
+                     scheduler=None):
+    """The exemplars when the size rule or the check on held-back poses picks them.
+
+    Parameters
+    ----------
+    dictionary : Dictionary
+        The base dictionary (its settings for the exemplars).
+    poses, missing : ndarray
+        The file's poses and their missing joints (None: the NaN ones).
+    n_jobs : int or None, default 1
+        Workers of the check's recoveries.
+    random_state : int, default 0
+        Seed of the held-back blocks and their masks.
+    min_poses : int, default EXEMPLAR_MIN_POSES
+        Complete poses from which the exemplars are taken unchecked.
+    margin : float, default EXEMPLAR_MARGIN
+        Below `min_poses`: the exemplars are taken unless their held-back
+        error is above ``1 + margin`` times the base-with-file-atoms'.
+    backend, scheduler : optional
+        As :func:`sparseedm.recover`'s: where the check's recoveries run.
+
+    Returns
+    -------
+    ExemplarCheck
+        ``dictionary`` and ``result`` set when the exemplars were chosen.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sparseedm.dictionary import load_dictionary
+    >>> few = np.random.default_rng(0).normal(size=(40, 14, 2))
+    >>> choose_exemplars(load_dictionary(), few, None).dictionary is None  # too few
+    True
+    """
+    t0 = time.perf_counter()
+    complete = _complete(poses, missing)
+    n = len(complete)
+    if n < MIN_COMPLETE_POSES:
+        return ExemplarCheck(None, None, n, seconds=time.perf_counter() - t0)
+    if n >= min_poses:
+        found = file_dictionary(dictionary, complete)
+        reason = (f"{n} complete poses, at least {min_poses}: they are the dictionary's "
+                  "atoms, nothing learned")
+        return ExemplarCheck(found.dictionary, _atoms_result(dictionary, found, len(poses),
+                                                             reason, t0), n,
+                             seconds=time.perf_counter() - t0)
+    held = np.zeros(n, bool)
+    want = min(int(round(HELD_FRACTION * n)), MAX_HELD)
+    held[np.random.default_rng([int(random_state), 43]).choice(n, want, replace=False)] = True
+    kw = dict(n_jobs=n_jobs, backend=backend, scheduler=scheduler)
+    e_atoms, e_base = _scores(dictionary, complete, held, random_state, kw)
+    out = ExemplarCheck(None, None, n, e_atoms, e_base)
+    if e_atoms <= (1 + margin) * e_base:
+        reason = (f"{n} complete poses: as the only atoms they recovered {want} held-back "
+                  f"poses' hidden joints as well as the base dictionary with them or better "
+                  f"({e_atoms:.2f} vs {e_base:.2f} % of pose size), nothing learned")
+        found = file_dictionary(dictionary, complete)
+        out.dictionary = found.dictionary
+        out.result = _atoms_result(dictionary, found, len(poses), reason, t0,
+                                   held_err_atoms=e_atoms, held_err_base=e_base)
+    out.seconds = time.perf_counter() - t0
+    return out

@@ -1,0 +1,179 @@
+"""recover()'s default path takes a file's own complete poses as its only atoms when
+sparseedm.exemplars' rule says so: from EXEMPLAR_MIN_POSES complete poses, or when the
+check on held-back poses prefers them; below MIN_COMPLETE_POSES, or with
+exemplars=False, the path is what it was. Statuses, certificates and refusals unchanged."""
+
+import numpy as np
+import pytest
+
+from sparseedm import recover
+from sparseedm._recovery_base import STATUSES
+from sparseedm.adaptation import MIN_COMPLETE_POSES, guard_masks
+from sparseedm.cli import build_parser
+from sparseedm.exceptions import ParameterError
+from sparseedm.exemplars import (EXEMPLAR_MARGIN, EXEMPLAR_MIN_POSES, choose_exemplars,
+                                 hidden_joint_error)
+
+
+def _jittered(poses, n, seed=0, sd=0.5):
+    """n poses drawn from `poses` with a little pixel noise (no exact repeats)."""
+    rng = np.random.default_rng(seed)
+    pick = rng.integers(0, len(poses), n)
+    return poses[np.sort(pick)] + rng.normal(0, sd, (n,) + poses.shape[1:])
+
+
+def _file(cmu_poses, n_complete, n_occluded=60, seed=0):
+    """n_complete jittered complete poses, then n_occluded with 1-3 joints hidden,
+    one with 2 joints left (refused) and one with an infinite coordinate (refused)."""
+    poses = _jittered(cmu_poses, n_complete + n_occluded, seed=seed)
+    missing = np.zeros(poses.shape[:2], bool)
+    missing[n_complete:] = guard_masks(n_occluded, 14, random_state=seed)
+    missing[-1, :12] = True
+    poses[-2, 3, 0] = np.inf
+    return np.where(missing[..., None], np.nan, poses), missing
+
+
+@pytest.fixture(scope="module")
+def large_file(cmu_poses):
+    return _file(cmu_poses, EXEMPLAR_MIN_POSES + 50)
+
+
+def test_many_complete_poses_take_the_file_atoms(large_file, small_dictionary):
+    poses, missing = large_file
+    res = recover(poses, missing, dictionary=small_dictionary)
+    ad = res.adaptation
+    s = res.summary()["adaptation"]
+    assert s["path"] == "file atoms" and not res.adapted
+    # nothing learned, no self-training: the atoms are the file's complete poses
+    assert ad.candidate is None and s["poses_used"] == 0 and s["self_training"] == []
+    assert res.dictionary.n_components == ad.file_atoms == EXEMPLAR_MIN_POSES + 50
+    assert str(EXEMPLAR_MIN_POSES) in ad.reason
+    assert ad.line().startswith("adaptation: none, the file's own poses are the atoms")
+    # the same dictionary as the fast preset's, so the same answers
+    fast = recover(poses, missing, dictionary=small_dictionary, preset="fast")
+    np.testing.assert_array_equal(res.poses, fast.poses)
+    np.testing.assert_array_equal(res.status, fast.status)
+
+
+def test_statuses_certificates_and_refusals_unchanged(large_file, small_dictionary):
+    poses, missing = large_file
+    res = recover(poses, missing, dictionary=small_dictionary)
+    plain = recover(poses, missing, dictionary=small_dictionary, adapt=False)
+    assert set(res.status) <= set(STATUSES)
+    refused = ~np.isin(plain.status, ("recovered", "complete", "inaccurate"))
+    assert refused.sum() == 2
+    np.testing.assert_array_equal(res.status[refused], plain.status[refused])
+    np.testing.assert_array_equal(res.reason[refused], plain.reason[refused])
+    rec = res.status == "recovered"
+    assert rec.sum() > 50
+    assert (res.gap[rec] <= 1e-6 * res.objective[rec]).all()
+    given = ~missing[rec] & np.isfinite(poses[rec]).all(axis=-1)
+    np.testing.assert_array_equal(res.poses[rec][given], poses[rec][given])
+    assert res.uncertainty is not None and np.isfinite(res.uncertainty[rec][missing[rec]]).all()
+
+
+def test_exemplars_false_keeps_adaptation(cmu_poses, small_dictionary):
+    """The same large file with exemplars=False adapts, as the path did before the rule."""
+    poses, missing = _file(cmu_poses, EXEMPLAR_MIN_POSES + 50)
+    res = recover(poses, missing, dictionary=small_dictionary, exemplars=False,
+                  self_training=0)
+    s = res.summary()["adaptation"]
+    assert s["path"] in ("adapted", "base + file atoms") and s["poses_used"] > 0
+    assert res.adaptation.candidate is not None
+    assert "held_err_atoms" not in res.adaptation.settings
+
+
+def test_a_small_file_keeps_the_old_path(cmu_poses, small_dictionary):
+    """Fewer complete poses than adaptation needs: the base with them as atoms, whatever
+    `exemplars` says."""
+    poses, missing = _file(cmu_poses, MIN_COMPLETE_POSES - 50)
+    auto = recover(poses, missing, dictionary=small_dictionary)
+    off = recover(poses, missing, dictionary=small_dictionary, exemplars=False)
+    assert auto.summary()["adaptation"]["path"] == "base + file atoms"
+    np.testing.assert_array_equal(auto.poses, off.poses)
+    n_atoms = auto.adaptation.file_atoms
+    assert auto.dictionary.n_components == small_dictionary.n_components + n_atoms
+
+
+def test_the_check_between_decides_on_the_hidden_joints(cmu_poses, small_dictionary):
+    """Between MIN_COMPLETE_POSES and EXEMPLAR_MIN_POSES: the check scores both on
+    held-back poses; the margin decides; recover() follows the check."""
+    poses, missing = _file(cmu_poses, 400)
+    never = choose_exemplars(small_dictionary, poses, missing, margin=-1.0)
+    assert never.dictionary is None and never.n_complete == 400
+    assert np.isfinite(never.err_base) and np.isfinite(never.err_atoms)
+    always = choose_exemplars(small_dictionary, poses, missing, margin=1e9)
+    assert always.dictionary is not None and always.result.path == "file atoms"
+    assert always.err_atoms == never.err_atoms
+    assert always.result.settings["held_err_base"] == never.err_base
+    res = recover(poses, missing, dictionary=small_dictionary, self_training=0)
+    s = res.adaptation.settings
+    assert s["held_err_atoms"] == never.err_atoms and s["held_err_base"] == never.err_base
+    taken = never.err_atoms <= (1 + EXEMPLAR_MARGIN) * never.err_base
+    assert (res.adaptation.path == "file atoms") == taken
+    if res.adaptation.path != "file atoms":   # adapted as before, the check noted
+        assert res.adaptation.n_used > 0 and "exemplar_check" in res.adaptation.step_seconds
+
+
+def test_the_check_prefers_exemplars_that_hold_the_poses(cmu_poses, small_dictionary):
+    """A file whose occluded poses are near-copies of its complete ones (a video's
+    neighbouring frames) against a dictionary of another domain: the exemplars."""
+    shrunk = replace_atoms(small_dictionary, 10)
+    poses, missing = _file(cmu_poses[:60], 400, seed=3)
+    check = choose_exemplars(shrunk, poses, missing)
+    assert check.err_atoms < check.err_base and check.dictionary is not None
+    res = recover(poses, missing, dictionary=shrunk)
+    assert res.adaptation.path == "file atoms" and res.adaptation.candidate is None
+
+
+def replace_atoms(dictionary, k):
+    """`dictionary` with only its first k atoms (a poor prior)."""
+    from dataclasses import replace
+
+    return replace(dictionary, components=dictionary.components[:k])
+
+
+def test_hidden_joint_error_is_zero_for_a_pose_the_atoms_hold(cmu_poses, small_dictionary):
+    from sparseedm.file_atoms import file_dictionary
+
+    atoms = file_dictionary(small_dictionary, cmu_poses[:300]).dictionary
+    mask = guard_masks(20, 14, random_state=1)
+    seen = hidden_joint_error(atoms, cmu_poses[:20], mask)
+    unseen = hidden_joint_error(atoms, cmu_poses[300:320], mask)
+    assert seen < 1.0 < unseen
+
+
+def test_bad_exemplars_argument_is_refused(cmu_poses):
+    with pytest.raises(ParameterError, match="exemplars"):
+        recover(cmu_poses[:2], exemplars="yes")
+    with pytest.raises(ParameterError, match="exemplars"):
+        recover(cmu_poses[:2], exemplars=True)
+
+
+def test_cli_no_exemplars_flag():
+    args = build_parser().parse_args(["recover", "in.csv", "-o", "o.csv", "--no-exemplars"])
+    assert args.no_exemplars
+    assert not build_parser().parse_args(["recover", "in.csv", "-o", "o.csv"]).no_exemplars
+
+
+def test_cli_large_file_takes_the_atoms_and_says_so(tmp_path, large_file,
+                                                    small_dictionary_path, capsys):
+    """`sparseedm recover` (recover_file) takes the same rule: the line says which path
+    ran, no refusal is printed, and --no-exemplars adapts."""
+    from sparseedm.cli import main
+    from sparseedm.keypoints import write_keypoints
+
+    poses, missing = large_file
+    ok = np.isfinite(poses).all(axis=-1).any(axis=-1) & ~np.isinf(poses).any(axis=(1, 2))
+    inp = tmp_path / "in.npz"
+    write_keypoints(inp, poses[ok])
+    assert main(["recover", str(inp), "-o", str(tmp_path / "out.npz"), "--dictionary",
+                 str(small_dictionary_path), "--self-training", "0"]) in (0, 1)
+    cap = capsys.readouterr()
+    assert "adaptation: none, the file's own poses are the atoms" in cap.out
+    assert "no adaptation:" not in cap.err
+    assert main(["recover", str(inp), "-o", str(tmp_path / "out2.npz"), "--dictionary",
+                 str(small_dictionary_path), "--self-training", "0", "--no-exemplars"]) in (0, 1)
+    line = next(ln for ln in capsys.readouterr().out.splitlines()
+                if ln.startswith("adaptation:"))
+    assert "the file's own poses are the atoms" not in line and "poses used" in line
