@@ -63,10 +63,10 @@ FEATURES = {
 #: factor; fitted by ``studies/uncertainty/calibrate.py`` on validation data
 #: (studies/uncertainty/calibration.json has the run's coverage per source)
 CALIBRATION = {
-    "per_frame": {"conformal": 1.0137,
-        "coef": (1.3412, 0.6294, 0.3714, 0.2449, 0.1763, 0.6969, -0.0053)},
-    "temporal": {"conformal": 1.1423,
-        "coef": (-3.5724, 0.7192, 0.373, 0.5214, 0.0036, 0.4353, 0.4053, 0.1817)},
+    "per_frame": {"conformal": 1.0767,
+        "coef": (1.3941, 0.4888, 0.515, 0.0913, 0.5976, 0.3855, 0.0)},
+    "temporal": {"conformal": 1.1385,
+        "coef": (-3.5664, 0.72, 0.3725, 0.5261, 0.0021, 0.4354, 0.4058, 0.1828)},
 }
 
 #: log of the lasso residual a pose solved without a lasso (FConv) is given: the
