@@ -13,7 +13,8 @@ COCO's training poses (``coco_prior.py``'s, the train split only):
 * ``xscale``: also one copy with x stretched by a random factor in
   0.8-1.25 (camera foreshortening);
 * ``pruned``: ``cmu-coco-k2932`` without the 466 CMU atoms least used by the
-  lasso codes of 3,000 CMU training poses and of COCO's (over the CMU atoms).
+  lasso codes of 3,000 CMU training poses and of COCO's (over the CMU atoms);
+* ``COCO only``: ``cmu-coco-k2932``'s 932 COCO atoms without the CMU ones.
 
 Photos: ``harness.py``'s files (validation splits); mocap: ``sparseedm dataset
 build`` files, 100 complete + 500 Mix-occluded poses. Score: per occluded pose
@@ -22,6 +23,8 @@ the mean error of its hidden joints (% of body size); paired: variant minus
 
     python studies/real_prior/probe_coco_atoms.py --photos mpii,bonn,coco-val \\
         --mocap cmu.npz,bandai.npz,daz_indian.npz --out studies/real_prior/results_coco_atoms.json
+    python studies/real_prior/probe_coco_atoms.py --photos mpii,bonn --only "COCO only" \
+        --out studies/real_prior/results_coco_only.json
 """
 
 from __future__ import annotations
@@ -120,6 +123,7 @@ def variants(cmu_path=None):
     out["necks 0,0.2 + completed"] = exemplars(mirrored(with_necks(more, (0, 0.2))))
     out["necks 0,0.2 + xscale"] = exemplars(mirrored(with_necks(
         np.concatenate([plain, stretched(plain)]), (0, 0.2))))
+    out["COCO only"] = replace(shipped, components=shipped.components[-932:])
     if cmu_path:
         out["necks 0,0.2, pruned to 2466"] = pruned(shipped, cmu_path=cmu_path)
     return out
@@ -156,10 +160,14 @@ def main(argv=None):
     ap.add_argument("--photos", default="mpii,bonn,coco-val")
     ap.add_argument("--mocap", default="", help="dataset .npz paths, comma-separated; the "
                     "first is also the CMU training sample of 'pruned'")
+    ap.add_argument("--only", default="", help="these variants (comma-separated) and the "
+                    "reference only")
     ap.add_argument("--out", type=Path)
     a = ap.parse_args(argv)
     mocap = [p for p in a.mocap.split(",") if p]
     dics = variants(mocap[0] if mocap else None)
+    if a.only:
+        dics = {k: v for k, v in dics.items() if k in (REFERENCE, *a.only.split(","))}
     doc = {}
     for name in filter(None, a.photos.split(",")):
         for protocol in harness.PROTOCOLS:
