@@ -8,7 +8,8 @@ keeps each pose in two neck conventions: COCO's (the shoulders' midpoint, 0)
 and an upper neck 0.2 of the way from there to the head top, as MPII and
 PoseTrack annotate it (the lasso picks the exemplars whose neck fits).
 
-    python studies/real_prior/coco_prior.py -o cmu-coco.npz [--mirror] [--necks 0,0.2] [--alpha 0.0005]
+    python studies/real_prior/coco_prior.py -o cmu-coco.npz [--mirror] [--necks 0,0.2] \\
+        [--alpha 0.0005]
 
 The shipped files: ``--mirror`` is ``cmu-coco-k2466``, ``--mirror --necks
 0,0.2`` is ``cmu-coco-k2932``.

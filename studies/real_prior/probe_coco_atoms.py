@@ -129,6 +129,24 @@ def variants(cmu_path=None):
     return out
 
 
+def neck_positions(mocap=()):
+    """{set: median of where the neck lies from the shoulders' midpoint (0) to the
+    head top (1)} over complete poses (real2d's validation splits, mocap files)."""
+    sets = {}
+    for source in ("coco", "mpii", "bonn"):
+        rs = real2d.load(source)
+        sets[f"{source} val"] = rs.poses[rs.complete & (real2d.split(rs) == "val")]
+    for path in mocap:
+        with np.load(path, allow_pickle=False) as z:
+            sets[Path(path).stem] = z["poses2d"][::10].astype(float)
+    out = {}
+    for name, poses in sets.items():
+        mid = (poses[:, 2] + poses[:, 5]) / 2
+        up, neck = poses[:, 0] - mid, poses[:, 1] - mid
+        out[name] = round(float(np.median((up * neck).sum(-1) / (up * up).sum(-1))), 3)
+    return out
+
+
 def paired(truth, missing, dics):
     """{name: {error, paired mean, se, seconds}} of one file, cold."""
     per, sec = {}, {}
@@ -165,10 +183,11 @@ def main(argv=None):
     ap.add_argument("--out", type=Path)
     a = ap.parse_args(argv)
     mocap = [p for p in a.mocap.split(",") if p]
+    doc = {"neck_positions": neck_positions(mocap)}
+    print(json.dumps(doc), flush=True)
     dics = variants(mocap[0] if mocap else None)
     if a.only:
         dics = {k: v for k, v in dics.items() if k in (REFERENCE, *a.only.split(","))}
-    doc = {}
     for name in filter(None, a.photos.split(",")):
         for protocol in harness.PROTOCOLS:
             doc[f"{name} {protocol}"] = paired(*harness.make_file(name, protocol), dics)
