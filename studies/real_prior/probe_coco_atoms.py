@@ -14,7 +14,10 @@ COCO's training poses (``coco_prior.py``'s, the train split only):
   0.8-1.25 (camera foreshortening);
 * ``pruned``: ``cmu-coco-k2932`` without the 466 CMU atoms least used by the
   lasso codes of 3,000 CMU training poses and of COCO's (over the CMU atoms);
-* ``COCO only``: ``cmu-coco-k2932``'s 932 COCO atoms without the CMU ones.
+* ``COCO only``: ``cmu-coco-k2932``'s 932 COCO atoms without the CMU ones;
+* ``raised head``: as ``cmu-coco-k2932``, but the raised-neck copies also have
+  their head top 1.1 times as far from the shoulders' midpoint (MPII's head
+  tops lie higher than COCO's derived ones).
 
 Photos: ``harness.py``'s files (validation splits); mocap: ``sparseedm dataset
 build`` files, 100 complete + 500 Mix-occluded poses. Score: per occluded pose
@@ -83,6 +86,14 @@ def completed_poses(shipped):
     return res.poses[len(complete):]
 
 
+def head_further(poses, factor):
+    """`poses` with the head top `factor` times as far from the shoulders' midpoint."""
+    mid = (poses[:, 2] + poses[:, 5]) / 2
+    out = poses.copy()
+    out[:, 0] = mid + factor * (poses[:, 0] - mid)
+    return out
+
+
 def stretched(poses, seed=0):
     rng = np.random.default_rng(seed)
     s = np.exp(rng.uniform(np.log(0.8), np.log(1.25), len(poses)))[:, None]
@@ -124,6 +135,8 @@ def variants(cmu_path=None):
     out["necks 0,0.2 + xscale"] = exemplars(mirrored(with_necks(
         np.concatenate([plain, stretched(plain)]), (0, 0.2))))
     out["COCO only"] = replace(shipped, components=shipped.components[-932:])
+    out["raised head"] = exemplars(mirrored(np.concatenate(
+        [plain, coco_prior.raise_neck(head_further(plain, 1.1), 0.2 / 1.1)])))
     if cmu_path:
         out["necks 0,0.2, pruned to 2466"] = pruned(shipped, cmu_path=cmu_path)
     return out
