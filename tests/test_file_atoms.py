@@ -94,6 +94,41 @@ def test_shipped_coco_prior_extends_the_default():
     assert coco.provenance["coco_atoms"]["mirrored"] is True
 
 
+def test_shipped_two_neck_coco_prior(capsys):
+    """cmu-coco-k2932: the default's atoms, then COCO's 233 complete training poses
+    with COCO's neck, the same with the neck raised, and both mirrored."""
+    from sparseedm.cli import main
+    from sparseedm.dictionary import load_dictionary
+    from sparseedm.edm import triu_indices
+
+    base, one = load_dictionary(), load_dictionary("cmu-coco-k2466")
+    two = load_dictionary("cmu-coco-k2932")
+    assert two.components.shape == (base.n_components + 932, base.n_features)
+    assert two.recovery_scale == "radius" and two.alpha_recover == base.alpha_recover
+    np.testing.assert_array_equal(two.components[:base.n_components], base.components)
+    k = base.n_components
+    # COCO's own neck: the same atoms as cmu-coco-k2466's, plain and mirrored
+    np.testing.assert_allclose(two.components[k:k + 233], one.components[k:k + 233])
+    np.testing.assert_allclose(two.components[k + 466:k + 699], one.components[k + 233:])
+    # the raised necks change the neck's distances only: the other entries of an
+    # atom stay parallel to its COCO-neck twin (unit norm rescales them)
+    i, j = triu_indices(14)
+    other = (i != 1) & (j != 1)  # joint 1 is the neck
+    plain, raised = two.components[k:k + 233], two.components[k + 233:k + 466]
+    cos = (plain[:, other] * raised[:, other]).sum(1) / (
+        np.linalg.norm(plain[:, other], axis=1) * np.linalg.norm(raised[:, other], axis=1))
+    np.testing.assert_allclose(cos, 1.0, atol=1e-9)
+    assert np.abs(plain[:, ~other] / np.linalg.norm(plain[:, other], axis=1)[:, None]
+                  - raised[:, ~other] / np.linalg.norm(raised[:, other], axis=1)[:, None]
+                  ).max() > 1e-3
+    prov = two.provenance["coco_atoms"]
+    assert "CC BY 4.0" in prov["source"] and prov["mirrored"] is True
+    assert prov["necks"] == [0.0, 0.2] and prov["poses"] == 932
+    assert main(["info", "cmu-coco-k2932"]) == 0
+    out = capsys.readouterr().out
+    assert "2932 atoms" in out and "necks" in out and "CC BY 4.0" in out
+
+
 def test_bad_arguments_are_refused(cmu_poses, small_dictionary):
     from sparseedm.exceptions import ParameterError, PoseError
 

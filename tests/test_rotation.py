@@ -111,7 +111,7 @@ def test_a_box_dictionary_is_not_rotation_invariant(cmu_poses):
 
 
 def test_shipped_dictionaries_recover_with_the_radius_rule():
-    for name in ("default", "cmu-k2000", "cmu-coco-k2466"):
+    for name in ("default", "cmu-k2000", "cmu-coco-k2466", "cmu-coco-k2932"):
         assert load_dictionary(name).recovery_scale == "radius"
 
 
