@@ -29,9 +29,10 @@ from .normalize import REPRESENTATIONS
 from .skeleton import SKELETON_14
 from .solvers import SOLVERS, BaseSolver, get_solver
 from .solvers.fast import FastSolver
+from .solvers.local_ridge import LocalRidgeSolver
 
 __all__ = ["recover_sparse", "recover_members", "solve_chunk", "compiled_solver",
-           "preset_solver", "RECOVER_PARAMS", "PRESETS"]
+           "preset_solver", "RECOVER_PARAMS", "PRESETS", "FAST_RIDGE", "FAST_MAX_ATOMS"]
 
 #: recover()'s presets: "default" (adaptation and self-training) and "fast"
 #: (the file's complete poses as the atoms, nothing learned: sparseedm.file_atoms)
@@ -56,6 +57,12 @@ RECOVER_PARAMS = {
     "preset": [Options(PRESETS)],
 }
 
+#: ``recover(preset="fast")``'s coder: K atoms per pose and the relative ridge
+#: weight of :class:`~sparseedm.solvers.local_ridge.LocalRidgeSolver`, and the
+#: most complete poses that become atoms (None: every one), chosen on CMU
+#: validation files (``studies/fast/select_fast.py --local``)
+FAST_RIDGE = {"n_atoms": 64, "lam": 1e-4}
+FAST_MAX_ATOMS = None
 
 
 def solve_chunk(solver, components, X, observed, alpha_eff, positive, key, threads=None):
@@ -154,10 +161,10 @@ def compiled_solver(solver="fast", adaptations=None):
 
 
 def preset_solver(solver="fast", preset="default"):
-    """The lasso backend `preset` codes with: ``"fast"`` runs the fast solver on
-    working sets of atoms (``FastSolver(working_set=True)``: the same lasso,
-    and no Gram matrix of the file's thousands of atoms); any other preset or
-    solver: `solver` as given.
+    """The backend `preset` codes with: ``"fast"`` codes each pose by a local ridge
+    over its most correlated atoms (:class:`~sparseedm.solvers.local_ridge.LocalRidgeSolver`
+    with :data:`FAST_RIDGE`: not the lasso); any other preset or solver: `solver`
+    as given.
 
     Parameters
     ----------
@@ -171,11 +178,12 @@ def preset_solver(solver="fast", preset="default"):
 
     Examples
     --------
-    >>> preset_solver("fast", "fast").working_set, preset_solver("fast")
-    (True, 'fast')
+    >>> fast = preset_solver("fast", "fast")
+    >>> fast.name, fast.n_atoms == FAST_RIDGE["n_atoms"], preset_solver("fast")
+    ('local-ridge', True, 'fast')
     """
     if preset == "fast" and isinstance(solver, str) and solver == "fast":
-        return FastSolver(working_set=True)
+        return LocalRidgeSolver(**FAST_RIDGE)
     return solver
 
 
@@ -352,7 +360,7 @@ def _run_tasks(solver, components, X, observed, alpha_eff, tasks, positive, key,
                 return list(tqdm(Parallel(n_jobs=-1, return_as="generator")(calls), **bar))
     if n_jobs in (None, 1) and backend is None:
         return [f(*args, **kw) for f, args, kw in tqdm(calls, **bar)]
-    if backend is None and isinstance(solver, FastSolver):
+    if backend is None and isinstance(solver, (FastSolver, LocalRidgeSolver)):
         # its kernels release the GIL: threads share one Gram cache and skip
         # process start-up (measured 1.2x the throughput of loky processes)
         backend = "threading"

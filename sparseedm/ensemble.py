@@ -31,6 +31,7 @@ from . import _progress
 from .adaptation import MIN_COMPLETE_POSES, resolve_adaptation
 from .file_atoms import resolve_fast, with_file_atoms
 from ._recovery_base import combine
+from ._recovery_kernel import FAST_MAX_ATOMS
 
 __all__ = ["adapt_members", "combine"]
 
@@ -60,7 +61,8 @@ def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
         :func:`sparseedm.batch.recover_file` pass True.
     preset : {"default", "fast"}, default "default"
         ``"fast"``: no adaptation; the complete poses offered become the
-        atoms (:func:`sparseedm.file_atoms.resolve_fast`), one member.
+        atoms (:func:`sparseedm.file_atoms.resolve_fast`; at most
+        :data:`sparseedm._recovery_kernel.FAST_MAX_ATOMS`), one member.
     backend, scheduler : optional
         As :func:`sparseedm.recover`'s: ``backend="dask"`` runs every member's
         guard and self-training recoveries on the cluster (the learning stays
@@ -76,7 +78,8 @@ def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
         as :func:`~sparseedm.adaptation.resolve_adaptation` reads it).
     """
     if preset == "fast":
-        d, res = resolve_fast(dictionary, poses, missing, adapt, min_poses=min_poses)
+        d, res = resolve_fast(dictionary, poses, missing, adapt, min_poses=min_poses,
+                              max_atoms=FAST_MAX_ATOMS)
         return [d], ([] if res is None else [res])
     # the work is many small BLAS calls beside numba's threads: BLAS threads
     # would only spin against them (measured 2x slower), so BLAS gets one. Held

@@ -25,6 +25,18 @@ validation files above hold at most 3,641 complete poses, so it uses every
 held-out pose with a quarter under Mix masks (about 5,460 complete), and
 scores the preset at several caps (error and seconds, working sets).
 Writes ``selection_fast_caps.json``.
+
+``--local`` chooses the settings of the preset's coder since it stopped
+solving the lasso: the local ridge code
+(:class:`sparseedm.solvers.local_ridge.LocalRidgeSolver`: each occluded pose's
+K most correlated atoms, ridge weight lam) over at most ``cap`` of the file's
+complete poses. The grid (``GRID_LOCAL``) runs on two files: the 6,000-pose
+validation file above (at most 3,641 complete poses) and the every-held-out-pose
+file of ``--caps`` (about 5,460 complete: there 6,000 and "all" are the same
+cap), each beside the exact lasso of the old preset and IterativeImputer. The
+choice: the lowest Err_ave averaged over the two files, except that a setting
+within 1 % of it (relative) and faster is preferred. Writes
+``selection_fast_local.json``.
 """
 
 from __future__ import annotations
@@ -43,6 +55,8 @@ sys.path.insert(0, str(ROOT))  # `python studies/fast/select_fast.py` finds benc
 
 GRID_ATOMS = (1000, 2000, 3000, 4000)
 GRID_ALPHA = (0.0002, 0.0005, 0.001)
+#: --local: working-set atoms K, ridge weight lam, atom cap (None: every complete pose)
+GRID_LOCAL = {"K": (32, 64, 128), "lam": (1e-4, 3e-4, 1e-3), "cap": (3000, 6000, None)}
 
 
 def pose_error(filled, truth, mask):
@@ -92,6 +106,64 @@ def caps(base):
     return rows
 
 
+def local_grid(base, name, P, mask):
+    """The local ridge grid on one file, beside the old preset's lasso and
+    IterativeImputer (rows of a JSON)."""
+    import sparseedm
+    from sklearn.experimental import enable_iterative_imputer  # noqa: F401
+    from sklearn.impute import IterativeImputer
+    from sparseedm.file_atoms import FAST_ALPHA, MAX_FAST_ATOMS, file_dictionary
+    from sparseedm.solvers.fast import FastSolver
+    from sparseedm.solvers.local_ridge import LocalRidgeSolver
+
+    X = np.where(mask[..., None], np.nan, P)
+    head = {"file": name, "poses": len(P), "occluded": int(mask.any(axis=1).sum())}
+    t0 = time.perf_counter()
+    imp = IterativeImputer(max_iter=10, tol=0).fit_transform(X.reshape(len(X), -1))
+    rows = [dict(head, what="IterativeImputer", seconds=time.perf_counter() - t0,
+                 err=pose_error(imp.reshape(P.shape), P, mask))]
+    t0 = time.perf_counter()
+    d = file_dictionary(base, X, mask, max_atoms=MAX_FAST_ATOMS, alpha_recover=FAST_ALPHA)
+    res = sparseedm.recover(X, mask, dictionary=d.dictionary, adapt=False, n_jobs=1,
+                            solver=FastSolver(working_set=True))
+    rows.append(dict(head, what="lasso (the old preset)", cap=MAX_FAST_ATOMS,
+                     atoms=d.n_atoms, seconds=time.perf_counter() - t0,
+                     err=pose_error(res.poses, P, mask)))
+    print(rows[0], rows[1], sep="\n", flush=True)
+    for cap in GRID_LOCAL["cap"]:
+        t0 = time.perf_counter()
+        d = file_dictionary(base, X, mask, max_atoms=cap or 10 ** 9, alpha_recover=FAST_ALPHA)
+        build = time.perf_counter() - t0
+        for K in GRID_LOCAL["K"]:
+            for lam in GRID_LOCAL["lam"]:
+                t0 = time.perf_counter()
+                res = sparseedm.recover(X, mask, dictionary=d.dictionary, adapt=False,
+                                        n_jobs=1, solver=LocalRidgeSolver(n_atoms=K, lam=lam))
+                rows.append(dict(head, what="local ridge", cap=cap, atoms=d.n_atoms, K=K,
+                                 lam=lam, seconds=build + time.perf_counter() - t0,
+                                 err=pose_error(res.poses, P, mask),
+                                 statuses={s: int(c) for s, c in
+                                           zip(*np.unique(res.status, return_counts=True))}))
+                print(rows[-1], flush=True)
+    return rows
+
+
+def choose_local(rows):
+    """The --local choice (see the module docstring): (K, lam, cap) and its mean
+    error and seconds over the files."""
+    grid = {}
+    for r in rows:
+        if r["what"] == "local ridge":
+            grid.setdefault((r["K"], r["lam"], r["cap"]), []).append(r)
+    mean = {key: (float(np.mean([r["err"] for r in rs])),
+                  float(np.mean([r["seconds"] for r in rs]))) for key, rs in grid.items()}
+    best = min(mean.values())[0]
+    near = [key for key, (err, _) in mean.items() if err <= 1.01 * best]
+    key = min(near, key=lambda k: mean[k][1])
+    return {"K": key[0], "lam": key[1], "cap": key[2], "err": mean[key][0],
+            "seconds": mean[key][1], "lowest_err": best}
+
+
 def solvers(X, P, mask, repeats):
     """The preset's working-set solver against the full homotopy (rows of a JSON)."""
     import sparseedm
@@ -120,12 +192,15 @@ def main(argv=None):
     ap.add_argument("--repeats", type=int, default=3, help="runs per solver (--solvers)")
     ap.add_argument("--caps", action="store_true",
                     help="score more atoms than MAX_FAST_ATOMS on a file with more complete poses")
+    ap.add_argument("--local", action="store_true",
+                    help="choose the local ridge coder's K, lam and atom cap")
     args = ap.parse_args(argv)
     import sparseedm
     from sklearn.experimental import enable_iterative_imputer  # noqa: F401
     from sklearn.impute import IterativeImputer
     from sparseedm.file_atoms import file_dictionary
     from sparseedm.solvers.fast import FastSolver
+    from threadpoolctl import threadpool_limits
 
     P, mask = validation_file()
     X = np.where(mask[..., None], np.nan, P)
@@ -133,6 +208,16 @@ def main(argv=None):
     warnings.simplefilter("ignore")
     sparseedm.recover(X[:300], mask[:300], adapt=False, n_jobs=2)  # JIT caches
     sparseedm.recover(X[:300], mask[:300], preset="fast", n_jobs=2)
+    if args.local:
+        with threadpool_limits(1, user_api="blas"):
+            rows = (local_grid(base, "6,000 CMU held-out-clip poses, half under Mix", P, mask)
+                    + local_grid(base, "every held-out CMU pose, a quarter under Mix",
+                                 *validation_file(n=10 ** 6, occluded=0.25)))
+        out = Path(__file__).with_name("selection_fast_local.json")
+        out.write_text(json.dumps({"blas_threads": 1, "choice": choose_local(rows),
+                                   "rows": rows}, indent=1))
+        print(choose_local(rows))
+        return
     if args.caps:
         out = Path(__file__).with_name("selection_fast_caps.json")
         out.write_text(json.dumps({"file": "every held-out CMU pose, a quarter under Mix",
