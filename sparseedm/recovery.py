@@ -225,16 +225,18 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         ``"default"``: the settings above as they are. ``"fast"``: no
         adaptation and no self-training; under ``adapt="auto"`` (or an array)
         the complete poses (at least
-        :data:`~sparseedm.adaptation.MIN_COMPLETE_POSES`, at most
-        :data:`~sparseedm.file_atoms.MAX_FAST_ATOMS`, a seeded sample) are the
-        dictionary's only atoms, at the recovery alpha
-        :data:`~sparseedm.file_atoms.FAST_ALPHA` unless `alpha` is given
-        (:func:`sparseedm.file_atoms.resolve_fast`; with fewer complete poses
-        they join the base dictionary's atoms). The lasso, its certificate
-        and every status are the same as with the defaults. It skips the
-        defaults' fixed cost of adaptation and self-training (tens of
-        seconds); its work per occluded pose grows with the atoms
-        (``docs/explanation/settings.md``, "Presets", and the accuracy-speed
+        :data:`~sparseedm.adaptation.MIN_COMPLETE_POSES`; every one) are the
+        dictionary's only atoms (:func:`sparseedm.file_atoms.resolve_fast`;
+        with fewer complete poses they join the base dictionary's atoms), and
+        each occluded pose is coded by a local ridge over its most correlated
+        atoms (:class:`~sparseedm.solvers.local_ridge.LocalRidgeSolver` with
+        :data:`sparseedm._recovery_kernel.FAST_RIDGE`), not the lasso, when
+        `solver` is "fast" (another solver keeps its lasso; `alpha` is the
+        lasso's). The statuses and refusals are the same as with the
+        defaults; "recovered" there means the ridge's normal equations were
+        solved (`gap`: their relative residual). It skips the defaults' fixed
+        cost of adaptation and self-training (tens of seconds) and the
+        lasso (``docs/explanation/settings.md``, "Presets", and the accuracy-speed
         frontier of the results pages). Per pose only: with `frames` it needs
         ``temporal=False``; `ensemble` and `self_training` are refused with it.
     confidence : array_like (n, N), optional

@@ -40,7 +40,7 @@ import numpy as np
 from ..exceptions import SparseEDMError
 from .base import INACCURATE, OPTIMAL, BaseSolver, LassoResult
 
-__all__ = ["LocalRidgeSolver", "local_ridge_codes"]
+__all__ = ["LocalRidgeSolver", "local_ridge_codes", "working_sets"]
 
 _TINY = np.finfo(float).tiny
 
@@ -122,25 +122,25 @@ class LocalRidgeSolver(BaseSolver):
         K = min(self.n_atoms, D.shape[1])
         coef = np.zeros((n, D.shape[1]))
         objective, gap = np.zeros(n), np.zeros(n)
-        atoms, squares = np.ascontiguousarray(D.T), D ** 2
+        atoms = np.ascontiguousarray(D.T)
+        scoring = (atoms.astype(np.float32), (D ** 2).astype(np.float32))
         for start in range(0, n, self.block):
             rows = slice(start, start + self.block)
-            coef[rows], objective[rows], gap[rows] = local_ridge_codes(
-                atoms, squares, X[rows], observed[rows], K, self.lam)
+            objective[rows], gap[rows] = local_ridge_codes(
+                atoms, X[rows], observed[rows], K, self.lam, coef[rows], scoring)
         ok = np.isfinite(gap) & (gap <= self.tol)
         status = np.where(ok, OPTIMAL, INACCURATE).astype(object)
         return LassoResult(coef, objective, gap, status, np.full(n, K))
 
 
-def local_ridge_codes(atoms, squares, X, observed, K, lam):
-    """Ridge codes of rows on their K most correlated atoms (see the module docstring).
+def local_ridge_codes(atoms, X, observed, K, lam, coef, scoring=None):
+    """Ridge codes of rows on their K most correlated atoms (see the module
+    docstring), written into `coef`.
 
     Parameters
     ----------
     atoms : ndarray, shape (k, m)
         The atoms as rows.
-    squares : ndarray, shape (m, k)
-        ``atoms.T ** 2`` (given so that blocks of rows share it).
     X : ndarray, shape (n, m)
         The rows, 0 at unobserved entries.
     observed : ndarray of bool, shape (n, m)
@@ -148,22 +148,23 @@ def local_ridge_codes(atoms, squares, X, observed, K, lam):
         Atoms per working set, at most k.
     lam : float > 0
         The relative ridge weight.
+    coef : ndarray, shape (n, k)
+        Zeros; each row's K coefficients are written at its working set.
+    scoring : tuple of ndarray, optional
+        ``(atoms, atoms.T ** 2)`` in single precision (blocks of rows share
+        them); the working sets are chosen by single-precision scores.
 
     Returns
     -------
-    coef : ndarray, shape (n, k)
-        K non-zeros per row (at its working set).
     objective : ndarray, shape (n,)
-        The ridge objective at `coef`.
+        The ridge objective at the code.
     gap : ndarray, shape (n,)
         The relative normal-equation residual.
     """
     n, k = len(X), len(atoms)
-    patterns, which = np.unique(observed, axis=0, return_inverse=True)
-    norms = np.sqrt(patterns.astype(float) @ squares)[which.reshape(-1)]
-    score = (X @ atoms.T) / np.maximum(norms, _TINY)
     if K < k:
-        idx = np.argpartition(-score, K - 1, axis=1)[:, :K]
+        idx = working_sets(X, observed, K, *(scoring or (atoms.astype(np.float32),
+                                                         (atoms.T ** 2).astype(np.float32))))
     else:
         idx = np.broadcast_to(np.arange(k), (n, k))
     A = atoms[idx] * observed[:, None, :]                    # (n, K, m), masked
@@ -176,6 +177,23 @@ def local_ridge_codes(atoms, squares, X, observed, K, lam):
     gap = np.linalg.norm(residual, axis=1) / np.maximum(np.linalg.norm(b, axis=1), _TINY)
     R = X - np.einsum("nk,nkm->nm", c, A)
     objective = 0.5 * np.einsum("nm,nm->n", R, R) + 0.5 * mu * np.einsum("nk,nk->n", c, c)
-    coef = np.zeros((n, k))
     np.put_along_axis(coef, idx, c, axis=1)
-    return coef, objective, gap
+    return objective, gap
+
+
+def working_sets(X, observed, K, atoms32, squares32):
+    """Each row's K atoms of highest ``(x_M . a_M) / ||a_M||`` (single precision),
+    (n, K) indices; rows of one missing pattern share their atoms' norms."""
+    patterns, which = np.unique(observed, axis=0, return_inverse=True)
+    which = which.reshape(-1)
+    inv_norms = 1.0 / np.maximum(np.sqrt(patterns.astype(np.float32) @ squares32),
+                                 np.finfo(np.float32).tiny)
+    score = X.astype(np.float32) @ atoms32.T
+    order = np.argsort(which, kind="stable")
+    bounds = np.flatnonzero(np.diff(which[order])) + 1
+    for rows in np.split(order, bounds):
+        if rows[-1] - rows[0] + 1 == len(rows) and (np.diff(rows) == 1).all():
+            score[rows[0]:rows[-1] + 1] *= inv_norms[which[rows[0]]]
+        else:
+            score[rows] *= inv_norms[which[rows[0]]]
+    return np.argpartition(-score, K - 1, axis=1)[:, :K]
