@@ -8,7 +8,7 @@ from sparseedm.exceptions import SparseEDMError
 from sparseedm.solvers import LocalRidgeSolver, get_solver
 
 
-def direct(D, x, obs, K, lam):
+def direct(D, x, obs, K, lam, power=0.0):
     """One row by the definition: score, working set, normal equations."""
     A = D[obs]                                   # (m_obs, k)
     score = (x[obs] @ A) / np.linalg.norm(A, axis=0)
@@ -16,11 +16,14 @@ def direct(D, x, obs, K, lam):
     AS = A[:, S]
     G = AS.T @ AS
     mu = lam * np.trace(G) / len(S)
-    c = np.linalg.solve(G + mu * np.eye(len(S)), AS.T @ x[obs])
+    cos = (AS.T @ x[obs]) / (np.linalg.norm(AS, axis=0) * np.linalg.norm(x[obs]))
+    w = np.maximum(1 - cos, 1e-12) ** power
+    w /= w.mean()
+    c = np.linalg.solve(G + mu * np.diag(w), AS.T @ x[obs])
     coef = np.zeros(D.shape[1])
     coef[S] = c
     r = x[obs] - AS @ c
-    return coef, 0.5 * r @ r + 0.5 * mu * c @ c
+    return coef, 0.5 * r @ r + 0.5 * mu * (w * c) @ c
 
 
 def problem(seed, n=40, m=15, k=60, hide=4):
@@ -34,13 +37,15 @@ def problem(seed, n=40, m=15, k=60, hide=4):
     return D, X, obs
 
 
-@pytest.mark.parametrize("K,lam", [(5, 1e-3), (16, 1e-1), (60, 1e-4), (200, 1e-3)])
-def test_matches_direct_solve(K, lam):
+@pytest.mark.parametrize("K,lam,power", [(5, 1e-3, 0.0), (16, 1e-1, 2.0), (60, 1e-4, 1.0),
+                                          (200, 1e-3, 2.0)])
+def test_matches_direct_solve(K, lam, power):
     D, X, obs = problem(K)
     Xn = np.where(obs, X, np.nan)                # unobserved values are ignored
-    res = LocalRidgeSolver(n_atoms=K, lam=lam, block=7).solve_masked(D, Xn, obs, 0.5)
+    res = LocalRidgeSolver(n_atoms=K, lam=lam, block=7, power=power).solve_masked(
+        D, Xn, obs, 0.5)
     for i in range(len(X)):
-        coef, obj = direct(D, X[i], obs[i], min(K, D.shape[1]), lam)
+        coef, obj = direct(D, X[i], obs[i], min(K, D.shape[1]), lam, power)
         np.testing.assert_allclose(res.coef[i], coef, rtol=0, atol=1e-8)
         np.testing.assert_allclose(res.objective[i], obj, rtol=1e-9)
     assert ((res.coef != 0).sum(axis=1) == min(K, D.shape[1])).all()
@@ -52,8 +57,9 @@ def test_few_observed_entries():
     D, X, obs = problem(1, n=3)
     obs[0] = False
     obs[0, [2, 7]] = True                        # two entries, K far above them
-    res = get_solver("local-ridge", n_atoms=20, lam=1e-3).solve_masked(D, X, obs, 1.0)
-    coef, obj = direct(D, X[0], obs[0], 20, 1e-3)
+    res = get_solver("local-ridge", n_atoms=20, lam=1e-3, power=2.0).solve_masked(
+        D, X, obs, 1.0)
+    coef, obj = direct(D, X[0], obs[0], 20, 1e-3, 2.0)
     np.testing.assert_allclose(res.coef[0], coef, atol=1e-8)
     assert res.status[0] == "optimal"
     # the fit is near-exact on the two entries it sees, and says nothing else
@@ -68,7 +74,8 @@ def test_solve_is_all_observed():
     np.testing.assert_array_equal(a.coef, b.coef)
 
 
-@pytest.mark.parametrize("kw", [dict(n_atoms=0), dict(lam=0.0), dict(block=0)])
+@pytest.mark.parametrize("kw", [dict(n_atoms=0), dict(lam=0.0), dict(block=0),
+                                dict(power=-1.0)])
 def test_bad_settings(kw):
     with pytest.raises(SparseEDMError):
         LocalRidgeSolver(**kw)

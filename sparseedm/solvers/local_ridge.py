@@ -8,11 +8,14 @@ working set S of the K atoms most correlated with the observed entries (score
 ``(x_M . a_M) / ||a_M||``, the cosine of the observed parts up to the row's
 norm) and solves the ridge problem on those atoms alone:
 
-    min_c  0.5 * ||M (x - A_S c)||^2 + 0.5 * mu * ||c||^2,
+    min_c  0.5 * ||M (x - A_S c)||^2 + 0.5 * mu * sum_j w_j c_j^2,
     mu = lam * trace(A_S^T M A_S) / K,
+    w_j = (1 - cos_j)^power / mean over S of (1 - cos)^power,
 
-whose normal equations ``(A_S^T M A_S + mu I) c = A_S^T M x`` are solved
-exactly (a K x K system per row, batched). The code has exactly K non-zeros
+with cos_j the cosine between the observed parts of x and of atom j: the
+farther an atom, the more its coefficient costs (``power=0``: the plain ridge,
+every w_j = 1). Its normal equations ``(A_S^T M A_S + mu W) c = A_S^T M x``
+are solved exactly (a K x K system per row, batched). The code has exactly K non-zeros
 (fewer only by rounding to zero); atoms outside S get 0. The weight mu is
 relative to the working set's mean squared observed atom norm, so `lam` does
 not depend on the atoms' scale.
@@ -26,7 +29,7 @@ What it reports
 ---------------
 The :class:`~.base.LassoResult` of every backend, for the ridge problem above:
 ``objective`` its value at the code (on the observed entries), ``gap`` the
-normal equations' residual ``||(A_S^T M A_S + mu I) c - A_S^T M x||``
+normal equations' residual ``||(A_S^T M A_S + mu W) c - A_S^T M x||``
 relative to ``||A_S^T M x||`` (the gradient of that strongly convex problem:
 0 at its unique optimum up to rounding), ``status`` ``"optimal"`` when the gap
 is at most `tol`, ``n_iter`` K, no fallback. The lasso's `alpha` is accepted
@@ -40,7 +43,7 @@ import numpy as np
 from ..exceptions import SparseEDMError
 from .base import INACCURATE, OPTIMAL, BaseSolver, LassoResult
 
-__all__ = ["LocalRidgeSolver", "local_ridge_codes", "working_sets"]
+__all__ = ["LocalRidgeSolver", "local_ridge_codes", "penalty_weights", "working_sets"]
 
 _TINY = np.finfo(float).tiny
 
@@ -55,6 +58,9 @@ class LocalRidgeSolver(BaseSolver):
     lam : float > 0, default 1e-3
         The ridge weight relative to the working set's mean squared observed
         atom norm.
+    power : float >= 0, default 0
+        Each coefficient's penalty grows as ``(1 - cos)^power`` of its atom
+        (0: the plain ridge).
     tol : float, default 1e-6
         A row is "optimal" when its relative normal-equation residual is at most
         `tol`.
@@ -75,15 +81,18 @@ class LocalRidgeSolver(BaseSolver):
 
     name = "local-ridge"
 
-    def __init__(self, n_atoms=64, lam=1e-3, tol=1e-6, block=256):
+    def __init__(self, n_atoms=64, lam=1e-3, tol=1e-6, block=256, power=0.0):
         super().__init__(tol=tol)
         if not (isinstance(n_atoms, (int, np.integer)) and n_atoms >= 1):
             raise SparseEDMError(f"n_atoms must be an integer >= 1, got {n_atoms!r}")
         if not (np.isscalar(lam) and lam > 0):
             raise SparseEDMError(f"lam must be a number > 0, got {lam!r}")
+        if not (np.isscalar(power) and power >= 0):
+            raise SparseEDMError(f"power must be a number >= 0, got {power!r}")
         if not (isinstance(block, (int, np.integer)) and block >= 1):
             raise SparseEDMError(f"block must be an integer >= 1, got {block!r}")
         self.n_atoms, self.lam, self.block = int(n_atoms), float(lam), int(block)
+        self.power = float(power)
 
     def solve(self, D, X, alpha=1.0, *, positive=False, key=None):
         """:meth:`solve_masked` with every entry observed."""
@@ -127,13 +136,13 @@ class LocalRidgeSolver(BaseSolver):
         for start in range(0, n, self.block):
             rows = slice(start, start + self.block)
             objective[rows], gap[rows] = local_ridge_codes(
-                atoms, X[rows], observed[rows], K, self.lam, coef[rows], scoring)
+                atoms, X[rows], observed[rows], K, self.lam, coef[rows], scoring, self.power)
         ok = np.isfinite(gap) & (gap <= self.tol)
         status = np.where(ok, OPTIMAL, INACCURATE).astype(object)
         return LassoResult(coef, objective, gap, status, np.full(n, K))
 
 
-def local_ridge_codes(atoms, X, observed, K, lam, coef, scoring=None):
+def local_ridge_codes(atoms, X, observed, K, lam, coef, scoring=None, power=0.0):
     """Ridge codes of rows on their K most correlated atoms (see the module
     docstring), written into `coef`.
 
@@ -153,6 +162,8 @@ def local_ridge_codes(atoms, X, observed, K, lam, coef, scoring=None):
     scoring : tuple of ndarray, optional
         ``(atoms, atoms.T ** 2)`` in single precision (blocks of rows share
         them); the working sets are chosen by single-precision scores.
+    power : float >= 0, default 0
+        The penalty weights' power of ``1 - cos``.
 
     Returns
     -------
@@ -170,15 +181,26 @@ def local_ridge_codes(atoms, X, observed, K, lam, coef, scoring=None):
     A = atoms[idx] * observed[:, None, :]                    # (n, K, m), masked
     H = A @ A.transpose(0, 2, 1)
     mu = np.maximum(lam * np.trace(H, axis1=1, axis2=2) / K, _TINY)
-    H[:, np.arange(K), np.arange(K)] += mu[:, None]
     b = np.einsum("nkm,nm->nk", A, X)
+    w = penalty_weights(A, X, b, power)
+    H[:, np.arange(K), np.arange(K)] += mu[:, None] * w
     c = np.linalg.solve(H, b[..., None])[..., 0]
     residual = np.einsum("nkl,nl->nk", H, c) - b
     gap = np.linalg.norm(residual, axis=1) / np.maximum(np.linalg.norm(b, axis=1), _TINY)
     R = X - np.einsum("nk,nkm->nm", c, A)
-    objective = 0.5 * np.einsum("nm,nm->n", R, R) + 0.5 * mu * np.einsum("nk,nk->n", c, c)
+    objective = 0.5 * np.einsum("nm,nm->n", R, R) + 0.5 * mu * np.einsum("nk,nk->n", w * c, c)
     np.put_along_axis(coef, idx, c, axis=1)
     return objective, gap
+
+
+def penalty_weights(A, X, b, power):
+    """(n, K) weights ``(1 - cos)^power``, mean 1 per row, of the masked atoms `A`
+    (n, K, m) against the rows `X` (n, m); `b` their products ``A x``."""
+    if power == 0:
+        return np.ones(b.shape)
+    norms = np.linalg.norm(A, axis=2) * np.linalg.norm(X, axis=1)[:, None]
+    far = np.maximum(1.0 - b / np.maximum(norms, _TINY), 1e-12) ** power
+    return far / far.mean(axis=1, keepdims=True)
 
 
 def working_sets(X, observed, K, atoms32, squares32):
