@@ -61,7 +61,7 @@ RECOVER_PARAMS = {
 #: weight of :class:`~sparseedm.solvers.local_ridge.LocalRidgeSolver`, and the
 #: most complete poses that become atoms (None: every one), chosen on CMU
 #: validation files (``studies/fast/select_fast.py --local``)
-FAST_RIDGE = {"n_atoms": 64, "lam": 1e-4}
+FAST_RIDGE = {"n_atoms": 64, "lam": 3e-4, "power": 3.0}
 FAST_MAX_ATOMS = None
 
 
