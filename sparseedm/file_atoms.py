@@ -42,9 +42,11 @@ __all__ = ["MAX_FILE_ATOMS", "MAX_FAST_ATOMS", "FAST_ALPHA", "FileAtoms",
 #: at most this many of a file's complete poses become atoms (a seeded sample)
 MAX_FILE_ATOMS = 1000
 
-#: ``recover(preset="fast")``: at most this many complete poses make the file's
-#: dictionary, and its recovery alpha (chosen on CMU validation files:
-#: ``studies/fast/select_fast.py``)
+#: :func:`file_dictionary`'s default cap on the complete poses that make the
+#: file's dictionary, and its recovery alpha (chosen for the exact lasso on CMU
+#: validation files: ``studies/fast/select_fast.py``; ``recover(preset="fast")``
+#: now codes by a local ridge and passes its own cap,
+#: :data:`sparseedm._recovery_kernel.FAST_MAX_ATOMS`)
 MAX_FAST_ATOMS = 3000
 FAST_ALPHA = 0.0005
 
