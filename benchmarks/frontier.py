@@ -57,10 +57,10 @@ SPARSE = {"recover(adapt=False)": dict(adapt=False),
           "recover() defaults": {},
           "recover(ensemble=3)": dict(ensemble=3)}
 REPEATED = ("recover(preset='fast')", "IterativeImputer, 1 BLAS thread",
-            "recover(preset='fast'), full-dictionary LARS")
-#: rows run only when named by --only: the fast preset's former solver (the
-#: homotopy over every atom from one Gram matrix), beside the working sets
-EXTRA = {"recover(preset='fast'), full-dictionary LARS": dict(preset="fast", solver="full")}
+            "recover(preset='fast'), lasso on working sets")
+#: rows run only when named by --only: the fast preset's atoms coded by the exact
+#: lasso (its former coder: working sets of the fast solver) beside its local ridge
+EXTRA = {"recover(preset='fast'), lasso on working sets": dict(preset="fast", solver="lasso")}
 
 
 def pose_error(filled, truth, rows):
@@ -102,7 +102,8 @@ def _sparse(kw):
     from sparseedm.solvers.fast import FastSolver
 
     def fill(X, mask, **more):
-        args = dict(kw, solver=FastSolver()) if kw.get("solver") == "full" else kw
+        args = (dict(kw, solver=FastSolver(working_set=True)) if kw.get("solver") == "lasso"
+                else kw)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             return sparseedm.recover(X, mask, n_jobs=2, **args, **more).poses

@@ -112,7 +112,7 @@ from .keypoints import (FLAGS_IN_SIDECAR, N_JOINTS, EXTENSIONS, beside, check_jo
                         read_keypoints, status_sidecar, write_keypoints)
 from .keypoints import output_format as keypoint_output_format
 from ._recovery_base import OK_STATUSES, combine, recovery_summary
-from ._recovery_kernel import PRESETS, compiled_solver
+from ._recovery_kernel import PRESETS, compiled_solver, preset_solver
 from .normalize import REPRESENTATIONS, representation_for
 from .outliers import mark_outliers, outlier_names
 from .recovery import STATUSES, check_options_apply, recover
@@ -474,7 +474,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
             dictionary = members[0]
         else:
             members, adaptation = [dictionary], None
-        solver = _solver_after(requested, solver, adaptation)
+        solver = _solver_after(requested, solver, adaptation, preset)
         recovery = _Recovery(members, alpha, representation, solver, n_jobs, backend,
                              scheduler, method, model,
                              (source.tracks, source.frames) if in_time else None)
@@ -571,10 +571,14 @@ def _check_run_paths(outputs, in_path, dictionary, adapt, model, save_dictionary
         check_paths(inputs, written)
 
 
-def _solver_after(requested, solver, adaptation):
-    """The run's solver once it has adapted: the fast one on its compiled kernel
-    at any chunk size, as recover() does (:func:`compiled_solver`), when the
-    solver was asked for by name (an instance the user gave is left as it is)."""
+def _solver_after(requested, solver, adaptation, preset="default"):
+    """The run's solver once it has adapted: the preset's coder
+    (:func:`preset_solver`), or the fast one on its compiled kernel at any chunk
+    size, as recover() does (:func:`compiled_solver`), when the solver was asked
+    for by name (an instance the user gave is left as it is)."""
+    chosen = preset_solver(requested, preset, adaptation)
+    if chosen is not requested:
+        return get_solver(chosen)
     if isinstance(requested, str) and adaptation is not None:
         return get_solver(compiled_solver(requested, [adaptation]))
     return solver

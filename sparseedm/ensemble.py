@@ -32,6 +32,7 @@ from .adaptation import MIN_COMPLETE_POSES, resolve_adaptation
 from .exemplars import choose_exemplars
 from .file_atoms import resolve_fast, with_file_atoms
 from ._recovery_base import combine
+from ._recovery_kernel import FAST_MAX_ATOMS
 
 __all__ = ["adapt_members", "combine"]
 
@@ -61,7 +62,8 @@ def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
         :func:`sparseedm.batch.recover_file` pass True.
     preset : {"default", "fast"}, default "default"
         ``"fast"``: no adaptation; the complete poses offered become the
-        atoms (:func:`sparseedm.file_atoms.resolve_fast`), one member.
+        atoms (:func:`sparseedm.file_atoms.resolve_fast`; at most
+        :data:`sparseedm._recovery_kernel.FAST_MAX_ATOMS`), one member.
     exemplars : {"auto", False}, default False
         ``"auto"`` (with ``adapt="auto"``): the file's complete poses as the
         only atoms, nothing learned and one member, when
@@ -83,7 +85,8 @@ def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
         as :func:`~sparseedm.adaptation.resolve_adaptation` reads it).
     """
     if preset == "fast":
-        d, res = resolve_fast(dictionary, poses, missing, adapt, min_poses=min_poses)
+        d, res = resolve_fast(dictionary, poses, missing, adapt, min_poses=min_poses,
+                              max_atoms=FAST_MAX_ATOMS)
         return [d], ([] if res is None else [res])
     check = None
     if exemplars == "auto" and isinstance(adapt, str) and adapt == "auto":

@@ -42,9 +42,11 @@ __all__ = ["MAX_FILE_ATOMS", "MAX_FAST_ATOMS", "FAST_ALPHA", "FileAtoms",
 #: at most this many of a file's complete poses become atoms (a seeded sample)
 MAX_FILE_ATOMS = 1000
 
-#: ``recover(preset="fast")``: at most this many complete poses make the file's
-#: dictionary, and its recovery alpha (chosen on CMU validation files:
-#: ``studies/fast/select_fast.py``)
+#: :func:`file_dictionary`'s default cap on the complete poses that make the
+#: file's dictionary, and its recovery alpha (chosen for the exact lasso on CMU
+#: validation files: ``studies/fast/select_fast.py``; ``recover(preset="fast")``
+#: now codes by a local ridge and passes its own cap,
+#: :data:`sparseedm._recovery_kernel.FAST_MAX_ATOMS`)
 MAX_FAST_ATOMS = 3000
 FAST_ALPHA = 0.0005
 
@@ -211,7 +213,8 @@ def _file_vectors(dictionary, poses, missing, max_atoms, filter, random_state):
     return X / np.linalg.norm(X, axis=1, keepdims=True), len(poses)
 
 
-def resolve_fast(dictionary, poses, missing, adapt, *, min_poses=MIN_COMPLETE_POSES):
+def resolve_fast(dictionary, poses, missing, adapt, *, min_poses=MIN_COMPLETE_POSES,
+                 max_atoms=MAX_FAST_ATOMS):
     """The dictionary ``recover(preset="fast")`` codes with, and what was done.
 
     With at least `min_poses` usable complete poses offered (the file's own
@@ -230,6 +233,10 @@ def resolve_fast(dictionary, poses, missing, adapt, *, min_poses=MIN_COMPLETE_PO
         Where the complete poses come from; False or None: `dictionary` as given.
     min_poses : int, default MIN_COMPLETE_POSES
         Fewest complete poses that make a dictionary on their own.
+    max_atoms : int or None, default MAX_FAST_ATOMS
+        At most this many complete poses become the atoms (a seeded sample);
+        None: every one (``recover(preset="fast")`` passes its own cap,
+        :data:`sparseedm._recovery_kernel.FAST_MAX_ATOMS`).
 
     Returns
     -------
@@ -253,7 +260,8 @@ def resolve_fast(dictionary, poses, missing, adapt, *, min_poses=MIN_COMPLETE_PO
         return dictionary, None
     t0 = time.perf_counter()
     source = (poses, missing) if isinstance(adapt, str) else (np.asarray(adapt, float), None)
-    found = file_dictionary(dictionary, *source)
+    found = file_dictionary(dictionary, *source,
+                            max_atoms=max(1, len(source[0])) if max_atoms is None else max_atoms)
     if found.n_atoms >= min_poses:
         reason = (f"preset 'fast': {found.n_atoms} complete poses are the dictionary's atoms "
                   "(nothing learned)")

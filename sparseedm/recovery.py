@@ -227,16 +227,18 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         ``"default"``: the settings above as they are. ``"fast"``: no
         adaptation and no self-training; under ``adapt="auto"`` (or an array)
         the complete poses (at least
-        :data:`~sparseedm.adaptation.MIN_COMPLETE_POSES`, at most
-        :data:`~sparseedm.file_atoms.MAX_FAST_ATOMS`, a seeded sample) are the
-        dictionary's only atoms, at the recovery alpha
-        :data:`~sparseedm.file_atoms.FAST_ALPHA` unless `alpha` is given
-        (:func:`sparseedm.file_atoms.resolve_fast`; with fewer complete poses
-        they join the base dictionary's atoms). The lasso, its certificate
-        and every status are the same as with the defaults. It skips the
-        defaults' fixed cost of adaptation and self-training (tens of
-        seconds); its work per occluded pose grows with the atoms
-        (``docs/explanation/settings.md``, "Presets", and the accuracy-speed
+        :data:`~sparseedm.adaptation.MIN_COMPLETE_POSES`; every one) are the
+        dictionary's only atoms (:func:`sparseedm.file_atoms.resolve_fast`;
+        with fewer complete poses they join the base dictionary's atoms), and
+        each occluded pose is coded by a local ridge over its most correlated
+        atoms (:class:`~sparseedm.solvers.local_ridge.LocalRidgeSolver` with
+        :data:`sparseedm._recovery_kernel.FAST_RIDGE`), not the lasso, when
+        `solver` is "fast" (another solver keeps its lasso; `alpha` is the
+        lasso's). The statuses and refusals are the same as with the
+        defaults; "recovered" there means the ridge's normal equations were
+        solved (`gap`: their relative residual). It skips the defaults' fixed
+        cost of adaptation and self-training (tens of seconds) and the
+        lasso (``docs/explanation/settings.md``, "Presets", and the accuracy-speed
         frontier of the results pages). Per pose only: with `frames` it needs
         ``temporal=False``; `ensemble` and `self_training` are refused with it.
     exemplars : {"auto", False}, default "auto"
@@ -359,7 +361,6 @@ def _dispatch(poses, missing, tracks, frames, method, model, preset, opts):
     adaptations, members = [], [dictionary]
     kernel = {k: opts[k] for k in ("alpha", "representation", "solver", "n_jobs",
                                    "chunk_size", "positive", "progress")}
-    kernel["solver"] = preset_solver(kernel["solver"], preset)
     with one_client(opts["backend"], opts["scheduler"]) as dist:
         if adapt is not False:
             # one member unless an ensemble was asked for (seed 0 is the default's)
@@ -367,6 +368,8 @@ def _dispatch(poses, missing, tracks, frames, method, model, preset, opts):
                 dictionary, poses, missing, adapt, opts["ensemble"], n_jobs=opts["n_jobs"],
                 self_training=opts["self_training"], file_atoms=True, preset=preset,
                 exemplars=opts["exemplars"], **dist)
+        kernel["solver"] = preset_solver(kernel["solver"], preset,
+                                         adaptations[0] if adaptations else None)
         res = recover_members(
             poses, missing, members, adaptations, **kernel, check_input=False,
             **(dist or dict(backend=opts["backend"], scheduler=opts["scheduler"])))

@@ -6,6 +6,7 @@ import pytest
 
 from sparseedm import recover
 from sparseedm._recovery_base import STATUSES
+from sparseedm._recovery_kernel import FAST_RIDGE
 from sparseedm.adaptation import MIN_COMPLETE_POSES, pose_vectors
 from sparseedm.cli import main
 from sparseedm.exceptions import ParameterError
@@ -60,8 +61,9 @@ def test_fast_statuses_and_certificates(file_poses, small_dictionary):
     assert {"too_few_observed", "invalid_coordinates"} <= set(fast.status)
     rec = fast.status == "recovered"
     assert rec.sum() > 0
-    # the certificate: every recovered row's duality gap within the tolerance
-    assert (fast.gap[rec] <= 1e-6 * fast.objective[rec]).all()
+    # the local ridge's certificate: its normal equations solved (relative residual)
+    assert (fast.gap[rec] <= 1e-6).all()
+    assert (fast.n_active[rec] == FAST_RIDGE["n_atoms"]).all()
     assert np.isfinite(fast.poses[rec]).all()
     np.testing.assert_array_equal(fast.poses[rec][~missing[rec]], poses[rec][~missing[rec]])
     assert fast.dictionary.n_components == 300
@@ -108,26 +110,27 @@ def test_cli_preset_round_trip(tmp_path, file_poses, small_dictionary_path, caps
     assert "preset 'fast'" in capsys.readouterr().err
 
 
-def test_fast_preset_codes_on_working_sets(cmu_poses, small_dictionary):
-    """preset="fast" codes on working sets of atoms (preset_solver), checked on all of
-    them: the same lasso as the full-dictionary homotopy, so the same statuses,
-    objectives and poses to round-off (enough occluded rows for the compiled path)."""
+def test_fast_preset_is_a_local_ridge(cmu_poses, small_dictionary):
+    """preset="fast" codes by the local ridge (preset_solver), not the lasso: the same
+    screening and statuses as the lasso on the same atoms, other codes (K atoms each),
+    the observed joints kept."""
     from sparseedm._recovery_kernel import preset_solver
-    from sparseedm.solvers.fast import NUMPY_MAX, FastSolver
+    from sparseedm.solvers.fast import FastSolver
 
     poses = cmu_poses.copy()
     missing = np.zeros(poses.shape[:2], bool)
     rng = np.random.default_rng(1)
     for i in range(150, len(poses)):
         missing[i, rng.choice(14, rng.integers(1, 4), replace=False)] = True
-    assert missing.any(axis=1).sum() >= NUMPY_MAX
-    assert preset_solver("fast", "fast").working_set
-    ws = recover(poses, missing, dictionary=small_dictionary, preset="fast")
-    full = recover(poses, missing, dictionary=small_dictionary, preset="fast",
-                   solver=FastSolver())
-    np.testing.assert_array_equal(ws.status, full.status)
-    rec = ws.status == "recovered"
-    assert rec.sum() >= NUMPY_MAX
-    assert (ws.gap[rec] <= 1e-6 * ws.objective[rec]).all()
-    np.testing.assert_allclose(ws.objective[rec], full.objective[rec], rtol=1e-7)
-    np.testing.assert_allclose(ws.poses[rec], full.poses[rec], atol=1e-4)
+    assert preset_solver("fast", "fast").name == "local-ridge"
+    ridge = recover(poses, missing, dictionary=small_dictionary, preset="fast")
+    lasso = recover(poses, missing, dictionary=small_dictionary, preset="fast",
+                    solver=FastSolver(working_set=True))
+    np.testing.assert_array_equal(ridge.status, lasso.status)
+    rec = ridge.status == "recovered"
+    assert rec.sum() > 100
+    assert (ridge.n_active[rec] == FAST_RIDGE["n_atoms"]).all()
+    assert (ridge.n_active[rec] != lasso.n_active[rec]).any()
+
+    assert np.isfinite(ridge.poses[rec]).all()
+    np.testing.assert_array_equal(ridge.poses[~missing], poses[~missing])

@@ -166,13 +166,13 @@ def test_bad_input_raises(kwargs, match):
 
 
 def test_registry():
-    assert SOLVERS == ("clarabel", "cvxpy-naive", "fast")
+    assert SOLVERS == ("clarabel", "cvxpy-naive", "fast", "local-ridge")
     assert isinstance(get_solver("clarabel"), ClarabelSolver)
     assert isinstance(get_solver("cvxpy-naive"), NaiveCvxpySolver)
     assert get_solver("clarabel", tol=1e-8).tol == 1e-8
     inst = ClarabelSolver()
     assert get_solver(inst) is inst
-    with pytest.raises(SparseEDMError, match="known solvers: clarabel, cvxpy-naive, fast"):
+    with pytest.raises(SparseEDMError, match="known solvers: clarabel, cvxpy-naive, fast, local-ridge"):
         get_solver("lars")
     with pytest.raises(SparseEDMError, match="cannot be applied"):
         get_solver(inst, tol=1e-3)

@@ -7,7 +7,10 @@ Backends by name (:data:`SOLVERS`):
 * ``"cvxpy-naive"`` -- :class:`~sparseedm.solvers.reference.NaiveCvxpySolver`
   (a fresh cvxpy problem per signal: the reference);
 * ``"fast"`` -- :class:`~sparseedm.solvers.fast.FastSolver` (numba LARS, its
-  kernels compiled on first use).
+  kernels compiled on first use);
+* ``"local-ridge"`` -- :class:`~sparseedm.solvers.local_ridge.LocalRidgeSolver`
+  (not the lasso: a ridge code on each row's most correlated atoms, the
+  ``recover(preset="fast")`` coder).
 
 :func:`gram_matrix` holds a dictionary's Gram matrix once per process (by
 content); :func:`clear_gram_cache` lets it go.
@@ -16,7 +19,7 @@ Examples
 --------
 >>> from sparseedm.solvers import get_solver, SOLVERS
 >>> SOLVERS
-('clarabel', 'cvxpy-naive', 'fast')
+('clarabel', 'cvxpy-naive', 'fast', 'local-ridge')
 >>> get_solver("clarabel", tol=1e-7).tol
 1e-07
 """
@@ -27,6 +30,7 @@ from .base import SOLVERS, BaseSolver, LassoResult, duality_gap, get_solver, las
 from .clarabel import ClarabelSolver
 from .fast import FastSolver
 from .gram import clear_gram_cache, gram_matrix
+from .local_ridge import LocalRidgeSolver
 from .reference import NaiveCvxpySolver
 
 __all__ = [
@@ -38,6 +42,7 @@ __all__ = [
     "lasso_objective",
     "ClarabelSolver",
     "FastSolver",
+    "LocalRidgeSolver",
     "NaiveCvxpySolver",
     "gram_matrix",
     "clear_gram_cache",

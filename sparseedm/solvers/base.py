@@ -250,6 +250,15 @@ class BaseSolver:
         >>> bool(abs(res.objective[1] - one.objective[0]) < 1e-6 * one.objective[0])
         True
         """
+        D, X, observed, alpha = self._check_masked(D, X, observed, alpha)
+        positive = bool(positive)
+        coef, status, n_iter = self._solve_masked(D, X, observed, alpha, positive, key)
+        return self._certify(D, X, coef, status, n_iter, alpha, positive, key, observed)
+
+    @staticmethod
+    def _check_masked(D, X, observed, alpha):
+        """:meth:`solve_masked`'s arguments checked: (D, X zeroed where unobserved,
+        observed, alpha per row)."""
         D = np.asarray(D, dtype=float)
         X = np.atleast_2d(np.asarray(X, dtype=float))
         observed = np.atleast_2d(np.asarray(observed, dtype=bool))
@@ -266,9 +275,7 @@ class BaseSolver:
         alpha = np.broadcast_to(np.asarray(alpha, dtype=float), (len(X),)).copy()
         if not (alpha > 0).all():
             raise SparseEDMError(f"alpha must be > 0, got {alpha[~(alpha > 0)][:1]}")
-        positive = bool(positive)
-        coef, status, n_iter = self._solve_masked(D, X, observed, alpha, positive, key)
-        return self._certify(D, X, coef, status, n_iter, alpha, positive, key, observed)
+        return D, X, observed, alpha
 
     def _solve_masked(self, D, X, observed, alpha, positive, key):
         """Default: each (pattern, alpha) group's rows through ``_solve``."""
@@ -365,6 +372,7 @@ _REGISTRY = {
     "clarabel": ("sparseedm.solvers.clarabel", "ClarabelSolver"),
     "cvxpy-naive": ("sparseedm.solvers.reference", "NaiveCvxpySolver"),
     "fast": ("sparseedm.solvers.fast", "FastSolver"),
+    "local-ridge": ("sparseedm.solvers.local_ridge", "LocalRidgeSolver"),
 }
 
 #: Names :func:`get_solver` accepts.

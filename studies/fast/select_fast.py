@@ -25,11 +25,29 @@ validation files above hold at most 3,641 complete poses, so it uses every
 held-out pose with a quarter under Mix masks (about 5,460 complete), and
 scores the preset at several caps (error and seconds, working sets).
 Writes ``selection_fast_caps.json``.
+
+``--local`` chooses the settings of the preset's coder since it stopped
+solving the lasso: the local ridge code
+(:class:`sparseedm.solvers.local_ridge.LocalRidgeSolver`: each occluded pose's
+K most correlated atoms, ridge weight lam, each coefficient's penalty growing
+as ``(1 - cos)^power`` of its atom) over at most ``cap`` of the file's
+complete poses. The grid (``GRID_LOCAL``) runs on two files: the 6,000-pose
+validation file above (3,000 complete poses) and the every-held-out-pose
+file of ``--caps`` (5,462 complete: there 6,000 and "all" are the same
+cap), each beside the exact lasso of the old preset and IterativeImputer
+(one BLAS thread, ``n_jobs=1``). The choice: the preset is judged by its speed
+first, so only settings at least ``MIN_SPEEDUP`` times as fast as the imputer
+on both files (seconds of the same run, the file's dictionary included)
+qualify (the imputer's: the median of 3 runs); among them the lowest Err_ave averaged over the two files, then the
+larger cap (the two files cannot tell 6,000 from every pose; more atoms
+lowered the lasso's error, ``--caps``). Writes
+``selection_fast_local.json``.
 """
 
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 import sys
 import time
@@ -43,6 +61,12 @@ sys.path.insert(0, str(ROOT))  # `python studies/fast/select_fast.py` finds benc
 
 GRID_ATOMS = (1000, 2000, 3000, 4000)
 GRID_ALPHA = (0.0002, 0.0005, 0.001)
+#: --local: working-set atoms K, ridge weight lam, atom cap (None: every complete pose)
+#: --local: working-set atoms K, ridge weight lam, penalty power, atom cap (None: every
+#: complete pose); the speed the choice needs against IterativeImputer (same run)
+GRID_LOCAL = {"K": (32, 64, 128), "lam": (3e-5, 1e-4, 3e-4, 1e-3, 3e-3),
+              "power": (0.0, 1.0, 2.0, 3.0), "cap": (3000, 6000, None)}
+MIN_SPEEDUP = 1.5
 
 
 def pose_error(filled, truth, mask):
@@ -92,6 +116,70 @@ def caps(base):
     return rows
 
 
+def local_grid(base, name, P, mask):
+    """The local ridge grid on one file, beside the old preset's lasso and
+    IterativeImputer (rows of a JSON)."""
+    import sparseedm
+    from sklearn.experimental import enable_iterative_imputer  # noqa: F401
+    from sklearn.impute import IterativeImputer
+    from sparseedm.file_atoms import FAST_ALPHA, MAX_FAST_ATOMS, file_dictionary
+    from sparseedm.solvers.fast import FastSolver
+    from sparseedm.solvers.local_ridge import LocalRidgeSolver
+
+    X = np.where(mask[..., None], np.nan, P)
+    head = {"file": name, "poses": len(P), "occluded": int(mask.any(axis=1).sum())}
+    secs = []
+    for _ in range(3):  # the speed bar: the median of 3 runs
+        t0 = time.perf_counter()
+        imp = IterativeImputer(max_iter=10, tol=0).fit_transform(X.reshape(len(X), -1))
+        secs.append(time.perf_counter() - t0)
+    rows = [dict(head, what="IterativeImputer", seconds=float(np.median(secs)), runs=secs,
+                 err=pose_error(imp.reshape(P.shape), P, mask))]
+    t0 = time.perf_counter()
+    d = file_dictionary(base, X, mask, max_atoms=MAX_FAST_ATOMS, alpha_recover=FAST_ALPHA)
+    res = sparseedm.recover(X, mask, dictionary=d.dictionary, adapt=False, n_jobs=1,
+                            solver=FastSolver(working_set=True))
+    rows.append(dict(head, what="lasso (the old preset)", cap=MAX_FAST_ATOMS,
+                     atoms=d.n_atoms, seconds=time.perf_counter() - t0,
+                     err=pose_error(res.poses, P, mask)))
+    print(rows[0], rows[1], sep="\n", flush=True)
+    for cap in GRID_LOCAL["cap"]:
+        t0 = time.perf_counter()
+        d = file_dictionary(base, X, mask, max_atoms=cap or 10 ** 9, alpha_recover=FAST_ALPHA)
+        build = time.perf_counter() - t0
+        for K, lam, power in itertools.product(
+                GRID_LOCAL["K"], GRID_LOCAL["lam"], GRID_LOCAL["power"]):
+            t0 = time.perf_counter()
+            res = sparseedm.recover(X, mask, dictionary=d.dictionary, adapt=False, n_jobs=1,
+                                    solver=LocalRidgeSolver(n_atoms=K, lam=lam, power=power))
+            rows.append(dict(head, what="local ridge", cap=cap, atoms=d.n_atoms, K=K,
+                             lam=lam, power=power, seconds=build + time.perf_counter() - t0,
+                             err=pose_error(res.poses, P, mask),
+                             statuses={s: int(c) for s, c in
+                                       zip(*np.unique(res.status, return_counts=True))}))
+            print(rows[-1], flush=True)
+    return rows
+
+
+def choose_local(rows):
+    """The --local choice (see the module docstring): the setting and its mean
+    error and seconds over the files."""
+    grid, imputer = {}, {}
+    for r in rows:
+        if r["what"] == "IterativeImputer":
+            imputer[r["file"]] = r["seconds"]
+        if r["what"] == "local ridge":
+            grid.setdefault((r["K"], r["lam"], r["power"], r["cap"]), []).append(r)
+    fast = {key: rs for key, rs in grid.items()
+            if all(imputer[r["file"]] >= MIN_SPEEDUP * r["seconds"] for r in rs)}
+    mean = {key: (float(np.mean([r["err"] for r in rs])),
+                  float(np.mean([r["seconds"] for r in rs]))) for key, rs in fast.items()}
+    # the lowest error, then the larger cap (None: every pose)
+    key = min(mean, key=lambda k: (round(mean[k][0], 6), -(k[3] or np.inf)))
+    return {"K": key[0], "lam": key[1], "power": key[2], "cap": key[3], "err": mean[key][0],
+            "seconds": mean[key][1], "fast_enough": len(fast), "settings": len(grid)}
+
+
 def solvers(X, P, mask, repeats):
     """The preset's working-set solver against the full homotopy (rows of a JSON)."""
     import sparseedm
@@ -120,12 +208,15 @@ def main(argv=None):
     ap.add_argument("--repeats", type=int, default=3, help="runs per solver (--solvers)")
     ap.add_argument("--caps", action="store_true",
                     help="score more atoms than MAX_FAST_ATOMS on a file with more complete poses")
+    ap.add_argument("--local", action="store_true",
+                    help="choose the local ridge coder's K, lam and atom cap")
     args = ap.parse_args(argv)
     import sparseedm
     from sklearn.experimental import enable_iterative_imputer  # noqa: F401
     from sklearn.impute import IterativeImputer
     from sparseedm.file_atoms import file_dictionary
     from sparseedm.solvers.fast import FastSolver
+    from threadpoolctl import threadpool_limits
 
     P, mask = validation_file()
     X = np.where(mask[..., None], np.nan, P)
@@ -133,6 +224,16 @@ def main(argv=None):
     warnings.simplefilter("ignore")
     sparseedm.recover(X[:300], mask[:300], adapt=False, n_jobs=2)  # JIT caches
     sparseedm.recover(X[:300], mask[:300], preset="fast", n_jobs=2)
+    if args.local:
+        with threadpool_limits(1, user_api="blas"):
+            rows = (local_grid(base, "6,000 CMU held-out-clip poses, half under Mix", P, mask)
+                    + local_grid(base, "every held-out CMU pose, a quarter under Mix",
+                                 *validation_file(n=10 ** 6, occluded=0.25)))
+        out = Path(__file__).with_name("selection_fast_local.json")
+        out.write_text(json.dumps({"blas_threads": 1, "choice": choose_local(rows),
+                                   "rows": rows}, indent=1))
+        print(choose_local(rows))
+        return
     if args.caps:
         out = Path(__file__).with_name("selection_fast_caps.json")
         out.write_text(json.dumps({"file": "every held-out CMU pose, a quarter under Mix",
