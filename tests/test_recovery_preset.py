@@ -111,19 +111,21 @@ def test_cli_preset_round_trip(tmp_path, file_poses, small_dictionary_path, caps
 
 
 def test_fast_preset_is_a_local_ridge(cmu_poses, small_dictionary):
-    """preset="fast" codes by the local ridge (preset_solver), not the lasso: the same
-    screening and statuses as the lasso on the same atoms, other codes (K atoms each),
-    the observed joints kept."""
-    from sparseedm._recovery_kernel import preset_solver
+    """preset="fast" codes by the local ridge (preset_solver) when the file's own
+    complete poses are the only atoms, not the lasso: the same screening and
+    statuses as the lasso on the same atoms, other codes (K atoms each), the
+    observed joints kept."""
     from sparseedm.solvers.fast import FastSolver
 
-    poses = cmu_poses.copy()
-    missing = np.zeros(poses.shape[:2], bool)
     rng = np.random.default_rng(1)
-    for i in range(150, len(poses)):
+    # every fixture pose complete (334, enough for a dictionary of their own), and
+    # jittered copies of them with 1-3 joints hidden
+    poses = np.concatenate([cmu_poses, cmu_poses + rng.normal(0, 2, cmu_poses.shape)])
+    missing = np.zeros(poses.shape[:2], bool)
+    for i in range(len(cmu_poses), len(poses)):
         missing[i, rng.choice(14, rng.integers(1, 4), replace=False)] = True
-    assert preset_solver("fast", "fast").name == "local-ridge"
     ridge = recover(poses, missing, dictionary=small_dictionary, preset="fast")
+    assert ridge.dictionary.n_components == ridge.adaptation.file_atoms == len(cmu_poses)
     lasso = recover(poses, missing, dictionary=small_dictionary, preset="fast",
                     solver=FastSolver(working_set=True))
     np.testing.assert_array_equal(ridge.status, lasso.status)
@@ -134,3 +136,21 @@ def test_fast_preset_is_a_local_ridge(cmu_poses, small_dictionary):
 
     assert np.isfinite(ridge.poses[rec]).all()
     np.testing.assert_array_equal(ridge.poses[~missing], poses[~missing])
+
+
+def test_fast_preset_with_few_complete_poses_keeps_the_lasso(cmu_poses, small_dictionary):
+    """Fewer complete poses than a dictionary of their own needs: they join the base
+    dictionary's learned atoms, and the preset codes with the lasso as given."""
+    poses = cmu_poses.copy()
+    missing = np.zeros(poses.shape[:2], bool)
+    rng = np.random.default_rng(1)
+    for i in range(150, len(poses)):
+        missing[i, rng.choice(14, rng.integers(1, 4), replace=False)] = True
+    res = recover(poses, missing, dictionary=small_dictionary, preset="fast")
+    assert res.dictionary.n_components == small_dictionary.n_components + 150
+    rec = res.status == "recovered"
+    assert rec.sum() > 100
+    assert (res.n_active[rec] != FAST_RIDGE["n_atoms"]).any()
+    default_solver = recover(poses, missing, dictionary=small_dictionary, preset="fast",
+                             solver="fast")
+    np.testing.assert_array_equal(res.poses, default_solver.poses)
