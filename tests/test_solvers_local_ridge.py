@@ -85,3 +85,24 @@ def test_positive_refused():
     D, X, obs = problem(3, n=2)
     with pytest.raises(SparseEDMError, match="signed"):
         LocalRidgeSolver().solve_masked(D, X, obs, 0.1, positive=True)
+
+
+def test_an_extrapolating_row_is_coded_by_the_lasso():
+    """Two atoms almost equal on the observed entries but not on the hidden one: the
+    ridge's code cancels two huge coefficients and its fill leaves the atoms'
+    envelope, so that row goes to the lasso (certified); a row the atoms span
+    keeps its ridge code."""
+    from sparseedm.solvers.fast import FastSolver
+
+    D = np.array([[1.0, 1.0, 0.2], [0.0, 1e-4, 0.3], [0.0, 0.0, 0.9], [0.0, 1.0, 0.1]])
+    D /= np.linalg.norm(D, axis=0)
+    X = np.array([[1.0, 1.0, 0.0, 0.0],            # needs c2 ~ 1e4: extrapolates
+                  [1.0, 0.0, 0.0, 0.0]])           # the first atom itself
+    obs = np.array([[True, True, True, False]] * 2)
+    res = LocalRidgeSolver(n_atoms=2, lam=1e-12).solve_masked(D, X, obs, 0.01)
+    assert res.fallback.tolist() == [True, False]
+    lasso = FastSolver().solve_masked(D, X[:1], obs[:1], 0.01)
+    np.testing.assert_allclose(res.coef[0], lasso.coef[0], atol=1e-9)
+    assert res.status[0] == "optimal" and res.gap[0] <= 1e-6 * max(res.objective[0], 1e-300)
+    fit = res.coef @ D.T
+    assert abs(fit[0, 3]) < 10 and (res.coef[1] != 0).sum() <= 2
