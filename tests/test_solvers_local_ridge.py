@@ -106,3 +106,21 @@ def test_an_extrapolating_row_is_coded_by_the_lasso():
     assert res.status[0] == "optimal" and res.gap[0] <= 1e-6 * max(res.objective[0], 1e-300)
     fit = res.coef @ D.T
     assert abs(fit[0, 3]) < 10 and (res.coef[1] != 0).sum() <= 2
+
+
+def test_a_stronger_ridge_brings_an_extrapolating_row_back():
+    """A milder case: the first solve leaves the envelope, a ten-times stronger ridge
+    does not, and the row keeps a ridge code (no lasso fallback), its fill inside."""
+    from sparseedm.solvers.local_ridge import local_ridge_codes
+
+    D = np.array([[1.0, 1.0, 0.2], [0.0, 1e-2, 0.3], [0.0, 0.0, 0.9], [0.0, 1.0, 0.1]])
+    D /= np.linalg.norm(D, axis=0)
+    X = np.array([[1.0, 1.0, 0.0, 0.0]])
+    obs = np.array([[True, True, True, False]])
+    first = np.zeros((1, 3))
+    _, _, outside = local_ridge_codes(np.ascontiguousarray(D.T), X, obs, 2, 1e-5, first)
+    assert outside[0]
+    res = LocalRidgeSolver(n_atoms=2, lam=1e-5).solve_masked(D, X, obs, 0.01)
+    assert not res.fallback[0] and res.status[0] == "optimal"
+    assert (res.coef[0] != 0).sum() == 2 and not np.allclose(res.coef[0], first[0])
+    assert 0 <= (res.coef @ D.T)[0, 3] <= 1
