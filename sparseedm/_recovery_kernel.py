@@ -179,6 +179,12 @@ def preset_solver(solver="fast", preset="default", adaptation=None):
     adaptation : AdaptationResult, optional
         What the preset did with the file's poses; None: nothing.
 
+    With the default preset and the file's own poses as the only atoms (the
+    default path's exemplar rule, :mod:`sparseedm.exemplars`), the lasso runs
+    on working sets of atoms checked on all of them
+    (``FastSolver(working_set=True)``): the same lasso and certificate,
+    fewer atoms touched per pose.
+
     Returns
     -------
     str or BaseSolver
@@ -196,12 +202,18 @@ def preset_solver(solver="fast", preset="default", adaptation=None):
     >>> _, few = resolve_fast(load_dictionary(), poses[:40], None, "auto")
     >>> preset_solver("fast", "fast", few)
     'fast'
+    >>> preset_solver("fast", "default", own).working_set
+    True
     """
     own_atoms = (adaptation is not None and adaptation.file_atoms > 0
                  and adaptation.file_atoms == adaptation.dictionary.n_components)
-    if preset == "fast" and own_atoms and isinstance(solver, str) and solver == "fast":
+    if not (own_atoms and isinstance(solver, str) and solver == "fast"):
+        return solver
+    if preset == "fast":
         return LocalRidgeSolver(**FAST_RIDGE)
-    return solver
+    # the defaults over the file's own poses: the same lasso on working sets of
+    # atoms, checked on all of them (the same answers, fewer atoms touched)
+    return FastSolver(working_set=True, numpy_max=0)
 
 
 def recover_members(poses, missing, members, adaptations, **kwargs):
