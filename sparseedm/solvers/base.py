@@ -78,8 +78,8 @@ def lasso_objective(D, X, coef, alpha):
 
     Parameters
     ----------
-    D : ndarray, shape (k, d)
-        Atoms as rows.
+    D : ndarray, shape (d, k)
+        Atoms as columns (as every solver takes them).
     X : ndarray, shape (n, d)
         Signals.
     coef : ndarray, shape (n, k)
@@ -106,8 +106,8 @@ def duality_gap(D, X, coef, alpha, positive=False, observed=None):
 
     Parameters
     ----------
-    D : ndarray, shape (k, d)
-        Atoms as rows.
+    D : ndarray, shape (d, k)
+        Atoms as columns (as every solver takes them).
     X : ndarray, shape (n, d)
         Signals.
     coef : ndarray, shape (n, k)
