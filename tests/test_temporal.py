@@ -779,3 +779,17 @@ def test_a_long_call_adapts_on_an_even_stride_of_its_offered_poses(track, small_
     monkeypatch.setattr(module, "OFFER_MAX", (len(offered) + 1) // 2)
     bounded = module.offered_poses(track, mask, frames=frames)
     np.testing.assert_array_equal(bounded, offered[::2])
+
+
+@pytest.mark.parametrize("kwargs, word", [
+    (dict(acceleration=-1.0), "acceleration"), (dict(jerk=float("nan")), "jerk"),
+    (dict(prior_stride=0), "prior_stride"), (dict(prior_stride=2.5), "prior_stride"),
+    (dict(relative="yes"), "relative"), (dict(fusion_share=1.5), "fusion_share"),
+    (dict(ramp_start=10.0, ramp_full=5.0), "ramp_full"), (dict(inaccurate=True), "inaccurate"),
+])
+def test_temporal_settings_refuse_what_a_fill_cannot_use(kwargs, word):
+    from sparseedm.exceptions import ParameterError
+
+    with pytest.raises(ParameterError, match=word):
+        TemporalSettings(**kwargs)
+    TemporalSettings(**{k: v for k, v in kwargs.items() if k == "ramp_start"})  # alone: fine

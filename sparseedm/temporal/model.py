@@ -42,6 +42,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..exceptions import ParameterError
 from ..skeleton import SKELETON_14
 from .smoothing import smooth_trajectory
 from .tracks import distance_to_observed
@@ -155,6 +156,54 @@ class TemporalSettings:
     fusion: bool = False
     fusion_share: float = 0.25
     ramp_floor: float = 0.0
+
+    def __post_init__(self):
+        check_settings(self)
+
+
+#: TemporalSettings' fields that are switches; the others are numbers
+_SWITCHES = ("relative", "denoise", "hold_still", "probe", "fusion")
+#: fields that are fractions in [0, 1]
+_FRACTIONS = ("inaccurate", "fusion_share", "ramp_floor")
+
+
+def check_settings(settings):
+    """Refuse TemporalSettings a fill cannot use: a switch that is not a bool, a
+    number that is not finite and >= 0, a fraction outside [0, 1], a
+    ``prior_stride`` that is not an integer >= 1, a ramp that ends before it
+    starts (:class:`~sparseedm.exceptions.ParameterError`, naming the field).
+
+    Parameters
+    ----------
+    settings : TemporalSettings
+
+    Examples
+    --------
+    >>> TemporalSettings(ramp_start=10, ramp_full=5)
+    Traceback (most recent call last):
+    ...
+    sparseedm.exceptions.ParameterError: TemporalSettings: ramp_full (5) must be at least ramp_start (10)
+    """
+    for name, value in vars(settings).items():
+        if name in _SWITCHES:
+            if not isinstance(value, (bool, np.bool_)):
+                raise ParameterError(f"TemporalSettings: {name} must be True or False, "
+                                     f"got {value!r}")
+        elif name == "prior_stride":
+            if isinstance(value, (bool, np.bool_)) or not isinstance(
+                    value, (int, np.integer)) or value < 1:
+                raise ParameterError(f"TemporalSettings: prior_stride must be an integer "
+                                     f">= 1, got {value!r}")
+        elif (isinstance(value, (bool, np.bool_)) or not isinstance(
+                value, (int, float, np.integer, np.floating))
+              or not np.isfinite(value) or value < 0):
+            raise ParameterError(f"TemporalSettings: {name} must be a finite number >= 0, "
+                                 f"got {value!r}")
+        elif name in _FRACTIONS and value > 1:
+            raise ParameterError(f"TemporalSettings: {name} must be at most 1, got {value!r}")
+    if settings.ramp_full < settings.ramp_start:
+        raise ParameterError(f"TemporalSettings: ramp_full ({settings.ramp_full}) must be at "
+                             f"least ramp_start ({settings.ramp_start})")
 
 
 DEFAULT_SETTINGS = TemporalSettings()
