@@ -58,8 +58,8 @@ import numpy as np
 from ._recovery_kernel import compiled_solver, recover_members
 from .adaptation import (GUARD_POSES_PER_PATTERN, MIN_COMPLETE_POSES, AdaptationResult,
                          guard_masks)
-from .file_atoms import file_dictionary, with_file_atoms
-from .normalize import rms_radius, usable_rows
+from .file_atoms import atoms_adaptation, complete_rows, file_dictionary, with_file_atoms
+from .normalize import rms_radius
 
 __all__ = ["EXEMPLAR_MIN_POSES", "EXEMPLAR_MARGIN", "EXEMPLAR_OPTIONS", "ExemplarCheck",
            "hidden_joint_error", "choose_exemplars", "HELD_FRACTION", "MAX_HELD"]
@@ -86,11 +86,9 @@ class ExemplarCheck:
 
     Parameters
     ----------
-    dictionary : Dictionary or None
-        The exemplars' dictionary (the file's complete poses as the only atoms)
-        when they were chosen; None: the default path adapts.
     result : AdaptationResult or None
-        What was done when the exemplars were chosen.
+        What was done when the exemplars were chosen (its ``dictionary`` the
+        file's complete poses as the only atoms); None: the default path adapts.
     n_complete : int
         The file's usable complete poses.
     err_atoms, err_base : float
@@ -100,12 +98,17 @@ class ExemplarCheck:
         Time spent choosing.
     """
 
-    dictionary: object
     result: AdaptationResult | None
     n_complete: int
     err_atoms: float = float("nan")
     err_base: float = float("nan")
     seconds: float = 0.0
+
+    @property
+    def dictionary(self):
+        """The exemplars' dictionary when they were chosen; None: the default path
+        adapts."""
+        return None if self.result is None else self.result.dictionary
 
     def note(self, result):
         """`result` (the adaptation that ran instead) with the check's errors in its
@@ -166,15 +169,6 @@ def hidden_joint_error(dictionary, poses, mask, *, alpha=None, n_jobs=1, backend
     return float(per_pose.mean()) if len(per_pose) else float("nan")
 
 
-def _complete(poses, missing):
-    """The usable complete rows of `poses` (as the file atoms take them)."""
-    poses = np.asarray(poses, dtype=float)
-    ok = usable_rows(poses)
-    if missing is not None:
-        ok &= ~np.asarray(missing, dtype=bool).any(axis=-1)
-    return poses[ok]
-
-
 def _scores(dictionary, complete, held, random_state, kw):
     """Hidden-joint errors on ``complete[held]`` of the exemplars made of the other
     complete poses and of the base with those as extra atoms."""
@@ -184,15 +178,6 @@ def _scores(dictionary, complete, held, random_state, kw):
     return tuple(hidden_joint_error(d, truth, mask, **kw)
                  for d in (file_dictionary(dictionary, rest).dictionary,
                            with_file_atoms(dictionary, rest).dictionary))
-
-
-def _atoms_result(dictionary, found, n_given, reason, t0, **errs):
-    """The AdaptationResult of the exemplars' path."""
-    return AdaptationResult(dictionary=found.dictionary, adapted=False, reason=reason,
-                            n_given=n_given, n_complete=found.n_complete,
-                            file_atoms=found.n_atoms,
-                            settings={"path": "file atoms", **errs},
-                            seconds=time.perf_counter() - t0)
 
 
 def choose_exemplars(dictionary, poses, missing, *, n_jobs=1, random_state=0,
@@ -232,30 +217,31 @@ def choose_exemplars(dictionary, poses, missing, *, n_jobs=1, random_state=0,
     True
     """
     t0 = time.perf_counter()
-    complete = _complete(poses, missing)
+    poses = np.asarray(poses, dtype=float)
+    complete = poses[complete_rows(poses, missing)]
     n = len(complete)
     if n < MIN_COMPLETE_POSES:
-        return ExemplarCheck(None, None, n, seconds=time.perf_counter() - t0)
+        return ExemplarCheck(None, n, seconds=time.perf_counter() - t0)
     if n >= min_poses:
         found = file_dictionary(dictionary, complete)
         reason = (f"{n} complete poses, at least {min_poses}: they are the dictionary's "
                   "atoms, nothing learned")
-        return ExemplarCheck(found.dictionary, _atoms_result(dictionary, found, len(poses),
-                                                             reason, t0), n,
+        return ExemplarCheck(atoms_adaptation(found, len(poses), reason, t0,
+                                              {"path": "file atoms"}), n,
                              seconds=time.perf_counter() - t0)
     held = np.zeros(n, bool)
     want = min(int(round(HELD_FRACTION * n)), MAX_HELD)
     held[np.random.default_rng([int(random_state), 43]).choice(n, want, replace=False)] = True
     kw = dict(n_jobs=n_jobs, backend=backend, scheduler=scheduler)
     e_atoms, e_base = _scores(dictionary, complete, held, random_state, kw)
-    out = ExemplarCheck(None, None, n, e_atoms, e_base)
+    out = ExemplarCheck(None, n, e_atoms, e_base)
     if e_atoms <= (1 + margin) * e_base:
         reason = (f"{n} complete poses: as the only atoms they recovered {want} held-back "
                   f"poses' hidden joints as well as the base dictionary with them or better "
                   f"({e_atoms:.2f} vs {e_base:.2f} % of pose size), nothing learned")
-        found = file_dictionary(dictionary, complete)
-        out.dictionary = found.dictionary
-        out.result = _atoms_result(dictionary, found, len(poses), reason, t0,
-                                   held_err_atoms=e_atoms, held_err_base=e_base)
+        out.result = atoms_adaptation(file_dictionary(dictionary, complete), len(poses),
+                                      reason, t0, {"path": "file atoms",
+                                                   "held_err_atoms": e_atoms,
+                                                   "held_err_base": e_base})
     out.seconds = time.perf_counter() - t0
     return out

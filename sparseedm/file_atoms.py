@@ -37,7 +37,8 @@ from .dictionary import Dictionary
 from .normalize import usable_rows
 
 __all__ = ["MAX_FILE_ATOMS", "MAX_FAST_ATOMS", "FAST_ALPHA", "FileAtoms",
-           "with_file_atoms", "file_dictionary", "resolve_fast"]
+           "with_file_atoms", "file_dictionary", "resolve_fast", "complete_rows",
+           "atoms_adaptation"]
 
 #: at most this many of a file's complete poses become atoms (a seeded sample)
 MAX_FILE_ATOMS = 1000
@@ -194,10 +195,7 @@ def _file_vectors(dictionary, poses, missing, max_atoms, filter, random_state):
     `max_atoms`), and how many complete rows were offered."""
     poses = np.asarray(poses, dtype=float)
     check_pose_shape(poses, n_joints=dictionary.n_joints)
-    complete = usable_rows(poses)  # finite, with an extent recover() accepts
-    if missing is not None:
-        complete &= ~np.asarray(missing, dtype=bool).any(axis=-1)
-    poses = poses[complete]
+    poses = poses[complete_rows(poses, missing)]
     if len(poses) == 0:
         return np.zeros((0, dictionary.n_features)), 0
     with warnings.catch_warnings():
@@ -270,8 +268,60 @@ def resolve_fast(dictionary, poses, missing, adapt, *, min_poses=MIN_COMPLETE_PO
         reason = (f"preset 'fast': {found.n_complete} complete poses, fewer than the "
                   f"{min_poses} a dictionary of their own needs: the base dictionary"
                   + (" with them as extra atoms" if found.n_atoms else ""))
-    res = AdaptationResult(dictionary=found.dictionary, adapted=False, reason=reason,
-                           n_given=len(source[0]), n_complete=found.n_complete,
-                           file_atoms=found.n_atoms, settings={"preset": "fast"},
-                           seconds=time.perf_counter() - t0)
+    res = atoms_adaptation(found, len(source[0]), reason, t0, {"preset": "fast"})
     return found.dictionary, res
+
+
+def complete_rows(poses, missing=None):
+    """Rows of `poses` usable as atoms: finite, with an extent recover() accepts
+    (:func:`sparseedm.normalize.usable_rows`) and no `missing` joint.
+
+    Parameters
+    ----------
+    poses : ndarray (n, N, 2)
+    missing : ndarray of bool (n, N), optional
+        Missing joints besides the NaN ones.
+
+    Returns
+    -------
+    ndarray of bool (n,)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> poses = np.ones((3, 14, 2)) * np.arange(14)[None, :, None]
+    >>> poses[1, 0] = np.nan
+    >>> complete_rows(poses).tolist()
+    [True, False, True]
+    """
+    ok = usable_rows(poses)
+    if missing is not None:
+        ok &= ~np.asarray(missing, dtype=bool).any(axis=-1)
+    return ok
+
+
+def atoms_adaptation(found, n_given, reason, t0, settings):
+    """The AdaptationResult of a path that codes over file atoms, nothing learned.
+
+    Parameters
+    ----------
+    found : FileAtoms
+        The dictionary made of (or with) the file's poses.
+    n_given : int
+        Poses offered.
+    reason : str
+        What was done, and why.
+    t0 : float
+        ``time.perf_counter()`` when the path began.
+    settings : dict
+        The path's settings, as recorded.
+
+    Returns
+    -------
+    AdaptationResult
+        ``adapted`` False, ``file_atoms`` the atoms taken from the poses.
+    """
+    return AdaptationResult(dictionary=found.dictionary, adapted=False, reason=reason,
+                            n_given=n_given, n_complete=found.n_complete,
+                            file_atoms=found.n_atoms, settings=settings,
+                            seconds=time.perf_counter() - t0)
