@@ -153,31 +153,27 @@ class LocalRidgeSolver(BaseSolver):
         K = min(self.n_atoms, D.shape[1])
         coef = np.zeros((n, D.shape[1]))
         objective, gap = np.zeros(n), np.zeros(n)
-        outside = np.zeros(n, dtype=bool)
         atoms = np.ascontiguousarray(D.T)
         scoring = (atoms.astype(np.float32), (D ** 2).astype(np.float32))
-        for start in range(0, n, self.block):
-            rows = slice(start, start + self.block)
-            objective[rows], gap[rows], outside[rows] = local_ridge_codes(
-                atoms, X[rows], observed[rows], K, self.lam, coef[rows], scoring, self.power)
+        todo = np.arange(n)
+        for step in range(ESCALATIONS + 1):  # a stronger ridge for the extrapolating rows
+            outside = np.zeros(len(todo), dtype=bool)
+            for start in range(0, len(todo), self.block):
+                rows = todo[start:start + self.block]
+                sub = np.zeros((len(rows), D.shape[1]))
+                objective[rows], gap[rows], outside[start:start + len(rows)] = \
+                    local_ridge_codes(atoms, X[rows], observed[rows], K,
+                                      self.lam * ESCALATION_FACTOR ** step, sub, scoring,
+                                      self.power)
+                coef[rows] = sub
+            todo = todo[outside]
+            if not len(todo):
+                break
         ok = np.isfinite(gap) & (gap <= self.tol)
         status = np.where(ok, OPTIMAL, INACCURATE).astype(object)
         result = LassoResult(coef, objective, gap, status, np.full(n, K))
-        for _ in range(ESCALATIONS):  # a stronger ridge for the extrapolating rows
-            if not outside.any():
-                break
-            rows = np.flatnonzero(outside)
-            lam = self.lam * ESCALATION_FACTOR ** (_ + 1)
-            sub = np.zeros((len(rows), D.shape[1]))
-            obj, g, still = local_ridge_codes(atoms, X[rows], observed[rows], K, lam, sub,
-                                              scoring, self.power)
-            done = rows[~still]
-            coef[done], objective[done], gap[done] = sub[~still], obj[~still], g[~still]
-            result.status[done] = np.where(np.isfinite(g[~still]) & (g[~still] <= self.tol),
-                                           OPTIMAL, INACCURATE)
-            outside[done] = False
-        if outside.any():  # the lasso, with its certificate, for what is still outside
-            rows = np.flatnonzero(outside)
+        if len(todo):  # the lasso, with its certificate, for what is still outside
+            rows = todo
             lasso = FastSolver(working_set=True).solve_masked(
                 D, X[rows], observed[rows], np.broadcast_to(alpha, (n,))[rows], key=key)
             for name in ("coef", "objective", "gap", "status", "n_iter"):
