@@ -19,6 +19,13 @@ with one set of coefficients per way of filling (:data:`CALIBRATION`):
   and the placed joint, the lasso's residual on the observed distances, and
   whether the dictionary was adapted to the file, and the joint's depth in
   the skeleton (bones from the neck: a wrist 3, a hip 1);
+* ``file_atoms`` and ``local_ridge``: the same, but for poses coded over the
+  file's own complete poses as the only atoms (``summary()["adaptation"]
+  ["path"] == "file atoms"``): by the lasso (the default path's exemplars,
+  :mod:`sparseedm.exemplars`) or by ``preset="fast"``'s local ridge. Each
+  path has its own coefficients: over the file's own poses the errors
+  depend on how alike the file's people are, and the residual of a ridge is
+  not a lasso's, so one rule for the three paths covered them unevenly;
 * ``temporal`` (a joint filled across time): the distance in frames to the
   nearest frame where the joint is observed in its track, whether it is
   observed on one side only (a clip's end) or never, the hops, the depth,
@@ -48,13 +55,18 @@ from .edm import vector_to_edm
 from .normalize import rms_radius
 from .skeleton import SKELETON_14
 
-__all__ = ["joint_uncertainty", "joint_features", "uncertainty_rule", "CALIBRATION",
-           "FEATURES", "MIN_RELATIVE", "NOISE_RADIUS", "UNSOLVED_LOG_RESIDUAL", "radius_at"]
+__all__ = ["joint_uncertainty", "joint_features", "uncertainty_rule", "coding_way",
+           "CALIBRATION", "FEATURES", "MIN_RELATIVE", "NOISE_RADIUS", "UNSOLVED_LOG_RESIDUAL",
+           "radius_at"]
 
 #: the features each way of filling uses, in the order of its coefficients
 FEATURES = {
     "per_frame": ("const", "log_missing", "hops", "depth", "log_disagreement",
                   "log_residual", "adapted"),
+    "file_atoms": ("const", "log_missing", "hops", "depth", "log_disagreement",
+                   "log_residual"),
+    "local_ridge": ("const", "log_missing", "hops", "depth", "log_disagreement",
+                    "log_residual"),
     "temporal": ("const", "log_frames", "one_sided", "never", "hops", "depth",
                  "log_missing", "log_noise"),
 }
@@ -63,8 +75,12 @@ FEATURES = {
 #: factor; fitted by ``studies/uncertainty/calibrate.py`` on validation data
 #: (studies/uncertainty/calibration.json has the run's coverage per source)
 CALIBRATION = {
-    "per_frame": {"conformal": 1.0767,
-        "coef": (1.3941, 0.4888, 0.515, 0.0913, 0.5976, 0.3855, 0.0)},
+    "per_frame": {"conformal": 1.0059,
+        "coef": (1.7205, 0.6201, 0.4501, 0.1648, 0.3698, 0.6498, 0.0)},
+    "file_atoms": {"conformal": 1.0632,
+        "coef": (1.8037, 0.3945, 0.3829, 0.2546, 0.6612, 0.48)},
+    "local_ridge": {"conformal": 1.086,
+        "coef": (-0.1289, 0.4269, 0.4935, 0.3076, 0.4877, 0.1854)},
     "temporal": {"conformal": 1.1385,
         "coef": (-3.5664, 0.72, 0.3725, 0.5261, 0.0021, 0.4354, 0.4058, 0.1828)},
 }
@@ -206,8 +222,8 @@ def joint_features(result, tracks=None, frames=None):
     Returns
     -------
     dict
-        ``way`` (n, N) str: ``"per_frame"``, ``"temporal"`` or ``""``
-        (observed or refused); ``size`` and ``noise`` (n, N) pixels; one
+        ``way`` (n, N) str: ``"temporal"``, the per-frame way
+        (:func:`coding_way`) or ``""`` (observed or refused); ``size`` and ``noise`` (n, N) pixels; one
         (n, N) array per name of :data:`FEATURES`.
     """
     poses, missing = result.poses, result.missing
@@ -215,7 +231,7 @@ def joint_features(result, tracks=None, frames=None):
     ok = np.asarray(result.ok) & np.isfinite(poses).all(axis=(1, 2))
     filled = missing & ok[:, None]
     source = getattr(result, "source", None)
-    way = np.where(filled, "per_frame", "").astype(object)
+    way = np.where(filled, coding_way(result), "").astype(object)
     if source is not None:
         way[filled & (source == "temporal")] = "temporal"
     safe = np.where(np.isfinite(poses), poses, 0.0)
@@ -230,7 +246,7 @@ def joint_features(result, tracks=None, frames=None):
         "adapted": np.full((n, N), float(bool(getattr(result, "adapted", False))))}
     noise = np.repeat((residual * np.nan_to_num(result.scale))[:, None], N, axis=1)
     rel = np.zeros((n, N))
-    rows = np.flatnonzero((way == "per_frame").any(axis=1))  # the feature's only users
+    rows = np.flatnonzero(((way != "") & (way != "temporal")).any(axis=1))  # its users
     if len(rows):
         disagreement, unit = _disagreement(result.missing[rows], result.vectors[rows],
                                            result.scale[rows], safe[rows])
@@ -246,6 +262,38 @@ def joint_features(result, tracks=None, frames=None):
         out["log_noise"] = np.log(np.nan_to_num(noise / size) + _EPS)
     out.update(way=way.astype(str), size=size, noise=noise)
     return out
+
+
+def coding_way(result):
+    """The way of filling of `result`'s poses coded one by one (outside time).
+
+    Parameters
+    ----------
+    result : RecoveryResult
+
+    Returns
+    -------
+    str
+        ``"file_atoms"`` when the poses were coded over the file's own
+        complete poses as the only atoms (the adaptation's path ``"file
+        atoms"``: :mod:`sparseedm.exemplars`), ``"local_ridge"`` when that
+        was ``preset="fast"``'s path (its local ridge codes over them; another
+        solver asked for with the preset is rated as the local ridge), else
+        ``"per_frame"``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import sparseedm
+    >>> pose = np.random.default_rng(0).normal(size=(14, 2))
+    >>> pose[4] = np.nan
+    >>> coding_way(sparseedm.recover(pose, adapt=False))
+    'per_frame'
+    """
+    adaptation = getattr(result, "adaptation", None)
+    if adaptation is None or adaptation.path != "file atoms":
+        return "per_frame"
+    return "local_ridge" if adaptation.settings.get("preset") == "fast" else "file_atoms"
 
 
 def _time_features(result, way, filled, safe, tracks, frames, size, noise):

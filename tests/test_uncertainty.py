@@ -9,7 +9,8 @@ import sparseedm
 from sparseedm.skeleton import JOINT_NAMES
 from sparseedm.keypoints import read_keypoints, write_keypoints
 from sparseedm.formats._base import FILLED_LIKELIHOOD_CAP, filled_likelihood
-from sparseedm.uncertainty import joint_uncertainty, radius_at
+from sparseedm.uncertainty import (coding_way, joint_features, joint_uncertainty, radius_at,
+                                   uncertainty_rule)
 
 WRIST = 4
 
@@ -87,6 +88,45 @@ def test_never_below_the_observed_joints_noise(track, small_dictionary):
                             dictionary=small_dictionary, adapt=False)
     # the jitter's own 90 % radius, sqrt(2 ln 10) sigma, give or take its estimate
     assert (res.uncertainty[mask] >= 0.7 * 3.0 * np.sqrt(2 * np.log(10))).all()
+
+
+def _own_poses_file(pool, n_complete=400, n_occluded=60, seed=0):
+    """n_complete jittered poses of `pool`, then n_occluded with 1-3 joints hidden."""
+    from sparseedm.metrics import occlusion_masks
+
+    rng = np.random.default_rng(seed)
+    n = n_complete + n_occluded
+    poses = pool[rng.integers(0, len(pool), n)] + rng.normal(0, 0.5, (n, 14, 2))
+    missing = np.zeros((n, 14), bool)
+    missing[n_complete:] = occlusion_masks(n_occluded, 14, ("mix",), seed)["mix"]
+    return np.where(missing[..., None], np.nan, poses), missing
+
+
+def test_each_coding_path_gets_its_own_rule(cmu_poses, small_dictionary):
+    """The base dictionary, the file's own poses as the only atoms under the lasso
+    (the default path's exemplars) and under the fast preset's local ridge: each
+    filled joint's radius is its own path's rule, not the base dictionary's."""
+    from dataclasses import replace
+
+    poses, missing = _own_poses_file(cmu_poses[:60])  # near-copies: the exemplars win
+    weak = replace(small_dictionary, components=small_dictionary.components[:10])
+    runs = {"per_frame": sparseedm.recover(poses, missing, dictionary=small_dictionary,
+                                           adapt=False),
+            "file_atoms": sparseedm.recover(poses, missing, dictionary=weak),
+            "local_ridge": sparseedm.recover(poses, missing, dictionary=small_dictionary,
+                                             preset="fast")}
+    assert runs["file_atoms"].summary()["adaptation"]["path"] == "file atoms"
+    assert runs["local_ridge"].summary()["adaptation"]["path"] == "file atoms"
+    for way, res in runs.items():
+        filled = res.missing & res.ok[:, None]
+        assert filled.sum() > 50 and coding_way(res) == way
+        features = joint_features(res)
+        assert (features["way"][filled] == way).all()
+        np.testing.assert_array_equal(uncertainty_rule(features)[filled],
+                                      res.uncertainty[filled])
+        as_base = dict(features, way=np.where(filled, "per_frame", ""))
+        base_rule = uncertainty_rule(as_base)[filled]
+        assert (way == "per_frame") == np.allclose(base_rule, res.uncertainty[filled])
 
 
 def test_radius_at_and_likelihood():

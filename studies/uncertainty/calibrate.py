@@ -7,7 +7,14 @@ real-people protocols with :func:`sparseedm.recover`'s defaults:
 * photos (one file per call: half the complete poses stay complete, the
   other half get joints hidden): ``mix`` (1-3 random joints) and
   ``transplanted`` (real missing patterns), on MPII, COCO and Bonn frames of
-  :func:`benchmarks.real2d.split` == "val";
+  :func:`benchmarks.real2d.split` == "val"; ``mpii-1000``: MPII's file
+  topped up to 1,000 complete poses with MPII training poses (never hidden),
+  and ``cmu``: 4,000 poses of the CMU clips held out of the shipped
+  dictionary's training, half under Mix (validation only). Bonn, MPII-1000
+  and CMU files are coded over their own complete poses as the only atoms
+  (:mod:`sparseedm.exemplars`), and are also recovered with
+  ``preset="fast"`` (its local ridge over those poses): each way of filling
+  (:func:`sparseedm.uncertainty.coding_way`) gets its own fit;
 * video (one clip per call, ``tracks`` and ``frames`` given): Bonn
   PoseTrack's validation clips with gaps of 3, 10, 30 and 90 frames
   (:func:`sparseedm.temporal.protocols.gap_mask`) and another track's
@@ -16,13 +23,16 @@ real-people protocols with :func:`sparseedm.recover`'s defaults:
   seeded virtual camera each, gaps and clip ends as
   ``studies/temporal/select_temporal.py`` hides them.
 
-Then fits, per way of filling (``per_frame``, ``temporal``), a 0.9-quantile
+Then fits, per way of filling (``per_frame``, ``file_atoms``, ``local_ridge``,
+``temporal``), a 0.9-quantile
 regression of log(error / size) on the features (each source x protocol
 weighted equally), a conformal factor that brings the real people's balanced
 coverage to 90 % (raised until no real protocol covers less than
-``MIN_COVERAGE``; mocap shapes the fit only), and reports coverage and informativeness (the mean error of the
-quarter with the smallest radius over the quarter with the largest) per
-source and protocol, and a reliability table (nominal vs observed coverage,
+``MIN_COVERAGE``; mocap shapes the fit only), and reports coverage,
+informativeness (the mean error of the quarter with the smallest radius over
+the quarter with the largest) and the error's rank correlation with the
+radius (Spearman) per source and protocol (``fast-`` labels: the fast
+preset) and per way, and a reliability table (nominal vs observed coverage,
 radii scaled to other levels by :func:`sparseedm.uncertainty.radius_at`).
 
     python studies/uncertainty/calibrate.py                 # collect + fit + report
@@ -68,8 +78,8 @@ GAP_LENGTHS = (3, 10, 30, 90)
 MIN_COVERAGE = 0.86
 LEVELS = (0.5, 0.6, 0.7, 0.8, 0.9, 0.95)
 #: the options that say what was collected (kept with the cache)
-COLLECTION = ("split", "photo_sources", "seeds", "coco_seeds", "max_clips", "mocap",
-              "mask_seed")
+COLLECTION = ("split", "photo_sources", "fast_sources", "cmu_poses", "seeds", "coco_seeds",
+              "max_clips", "mocap", "mask_seed")
 KEYS = sorted({f for names in FEATURES.values() for f in names} | {"size", "noise"})
 
 
@@ -88,11 +98,32 @@ def _record(res, truth, keep, label, tracks=None, frames=None):
     return out
 
 
-def photos(source, seeds, part="val"):
-    """Photo-protocol records of one real2d source's poses of split `part`."""
-    rs = real2d.load(source)
-    val = real2d.split(rs) == part
-    rows = np.flatnonzero(rs.complete & val & (real2d.body_size(rs.poses) > 0))
+def coding_path(res):
+    """How the poses of `res` were coded (printed): the adaptation's path
+    (``"file atoms"``, ``"adapted"``, ``"base + file atoms"``, ``"base"``),
+    ``", fast"`` added under ``preset="fast"``; ``"none"`` without adaptation."""
+    adaptation = getattr(res, "adaptation", None)
+    if adaptation is None:
+        return "none"
+    fast = adaptation.settings.get("preset") == "fast"
+    return adaptation.path + (", fast" if fast else "")
+
+
+def _label(source, cond, preset):
+    return f"{source}|{'fast-' if preset == 'fast' else ''}photos-{cond}"
+
+
+def photos(source, seeds, part="val", presets=("default",)):
+    """Photo-protocol records of one real2d source's poses of split `part`
+    (``mpii-1000``: MPII's, its file topped up to TOP_UP complete poses with
+    MPII training poses, which are never hidden), one file per preset."""
+    name, _, top = source.partition("-")
+    rs = real2d.load(name)
+    split = real2d.split(rs)
+    val = split == part
+    usable = rs.complete & (real2d.body_size(rs.poses) > 0)
+    rows = np.flatnonzero(usable & val)
+    extra = rs.poses[np.flatnonzero(usable & (split == "train"))] if top else rs.poses[:0]
     pool = ~rs.visible[val & ~rs.complete]
     out = []
     for seed in seeds:
@@ -100,15 +131,39 @@ def photos(source, seeds, part="val"):
         order = rng.permutation(rows)
         c = len(order) - len(order) // 2
         kept, occ = rs.poses[order[:c]], rs.poses[order[c:]]
+        if top:
+            want = max(int(top) - c, 0)
+            kept = np.concatenate([kept, extra[rng.permutation(len(extra))[:want]]])
+            c = len(kept)
         masks = {"mix": occlusion_masks(len(occ), 14, ("mix",), seed)["mix"],
                  "transplanted": transplant_masks(len(occ), pool, random_state=rng)[0]}
         for cond, mask in masks.items():
             given = np.concatenate([kept, np.where(mask[..., None], np.nan, occ)])
-            res = sparseedm.recover(given)
             keep = np.arange(len(given)) >= c
-            out.append(_record(res, np.concatenate([kept, occ]), keep,
-                               f"{source}|photos-{cond}"))
-            print(f"  {source} seed {seed} {cond}: {int(mask.sum())} joints", flush=True)
+            for preset in presets:
+                res = sparseedm.recover(given, preset=preset)
+                out.append(_record(res, np.concatenate([kept, occ]), keep,
+                                   _label(source, cond, preset)))
+                print(f"  {source} seed {seed} {cond} {preset}: {int(mask.sum())} joints, "
+                      f"{c} complete, {coding_path(res)}", flush=True)
+    return out
+
+
+def cmu_photos(n_poses, seeds, presets=("default",)):
+    """A file of `n_poses` poses of the CMU clips held out of the shipped
+    dictionary's training (``studies/fast/select_fast.validation_file``: half
+    under Mix masks, half complete), one file per seed and preset."""
+    from studies.fast.select_fast import validation_file
+
+    out = []
+    for seed in seeds:
+        truth, mask = validation_file(n_poses, seed)
+        given = np.where(mask[..., None], np.nan, truth)
+        for preset in presets:
+            res = sparseedm.recover(given, preset=preset)
+            out.append(_record(res, truth, mask.any(axis=1), _label("cmu", "mix", preset)))
+            print(f"  cmu {n_poses} seed {seed} {preset}: {int(mask.sum())} joints, "
+                  f"{coding_path(res)}", flush=True)
     return out
 
 
@@ -171,10 +226,16 @@ def mocap(data_dir, max_sequences, seed=0, part="val"):
 def collect(args):
     parts = []
     t0 = time.perf_counter()
-    for source in args.photo_sources.split(","):
+    fast = set(filter(None, args.fast_sources.split(",")))
+    for source in filter(None, args.photo_sources.split(",")):
         count = args.coco_seeds if source == "coco" else args.seeds
-        parts += photos(source, range(args.mask_seed * 100, args.mask_seed * 100 + count),
-                        args.split)
+        seeds = range(args.mask_seed * 100, args.mask_seed * 100 + count)
+        presets = ("default", "fast") if source in fast else ("default",)
+        if source == "cmu":  # held-out clips of the CMU training set: validation only
+            if args.split == "val":
+                parts += cmu_photos(args.cmu_poses, seeds, presets)
+        else:
+            parts += photos(source, seeds, args.split, presets)
     parts += video(args.max_clips, args.mask_seed, args.split)
     if args.mocap:
         parts += mocap(args.data_dir, args.mocap, args.mask_seed, args.split)
@@ -238,7 +299,10 @@ def _radius(data, at, table, way=None):
 
 
 def report(data, table):
-    """{label: coverage, informativeness, ...} and the reliability table."""
+    """{label: coverage, informativeness, the error's rank correlation with the
+    radius (Spearman), ...} and the reliability table."""
+    from scipy.stats import spearmanr
+
     radius = _radius(data, np.ones(len(data["error"]), bool), table)
     err = data["error"]
     rows = {}
@@ -256,6 +320,7 @@ def report(data, table):
             "joints": int(at.sum()),
             "coverage": round(float((e <= r).mean()), 4),
             "informativeness": round(float(small / large), 3),
+            "spearman": round(float(spearmanr(r, e)[0]), 3) if len(r) > 2 else None,
             "mean_radius_of_size": round(float(np.mean(r / data["size"][at])), 4),
             "mean_error_of_size": round(float(np.mean(e / data["size"][at])), 4),
             "by_way": {w: round(float((e[data["way"][at] == w] <= r[data["way"][at] == w])
@@ -314,7 +379,13 @@ def main(argv=None):
     ap.add_argument("--cache", default="/tmp/sparseedm-uncertainty-val.npz",
                     help="the collected joints (outside the repository)")
     ap.add_argument("--fit-only", action="store_true", help="re-fit from the cache")
-    ap.add_argument("--photo-sources", default="mpii,coco,bonn")
+    ap.add_argument("--photo-sources", default="mpii,coco,bonn,mpii-1000,cmu",
+                    help="photo files: real2d sources (mpii-1000: MPII topped up to 1,000 "
+                    "complete poses from its training split) and cmu (held-out CMU clips)")
+    ap.add_argument("--fast-sources", default="bonn,mpii-1000,cmu",
+                    help="the photo sources also recovered with preset='fast'")
+    ap.add_argument("--cmu-poses", type=int, default=4000,
+                    help="poses of the cmu photo file (half complete)")
     ap.add_argument("--seeds", type=int, default=1)
     ap.add_argument("--coco-seeds", type=int, default=4)
     ap.add_argument("--max-clips", type=int, default=0, help="0: every clip")
@@ -347,9 +418,10 @@ def main(argv=None):
     table = CALIBRATION if args.check else fit(data)
     after = report(data, table)
     for lab, row in after.items():
-        print(f"{lab:28s} n={row['joints']:6d} coverage {row['coverage']:.3f} "
+        print(f"{lab:36s} n={row['joints']:6d} coverage {row['coverage']:.3f} "
               f"(was {before[lab]['coverage']:.3f}) informativeness "
-              f"{row['informativeness']:.2f} radius/size {row['mean_radius_of_size']:.3f}")
+              f"{row['informativeness']:.2f} rank corr {row['spearman']} "
+              f"radius/size {row['mean_radius_of_size']:.3f}")
     print(json.dumps(table))
     out = {"split": settings.get("split", "val"), "calibration": table, "sources": after,
            "refused_hidden_joints": int(data["refused"][0]),
