@@ -13,19 +13,25 @@ knows about each filled joint (:func:`joint_features`)::
 
 with one set of coefficients per way of filling (:data:`CALIBRATION`):
 
-* ``per_frame`` (a photo, or a pose outside any track): the number of
-  hidden joints of the pose, the joint's hops along the skeleton to the
-  nearest observed joint, the disagreement between the recovered distances
-  and the placed joint, the lasso's residual on the observed distances, and
-  whether the dictionary was adapted to the file, and the joint's depth in
-  the skeleton (bones from the neck: a wrist 3, a hip 1);
-* ``file_atoms`` and ``local_ridge``: the same, but for poses coded over the
-  file's own complete poses as the only atoms (``summary()["adaptation"]
-  ["path"] == "file atoms"``): by the lasso (the default path's exemplars,
-  :mod:`sparseedm.exemplars`) or by ``preset="fast"``'s local ridge. Each
-  path has its own coefficients: over the file's own poses the errors
-  depend on how alike the file's people are, and the residual of a ridge is
-  not a lasso's, so one rule for the three paths covered them unevenly;
+* ``per_frame`` (a photo, or a pose outside any track, coded over the
+  shipped dictionary, alone or with the file's complete poses as extra
+  atoms): the number of hidden joints of the pose, the joint's hops along
+  the skeleton to the nearest observed joint, the disagreement between the
+  recovered distances and the placed joint, the lasso's residual on the
+  observed distances, and the joint's depth in the skeleton (bones from the
+  neck: a wrist 3, a hip 1);
+* ``adapted``, ``file_atoms`` and ``local_ridge``: the same features for
+  the other per-frame paths (``summary()["adaptation"]["path"]``,
+  :func:`coding_way`): over a dictionary adapted (and self-trained) on the
+  file, and over the file's own complete poses as the only atoms, by the
+  lasso (the default path's exemplars, :mod:`sparseedm.exemplars`) or by
+  ``preset="fast"``'s local ridge. Each path has its own coefficients: a
+  dictionary adapted and self-trained on the file agrees with its own
+  fills whatever their error, over the file's own poses the errors depend
+  on how alike the file's people are, and a ridge's residual is not a
+  lasso's, so one rule for every path covered them unevenly. ``adapted``
+  leaves the residual out (a dictionary learned on the file's poses fits
+  their observed distances however well it fills);
 * ``temporal`` (a joint filled across time): the distance in frames to the
   nearest frame where the joint is observed in its track, whether it is
   observed on one side only (a clip's end) or never, the hops, the depth,
@@ -62,7 +68,8 @@ __all__ = ["joint_uncertainty", "joint_features", "uncertainty_rule", "coding_wa
 #: the features each way of filling uses, in the order of its coefficients
 FEATURES = {
     "per_frame": ("const", "log_missing", "hops", "depth", "log_disagreement",
-                  "log_residual", "adapted"),
+                  "log_residual"),
+    "adapted": ("const", "log_missing", "hops", "depth", "log_disagreement"),
     "file_atoms": ("const", "log_missing", "hops", "depth", "log_disagreement",
                    "log_residual"),
     "local_ridge": ("const", "log_missing", "hops", "depth", "log_disagreement",
@@ -75,8 +82,10 @@ FEATURES = {
 #: factor; fitted by ``studies/uncertainty/calibrate.py`` on validation data
 #: (studies/uncertainty/calibration.json has the run's coverage per source)
 CALIBRATION = {
-    "per_frame": {"conformal": 1.0059,
-        "coef": (1.7205, 0.6201, 0.4501, 0.1648, 0.3698, 0.6498, 0.0)},
+    "per_frame": {"conformal": 1.0682,
+        "coef": (2.4431, 0.6146, 0.4932, 0.1552, 0.4376, 0.7945)},
+    "adapted": {"conformal": 1.1945,
+        "coef": (-1.7005, 0.3744, 0.4231, 0.2761, 0.0855)},
     "file_atoms": {"conformal": 1.0632,
         "coef": (1.8037, 0.3945, 0.3829, 0.2546, 0.6612, 0.48)},
     "local_ridge": {"conformal": 1.086,
@@ -242,8 +251,7 @@ def joint_features(result, tracks=None, frames=None):
     out = {"const": np.ones((n, N)), "log_missing": np.repeat(
         np.log(np.maximum(n_missing, 1))[:, None], N, axis=1).astype(float),
         "hops": _hops(missing).astype(float),
-        "depth": np.repeat(_depth()[None].astype(float), n, axis=0),
-        "adapted": np.full((n, N), float(bool(getattr(result, "adapted", False))))}
+        "depth": np.repeat(_depth()[None].astype(float), n, axis=0)}
     noise = np.repeat((residual * np.nan_to_num(result.scale))[:, None], N, axis=1)
     rel = np.zeros((n, N))
     rows = np.flatnonzero(((way != "") & (way != "temporal")).any(axis=1))  # its users
@@ -278,8 +286,9 @@ def coding_way(result):
         complete poses as the only atoms (the adaptation's path ``"file
         atoms"``: :mod:`sparseedm.exemplars`), ``"local_ridge"`` when that
         was ``preset="fast"``'s path (its local ridge codes over them; another
-        solver asked for with the preset is rated as the local ridge), else
-        ``"per_frame"``.
+        solver asked for with the preset is rated as the local ridge),
+        ``"adapted"`` over a dictionary adapted to the file (path
+        ``"adapted"``, an ensemble's members), else ``"per_frame"``.
 
     Examples
     --------
@@ -291,9 +300,11 @@ def coding_way(result):
     'per_frame'
     """
     adaptation = getattr(result, "adaptation", None)
-    if adaptation is None or adaptation.path != "file atoms":
+    if adaptation is None:
         return "per_frame"
-    return "local_ridge" if adaptation.settings.get("preset") == "fast" else "file_atoms"
+    if adaptation.path == "file atoms":
+        return "local_ridge" if adaptation.settings.get("preset") == "fast" else "file_atoms"
+    return "adapted" if adaptation.path == "adapted" else "per_frame"
 
 
 def _time_features(result, way, filled, safe, tracks, frames, size, noise):

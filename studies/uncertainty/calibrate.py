@@ -13,7 +13,9 @@ real-people protocols with :func:`sparseedm.recover`'s defaults:
   dictionary's training, half under Mix (validation only). Bonn, MPII-1000
   and CMU files are coded over their own complete poses as the only atoms
   (:mod:`sparseedm.exemplars`), and are also recovered with
-  ``preset="fast"`` (its local ridge over those poses): each way of filling
+  ``preset="fast"`` (its local ridge over those poses) and with
+  ``exemplars=False`` (the default path adapting, as it does when its check
+  prefers that): each way of filling
   (:func:`sparseedm.uncertainty.coding_way`) gets its own fit;
 * video (one clip per call, ``tracks`` and ``frames`` given): Bonn
   PoseTrack's validation clips with gaps of 3, 10, 30 and 90 frames
@@ -23,8 +25,8 @@ real-people protocols with :func:`sparseedm.recover`'s defaults:
   seeded virtual camera each, gaps and clip ends as
   ``studies/temporal/select_temporal.py`` hides them.
 
-Then fits, per way of filling (``per_frame``, ``file_atoms``, ``local_ridge``,
-``temporal``), a 0.9-quantile
+Then fits, per way of filling (``per_frame``, ``adapted``, ``file_atoms``,
+``local_ridge``, ``temporal``), a 0.9-quantile
 regression of log(error / size) on the features (each source x protocol
 weighted equally), a conformal factor that brings the real people's balanced
 coverage to 90 % (raised until no real protocol covers less than
@@ -32,7 +34,7 @@ coverage to 90 % (raised until no real protocol covers less than
 informativeness (the mean error of the quarter with the smallest radius over
 the quarter with the largest) and the error's rank correlation with the
 radius (Spearman) per source and protocol (``fast-`` labels: the fast
-preset) and per way, and a reliability table (nominal vs observed coverage,
+preset, ``adapt-``: ``exemplars=False``) and per way, and a reliability table (nominal vs observed coverage,
 radii scaled to other levels by :func:`sparseedm.uncertainty.radius_at`).
 
     python studies/uncertainty/calibrate.py                 # collect + fit + report
@@ -78,7 +80,8 @@ GAP_LENGTHS = (3, 10, 30, 90)
 MIN_COVERAGE = 0.86
 LEVELS = (0.5, 0.6, 0.7, 0.8, 0.9, 0.95)
 #: the options that say what was collected (kept with the cache)
-COLLECTION = ("split", "photo_sources", "fast_sources", "cmu_poses", "seeds", "coco_seeds",
+COLLECTION = ("split", "photo_sources", "fast_sources", "adapt_sources", "cmu_poses", "seeds",
+              "coco_seeds",
               "max_clips", "mocap", "mask_seed")
 KEYS = sorted({f for names in FEATURES.values() for f in names} | {"size", "noise"})
 
@@ -109,14 +112,20 @@ def coding_path(res):
     return adaptation.path + (", fast" if fast else "")
 
 
-def _label(source, cond, preset):
-    return f"{source}|{'fast-' if preset == 'fast' else ''}photos-{cond}"
+#: how a photo file is recovered besides the defaults: the fast preset, and the
+#: default path with its adaptation forced (``exemplars=False``)
+VARIANTS = {"default": {}, "fast": {"preset": "fast"}, "adapt": {"exemplars": False}}
 
 
-def photos(source, seeds, part="val", presets=("default",)):
+def _label(source, cond, variant):
+    return f"{source}|{'' if variant == 'default' else variant + '-'}photos-{cond}"
+
+
+def photos(source, seeds, part="val", variants=("default",)):
     """Photo-protocol records of one real2d source's poses of split `part`
-    (``mpii-1000``: MPII's, its file topped up to TOP_UP complete poses with
-    MPII training poses, which are never hidden), one file per preset."""
+    (``mpii-1000``: MPII's, its file topped up to 1,000 complete poses with
+    MPII training poses, which are never hidden), one call per variant
+    (:data:`VARIANTS`)."""
     name, _, top = source.partition("-")
     rs = real2d.load(name)
     split = real2d.split(rs)
@@ -140,29 +149,29 @@ def photos(source, seeds, part="val", presets=("default",)):
         for cond, mask in masks.items():
             given = np.concatenate([kept, np.where(mask[..., None], np.nan, occ)])
             keep = np.arange(len(given)) >= c
-            for preset in presets:
-                res = sparseedm.recover(given, preset=preset)
+            for variant in variants:
+                res = sparseedm.recover(given, **VARIANTS[variant])
                 out.append(_record(res, np.concatenate([kept, occ]), keep,
-                                   _label(source, cond, preset)))
-                print(f"  {source} seed {seed} {cond} {preset}: {int(mask.sum())} joints, "
+                                   _label(source, cond, variant)))
+                print(f"  {source} seed {seed} {cond} {variant}: {int(mask.sum())} joints, "
                       f"{c} complete, {coding_path(res)}", flush=True)
     return out
 
 
-def cmu_photos(n_poses, seeds, presets=("default",)):
+def cmu_photos(n_poses, seeds, variants=("default",)):
     """A file of `n_poses` poses of the CMU clips held out of the shipped
     dictionary's training (``studies/fast/select_fast.validation_file``: half
-    under Mix masks, half complete), one file per seed and preset."""
+    under Mix masks, half complete), one call per seed and variant."""
     from studies.fast.select_fast import validation_file
 
     out = []
     for seed in seeds:
         truth, mask = validation_file(n_poses, seed)
         given = np.where(mask[..., None], np.nan, truth)
-        for preset in presets:
-            res = sparseedm.recover(given, preset=preset)
-            out.append(_record(res, truth, mask.any(axis=1), _label("cmu", "mix", preset)))
-            print(f"  cmu {n_poses} seed {seed} {preset}: {int(mask.sum())} joints, "
+        for variant in variants:
+            res = sparseedm.recover(given, **VARIANTS[variant])
+            out.append(_record(res, truth, mask.any(axis=1), _label("cmu", "mix", variant)))
+            print(f"  cmu {n_poses} seed {seed} {variant}: {int(mask.sum())} joints, "
                   f"{coding_path(res)}", flush=True)
     return out
 
@@ -226,16 +235,17 @@ def mocap(data_dir, max_sequences, seed=0, part="val"):
 def collect(args):
     parts = []
     t0 = time.perf_counter()
-    fast = set(filter(None, args.fast_sources.split(",")))
+    also = {v: set(filter(None, getattr(args, f"{v}_sources").split(",")))
+            for v in ("fast", "adapt")}
     for source in filter(None, args.photo_sources.split(",")):
         count = args.coco_seeds if source == "coco" else args.seeds
         seeds = range(args.mask_seed * 100, args.mask_seed * 100 + count)
-        presets = ("default", "fast") if source in fast else ("default",)
+        variants = ("default",) + tuple(v for v in also if source in also[v])
         if source == "cmu":  # held-out clips of the CMU training set: validation only
             if args.split == "val":
-                parts += cmu_photos(args.cmu_poses, seeds, presets)
+                parts += cmu_photos(args.cmu_poses, seeds, variants)
         else:
-            parts += photos(source, seeds, args.split, presets)
+            parts += photos(source, seeds, args.split, variants)
     parts += video(args.max_clips, args.mask_seed, args.split)
     if args.mocap:
         parts += mocap(args.data_dir, args.mocap, args.mask_seed, args.split)
@@ -341,18 +351,19 @@ def figure(rows, path):
     import matplotlib.pyplot as plt
 
     shown = [lab for lab in rows if "|" in lab and not re.search(r"gap\d+$", lab)]
-    fig, ax = plt.subplots(figsize=(5.5, 5))
+    fig, ax = plt.subplots(figsize=(8, 5))
     ax.plot([0.45, 1.0], [0.45, 1.0], color="0.6", lw=1, ls="--", label="calibrated")
-    for lab in shown:
+    colours = plt.get_cmap("tab20").colors
+    for i, lab in enumerate(shown):
         levels = sorted(float(p) for p in rows[lab]["reliability"])
         seen = [rows[lab]["reliability"][str(p)] for p in levels]
-        ax.plot(levels, seen, marker="o", ms=3, lw=1.2,
+        ax.plot(levels, seen, marker="o", ms=3, lw=1.2, color=colours[i % len(colours)],
                 ls=":" if lab.startswith("cmu|") else "-", label=lab.replace("|", ": "))
     ax.axhspan(0.85, 0.95, xmin=0, xmax=1, color="0.92", zorder=0)
     ax.set_xlabel("nominal coverage (radius scaled from the 90 % one)")
     ax.set_ylabel("observed coverage of the hidden joints")
     ax.set_title("Reliability of RecoveryResult.uncertainty (validation)")
-    ax.legend(fontsize=7, loc="lower right")
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
     ax.set_xlim(0.45, 1.0)
     ax.set_ylim(0.3, 1.0)
     fig.tight_layout()
@@ -384,6 +395,9 @@ def main(argv=None):
                     "complete poses from its training split) and cmu (held-out CMU clips)")
     ap.add_argument("--fast-sources", default="bonn,mpii-1000,cmu",
                     help="the photo sources also recovered with preset='fast'")
+    ap.add_argument("--adapt-sources", default="bonn,mpii-1000,cmu",
+                    help="the photo sources also recovered with exemplars=False (the "
+                    "default path adapting, as it does when its check prefers that)")
     ap.add_argument("--cmu-poses", type=int, default=4000,
                     help="poses of the cmu photo file (half complete)")
     ap.add_argument("--seeds", type=int, default=1)
