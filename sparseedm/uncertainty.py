@@ -232,8 +232,8 @@ def joint_features(result, tracks=None, frames=None):
     -------
     dict
         ``way`` (n, N) str: ``"temporal"``, the per-frame way
-        (:func:`coding_way`) or ``""`` (observed or refused); ``size`` and ``noise`` (n, N) pixels; one
-        (n, N) array per name of :data:`FEATURES`.
+        (:func:`coding_way`) or ``""`` (observed or refused); ``size`` and
+        ``noise`` (n, N) pixels; one (n, N) array per name of :data:`FEATURES`.
     """
     poses, missing = result.poses, result.missing
     n, N = missing.shape

@@ -34,8 +34,9 @@ coverage to 90 % (raised until no real protocol covers less than
 informativeness (the mean error of the quarter with the smallest radius over
 the quarter with the largest) and the error's rank correlation with the
 radius (Spearman) per source and protocol (``fast-`` labels: the fast
-preset, ``adapt-``: ``exemplars=False``) and per way, and a reliability table (nominal vs observed coverage,
-radii scaled to other levels by :func:`sparseedm.uncertainty.radius_at`).
+preset, ``adapt-``: ``exemplars=False``) and per way, and a reliability
+table (nominal vs observed coverage, radii scaled to other levels by
+:func:`sparseedm.uncertainty.radius_at`).
 
     python studies/uncertainty/calibrate.py                 # collect + fit + report
     python studies/uncertainty/calibrate.py --fit-only      # re-fit from the cache
@@ -81,8 +82,7 @@ MIN_COVERAGE = 0.86
 LEVELS = (0.5, 0.6, 0.7, 0.8, 0.9, 0.95)
 #: the options that say what was collected (kept with the cache)
 COLLECTION = ("split", "photo_sources", "fast_sources", "adapt_sources", "cmu_poses", "seeds",
-              "coco_seeds",
-              "max_clips", "mocap", "mask_seed")
+              "coco_seeds", "max_clips", "mocap", "mask_seed")
 KEYS = sorted({f for names in FEATURES.values() for f in names} | {"size", "noise"})
 
 
