@@ -271,7 +271,8 @@ def test_repeating_keypoints_are_expected_to_repeat_at_gap_edges(track):
         free[start:start + 3, WRIST] = True
         free[start + 6:start + 9, 7] = True
     values = np.where(free[..., None], 0.0, truth)
-    assert 0.25 < repeat_rate(values, free) < 0.35
+    rates = repeat_rate(values, free)
+    assert ((0.2 < rates) & (rates < 0.4)).all(), rates
     prior, confidence = np.full_like(values, np.nan), np.zeros(len(values))
     fills = {on: fill_segment(values, free, prior, confidence,
                               TemporalSettings(repeats=on))[0] for on in (True, False)}
@@ -288,8 +289,11 @@ def test_keypoints_that_never_repeat_are_filled_as_without_the_rule(track):
     free[80:110, ANKLE] = True
     values = np.where(free[..., None], 0.0, track)
     prior, confidence = _off_by(track, 0.05)
-    assert repeat_rate(values, free) == 0.0
+    assert not repeat_rate(values, free).any()
     on, off = (fill_segment(values, free, prior, confidence, TemporalSettings(repeats=r))[0]
                for r in (True, False))
     np.testing.assert_array_equal(on, off)
-    assert repeat_rate(values[:10], free[:10]) == 0.0   # too few pairs to tell
+    resting = _resting_legs(track, 0, len(track))   # the legs repeat, the arms move
+    assert not repeat_rate(resting[:2], free[:2]).any()   # too few pairs to tell
+    rates = repeat_rate(np.where(free[..., None], 0.0, resting), free)
+    assert rates[WRIST] < 0.5 * rates[ANKLE], rates

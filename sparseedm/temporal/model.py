@@ -125,11 +125,11 @@ class TemporalSettings:
     repeats : bool
         Where the keypoints repeat their previous frame's coordinates exactly
         (an annotator or a tracker holding a point), expect a hidden joint to
-        have been held at its observed neighbour as often as the track's
-        observed joints were (:func:`repeat_rate`, :func:`repeated`); input
+        have been held at its observed neighbour as often as its observed
+        frames were (:func:`repeat_rate`, :func:`repeated`); input
         without repeats is unchanged. On Bonn PoseTrack's validation clips
         (19 % of steps repeat) it lowered the excess jump at gap edges from
-        0.751 to 0.584 px and the error by up to 1.3 %, no bin rising by 0.1 %
+        0.751 to 0.589 px and the error by up to 1.2 %, no bin rising by 0.2 %
         (``studies/real_video/select_join.py``).
     probe : bool
         Test the per-frame prior on each segment's own observed joints and
@@ -759,12 +759,16 @@ def held(filled, values, still):
 
 #: fewest pairs of consecutive observed joint-frames :func:`repeat_rate` reads
 REPEAT_MIN_PAIRS = 20
+#: pairs of the segment's rate a joint's own pairs are pooled with (:func:`repeat_rate`)
+REPEAT_POOL = 20
 
 
 def repeat_rate(values, free):
-    """Share of a segment's consecutive observed joint-frame pairs whose
-    coordinates are identical: how often its keypoints repeat the previous
-    frame's (0 with fewer than :data:`REPEAT_MIN_PAIRS` pairs).
+    """How often each joint's keypoints repeat the previous frame's: its share
+    of consecutive observed frame pairs with identical coordinates, pooled
+    with the segment's share (all joints) as :data:`REPEAT_POOL` pairs, so a
+    joint that moves while the others rest repeats less (0 everywhere with
+    fewer than :data:`REPEAT_MIN_PAIRS` pairs in the segment).
 
     Parameters
     ----------
@@ -775,21 +779,22 @@ def repeat_rate(values, free):
 
     Returns
     -------
-    float
-        The rate, in [0, 1].
+    ndarray (N,)
+        Each joint's rate, in [0, 1].
 
     Examples
     --------
-    >>> values = np.zeros((11, 2, 2)); values[:, 0, 0] = np.arange(11.0)
-    >>> repeat_rate(values, np.zeros((11, 2), bool))    # joint 1 never moves
-    0.5
+    >>> values = np.zeros((41, 2, 2)); values[:, 0, 0] = np.arange(41.0)
+    >>> repeat_rate(values, np.zeros((41, 2), bool)).round(3).tolist()   # joint 1 rests
+    [0.167, 0.833]
     """
     pairs = ~free[1:] & ~free[:-1]
     if pairs.sum() < REPEAT_MIN_PAIRS:
-        return 0.0
+        return np.zeros(free.shape[1])
     with np.errstate(invalid="ignore"):
-        same = (np.diff(values, axis=0) == 0).all(axis=-1)
-    return float((same & pairs).sum() / pairs.sum())
+        same = (np.diff(values, axis=0) == 0).all(axis=-1) & pairs
+    segment = same.sum() / pairs.sum()
+    return (same.sum(axis=0) + REPEAT_POOL * segment) / (pairs.sum(axis=0) + REPEAT_POOL)
 
 
 def repeated(filled, values, free, rate):
@@ -808,13 +813,13 @@ def repeated(filled, values, free, rate):
         The segment's coordinates (read at the frames next to each run).
     free : ndarray of bool (T, N)
         The segment's unknown joints.
-    rate : float
-        The segment's :func:`repeat_rate`.
+    rate : float or ndarray (N,)
+        Each joint's :func:`repeat_rate`.
 
     Returns
     -------
     ndarray (T, N, 2)
-        A copy of `filled`; unchanged where `rate` is 0.
+        A copy of `filled`; unchanged at joints whose rate is 0.
 
     Examples
     --------
@@ -823,12 +828,13 @@ def repeated(filled, values, free, rate):
     [4.0, 6.0, 7.0]
     """
     out = filled.copy()
-    if rate <= 0:
+    rate = np.broadcast_to(np.asarray(rate, float), free.shape[1:])
+    if not (rate > 0).any():
         return out
     T = len(free)
     for j, a, b in free_runs(free):
         d = np.arange(a, b)
-        sides = [(rate ** (d - edge if edge < a else edge - d), values[edge, j])
+        sides = [(rate[j] ** (d - edge if edge < a else edge - d), values[edge, j])
                  for edge in (a - 1, b) if 0 <= edge < T]
         if not sides:
             continue
