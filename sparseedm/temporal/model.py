@@ -52,9 +52,9 @@ from .tracks import distance_to_observed
 __all__ = ["TemporalSettings", "prior_weights", "needs_prior", "prior_frames",
            "spread_prior", "reference_trajectories", "coupling", "observation_noise",
            "body_extent", "observation_weight", "segment_settings", "free_runs",
-           "still_runs", "joined", "held", "repeat_rate", "repeated", "fill_segment", "probe_settings", "probe_mask",
-           "clip_trust", "probe_errors", "ProbeScore", "choose_trust", "prior_scale",
-           "time_filled", "TRUST_LEVELS", "FUSED_POOL"]
+           "still_runs", "joined", "held", "repeat_rate", "repeated", "fill_segment",
+           "probe_settings", "probe_mask", "clip_trust", "probe_errors", "ProbeScore",
+           "choose_trust", "prior_scale", "time_filled", "TRUST_LEVELS", "FUSED_POOL"]
 
 
 @dataclass(frozen=True)

@@ -1,4 +1,4 @@
-"""Where the excess jump at gap edges comes from, and what a fill can reach there and at short gaps.
+"""Where the excess jump at gap edges comes from; what a fill can reach there and at short gaps.
 
 Bonn PoseTrack's ``val`` clips and masks as :mod:`studies.real_video.probe_short_gaps`
 draws them (gaps of 3, 10 and 30 frames; transplanted invisibility runs), one
