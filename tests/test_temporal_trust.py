@@ -7,7 +7,7 @@ import numpy as np
 
 from sparseedm.temporal.model import (DEFAULT_SETTINGS, TRUST_LEVELS, TemporalSettings,
                                       choose_trust, clip_trust, fill_segment, free_runs,
-                                      prior_scale, probe_errors, probe_mask,
+                                      prior_scale, probe_errors, probe_mask, repeat_rate,
                                       segment_settings, still_runs)
 from sparseedm.temporal.tracks import distance_to_observed
 
@@ -223,3 +223,77 @@ def test_a_wrong_prior_measured_by_the_probes_leaves_the_fused_fill_to_time(trac
         ("trusted", fill_segment(values, free, wrong, confidence,
                                  replace(fused, ramp_floor=1.0))[0]))}
     assert err["measured"] < 1.1 * err["time"] < 0.5 * err["trusted"], err
+
+
+def test_noisy_keypoints_are_smoothed_with_their_own_jerk_penalty(track):
+    """Noisy observations (data, not anchors) are smoothed with ``noisy_jerk``
+    and ``noisy_acceleration``; clean ones keep ``jerk``."""
+    free = np.zeros(track.shape[:2], bool)
+    for start in range(20, 220, 40):
+        free[start:start + 3, WRIST] = True
+    prior, confidence = np.full_like(track, np.nan), np.zeros(len(track))
+    fills = {}
+    for name, poses in (("clean", track), ("noisy", _noisy(track, 0.01))):
+        values = np.where(free[..., None], 0.0, poses)
+        for noisy_jerk, jerk in ((0.0, 300.0), (0.0, 5.0), (300.0, 300.0)):
+            st = TemporalSettings(noisy_jerk=noisy_jerk, jerk=jerk)
+            fills[name, noisy_jerk, jerk] = fill_segment(values, free, prior, confidence, st)[0]
+    np.testing.assert_array_equal(fills["noisy", 0.0, 300.0], fills["noisy", 0.0, 5.0])
+    assert np.abs(fills["noisy", 0.0, 300.0] - fills["noisy", 300.0, 300.0])[free].max() > 0.1
+    np.testing.assert_array_equal(fills["clean", 0.0, 300.0], fills["clean", 300.0, 300.0])
+    assert np.abs(fills["clean", 0.0, 300.0] - fills["clean", 0.0, 5.0])[free].max() > 1e-6
+
+
+def _repeating(track, rate=0.3, seed=0):
+    """The track from a keypoint source that repeats a joint's previous
+    coordinates with probability `rate` at each frame (an annotator or a
+    tracker holding a point)."""
+    rng = np.random.default_rng(seed)
+    out = track.copy()
+    for t in range(1, len(out)):
+        hold = rng.random(out.shape[1]) < rate
+        out[t, hold] = out[t - 1, hold]
+    return out
+
+
+def _edge_excess(filled, truth, free):
+    """Each run's step from its observed neighbours into it, beyond the truth's."""
+    return _edge_jumps(filled, truth, free) - _edge_jumps(truth, truth, free)
+
+
+def test_repeating_keypoints_are_expected_to_repeat_at_gap_edges(track):
+    """Where the keypoints repeat their previous frame, a hidden joint is
+    expected to have repeated its observed neighbour as often: the fill steps
+    into and out of each run less than the smoothed curve, and lies nearer."""
+    truth = _repeating(track)
+    free = np.zeros(truth.shape[:2], bool)
+    for start in range(21, 221, 20):
+        free[start:start + 3, WRIST] = True
+        free[start + 6:start + 9, 7] = True
+    values = np.where(free[..., None], 0.0, truth)
+    rates = repeat_rate(values, free)
+    assert ((0.2 < rates) & (rates < 0.4)).all(), rates
+    prior, confidence = np.full_like(values, np.nan), np.zeros(len(values))
+    fills = {on: fill_segment(values, free, prior, confidence,
+                              TemporalSettings(repeats=on))[0] for on in (True, False)}
+    excess = {on: np.clip(_edge_excess(f, truth, free), 0, None).mean()
+              for on, f in fills.items()}
+    error = {on: np.linalg.norm(f - truth, axis=-1)[free].mean() for on, f in fills.items()}
+    assert excess[True] < 0.8 * excess[False], excess
+    assert error[True] < error[False], error
+
+
+def test_keypoints_that_never_repeat_are_filled_as_without_the_rule(track):
+    free = np.zeros(track.shape[:2], bool)
+    free[50:53, WRIST] = True
+    free[80:110, ANKLE] = True
+    values = np.where(free[..., None], 0.0, track)
+    prior, confidence = _off_by(track, 0.05)
+    assert not repeat_rate(values, free).any()
+    on, off = (fill_segment(values, free, prior, confidence, TemporalSettings(repeats=r))[0]
+               for r in (True, False))
+    np.testing.assert_array_equal(on, off)
+    resting = _resting_legs(track, 0, len(track))   # the legs repeat, the arms move
+    assert not repeat_rate(resting[:2], free[:2]).any()   # too few pairs to tell
+    rates = repeat_rate(np.where(free[..., None], 0.0, resting), free)
+    assert rates[WRIST] < 0.5 * rates[ANKLE], rates

@@ -142,6 +142,14 @@ def finite(tree):
     return tree
 
 
+def emit(doc, out=None):
+    """Print `doc` as JSON (non-finite floats as null) and write it to `out`."""
+    text = json.dumps(finite(doc), indent=1, allow_nan=False)
+    print(text)
+    if out:
+        Path(out).write_text(text + "\n")
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--part", default="val", choices=("val", "train", "test"))
@@ -155,10 +163,7 @@ def main(argv=None):
                results=table, ratios=ratios(table), noise_floor=noise_floor(args.part))
     if args.mocap:
         doc["mocap_validation"] = mocap(args.mocap, args.shares)
-    doc = finite(doc)
-    print(json.dumps(doc, indent=1, allow_nan=False))
-    if args.out:
-        Path(args.out).write_text(json.dumps(doc, indent=1, allow_nan=False) + "\n")
+    emit(doc, args.out)
 
 
 if __name__ == "__main__":
