@@ -68,7 +68,8 @@ from .base import INACCURATE, OPTIMAL, BaseSolver, LassoResult
 from .fast import FastSolver
 
 __all__ = ["LocalRidgeSolver", "local_ridge_codes", "outside_envelope", "penalty_weights",
-           "working_sets", "observed_scores", "ENVELOPE_MARGIN", "REFINE_POOL"]
+           "working_sets", "observed_scores", "scoring_arrays", "ENVELOPE_MARGIN",
+           "REFINE_POOL"]
 
 _TINY = np.finfo(float).tiny
 
@@ -184,7 +185,7 @@ class LocalRidgeSolver(BaseSolver):
         coef = np.zeros((n, D.shape[1]))
         objective, gap = np.zeros(n), np.zeros(n)
         atoms = np.ascontiguousarray(D.T)
-        scoring = (atoms.astype(np.float32), (D ** 2).astype(np.float32))
+        scoring = scoring_arrays(atoms)
         todo = np.arange(n)
         for step in range(ESCALATIONS + 1):  # a stronger ridge for the extrapolating rows
             outside = np.zeros(len(todo), dtype=bool)
@@ -230,8 +231,8 @@ def local_ridge_codes(atoms, X, observed, K, lam, coef, scoring=None, power=0.0,
     coef : ndarray, shape (n, k)
         Zeros; each row's K coefficients are written at its working set.
     scoring : tuple of ndarray, optional
-        ``(atoms, atoms.T ** 2)`` in single precision (blocks of rows share
-        them); the working sets are chosen by single-precision scores.
+        :func:`scoring_arrays` of `atoms` (blocks of rows share them); the
+        working sets are chosen by single-precision scores.
     power : float >= 0, default 0
         The penalty weights' power of ``1 - cos``.
     first : int, optional
@@ -251,7 +252,7 @@ def local_ridge_codes(atoms, X, observed, K, lam, coef, scoring=None, power=0.0,
         (:func:`outside_envelope`).
     """
     n, k = len(X), len(atoms)
-    scoring = scoring or (atoms.astype(np.float32), (atoms.T ** 2).astype(np.float32))
+    scoring = scoring or scoring_arrays(atoms)
     if first is None:
         idx = _nearest(X, observed, K, k, scoring)
         U, cos = atoms[idx], None                           # None: the observed parts'
@@ -268,10 +269,17 @@ def local_ridge_codes(atoms, X, observed, K, lam, coef, scoring=None, power=0.0,
                                             - mu[:, None] * w, observed)
 
 
+def scoring_arrays(atoms):
+    """What choosing working sets reads, once per call: the atoms (k, m) and their
+    transposed squares in single precision, and their norms."""
+    return (atoms.astype(np.float32), (atoms.T ** 2).astype(np.float32),
+            np.linalg.norm(atoms, axis=1))
+
+
 def _nearest(X, observed, K, k, scoring):
     """The working sets by the observed entries (every atom when K >= k)."""
     if K < k:
-        return working_sets(X, observed, K, *scoring)
+        return working_sets(X, observed, K, *scoring[:2])
     return np.broadcast_to(np.arange(k), (len(X), k))
 
 
@@ -279,13 +287,13 @@ def _refined(atoms, X, observed, K, lam, power, first, scoring):
     """The first pass (`first` atoms) and the working sets it refines among each
     row's REFINE_POOL most correlated atoms: (n, K) indices, their atoms
     (n, K, m) and cosines with the whole filled rows."""
-    score = observed_scores(X, observed, *scoring)
+    score = observed_scores(X, observed, *scoring[:2])
     pool = _top(score, REFINE_POOL)
     U = atoms[np.take_along_axis(pool, _top(np.take_along_axis(score, pool, axis=1), first),
                                  axis=1)]
     c = _ridge(U * observed[:, None, :], X, lam, power)[0]
     filled = np.where(observed, X, np.einsum("nk,nkm->nm", c, U))
-    norms = np.linalg.norm(atoms, axis=1)
+    norms = scoring[2]
     whole = np.einsum("npm,nm->np", scoring[0][pool], filled.astype(np.float32)) / np.maximum(
         norms[pool], _TINY).astype(np.float32)
     idx = np.take_along_axis(pool, _top(whole, K), axis=1)

@@ -65,7 +65,7 @@ them (two draws; each pose recovered on its own). Writes
 ``--scale`` times the previous coder, the shipped one and two with a longer
 first pass on a file the size of the larger benchmark file: 30,000 poses of
 every CMU clip, half under Mix (timing only: its errors choose nothing), CPU
-seconds, the median of 3 interleaved runs. Writes ``selection_fast_scale.json``.
+seconds, the median of 5 interleaved runs. Writes ``selection_fast_scale.json``.
 """
 
 from __future__ import annotations
@@ -243,7 +243,7 @@ def local_table(rows):
     return "\n".join(out)
 
 
-def scale(base, settings, repeats=3, n=30000):
+def scale(base, settings, repeats=5, n=30000):
     """CPU seconds of the local ridge with each of `settings` on a file of `n`
     CMU poses of every clip (half under Mix; timing only, errors not used),
     one BLAS thread, ``n_jobs=1``, the median of `repeats` interleaved runs
