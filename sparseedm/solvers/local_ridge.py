@@ -110,8 +110,9 @@ class LocalRidgeSolver(BaseSolver):
     first_atoms : int >= 1, optional
         A first pass: each row's ridge code on its `first_atoms` most correlated
         atoms fills its unobserved entries; the working set is then the K atoms
-        of highest cosine with the whole filled row, and those cosines weight
-        the penalty (the fit is still on the observed entries). None: no first
+        of highest cosine with the whole filled row (among its
+        :data:`REFINE_POOL` most correlated), and those cosines weight the
+        penalty (the fit is still on the observed entries). None: no first
         pass.
 
     Examples
