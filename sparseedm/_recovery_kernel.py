@@ -57,11 +57,12 @@ RECOVER_PARAMS = {
     "preset": [Options(PRESETS)],
 }
 
-#: ``recover(preset="fast")``'s coder: K atoms per pose and the relative ridge
-#: weight of :class:`~sparseedm.solvers.local_ridge.LocalRidgeSolver`, and the
-#: most complete poses that become atoms (None: every one), chosen on CMU
-#: validation files (``studies/fast/select_fast.py --local``)
-FAST_RIDGE = {"n_atoms": 64, "lam": 3e-4, "power": 3.0}
+#: ``recover(preset="fast")``'s coder: K atoms per pose, the relative ridge
+#: weight, the penalty's power and the first pass's atoms of
+#: :class:`~sparseedm.solvers.local_ridge.LocalRidgeSolver`, and the most
+#: complete poses that become atoms (None: every one), chosen on CMU validation
+#: files (``studies/fast/select_fast.py --local``)
+FAST_RIDGE = {"n_atoms": 48, "lam": 3e-4, "power": 3.0, "first_atoms": 16}
 FAST_MAX_ATOMS = None
 
 

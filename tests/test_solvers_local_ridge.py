@@ -8,22 +8,41 @@ from sparseedm.exceptions import SparseEDMError
 from sparseedm.solvers import LocalRidgeSolver, get_solver
 
 
-def direct(D, x, obs, K, lam, power=0.0):
-    """One row by the definition: score, working set, normal equations."""
+def direct(D, x, obs, K, lam, power=0.0, first=None, pool=None):
+    """One row by the definition: score, working set, normal equations; with
+    `first`, a first pass on `first` atoms fills the row, and the working set and
+    the penalty's cosines are those of the whole filled row, among the `pool`
+    atoms of highest score (None: all)."""
     A = D[obs]                                   # (m_obs, k)
     score = (x[obs] @ A) / np.linalg.norm(A, axis=0)
     S = np.argsort(-score)[:K]
+    cos = (A[:, S].T @ x[obs]) / (np.linalg.norm(A[:, S], axis=0) * np.linalg.norm(x[obs]))
+    if first is not None:
+        S1 = np.argsort(-score)[:first]
+        c1 = ridge(A[:, S1], x[obs], lam, (A[:, S1].T @ x[obs]) / (
+            np.linalg.norm(A[:, S1], axis=0) * np.linalg.norm(x[obs])), power)
+        filled = np.where(obs, x, D[:, S1] @ c1)
+        cand = np.argsort(-score)[:pool]
+        S = cand[np.argsort(-(filled @ D[:, cand]) / np.linalg.norm(D[:, cand], axis=0))[:K]]
+        cos = (D[:, S].T @ filled) / (np.linalg.norm(D[:, S], axis=0)
+                                      * np.linalg.norm(filled))
     AS = A[:, S]
-    G = AS.T @ AS
-    mu = lam * np.trace(G) / len(S)
-    cos = (AS.T @ x[obs]) / (np.linalg.norm(AS, axis=0) * np.linalg.norm(x[obs]))
+    c = ridge(AS, x[obs], lam, cos, power)
+    mu = lam * np.trace(AS.T @ AS) / len(S)
     w = np.maximum(1 - cos, 1e-12) ** power
     w /= w.mean()
-    c = np.linalg.solve(G + mu * np.diag(w), AS.T @ x[obs])
     coef = np.zeros(D.shape[1])
     coef[S] = c
     r = x[obs] - AS @ c
     return coef, 0.5 * r @ r + 0.5 * mu * (w * c) @ c
+
+
+def ridge(AS, y, lam, cos, power):
+    """The weighted ridge code of `y` on the columns of `AS`."""
+    G = AS.T @ AS
+    w = np.maximum(1 - cos, 1e-12) ** power
+    return np.linalg.solve(G + lam * np.trace(G) / AS.shape[1] * np.diag(w / w.mean()),
+                           AS.T @ y)
 
 
 def problem(seed, n=40, m=15, k=60, hide=4):
@@ -37,15 +56,24 @@ def problem(seed, n=40, m=15, k=60, hide=4):
     return D, X, obs
 
 
-@pytest.mark.parametrize("K,lam,power", [(5, 1e-3, 0.0), (16, 1e-1, 2.0), (60, 1e-4, 1.0),
-                                          (200, 1e-3, 2.0)])
-def test_matches_direct_solve(K, lam, power):
-    D, X, obs = problem(K)
+@pytest.mark.parametrize("K,lam,power,first,pool", [
+    (5, 1e-3, 0.0, None, None), (16, 1e-1, 2.0, None, None), (60, 1e-4, 1.0, None, None),
+    (200, 1e-3, 2.0, None, None), (8, 1e-2, 3.0, 4, None), (16, 1e-2, 3.0, 16, None),
+    (20, 1e-2, 2.0, 100, None), (200, 1e-3, 3.0, 8, None), (8, 1e-2, 3.0, 4, 20),
+    (12, 1e-1, 2.0, 6, 12)])
+def test_matches_direct_solve(K, lam, power, first, pool, monkeypatch):
+    from sparseedm.solvers import local_ridge
+
+    if pool is not None:                         # the first pass's candidates
+        monkeypatch.setattr(local_ridge, "REFINE_POOL", pool)
+    assert local_ridge.REFINE_POOL >= 60 or pool is not None
+    D, X, obs = problem(K if first is None else K + first)
     Xn = np.where(obs, X, np.nan)                # unobserved values are ignored
-    res = LocalRidgeSolver(n_atoms=K, lam=lam, block=7, power=power).solve_masked(
-        D, Xn, obs, 0.5)
+    res = LocalRidgeSolver(n_atoms=K, lam=lam, block=7, power=power,
+                           first_atoms=first).solve_masked(D, Xn, obs, 0.5)
     for i in range(len(X)):
-        coef, obj = direct(D, X[i], obs[i], min(K, D.shape[1]), lam, power)
+        coef, obj = direct(D, X[i], obs[i], min(K, D.shape[1]), lam, power,
+                           None if first is None else min(first, D.shape[1]), pool)
         np.testing.assert_allclose(res.coef[i], coef, rtol=0, atol=1e-8)
         np.testing.assert_allclose(res.objective[i], obj, rtol=1e-9)
     assert ((res.coef != 0).sum(axis=1) == min(K, D.shape[1])).all()
@@ -75,7 +103,8 @@ def test_solve_is_all_observed():
 
 
 @pytest.mark.parametrize("kw", [dict(n_atoms=0), dict(lam=0.0), dict(block=0),
-                                dict(power=-1.0)])
+                                dict(power=-1.0), dict(first_atoms=0),
+                                dict(first_atoms=2.5)])
 def test_bad_settings(kw):
     with pytest.raises(SparseEDMError):
         LocalRidgeSolver(**kw)

@@ -133,7 +133,7 @@ def _add_adaptation_options(p):
     p.add_argument("--preset", choices=("default", "fast"), default="default",
                    help="'default': adaptation and self-training as set above; 'fast': "
                    "INPUT's complete poses (or --adapt-from's) are the dictionary's atoms, "
-                   "nothing learned, each occluded pose a local ridge over its 64 most "
+                   "nothing learned, each occluded pose a local ridge over its 48 most "
                    "similar ones (not the lasso): much faster on a file with many "
                    "complete poses (per pose: needs --no-temporal on a file with "
                    "frames; sparseedm.file_atoms)")
