@@ -431,6 +431,9 @@ class OcclusionRecoverer:
     adapt : "auto", False or array_like (n_adapt, N, 2), default "auto"
         As :func:`recover`'s: ``"auto"`` adapts the dictionary on the complete
         poses given to :meth:`transform` when there are enough of them.
+    mirror : bool, default False
+        As :func:`recover`'s: also code each pose's mirror image and average
+        the two answers.
 
     Examples
     --------
@@ -445,8 +448,9 @@ class OcclusionRecoverer:
     """
 
     def __init__(self, dictionary=None, *, alpha=None, representation=None,
-                 solver="fast", n_jobs=1, adapt="auto"):
+                 solver="fast", n_jobs=1, adapt="auto", mirror=False):
         self.dictionary = dictionary
+        self.mirror = mirror
         self.alpha = alpha
         self.adapt = adapt
         self.representation = representation
@@ -475,9 +479,9 @@ class OcclusionRecoverer:
         """
         validate_params("OcclusionRecoverer", dict(
             dictionary=self.dictionary, alpha=self.alpha, representation=self.representation,
-            solver=self.solver, n_jobs=self.n_jobs),
+            solver=self.solver, n_jobs=self.n_jobs, mirror=self.mirror),
             {k: _PARAMS[k] for k in ("dictionary", "alpha", "representation", "solver",
-                                     "n_jobs")})
+                                     "n_jobs", "mirror")})
         d = self.dictionary
         self.dictionary_ = d if isinstance(d, Dictionary) else load_dictionary(d)
         return self
@@ -505,5 +509,5 @@ class OcclusionRecoverer:
             self.fit()
         self.result_ = recover(X, missing, dictionary=self.dictionary_, alpha=self.alpha,
                                representation=self.representation, solver=self.solver,
-                               n_jobs=self.n_jobs, adapt=self.adapt)
+                               n_jobs=self.n_jobs, adapt=self.adapt, mirror=self.mirror)
         return self.result_.poses

@@ -102,3 +102,14 @@ def test_the_command_line_mirrors_with_no_adapt(tmp_path, capsys):
     assert "mirror:" in capsys.readouterr().out
     out = read_keypoints(tmp_path / "out.npz").poses
     assert np.allclose(out, sparseedm.recover(given, adapt=False, mirror=True).poses, atol=1e-6)
+
+
+def test_the_estimator_passes_mirror_on():
+    from sparseedm.recovery import OcclusionRecoverer
+
+    given, _ = occluded(10)
+    est = OcclusionRecoverer(adapt=False, mirror=True).fit()
+    assert np.allclose(est.transform(given),
+                       sparseedm.recover(given, adapt=False, mirror=True).poses, atol=1e-9)
+    with pytest.raises(ParameterError, match="mirror"):
+        OcclusionRecoverer(mirror=1).fit()
