@@ -61,9 +61,10 @@ def _sizes(text):
     return c, m
 
 
-def photos(realset, part, sizes, seed, complete_from="split"):
+def photos(realset, part, sizes, seed, complete_from="split", **options):
     """evaluate_photos on one source's split: its complete poses, its real missing
-    patterns; the file's complete poses from the train split with ``complete_from="train"``."""
+    patterns; the file's complete poses from the train split with ``complete_from="train"``;
+    `options` (methods, dictionary) passed on."""
     parts = real2d.split(realset)
     s = realset.take(parts == part)
     complete = s.complete
@@ -73,7 +74,7 @@ def photos(realset, part, sizes, seed, complete_from="split"):
         t = realset.take(parts == "train")
         other = t.poses[t.complete]
     return evaluate_photos(s.poses[complete], ~s.visible, complete=other, n_complete=sizes[0],
-                           n_occluded=sizes[1], head_size=head, random_state=seed)
+                           n_occluded=sizes[1], head_size=head, random_state=seed, **options)
 
 
 def video(realset, part, max_clips, seed):

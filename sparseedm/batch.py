@@ -302,7 +302,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
                  method="sparse", model=None, adapt="auto", save_dictionary=None,
                  self_training=None, ensemble=1, joint_map=None,
                  filled_score=FILLED_SCORE, temporal=True, input_format=None,
-                 preset="default", outliers=True, exemplars="auto"):
+                 preset="default", outliers=True, exemplars="auto", mirror=False):
     """Recover every pose of a keypoint file and write the filled poses.
 
     Parameters
@@ -390,6 +390,10 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
         file's (sampled) complete poses are the only atoms, nothing learned,
         when :mod:`sparseedm.exemplars`'s rule finds them better than
         adapting; False: adapt as before (``--no-exemplars``).
+    mirror : bool, default False
+        As :func:`sparseedm.recover`'s: also code each pose's mirror image and
+        average the two answers (``--mirror``; per pose: refused on a file
+        with frames unless ``temporal=False``, and with FConv).
     outliers : bool, default True
         When the file has per-joint scores (not a ``.npy``, streamed): the
         outlier check (:mod:`sparseedm.outliers`): a point kept by the
@@ -428,7 +432,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
         scheduler=scheduler, method=method, save_dictionary=save_dictionary,
         self_training=self_training, ensemble=ensemble, joint_map=joint_map,
         filled_score=filled_score, temporal=temporal, input_format=input_format,
-        preset=preset, outliers=outliers, exemplars=exemplars), _PARAMS)
+        preset=preset, outliers=outliers, exemplars=exemplars, mirror=mirror), _PARAMS)
     check_options_apply("recover_file", method=method, model=model, backend=backend,
                         scheduler=scheduler, adapt=adapt, ensemble=ensemble, preset=preset,
                         self_training=self_training)
@@ -475,6 +479,8 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
         else:
             members, adaptation = [dictionary], None
         solver = _solver_after(requested, solver, adaptation, preset)
+        summary_members = len(members)
+        members = _with_mirrors(members, mirror, in_time, method)
         recovery = _Recovery(members, alpha, representation, solver, n_jobs, backend,
                              scheduler, method, model,
                              (source.tracks, source.frames) if in_time else None)
@@ -488,13 +494,27 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
     summary["threshold_line"] = threshold_line(threshold, confidence_threshold is not None,
                                                in_fmt, summary["below_threshold"])
     summary["adaptation"] = adaptation.summary() if adaptation is not None else None
-    summary["ensemble"] = len(members)
+    summary["ensemble"] = summary_members
+    summary["mirror"] = mirror
     summary["linked_tracks"] = None if source.linked is None else \
         int(len(np.unique(source.linked)))
     summary["adaptation_line"] = adaptation.line() if adaptation is not None else None
     if save_dictionary is not None:
         summary["dictionary"] = str(dictionary.save(save_dictionary))
     return summary
+
+
+def _with_mirrors(members, mirror, in_time, method):
+    """`members` and, with `mirror`, their mirrored dictionaries (each pose's answer
+    averaged with its mirror image's); refused where poses are not recovered one
+    by one by the lasso."""
+    if not mirror:
+        return members
+    if method != "sparse" or in_time:
+        raise ParameterError("recover_file: mirror averages each pose's sparse answer with "
+                             "its mirror image's: it needs method='sparse' and, on a file "
+                             "with frames, --no-temporal (temporal=False)")
+    return [*members, *(m.mirrored() for m in members)]
 
 
 def _one_solver(solver):
@@ -660,6 +680,7 @@ _PARAMS = {
     "preset": [Options(PRESETS)],
     "exemplars": [Options(EXEMPLAR_OPTIONS)],
     "outliers": BOOLEAN,
+    "mirror": BOOLEAN,
 }
 
 

@@ -27,7 +27,7 @@ Shipped dictionaries load by name (``"default"``) from the installed package.
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from numbers import Integral, Real
 from pathlib import Path
 
@@ -38,10 +38,10 @@ from ._atomic import save_npz
 from ._safeio import available_memory, load_npz_file, parse_meta, require_file
 from ._shipped import resolve_shipped, shipped_names
 from ._validation import ALPHA_MAX, ALPHA_MIN, Interval, validate_params
-from .edm import num_joints_from_dim
+from .edm import num_joints_from_dim, triu_indices
 from .normalize import SCALE_RULES
 from .exceptions import DictionaryError, PoseError
-from .skeleton import JOINT_NAMES
+from .skeleton import JOINT_NAMES, SKELETON_14
 
 __all__ = ["Dictionary", "load_dictionary", "available_dictionaries", "check_layout",
            "check_gram_memory",
@@ -145,6 +145,37 @@ class Dictionary:
             "library_version": self.library_version,
         }
 
+    def mirrored(self) -> "Dictionary":
+        """The dictionary that codes a pose as this one codes its mirror image.
+
+        Each atom's distances are permuted as swapping every left joint with
+        its right one permutes a pose's: coding a pose over the result and
+        coding its mirror image (left and right swapped, x negated) over this
+        dictionary give the same joints, mirrored back. Needs the 14-joint
+        layout (:data:`sparseedm.skeleton.JOINT_NAMES`), whose left and right
+        joints are known.
+
+        Returns
+        -------
+        Dictionary
+            The same settings, the permuted atoms.
+
+        Raises
+        ------
+        DictionaryError
+            The dictionary's joints are not the 14-joint layout.
+
+        Examples
+        --------
+        >>> d = load_dictionary()
+        >>> bool((d.mirrored().mirrored().components == d.components).all())
+        True
+        """
+        if self.joint_names != JOINT_NAMES:
+            raise DictionaryError("mirroring needs the 14-joint layout's left and right "
+                                  f"joints; this dictionary's joints are {self.joint_names}")
+        return replace(self, components=self.components[:, _mirror_entries(self.n_joints)])
+
     def save(self, path):
         """Write the dictionary atomically to `path` (.npz)."""
         path = Path(path)
@@ -181,6 +212,16 @@ class Dictionary:
                 lines.append("settings: " + ", ".join(f"{k}={v}" for k, v in sorted(extras.items())))
         lines.append(f"written by sparseedm {self.library_version}")
         return "\n".join(lines)
+
+
+def _mirror_entries(n_joints):
+    """Entry order of a mirrored pose's EDM vector: entry (i, j) of the mirror
+    image is entry (flip[i], flip[j]) of the pose."""
+    rows, cols = triu_indices(n_joints)
+    flip = SKELETON_14.flip_permutation()
+    a, b = flip[rows], flip[cols]
+    where = {pair: k for k, pair in enumerate(zip(rows.tolist(), cols.tolist()))}
+    return np.array([where[(min(i, j), max(i, j))] for i, j in zip(a.tolist(), b.tolist())])
 
 
 def _check_components(components, joint_names, where):

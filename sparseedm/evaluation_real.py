@@ -11,7 +11,8 @@ per pose, :func:`sparseedm.metrics.occlusion_masks`), ``1``, ``2``, ``3``, and
 ``"transplanted"`` (each pose gets the missing pattern of a real incomplete
 pose, :func:`sparseedm.real_protocol.transplant_masks`). Methods
 (:data:`PHOTO_METHODS`): ``sparseedm`` (:func:`sparseedm.recover` defaults),
-``sparseedm-no-adapt`` (the shipped dictionary alone), scikit-learn's
+``sparseedm-no-adapt`` (the shipped dictionary alone; also, when asked for,
+``sparseedm-no-adapt-mirror``: the same with ``mirror=True``), scikit-learn's
 ``iterative`` (``IterativeImputer(max_iter=10, tol=0)``) and ``knn``
 (``KNNImputer()``) run by ``fit_transform`` on the file's 28 pixel
 coordinates, ``mean-fill`` and ``nearest`` (:mod:`sparseedm.baselines`, the
@@ -274,6 +275,7 @@ def _fill_nearest(given, missing, context):
 _PHOTO_FILLERS = {
     "sparseedm": _fill_sparse,
     "sparseedm-no-adapt": lambda g, m, c: _fill_sparse(g, m, c, adapt=False),
+    "sparseedm-no-adapt-mirror": lambda g, m, c: _fill_sparse(g, m, c, adapt=False, mirror=True),
     "iterative": lambda g, m, c: _fill_imputer(g, m, c, "iterative"),
     "knn": lambda g, m, c: _fill_imputer(g, m, c, "knn"),
     "mean-fill": lambda g, m, c: mean_fill(g, m).poses,
@@ -321,6 +323,7 @@ def evaluate_photos(poses, pool=None, *, complete=None, n_complete=None, n_occlu
     conditions : sequence, default ("mix", "transplanted")
         Among 1, 2, 3, "mix", "transplanted".
     methods : sequence of str, default PHOTO_METHODS
+        Among PHOTO_METHODS and ``"sparseedm-no-adapt-mirror"``.
     head_size : array_like (n,), optional
         PCKh's normaliser per pose (MPII's head size); None: no PCKh.
     dictionary : Dictionary, str or path, optional
@@ -353,7 +356,7 @@ def evaluate_photos(poses, pool=None, *, complete=None, n_complete=None, n_occlu
     unknown = [m for m in methods if m not in _PHOTO_FILLERS]
     if unknown or not methods:
         raise ParameterError(f"evaluate_photos: unknown method(s) {unknown}; known: "
-                             f"{', '.join(PHOTO_METHODS)}")
+                             f"{', '.join(_PHOTO_FILLERS)}")
     pool = None if pool is None else check_mask(pool, "evaluate_photos", "pool")
     head = None if head_size is None else np.asarray(head_size, float)
     if complete is not None:
@@ -367,7 +370,7 @@ def evaluate_photos(poses, pool=None, *, complete=None, n_complete=None, n_occlu
         raise PoseError(f"evaluate_photos: {len(poses)} complete poses: none left to occlude")
     notes = []
     masks = _photo_conditions(conditions, pool, m, random_state, notes)
-    if not isinstance(dictionary, Dictionary) and {"sparseedm", "sparseedm-no-adapt"} & set(methods):
+    if not isinstance(dictionary, Dictionary) and any(m.startswith("sparseedm") for m in methods):
         dictionary = load_dictionary(dictionary)
     truth = poses[occ]
     rows, seconds = [], {}

@@ -54,7 +54,7 @@ _recover, _recover_members, _solve_chunk = recover_sparse, recover_members, solv
 #: constraints of recover()'s arguments (defined with the kernel, which the guard
 #: of adaptation also validates against)
 _PARAMS = dict(RECOVER_PARAMS, representation=[Options(REPRESENTATIONS), None],
-               outliers=["boolean"], exemplars=[Options(EXEMPLAR_OPTIONS)])
+               outliers=["boolean"], exemplars=[Options(EXEMPLAR_OPTIONS)], mirror=["boolean"])
 
 
 def check_options_apply(caller, *, method, model, backend, scheduler, adapt, ensemble,
@@ -130,7 +130,7 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
             positive=None, progress=False, backend=None, scheduler=None,
             method="sparse", model=None, adapt="auto", self_training=None, ensemble=1,
             tracks=None, frames=None, temporal=True, preset="default",
-            confidence=None, outliers=True, exemplars="auto"):
+            confidence=None, outliers=True, exemplars="auto", mirror=False):
     """Recover the occluded joints of 2D poses.
 
     Parameters
@@ -262,6 +262,15 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         do, :func:`sparseedm.keypoints.read_keypoints`).
     outliers : bool, default True
         False turns the outlier check off (the scores are then unused).
+    mirror : bool, default False
+        (sparse method, per pose) Also code each pose's mirror image (left and
+        right joints swapped: :meth:`~sparseedm.dictionary.Dictionary.mirrored`)
+        and return the mean of the two answers, twice the work. It helps where
+        the dictionary is not left-right symmetric and the hidden joints are
+        uncertain: with ``adapt=False`` and ``dictionary="cmu-coco-k2932"``
+        it is the setting recommended for photos of real people
+        (``docs/explanation/settings.md``, "Without adaptation"). With an
+        ensemble, every member is mirrored.
 
     Returns
     -------
@@ -308,12 +317,16 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         n_jobs=n_jobs, chunk_size=chunk_size, positive=positive, progress=progress,
         backend=backend, scheduler=scheduler, method=method, self_training=self_training,
         ensemble=ensemble, temporal=temporal, preset=preset, outliers=outliers,
-        exemplars=exemplars), _PARAMS)
+        exemplars=exemplars, mirror=mirror), _PARAMS)
     check_options_apply("recover", method=method, model=model, backend=backend,
                         scheduler=scheduler, adapt=adapt, ensemble=ensemble, preset=preset,
                         self_training=self_training)
     if method != "fconv":  # an FConv model says its own (recover_fconv)
         representation = representation_for(representation)
+    if mirror and (method == "fconv" or (frames is not None and temporal)):
+        raise ParameterError("recover: mirror=True averages the sparse answers of each pose "
+                             "and its mirror image: it needs method='sparse' and no frames "
+                             "(or temporal=False)")
     if frames is not None and temporal:
         if preset == "fast":
             raise ParameterError("recover: preset='fast' recovers each pose on its own: "
@@ -322,7 +335,8 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
     opts = dict(dictionary=dictionary, alpha=alpha, representation=representation,
                 solver=solver, n_jobs=n_jobs, chunk_size=chunk_size, positive=positive,
                 progress=progress, backend=backend, scheduler=scheduler, adapt=adapt,
-                self_training=self_training, ensemble=ensemble, exemplars=exemplars)
+                self_training=self_training, ensemble=ensemble, exemplars=exemplars,
+                mirror=mirror)
     check_outliers = confidence is not None and outliers
     if method == "sparse" or check_outliers:  # validated once here; the paths below trust them
         if not isinstance(dictionary, Dictionary):
@@ -370,6 +384,8 @@ def _dispatch(poses, missing, tracks, frames, method, model, preset, opts):
                 exemplars=opts["exemplars"], **dist)
         kernel["solver"] = preset_solver(kernel["solver"], preset,
                                          adaptations[0] if adaptations else None)
+        if opts["mirror"]:
+            members = [*members, *(m.mirrored() for m in members)]
         res = recover_members(
             poses, missing, members, adaptations, **kernel, check_input=False,
             **(dist or dict(backend=opts["backend"], scheduler=opts["scheduler"])))
@@ -387,7 +403,8 @@ def _recover_in_time(poses, missing, tracks, frames, method, kwargs):
     if method != "sparse":
         raise SparseEDMError("temporal recovery uses the sparse method: pass "
                              "method='sparse', or temporal=False")
-    kwargs = {k: v for k, v in kwargs.items() if k != "exemplars"}  # per pose only
+    kwargs = {k: v for k, v in kwargs.items()
+              if k not in ("exemplars", "mirror")}  # per pose only
     return recover_temporal(poses, missing, tracks=tracks, frames=frames, check_input=False,
                             **kwargs)
 
@@ -414,6 +431,9 @@ class OcclusionRecoverer:
     adapt : "auto", False or array_like (n_adapt, N, 2), default "auto"
         As :func:`recover`'s: ``"auto"`` adapts the dictionary on the complete
         poses given to :meth:`transform` when there are enough of them.
+    mirror : bool, default False
+        As :func:`recover`'s: also code each pose's mirror image and average
+        the two answers.
 
     Examples
     --------
@@ -428,8 +448,9 @@ class OcclusionRecoverer:
     """
 
     def __init__(self, dictionary=None, *, alpha=None, representation=None,
-                 solver="fast", n_jobs=1, adapt="auto"):
+                 solver="fast", n_jobs=1, adapt="auto", mirror=False):
         self.dictionary = dictionary
+        self.mirror = mirror
         self.alpha = alpha
         self.adapt = adapt
         self.representation = representation
@@ -458,9 +479,9 @@ class OcclusionRecoverer:
         """
         validate_params("OcclusionRecoverer", dict(
             dictionary=self.dictionary, alpha=self.alpha, representation=self.representation,
-            solver=self.solver, n_jobs=self.n_jobs),
+            solver=self.solver, n_jobs=self.n_jobs, mirror=self.mirror),
             {k: _PARAMS[k] for k in ("dictionary", "alpha", "representation", "solver",
-                                     "n_jobs")})
+                                     "n_jobs", "mirror")})
         d = self.dictionary
         self.dictionary_ = d if isinstance(d, Dictionary) else load_dictionary(d)
         return self
@@ -488,5 +509,5 @@ class OcclusionRecoverer:
             self.fit()
         self.result_ = recover(X, missing, dictionary=self.dictionary_, alpha=self.alpha,
                                representation=self.representation, solver=self.solver,
-                               n_jobs=self.n_jobs, adapt=self.adapt)
+                               n_jobs=self.n_jobs, adapt=self.adapt, mirror=self.mirror)
         return self.result_.poses

@@ -142,6 +142,11 @@ def _add_adaptation_options(p):
                    "atoms, would be chosen (by default they are from 2000 complete poses, "
                    "and from 250 when a check on held-back poses prefers them: "
                    "sparseedm.exemplars)")
+    p.add_argument("--mirror", action="store_true",
+                   help="also recover each pose's mirror image (left and right swapped) and "
+                   "average the two answers: twice the work; with --no-adapt and "
+                   "--dictionary cmu-coco-k2932, the setting for photos of real people "
+                   "(per pose: needs --no-temporal on a file with frames)")
     p.add_argument("--save-dictionary", default=None, metavar="FILE",
                    help="write the dictionary used (adapted or not; with --ensemble, the "
                    "first member's) to FILE (.npz)")
@@ -187,6 +192,7 @@ def run(args):
         temporal=not args.no_temporal, input_format=args.input_format,
         preset=args.preset,
         outliers=not args.no_outliers, exemplars=False if args.no_exemplars else "auto",
+        mirror=args.mirror,
     )
     out = sys.stderr if args.quiet or is_stream(args.output) else sys.stdout  # -o /dev/stdout
     ad = summary.get("adaptation")
@@ -261,6 +267,8 @@ def format_summary(s) -> str:
         lines.append(s["adaptation_line"])
     if s.get("ensemble", 1) > 1:
         lines.append(f"ensemble: the mean of {s['ensemble']} adapted dictionaries' recoveries")
+    if s.get("mirror"):
+        lines.append("mirror: each pose's answer averaged with its mirror image's")
     if s.get("dictionary"):
         lines.append(f"dictionary written to {s['dictionary']}")
     return "\n".join(lines)
