@@ -20,8 +20,9 @@ below that it depended on the source. So :func:`choose_exemplars` decides:
 2. at least :data:`EXEMPLAR_MIN_POSES`: the exemplars, no adaptation and no
    self-training;
 3. in between, an evidence check on held-back complete poses (a seeded
-   20 % of them, at most 300; hidden by the guard's Mix masks of 1-3
-   joints), scored on the hidden joints themselves (their distance to the
+   20 % of them, at most 300; each hidden as one of the file's own
+   incomplete poses is, :func:`held_masks`, or by the guard's Mix masks of
+   1-3 joints when none keeps 3 joints), scored on the hidden joints themselves (their distance to the
    truth in % of the pose's size, the RMS distance of its joints to their
    centroid), not on the EDM: the exemplars made of the other complete
    poses against the base dictionary with those poses as extra atoms (what
@@ -44,7 +45,9 @@ below that it depended on the source. So :func:`choose_exemplars` decides:
    the adapted dictionary on the guard's own held-back poses, was measured
    and dropped: the guard had chosen the adapted dictionary on those very
    poses, so it looked better there than it was
-   (``studies/fast/README.md``).
+   (``studies/fast/README.md``). The file's own missing patterns, rather
+   than Mix masks, kept the mean from files where it was worse (Bonn frames
+   under real masks: the exemplars alone find the neighbouring frames).
 
 ``res.adaptation.summary()["path"]`` says which ran (``"file atoms"``,
 :data:`~sparseedm.adaptation.AVERAGED_PATH`, ``"adapted"``, ``"base + file
@@ -68,11 +71,12 @@ from .adaptation import (AVERAGED_PATH, GUARD_POSES_PER_PATTERN, MIN_COMPLETE_PO
 from .file_atoms import (atoms_adaptation, complete_rows, file_dictionary, mirror_images,
                          with_file_atoms)
 from .normalize import rms_radius
+from .real_protocol import transplant_masks, usable_patterns
 from .skeleton import SKELETON_14
 
 __all__ = ["EXEMPLAR_MIN_POSES", "EXEMPLAR_MARGIN", "EXEMPLAR_OPTIONS", "ExemplarCheck",
-           "hidden_joint_error", "choose_exemplars", "averaged_members", "HELD_FRACTION",
-           "MAX_HELD"]
+           "hidden_joint_error", "choose_exemplars", "averaged_members", "held_masks",
+           "HELD_FRACTION", "MAX_HELD"]
 
 #: From this many usable complete poses the file's own poses are the atoms,
 #: no check, no adaptation (chosen on validation files: studies/fast/README.md)
@@ -241,13 +245,48 @@ def averaged_members(dictionary, complete):
     return members + [with_file_atoms(dictionary, complete).dictionary]
 
 
-def _scores(dictionary, complete, held, random_state, kw):
-    """Hidden-joint errors on ``complete[held]`` of the exemplars made of the other
-    complete poses, of the base with those as extra atoms, and of the mean of the
-    answers of :func:`averaged_members` (each dictionary recovers once)."""
+def held_masks(poses, missing, n_held, random_state=0):
+    """The check's masks: the missing patterns of the file's own incomplete poses.
+
+    Parameters
+    ----------
+    poses : ndarray (n, N, 2)
+        The file's poses, NaN at missing joints.
+    missing : ndarray of bool (n, N) or None
+        Missing joints besides the NaN ones.
+    n_held : int
+        Held-back poses to mask.
+    random_state : int, default 0
+
+    Returns
+    -------
+    ndarray of bool (n_held, N)
+        Each a seeded draw among the file's patterns that hide a joint and
+        keep 3 (:func:`sparseedm.real_protocol.transplant_masks`); without
+        one, the guard's Mix masks of 1-3 joints.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> poses = np.ones((4, 14, 2)); poses[3, [2, 5]] = np.nan
+    >>> held_masks(poses, None, 2).sum(axis=1).tolist()  # the file's one pattern
+    [2, 2]
+    """
+    hidden = np.isnan(poses).any(axis=-1)
+    if missing is not None:
+        hidden |= np.asarray(missing, dtype=bool)
+    if usable_patterns(hidden).size:
+        rng = np.random.default_rng([int(random_state), 44])
+        return transplant_masks(n_held, hidden, random_state=rng)[0]
+    return guard_masks(n_held, poses.shape[1], max(1, n_held // GUARD_POSES_PER_PATTERN),
+                       random_state)
+
+
+def _scores(dictionary, complete, held, mask, kw):
+    """Hidden-joint errors on ``complete[held]`` under `mask` of the exemplars made of
+    the other complete poses, of the base with those as extra atoms, and of the mean
+    of the answers of :func:`averaged_members` (each dictionary recovers once)."""
     truth, rest = complete[held], complete[~held]
-    mask = guard_masks(len(truth), truth.shape[1],
-                       max(1, len(truth) // GUARD_POSES_PER_PATTERN), random_state)
     results = [_held_recovery(d, truth, mask, **kw)
                for d in averaged_members(dictionary, rest)]
     return tuple(_error(r, truth, mask) for r in (results[0], results[-1], combine(results)))
@@ -309,7 +348,8 @@ def choose_exemplars(dictionary, poses, missing, *, n_jobs=1, random_state=0,
     want = min(int(round(HELD_FRACTION * n)), MAX_HELD)
     held[np.random.default_rng([int(random_state), 43]).choice(n, want, replace=False)] = True
     kw = dict(n_jobs=n_jobs, backend=backend, scheduler=scheduler)
-    out = ExemplarCheck(None, n, *_scores(dictionary, complete, held, random_state, kw))
+    mask = held_masks(poses, missing, want, random_state)
+    out = ExemplarCheck(None, n, *_scores(dictionary, complete, held, mask, kw))
     own = min(out.err_atoms, out.err_both)
     if own <= (1 + margin) * out.err_base:
         both = out.err_both < out.err_atoms

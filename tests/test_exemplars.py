@@ -8,11 +8,12 @@ import pytest
 
 from sparseedm import recover
 from sparseedm._recovery_base import STATUSES
-from sparseedm.adaptation import AVERAGED_PATH, MIN_COMPLETE_POSES, guard_masks
+from sparseedm.adaptation import (AVERAGED_PATH, GUARD_POSES_PER_PATTERN, MIN_COMPLETE_POSES,
+                                  guard_masks)
 from sparseedm.cli import build_parser
 from sparseedm.exceptions import ParameterError
 from sparseedm.exemplars import (EXEMPLAR_MARGIN, EXEMPLAR_MIN_POSES, choose_exemplars,
-                                 hidden_joint_error)
+                                 held_masks, hidden_joint_error)
 from sparseedm.solvers.fast import FastSolver
 
 
@@ -143,7 +144,7 @@ def test_the_check_averages_the_two_when_their_mean_recovers_best(cmu_poses, sma
     from sparseedm.file_atoms import (complete_rows, file_dictionary, mirror_images,
                                       with_file_atoms)
 
-    poses, missing = _file(cmu_poses, 400, seed=2)
+    poses, missing = _file(cmu_poses, 400, seed=1)
     check = choose_exemplars(small_dictionary, poses, missing)
     assert check.err_both < min(check.err_atoms, check.err_base)
     assert check.result.path == AVERAGED_PATH and len(check.members) == 3
@@ -163,6 +164,21 @@ def test_the_check_averages_the_two_when_their_mean_recovers_best(cmu_poses, sma
     assert rec.sum() > 50 and (res.gap[rec] <= 1e-6 * res.objective[rec]).all()
     assert np.isfinite(res.uncertainty[rec][missing[rec]]).all()
     assert "mirror images, averaged with the base dictionary" in res.adaptation.reason
+
+
+def test_the_check_hides_the_files_own_missing_patterns(cmu_poses):
+    """The held-back poses are masked as the file's incomplete poses are (a seeded
+    draw among the patterns that keep 3 joints); the guard's Mix masks without one."""
+    poses, missing = _file(cmu_poses, 300)
+    masks = held_masks(poses, missing, 60)
+    patterns = {m.tobytes() for m in missing[missing.any(axis=1) & (missing.sum(axis=1) <= 11)]}
+    assert masks.shape == (60, 14) and all(m.tobytes() in patterns for m in masks)
+    np.testing.assert_array_equal(masks, held_masks(poses, missing, 60))
+    with_nan = np.where(missing[..., None], np.nan, poses)
+    np.testing.assert_array_equal(held_masks(with_nan, None, 60), masks)
+    complete = cmu_poses[:300]
+    np.testing.assert_array_equal(held_masks(complete, None, 60),
+                                  guard_masks(60, 14, 60 // GUARD_POSES_PER_PATTERN, 0))
 
 
 def replace_atoms(dictionary, k):

@@ -17,7 +17,9 @@ done, on the occluded poses (the test) and on the check's held-back poses
 * ``atoms+mirror a=...``: other recovery alphas of ``atoms+mirror``.
 
 Then replays rules that choose among candidates with the check (single
-held-back rows, the guard's Mix masks, as :func:`sparseedm.exemplars.choose_exemplars`).
+held-back rows as :func:`sparseedm.exemplars.choose_exemplars` holds them back;
+``check``: the guard's Mix masks; ``check_file``, added by ``--file-masks``:
+the file's own missing patterns, as the package now masks them).
 
 Files (validation only): the photo files of ``benchmarks/real_people.py``
 (``--sources``; the split's occluded poses, the file's complete poses from the
@@ -30,8 +32,8 @@ rule's choice is replayed (where it adapts, ``recover(..., exemplars=False)`` ru
 Score: the mean over hidden joints of their error, % of body size.
 
     python studies/fast/select_photo_atoms.py --sources mpii,coco,bonn --out run.json
-    python studies/fast/select_photo_atoms.py --sources "" --rule-files \\
-        --mocap daz_indian.npz,daz_salsa.npz --out mocap.json
+    python studies/fast/select_photo_atoms.py --replay run.json --file-masks \\
+        --sources mpii,coco,bonn --out run.json
 """
 
 from __future__ import annotations
@@ -49,6 +51,10 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))  # `python studies/fast/select_photo_atoms.py` finds benchmarks/
 
 ALPHAS = (0.00025, 0.001)
+#: the rule adopted (sparseedm.exemplars): the mean of three codes, checked with the
+#: file's own missing patterns as the held-back masks
+MEAN_RULE = "best of atoms, avg(atoms, atoms+mirror, base+atoms); margin 0.05"
+CHOSEN = MEAN_RULE + "; check_file"
 #: the candidates whose answers are averaged (each tuple one averaged candidate)
 MEANS = (("atoms+mirror", "base+atoms"), ("atoms+mirror", "base+atoms+mirror"),
          ("atoms", "base+atoms"), ("atoms", "atoms+mirror", "base+atoms"))
@@ -96,20 +102,27 @@ def fills(base, complete, given, missing, more=False):
     return out
 
 
-def check(base, complete, seed=0, more=False):
+def check(base, complete, seed=0, more=False, pool=None):
     """The check's evidence for every candidate: hidden-joint error (% of pose size,
     as :func:`sparseedm.exemplars.hidden_joint_error`) on held-back complete poses
-    (single rows, 20 %, at most 300) coded over the other complete poses."""
+    (single rows, 20 %, at most 300) coded over the other complete poses; hidden by
+    the guard's Mix masks, or with `pool` (the file's missing patterns) by patterns
+    drawn from it."""
     from sparseedm.adaptation import GUARD_POSES_PER_PATTERN, guard_masks
     from sparseedm.exemplars import HELD_FRACTION, MAX_HELD
     from sparseedm.normalize import rms_radius
+    from sparseedm.real_protocol import transplant_masks
 
     n = len(complete)
     held = np.zeros(n, bool)
     want = min(int(round(HELD_FRACTION * n)), MAX_HELD)
     held[np.random.default_rng([seed, 43]).choice(n, want, replace=False)] = True
     truth = complete[held]
-    mask = guard_masks(len(truth), 14, max(1, len(truth) // GUARD_POSES_PER_PATTERN), seed)
+    if pool is None:
+        mask = guard_masks(len(truth), 14, max(1, len(truth) // GUARD_POSES_PER_PATTERN), seed)
+    else:
+        mask = transplant_masks(len(truth), pool, random_state=np.random.default_rng(
+            [seed, 44]))[0]
     got = fills(base, complete[~held], np.where(mask[..., None], np.nan, truth), mask, more)
     _, size = rms_radius(truth, np.zeros(mask.shape, bool))
     out = {}
@@ -210,6 +223,25 @@ def photo_files(sources, part, complete_from, sizes=(1000, 1000), seed=0):
             yield f"{source} {cond} ({len(kept)} complete from {complete_from})", truth, missing
 
 
+def file_mask_checks(doc, a):
+    """Each file of `doc` (re-made as asked in `a`) gets ``check_file``: the check
+    with the file's own missing patterns as masks; `doc` written to ``a.out``."""
+    import sparseedm
+
+    warnings.simplefilter("ignore")
+    base = sparseedm.load_dictionary()
+    made = list(photo_files(a.sources, "val", a.complete_from))
+    made += list(rule_files(a)) if a.rule_files else []
+    for name, truth, missing in made:
+        row = doc["files"].get(name)
+        occ = missing.any(axis=1)
+        if row is None or row["complete"] < 250:
+            continue
+        row["check_file"] = check(base, truth[~occ], more=a.more, pool=missing[occ])
+        print(name, row["check_file"], flush=True)
+        a.out.write_text(json.dumps(doc, indent=1) + "\n")
+
+
 def rule_files(a):
     """(name, truth, missing) of select_exemplar_rule.py's validation files."""
     from studies.fast.select_default_exemplars import files
@@ -233,22 +265,30 @@ def rules():
         for margin in (0.0, 0.05):
             out[f"best of atoms, avg({', '.join(names)}); margin {margin}"] = (
                 ("atoms", f"avg({', '.join(names)})"), rival, margin)
+    for key in ("check_file", "both checks"):
+        out[f"{MEAN_RULE}; {key}"] = (*out[MEAN_RULE], key)
     return out
 
 
 def replay(row, rule, adapt):
     """(what the rule does on the file, its test error); `adapt`: the error of the
     default path without the rule (None: unknown)."""
-    own, rival, margin = rules()[rule]
+    own, rival, margin, *key = rules()[rule]
+    key = key[0] if key else "check"
     n = row["complete"]
-    if any(c not in row["test"] for c in (*own, rival)):
+    if any(c not in row["test"] for c in (*own, rival)) or (
+            n >= 250 and key != "check" and "check_file" not in row):
         return "not measured", None
     if n < 250:
         return "too few", adapt
     if n >= 2000:
         return own[0], row["test"][own[0]]
-    best = min(own, key=lambda c: row["check"][c])  # ties: the first, the cheaper
-    if row["check"][best] <= (1 + margin) * row["check"][rival]:
+    if key == "both checks":  # the two checks' errors added
+        chk = {c: row["check"][c] + row["check_file"][c] for c in row["check"]}
+    else:
+        chk = row[key]
+    best = min(own, key=lambda c: chk[c])  # ties: the first, the cheaper
+    if chk[best] <= (1 + margin) * chk[rival]:
         return best, row["test"][best]
     return "adapt", adapt
 
@@ -279,8 +319,28 @@ def summary(doc):
                 continue
             if err is not None and base is not None:
                 diffs.append(err - base)
-        change = f"{np.mean(diffs):+.3f} (worst {max(diffs):+.3f})" if diffs else ""
-        lines.append(f"| {rule} | " + " | ".join(cells) + f" | {change} |")
+        if diffs:  # a rule whose candidates were measured
+            change = f"{np.mean(diffs):+.3f} (worst {max(diffs):+.3f})"
+            lines.append(f"| {rule} | " + " | ".join(cells) + f" | {change} |")
+    return "\n".join(lines)
+
+
+def compare(doc, rule):
+    """Markdown: per file, what the shipped rule and `rule` do and their test errors
+    (and IterativeImputer's on the photo files)."""
+    lines = ["| file | complete | shipped rule | this rule | change | IterativeImputer | "
+             "check: atoms / base+atoms / mean |", "|---|---:|---|---|---:|---:|---|"]
+    for name, r in doc["files"].items():
+        adapt = r["test"].get("adapt")
+        (b0, e0), (b1, e1) = replay(r, "shipped", adapt), replay(r, rule, adapt)
+        if e0 is None or e1 is None:
+            continue
+        own, _, _, *key = rules()[rule]
+        c, own = r.get(key[0] if key and key[0] != "both checks" else "check") or {}, own[-1]
+        chk = (f"{c['atoms']:.2f} / {c['base+atoms']:.2f} / {c[own]:.2f}" if c else "")
+        it = r["test"].get("iterative")
+        lines.append(f"| {name} | {r['complete']:,} | {e0:.2f} ({b0}) | {e1:.2f} ({b1}) | "
+                     f"{e1 - e0:+.2f} | {'' if it is None else f'{it:.2f}'} | {chk} |")
     return "\n".join(lines)
 
 
@@ -302,8 +362,14 @@ def main(argv=None):
     ap.add_argument("--more", action="store_true",
                     help="also the base with the mirrored atoms, and atoms+mirror at the "
                     f"recovery alphas {ALPHAS}")
+    ap.add_argument("--file-masks", action="store_true",
+                    help="with --replay: add to each file the check with its own missing "
+                    "patterns as the held-back masks (check_file), written to --out")
     ap.add_argument("--replay", nargs="+", type=Path, metavar="JSON",
                     help="only print the tables of these result files (merged), no runs")
+    ap.add_argument("--table", default=CHOSEN, metavar="RULE",
+                    help="the rule compared with the shipped one file by file "
+                    f"(default {CHOSEN!r})")
     ap.add_argument("--out", type=Path,
                     default=Path(__file__).with_name("selection_photo_atoms.json"))
     a = ap.parse_args(argv)
@@ -311,7 +377,9 @@ def main(argv=None):
         doc = {"files": {}}
         for path in a.replay:
             doc["files"].update(json.loads(path.read_text())["files"])
-        print(summary(doc))
+        if a.file_masks:
+            file_mask_checks(doc, a)
+        print(summary(doc), compare(doc, a.table), sep="\n\n")
         return
     import sparseedm
 
@@ -329,7 +397,7 @@ def main(argv=None):
         doc["files"][name] = measure(base, truth, missing, extra, a.more)
         print(name, json.dumps(doc["files"][name]), flush=True)
         a.out.write_text(json.dumps(doc, indent=1) + "\n")
-    print(summary(doc))
+    print(summary(doc), compare(doc, a.table), sep="\n\n")
 
 
 if __name__ == "__main__":
