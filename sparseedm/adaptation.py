@@ -94,11 +94,15 @@ __all__ = ["adapt", "run_adaptation", "adapt_vectors", "AdaptationResult",
            "swapped_rows", "filter_poses", "holdout_blocks", "resolve_adaptation",
            "masked_error", "guard_masks", "sample_complete", "sample_stream", "fine_tune_file",
            "self_train", "MIN_COMPLETE_POSES", "ADAPTED_ALPHA_TRAIN",
-           "adaptation_alpha", "STATS", "SELF_TRAINING_ROUNDS"]
+           "adaptation_alpha", "STATS", "SELF_TRAINING_ROUNDS", "AVERAGED_PATH"]
 
 #: Fewest complete poses (after filtering) that ``adapt="auto"`` adapts on;
 #: chosen on the validation splits (docs/explanation/settings.md).
 MIN_COMPLETE_POSES = 250
+#: AdaptationResult.path when the default path averages the answers of the file's
+#: own complete poses as the only atoms, of those with their mirror images, and of
+#: the base with them as extra atoms (:mod:`sparseedm.exemplars`)
+AVERAGED_PATH = "file atoms and their mirror images averaged with base + file atoms"
 #: Inner-statistics modes of :func:`adapt_vectors`.
 STATS = ("fresh", "carried")
 # defaults chosen by studies/adaptation/select_adaptation.py (see docs/explanation/settings.md)
@@ -719,7 +723,11 @@ class AdaptationResult:
     def path(self) -> str:
         """Which dictionary recovered: ``"file atoms"`` (the poses' own complete
         poses as the only atoms: :mod:`sparseedm.exemplars`, ``preset="fast"``),
-        ``"adapted"``, ``"base + file atoms"`` or ``"base"``."""
+        ``"adapted"``, ``"base + file atoms"``, ``"base"``, or :data:`AVERAGED_PATH`
+        (the mean of the answers of the file atoms, with and without their mirror
+        images, and of the base with file atoms)."""
+        if self.settings.get("path") == AVERAGED_PATH:  # sparseedm.exemplars averages
+            return AVERAGED_PATH
         if "file_dictionary" in (self.dictionary.provenance or {}):
             return "file atoms"
         if self.adapted:
@@ -737,7 +745,7 @@ class AdaptationResult:
         """
         if self.settings.get("preset") == "fast":  # nothing adapted, nothing to compare
             return f"adaptation: none ({self.reason}); {self.seconds:.1f} s"
-        if self.settings.get("path") == "file atoms":  # sparseedm.exemplars chose them
+        if self.settings.get("path") in ("file atoms", AVERAGED_PATH):  # sparseedm.exemplars
             return (f"adaptation: none, the file's own poses are the atoms ({self.reason}); "
                     f"{self.seconds:.1f} s")
         if np.isfinite(self.err_base) and np.isfinite(self.err_adapted):

@@ -387,9 +387,10 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
         file with frames unless ``temporal=False``).
     exemplars : {"auto", False}, default "auto"
         As :func:`sparseedm.recover`'s: under ``adapt="auto"``, per pose, the
-        file's (sampled) complete poses are the only atoms, nothing learned,
-        when :mod:`sparseedm.exemplars`'s rule finds them better than
-        adapting; False: adapt as before (``--no-exemplars``).
+        file's (sampled) complete poses are the only atoms (or their answers
+        are averaged with two other codes of them), nothing learned, when
+        :mod:`sparseedm.exemplars`'s rule finds them better than adapting;
+        False: adapt as before (``--no-exemplars``).
     mirror : bool, default False
         As :func:`sparseedm.recover`'s: also code each pose's mirror image and
         average the two answers (``--mirror``; per pose: refused on a file

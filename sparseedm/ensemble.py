@@ -66,8 +66,10 @@ def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
         :data:`sparseedm._recovery_kernel.FAST_MAX_ATOMS`), one member.
     exemplars : {"auto", False}, default False
         ``"auto"`` (with ``adapt="auto"``): the file's complete poses as the
-        only atoms, nothing learned and one member, when
-        :func:`sparseedm.exemplars.choose_exemplars` picks them.
+        only atoms, nothing learned, when
+        :func:`sparseedm.exemplars.choose_exemplars` picks them (one member,
+        or its :attr:`~sparseedm.exemplars.ExemplarCheck.members` when it
+        averages).
         :func:`sparseedm.recover` and :func:`sparseedm.batch.recover_file`
         pass their own (``"auto"`` by default); the video path does not.
     backend, scheduler : optional
@@ -95,7 +97,7 @@ def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
                                  scheduler=scheduler)
         if check.dictionary is not None:
             _say_one_member(n_members, check.result.reason)
-            return [check.dictionary], [check.result]
+            return check.members, [check.result]
     # the work is many small BLAS calls beside numba's threads: BLAS threads
     # would only spin against them (measured 2x slower), so BLAS gets one. Held
     # here for every member: the members' guards' recover() calls set and

@@ -20,16 +20,22 @@ below that it depended on the source. So :func:`choose_exemplars` decides:
 2. at least :data:`EXEMPLAR_MIN_POSES`: the exemplars, no adaptation and no
    self-training;
 3. in between, an evidence check on held-back complete poses (a seeded
-   20 % of them, at most 300; hidden by the guard's Mix masks of 1-3
-   joints), scored on the hidden joints themselves (their distance to the
+   20 % of them, at most 300; each hidden as one of the file's own
+   incomplete poses is, :func:`held_masks`, or by the guard's Mix masks of
+   1-3 joints when none keeps 3 joints), scored on the hidden joints themselves (their distance to the
    truth in % of the pose's size, the RMS distance of its joints to their
    centroid), not on the EDM: the exemplars made of the other complete
    poses against the base dictionary with those poses as extra atoms (what
-   the default path recovers with when its guard keeps the base). Neither
-   learns, so the check costs two small recoveries. The exemplars are taken,
-   nothing learned, unless the other's error is below theirs by more than
-   :data:`EXEMPLAR_MARGIN` (relative: ties go to the exemplars, which are
-   faster); otherwise the file adapts and self-trains as before.
+   the default path recovers with when its guard keeps the base), and the
+   mean of three answers (:func:`averaged_members`: the exemplars, the
+   exemplars with their mirror images, the base with the exemplars as extra
+   atoms). None learns, so the check costs three small recoveries. The
+   better of the exemplars and the mean (ties go to the exemplars, which are
+   faster) is taken, nothing learned, unless the base-with-atoms' error is
+   below it by more than :data:`EXEMPLAR_MARGIN` (relative); otherwise the
+   file adapts and self-trains as before. The mean codes every occluded pose
+   three times, each with its own lasso and certificate; the statuses are
+   combined as an ensemble's members' are (``recover(..., ensemble=K)``).
 
    The held-back poses are single rows, not the guard's contiguous blocks:
    an occluded pose of a video keeps its neighbouring complete frames in the
@@ -39,11 +45,14 @@ below that it depended on the source. So :func:`choose_exemplars` decides:
    the adapted dictionary on the guard's own held-back poses, was measured
    and dropped: the guard had chosen the adapted dictionary on those very
    poses, so it looked better there than it was
-   (``studies/fast/README.md``).
+   (``studies/fast/README.md``). The file's own missing patterns, rather
+   than Mix masks, kept the mean from files where it was worse (Bonn frames
+   under real masks: the exemplars alone find the neighbouring frames).
 
 ``res.adaptation.summary()["path"]`` says which ran (``"file atoms"``,
-``"adapted"``, ``"base + file atoms"``, ``"base"``), ``reason`` why, and
-``settings`` the check's two errors. ``recover(..., exemplars=False)``
+:data:`~sparseedm.adaptation.AVERAGED_PATH`, ``"adapted"``, ``"base + file
+atoms"``, ``"base"``), ``reason`` why, and ``settings`` the check's three
+errors. ``recover(..., exemplars=False)``
 (``--no-exemplars``) adapts whatever the check would say.
 """
 
@@ -51,25 +60,31 @@ from __future__ import annotations
 
 import time
 import warnings
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from ._recovery_base import combine
 from ._recovery_kernel import compiled_solver, recover_members
-from .adaptation import (GUARD_POSES_PER_PATTERN, MIN_COMPLETE_POSES, AdaptationResult,
-                         guard_masks)
-from .file_atoms import atoms_adaptation, complete_rows, file_dictionary, with_file_atoms
+from .adaptation import (AVERAGED_PATH, GUARD_POSES_PER_PATTERN, MIN_COMPLETE_POSES,
+                         AdaptationResult, guard_masks)
+from .file_atoms import (atoms_adaptation, complete_rows, file_dictionary, mirror_images,
+                         with_file_atoms)
 from .normalize import rms_radius
+from .real_protocol import transplant_masks, usable_patterns
+from .skeleton import SKELETON_14
 
 __all__ = ["EXEMPLAR_MIN_POSES", "EXEMPLAR_MARGIN", "EXEMPLAR_OPTIONS", "ExemplarCheck",
-           "hidden_joint_error", "choose_exemplars", "HELD_FRACTION", "MAX_HELD"]
+           "hidden_joint_error", "choose_exemplars", "averaged_members", "held_masks",
+           "HELD_FRACTION", "MAX_HELD"]
 
 #: From this many usable complete poses the file's own poses are the atoms,
 #: no check, no adaptation (chosen on validation files: studies/fast/README.md)
 EXEMPLAR_MIN_POSES = 2000
 
-#: Below EXEMPLAR_MIN_POSES: the exemplars are taken unless their held-back
-#: hidden-joint error is above (1 + EXEMPLAR_MARGIN) times the base-with-file-atoms'
+#: Below EXEMPLAR_MIN_POSES: the exemplars (or the mean) are taken unless their
+#: held-back hidden-joint error is above (1 + EXEMPLAR_MARGIN) times the
+#: base-with-file-atoms'
 EXEMPLAR_MARGIN = 0.05
 
 #: The check's held-back share of the complete poses, and its cap
@@ -91,18 +106,25 @@ class ExemplarCheck:
         file's complete poses as the only atoms); None: the default path adapts.
     n_complete : int
         The file's usable complete poses.
-    err_atoms, err_base : float
+    err_atoms, err_base, err_both : float
         The held-back poses' hidden-joint error (% of pose size) of the
-        exemplars and of the base with file atoms (NaN: not checked).
+        exemplars, of the base with file atoms and of the mean of the two's
+        answers (NaN: not checked).
     seconds : float
         Time spent choosing.
+    partners : list of Dictionary
+        The other :func:`averaged_members` when their answers are averaged
+        with the exemplars' (the check preferred the mean); empty: the
+        exemplars alone.
     """
 
     result: AdaptationResult | None
     n_complete: int
     err_atoms: float = float("nan")
     err_base: float = float("nan")
+    err_both: float = float("nan")
     seconds: float = 0.0
+    partners: list = field(default_factory=list)
 
     @property
     def dictionary(self):
@@ -110,13 +132,23 @@ class ExemplarCheck:
         adapts."""
         return None if self.result is None else self.result.dictionary
 
+    @property
+    def members(self):
+        """The dictionaries recover() averages: the exemplars', then the partners;
+        empty when the default path adapts."""
+        return [] if self.result is None else [self.result.dictionary, *self.partners]
+
+    def errors(self):
+        """The check's errors as recorded in an AdaptationResult's ``settings``."""
+        return {"held_err_atoms": self.err_atoms, "held_err_base": self.err_base,
+                "held_err_both": self.err_both}
+
     def note(self, result):
         """`result` (the adaptation that ran instead) with the check's errors in its
         ``settings`` and time in its ``seconds``; `result` itself when nothing was checked."""
         if not np.isfinite(self.err_atoms):
             return result
-        return replace(result, settings=dict(result.settings, held_err_atoms=self.err_atoms,
-                                             held_err_base=self.err_base),
+        return replace(result, settings=dict(result.settings, **self.errors()),
                        seconds=result.seconds + self.seconds,
                        step_seconds=dict(result.step_seconds, exemplar_check=self.seconds))
 
@@ -157,11 +189,22 @@ def hidden_joint_error(dictionary, poses, mask, *, alpha=None, n_jobs=1, backend
     >>> bool(e > 0)
     True
     """
+    return _error(_held_recovery(dictionary, poses, mask, alpha=alpha, n_jobs=n_jobs,
+                                 backend=backend, scheduler=scheduler), poses, mask)
+
+
+def _held_recovery(dictionary, poses, mask, **kw):
+    """`dictionary`'s recovery of `poses` with the `mask` joints hidden."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        res = recover_members(np.where(mask[..., None], np.nan, poses), mask, [dictionary],
-                              [], alpha=alpha, n_jobs=n_jobs, solver=compiled_solver(),
-                              backend=backend, scheduler=scheduler)
+        return recover_members(np.where(mask[..., None], np.nan, poses), mask, [dictionary],
+                               [], solver=compiled_solver(), **kw)
+
+
+def _error(res, poses, mask):
+    """hidden_joint_error's score of the recovery `res` of `poses` under `mask`."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
         _, size = rms_radius(poses, np.zeros(mask.shape, bool))
         err = np.linalg.norm(res.poses - poses, axis=-1) / size[:, None] * 100
         per_pose = np.nanmean(np.where(mask, err, np.nan), axis=1)
@@ -169,15 +212,84 @@ def hidden_joint_error(dictionary, poses, mask, *, alpha=None, n_jobs=1, backend
     return float(per_pose.mean()) if len(per_pose) else float("nan")
 
 
-def _scores(dictionary, complete, held, random_state, kw):
-    """Hidden-joint errors on ``complete[held]`` of the exemplars made of the other
-    complete poses and of the base with those as extra atoms."""
+def averaged_members(dictionary, complete):
+    """The dictionaries whose answers the default path averages, made of the file's
+    complete poses `complete`: the exemplars, the exemplars with their mirror images
+    (:func:`~sparseedm.file_atoms.mirror_images`; 14-joint dictionaries only), and
+    `dictionary` with the exemplars as extra atoms.
+
+    Parameters
+    ----------
+    dictionary : Dictionary
+        The base dictionary.
+    complete : ndarray (n, N, 2)
+        Usable complete poses.
+
+    Returns
+    -------
+    list of Dictionary
+        The exemplars' first (nothing learned in any).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sparseedm.dictionary import load_dictionary
+    >>> base = load_dictionary()
+    >>> poses = np.random.default_rng(0).normal(size=(30, 14, 2))
+    >>> [d.n_components for d in averaged_members(base, poses)] == [30, 60, base.n_components + 30]
+    True
+    """
+    members = [file_dictionary(dictionary, complete).dictionary]
+    if dictionary.n_joints == SKELETON_14.num_joints:
+        members.append(file_dictionary(dictionary, mirror_images(complete)).dictionary)
+    return members + [with_file_atoms(dictionary, complete).dictionary]
+
+
+def held_masks(poses, missing, n_held, random_state=0):
+    """The check's masks: the missing patterns of the file's own incomplete poses.
+
+    Parameters
+    ----------
+    poses : ndarray (n, N, 2)
+        The file's poses, NaN at missing joints.
+    missing : ndarray of bool (n, N) or None
+        Missing joints besides the NaN ones.
+    n_held : int
+        Held-back poses to mask.
+    random_state : int, default 0
+
+    Returns
+    -------
+    ndarray of bool (n_held, N)
+        Each a seeded draw among the file's patterns that hide a joint and
+        keep 3 (:func:`sparseedm.real_protocol.transplant_masks`); without
+        one, the guard's Mix masks of 1-3 joints.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> poses = np.ones((4, 14, 2)); poses[3, [2, 5]] = np.nan
+    >>> held_masks(poses, None, 2).sum(axis=1).tolist()  # the file's one pattern
+    [2, 2]
+    """
+    hidden = np.isnan(poses).any(axis=-1)
+    if missing is not None:
+        hidden |= np.asarray(missing, dtype=bool)
+    if usable_patterns(hidden).size:
+        rng = np.random.default_rng([int(random_state), 44])
+        return transplant_masks(n_held, hidden, random_state=rng)[0]
+    return guard_masks(n_held, poses.shape[1], max(1, n_held // GUARD_POSES_PER_PATTERN),
+                       random_state)
+
+
+def _scores(dictionary, complete, held, mask, kw):
+    """Hidden-joint errors on ``complete[held]`` under `mask` of the exemplars made of
+    the other complete poses, of the base with those as extra atoms, and of the mean
+    of the answers of :func:`averaged_members` (each dictionary recovers once)."""
     truth, rest = complete[held], complete[~held]
-    mask = guard_masks(len(truth), truth.shape[1],
-                       max(1, len(truth) // GUARD_POSES_PER_PATTERN), random_state)
-    return tuple(hidden_joint_error(d, truth, mask, **kw)
-                 for d in (file_dictionary(dictionary, rest).dictionary,
-                           with_file_atoms(dictionary, rest).dictionary))
+    results = [_held_recovery(d, truth, mask, **kw)
+               for d in averaged_members(dictionary, rest)]
+    return tuple(_error(r, truth, mask) for r in (results[0], results[-1], combine(results)))
 
 
 def choose_exemplars(dictionary, poses, missing, *, n_jobs=1, random_state=0,
@@ -198,15 +310,18 @@ def choose_exemplars(dictionary, poses, missing, *, n_jobs=1, random_state=0,
     min_poses : int, default EXEMPLAR_MIN_POSES
         Complete poses from which the exemplars are taken unchecked.
     margin : float, default EXEMPLAR_MARGIN
-        Below `min_poses`: the exemplars are taken unless their held-back
-        error is above ``1 + margin`` times the base-with-file-atoms'.
+        Below `min_poses`: the exemplars, or the mean of the answers of
+        :func:`averaged_members` when its held-back error is lower, are taken
+        unless that error is above ``1 + margin`` times the
+        base-with-file-atoms'.
     backend, scheduler : optional
         As :func:`sparseedm.recover`'s: where the check's recoveries run.
 
     Returns
     -------
     ExemplarCheck
-        ``dictionary`` and ``result`` set when the exemplars were chosen.
+        ``dictionary`` and ``result`` set when the exemplars were chosen
+        (``partners`` too when their answers are averaged with others).
 
     Examples
     --------
@@ -233,15 +348,21 @@ def choose_exemplars(dictionary, poses, missing, *, n_jobs=1, random_state=0,
     want = min(int(round(HELD_FRACTION * n)), MAX_HELD)
     held[np.random.default_rng([int(random_state), 43]).choice(n, want, replace=False)] = True
     kw = dict(n_jobs=n_jobs, backend=backend, scheduler=scheduler)
-    e_atoms, e_base = _scores(dictionary, complete, held, random_state, kw)
-    out = ExemplarCheck(None, n, e_atoms, e_base)
-    if e_atoms <= (1 + margin) * e_base:
-        reason = (f"{n} complete poses: as the only atoms they recovered {want} held-back "
-                  f"poses' hidden joints as well as the base dictionary with them or better "
-                  f"({e_atoms:.2f} vs {e_base:.2f} % of pose size), nothing learned")
-        out.result = atoms_adaptation(file_dictionary(dictionary, complete), len(poses),
-                                      reason, t0, {"path": "file atoms",
-                                                   "held_err_atoms": e_atoms,
-                                                   "held_err_base": e_base})
+    mask = held_masks(poses, missing, want, random_state)
+    out = ExemplarCheck(None, n, *_scores(dictionary, complete, held, mask, kw))
+    own = min(out.err_atoms, out.err_both)
+    if own <= (1 + margin) * out.err_base:
+        both = out.err_both < out.err_atoms
+        what = ("as atoms, alone and with their mirror images, averaged with the base "
+                "dictionary with them as extra atoms, they " if both else
+                "as the only atoms they ")
+        reason = (f"{n} complete poses: {what}recovered {want} held-back poses' hidden "
+                  f"joints as well as the base dictionary with them or better "
+                  f"({own:.2f} vs {out.err_base:.2f} % of pose size), nothing learned")
+        out.result = atoms_adaptation(
+            file_dictionary(dictionary, complete), len(poses), reason, t0,
+            {"path": AVERAGED_PATH if both else "file atoms", **out.errors()})
+        if both:
+            out.partners = averaged_members(dictionary, complete)[1:]
     out.seconds = time.perf_counter() - t0
     return out

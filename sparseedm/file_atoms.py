@@ -35,10 +35,11 @@ from .adaptation import (MIN_COMPLETE_POSES, AdaptationResult, duplicate_rows, f
 from ._validation import BOOLEAN, Interval, check_pose_shape, validate_params
 from .dictionary import Dictionary
 from .normalize import usable_rows
+from .skeleton import SKELETON_14
 
 __all__ = ["MAX_FILE_ATOMS", "MAX_FAST_ATOMS", "FAST_ALPHA", "FileAtoms",
            "with_file_atoms", "file_dictionary", "resolve_fast", "complete_rows",
-           "atoms_adaptation"]
+           "atoms_adaptation", "mirror_images"]
 
 #: at most this many of a file's complete poses become atoms (a seeded sample)
 MAX_FILE_ATOMS = 1000
@@ -270,6 +271,37 @@ def resolve_fast(dictionary, poses, missing, adapt, *, min_poses=MIN_COMPLETE_PO
                   + (" with them as extra atoms" if found.n_atoms else ""))
     res = atoms_adaptation(found, len(source[0]), reason, t0, {"preset": "fast"})
     return found.dictionary, res
+
+
+def mirror_images(poses, skeleton=SKELETON_14):
+    """`poses` followed by their mirror images: x reflected, each left joint
+    swapped with its right one.
+
+    A mirror image's distances are the pose's own with the left and right
+    labels swapped: another plausible pose of the same people, for free (as
+    extra atoms of :func:`file_dictionary`).
+
+    Parameters
+    ----------
+    poses : ndarray (n, N, 2)
+        Poses of `skeleton`'s N joints.
+    skeleton : Skeleton, default SKELETON_14
+        Which joints are left and right.
+
+    Returns
+    -------
+    ndarray (2 n, N, 2)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> pose = np.zeros((1, 14, 2)); pose[0, 4] = [3.0, 1.0]  # the right wrist
+    >>> both = mirror_images(pose)
+    >>> both.shape, both[1, 7].tolist()                        # now the left wrist
+    ((2, 14, 2), [-3.0, 1.0])
+    """
+    flipped = poses[:, skeleton.flip_permutation()] * np.array([-1.0, 1.0])
+    return np.concatenate([poses, flipped])
 
 
 def complete_rows(poses, missing=None):

@@ -250,8 +250,11 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         :data:`~sparseedm.adaptation.MIN_COMPLETE_POSES` on when they recover
         held-back complete poses' hidden joints better than the base
         dictionary with them as extra atoms (then nothing is learned) or than
-        the adapted dictionary (checked after adapting). An ensemble then
-        stays at one member. ``False``: adapt as described under `adapt`.
+        the adapted dictionary (checked after adapting); or, when the check
+        prefers the mean, the mean of the answers of those atoms, of them with
+        their mirror images, and of the base dictionary with them as extra
+        atoms (still nothing learned). An ensemble then stays at those
+        members. ``False``: adapt as described under `adapt`.
         ``res.adaptation.summary()["path"]`` says which ran.
     confidence : array_like (n, N), optional
         The detector's score of each joint in [0, 1] (NaN: none). Turns on the

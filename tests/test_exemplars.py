@@ -8,11 +8,12 @@ import pytest
 
 from sparseedm import recover
 from sparseedm._recovery_base import STATUSES
-from sparseedm.adaptation import MIN_COMPLETE_POSES, guard_masks
+from sparseedm.adaptation import (AVERAGED_PATH, GUARD_POSES_PER_PATTERN, MIN_COMPLETE_POSES,
+                                  guard_masks)
 from sparseedm.cli import build_parser
 from sparseedm.exceptions import ParameterError
 from sparseedm.exemplars import (EXEMPLAR_MARGIN, EXEMPLAR_MIN_POSES, choose_exemplars,
-                                 hidden_joint_error)
+                                 held_masks, hidden_joint_error)
 from sparseedm.solvers.fast import FastSolver
 
 
@@ -103,18 +104,21 @@ def test_the_check_between_decides_on_the_hidden_joints(cmu_poses, small_diction
     held-back poses; the margin decides; recover() follows the check."""
     poses, missing = _file(cmu_poses, 400)
     never = choose_exemplars(small_dictionary, poses, missing, margin=-1.0)
-    assert never.dictionary is None and never.n_complete == 400
-    assert np.isfinite(never.err_base) and np.isfinite(never.err_atoms)
+    assert never.dictionary is None and never.n_complete == 400 and never.members == []
+    assert np.isfinite([never.err_base, never.err_atoms, never.err_both]).all()
     always = choose_exemplars(small_dictionary, poses, missing, margin=1e9)
-    assert always.dictionary is not None and always.result.path == "file atoms"
+    own = "file atoms" if never.err_atoms <= never.err_both else AVERAGED_PATH
+    assert always.dictionary is not None and always.result.path == own
     assert always.err_atoms == never.err_atoms
     assert always.result.settings["held_err_base"] == never.err_base
     res = recover(poses, missing, dictionary=small_dictionary, self_training=0)
     s = res.adaptation.settings
     assert s["held_err_atoms"] == never.err_atoms and s["held_err_base"] == never.err_base
-    taken = never.err_atoms <= (1 + EXEMPLAR_MARGIN) * never.err_base
-    assert (res.adaptation.path == "file atoms") == taken
-    if res.adaptation.path != "file atoms":   # adapted as before, the check noted
+    assert s["held_err_both"] == never.err_both
+    best = min(never.err_atoms, never.err_both)
+    taken = best <= (1 + EXEMPLAR_MARGIN) * never.err_base
+    assert (res.adaptation.path == own) == taken
+    if not taken:   # adapted as before, the check noted
         assert res.adaptation.n_used > 0 and "exemplar_check" in res.adaptation.step_seconds
 
 
@@ -126,7 +130,55 @@ def test_the_check_prefers_exemplars_that_hold_the_poses(cmu_poses, small_dictio
     check = choose_exemplars(shrunk, poses, missing)
     assert check.err_atoms < check.err_base and check.dictionary is not None
     res = recover(poses, missing, dictionary=shrunk)
-    assert res.adaptation.path == "file atoms" and res.adaptation.candidate is None
+    own = "file atoms" if check.err_atoms <= check.err_both else AVERAGED_PATH
+    assert res.adaptation.path == own and res.adaptation.candidate is None
+
+
+def test_the_check_averages_the_two_when_their_mean_recovers_best(cmu_poses, small_dictionary):
+    """A file where the mean of the answers of the exemplars, the exemplars with their
+    mirror images and the base with the exemplars as extra atoms recovered the
+    held-back hidden joints better than the exemplars or the base: recover() codes
+    the occluded poses with the three and returns the mean of their answers, nothing
+    learned, statuses and certificates as each gives them."""
+    from sparseedm._recovery_base import combine
+    from sparseedm.file_atoms import (complete_rows, file_dictionary, mirror_images,
+                                      with_file_atoms)
+
+    poses, missing = _file(cmu_poses, 400, seed=1)
+    check = choose_exemplars(small_dictionary, poses, missing)
+    assert check.err_both < min(check.err_atoms, check.err_base)
+    assert check.result.path == AVERAGED_PATH and len(check.members) == 3
+    res = recover(poses, missing, dictionary=small_dictionary)
+    assert res.adaptation.path == AVERAGED_PATH and res.members == 3
+    assert res.adaptation.candidate is None and not res.adapted
+    assert res.adaptation.settings["held_err_both"] == check.err_both
+    complete = poses[complete_rows(poses, missing)]
+    own = [recover(poses, missing, dictionary=d, adapt=False)
+           for d in (file_dictionary(small_dictionary, complete).dictionary,
+                     file_dictionary(small_dictionary, mirror_images(complete)).dictionary,
+                     with_file_atoms(small_dictionary, complete).dictionary)]
+    mean = combine(own)
+    np.testing.assert_allclose(res.poses, mean.poses, rtol=0, atol=1e-6)
+    np.testing.assert_array_equal(res.status, mean.status)
+    rec = res.status == "recovered"
+    assert rec.sum() > 50 and (res.gap[rec] <= 1e-6 * res.objective[rec]).all()
+    assert np.isfinite(res.uncertainty[rec][missing[rec]]).all()
+    assert "mirror images, averaged with the base dictionary" in res.adaptation.reason
+
+
+def test_the_check_hides_the_files_own_missing_patterns(cmu_poses):
+    """The held-back poses are masked as the file's incomplete poses are (a seeded
+    draw among the patterns that keep 3 joints); the guard's Mix masks without one."""
+    poses, missing = _file(cmu_poses, 300)
+    masks = held_masks(poses, missing, 60)
+    patterns = {m.tobytes() for m in missing[missing.any(axis=1) & (missing.sum(axis=1) <= 11)]}
+    assert masks.shape == (60, 14) and all(m.tobytes() in patterns for m in masks)
+    np.testing.assert_array_equal(masks, held_masks(poses, missing, 60))
+    with_nan = np.where(missing[..., None], np.nan, poses)
+    np.testing.assert_array_equal(held_masks(with_nan, None, 60), masks)
+    complete = cmu_poses[:300]
+    np.testing.assert_array_equal(held_masks(complete, None, 60),
+                                  guard_masks(60, 14, 60 // GUARD_POSES_PER_PATTERN, 0))
 
 
 def replace_atoms(dictionary, k):
