@@ -283,8 +283,9 @@ def coding_way(result):
     -------
     str
         ``"file_atoms"`` when the poses were coded over the file's own
-        complete poses as the only atoms (the adaptation's path ``"file
-        atoms"``: :mod:`sparseedm.exemplars`), ``"local_ridge"`` when that
+        complete poses as the only atoms, or averaged over codes of them (the
+        adaptation's paths that start ``"file atoms"``:
+        :mod:`sparseedm.exemplars`), ``"local_ridge"`` when that
         was ``preset="fast"``'s path (its local ridge codes over them; another
         solver asked for with the preset is rated as the local ridge),
         ``"adapted"`` over a dictionary adapted to the file (path
@@ -302,7 +303,7 @@ def coding_way(result):
     adaptation = getattr(result, "adaptation", None)
     if adaptation is None:
         return "per_frame"
-    if adaptation.path == "file atoms":
+    if adaptation.path.startswith("file atoms"):
         return "local_ridge" if adaptation.settings.get("preset") == "fast" else "file_atoms"
     return "adapted" if adaptation.path == "adapted" else "per_frame"
 
