@@ -15,7 +15,8 @@ validation files the exemplars won on every file with at least
 below that it depended on the source. So :func:`choose_exemplars` decides:
 
 1. fewer than :data:`~sparseedm.adaptation.MIN_COMPLETE_POSES` usable
-   complete poses: too few to be a dictionary on their own; the default
+   complete poses (exact repeats, which make one atom, counted once here and
+   in 2.): too few to be a dictionary on their own; the default
    path as it was (no adaptation, the complete poses join the base's atoms);
 2. at least :data:`EXEMPLAR_MIN_POSES`: the exemplars, no adaptation and no
    self-training;
@@ -57,7 +58,7 @@ import numpy as np
 
 from ._recovery_kernel import compiled_solver, recover_members
 from .adaptation import (GUARD_POSES_PER_PATTERN, MIN_COMPLETE_POSES, AdaptationResult,
-                         guard_masks)
+                         duplicate_rows, guard_masks, pose_vectors)
 from .file_atoms import atoms_adaptation, complete_rows, file_dictionary, with_file_atoms
 from .normalize import rms_radius
 
@@ -220,11 +221,14 @@ def choose_exemplars(dictionary, poses, missing, *, n_jobs=1, random_state=0,
     poses = np.asarray(poses, dtype=float)
     complete = poses[complete_rows(poses, missing)]
     n = len(complete)
-    if n < MIN_COMPLETE_POSES:
+    # exact repeats make one atom (file_dictionary drops them): the rule counts atoms
+    distinct = n - int(duplicate_rows(pose_vectors(complete)).sum()) if n else 0
+    count = f"{n} complete poses" + (f" ({distinct} distinct)" if distinct < n else "")
+    if distinct < MIN_COMPLETE_POSES:
         return ExemplarCheck(None, n, seconds=time.perf_counter() - t0)
-    if n >= min_poses:
+    if distinct >= min_poses:
         found = file_dictionary(dictionary, complete)
-        reason = (f"{n} complete poses, at least {min_poses}: they are the dictionary's "
+        reason = (f"{count}, at least {min_poses}: they are the dictionary's "
                   "atoms, nothing learned")
         return ExemplarCheck(atoms_adaptation(found, len(poses), reason, t0,
                                               {"path": "file atoms"}), n,
@@ -236,7 +240,7 @@ def choose_exemplars(dictionary, poses, missing, *, n_jobs=1, random_state=0,
     e_atoms, e_base = _scores(dictionary, complete, held, random_state, kw)
     out = ExemplarCheck(None, n, e_atoms, e_base)
     if e_atoms <= (1 + margin) * e_base:
-        reason = (f"{n} complete poses: as the only atoms they recovered {want} held-back "
+        reason = (f"{count}: as the only atoms they recovered {want} held-back "
                   f"poses' hidden joints as well as the base dictionary with them or better "
                   f"({e_atoms:.2f} vs {e_base:.2f} % of pose size), nothing learned")
         out.result = atoms_adaptation(file_dictionary(dictionary, complete), len(poses),

@@ -234,7 +234,8 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         atoms (:class:`~sparseedm.solvers.local_ridge.LocalRidgeSolver` with
         :data:`sparseedm._recovery_kernel.FAST_RIDGE`), not the lasso, when
         `solver` is "fast" (another solver keeps its lasso; `alpha` is the
-        lasso's). The statuses and refusals are the same as with the
+        lasso's; non-negative codes, `positive` or the dictionary's
+        ``positive_code``, keep the lasso too: the local ridge's are signed). The statuses and refusals are the same as with the
         defaults; "recovered" there means the ridge's normal equations were
         solved (`gap`: their relative residual). It skips the defaults' fixed
         cost of adaptation and self-training (tens of seconds) and the
@@ -369,7 +370,8 @@ def _dispatch(poses, missing, tracks, frames, method, model, preset, opts):
                 self_training=opts["self_training"], file_atoms=True, preset=preset,
                 exemplars=opts["exemplars"], **dist)
         kernel["solver"] = preset_solver(kernel["solver"], preset,
-                                         adaptations[0] if adaptations else None)
+                                         adaptations[0] if adaptations else None,
+                                         kernel["positive"])
         res = recover_members(
             poses, missing, members, adaptations, **kernel, check_input=False,
             **(dist or dict(backend=opts["backend"], scheduler=opts["scheduler"])))

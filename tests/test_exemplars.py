@@ -98,6 +98,29 @@ def test_a_small_file_keeps_the_old_path(cmu_poses, small_dictionary):
     assert auto.dictionary.n_components == small_dictionary.n_components + n_atoms
 
 
+@pytest.mark.parametrize("copies", [EXEMPLAR_MIN_POSES // 100 + 1, 3])
+def test_exact_repeats_count_once(cmu_poses, small_dictionary, copies):
+    """Complete poses that repeat exactly (a still person with integer keypoints)
+    make one atom each: the rule counts distinct poses, so 100 poses repeated past
+    EXEMPLAR_MIN_POSES or MIN_COMPLETE_POSES are not 100 atoms taken unchecked or a
+    held-back check judged on twins of its own poses; the reason says so."""
+    complete = np.round(np.tile(cmu_poses[:100], (copies, 1, 1)))
+    assert len(complete) >= (EXEMPLAR_MIN_POSES if copies > 3 else MIN_COMPLETE_POSES)
+    occluded, mask = _file(cmu_poses[100:], 0, n_occluded=60)
+    poses = np.concatenate([complete, occluded])
+    missing = np.concatenate([np.zeros(complete.shape[:2], bool), mask])
+    check = choose_exemplars(small_dictionary, poses, missing)
+    assert check.dictionary is None and check.n_complete == len(complete)
+    assert not np.isfinite(check.err_atoms)          # too few distinct: not checked
+    res = recover(poses, missing, dictionary=small_dictionary, self_training=0)
+    assert res.adaptation.path != "file atoms"
+    rec = res.status == "recovered"
+    assert rec.sum() >= 50 and np.isfinite(res.poses[rec]).all()
+    assert np.isfinite(res.uncertainty[rec][missing[rec]]).all()
+    fast = recover(poses, missing, dictionary=small_dictionary, preset="fast")
+    assert f"{len(complete)} complete poses (100 distinct)" in fast.adaptation.reason
+
+
 def test_the_check_between_decides_on_the_hidden_joints(cmu_poses, small_dictionary):
     """Between MIN_COMPLETE_POSES and EXEMPLAR_MIN_POSES: the check scores both on
     held-back poses; the margin decides; recover() follows the check."""

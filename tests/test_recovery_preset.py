@@ -154,3 +154,39 @@ def test_fast_preset_with_few_complete_poses_keeps_the_lasso(cmu_poses, small_di
     default_solver = recover(poses, missing, dictionary=small_dictionary, preset="fast",
                              solver="fast")
     np.testing.assert_array_equal(res.poses, default_solver.poses)
+
+
+@pytest.mark.parametrize("how", ["argument", "dictionary"])
+def test_fast_preset_with_non_negative_codes_codes_by_the_lasso(file_poses, small_dictionary,
+                                                                tmp_path, how):
+    """The local ridge's codes are signed: with positive=True, or a dictionary whose
+    positive_code is True (API and CLI), the preset codes over the file's own poses
+    by the lasso with non-negative codes instead of raising from the ridge."""
+    from dataclasses import replace
+
+    from sparseedm.solvers.fast import FastSolver
+
+    poses, missing = file_poses
+    d = small_dictionary if how == "argument" else replace(small_dictionary,
+                                                           positive_code=True)
+    kw = dict(positive=True) if how == "argument" else {}
+    res = recover(poses, missing, dictionary=d, preset="fast", **kw)
+    assert res.dictionary.n_components == res.adaptation.file_atoms == 300
+    lasso = recover(poses, missing, dictionary=d, preset="fast", positive=True,
+                    solver=FastSolver(working_set=True))
+    np.testing.assert_array_equal(res.status, lasso.status)
+    np.testing.assert_allclose(res.poses, lasso.poses, rtol=0, atol=1e-9)
+    rec = res.status == "recovered"
+    assert rec.sum() > 20 and np.isfinite(res.poses[rec]).all()
+    assert np.isfinite(res.uncertainty[rec][missing[rec]]).all()
+    if how == "dictionary":
+        ok = np.isfinite(poses).all(axis=(1, 2))
+        inp, out = tmp_path / "in.csv", tmp_path / "out.csv"
+        write_keypoints(inp, np.where(missing[..., None], np.nan, poses)[ok])
+        code = main(["recover", str(inp), "-o", str(out), "--dictionary",
+                     str(d.save(tmp_path / "positive.npz")), "--preset", "fast", "-q"])
+        assert code == 1                               # the one row with 2 joints left
+        api = recover(np.where(missing[..., None], np.nan, poses)[ok], dictionary=d,
+                      preset="fast")
+        np.testing.assert_allclose(read_keypoints(out).poses[api.ok], api.poses[api.ok],
+                                   atol=1e-6)
