@@ -164,7 +164,8 @@ def hidden_joint_error(dictionary, poses, mask, *, alpha=None, n_jobs=1, backend
                               [], alpha=alpha, n_jobs=n_jobs, solver=compiled_solver(),
                               backend=backend, scheduler=scheduler)
         _, size = rms_radius(poses, np.zeros(mask.shape, bool))
-        err = np.linalg.norm(res.poses - poses, axis=-1) / size[:, None] * 100
+        # scaled before the norm, whose squares overflow from about 1e154 pixels
+        err = np.linalg.norm((res.poses - poses) / size[:, None, None], axis=-1) * 100
         per_pose = np.nanmean(np.where(mask, err, np.nan), axis=1)
     per_pose = per_pose[res.ok & np.isfinite(per_pose)]
     return float(per_pose.mean()) if len(per_pose) else float("nan")

@@ -169,6 +169,20 @@ def test_hidden_joint_error_is_zero_for_a_pose_the_atoms_hold(cmu_poses, small_d
     assert seen < 1.0 < unseen
 
 
+@pytest.mark.parametrize("scale", [1e-300, 1e200])
+def test_the_check_does_not_depend_on_the_pixel_scale(cmu_poses, small_dictionary, scale):
+    """The check's errors are in % of each pose's size: the same at any pixel scale
+    recover() accepts (at 1e200 the distances' squares overflow unless scaled first),
+    so the path chosen and the poses it fills scale with the input."""
+    poses, missing = _file(cmu_poses, 400)
+    one = choose_exemplars(small_dictionary, poses, missing)
+    scaled = choose_exemplars(small_dictionary, poses * scale, missing)
+    assert np.isfinite(one.err_atoms) and np.isfinite(one.err_base)
+    np.testing.assert_allclose([scaled.err_atoms, scaled.err_base],
+                               [one.err_atoms, one.err_base], rtol=1e-6)
+    assert (scaled.dictionary is None) == (one.dictionary is None)
+
+
 def test_bad_exemplars_argument_is_refused(cmu_poses):
     with pytest.raises(ParameterError, match="exemplars"):
         recover(cmu_poses[:2], exemplars="yes")
