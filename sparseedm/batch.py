@@ -431,7 +431,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
         preset=preset, outliers=outliers, exemplars=exemplars), _PARAMS)
     check_options_apply("recover_file", method=method, model=model, backend=backend,
                         scheduler=scheduler, adapt=adapt, ensemble=ensemble, preset=preset,
-                        self_training=self_training)
+                        self_training=self_training, exemplars=exemplars)
     if method == "fconv" and ensemble > 1:
         raise SparseEDMError("ensemble averages adapted dictionaries: it needs "
                              "method='sparse'")

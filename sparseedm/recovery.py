@@ -58,7 +58,7 @@ _PARAMS = dict(RECOVER_PARAMS, representation=[Options(REPRESENTATIONS), None],
 
 
 def check_options_apply(caller, *, method, model, backend, scheduler, adapt, ensemble,
-                        preset="default", self_training=None):
+                        preset="default", self_training=None, exemplars="auto"):
     """Refuse options that would be silently ignored (a ParameterError naming them).
 
     Shared by :func:`recover` and :func:`sparseedm.batch.recover_file` (the
@@ -85,6 +85,8 @@ def check_options_apply(caller, *, method, model, backend, scheduler, adapt, ens
         The preset asked for.
     self_training : int or None, default None
         The self-training rounds asked for (None: the default).
+    exemplars : {"auto", False}, default "auto"
+        The exemplar rule asked for.
 
     Raises
     ------
@@ -92,7 +94,8 @@ def check_options_apply(caller, *, method, model, backend, scheduler, adapt, ens
         A `model` with ``method="sparse"``, a `scheduler` without
         ``backend="dask"``, ``ensemble > 1`` without adaptation, or
         ``preset="fast"`` (which learns nothing) with ``method="fconv"``,
-        ``ensemble > 1`` or self-training rounds.
+        ``ensemble > 1``, self-training rounds or ``exemplars=False`` (its
+        atoms are the file's own poses whatever the rule says).
 
     Examples
     --------
@@ -118,9 +121,11 @@ def check_options_apply(caller, *, method, model, backend, scheduler, adapt, ens
         asked = [name for name, used in (("method='fconv'", method == "fconv"),
                                          (f"ensemble={ensemble}", ensemble > 1),
                                          (f"self_training={self_training}",
-                                          bool(self_training))) if used]
+                                          bool(self_training)),
+                                         ("exemplars=False", exemplars is False)) if used]
         if asked:
-            raise ParameterError(f"{caller}: preset='fast' learns no dictionary, so "
+            raise ParameterError(f"{caller}: preset='fast' learns no dictionary (its atoms "
+                                 "are the file's own poses, when it has enough), so "
                                  f"{' and '.join(asked)} would be ignored: drop "
                                  f"{'them' if len(asked) > 1 else 'it'} or the preset")
 
@@ -241,7 +246,8 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         cost of adaptation and self-training (tens of seconds) and the
         lasso (``docs/explanation/settings.md``, "Presets", and the accuracy-speed
         frontier of the results pages). Per pose only: with `frames` it needs
-        ``temporal=False``; `ensemble` and `self_training` are refused with it.
+        ``temporal=False``; `ensemble`, `self_training` and ``exemplars=False``
+        are refused with it.
     exemplars : {"auto", False}, default "auto"
         (with ``adapt="auto"``, per pose; the video path, with `frames`, does
         not use it) ``"auto"``: the file's own complete poses are the only
@@ -312,7 +318,7 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         exemplars=exemplars), _PARAMS)
     check_options_apply("recover", method=method, model=model, backend=backend,
                         scheduler=scheduler, adapt=adapt, ensemble=ensemble, preset=preset,
-                        self_training=self_training)
+                        self_training=self_training, exemplars=exemplars)
     if method != "fconv":  # an FConv model says its own (recover_fconv)
         representation = representation_for(representation)
     if frames is not None and temporal:

@@ -78,11 +78,25 @@ def test_fast_alpha_given_wins(file_poses, small_dictionary):
 
 
 @pytest.mark.parametrize("kw", [dict(ensemble=2), dict(self_training=2),
-                                dict(frames=np.arange(334)), dict(method="fconv")])
+                                dict(frames=np.arange(334)), dict(method="fconv"),
+                                dict(exemplars=False)])
 def test_fast_refuses_what_it_would_ignore(file_poses, small_dictionary, kw):
     poses, missing = file_poses
     with pytest.raises(ParameterError, match="preset"):
         recover(poses, missing, dictionary=small_dictionary, preset="fast", **kw)
+
+
+def test_cli_fast_refuses_no_exemplars(tmp_path, file_poses, small_dictionary_path, capsys):
+    """--preset fast always codes over the file's own poses: --no-exemplars with it
+    is refused before any work, naming both."""
+    poses, missing = file_poses
+    inp, out = tmp_path / "in.csv", tmp_path / "out.csv"
+    write_keypoints(inp, np.where(missing[..., None], np.nan, poses)[:-2])
+    code = main(["recover", str(inp), "-o", str(out), "--dictionary",
+                 str(small_dictionary_path), "--preset", "fast", "--no-exemplars", "-q"])
+    err = capsys.readouterr().err
+    assert code != 0 and not out.exists()
+    assert "preset='fast'" in err and "exemplars=False" in err
 
 
 def test_unknown_preset_is_refused(file_poses):
