@@ -34,7 +34,7 @@ from ._parallel import one_client
 from ._recovery_base import STATUSES, RecoveryResult, screen_poses, validate_poses
 from ._recovery_kernel import (RECOVER_PARAMS, preset_solver, recover_members, recover_sparse,
                                 solve_chunk)
-from ._validation import Options, check_frames, validate_params
+from ._validation import Options, check_adapt, check_frames, validate_params
 from .normalize import REPRESENTATIONS, representation_for
 from .dictionary import Dictionary, check_gram_memory, load_dictionary
 from .ensemble import adapt_members
@@ -335,6 +335,8 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         if not isinstance(dictionary, Dictionary):
             opts["dictionary"] = dictionary = load_dictionary(dictionary)
         poses, missing, _ = validate_poses(poses, missing, dictionary.n_joints)
+    if method == "sparse":
+        opts["adapt"] = check_adapt(adapt, "recover", dictionary.n_joints)
     if not check_outliers:
         return _dispatch(poses, missing, tracks, frames if temporal else None, method, model,
                          preset, opts)

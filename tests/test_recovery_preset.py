@@ -9,7 +9,7 @@ from sparseedm._recovery_base import STATUSES
 from sparseedm._recovery_kernel import FAST_RIDGE
 from sparseedm.adaptation import MIN_COMPLETE_POSES, pose_vectors
 from sparseedm.cli import main
-from sparseedm.exceptions import ParameterError
+from sparseedm.exceptions import ParameterError, PoseError
 from sparseedm.file_atoms import file_dictionary, resolve_fast
 from sparseedm.keypoints import read_keypoints, write_keypoints
 
@@ -204,3 +204,37 @@ def test_fast_preset_with_non_negative_codes_codes_by_the_lasso(file_poses, smal
                       preset="fast")
         np.testing.assert_allclose(read_keypoints(out).poses[api.ok], api.poses[api.ok],
                                    atol=1e-6)
+
+
+@pytest.mark.parametrize("preset", ["default", "fast"])
+@pytest.mark.parametrize("adapt, error, words", [
+    (True, ParameterError, "adapt must be 'auto', False or an array"),
+    (0, ParameterError, "adapt must be 'auto', False or an array"),
+    ("false", ParameterError, "adapt must be 'auto', False or an array"),
+    (np.ones((300, 14, 2), bool), ParameterError, "adapt must hold real numbers"),
+    (np.ones((300, 14, 2), complex), ParameterError, "adapt must hold real numbers"),
+    (np.full((300, 14, 2), "1e400"), ParameterError, "adapt must hold real numbers"),
+    (np.zeros((300, 13, 2)), PoseError, "adapt poses have 13 joints")])
+def test_bad_adapt_is_refused_by_every_preset(file_poses, small_dictionary, preset, adapt,
+                                              error, words):
+    """adapt is checked once at recover()'s entrance: the fast preset no longer crashes
+    on True or a number, nor reads 'false' as 'auto' or booleans, complex numbers or
+    strings as poses."""
+    poses, missing = file_poses
+    with pytest.raises(error, match=words):
+        recover(poses, missing, dictionary=small_dictionary, preset=preset, adapt=adapt)
+
+
+def test_adapt_poses_with_nan_rows_are_used_without_them(file_poses, small_dictionary):
+    """An adapt array's rows with NaN or inf are not complete: the preset's atoms are
+    the other rows, as when they are left out."""
+    poses, missing = file_poses
+    other = poses[:300] + 1.0
+    holed = other.copy()
+    holed[:20, 3] = np.nan
+    holed[20:25, 5, 0] = np.inf
+    res = recover(poses, missing, dictionary=small_dictionary, preset="fast", adapt=holed)
+    ref = recover(poses, missing, dictionary=small_dictionary, preset="fast",
+                  adapt=other[25:])
+    assert res.adaptation.file_atoms == ref.adaptation.file_atoms == 275
+    np.testing.assert_array_equal(res.poses, ref.poses)
