@@ -225,6 +225,21 @@ def test_bad_adapt_is_refused_by_every_preset(file_poses, small_dictionary, pres
         recover(poses, missing, dictionary=small_dictionary, preset=preset, adapt=adapt)
 
 
+@pytest.mark.parametrize("preset", ["default", "fast"])
+@pytest.mark.parametrize("adapt", [True, 1, np.ones((300, 14, 2), bool)])
+def test_recover_file_refuses_bad_adapt_before_writing(tmp_path, file_poses, small_dictionary,
+                                                       preset, adapt):
+    """recover_file's adapt (not a path) is checked as recover()'s, before any output."""
+    from sparseedm.batch import recover_file
+
+    poses, missing = file_poses
+    inp, out = tmp_path / "in.csv", tmp_path / "out.csv"
+    write_keypoints(inp, np.where(missing[..., None], np.nan, poses)[:-2])
+    with pytest.raises(ParameterError, match="recover_file: adapt must"):
+        recover_file(inp, out, dictionary=small_dictionary, preset=preset, adapt=adapt)
+    assert not out.exists()
+
+
 def test_adapt_poses_with_nan_rows_are_used_without_them(file_poses, small_dictionary):
     """An adapt array's rows with NaN or inf are not complete: the preset's atoms are
     the other rows, as when they are left out."""
