@@ -161,7 +161,7 @@ def compiled_solver(solver="fast", adaptations=None):
     return solver
 
 
-def preset_solver(solver="fast", preset="default", adaptation=None):
+def preset_solver(solver="fast", preset="default", adaptation=None, positive=None):
     """The backend `preset` codes with: ``"fast"`` codes each pose by a local ridge
     over its most correlated atoms (:class:`~sparseedm.solvers.local_ridge.LocalRidgeSolver`
     with :data:`FAST_RIDGE`: not the lasso) when the file's own complete poses are
@@ -170,7 +170,10 @@ def preset_solver(solver="fast", preset="default", adaptation=None):
     join the base dictionary's learned atoms, where the local ridge is worse
     than the lasso (MPII validation photos, 50-240 complete poses: 9.7-10.8 %
     of the body's size against 7.9-8.9), and `solver` codes as given, as does
-    any other preset or solver.
+    any other preset or solver. The local ridge's codes are signed: when the
+    codes must be non-negative (`positive`, or the dictionary's
+    ``positive_code``) the preset codes by the lasso on working sets, as the
+    defaults do over the file's own poses.
 
     Parameters
     ----------
@@ -179,6 +182,9 @@ def preset_solver(solver="fast", preset="default", adaptation=None):
     preset : {"default", "fast"}, default "default"
     adaptation : AdaptationResult, optional
         What the preset did with the file's poses; None: nothing.
+    positive : bool, optional
+        Non-negative codes asked for; None: the adapted dictionary's
+        ``positive_code``.
 
     With the default preset and the file's own poses as the only atoms (the
     default path's exemplar rule, :mod:`sparseedm.exemplars`), the lasso runs
@@ -205,15 +211,20 @@ def preset_solver(solver="fast", preset="default", adaptation=None):
     'fast'
     >>> preset_solver("fast", "default", own).working_set
     True
+    >>> preset_solver("fast", "fast", own, positive=True).working_set  # signed ridge: the lasso
+    True
     """
     own_atoms = (adaptation is not None and adaptation.file_atoms > 0
                  and adaptation.file_atoms == adaptation.dictionary.n_components)
     if not (own_atoms and isinstance(solver, str) and solver == "fast"):
         return solver
-    if preset == "fast":
+    if positive is None:
+        positive = adaptation.dictionary.positive_code
+    if preset == "fast" and not positive:
         return LocalRidgeSolver(**FAST_RIDGE)
-    # the defaults over the file's own poses: the same lasso on working sets of
-    # atoms, checked on all of them (the same answers, fewer atoms touched)
+    # the defaults over the file's own poses (or the preset's with non-negative
+    # codes): the same lasso on working sets of atoms, checked on all of them
+    # (the same answers, fewer atoms touched)
     return FastSolver(working_set=True, numpy_max=0)
 
 

@@ -49,7 +49,7 @@ __all__ = ["Interval", "Options", "validate_params", "check_poses", "check_pose_
            "check_mask", "ALPHA", "ALPHA_MIN", "ALPHA_MAX", "ENSEMBLE", "MAX_ENSEMBLE", "N_JOBS",
            "CHUNK_SIZE", "PATH", "BOOLEAN", "THRESHOLD", "SCORE", "usable_jobs",
            "unmask", "environment_problem", "MAX_FRAME", "NUMBER_TEXT", "frame_value", "frame_array",
-           "frame_numbers", "check_frames"]
+           "frame_numbers", "check_frames", "check_adapt"]
 
 
 class Interval:
@@ -229,6 +229,36 @@ def check_poses(poses, caller, name="poses"):
                              f"(dtype {arr.dtype})")
     with np.errstate(over="ignore"):
         return arr.astype(np.float64, copy=False)
+
+
+def check_adapt(adapt, caller, n_joints):
+    """recover()'s `adapt` checked once: ``"auto"``, False or None as given, or the
+    poses to adapt on as a float array (n, `n_joints`, 2) (NaN rows are fine: only
+    complete rows are used).
+
+    Raises :class:`~sparseedm.exceptions.ParameterError` for another string, a
+    boolean True, a number or an array of other than real numbers, and
+    :class:`~sparseedm.exceptions.PoseError` for another shape.
+
+    Examples
+    --------
+    >>> check_adapt("auto", "f", 14), check_adapt(False, "f", 14)
+    ('auto', False)
+    >>> check_adapt(np.zeros((5, 14, 2), int), "f", 14).dtype
+    dtype('float64')
+    >>> check_adapt(True, "f", 14)
+    Traceback (most recent call last):
+    ...
+    sparseedm.exceptions.ParameterError: f: adapt must be 'auto', False or an array of poses (n, 14, 2); got True (bool)
+    """
+    if adapt is None or adapt is False or (isinstance(adapt, str) and adapt == "auto"):
+        return adapt
+    if isinstance(adapt, (str, bytes, bool, np.bool_)) or np.isscalar(adapt):
+        raise ParameterError(f"{caller}: adapt must be 'auto', False or an array of poses "
+                             f"(n, {n_joints}, 2); got {_show(adapt)}")
+    poses = check_poses(adapt, caller, "adapt")
+    check_pose_shape(poses, "adapt poses", n_joints=n_joints, given=adapt)
+    return poses
 
 
 def unmask(poses, missing, caller):

@@ -96,7 +96,7 @@ from ._atomic import atomic_path, check_folder, check_paths
 from ._extras import require as require_extra
 from ._parallel import one_client
 from ._validation import (ALPHA, BOOLEAN, CHUNK_SIZE, ENSEMBLE, N_JOBS, PATH, SCORE,
-                          Interval, Options, validate_params)
+                          Interval, Options, check_adapt, validate_params)
 from .adaptation import MIN_COMPLETE_POSES, sample_stream
 from .dictionary import Dictionary, dictionary_path, check_gram_memory, load_dictionary
 from ._safeio import resolved
@@ -436,7 +436,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
         preset=preset, outliers=outliers, exemplars=exemplars, mirror=mirror), _PARAMS)
     check_options_apply("recover_file", method=method, model=model, backend=backend,
                         scheduler=scheduler, adapt=adapt, ensemble=ensemble, preset=preset,
-                        self_training=self_training)
+                        self_training=self_training, exemplars=exemplars)
     if method == "fconv" and ensemble > 1:
         raise SparseEDMError("ensemble averages adapted dictionaries: it needs "
                              "method='sparse'")
@@ -451,6 +451,8 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
     if not isinstance(dictionary, Dictionary):
         dictionary = load_dictionary(dictionary)
     check_gram_memory(dictionary)
+    if method == "sparse" and not isinstance(adapt, (str, os.PathLike)):  # a path is read
+        adapt = check_adapt(adapt, "recover_file", dictionary.n_joints)
     requested, solver = solver, _one_solver(solver)
     if method == "fconv":  # checked before anything is read or written
         model = load_model(model, representation=representation, kind="recover")

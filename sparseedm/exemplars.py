@@ -15,7 +15,8 @@ validation files the exemplars won on every file with at least
 below that it depended on the source. So :func:`choose_exemplars` decides:
 
 1. fewer than :data:`~sparseedm.adaptation.MIN_COMPLETE_POSES` usable
-   complete poses: too few to be a dictionary on their own; the default
+   complete poses (exact repeats, which make one atom, counted once here and
+   in 2.): too few to be a dictionary on their own; the default
    path as it was (no adaptation, the complete poses join the base's atoms);
 2. at least :data:`EXEMPLAR_MIN_POSES`: the exemplars, no adaptation and no
    self-training;
@@ -67,7 +68,7 @@ import numpy as np
 from ._recovery_base import combine
 from ._recovery_kernel import compiled_solver, recover_members
 from .adaptation import (AVERAGED_PATH, GUARD_POSES_PER_PATTERN, MIN_COMPLETE_POSES,
-                         AdaptationResult, guard_masks)
+                         AdaptationResult, duplicate_rows, guard_masks, pose_vectors)
 from .file_atoms import (atoms_adaptation, complete_rows, file_dictionary, mirror_images,
                          with_file_atoms)
 from .normalize import rms_radius
@@ -206,7 +207,8 @@ def _error(res, poses, mask):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         _, size = rms_radius(poses, np.zeros(mask.shape, bool))
-        err = np.linalg.norm(res.poses - poses, axis=-1) / size[:, None] * 100
+        # scaled before the norm, whose squares overflow from about 1e154 pixels
+        err = np.linalg.norm((res.poses - poses) / size[:, None, None], axis=-1) * 100
         per_pose = np.nanmean(np.where(mask, err, np.nan), axis=1)
     per_pose = per_pose[res.ok & np.isfinite(per_pose)]
     return float(per_pose.mean()) if len(per_pose) else float("nan")
@@ -335,11 +337,14 @@ def choose_exemplars(dictionary, poses, missing, *, n_jobs=1, random_state=0,
     poses = np.asarray(poses, dtype=float)
     complete = poses[complete_rows(poses, missing)]
     n = len(complete)
-    if n < MIN_COMPLETE_POSES:
+    # exact repeats make one atom (file_dictionary drops them): the rule counts atoms
+    distinct = n - int(duplicate_rows(pose_vectors(complete)).sum()) if n else 0
+    count = f"{n} complete poses" + (f" ({distinct} distinct)" if distinct < n else "")
+    if distinct < MIN_COMPLETE_POSES:
         return ExemplarCheck(None, n, seconds=time.perf_counter() - t0)
-    if n >= min_poses:
+    if distinct >= min_poses:
         found = file_dictionary(dictionary, complete)
-        reason = (f"{n} complete poses, at least {min_poses}: they are the dictionary's "
+        reason = (f"{count}, at least {min_poses}: they are the dictionary's "
                   "atoms, nothing learned")
         return ExemplarCheck(atoms_adaptation(found, len(poses), reason, t0,
                                               {"path": "file atoms"}), n,
@@ -356,7 +361,7 @@ def choose_exemplars(dictionary, poses, missing, *, n_jobs=1, random_state=0,
         what = ("as atoms, alone and with their mirror images, averaged with the base "
                 "dictionary with them as extra atoms, they " if both else
                 "as the only atoms they ")
-        reason = (f"{n} complete poses: {what}recovered {want} held-back poses' hidden "
+        reason = (f"{count}: {what}recovered {want} held-back poses' hidden "
                   f"joints as well as the base dictionary with them or better "
                   f"({own:.2f} vs {out.err_base:.2f} % of pose size), nothing learned")
         out.result = atoms_adaptation(

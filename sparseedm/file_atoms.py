@@ -265,9 +265,11 @@ def resolve_fast(dictionary, poses, missing, adapt, *, min_poses=MIN_COMPLETE_PO
         reason = (f"preset 'fast': {found.n_atoms} complete poses are the dictionary's atoms "
                   "(nothing learned)")
     else:
-        found = with_file_atoms(dictionary, *source)
-        reason = (f"preset 'fast': {found.n_complete} complete poses, fewer than the "
-                  f"{min_poses} a dictionary of their own needs: the base dictionary"
+        distinct, found = found.n_atoms, with_file_atoms(dictionary, *source)
+        count = (f"{found.n_complete} complete poses"
+                 + (f" ({distinct} distinct)" if distinct < found.n_complete else ""))
+        reason = (f"preset 'fast': {count}, fewer than the {min_poses} a dictionary of "
+                  "their own needs: the base dictionary"
                   + (" with them as extra atoms" if found.n_atoms else ""))
     res = atoms_adaptation(found, len(source[0]), reason, t0, {"preset": "fast"})
     return found.dictionary, res

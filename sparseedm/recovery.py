@@ -34,7 +34,7 @@ from ._parallel import one_client
 from ._recovery_base import STATUSES, RecoveryResult, screen_poses, validate_poses
 from ._recovery_kernel import (RECOVER_PARAMS, preset_solver, recover_members, recover_sparse,
                                 solve_chunk)
-from ._validation import Options, check_frames, validate_params
+from ._validation import Options, check_adapt, check_frames, validate_params
 from .normalize import REPRESENTATIONS, representation_for
 from .dictionary import Dictionary, check_gram_memory, load_dictionary
 from .ensemble import adapt_members
@@ -58,7 +58,7 @@ _PARAMS = dict(RECOVER_PARAMS, representation=[Options(REPRESENTATIONS), None],
 
 
 def check_options_apply(caller, *, method, model, backend, scheduler, adapt, ensemble,
-                        preset="default", self_training=None):
+                        preset="default", self_training=None, exemplars="auto"):
     """Refuse options that would be silently ignored (a ParameterError naming them).
 
     Shared by :func:`recover` and :func:`sparseedm.batch.recover_file` (the
@@ -85,6 +85,8 @@ def check_options_apply(caller, *, method, model, backend, scheduler, adapt, ens
         The preset asked for.
     self_training : int or None, default None
         The self-training rounds asked for (None: the default).
+    exemplars : {"auto", False}, default "auto"
+        The exemplar rule asked for.
 
     Raises
     ------
@@ -92,7 +94,8 @@ def check_options_apply(caller, *, method, model, backend, scheduler, adapt, ens
         A `model` with ``method="sparse"``, a `scheduler` without
         ``backend="dask"``, ``ensemble > 1`` without adaptation, or
         ``preset="fast"`` (which learns nothing) with ``method="fconv"``,
-        ``ensemble > 1`` or self-training rounds.
+        ``ensemble > 1``, self-training rounds or ``exemplars=False`` (its
+        atoms are the file's own poses whatever the rule says).
 
     Examples
     --------
@@ -118,9 +121,11 @@ def check_options_apply(caller, *, method, model, backend, scheduler, adapt, ens
         asked = [name for name, used in (("method='fconv'", method == "fconv"),
                                          (f"ensemble={ensemble}", ensemble > 1),
                                          (f"self_training={self_training}",
-                                          bool(self_training))) if used]
+                                          bool(self_training)),
+                                         ("exemplars=False", exemplars is False)) if used]
         if asked:
-            raise ParameterError(f"{caller}: preset='fast' learns no dictionary, so "
+            raise ParameterError(f"{caller}: preset='fast' learns no dictionary (its atoms "
+                                 "are the file's own poses, when it has enough), so "
                                  f"{' and '.join(asked)} would be ignored: drop "
                                  f"{'them' if len(asked) > 1 else 'it'} or the preset")
 
@@ -234,13 +239,15 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         atoms (:class:`~sparseedm.solvers.local_ridge.LocalRidgeSolver` with
         :data:`sparseedm._recovery_kernel.FAST_RIDGE`), not the lasso, when
         `solver` is "fast" (another solver keeps its lasso; `alpha` is the
-        lasso's). The statuses and refusals are the same as with the
+        lasso's; non-negative codes, `positive` or the dictionary's
+        ``positive_code``, keep the lasso too: the local ridge's are signed). The statuses and refusals are the same as with the
         defaults; "recovered" there means the ridge's normal equations were
         solved (`gap`: their relative residual). It skips the defaults' fixed
         cost of adaptation and self-training (tens of seconds) and the
         lasso (``docs/explanation/settings.md``, "Presets", and the accuracy-speed
         frontier of the results pages). Per pose only: with `frames` it needs
-        ``temporal=False``; `ensemble` and `self_training` are refused with it.
+        ``temporal=False``; `ensemble`, `self_training` and ``exemplars=False``
+        are refused with it.
     exemplars : {"auto", False}, default "auto"
         (with ``adapt="auto"``, per pose; the video path, with `frames`, does
         not use it) ``"auto"``: the file's own complete poses are the only
@@ -323,7 +330,7 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         exemplars=exemplars, mirror=mirror), _PARAMS)
     check_options_apply("recover", method=method, model=model, backend=backend,
                         scheduler=scheduler, adapt=adapt, ensemble=ensemble, preset=preset,
-                        self_training=self_training)
+                        self_training=self_training, exemplars=exemplars)
     if method != "fconv":  # an FConv model says its own (recover_fconv)
         representation = representation_for(representation)
     if mirror and (method == "fconv" or (frames is not None and temporal)):
@@ -345,6 +352,8 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         if not isinstance(dictionary, Dictionary):
             opts["dictionary"] = dictionary = load_dictionary(dictionary)
         poses, missing, _ = validate_poses(poses, missing, dictionary.n_joints)
+    if method == "sparse":
+        opts["adapt"] = check_adapt(adapt, "recover", dictionary.n_joints)
     if not check_outliers:
         return _dispatch(poses, missing, tracks, frames if temporal else None, method, model,
                          preset, opts)
@@ -386,7 +395,8 @@ def _dispatch(poses, missing, tracks, frames, method, model, preset, opts):
                 self_training=opts["self_training"], file_atoms=True, preset=preset,
                 exemplars=opts["exemplars"], **dist)
         kernel["solver"] = preset_solver(kernel["solver"], preset,
-                                         adaptations[0] if adaptations else None)
+                                         adaptations[0] if adaptations else None,
+                                         kernel["positive"])
         if opts["mirror"]:
             members = [*members, *(m.mirrored() for m in members)]
         res = recover_members(

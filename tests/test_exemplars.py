@@ -99,6 +99,29 @@ def test_a_small_file_keeps_the_old_path(cmu_poses, small_dictionary):
     assert auto.dictionary.n_components == small_dictionary.n_components + n_atoms
 
 
+@pytest.mark.parametrize("copies", [EXEMPLAR_MIN_POSES // 100 + 1, 3])
+def test_exact_repeats_count_once(cmu_poses, small_dictionary, copies):
+    """Complete poses that repeat exactly (a still person with integer keypoints)
+    make one atom each: the rule counts distinct poses, so 100 poses repeated past
+    EXEMPLAR_MIN_POSES or MIN_COMPLETE_POSES are not 100 atoms taken unchecked or a
+    held-back check judged on twins of its own poses; the reason says so."""
+    complete = np.round(np.tile(cmu_poses[:100], (copies, 1, 1)))
+    assert len(complete) >= (EXEMPLAR_MIN_POSES if copies > 3 else MIN_COMPLETE_POSES)
+    occluded, mask = _file(cmu_poses[100:], 0, n_occluded=60)
+    poses = np.concatenate([complete, occluded])
+    missing = np.concatenate([np.zeros(complete.shape[:2], bool), mask])
+    check = choose_exemplars(small_dictionary, poses, missing)
+    assert check.dictionary is None and check.n_complete == len(complete)
+    assert not np.isfinite(check.err_atoms)          # too few distinct: not checked
+    res = recover(poses, missing, dictionary=small_dictionary, self_training=0)
+    assert res.adaptation.path != "file atoms"
+    rec = res.status == "recovered"
+    assert rec.sum() >= 50 and np.isfinite(res.poses[rec]).all()
+    assert np.isfinite(res.uncertainty[rec][missing[rec]]).all()
+    fast = recover(poses, missing, dictionary=small_dictionary, preset="fast")
+    assert f"{len(complete)} complete poses (100 distinct)" in fast.adaptation.reason
+
+
 def test_the_check_between_decides_on_the_hidden_joints(cmu_poses, small_dictionary):
     """Between MIN_COMPLETE_POSES and EXEMPLAR_MIN_POSES: the check scores both on
     held-back poses; the margin decides; recover() follows the check."""
@@ -196,6 +219,20 @@ def test_hidden_joint_error_is_zero_for_a_pose_the_atoms_hold(cmu_poses, small_d
     seen = hidden_joint_error(atoms, cmu_poses[:20], mask)
     unseen = hidden_joint_error(atoms, cmu_poses[300:320], mask)
     assert seen < 1.0 < unseen
+
+
+@pytest.mark.parametrize("scale", [1e-300, 1e200])
+def test_the_check_does_not_depend_on_the_pixel_scale(cmu_poses, small_dictionary, scale):
+    """The check's errors are in % of each pose's size: the same at any pixel scale
+    recover() accepts (at 1e200 the distances' squares overflow unless scaled first),
+    so the path chosen and the poses it fills scale with the input."""
+    poses, missing = _file(cmu_poses, 400)
+    one = choose_exemplars(small_dictionary, poses, missing)
+    scaled = choose_exemplars(small_dictionary, poses * scale, missing)
+    assert np.isfinite(one.err_atoms) and np.isfinite(one.err_base)
+    np.testing.assert_allclose([scaled.err_atoms, scaled.err_base],
+                               [one.err_atoms, one.err_base], rtol=1e-6)
+    assert (scaled.dictionary is None) == (one.dictionary is None)
 
 
 def test_bad_exemplars_argument_is_refused(cmu_poses):

@@ -9,7 +9,7 @@ from sparseedm._recovery_base import STATUSES
 from sparseedm._recovery_kernel import FAST_RIDGE
 from sparseedm.adaptation import MIN_COMPLETE_POSES, pose_vectors
 from sparseedm.cli import main
-from sparseedm.exceptions import ParameterError
+from sparseedm.exceptions import ParameterError, PoseError
 from sparseedm.file_atoms import file_dictionary, resolve_fast
 from sparseedm.keypoints import read_keypoints, write_keypoints
 
@@ -78,11 +78,25 @@ def test_fast_alpha_given_wins(file_poses, small_dictionary):
 
 
 @pytest.mark.parametrize("kw", [dict(ensemble=2), dict(self_training=2),
-                                dict(frames=np.arange(334)), dict(method="fconv")])
+                                dict(frames=np.arange(334)), dict(method="fconv"),
+                                dict(exemplars=False)])
 def test_fast_refuses_what_it_would_ignore(file_poses, small_dictionary, kw):
     poses, missing = file_poses
     with pytest.raises(ParameterError, match="preset"):
         recover(poses, missing, dictionary=small_dictionary, preset="fast", **kw)
+
+
+def test_cli_fast_refuses_no_exemplars(tmp_path, file_poses, small_dictionary_path, capsys):
+    """--preset fast always codes over the file's own poses: --no-exemplars with it
+    is refused before any work, naming both."""
+    poses, missing = file_poses
+    inp, out = tmp_path / "in.csv", tmp_path / "out.csv"
+    write_keypoints(inp, np.where(missing[..., None], np.nan, poses)[:-2])
+    code = main(["recover", str(inp), "-o", str(out), "--dictionary",
+                 str(small_dictionary_path), "--preset", "fast", "--no-exemplars", "-q"])
+    err = capsys.readouterr().err
+    assert code != 0 and not out.exists()
+    assert "preset='fast'" in err and "exemplars=False" in err
 
 
 def test_unknown_preset_is_refused(file_poses):
@@ -179,3 +193,88 @@ def test_fast_preset_with_few_complete_poses_keeps_the_lasso(cmu_poses, small_di
     default_solver = recover(poses, missing, dictionary=small_dictionary, preset="fast",
                              solver="fast")
     np.testing.assert_array_equal(res.poses, default_solver.poses)
+
+
+@pytest.mark.parametrize("how", ["argument", "dictionary"])
+def test_fast_preset_with_non_negative_codes_codes_by_the_lasso(file_poses, small_dictionary,
+                                                                tmp_path, how):
+    """The local ridge's codes are signed: with positive=True, or a dictionary whose
+    positive_code is True (API and CLI), the preset codes over the file's own poses
+    by the lasso with non-negative codes instead of raising from the ridge."""
+    from dataclasses import replace
+
+    from sparseedm.solvers.fast import FastSolver
+
+    poses, missing = file_poses
+    d = small_dictionary if how == "argument" else replace(small_dictionary,
+                                                           positive_code=True)
+    kw = dict(positive=True) if how == "argument" else {}
+    res = recover(poses, missing, dictionary=d, preset="fast", **kw)
+    assert res.dictionary.n_components == res.adaptation.file_atoms == 300
+    lasso = recover(poses, missing, dictionary=d, preset="fast", positive=True,
+                    solver=FastSolver(working_set=True))
+    np.testing.assert_array_equal(res.status, lasso.status)
+    np.testing.assert_allclose(res.poses, lasso.poses, rtol=0, atol=1e-9)
+    rec = res.status == "recovered"
+    assert rec.sum() > 20 and np.isfinite(res.poses[rec]).all()
+    assert np.isfinite(res.uncertainty[rec][missing[rec]]).all()
+    if how == "dictionary":
+        ok = np.isfinite(poses).all(axis=(1, 2))
+        inp, out = tmp_path / "in.csv", tmp_path / "out.csv"
+        write_keypoints(inp, np.where(missing[..., None], np.nan, poses)[ok])
+        code = main(["recover", str(inp), "-o", str(out), "--dictionary",
+                     str(d.save(tmp_path / "positive.npz")), "--preset", "fast", "-q"])
+        assert code == 1                               # the one row with 2 joints left
+        api = recover(np.where(missing[..., None], np.nan, poses)[ok], dictionary=d,
+                      preset="fast")
+        np.testing.assert_allclose(read_keypoints(out).poses[api.ok], api.poses[api.ok],
+                                   atol=1e-6)
+
+
+@pytest.mark.parametrize("preset", ["default", "fast"])
+@pytest.mark.parametrize("adapt, error, words", [
+    (True, ParameterError, "adapt must be 'auto', False or an array"),
+    (0, ParameterError, "adapt must be 'auto', False or an array"),
+    ("false", ParameterError, "adapt must be 'auto', False or an array"),
+    (np.ones((300, 14, 2), bool), ParameterError, "adapt must hold real numbers"),
+    (np.ones((300, 14, 2), complex), ParameterError, "adapt must hold real numbers"),
+    (np.full((300, 14, 2), "1e400"), ParameterError, "adapt must hold real numbers"),
+    (np.zeros((300, 13, 2)), PoseError, "adapt poses have 13 joints")])
+def test_bad_adapt_is_refused_by_every_preset(file_poses, small_dictionary, preset, adapt,
+                                              error, words):
+    """adapt is checked once at recover()'s entrance: the fast preset no longer crashes
+    on True or a number, nor reads 'false' as 'auto' or booleans, complex numbers or
+    strings as poses."""
+    poses, missing = file_poses
+    with pytest.raises(error, match=words):
+        recover(poses, missing, dictionary=small_dictionary, preset=preset, adapt=adapt)
+
+
+@pytest.mark.parametrize("preset", ["default", "fast"])
+@pytest.mark.parametrize("adapt", [True, 1, np.ones((300, 14, 2), bool)])
+def test_recover_file_refuses_bad_adapt_before_writing(tmp_path, file_poses, small_dictionary,
+                                                       preset, adapt):
+    """recover_file's adapt (not a path) is checked as recover()'s, before any output."""
+    from sparseedm.batch import recover_file
+
+    poses, missing = file_poses
+    inp, out = tmp_path / "in.csv", tmp_path / "out.csv"
+    write_keypoints(inp, np.where(missing[..., None], np.nan, poses)[:-2])
+    with pytest.raises(ParameterError, match="recover_file: adapt must"):
+        recover_file(inp, out, dictionary=small_dictionary, preset=preset, adapt=adapt)
+    assert not out.exists()
+
+
+def test_adapt_poses_with_nan_rows_are_used_without_them(file_poses, small_dictionary):
+    """An adapt array's rows with NaN or inf are not complete: the preset's atoms are
+    the other rows, as when they are left out."""
+    poses, missing = file_poses
+    other = poses[:300] + 1.0
+    holed = other.copy()
+    holed[:20, 3] = np.nan
+    holed[20:25, 5, 0] = np.inf
+    res = recover(poses, missing, dictionary=small_dictionary, preset="fast", adapt=holed)
+    ref = recover(poses, missing, dictionary=small_dictionary, preset="fast",
+                  adapt=other[25:])
+    assert res.adaptation.file_atoms == ref.adaptation.file_atoms == 275
+    np.testing.assert_array_equal(res.poses, ref.poses)

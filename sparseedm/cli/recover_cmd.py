@@ -134,14 +134,15 @@ def _add_adaptation_options(p):
                    help="'default': adaptation and self-training as set above; 'fast': "
                    "INPUT's complete poses (or --adapt-from's) are the dictionary's atoms, "
                    "nothing learned, each occluded pose a local ridge over its 48 most "
-                   "similar ones (not the lasso): much faster on a file with many "
+                   "similar ones (not the lasso; the lasso when the dictionary's codes "
+                   "are non-negative): much faster on a file with many "
                    "complete poses (per pose: needs --no-temporal on a file with "
                    "frames; sparseedm.file_atoms)")
     p.add_argument("--no-exemplars", action="store_true",
                    help="adapt even where INPUT's own complete poses, as the dictionary's only "
                    "atoms, would be chosen (by default they are from 2000 complete poses, "
                    "and from 250 when a check on held-back poses prefers them: "
-                   "sparseedm.exemplars)")
+                   "sparseedm.exemplars; not with --preset fast, which always takes them)")
     p.add_argument("--mirror", action="store_true",
                    help="also recover each pose's mirror image (left and right swapped) and "
                    "average the two answers: twice the work; with --no-adapt and "
