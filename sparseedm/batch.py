@@ -487,8 +487,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
         recovery = _Recovery(members, alpha, representation, solver, n_jobs, backend,
                              scheduler, method, model,
                              (source.tracks, source.frames) if in_time else None)
-        summary = _run(source, outputs, recovery,
-                       chunk_size, progress, t0)
+        summary = _run(source, outputs, recovery, chunk_size, progress, t0)
     finally:
         source.close()
     summary["confidence_threshold"] = threshold
