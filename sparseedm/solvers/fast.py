@@ -28,7 +28,7 @@ that is what earns numba its place in the dependencies.
 
 Working sets
 ------------
-A file's own poses as atoms (``recover(preset="fast")``: 3,000 of them) make
+A file's own poses as atoms (the default path's exemplars: up to 3,000) make
 the homotopy above walk ~110 steps over every atom per pose. With
 ``FastSolver(working_set=True)`` (:func:`lars_lasso_working_set`) a row's path
 runs over a few atoms: the 64 most correlated with it, then, while any atom's
