@@ -22,7 +22,7 @@ below that it depended on the source. So :func:`choose_exemplars` decides:
    in 3.) compares that with the mean of its answers and of the base with
    the poses and their mirror images as extra atoms
    (:data:`~sparseedm.adaptation.MIRRORED_ATOMS_PATH`), taken when its error
-   is lower. On validation files of 36-240 complete poses it lowered the
+   is lower. On validation files of 60-240 complete poses it lowered the
    error on real photos (MPII, Bonn: up to 0.7 % of body size) and moved
    mocap files (CMU, Daz) by at most 0.03 (``studies/fast/README.md``);
 2. at least :data:`EXEMPLAR_MIN_POSES`: the exemplars, no adaptation and no

@@ -1,7 +1,9 @@
 """recover()'s default path takes a file's own complete poses as its only atoms when
 sparseedm.exemplars' rule says so: from EXEMPLAR_MIN_POSES complete poses, or when the
-check on held-back poses prefers them; below MIN_COMPLETE_POSES, or with
-exemplars=False, the path is what it was. Statuses, certificates and refusals unchanged."""
+check on held-back poses prefers them; below MIN_COMPLETE_POSES the base with the
+file atoms, averaged with the base with them and their mirror images when a check
+says so (from FEW_MIN_POSES); with exemplars=False the path is what it was.
+Statuses, certificates and refusals unchanged."""
 
 import numpy as np
 import pytest

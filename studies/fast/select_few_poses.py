@@ -132,6 +132,21 @@ def files(a):
             yield f"{Path(path).stem} {c}+{a.occluded}", np.asarray(truth, float), missing
 
 
+def table(doc):
+    """Markdown: per file, each mean's test error against base+atoms and what the
+    rules did (``*``: the check took the mean)."""
+    lines = ["| file | complete | base+atoms | " + " | ".join(CANDIDATES[1:])
+             + " | rule: mirrored atoms | rule: best |", "|---" * 8 + "|"]
+    for name, r in doc["files"].items():
+        t, b = r["test"], r["test"]["base+atoms"]
+        cells = [f"{t[c] - b:+.2f}" for c in CANDIDATES[1:]]
+        for rule in ("rule avg mirrored atoms", "rule best"):
+            m, se = r[rule]["minus_base_atoms"]
+            cells.append(f"{m:+.2f} ± {se:.2f}" + (" *" if r[rule]["picked"] else ""))
+        lines.append(f"| {name} | {r['complete']} | {b:.2f} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sources", default="mpii,coco,bonn", help="real2d sources (val split)")
@@ -141,7 +156,11 @@ def main(argv=None):
     ap.add_argument("--min-complete", type=int, default=50,
                     help="complete poses from which the check runs")
     ap.add_argument("--out", type=Path, default=Path("few_poses.json"))
+    ap.add_argument("--table", type=Path, help="print the Markdown table of this JSON, stop")
     a = ap.parse_args(argv)
+    if a.table:
+        print(table(json.loads(a.table.read_text())))
+        return
     import sparseedm
 
     warnings.simplefilter("ignore")
