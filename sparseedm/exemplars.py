@@ -24,7 +24,7 @@ below that it depended on the source. So :func:`choose_exemplars` decides:
    (:data:`~sparseedm.adaptation.MIRRORED_ATOMS_PATH`), taken when its error
    is lower. On validation files of 60-240 complete poses it lowered the
    error on real photos (MPII, Bonn: up to 0.7 % of body size) and moved
-   mocap files (CMU, Daz) by at most 0.03 (``studies/fast/README.md``);
+   mocap files (CMU, Daz) by -0.05 to +0.01 (``studies/fast/README.md``);
 2. at least :data:`EXEMPLAR_MIN_POSES`: the exemplars, no adaptation and no
    self-training;
 3. in between, an evidence check on held-back complete poses (a seeded

@@ -121,14 +121,14 @@ def files(a):
 
     for c in (int(x) for x in a.complete.split(",")):
         for name, truth, missing in photo_files(a.sources, "val", "split",
-                                                sizes=(c, a.occluded)):
+                                                sizes=(c, a.occluded), seed=a.seed):
             yield name, truth, missing
     for c in (int(x) for x in a.complete.split(",")):
-        for seed in (0, 1):
+        for seed in (2 * a.seed, 2 * a.seed + 1):
             P, mask = validation_file(2 * c, seed)
             yield f"cmu {len(P)} poses seed {seed}", P, mask
         for path in filter(None, a.daz.split(",")):
-            truth, missing = mocap_file(path, c, a.occluded, 0)
+            truth, missing = mocap_file(path, c, a.occluded, a.seed)
             yield f"{Path(path).stem} {c}+{a.occluded}", np.asarray(truth, float), missing
 
 
@@ -155,6 +155,7 @@ def main(argv=None):
     ap.add_argument("--daz", default="", help="Daz dataset .npz paths, comma-separated")
     ap.add_argument("--min-complete", type=int, default=50,
                     help="complete poses from which the check runs")
+    ap.add_argument("--seed", type=int, default=0, help="seed of the files' draws")
     ap.add_argument("--out", type=Path, default=Path("few_poses.json"))
     ap.add_argument("--table", type=Path, help="print the Markdown table of this JSON, stop")
     a = ap.parse_args(argv)
