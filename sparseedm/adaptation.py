@@ -94,7 +94,8 @@ __all__ = ["adapt", "run_adaptation", "adapt_vectors", "AdaptationResult",
            "swapped_rows", "filter_poses", "holdout_blocks", "resolve_adaptation",
            "masked_error", "guard_masks", "sample_complete", "sample_stream", "fine_tune_file",
            "self_train", "MIN_COMPLETE_POSES", "ADAPTED_ALPHA_TRAIN",
-           "adaptation_alpha", "STATS", "SELF_TRAINING_ROUNDS", "AVERAGED_PATH"]
+           "adaptation_alpha", "STATS", "SELF_TRAINING_ROUNDS", "AVERAGED_PATH",
+           "MIRRORED_ATOMS_PATH"]
 
 #: Fewest complete poses (after filtering) that ``adapt="auto"`` adapts on;
 #: chosen on the validation splits (docs/explanation/settings.md).
@@ -103,6 +104,10 @@ MIN_COMPLETE_POSES = 250
 #: own complete poses as the only atoms, of those with their mirror images, and of
 #: the base with them as extra atoms (:mod:`sparseedm.exemplars`)
 AVERAGED_PATH = "file atoms and their mirror images averaged with base + file atoms"
+#: AdaptationResult.path when, below MIN_COMPLETE_POSES, the default path averages
+#: the answers of the base with the file's complete poses as extra atoms and of
+#: the base with them and their mirror images as extra atoms (:mod:`sparseedm.exemplars`)
+MIRRORED_ATOMS_PATH = "base + file atoms averaged with base + file atoms and mirror images"
 #: Inner-statistics modes of :func:`adapt_vectors`.
 STATS = ("fresh", "carried")
 # defaults chosen by studies/adaptation/select_adaptation.py (see docs/explanation/settings.md)
@@ -723,11 +728,11 @@ class AdaptationResult:
     def path(self) -> str:
         """Which dictionary recovered: ``"file atoms"`` (the poses' own complete
         poses as the only atoms: :mod:`sparseedm.exemplars`, ``preset="fast"``),
-        ``"adapted"``, ``"base + file atoms"``, ``"base"``, or :data:`AVERAGED_PATH`
+        ``"adapted"``, ``"base + file atoms"``, ``"base"``, :data:`AVERAGED_PATH`
         (the mean of the answers of the file atoms, with and without their mirror
-        images, and of the base with file atoms)."""
-        if self.settings.get("path") == AVERAGED_PATH:  # sparseedm.exemplars averages
-            return AVERAGED_PATH
+        images, and of the base with file atoms) or :data:`MIRRORED_ATOMS_PATH`."""
+        if self.settings.get("path") in (AVERAGED_PATH, MIRRORED_ATOMS_PATH):
+            return self.settings["path"]  # sparseedm.exemplars averages
         if "file_dictionary" in (self.dictionary.provenance or {}):
             return "file atoms"
         if self.adapted:

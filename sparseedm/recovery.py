@@ -260,8 +260,13 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         the adapted dictionary (checked after adapting); or, when the check
         prefers the mean, the mean of the answers of those atoms, of them with
         their mirror images, and of the base dictionary with them as extra
-        atoms (still nothing learned). An ensemble then stays at those
-        members. ``False``: adapt as described under `adapt`.
+        atoms (still nothing learned). Below MIN_COMPLETE_POSES, from
+        :data:`~sparseedm.exemplars.FEW_MIN_POSES` of them, the base with
+        them as extra atoms is averaged with the base with them and their
+        mirror images as extra atoms when that recovers held-back complete
+        poses better. An ensemble then stays at those members. ``False``:
+        adapt as described under `adapt` (below MIN_COMPLETE_POSES: the base
+        with the complete poses as extra atoms).
         ``res.adaptation.summary()["path"]`` says which ran.
     confidence : array_like (n, N), optional
         The detector's score of each joint in [0, 1] (NaN: none). Turns on the

@@ -1,7 +1,9 @@
 """recover()'s default path takes a file's own complete poses as its only atoms when
 sparseedm.exemplars' rule says so: from EXEMPLAR_MIN_POSES complete poses, or when the
-check on held-back poses prefers them; below MIN_COMPLETE_POSES, or with
-exemplars=False, the path is what it was. Statuses, certificates and refusals unchanged."""
+check on held-back poses prefers them; below MIN_COMPLETE_POSES the base with the
+file atoms, averaged with the base with them and their mirror images when a check
+says so (from FEW_MIN_POSES); with exemplars=False the path is what it was.
+Statuses, certificates and refusals unchanged."""
 
 import numpy as np
 import pytest
@@ -9,11 +11,11 @@ import pytest
 from sparseedm import recover
 from sparseedm._recovery_base import STATUSES
 from sparseedm.adaptation import (AVERAGED_PATH, GUARD_POSES_PER_PATTERN, MIN_COMPLETE_POSES,
-                                  guard_masks)
+                                  MIRRORED_ATOMS_PATH, guard_masks)
 from sparseedm.cli import build_parser
 from sparseedm.exceptions import ParameterError
-from sparseedm.exemplars import (EXEMPLAR_MARGIN, EXEMPLAR_MIN_POSES, choose_exemplars,
-                                 held_masks, hidden_joint_error)
+from sparseedm.exemplars import (EXEMPLAR_MARGIN, EXEMPLAR_MIN_POSES, FEW_MIN_POSES,
+                                 choose_exemplars, held_masks, hidden_joint_error)
 from sparseedm.solvers.fast import FastSolver
 
 
@@ -88,15 +90,80 @@ def test_exemplars_false_keeps_adaptation(cmu_poses, small_dictionary):
 
 
 def test_a_small_file_keeps_the_old_path(cmu_poses, small_dictionary):
-    """Fewer complete poses than adaptation needs: the base with them as atoms, whatever
-    `exemplars` says."""
-    poses, missing = _file(cmu_poses, MIN_COMPLETE_POSES - 50)
+    """Fewer complete poses than the check needs: the base with them as atoms, whatever
+    `exemplars` says, nothing checked."""
+    poses, missing = _file(cmu_poses, FEW_MIN_POSES - 10)
     auto = recover(poses, missing, dictionary=small_dictionary)
     off = recover(poses, missing, dictionary=small_dictionary, exemplars=False)
     assert auto.summary()["adaptation"]["path"] == "base + file atoms"
+    assert "held_err_base" not in auto.adaptation.settings
     np.testing.assert_array_equal(auto.poses, off.poses)
     n_atoms = auto.adaptation.file_atoms
     assert auto.dictionary.n_components == small_dictionary.n_components + n_atoms
+
+
+def _mirror_twins(cmu_poses, n, n_occluded=60):
+    """A file whose n complete poses come in mirror pairs (each pose's mirror image is
+    beside it: the held-back check finds every held pose among the other poses'
+    mirror images), then n_occluded with 1-3 joints hidden."""
+    from sparseedm.file_atoms import mirror_images
+
+    half = _jittered(cmu_poses, n // 2, seed=3)
+    rest, mask = _file(cmu_poses[::-1], 0, n_occluded=n_occluded, seed=4)
+    poses = np.concatenate([mirror_images(half), rest])  # half, then their images
+    missing = np.concatenate([np.zeros((2 * len(half), 14), bool), mask])
+    return poses, missing
+
+
+def test_few_poses_are_averaged_with_their_mirror_images_when_the_check_says_so(
+        cmu_poses, small_dictionary):
+    """Below MIN_COMPLETE_POSES, a file whose held-back complete poses the base with the
+    file's mirror images as atoms recovers better: recover() returns the mean of the
+    answers of the base with the file atoms and with them and their mirror images, nothing
+    learned, statuses and certificates as each gives them, rated as the base with file
+    atoms is (per frame)."""
+    from sparseedm._recovery_base import combine
+    from sparseedm.file_atoms import complete_rows, mirror_images, with_file_atoms
+    from sparseedm.uncertainty import coding_way
+
+    poses, missing = _mirror_twins(cmu_poses, 120)
+    check = choose_exemplars(small_dictionary, poses, missing)
+    assert FEW_MIN_POSES <= check.n_complete < MIN_COMPLETE_POSES
+    assert check.err_both < check.err_base and not np.isfinite(check.err_atoms)
+    assert check.result.path == MIRRORED_ATOMS_PATH and len(check.members) == 2
+    res = recover(poses, missing, dictionary=small_dictionary)
+    s = res.summary()["adaptation"]
+    assert s["path"] == MIRRORED_ATOMS_PATH and res.members == 2 and not res.adapted
+    assert res.adaptation.settings["held_err_both"] == check.err_both
+    assert coding_way(res) == "per_frame"
+    complete = poses[complete_rows(poses, missing)]
+    own = [recover(poses, missing, dictionary=d, adapt=False)
+           for d in (with_file_atoms(small_dictionary, complete).dictionary,
+                     with_file_atoms(small_dictionary, mirror_images(complete)).dictionary)]
+    mean = combine(own)
+    np.testing.assert_allclose(res.poses, mean.poses, rtol=0, atol=1e-6)
+    np.testing.assert_array_equal(res.status, mean.status)
+    rec = res.status == "recovered"
+    assert rec.sum() > 50 and (res.gap[rec] <= 1e-6 * res.objective[rec]).all()
+    assert "mirror images" in res.adaptation.reason
+
+
+def test_few_poses_keep_the_base_with_file_atoms_when_the_check_declines(
+        cmu_poses, small_dictionary):
+    """Below MIN_COMPLETE_POSES, when the mean with the mirror images did not recover
+    the held-back poses better, the path is the base with file atoms as before, the
+    check's errors recorded."""
+    poses, missing = _file(cmu_poses, MIN_COMPLETE_POSES - 50)
+    check = choose_exemplars(small_dictionary, poses, missing)
+    assert np.isfinite(check.err_base) and np.isfinite(check.err_both)
+    res = recover(poses, missing, dictionary=small_dictionary)
+    if check.err_both < check.err_base:
+        assert res.adaptation.path == MIRRORED_ATOMS_PATH
+    else:
+        assert res.adaptation.path == "base + file atoms" and res.members == 1
+        off = recover(poses, missing, dictionary=small_dictionary, exemplars=False)
+        np.testing.assert_array_equal(res.poses, off.poses)
+    assert res.adaptation.settings["held_err_base"] == check.err_base
 
 
 @pytest.mark.parametrize("copies", [EXEMPLAR_MIN_POSES // 100 + 1, 3])
