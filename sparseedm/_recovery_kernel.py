@@ -109,16 +109,31 @@ def solve_chunk(solver, components, X, observed, alpha_eff, positive, key, threa
         numba.set_num_threads(threads)
     res = solver.solve_masked(components.T, X, observed, alpha_eff, positive=positive,
                               key=key)
-    # T_re = c D row by row over the few atoms used: a row's answer must not
-    # depend on which rows share its chunk (a batched product rounds differently)
-    T_re = np.empty_like(X)
-    n_active = np.empty(len(X), dtype=int)
-    for i, c in enumerate(res.coef):
-        nz = np.flatnonzero(c)
-        T_re[i] = c[nz] @ components[nz]
-        n_active[i] = len(nz)
+    T_re, n_active = _reconstruct(res, components)
     merged = np.where(observed, X, T_re)  # Eq. 10
     return merged, res.objective, res.gap, res.status, n_active, res.fallback
+
+
+def _reconstruct(res, components):
+    """T_re = c D row by row over the few atoms used, and their number: a row's
+    answer must not depend on which rows share its chunk (a batched product
+    rounds differently). Rows whose support the solver gives are gathered
+    there (no scan of a wide `coef`), one small product per row."""
+    coef = res.coef
+    T_re = np.empty((len(coef), components.shape[1]))
+    n_active = np.empty(len(coef), dtype=int)
+    scan = np.ones(len(coef), bool) if res.support is None else res.fallback.copy()
+    known = np.flatnonzero(~scan)
+    if len(known):
+        cols = np.sort(res.support[known], axis=1)
+        c = coef[known[:, None], cols]
+        T_re[known] = np.matmul(c[:, None, :], components[cols])[:, 0]
+        n_active[known] = np.count_nonzero(c, axis=1)
+    for i in np.flatnonzero(scan):
+        nz = np.flatnonzero(coef[i])
+        T_re[i] = coef[i, nz] @ components[nz]
+        n_active[i] = len(nz)
+    return T_re, n_active
 
 
 def compiled_solver(solver="fast", adaptations=None):

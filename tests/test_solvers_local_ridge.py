@@ -153,3 +153,25 @@ def test_a_stronger_ridge_brings_an_extrapolating_row_back():
     assert not res.fallback[0] and res.status[0] == "optimal"
     assert (res.coef[0] != 0).sum() == 2 and not np.allclose(res.coef[0], first[0])
     assert 0 <= (res.coef @ D.T)[0, 3] <= 1
+
+
+def test_support_names_every_coefficient_and_rebuilds_the_same_poses():
+    """The result's support holds each row's non-zero coefficients, and the
+    reconstruction that gathers there equals the one that scans the whole row."""
+    from dataclasses import replace
+
+    from sparseedm._recovery_kernel import _reconstruct
+
+    rng = np.random.default_rng(3)
+    D = np.abs(rng.standard_normal((21, 300)))
+    X = D[:, rng.integers(0, 300, 40)].T + 0.05 * rng.standard_normal((40, 21))
+    obs = rng.random((40, 21)) > 0.3
+    res = LocalRidgeSolver(n_atoms=12, first_atoms=4, lam=1e-3).solve_masked(D, X, obs, 0.1)
+    assert res.support.shape == (40, 12)
+    inside = np.zeros(res.coef.shape, bool)
+    np.put_along_axis(inside, res.support, True, axis=1)
+    assert not (res.coef[~inside] != 0).any() and (res.coef[inside] != 0).all()
+    gathered = _reconstruct(res, D.T)
+    scanned = _reconstruct(replace(res, support=None), D.T)
+    np.testing.assert_array_equal(gathered[0], scanned[0])
+    np.testing.assert_array_equal(gathered[1], scanned[1])

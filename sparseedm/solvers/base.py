@@ -59,6 +59,10 @@ class LassoResult:
         Backend-specific iteration count (interior-point iterations, LARS steps).
     fallback : ndarray of bool, shape (n_samples,)
         True where the backend handed the row to its fallback solver.
+    support : ndarray of int, shape (n_samples, s), optional
+        Columns that hold every non-zero coefficient of each row that did not
+        fall back (a backend that knows them, e.g. a working set, says so and
+        spares its callers a scan of `coef`); None: unknown.
     """
 
     coef: np.ndarray
@@ -67,6 +71,7 @@ class LassoResult:
     status: np.ndarray
     n_iter: np.ndarray
     fallback: np.ndarray = None
+    support: np.ndarray = None
 
     def __post_init__(self):
         if self.fallback is None:

@@ -184,6 +184,7 @@ class LocalRidgeSolver(BaseSolver):
         n = len(X)
         K = min(self.n_atoms, D.shape[1])
         coef = np.zeros((n, D.shape[1]))
+        support = np.zeros((n, K), dtype=np.intp)
         objective, gap = np.zeros(n), np.zeros(n)
         atoms = np.ascontiguousarray(D.T)
         scoring = scoring_arrays(atoms)
@@ -196,14 +197,14 @@ class LocalRidgeSolver(BaseSolver):
                 objective[rows], gap[rows], outside[start:start + len(rows)] = \
                     local_ridge_codes(atoms, X[rows], observed[rows], K,
                                       self.lam * ESCALATION_FACTOR ** step, sub, scoring,
-                                      self.power, self.first_atoms)
+                                      self.power, self.first_atoms, support, rows)
                 coef[rows] = sub
             todo = todo[outside]
             if not len(todo):
                 break
         ok = np.isfinite(gap) & (gap <= self.tol)
         status = np.where(ok, OPTIMAL, INACCURATE).astype(object)
-        result = LassoResult(coef, objective, gap, status, np.full(n, K))
+        result = LassoResult(coef, objective, gap, status, np.full(n, K), support=support)
         if len(todo):  # the lasso, with its certificate, for what is still outside
             rows = todo
             lasso = FastSolver(working_set=True).solve_masked(
@@ -214,7 +215,8 @@ class LocalRidgeSolver(BaseSolver):
         return result
 
 
-def local_ridge_codes(atoms, X, observed, K, lam, coef, scoring=None, power=0.0, first=None):
+def local_ridge_codes(atoms, X, observed, K, lam, coef, scoring=None, power=0.0, first=None,
+                      support=None, rows=None):
     """Ridge codes of rows on their K most correlated atoms (see the module
     docstring), written into `coef`.
 
@@ -241,6 +243,10 @@ def local_ridge_codes(atoms, X, observed, K, lam, coef, scoring=None, power=0.0,
         then the K atoms of highest cosine with the whole filled row among its
         :data:`REFINE_POOL` most correlated (by the observed entries), and
         those cosines weight the penalty. None: no first pass.
+    support : ndarray of int, shape (n_all, K), optional
+        Each row's working set is also written at its index in `rows` of it.
+    rows : ndarray of int, shape (n,), optional
+        Where the rows go in `support` (default 0, 1, ... n - 1).
 
     Returns
     -------
@@ -266,6 +272,8 @@ def local_ridge_codes(atoms, X, observed, K, lam, coef, scoring=None, power=0.0,
     R = X - np.einsum("nk,nkm->nm", c, A)
     objective = 0.5 * np.einsum("nm,nm->n", R, R) + 0.5 * mu * np.einsum("nk,nk->n", w * c, c)
     np.put_along_axis(coef, idx, c, axis=1)
+    if support is not None:
+        support[np.arange(n) if rows is None else rows] = idx
     return objective, gap, outside_envelope(U, c, b, np.diagonal(H, axis1=1, axis2=2)
                                             - mu[:, None] * w, observed)
 
