@@ -81,7 +81,7 @@ from .adaptation import (AVERAGED_PATH, GUARD_POSES_PER_PATTERN, MIN_COMPLETE_PO
 from .file_atoms import (atoms_adaptation, complete_rows, file_dictionary, mirror_images,
                          with_file_atoms)
 from .normalize import rms_radius
-from .real_protocol import transplant_masks, usable_patterns
+from .real_protocol import usable_patterns
 from .skeleton import SKELETON_14
 
 __all__ = ["EXEMPLAR_MIN_POSES", "EXEMPLAR_MARGIN", "EXEMPLAR_OPTIONS", "ExemplarCheck",
@@ -211,11 +211,12 @@ def hidden_joint_error(dictionary, poses, mask, *, alpha=None, n_jobs=1, backend
 
 
 def _held_recovery(dictionary, poses, mask, **kw):
-    """`dictionary`'s recovery of `poses` with the `mask` joints hidden."""
+    """`dictionary`'s recovery of `poses` with the `mask` joints hidden (the file's
+    usable complete poses, validated with it: not again)."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         return recover_members(np.where(mask[..., None], np.nan, poses), mask, [dictionary],
-                               [], solver=compiled_solver(), **kw)
+                               [], solver=compiled_solver(), check_input=False, **kw)
 
 
 def _error(res, poses, mask):
@@ -293,9 +294,10 @@ def held_masks(poses, missing, n_held, random_state=0):
     hidden = np.isnan(poses).any(axis=-1)
     if missing is not None:
         hidden |= np.asarray(missing, dtype=bool)
-    if usable_patterns(hidden).size:
+    usable = usable_patterns(hidden)
+    if usable.size:  # transplant_masks' draw, on a mask validated with the file
         rng = np.random.default_rng([int(random_state), 44])
-        return transplant_masks(n_held, hidden, random_state=rng)[0]
+        return hidden[usable[rng.integers(0, usable.size, int(n_held))]]
     return guard_masks(n_held, poses.shape[1], max(1, n_held // GUARD_POSES_PER_PATTERN),
                        random_state)
 
