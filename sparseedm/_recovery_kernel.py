@@ -124,11 +124,12 @@ def _reconstruct(res, components):
     n_active = np.empty(len(coef), dtype=int)
     scan = np.ones(len(coef), bool) if res.support is None else res.fallback.copy()
     known = np.flatnonzero(~scan)
-    if len(known):
-        cols = np.sort(res.support[known], axis=1)
-        c = coef[known[:, None], cols]
-        T_re[known] = np.matmul(c[:, None, :], components[cols])[:, 0]
-        n_active[known] = np.count_nonzero(c, axis=1)
+    for start in range(0, len(known), 256):  # blocks: the gathered atoms stay in cache
+        rows = known[start:start + 256]
+        cols = np.sort(res.support[rows], axis=1)
+        c = coef[rows[:, None], cols]
+        T_re[rows] = np.matmul(c[:, None, :], components[cols])[:, 0]
+        n_active[rows] = np.count_nonzero(c, axis=1)
     for i in np.flatnonzero(scan):
         nz = np.flatnonzero(coef[i])
         T_re[i] = coef[i, nz] @ components[nz]

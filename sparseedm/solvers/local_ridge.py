@@ -193,12 +193,16 @@ class LocalRidgeSolver(BaseSolver):
             outside = np.zeros(len(todo), dtype=bool)
             for start in range(0, len(todo), self.block):
                 rows = todo[start:start + self.block]
-                sub = np.zeros((len(rows), D.shape[1]))
+                # the first round's rows are a slice of the still-zero coef: written in
+                # place; an escalation's rows are cleared first (their earlier set)
+                first = step == 0
+                sub = coef[rows[0]:rows[-1] + 1] if first else np.zeros((len(rows), D.shape[1]))
                 objective[rows], gap[rows], outside[start:start + len(rows)] = \
                     local_ridge_codes(atoms, X[rows], observed[rows], K,
                                       self.lam * ESCALATION_FACTOR ** step, sub, scoring,
                                       self.power, self.first_atoms, support, rows)
-                coef[rows] = sub
+                if not first:
+                    coef[rows] = sub
             todo = todo[outside]
             if not len(todo):
                 break
