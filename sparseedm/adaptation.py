@@ -95,7 +95,7 @@ __all__ = ["adapt", "run_adaptation", "adapt_vectors", "AdaptationResult",
            "masked_error", "guard_masks", "sample_complete", "sample_stream", "fine_tune_file",
            "self_train", "MIN_COMPLETE_POSES", "ADAPTED_ALPHA_TRAIN",
            "adaptation_alpha", "STATS", "SELF_TRAINING_ROUNDS", "AVERAGED_PATH",
-           "MIRRORED_ATOMS_PATH"]
+           "MIRRORED_ATOMS_PATH", "FILE_ATOMS_PATHS"]
 
 #: Fewest complete poses (after filtering) that ``adapt="auto"`` adapts on;
 #: chosen on the validation splits (docs/explanation/settings.md).
@@ -108,6 +108,9 @@ AVERAGED_PATH = "file atoms and their mirror images averaged with base + file at
 #: the answers of the base with the file's complete poses as extra atoms and of
 #: the base with them and their mirror images as extra atoms (:mod:`sparseedm.exemplars`)
 MIRRORED_ATOMS_PATH = "base + file atoms averaged with base + file atoms and mirror images"
+#: AdaptationResult.path values where the file's own complete poses are the only
+#: atoms (their answers alone, or averaged with others': :data:`AVERAGED_PATH`)
+FILE_ATOMS_PATHS = ("file atoms", AVERAGED_PATH)
 #: Inner-statistics modes of :func:`adapt_vectors`.
 STATS = ("fresh", "carried")
 # defaults chosen by studies/adaptation/select_adaptation.py (see docs/explanation/settings.md)
@@ -739,6 +742,12 @@ class AdaptationResult:
             return "adapted"
         return "base + file atoms" if self.file_atoms else "base"
 
+    @property
+    def over_file_atoms(self) -> bool:
+        """Whether the file's own complete poses were the only atoms (:attr:`path`
+        in :data:`FILE_ATOMS_PATHS`)."""
+        return self.path in FILE_ATOMS_PATHS
+
     def line(self) -> str:
         """One line a person reads (what ``sparseedm recover`` prints).
 
@@ -750,7 +759,7 @@ class AdaptationResult:
         """
         if self.settings.get("preset") == "fast":  # nothing adapted, nothing to compare
             return f"adaptation: none ({self.reason}); {self.seconds:.1f} s"
-        if self.settings.get("path") in ("file atoms", AVERAGED_PATH):  # sparseedm.exemplars
+        if self.over_file_atoms:  # sparseedm.exemplars
             return (f"adaptation: none, the file's own poses are the atoms ({self.reason}); "
                     f"{self.seconds:.1f} s")
         if np.isfinite(self.err_base) and np.isfinite(self.err_adapted):

@@ -283,8 +283,8 @@ def coding_way(result):
     -------
     str
         ``"file_atoms"`` when the poses were coded over the file's own
-        complete poses as the only atoms, or averaged over codes of them (the
-        adaptation's paths that start ``"file atoms"``:
+        complete poses as the only atoms, or averaged over codes of them
+        (:attr:`~sparseedm.adaptation.AdaptationResult.over_file_atoms`:
         :mod:`sparseedm.exemplars`), ``"local_ridge"`` when that
         was ``preset="fast"``'s path (its local ridge codes over them; another
         solver asked for with the preset is rated as the local ridge),
@@ -303,7 +303,7 @@ def coding_way(result):
     adaptation = getattr(result, "adaptation", None)
     if adaptation is None:
         return "per_frame"
-    if adaptation.path.startswith("file atoms"):
+    if adaptation.over_file_atoms:
         return "local_ridge" if adaptation.settings.get("preset") == "fast" else "file_atoms"
     return "adapted" if adaptation.path == "adapted" else "per_frame"
 

@@ -137,13 +137,21 @@ def test_each_coding_path_gets_its_own_rule(cmu_poses, small_dictionary):
 def test_averaged_codes_of_the_files_poses_take_the_file_atoms_rule():
     """The default path's mean of three codes of the file's own poses is rated as the
     file's poses as atoms, not as the base dictionary."""
+    from dataclasses import replace
     from types import SimpleNamespace
 
-    from sparseedm.adaptation import AVERAGED_PATH
+    from sparseedm.adaptation import AVERAGED_PATH, AdaptationResult
+    from sparseedm.dictionary import load_dictionary
 
-    def way(path, **settings):
-        return coding_way(SimpleNamespace(adaptation=SimpleNamespace(path=path,
-                                                                     settings=settings)))
+    base = load_dictionary()
+
+    def way(path, **settings):  # an AdaptationResult whose path is `path`
+        own = replace(base, provenance={"file_dictionary": {}})
+        res = AdaptationResult(dictionary=own if path == "file atoms" else base,
+                               adapted=path == "adapted", reason="",
+                               settings=dict(settings, path=path))
+        assert res.path == path
+        return coding_way(SimpleNamespace(adaptation=res))
 
     assert way(AVERAGED_PATH) == "file_atoms"
     assert way("file atoms") == "file_atoms"

@@ -173,6 +173,7 @@ def run(args):
         turns it into exit code 2.
     """
     from .._atomic import is_stream
+    from ..adaptation import FILE_ATOMS_PATHS
     from ..batch import recover_file
     from ..exceptions import SparseEDMError
 
@@ -198,7 +199,7 @@ def run(args):
     out = sys.stderr if args.quiet or is_stream(args.output) else sys.stdout  # -o /dev/stdout
     ad = summary.get("adaptation")
     fast = args.preset == "fast"  # its summary line says what it did: not a refusal
-    chosen = ad is not None and ad.get("path", "").startswith("file atoms")  # nor this
+    chosen = ad is not None and ad.get("path") in FILE_ATOMS_PATHS  # nor this
     if ad is not None and not ad["adapted"] and ad["poses_used"] == 0 and not (fast or chosen):
         print(f"sparseedm recover: no adaptation: {ad['reason']}", file=sys.stderr)
     if summary.get("linked_tracks") is not None:
