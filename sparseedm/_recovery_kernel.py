@@ -122,7 +122,7 @@ def _reconstruct(res, components):
     coef = res.coef
     T_re = np.empty((len(coef), components.shape[1]))
     n_active = np.empty(len(coef), dtype=int)
-    scan = np.ones(len(coef), bool) if res.support is None else res.fallback.copy()
+    scan = np.ones(len(coef), bool) if res.support is None else res.fallback
     known = np.flatnonzero(~scan)
     for start in range(0, len(known), 256):  # blocks: the gathered atoms stay in cache
         rows = known[start:start + 256]

@@ -258,10 +258,14 @@ def averaged_members(dictionary, complete):
     >>> [d.n_components for d in averaged_members(base, poses)] == [30, 60, base.n_components + 30]
     True
     """
-    members = [file_dictionary(dictionary, complete).dictionary]
-    if dictionary.n_joints == SKELETON_14.num_joints:
-        members.append(file_dictionary(dictionary, mirror_images(complete)).dictionary)
-    return members + [with_file_atoms(dictionary, complete).dictionary]
+    return [file_dictionary(dictionary, complete).dictionary, *_partners(dictionary, complete)]
+
+
+def _partners(dictionary, complete):
+    """:func:`averaged_members` after the exemplars' own dictionary."""
+    mirrored = ([file_dictionary(dictionary, mirror_images(complete)).dictionary]
+                if dictionary.n_joints == SKELETON_14.num_joints else [])
+    return [*mirrored, with_file_atoms(dictionary, complete).dictionary]
 
 
 def held_masks(poses, missing, n_held, random_state=0):
@@ -385,8 +389,8 @@ def choose_exemplars(dictionary, poses, missing, *, n_jobs=1, random_state=0,
         out.result = atoms_adaptation(
             file_dictionary(dictionary, complete), len(poses), reason, t0,
             {"path": AVERAGED_PATH if both else "file atoms", **out.errors()})
-        if both:
-            out.partners = averaged_members(dictionary, complete)[1:]
+        if both:  # the exemplars' dictionary is the result's, made once
+            out.partners = _partners(dictionary, complete)
     out.seconds = time.perf_counter() - t0
     return out
 

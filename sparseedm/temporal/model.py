@@ -1133,10 +1133,9 @@ def probe_errors(values, free, probe, prior, confidence, settings=DEFAULT_SETTIN
     scored = probe & (_ramp(distance, settings) > 0) & ~still
     errors = np.zeros(len(TRUST_LEVELS))
     if scored.any():
-        errors = []
+        errors, probing = [], probe_settings(settings)
         for level in TRUST_LEVELS:
-            out = fill_segment(values, probed, prior, confidence, probe_settings(settings),
-                               parents, level)[0]
+            out = fill_segment(values, probed, prior, confidence, probing, parents, level)[0]
             errors.append(np.linalg.norm(out[scored] - values[scored], axis=-1).sum())
         errors = np.nan_to_num(np.asarray(errors), nan=np.inf)
     answered = probe & (_ramp(distance, fused) > 0) & ~still \
