@@ -255,9 +255,9 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         choice (:mod:`sparseedm.exemplars`): always from
         :data:`~sparseedm.exemplars.EXEMPLAR_MIN_POSES` complete poses; from
         :data:`~sparseedm.adaptation.MIN_COMPLETE_POSES` on when they recover
-        held-back complete poses' hidden joints better than the base
-        dictionary with them as extra atoms (then nothing is learned) or than
-        the adapted dictionary (checked after adapting); or, when the check
+        held-back complete poses' hidden joints about as well as the base
+        dictionary with them as extra atoms or better (within
+        :data:`~sparseedm.exemplars.EXEMPLAR_MARGIN`); or, when the check
         prefers the mean, the mean of the answers of those atoms, of them with
         their mirror images, and of the base dictionary with them as extra
         atoms (still nothing learned). Below MIN_COMPLETE_POSES, from
