@@ -709,11 +709,15 @@ class AdaptationResult:
             ``dropped``, the guard's ``validation_err_base`` and
             ``validation_err_adapted`` (None when not measured),
             ``file_atoms``, ``seconds``, ``step_seconds`` and the
-            ``self_training`` rounds.
+            ``self_training`` rounds; when an ensemble was asked for
+            (``recover(ensemble=K)``, K > 1), ``ensemble``: the members
+            ``asked`` and the dictionaries whose answers were averaged
+            (``members``; fewer when the path fits one, or its own:
+            :mod:`sparseedm.ensemble`).
         """
         def num(v):
             return None if not np.isfinite(v) else round(float(v), 4)
-        return {
+        out = {
             "path": self.path, "adapted": bool(self.adapted), "reason": self.reason,
             "poses_given": self.n_given, "complete_poses": self.n_complete,
             "poses_used": self.n_used, "validation_poses": self.n_validation,
@@ -726,6 +730,9 @@ class AdaptationResult:
             "self_training": [{k: (num(v) if isinstance(v, float) else v)
                                for k, v in r.items()} for r in self.self_training],
         }
+        if "ensemble" in self.settings:
+            out["ensemble"] = dict(self.settings["ensemble"])
+        return out
 
     @property
     def path(self) -> str:

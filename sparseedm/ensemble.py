@@ -16,7 +16,13 @@ by side, one thread each (the same atoms as one after the other).
 
 Only adapted members are worth averaging: when the first adaptation is not
 adopted (too few complete poses, or the guard keeps the base dictionary) the
-ensemble stops at that one member.
+ensemble stops at that one member. When the default path takes the file's own
+complete poses as the atoms (:mod:`sparseedm.exemplars`) nothing is learned,
+so every seed would code with the same atoms: the ensemble stops at that
+path's own dictionaries (one, or the three whose answers it averages). Either
+way a ``UserWarning`` says why, and the result's adaptation records the
+members asked and those that ran (``settings["ensemble"]``, in its
+``summary()``).
 """
 
 from __future__ import annotations
@@ -83,8 +89,17 @@ def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
         The adopted members; only the base dictionary when the first (seed 0)
         adaptation was not adopted.
     adaptations : list of AdaptationResult
-        One per dictionary; empty when `adapt` asks for none (False or None,
-        as :func:`~sparseedm.adaptation.resolve_adaptation` reads it).
+        One per dictionary (one for the exemplars' path); empty when `adapt`
+        asks for none (False or None, as
+        :func:`~sparseedm.adaptation.resolve_adaptation` reads it). With
+        `n_members` > 1 the first records ``settings["ensemble"]``: the
+        members ``asked`` and the dictionaries returned (``members``).
+
+    Warns
+    -----
+    UserWarning
+        `n_members` > 1 when the first adaptation is not adopted or the
+        exemplars are chosen: why, and how many dictionaries recover.
     """
     if preset == "fast":
         d, res = resolve_fast(dictionary, poses, missing, adapt, min_poses=min_poses,
@@ -95,9 +110,11 @@ def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
         check = choose_exemplars(dictionary, poses, missing,
                                  n_jobs=None if n_jobs == 1 else n_jobs, backend=backend,
                                  scheduler=scheduler)
-        if check.dictionary is not None:
-            _say_one_member(n_members, check.result.reason)
-            return check.members, [check.result]
+        if check.dictionary is not None:  # nothing learned: every seed's atoms the same
+            return check.members, [_short(check.members, check.result, n_members,
+                                          f"the file's own complete poses are the atoms "
+                                          f"({check.result.reason}): every seed would code "
+                                          "with the same atoms")]
     # the work is many small BLAS calls beside numba's threads: BLAS threads
     # would only spin against them (measured 2x slower), so BLAS gets one. Held
     # here for every member: the members' guards' recover() calls set and
@@ -119,9 +136,10 @@ def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
         if check is not None:  # what the check found, beside what adapting did
             res = check.note(res)
         dictionaries, adaptations = [d], [res]
-        if int(n_members) <= 1 or not res.adapted:
-            _say_one_member(n_members, res.reason)
-            return dictionaries, adaptations  # seed 0 not adopted: too few poses, or base better
+        if int(n_members) <= 1 or not res.adapted:  # seed 0 not adopted: too few, or base better
+            return dictionaries, [_short(dictionaries, res, n_members,
+                                         f"seed 0's adaptation was not adopted ({res.reason}): "
+                                         "only adapted dictionaries are averaged")]
         more = int(n_members) - 1
         _progress.say(f"ensemble: adapting {more} more "
                       + ("dictionary (seed 1)" if more == 1 else f"dictionaries (seeds 1..{more})"))
@@ -147,15 +165,30 @@ def adapt_members(dictionary, poses, missing, adapt, n_members, *, n_jobs=1,
         else:
             _progress.say(f"ensemble: member seed {seed} dropped: "
                           f"{res.reason if res is not None else 'not adapted'}")
+    adaptations[0] = _asked(adaptations[0], n_members, len(dictionaries))
     return dictionaries, adaptations
 
 
-def _say_one_member(n_members, reason):
-    """Say why an ensemble asked for stops at one member."""
-    if int(n_members) > 1:
-        _progress.say(f"ensemble: seed 0's adaptation was not adopted ({reason}): the other "
-                      f"{int(n_members) - 1} members are not fitted, one dictionary recovers "
-                      "alone")
+def _asked(res, n_members, n_ran):
+    """`res` recording, when an ensemble was asked for, the members asked and
+    the dictionaries that recover (its ``settings["ensemble"]``)."""
+    if int(n_members) <= 1:
+        return res
+    return replace(res, settings=dict(res.settings, ensemble={"asked": int(n_members),
+                                                              "members": int(n_ran)}))
+
+
+def _short(dictionaries, res, n_members, why):
+    """`res` with the ensemble's record (:func:`_asked`); when more members were
+    asked for than the path fits, a warning saying `why` and what recovers."""
+    if int(n_members) <= 1:
+        return res
+    n = len(dictionaries)
+    what = ("1 dictionary recovers" if n == 1 else
+            f"the mean of {n} dictionaries' answers, the path's own, recovers")
+    warnings.warn(f"ensemble={int(n_members)}: {why}; {what}, not {int(n_members)} "
+                  "members", UserWarning, stacklevel=4)
+    return _asked(res, n_members, n)
 
 
 def _file_atoms(dictionary, poses, missing, adapt, res):

@@ -212,7 +212,12 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         (with adaptation) Adapt this many times (seeds 0, 1, ...), recover
         with each adapted dictionary and return the mean of the filled poses
         and EDM vectors (:mod:`sparseedm.ensemble`): lower error, K times the
-        work. Stays at one member when the adaptation is not adopted.
+        work. Stays at one member when the adaptation is not adopted, and at
+        the path's own dictionaries when the file's complete poses are the
+        atoms (`exemplars`: nothing is learned, every seed would code with
+        the same atoms); a ``UserWarning`` then says why, and
+        ``res.summary()["adaptation"]["ensemble"]`` records the members
+        asked and those that ran.
     tracks : array_like (n,), optional
         With `frames`: the person of each pose (any values); None means all
         poses are one person, or, when some frame holds several poses, the
@@ -264,7 +269,8 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         :data:`~sparseedm.exemplars.FEW_MIN_POSES` of them, the base with
         them as extra atoms is averaged with the base with them and their
         mirror images as extra atoms when that recovers held-back complete
-        poses better. An ensemble then stays at those members. ``False``:
+        poses better. An ensemble then stays at those members (warned, see
+        `ensemble`). ``False``:
         adapt as described under `adapt` (below MIN_COMPLETE_POSES: the base
         with the complete poses as extra atoms).
         ``res.adaptation.summary()["path"]`` says which ran.

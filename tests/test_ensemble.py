@@ -39,6 +39,7 @@ def test_members_differ_by_seed_and_the_answer_is_their_mean(split, shifted):
     res = sparseedm.recover(inputs, mask, dictionary=shifted, adapt=adapt_on, ensemble=3, **kw)
     members, adaptations = adapt_members(shifted, inputs, mask, adapt_on, 3, **kw)
     assert res.members == 3 and res.summary()["ensemble"] == 3 and res.adapted
+    assert res.summary()["adaptation"]["ensemble"] == {"asked": 3, "members": 3}
     assert len(members) == 3 and all(a.adapted for a in adaptations)
     assert not np.array_equal(members[0].components, members[1].components)
     one = [sparseedm.recover(inputs, mask, dictionary=d, adapt=False) for d in members]
@@ -58,10 +59,15 @@ def test_no_adaptation_means_one_member(split, shifted):
     # an ensemble with adaptation off would silently be one member: refused
     with pytest.raises(SparseEDMError, match="ensemble=4 averages adapted dictionaries"):
         sparseedm.recover(inputs, mask, dictionary=shifted, adapt=False, ensemble=4)
-    with pytest.warns(UserWarning, match="no adaptation"):  # 20 poses: too few to adapt on
+    with pytest.warns(UserWarning) as said:  # 20 poses: too few to adapt on
         few = sparseedm.recover(inputs, mask, dictionary=shifted, adapt=adapt_on[:20],
                                 ensemble=4)
+    said = [str(w.message) for w in said]
+    assert any(m.startswith("no adaptation") for m in said)
+    assert any(m.startswith("ensemble=4: seed 0's adaptation was not adopted")
+               and m.endswith("1 dictionary recovers, not 4 members") for m in said)
     assert few.members == 1 and not few.adapted
+    assert few.summary()["adaptation"]["ensemble"] == {"asked": 4, "members": 1}
     with pytest.raises(SparseEDMError, match="ensemble"):
         sparseedm.recover(inputs, mask, dictionary=shifted, ensemble=0)
 

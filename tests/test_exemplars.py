@@ -78,6 +78,41 @@ def test_statuses_certificates_and_refusals_unchanged(large_file, small_dictiona
     assert res.uncertainty is not None and np.isfinite(res.uncertainty[rec][missing[rec]]).all()
 
 
+def test_an_ensemble_on_the_file_atoms_path_says_one_member_ran(large_file, small_dictionary):
+    """ensemble=K where the file's own poses are the atoms: nothing is learned, so
+    every seed would code with the same atoms; one dictionary recovers, a warning
+    says why, and the record says how many were asked and how many ran. The answer
+    and its uncertainty are the ones without an ensemble."""
+    from sparseedm.uncertainty import coding_way
+
+    poses, missing = large_file
+    with pytest.warns(UserWarning, match=r"ensemble=3: .*own complete poses are the "
+                                         r"atoms.*1 dictionary recovers"):
+        res = recover(poses, missing, dictionary=small_dictionary, ensemble=3,
+                      self_training=0)
+    plain = recover(poses, missing, dictionary=small_dictionary)
+    assert res.members == 1 and res.adaptation.path == "file atoms"
+    assert res.summary()["adaptation"]["ensemble"] == {"asked": 3, "members": 1}
+    assert "ensemble" not in plain.summary()["adaptation"]
+    np.testing.assert_array_equal(res.poses, plain.poses)
+    assert coding_way(res) == coding_way(plain) == "file_atoms"
+    np.testing.assert_array_equal(res.uncertainty, plain.uncertainty)
+
+
+def test_the_summary_says_an_ensemble_only_for_adapted_members():
+    """The averaged path's three dictionaries are not an ensemble of adapted ones:
+    `sparseedm recover`'s lines do not call them so."""
+    from sparseedm.cli.recover_cmd import format_summary
+
+    base = dict(output="o.npz", format="npz", poses=3, recovered_joints=2, refused=0,
+                seconds=1.0, poses_per_second=3.0, status={"recovered": 3}, ensemble=3)
+    averaged = format_summary(dict(base, adaptation={"adapted": False,
+                                                     "path": AVERAGED_PATH}))
+    adapted = format_summary(dict(base, adaptation={"adapted": True, "path": "adapted"}))
+    assert "adapted dictionaries" not in averaged
+    assert "ensemble: the mean of 3 adapted dictionaries' recoveries" in adapted
+
+
 def test_exemplars_false_keeps_adaptation(cmu_poses, small_dictionary):
     """The same large file with exemplars=False adapts, as the path did before the rule."""
     poses, missing = _file(cmu_poses, EXEMPLAR_MIN_POSES + 50)
@@ -318,7 +353,8 @@ def test_cli_no_exemplars_flag():
 def test_cli_large_file_takes_the_atoms_and_says_so(tmp_path, large_file,
                                                     small_dictionary_path, capsys):
     """`sparseedm recover` (recover_file) takes the same rule: the line says which path
-    ran, no refusal is printed, and --no-exemplars adapts."""
+    ran, no refusal is printed, an ensemble asked for warns that one dictionary
+    recovers, and --no-exemplars adapts."""
     from sparseedm.cli import main
     from sparseedm.keypoints import write_keypoints
 
@@ -327,10 +363,11 @@ def test_cli_large_file_takes_the_atoms_and_says_so(tmp_path, large_file,
     inp = tmp_path / "in.npz"
     write_keypoints(inp, poses[ok])
     assert main(["recover", str(inp), "-o", str(tmp_path / "out.npz"), "--dictionary",
-                 str(small_dictionary_path), "--self-training", "0"]) in (0, 1)
+                 str(small_dictionary_path), "--self-training", "0", "--ensemble", "2"]) in (0, 1)
     cap = capsys.readouterr()
     assert "adaptation: none, the file's own poses are the atoms" in cap.out
-    assert "no adaptation:" not in cap.err
+    assert "no adaptation:" not in cap.err and "adapted dictionaries" not in cap.out
+    assert "sparseedm recover: warning: ensemble=2: the file's own complete poses" in cap.err
     assert main(["recover", str(inp), "-o", str(tmp_path / "out2.npz"), "--dictionary",
                  str(small_dictionary_path), "--self-training", "0", "--no-exemplars"]) in (0, 1)
     line = next(ln for ln in capsys.readouterr().out.splitlines()

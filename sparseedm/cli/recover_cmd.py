@@ -129,7 +129,8 @@ def _add_adaptation_options(p):
         p, "after adapting, rounds of self-training on INPUT's incomplete poses (recover a "
         "sample, adapt again with them; the last round guarded); default 3, 0 turns it off",
         "adapt K times (seeds 0..K-1) and average the K recoveries: lower error, K times "
-        "the work (default 1; sparseedm.ensemble)")
+        "the work (default 1; sparseedm.ensemble); one dictionary, with a warning, when "
+        "the adaptation is not adopted or INPUT's own poses are the atoms")
     p.add_argument("--preset", choices=("default", "fast"), default="default",
                    help="'default': adaptation and self-training as set above; 'fast': "
                    "INPUT's complete poses (or --adapt-from's) are the dictionary's atoms, "
@@ -267,7 +268,7 @@ def format_summary(s) -> str:
         lines.append("also wrote: " + ", ".join(s["sidecars"]))
     if s.get("adaptation_line"):
         lines.append(s["adaptation_line"])
-    if s.get("ensemble", 1) > 1:
+    if s.get("ensemble", 1) > 1 and (s.get("adaptation") or {}).get("adapted"):
         lines.append(f"ensemble: the mean of {s['ensemble']} adapted dictionaries' recoveries")
     if s.get("mirror"):
         lines.append("mirror: each pose's answer averaged with its mirror image's")
