@@ -15,8 +15,9 @@ validation files the exemplars won on every file with at least
 below that it depended on the source. So :func:`choose_exemplars` decides:
 
 1. fewer than :data:`~sparseedm.adaptation.MIN_COMPLETE_POSES` usable
-   complete poses (exact repeats, which make one atom, counted once here and
-   in 2.): too few to be a dictionary on their own; no adaptation, the
+   complete poses (repeats, which make one atom, counted once here and
+   in 2.: exact, or within :data:`~sparseedm.adaptation.REPEAT_TOLERANCE` of
+   the pose's size, a still person): too few to be a dictionary on their own; no adaptation, the
    complete poses join the base's atoms. From :data:`FEW_MIN_POSES` of them
    (14 joints), a check on held-back complete poses (held back and hidden as
    in 3.) compares that with the mean of its answers and of the base with
@@ -76,8 +77,8 @@ import numpy as np
 from ._recovery_base import combine
 from ._recovery_kernel import compiled_solver, recover_members
 from .adaptation import (AVERAGED_PATH, GUARD_POSES_PER_PATTERN, MIN_COMPLETE_POSES,
-                         MIRRORED_ATOMS_PATH, AdaptationResult, duplicate_rows, guard_masks,
-                         pose_vectors)
+                         MIRRORED_ATOMS_PATH, AdaptationResult, guard_masks,
+                         pose_vectors, repeat_rows)
 from .file_atoms import (atoms_adaptation, complete_rows, file_dictionary, mirror_images,
                          with_file_atoms)
 from .normalize import rms_radius
@@ -359,8 +360,8 @@ def choose_exemplars(dictionary, poses, missing, *, n_jobs=1, random_state=0,
     poses = np.asarray(poses, dtype=float)
     complete = poses[complete_rows(poses, missing)]
     n = len(complete)
-    # exact repeats make one atom (file_dictionary drops them): the rule counts atoms
-    distinct = n - int(duplicate_rows(pose_vectors(complete)).sum()) if n else 0
+    # repeats make one atom (file_dictionary drops them): the rule counts atoms
+    distinct = n - int(repeat_rows(pose_vectors(complete)).sum()) if n else 0
     count = f"{n} complete poses" + (f" ({distinct} distinct)" if distinct < n else "")
     kw = dict(n_jobs=n_jobs, backend=backend, scheduler=scheduler)
     if distinct < MIN_COMPLETE_POSES:

@@ -5,7 +5,8 @@ than :data:`sparseedm.adaptation.MIN_COMPLETE_POSES`), or its adaptation is
 not adopted, its complete poses still say how *these* people are drawn: the
 annotators' or the detector's joint conventions, the camera, the sport.
 :func:`with_file_atoms` appends their normalised EDM vectors, scaled to unit
-norm, to the dictionary's atoms (exact repeats dropped; at most
+norm, to the dictionary's atoms (repeats dropped: exact, or within
+:data:`~sparseedm.adaptation.REPEAT_TOLERANCE` of the pose's size; at most
 :data:`MAX_FILE_ATOMS`, a seeded sample). Adaptation's plausibility filters
 (:func:`sparseedm.adaptation.filter_poses`, ``filter=True``) are off by
 default: the poses they drop as outliers are the unusual ones an exemplar is
@@ -30,8 +31,8 @@ from numbers import Integral
 
 import numpy as np
 
-from .adaptation import (MIN_COMPLETE_POSES, AdaptationResult, duplicate_rows, filter_poses,
-                         pose_vectors)
+from .adaptation import (MIN_COMPLETE_POSES, AdaptationResult, filter_poses, pose_vectors,
+                         repeat_rows)
 from ._validation import BOOLEAN, Interval, check_pose_shape, validate_params
 from .dictionary import Dictionary
 from .normalize import usable_rows
@@ -94,7 +95,8 @@ def with_file_atoms(dictionary, poses, missing=None, *, max_atoms=MAX_FILE_ATOMS
         At most this many poses become atoms (a seeded sample, order kept).
     filter : bool, default False
         Drop implausible poses first as adaptation does
-        (:func:`sparseedm.adaptation.filter_poses`); else exact repeats only.
+        (:func:`sparseedm.adaptation.filter_poses`); else repeats only
+        (:func:`sparseedm.adaptation.repeat_rows`).
     random_state : int, default 0
         Seed of the sample when more than `max_atoms` poses are left.
 
@@ -141,7 +143,8 @@ def file_dictionary(dictionary, poses, missing=None, *, max_atoms=MAX_FAST_ATOMS
                     alpha_recover=FAST_ALPHA, random_state=0):
     """A dictionary of the complete rows of `poses` alone: ``recover(preset="fast")``'s.
 
-    Each usable complete pose (exact repeats dropped; at most `max_atoms`, a
+    Each usable complete pose (repeats dropped,
+    :func:`sparseedm.adaptation.repeat_rows`; at most `max_atoms`, a
     seeded sample) becomes a unit-norm atom, as in :func:`with_file_atoms`,
     but without the base's atoms: the lasso then codes each occluded pose
     over exemplars of the same file only, which are in-domain, and nothing is
@@ -203,7 +206,7 @@ def _file_vectors(dictionary, poses, missing, max_atoms, filter, random_state):
         warnings.simplefilter("ignore", RuntimeWarning)
         vectors = pose_vectors(poses)  # one vector per pose: the atoms are its rows
         keep = (filter_poses(poses, dictionary).keep if filter
-                else ~duplicate_rows(vectors))
+                else ~repeat_rows(vectors))
     rows = np.flatnonzero(keep)
     if len(rows) > max_atoms:
         rng = np.random.default_rng([int(random_state), 41])

@@ -224,6 +224,35 @@ def test_exact_repeats_count_once(cmu_poses, small_dictionary, copies):
     assert f"{len(complete)} complete poses (100 distinct)" in fast.adaptation.reason
 
 
+@pytest.mark.parametrize("scale", [1.0, 1000.0])
+def test_near_copies_count_as_one_pose(cmu_poses, small_dictionary, scale):
+    """A still person whose complete poses differ by 1e-4 px of noise: past
+    EXEMPLAR_MIN_POSES of them, still one pose (REPEAT_TOLERANCE, relative to the
+    pose's size: at any pixel scale). Neither 2,050 near-identical atoms taken
+    unchecked nor a dictionary adapted on them (each recovered the other people's
+    hidden joints from that one pose, 15 times the base's error): the base with it
+    as one extra atom, the reason saying so."""
+    rng = np.random.default_rng(0)
+    still = cmu_poses[0] + rng.normal(0, 1e-4, (EXEMPLAR_MIN_POSES + 50, 14, 2))
+    occluded, mask = _file(cmu_poses[100:], 0, n_occluded=60)
+    poses = np.concatenate([still, occluded]) * scale
+    missing = np.concatenate([np.zeros(still.shape[:2], bool), mask])
+    check = choose_exemplars(small_dictionary, poses, missing)
+    assert check.dictionary is None and check.n_complete == len(still)
+    res = recover(poses, missing, dictionary=small_dictionary, self_training=0)
+    assert res.adaptation.path == "base + file atoms" and res.adaptation.file_atoms == 1
+    base = recover(poses, missing, dictionary=small_dictionary, adapt=False)
+    truth = np.concatenate([still, cmu_poses[100:160]]) * scale
+    rec = (res.status == "recovered") & (base.status == "recovered")
+    assert rec.sum() >= 50
+
+    def err(r):
+        return np.linalg.norm(r.poses - truth, axis=-1)[rec][missing[rec]].mean()
+    assert err(res) < 1.5 * err(base)
+    fast = recover(poses, missing, dictionary=small_dictionary, preset="fast")
+    assert f"{len(still)} complete poses (1 distinct)" in fast.adaptation.reason
+
+
 def test_the_check_between_decides_on_the_hidden_joints(cmu_poses, small_dictionary):
     """Between MIN_COMPLETE_POSES and EXEMPLAR_MIN_POSES: the check scores both on
     held-back poses; the margin decides; recover() follows the check."""
