@@ -85,3 +85,40 @@ def test_evaluate_tracks_tells_the_clips(told):
     tracks, frames = np.repeat([0, 1], [40, 35]), np.concatenate([np.arange(40), np.arange(35)])
     evaluate_tracks(poses, tracks, frames, gap_lengths=(3,), methods=["linear"])
     assert "sparseedm: evaluating linear clip by clip" in told.getvalue()
+
+
+def _lift_input(n=40):
+    cmu = np.load(__import__("pathlib").Path(__file__).parent / "fixtures" / "cmu_poses.npz",
+                  allow_pickle=False)["poses2d"].astype(float)[:n]
+    cmu[::3, 4] = np.nan
+    return cmu
+
+
+def test_lift_shows_a_bar_over_its_lasso_chunks(capsys):
+    """lift(progress=True) shows a bar over the dictionary lifter's chunks, as
+    recover() over its own; the answers are the silent call's."""
+    import sparseedm
+
+    poses = _lift_input()
+    shown = sparseedm.lift(poses, progress=True)
+    err = capsys.readouterr().err
+    assert "lift" in err and "1/1" in err and "chunk" in err
+    silent = sparseedm.lift(poses)
+    assert capsys.readouterr().err == ""  # progress=False: silent
+    np.testing.assert_array_equal(shown.poses3d, silent.poses3d)
+    np.testing.assert_array_equal(shown.status, silent.status)
+
+
+def test_cli_lift_shows_the_bar_as_recover_does(tmp_path, monkeypatch, capsys):
+    """`sparseedm lift` asks for the bar where `sparseedm recover` does (a terminal,
+    no --quiet) and not with --quiet."""
+    from sparseedm.cli import lift_cmd, main
+    from sparseedm.keypoints import write_keypoints
+
+    src = tmp_path / "in.npz"
+    write_keypoints(src, _lift_input())
+    monkeypatch.setattr(lift_cmd, "show_progress", lambda args: not args.quiet)
+    assert main(["lift", str(src), "-o", str(tmp_path / "o.csv"), "--no-temporal"]) == 0
+    assert "1/1" in capsys.readouterr().err
+    assert main(["lift", str(src), "-o", str(tmp_path / "q.csv"), "--no-temporal", "-q"]) == 0
+    assert "1/1" not in capsys.readouterr().err

@@ -8,7 +8,8 @@ from __future__ import annotations
 
 import sys
 
-from ._common import SELECTION_HELP, add_input_format, add_joint_map, add_quiet, refusals_said
+from ._common import (SELECTION_HELP, add_input_format, add_joint_map, add_quiet, refusals_said,
+                      show_progress)
 
 
 def add_parser(sub):
@@ -106,7 +107,8 @@ def run(args):
                   temporal=not args.no_temporal, chunk_size=args.chunk_size,
                   joint_map=args.joint_map, dictionary=args.dictionary,
                   adapt=not args.no_adapt, self_training=args.self_training,
-                  plot_frames=args.frames, input_format=args.input_format)
+                  plot_frames=args.frames, input_format=args.input_format,
+                  progress=show_progress(args))
     out = sys.stderr if args.quiet or is_stream(args.output) else sys.stdout  # -o /dev/stdout
     rate = f"{s['poses_per_second']:,.0f} poses/s" if s["poses_per_second"] else "-"
     counts = ", ".join(f"{k} {v}" for k, v in s["status"].items()) or "none"

@@ -178,15 +178,18 @@ class DictionaryLifter(Lifter):
             raise LifterError(f"{where}: atoms have {m} entries per half, not the "
                               f"{n_joints * (n_joints - 1) // 2} of {n_joints} joints")
 
-    def _lasso_chunks(self, X2, missing, n_jobs, chunk_size, fn):
+    def _lasso_chunks(self, X2, missing, n_jobs, chunk_size, fn, progress=False):
         """``fn(rows, result)`` for every chunk of the lasso on the observed 2D entries.
 
         Rows of every missing pattern go through one masked solve per chunk (as
         recover() does): the fast solver downdates one cached Gram of the 2D
         halves per row; rows are sorted by pattern, and with several workers
         each gets a share. `fn` runs in the worker, so a chunk's dense codes
-        never outlive it. Returns the list of `fn`'s values.
+        never outlive it. `progress`: a tqdm bar over the chunks. Returns the
+        list of `fn`'s values.
         """
+        from tqdm.auto import tqdm
+
         n, m = X2.shape
         C = self.components_
         N = num_joints_from_dim(m)
@@ -204,11 +207,13 @@ class DictionaryLifter(Lifter):
             return fn(rows, solver.solve_masked(D2, X2[rows], observed[rows], alpha[rows],
                                                 key=key))
 
+        bar = dict(total=len(tasks), disable=not progress, unit="chunk", desc="lift")
         with threadpool_limits(1, user_api="blas"):
             n_jobs = usable_jobs(n_jobs, len(tasks))
             if n_jobs == 1:
-                return [run(t) for t in tasks]
-            return Parallel(n_jobs=n_jobs, backend="threading")(delayed(run)(t) for t in tasks)
+                return [run(t) for t in tqdm(tasks, **bar)]
+            return list(tqdm(Parallel(n_jobs=n_jobs, backend="threading", return_as="generator")(
+                delayed(run)(t) for t in tasks), **bar))
 
     def _weighted_rows(self, X2, missing, weights):
         """The lasso of each row on its observed entries scaled by ``sqrt(w_i w_j)``
@@ -235,7 +240,8 @@ class DictionaryLifter(Lifter):
                         (res.coef != 0).sum(axis=1), res.fallback))
         return out
 
-    def predict(self, X2, missing=None, *, n_jobs=1, chunk_size=2048, weights=None):
+    def predict(self, X2, missing=None, *, n_jobs=1, chunk_size=2048, weights=None,
+                progress=False):
         """3D EDM vectors from the observed entries of 2D EDM vectors.
 
         Parameters
@@ -250,6 +256,9 @@ class DictionaryLifter(Lifter):
             (:func:`sparseedm.lifting.uncertainty3d.filled_weights` down-weights
             joints filled across time). Rows whose weights are all 1 are coded
             as without them.
+        progress : bool, default False
+            A progress bar over the chunks of the lasso (the rows with weights
+            are coded after it, without one).
 
         Returns
         -------
@@ -268,7 +277,7 @@ class DictionaryLifter(Lifter):
         out = [] if not len(sub) else self._lasso_chunks(
             X2[sub], mask[sub], n_jobs, chunk_size,
             lambda rows, res: (sub[rows], res.coef @ C, res.status, res.objective, res.gap,
-                               (res.coef != 0).sum(axis=1), res.fallback))
+                               (res.coef != 0).sum(axis=1), res.fallback), progress)
         if not plain.all():
             other = np.flatnonzero(~plain)
             for rows, *rest in self._weighted_rows(X2[other], mask[other], weights[other]):

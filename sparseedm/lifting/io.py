@@ -252,7 +252,7 @@ def write_poses3d(path, result, ids=None, output_format=None, rate=30.0, *, trac
 def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, errors_path=None,
               confidence_threshold=None, representation=None, rate=30.0, plot=None,
               temporal=True, chunk_size=50_000, joint_map=None, dictionary=None, adapt=True,
-              self_training=None, plot_frames=None, input_format=None):
+              self_training=None, plot_frames=None, input_format=None, progress=False):
     """Read 2D keypoints, lift them, write 3D poses and an errors file; return a summary.
 
     Nothing the run reads is ever written, and no output overwrites another:
@@ -315,6 +315,10 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
     input_format : str, optional
         The input's keypoint format when its name does not tell (as
         :func:`~sparseedm.keypoints.read_keypoints`' `format`).
+    progress : bool, default False
+        A progress bar over each chunk's lifting (:func:`lift`'s `progress`);
+        ``sparseedm lift`` shows it on a terminal unless ``--quiet``, as
+        ``sparseedm recover`` does.
 
     Returns
     -------
@@ -333,7 +337,8 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
         row by row.
     """
     validate_params("lift_file", dict(n_jobs=n_jobs, chunk_size=chunk_size, adapt=adapt,
-                                      self_training=self_training), _PARAMS)  # before adapting
+                                      self_training=self_training, progress=progress),
+                    _PARAMS)  # before adapting
     errors = Path(errors_path) if errors_path else default_errors_path(output)
     _output_format(output, output_format)
     if not 0 < float(rate) < np.inf:  # inf: every .trc time would be 0
@@ -358,7 +363,7 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
                      "time first; --no-temporal lifts each row alone)" if in_time else ""))
     result, tracks = _lift_chunks(kps, in_time, chunk_size, fill, lifter=load_lifter(lifter),
                                   n_jobs=n_jobs, representation=representation,
-                                  uncertainty3d=_output_format(output, output_format) != "trc")
+                                  progress=progress, uncertainty3d=_output_format(output, output_format) != "trc")
     write_poses3d(output, result, kps.ids, output_format, rate=rate, tracks=tracks,
                   frames=kps.frames)
     refused = ~result.ok
@@ -374,7 +379,7 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
 
 #: constraints of lift_file()'s arguments (see sparseedm._validation)
 _PARAMS = {"n_jobs": N_JOBS, "chunk_size": CHUNK_SIZE, "adapt": BOOLEAN,
-           "self_training": [Interval(Integral, 0, None), None]}
+           "self_training": [Interval(Integral, 0, None), None], "progress": BOOLEAN}
 
 
 def _names_a_file(value):

@@ -136,7 +136,7 @@ class LiftResult:
 
 def lift(poses, missing=None, *, tracks=None, frames=None, lifter=None, n_jobs=1,
          representation=None, adapt=None, dictionary=None, fill_adapt="auto",
-         uncertainty3d=False):
+         uncertainty3d=False, progress=False):
     """Lift 2D poses to 3D.
 
     Parameters
@@ -179,6 +179,11 @@ def lift(poses, missing=None, *, tracks=None, frames=None, lifter=None, n_jobs=1
         (a table lookup); with frames, rows holding filled joints are lifted
         again a few times (:data:`~sparseedm.lifting.uncertainty3d.N_PERTURBATIONS`),
         hence opt-in.
+    progress : bool, default False
+        Show a progress bar over the chunks of the dictionary lifter's lasso
+        (the long step; an MLP or FConv lifter predicts in one go) and, with
+        `frames`, over those of the fill across time (as
+        :func:`sparseedm.recover`'s `progress`).
 
     Returns
     -------
@@ -199,9 +204,10 @@ def lift(poses, missing=None, *, tracks=None, frames=None, lifter=None, n_jobs=1
     """
     t0 = time.perf_counter()
     validate_params("lift", dict(representation=representation, n_jobs=n_jobs, lifter=lifter,
-                                 uncertainty3d=uncertainty3d),
+                                 uncertainty3d=uncertainty3d, progress=progress),
                     {"representation": [Options(REPRESENTATIONS), None], "n_jobs": N_JOBS,
-                     "lifter": [Lifter, "path", None], "uncertainty3d": ["boolean"]})
+                     "lifter": [Lifter, "path", None], "uncertainty3d": ["boolean"],
+                     "progress": ["boolean"]})
     lifter = load_lifter(lifter)
     representation = representation_for(representation, lifter.representation,
                                         f"the {lifter.method} lifter")
@@ -214,10 +220,11 @@ def lift(poses, missing=None, *, tracks=None, frames=None, lifter=None, n_jobs=1
         check_frames(frames, "lift")
         poses, filled, layout, radius = fill_in_time(poses, mask, tracks, frames,
                                                      dictionary=dictionary, n_jobs=n_jobs,
-                                                     adapt=fill_adapt)
+                                                     adapt=fill_adapt, progress=progress)
         mask = mask & ~filled
     weights = filled_weights(poses, mask, filled, radius) if filled.any() else None
-    out = _lift_rows(lifter, poses, mask, bad, representation, n_jobs, layout, weights)
+    out = _lift_rows(lifter, poses, mask, bad, representation, n_jobs, layout, weights,
+                     progress=progress)
     if layout is not None:
         smooth_tracks(out["poses3d"], layout)
     lifted = np.isin(out["status"], ("lifted", "lifted_occluded")) & filled.any(axis=1)
@@ -281,10 +288,11 @@ def lift_reflections(lifter, poses, *, representation="average", n_jobs=1, weigh
 
 
 def _lift_rows(lifter, poses, mask, bad, representation, n_jobs, layout, weights=None,
-               both=False):
+               both=False, progress=False):
     """Screen, predict and reconstruct every row: the LiftResult's per-row fields
     (`weights`: per-joint weights a dictionary lifter's lasso applies; `both`: the
-    two reflections instead, as ``front`` and ``back``)."""
+    two reflections instead, as ``front`` and ``back``; `progress`: a dictionary
+    lifter's bar over its chunks)."""
     N = lifter.n_joints
     n = len(poses)
     m = N * (N - 1) // 2
@@ -299,8 +307,8 @@ def _lift_rows(lifter, poses, mask, bad, representation, n_jobs, layout, weights
     rows = np.flatnonzero(np.isin(status, ("lifted", "lifted_occluded")))
     if len(rows):
         X2, _, _ = represent(clean[rows], mask[rows], representation)
-        weighted = {} if weights is None or not lifter.codes_observed_only else {
-            "weights": weights[rows]}
+        weighted = {} if not lifter.codes_observed_only else dict(
+            progress=progress, **({} if weights is None else {"weights": weights[rows]}))
         Y, info = lifter.predict(X2, mask[rows], n_jobs=n_jobs, **weighted)
         st = info["status"]
         status[rows[st == "inaccurate"]] = "inaccurate"

@@ -61,7 +61,8 @@ class TimeFill(NamedTuple):
     uncertainty: np.ndarray
 
 
-def fill_in_time(poses, mask, tracks, frames, *, dictionary=None, n_jobs=1, adapt="auto"):
+def fill_in_time(poses, mask, tracks, frames, *, dictionary=None, n_jobs=1, adapt="auto",
+                 progress=False):
     """The poses with the 2D joints time fills, which joints, the track layout
     and the filled joints' 90 % radius.
 
@@ -74,7 +75,7 @@ def fill_in_time(poses, mask, tracks, frames, *, dictionary=None, n_jobs=1, adap
     tracks, frames
         As :func:`sparseedm.recover`'s, `frames` checked
         (:func:`~sparseedm._validation.check_frames`) by the caller.
-    dictionary, n_jobs, adapt
+    dictionary, n_jobs, adapt, progress
         As :func:`sparseedm.recover` with frames (`adapt` of the 2D dictionary).
 
     Returns
@@ -91,7 +92,7 @@ def fill_in_time(poses, mask, tracks, frames, *, dictionary=None, n_jobs=1, adap
     rec_input = np.where(mask[..., None], np.nan, poses)
     rec = recover_temporal(rec_input, mask, tracks=tracks,
                            frames=frames, dictionary=dictionary, n_jobs=n_jobs,
-                           adapt=adapt, progress=False, check_input=False)
+                           adapt=adapt, progress=progress, check_input=False)
     filled = ((rec.source == "temporal") & mask & np.isfinite(rec.poses).all(axis=-1)
               & (rec.prior_weight <= TIME_FILL_MAX_WEIGHT))
     poses = np.where(filled[..., None], rec.poses, poses)
