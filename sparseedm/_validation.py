@@ -49,7 +49,7 @@ __all__ = ["Interval", "Options", "validate_params", "check_poses", "check_pose_
            "check_mask", "ALPHA", "ALPHA_MIN", "ALPHA_MAX", "ENSEMBLE", "MAX_ENSEMBLE", "N_JOBS",
            "CHUNK_SIZE", "PATH", "BOOLEAN", "THRESHOLD", "SCORE", "usable_jobs",
            "unmask", "environment_problem", "MAX_FRAME", "NUMBER_TEXT", "frame_value", "frame_array",
-           "frame_numbers", "check_frames", "check_adapt"]
+           "frame_numbers", "read_frames", "check_frames", "check_adapt"]
 
 
 class Interval:
@@ -461,6 +461,30 @@ def frame_numbers(frames, n):
     for i, v in zip(rows, arr[rows].tolist()):
         values[i], reason[i] = frame_value(v)
     return values, reason
+
+
+def read_frames(frames):
+    """`frames` read once by the frame-number rule (:func:`frame_numbers`), for a
+    caller whose later steps each read them again.
+
+    Every frame number usable: their int64 values, which each later reading takes
+    at numpy speed with the same result, instead of value by value (text, floats
+    in an object array: a CSV column of ``"12.0"``). Some refused: `frames` as
+    given (a refused one's reason names its own value).
+
+    Examples
+    --------
+    >>> read_frames(np.array(["0.0", "1.0", "3"], dtype=object)).tolist()
+    [0, 1, 3]
+    >>> read_frames(np.array(["0.0", "1.5"], dtype=object)).dtype.name  # 1.5: refused
+    'object'
+    >>> read_frames(None) is None
+    True
+    """
+    if frames is None:
+        return None
+    values, reason = frame_numbers(frames, len(np.asarray(frames)))
+    return values if (reason == "").all() else frames
 
 
 def frame_array(values):

@@ -96,7 +96,7 @@ from ._atomic import atomic_path, check_folder, check_paths
 from ._extras import require as require_extra
 from ._parallel import one_client
 from ._validation import (ALPHA, BOOLEAN, CHUNK_SIZE, ENSEMBLE, N_JOBS, PATH, SCORE,
-                          Interval, Options, check_adapt, validate_params)
+                          Interval, Options, check_adapt, read_frames, validate_params)
 from .adaptation import MIN_COMPLETE_POSES, sample_stream
 from .dictionary import Dictionary, dictionary_path, check_gram_memory, load_dictionary
 from ._safeio import resolved
@@ -166,7 +166,9 @@ class _MemorySource:
         self.n = len(self.kps)
         self.ids = self.kps.ids
         self.meta = self.kps.meta
-        self.tracks, self.frames = self.kps.tracks, self.kps.frames
+        # the frame numbers read once here, not again by each step's rule: the
+        # writers keep the file's own (kps.frames)
+        self.tracks, self.frames = self.kps.tracks, read_frames(self.kps.frames)
         self.linked = None
         self.outliers = None  # (n, 14): points the outlier check made missing
 

@@ -19,7 +19,7 @@ from sparseedm.temporal import tracks as temporal_tracks
 WRIST = 4
 CHECKERS = [(_validation, "unmask"), (_validation, "check_poses"), (_validation, "check_mask"),
             (_validation, "check_frames"), (_recovery_base, "validate_poses"),
-            (temporal_tracks, "frame_numbers")]
+            (temporal_tracks, "frame_numbers"), (_validation, "frame_value")]
 
 
 @pytest.fixture
@@ -99,7 +99,8 @@ def test_inner_calls_trust_what_the_entrance_refuses(small_dictionary):
 def test_recover_file_on_a_video_validates_each_row_once(track, small_dictionary_path,
                                                          tmp_path, counted):
     """The reader checks the file; adapting on the whole file trusts it, and the
-    one chunk's recovery validates its rows once (frame numbers: not yet once)."""
+    one chunk's recovery validates its rows once (frame numbers: each step reads
+    the int64 array at numpy speed; text ones are read once, below)."""
     from sparseedm.batch import recover_file
     from sparseedm.keypoints import KeypointSet, write_keypoints
 
@@ -109,3 +110,25 @@ def test_recover_file_on_a_video_validates_each_row_once(track, small_dictionary
     counted.clear()
     recover_file(src, tmp_path / "out.npz", dictionary=str(small_dictionary_path))
     _once(counted, ["validate_poses", "unmask", "check_mask", "check_frames"])
+
+
+@pytest.mark.parametrize("confidence", [False, True])
+def test_recover_file_reads_each_frame_number_once(track, small_dictionary_path, tmp_path,
+                                                   counted, confidence):
+    """A CSV whose frame numbers are written as floats ("12.0", as pandas writes a
+    column with a gap) reads back as text; recover_file reads each one once by the
+    frame-number rule, not again in each step (the test for time, the outlier check,
+    adapting on the clip, the chunks, the recovery)."""
+    from sparseedm.batch import recover_file
+    from sparseedm.keypoints import read_keypoints, write_keypoints
+
+    poses, mask, tracks, frames = _clip(track)
+    src = tmp_path / "clip.csv"
+    scores = np.where(mask, np.nan, 0.9) if confidence else None
+    write_keypoints(src, poses, tracks=tracks, frames=np.array([f"{f}.0" for f in frames]),
+                    confidence=scores)
+    assert read_keypoints(src).frames.dtype == object
+    counted.clear()
+    s = recover_file(src, tmp_path / "out.csv", dictionary=str(small_dictionary_path))
+    assert s["temporal"]["segments"] > 0  # recovered across time
+    assert counted["frame_value"] == len(poses), dict(counted)
