@@ -9,9 +9,10 @@ and reads the hidden joints out of them in other ways:
 
 * ``w^p``: the least squares with residual weight ``d ** p`` (shipped p = 1);
 * ``bones xF``: the distances along the skeleton's bones weighted F times more;
-* ``spread``: each distance weighted by ``1 / (s ** 2 + t ** 2)``, ``s`` the
-  code-weighted spread of the used atoms' own distances for that entry (each
-  atom scaled to the pose's observed distances), ``t`` their median;
+* ``spread``: each distance weighted by ``t ** 2 / (s ** 2 + t ** 2)``, ``s``
+  the code-weighted spread of the used atoms' own distances for that entry
+  (each atom scaled to the pose's observed distances), ``t`` their median
+  (``spread t xF``: ``F t`` in the denominator; ``spread w^0``: times ``d ** 0``);
 * ``huber``: the least squares with Huber weights (iteratively reweighted);
 * ``atoms``: every used atom's pose (the classical MDS embedding of its
   distances; a file atom's is its pose) aligned to the observed joints
@@ -19,7 +20,14 @@ and reads the hidden joints out of them in other ways:
   with the code's weights (``|c|``);
 * ``mds``: the classical MDS embedding of the whole completed EDM, aligned so;
 * ``blend t``: ``t * atoms + (1 - t) * least squares``;
-* ``ls from atoms``: the least squares started from ``atoms``' joints.
+* ``ls from atoms`` / ``ls from mds``: the least squares started from their joints;
+* ``blend 0.25 mds``, ``ls from atoms, blend 0.25``: the same blends of those.
+
+Beside them, a diagnosis of the current readout on the first member: the
+hidden-to-observed distances' mean error, the joints' mean error, their ratio,
+the displacement of each joint that its distances' errors say (least squares
+on the true directions to the observed joints) and the share of those errors
+it explains.
 
 Files (validation only): ``studies/fast/select_photo_atoms.py``'s photo files
 (MPII, COCO, Bonn val occluded poses, mix and transplanted masks; complete
@@ -30,6 +38,7 @@ hidden joints (% of body size); ``candidate - current`` paired over the
 occluded poses [mean, standard error]; IterativeImputer on the same file.
 
     python studies/real_prior/probe_readout.py --daz daz_indian.npz --out readout.json
+    python studies/real_prior/probe_readout.py --table readout.json
 """
 
 from __future__ import annotations
