@@ -90,18 +90,40 @@ def place_missing_joints(poses, edm, missing, n_iter=10, weight_power=WEIGHT_POW
         return np.zeros((n, M, 2))
     if (counts != M).any():
         raise ValueError("every pose of a placement batch must miss the same number of joints")
-    order = np.argsort(~missing, axis=1, kind="stable")  # missing joints first, in order
-    miss, obs = order[:, :M], order[:, M:]
-    rows = np.arange(n)[:, None]
-    anchors = poses[rows, obs]  # (n, a, 2)
-    d_mo = edm[rows[:, :, None], miss[:, :, None], obs[:, None, :]]  # (n, M, a)
-    d_mm = edm[rows[:, :, None], miss[:, :, None], miss[:, None, :]]  # (n, M, M)
+    miss, anchors, d_mo, d_mm = _gather(poses, edm, missing)
     P = np.stack([_trilaterate(anchors, d_mo[:, j]) for j in range(M)], axis=1)
     P = _within_reach(P, anchors, d_mo)
     iu, ju = np.triu_indices(M, 1)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         w_mo = np.maximum(d_mo, 1e-12) ** weight_power
         w_mm = np.maximum(d_mm[:, iu, ju], 1e-12) ** weight_power
+    return _refine(P, anchors, d_mo, d_mm, w_mo, w_mm, n_iter, relative_damping=weight_power != 0)
+
+
+def _gather(poses, edm, missing):
+    """A placement batch's pieces: each pose's missing joints (n, M) in joint order,
+    its observed joints' coordinates (n, a, 2), the target distances from the
+    missing joints to the observed ones (n, M, a) and among themselves (n, M, M)."""
+    M = int(missing[0].sum())
+    order = np.argsort(~missing, axis=1, kind="stable")  # missing joints first, in order
+    miss, obs = order[:, :M], order[:, M:]
+    rows = np.arange(len(poses))[:, None]
+    anchors = poses[rows, obs]  # (n, a, 2)
+    d_mo = edm[rows[:, :, None], miss[:, :, None], obs[:, None, :]]  # (n, M, a)
+    d_mm = edm[rows[:, :, None], miss[:, :, None], miss[:, None, :]]  # (n, M, M)
+    return miss, anchors, d_mo, d_mm
+
+
+def _refine(P, anchors, d_mo, d_mm, w_mo, w_mm, n_iter, relative_damping=True):
+    """`n_iter` guarded Gauss-Newton steps from the missing joints `P` (n, M, 2).
+
+    The cost is the weighted squared residual of the distances to the observed
+    joints (weights `w_mo`, (n, M, a)) and among the missing ones (`w_mm`, (n,
+    M(M-1)/2), the upper triangle row by row); `relative_damping` scales the
+    damping to the weighted curvature, else it is a fixed 1e-6.
+    """
+    n, M = P.shape[:2]
+    iu, ju = np.triu_indices(M, 1)
     eye = np.arange(M)
 
     def cost(P):
@@ -135,7 +157,7 @@ def place_missing_joints(poses, edm, missing, n_iter=10, weight_power=WEIGHT_POW
                 g[:, a] += u[:, p_] * r[:, p_, None]
                 g[:, b] -= u[:, p_] * r[:, p_, None]
         H = H.reshape(n, 2 * M, 2 * M)
-        if weight_power == 0:  # unweighted: the fixed damping it always had
+        if not relative_damping:  # unweighted: the fixed damping it always had
             damp = np.full(n, 1e-6)
         else:  # relative to the weighted curvature, so the weights' scale cancels
             damp = 1e-6 * np.trace(H, axis1=1, axis2=2) / (2 * M) + 1e-12
