@@ -394,7 +394,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
     mirror : {False, True, "auto"}, default False
         As :func:`sparseedm.recover`'s: also code each pose's mirror image and
         average the two answers (``--mirror``), or weigh them by their lasso
-        objectives (``"auto"``, ``--mirror auto``); per pose: refused on a file
+        objectives (``"auto"``, ``--mirror-auto``); per pose: refused on a file
         with frames unless ``temporal=False``, and with FConv.
     outliers : bool, default True
         When the file has per-joint scores (not a ``.npy``, streamed): the

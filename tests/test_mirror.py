@@ -162,7 +162,7 @@ def test_the_command_line_passes_mirror_auto(tmp_path, capsys):
     src = tmp_path / "in.npz"
     write_keypoints(src, given)
     assert main(["recover", str(src), "-o", str(tmp_path / "out.npz"), "--no-adapt",
-                 "--mirror", "auto"]) == 0
+                 "--mirror-auto"]) == 0
     assert "by their lasso objectives" in capsys.readouterr().out
     out = read_keypoints(tmp_path / "out.npz").poses
     assert np.allclose(out, sparseedm.recover(given, adapt=False, mirror="auto").poses,
