@@ -169,3 +169,14 @@ def test_the_command_line_passes_mirror_auto(tmp_path, capsys):
                        atol=1e-6)
     with pytest.raises(ParameterError, match="mirror"):
         sparseedm.recover(given, mirror="on")
+
+
+def test_the_photo_protocol_runs_the_gated_mirror():
+    from sparseedm.evaluation_real import evaluate_photos
+
+    rng = np.random.default_rng(1)
+    poses = POSE + rng.normal(0, 6, (60, 14, 2))
+    methods = ["sparseedm-no-adapt-mirror", "sparseedm-no-adapt-mirror-auto"]
+    rep = evaluate_photos(poses, conditions=[2], methods=methods)
+    means = {r["method"]: r["mean"] for r in rep.rows if r["group"] == "overall"}
+    assert set(means) == set(methods) and all(np.isfinite(list(means.values())))
