@@ -40,9 +40,13 @@ difference to ``plain`` of the default dictionary (mean, standard error).
     python studies/real_prior/probe_mirror_gate.py --photos "" --dictionaries cmu-k2000 \\
         --cmu-subjects 01,02,03 --mocap bandai.npz \\
         --out studies/real_prior/results_mirror_gate_k2000.json
+    python studies/real_prior/probe_mirror_gate.py --benchmark \\
+        --out studies/real_prior/results_mirror_gate_benchmark.json
 
 (the second: ``cmu-k2000``, learned from CMU subjects 01-03, also on the CMU
-training set's poses of those subjects and of the others.)
+training set's poses of those subjects and of the others; the third: the
+photo files of ``python -m benchmarks.real_people --split val``,
+``cmu-coco-k2932`` cold with ``mirror=True`` and ``mirror="auto"``.)
 """
 
 from __future__ import annotations
