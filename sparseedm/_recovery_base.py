@@ -13,6 +13,7 @@ imports nothing above the geometry, the dictionary format and validation.
 - :func:`screen_poses`, :func:`screen`   why a pose cannot be used; the usable ones represented
 - :func:`place_occluded_inplace`         occluded joints placed from recovered distances
 - :func:`combine`                        one result from several members' results
+- :func:`mirror_weights`                 recover(mirror="auto")'s weights per pose
 """
 
 from __future__ import annotations
@@ -31,7 +32,7 @@ from .placement import WEIGHT_POWER, place_missing_joints
 
 __all__ = ["STATUSES", "OK_STATUSES", "RecoveryResult", "Screened", "Screening",
            "validate_poses", "bad_coordinates", "screen_poses", "screen",
-           "place_occluded_inplace", "combine",
+           "place_occluded_inplace", "combine", "mirror_weights", "MIRROR_TEMPERATURE",
            "SCREENING_REFUSALS", "status_counts", "poses_per_second", "recovery_summary",
            "take_rows"]
 
@@ -428,10 +429,12 @@ def place_occluded_inplace(poses, mask, screened, certified=None, weight_power=W
 _PRECEDENCE = ("solver_failed", "inaccurate")
 
 
-def combine(results):
+def combine(results, weights=None):
     """One :class:`RecoveryResult` from members' results on the same poses.
 
-    Filled poses and EDM vectors are the means over the members. A row's
+    Filled poses and EDM vectors are the means over the members (with
+    `weights`, array (members, n) summing to 1 over the members: each row's
+    weighted mean, :func:`mirror_weights`). A row's
     status is the members' common status; where they differ, a solver failure
     of any member fails the row (its joints and vectors NaN, as a failed row of
     one recovery), else an uncertified ("inaccurate") answer of any member is
@@ -458,8 +461,12 @@ def combine(results):
         return first
     ok = np.stack([r.ok for r in results])  # (members, n)
     with np.errstate(invalid="ignore"):  # rows not usable in every member are set below
-        poses = np.mean([r.poses for r in results], axis=0)
-        vectors = np.mean([r.vectors for r in results], axis=0)
+        if weights is None:
+            poses = np.mean([r.poses for r in results], axis=0)
+            vectors = np.mean([r.vectors for r in results], axis=0)
+        else:
+            poses = np.einsum("mn,mnjd->njd", weights, [r.poses for r in results])
+            vectors = np.einsum("mn,mne->ne", weights, [r.vectors for r in results])
     # what every member keeps as given stays bit for bit (a mean of equal floats
     # need not be that float): the observed joints and their distances
     observed = ~first.missing
@@ -488,6 +495,40 @@ def combine(results):
         seconds=float(sum(r.seconds for r in results)), adaptation=first.adaptation,
         dictionary=first.dictionary, members=len(results),
         uncertainty=_mean_uncertainty(results, unusable))
+
+
+#: ``recover(mirror="auto")``: the temperature of the mirror image's weight,
+#: ``min(1/2, 1 / (1 + exp(r / T)))`` with r its lasso objective relative to
+#: the pose's own (``obj_mirror / obj_own - 1``); chosen on validation photos and
+#: mocap (``studies/real_prior/probe_mirror_gate.py``)
+MIRROR_TEMPERATURE = 0.05
+
+
+def mirror_weights(results):
+    """Weights (members, n) for :func:`combine` of K members' results followed by
+    their mirrored dictionaries' (``recover(mirror="auto")``): per pose, each
+    mirror answer's weight falls from 1/2 as its lasso objective exceeds its
+    member's (:data:`MIRROR_TEMPERATURE`); never above 1/2 (a lower mirror
+    objective gives the plain mean). Rows without a lasso (complete, refused)
+    get the mean.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from types import SimpleNamespace as R
+    >>> w = mirror_weights([R(objective=np.array([1.0, 1.0, np.nan])),
+    ...                     R(objective=np.array([1.0, 1.5, np.nan]))])
+    >>> np.round(w, 3).tolist()
+    [[0.5, 1.0, 0.5], [0.5, 0.0, 0.5]]
+    """
+    k = len(results) // 2
+    own = np.stack([r.objective for r in results[:k]])
+    mirror = np.stack([r.objective for r in results[k:]])
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        r = mirror / own - 1
+        w = np.minimum(0.5, 1 / (1 + np.exp(np.clip(r / MIRROR_TEMPERATURE, -50, 50))))
+    w = np.where(np.isfinite(w), w, 0.5)
+    return np.concatenate([1 - w, w]) / k
 
 
 def _mean_uncertainty(results, unusable):

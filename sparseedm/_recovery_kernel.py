@@ -19,7 +19,7 @@ from threadpoolctl import threadpool_limits
 
 from ._coding import atoms_key, pattern_order
 from ._parallel import chunk_tasks, dask_client
-from ._recovery_base import (RecoveryResult, bad_coordinates, combine,
+from ._recovery_base import (RecoveryResult, bad_coordinates, combine, mirror_weights,
                              place_occluded_inplace, screen, validate_poses)
 from ._validation import (ALPHA, BOOLEAN, CHUNK_SIZE, ENSEMBLE, N_JOBS, Interval, Options,
                           usable_jobs)
@@ -244,7 +244,7 @@ def preset_solver(solver="fast", preset="default", adaptation=None, positive=Non
     return FastSolver(working_set=True, numpy_max=0)
 
 
-def recover_members(poses, missing, members, adaptations, **kwargs):
+def recover_members(poses, missing, members, adaptations, mirror_gate=False, **kwargs):
     """The poses recovered with each of `members` (dictionaries), combined
     (:func:`~sparseedm._recovery_base.combine`: one member's result as it is), with
     what `adaptations` (:func:`sparseedm.ensemble.adapt_members`'s, or empty)
@@ -262,6 +262,10 @@ def recover_members(poses, missing, members, adaptations, **kwargs):
         The dictionaries (one unless an ensemble).
     adaptations : sequence of AdaptationResult
         What adapting each member did (empty: no adaptation).
+    mirror_gate : bool, default False
+        `members` are K dictionaries followed by their mirrored ones: weigh
+        each pose's answers by :func:`~sparseedm._recovery_base.mirror_weights`
+        (``recover(mirror="auto")``) instead of the plain mean.
     **kwargs
         The recovery settings of :func:`recover_sparse` (alpha, solver, n_jobs...).
 
@@ -275,7 +279,8 @@ def recover_members(poses, missing, members, adaptations, **kwargs):
     # the work is many small BLAS calls beside numba's threads: BLAS threads
     # would only spin against them (measured 2x slower), so BLAS gets one.
     with threadpool_limits(1, user_api="blas"):
-        res = combine([recover_sparse(poses, missing, dictionary=d, **kwargs) for d in members])
+        results = [recover_sparse(poses, missing, dictionary=d, **kwargs) for d in members]
+        res = combine(results, mirror_weights(results) if mirror_gate else None)
     if adaptations:
         res.adaptation = adaptations[0]
         res.seconds += sum(a.seconds for a in adaptations)

@@ -111,7 +111,7 @@ from .keypoints import (FLAGS_IN_SIDECAR, N_JOINTS, EXTENSIONS, beside, check_jo
                         finish_missing, format_of, load_single_npy, npy_confidence,
                         read_keypoints, status_sidecar, write_keypoints)
 from .keypoints import output_format as keypoint_output_format
-from ._recovery_base import OK_STATUSES, combine, recovery_summary
+from ._recovery_base import OK_STATUSES, combine, mirror_weights, recovery_summary
 from ._recovery_kernel import PRESETS, compiled_solver, preset_solver
 from .normalize import REPRESENTATIONS, representation_for
 from .outliers import mark_outliers, outlier_names
@@ -393,10 +393,11 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
         are averaged with two other codes of them), nothing learned, when
         :mod:`sparseedm.exemplars`'s rule finds them better than adapting;
         False: adapt as before (``--no-exemplars``).
-    mirror : bool, default False
+    mirror : {False, True, "auto"}, default False
         As :func:`sparseedm.recover`'s: also code each pose's mirror image and
-        average the two answers (``--mirror``; per pose: refused on a file
-        with frames unless ``temporal=False``, and with FConv).
+        average the two answers (``--mirror``), or weigh them by their lasso
+        objectives (``"auto"``, ``--mirror-auto``); per pose: refused on a file
+        with frames unless ``temporal=False``, and with FConv.
     outliers : bool, default True
         When the file has per-joint scores (not a ``.npy``, streamed): the
         outlier check (:mod:`sparseedm.outliers`): a point kept by the
@@ -486,9 +487,9 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
         solver = _solver_after(requested, solver, adaptation, preset)
         summary_members = len(members)
         members = _with_mirrors(members, mirror, in_time, method)
-        recovery = _Recovery(members, alpha, representation, solver, n_jobs, backend,
-                             scheduler, method, model,
-                             (source.tracks, source.frames) if in_time else None)
+        recovery = _Recovery(members, alpha, representation, solver, n_jobs, backend, scheduler,
+                             method, model, (source.tracks, source.frames) if in_time else None,
+                             mirror == "auto")
         summary = _run(source, outputs, recovery, chunk_size, progress, t0)
     finally:
         source.close()
@@ -684,7 +685,7 @@ _PARAMS = {
     "preset": [Options(PRESETS)],
     "exemplars": [Options(EXEMPLAR_OPTIONS)],
     "outliers": BOOLEAN,
-    "mirror": BOOLEAN,
+    "mirror": BOOLEAN + [Options(("auto",))],
 }
 
 
@@ -704,6 +705,7 @@ class _Recovery:
     method: str
     model: object
     time_axis: tuple = None
+    mirror_gate: bool = False
 
     def bounds(self, n, chunk_size):
         """(rows, keep) of each chunk: `chunk_size` rows (a slice), or in time
@@ -719,12 +721,12 @@ class _Recovery:
         in_time = {} if self.time_axis is None else dict(  # the chunk's rows
             tracks=None if self.time_axis[0] is None else np.asarray(self.time_axis[0])[rows],
             frames=np.asarray(self.time_axis[1])[rows])
-        return combine([recover(poses, missing, dictionary=d, alpha=self.alpha,
-                                representation=self.representation, solver=self.solver,
-                                n_jobs=self.n_jobs, backend=self.backend,
-                                scheduler=self.scheduler, method=self.method,
-                                model=self.model, adapt=False, **in_time)
-                        for d in self.members])
+        results = [recover(poses, missing, dictionary=d, alpha=self.alpha,
+                           representation=self.representation, solver=self.solver,
+                           n_jobs=self.n_jobs, backend=self.backend, scheduler=self.scheduler,
+                           method=self.method, model=self.model, adapt=False, **in_time)
+                   for d in self.members]
+        return combine(results, mirror_weights(results) if self.mirror_gate else None)
 
 
 @dataclass

@@ -12,7 +12,8 @@ per pose, :func:`sparseedm.metrics.occlusion_masks`), ``1``, ``2``, ``3``, and
 pose, :func:`sparseedm.real_protocol.transplant_masks`). Methods
 (:data:`PHOTO_METHODS`): ``sparseedm`` (:func:`sparseedm.recover` defaults),
 ``sparseedm-no-adapt`` (the shipped dictionary alone; also, when asked for,
-``sparseedm-no-adapt-mirror``: the same with ``mirror=True``), scikit-learn's
+``sparseedm-no-adapt-mirror``: the same with ``mirror=True``, and
+``sparseedm-no-adapt-mirror-auto``: with ``mirror="auto"``), scikit-learn's
 ``iterative`` (``IterativeImputer(max_iter=10, tol=0)``) and ``knn``
 (``KNNImputer()``) run by ``fit_transform`` on the file's 28 pixel
 coordinates, ``mean-fill`` and ``nearest`` (:mod:`sparseedm.baselines`, the
@@ -276,6 +277,8 @@ _PHOTO_FILLERS = {
     "sparseedm": _fill_sparse,
     "sparseedm-no-adapt": lambda g, m, c: _fill_sparse(g, m, c, adapt=False),
     "sparseedm-no-adapt-mirror": lambda g, m, c: _fill_sparse(g, m, c, adapt=False, mirror=True),
+    "sparseedm-no-adapt-mirror-auto": lambda g, m, c: _fill_sparse(g, m, c, adapt=False,
+                                                                   mirror="auto"),
     "iterative": lambda g, m, c: _fill_imputer(g, m, c, "iterative"),
     "knn": lambda g, m, c: _fill_imputer(g, m, c, "knn"),
     "mean-fill": lambda g, m, c: mean_fill(g, m).poses,
@@ -323,7 +326,8 @@ def evaluate_photos(poses, pool=None, *, complete=None, n_complete=None, n_occlu
     conditions : sequence, default ("mix", "transplanted")
         Among 1, 2, 3, "mix", "transplanted".
     methods : sequence of str, default PHOTO_METHODS
-        Among PHOTO_METHODS and ``"sparseedm-no-adapt-mirror"``.
+        Among PHOTO_METHODS, ``"sparseedm-no-adapt-mirror"`` and
+        ``"sparseedm-no-adapt-mirror-auto"``.
     head_size : array_like (n,), optional
         PCKh's normaliser per pose (MPII's head size); None: no PCKh.
     dictionary : Dictionary, str or path, optional

@@ -54,7 +54,8 @@ _recover, _recover_members, _solve_chunk = recover_sparse, recover_members, solv
 #: constraints of recover()'s arguments (defined with the kernel, which the guard
 #: of adaptation also validates against)
 _PARAMS = dict(RECOVER_PARAMS, representation=[Options(REPRESENTATIONS), None],
-               outliers=["boolean"], exemplars=[Options(EXEMPLAR_OPTIONS)], mirror=["boolean"])
+               outliers=["boolean"], exemplars=[Options(EXEMPLAR_OPTIONS)],
+               mirror=["boolean", Options(("auto",))])
 
 
 def check_options_apply(caller, *, method, model, backend, scheduler, adapt, ensemble,
@@ -283,15 +284,19 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         do, :func:`sparseedm.keypoints.read_keypoints`).
     outliers : bool, default True
         False turns the outlier check off (the scores are then unused).
-    mirror : bool, default False
+    mirror : {False, True, "auto"}, default False
         (sparse method, per pose) Also code each pose's mirror image (left and
         right joints swapped: :meth:`~sparseedm.dictionary.Dictionary.mirrored`)
         and return the mean of the two answers, twice the work. It helps where
         the dictionary is not left-right symmetric and the hidden joints are
-        uncertain: with ``adapt=False`` and ``dictionary="cmu-coco-k2932"``
-        it is the setting recommended for photos of real people
-        (``docs/explanation/settings.md``, "Without adaptation"). With an
-        ensemble, every member is mirrored.
+        uncertain. ``"auto"``: the mirror answer's weight falls from one half
+        as its lasso objective exceeds the pose's own
+        (:func:`~sparseedm._recovery_base.mirror_weights`): about the mean on
+        photos of real people, about the pose's own answer on poses the
+        dictionary learned from. With ``adapt=False`` and
+        ``dictionary="cmu-coco-k2932"`` it is the setting recommended for
+        photos of real people (``docs/explanation/settings.md``, "Without
+        adaptation"). With an ensemble, every member is mirrored.
 
     Returns
     -------
@@ -411,7 +416,8 @@ def _dispatch(poses, missing, tracks, frames, method, model, preset, opts):
         if opts["mirror"]:
             members = [*members, *(m.mirrored() for m in members)]
         res = recover_members(
-            poses, missing, members, adaptations, **kernel, check_input=False,
+            poses, missing, members, adaptations, mirror_gate=opts["mirror"] == "auto",
+            **kernel, check_input=False,
             **(dist or dict(backend=opts["backend"], scheduler=opts["scheduler"])))
     return _with_uncertainty(res)
 
@@ -455,9 +461,9 @@ class OcclusionRecoverer:
     adapt : "auto", False or array_like (n_adapt, N, 2), default "auto"
         As :func:`recover`'s: ``"auto"`` adapts the dictionary on the complete
         poses given to :meth:`transform` when there are enough of them.
-    mirror : bool, default False
+    mirror : {False, True, "auto"}, default False
         As :func:`recover`'s: also code each pose's mirror image and average
-        the two answers.
+        the two answers (``"auto"``: weighed by their lasso objectives).
 
     Examples
     --------

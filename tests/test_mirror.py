@@ -87,7 +87,8 @@ def test_mirror_lowers_the_cold_error_on_validation_photos(shared_data):
     prior = load_dictionary("cmu-coco-k2932")
     plain = error(sparseedm.recover(given, adapt=False, dictionary=prior))
     mirrored = error(sparseedm.recover(given, adapt=False, dictionary=prior, mirror=True))
-    assert mirrored < plain
+    auto = error(sparseedm.recover(given, adapt=False, dictionary=prior, mirror="auto"))
+    assert mirrored < plain and auto < plain
 
 
 def test_the_command_line_mirrors_with_no_adapt(tmp_path, capsys):
@@ -113,3 +114,69 @@ def test_the_estimator_passes_mirror_on():
                        sparseedm.recover(given, adapt=False, mirror=True).poses, atol=1e-9)
     with pytest.raises(ParameterError, match="mirror"):
         OcclusionRecoverer(mirror=1).fit()
+
+
+def test_mirror_auto_weighs_the_two_answers_by_their_objectives():
+    from sparseedm._recovery_base import MIRROR_TEMPERATURE, mirror_weights
+
+    given, missing = occluded()
+    d = load_dictionary()
+    own = sparseedm.recover(given, adapt=False, dictionary=d)
+    other = sparseedm.recover(given, adapt=False, dictionary=d.mirrored())
+    w = mirror_weights([own, other])
+    r = other.objective / own.objective - 1
+    expected = np.minimum(0.5, 1 / (1 + np.exp(r / MIRROR_TEMPERATURE)))
+    assert np.allclose(w[1], expected) and np.allclose(w.sum(axis=0), 1)
+    res = sparseedm.recover(given, adapt=False, mirror="auto")
+    assert np.allclose(res.poses, w[0][:, None, None] * own.poses
+                       + w[1][:, None, None] * other.poses, atol=1e-6)
+    assert np.array_equal(res.poses[~missing], given[~missing])
+    assert (w[1] < 0.5).any() and (w[1] > 0).all()
+
+
+def test_mirror_auto_keeps_the_own_answer_on_poses_the_dictionary_learned_from(cmu_poses):
+    """The CMU fixture poses are among the default dictionary's training poses:
+    their mirror images fit it worse, and the always-on mean is worse than the
+    pose's own answer; the objective gate gives the mirror little weight."""
+    truth = np.asarray(cmu_poses[:120], float)
+    rng = np.random.default_rng(0)
+    missing = np.zeros((len(truth), 14), bool)
+    for row in missing:
+        row[rng.choice(14, 2, replace=False)] = True
+    given = np.where(missing[..., None], np.nan, truth)
+
+    def error(**kw):
+        res = sparseedm.recover(given, missing, adapt=False, **kw)
+        return np.linalg.norm(res.poses - truth, axis=-1)[missing].mean()
+
+    plain, mean, auto = error(), error(mirror=True), error(mirror="auto")
+    assert plain < mean and auto < mean
+    assert abs(auto - plain) < (mean - plain) / 3
+
+
+def test_the_command_line_passes_mirror_auto(tmp_path, capsys):
+    from sparseedm.cli import main
+    from sparseedm.keypoints import read_keypoints, write_keypoints
+
+    given, _ = occluded(12)
+    src = tmp_path / "in.npz"
+    write_keypoints(src, given)
+    assert main(["recover", str(src), "-o", str(tmp_path / "out.npz"), "--no-adapt",
+                 "--mirror-auto"]) == 0
+    assert "by their lasso objectives" in capsys.readouterr().out
+    out = read_keypoints(tmp_path / "out.npz").poses
+    assert np.allclose(out, sparseedm.recover(given, adapt=False, mirror="auto").poses,
+                       atol=1e-6)
+    with pytest.raises(ParameterError, match="mirror"):
+        sparseedm.recover(given, mirror="on")
+
+
+def test_the_photo_protocol_runs_the_gated_mirror():
+    from sparseedm.evaluation_real import evaluate_photos
+
+    rng = np.random.default_rng(1)
+    poses = POSE + rng.normal(0, 6, (60, 14, 2))
+    methods = ["sparseedm-no-adapt-mirror", "sparseedm-no-adapt-mirror-auto"]
+    rep = evaluate_photos(poses, conditions=[2], methods=methods)
+    means = {r["method"]: r["mean"] for r in rep.rows if r["group"] == "overall"}
+    assert set(means) == set(methods) and all(np.isfinite(list(means.values())))

@@ -144,11 +144,16 @@ def _add_adaptation_options(p):
                    "atoms, would be chosen (by default they are from 2000 complete poses, "
                    "and from 250 when a check on held-back poses prefers them: "
                    "sparseedm.exemplars; not with --preset fast, which always takes them)")
-    p.add_argument("--mirror", action="store_true",
-                   help="also recover each pose's mirror image (left and right swapped) and "
-                   "average the two answers: twice the work; with --no-adapt and "
-                   "--dictionary cmu-coco-k2932, the setting for photos of real people "
-                   "(per pose: needs --no-temporal on a file with frames)")
+    mirror = p.add_mutually_exclusive_group()
+    mirror.add_argument("--mirror", action="store_true",
+                        help="also recover each pose's mirror image (left and right swapped) "
+                        "and average the two answers: twice the work (per pose: needs "
+                        "--no-temporal on a file with frames)")
+    mirror.add_argument("--mirror-auto", action="store_true",
+                        help="as --mirror, the two answers weighed by their lasso objectives "
+                        "(the mirror's weight falls from one half as its objective exceeds "
+                        "the pose's own); with --no-adapt and --dictionary cmu-coco-k2932, "
+                        "the setting for photos of real people")
     p.add_argument("--save-dictionary", default=None, metavar="FILE",
                    help="write the dictionary used (adapted or not; with --ensemble, the "
                    "first member's) to FILE (.npz)")
@@ -195,7 +200,7 @@ def run(args):
         temporal=not args.no_temporal, input_format=args.input_format,
         preset=args.preset,
         outliers=not args.no_outliers, exemplars=False if args.no_exemplars else "auto",
-        mirror=args.mirror,
+        mirror="auto" if args.mirror_auto else args.mirror,
     )
     out = sys.stderr if args.quiet or is_stream(args.output) else sys.stdout  # -o /dev/stdout
     ad = summary.get("adaptation")
@@ -270,7 +275,10 @@ def format_summary(s) -> str:
         lines.append(s["adaptation_line"])
     if s.get("ensemble", 1) > 1 and (s.get("adaptation") or {}).get("adapted"):
         lines.append(f"ensemble: the mean of {s['ensemble']} adapted dictionaries' recoveries")
-    if s.get("mirror"):
+    if s.get("mirror") == "auto":
+        lines.append("mirror: each pose's answer weighed with its mirror image's by their "
+                     "lasso objectives")
+    elif s.get("mirror"):
         lines.append("mirror: each pose's answer averaged with its mirror image's")
     if s.get("dictionary"):
         lines.append(f"dictionary written to {s['dictionary']}")
