@@ -7,7 +7,8 @@ only for the frames whose answer carries weight, every
 ``settings.prior_stride``-th of them
 (:func:`sparseedm.temporal.model.prior_frames`), asks it once more for the
 frames of each segment's probes (observed joints hidden to test how far the
-per-frame prior is to be trusted in that segment,
+per-frame prior is to be trusted in that segment, and on noisy keypoints
+whether the joints carried from their own frames beat it,
 :func:`sparseedm.temporal.model.clip_trust`), fills every segment with the
 temporal model (:func:`sparseedm.temporal.model.fill_segment`) and returns a
 :class:`TemporalResult` in the caller's row order. Rows that cannot be placed
@@ -469,8 +470,10 @@ def _trusts(layout, poses, mask, usable, per, settings, members, kwargs, track_o
     answers with the probes hidden; `planned`: :func:`_probes`) pooled over
     the segments of one track (`track_of`: a track key per row), so that a
     cut in a track does not change what its other rows are filled with: the
-    trust level times the fused prior's scale
-    (:func:`~sparseedm.temporal.model.prior_scale`); and the rows asked."""
+    trust level, the fused prior's scale
+    (:func:`~sparseedm.temporal.model.prior_scale`) and whether the carried
+    prior is kept (:func:`~sparseedm.temporal.model.choose_carry`; None: not
+    tried), per segment; and the rows asked."""
     probes, probed, need = planned
     if not need.any():
         return [(1.0, 1.0, None)] * len(probes), 0
