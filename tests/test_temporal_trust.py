@@ -137,7 +137,8 @@ def test_no_probe_where_the_prior_has_no_weight():
 
 
 # ------------------------------------------------------------ the fused prior (fusion=True)
-FUSED = TemporalSettings(fusion=True)
+#: the per-frame answers fused (not the joints carried from their own frames, ``carry``)
+FUSED = TemporalSettings(fusion=True, carry=0.0)
 
 
 def _noisy(track, share=0.005, seed=0):

@@ -46,6 +46,7 @@ import numpy as np
 
 from ..exceptions import ParameterError
 from ..skeleton import SKELETON_14
+from .carried import carried_prior
 from .smoothing import smooth_trajectory
 from .tracks import distance_to_observed
 
@@ -54,7 +55,8 @@ __all__ = ["TemporalSettings", "prior_weights", "needs_prior", "prior_frames",
            "body_extent", "observation_weight", "segment_settings", "free_runs",
            "still_runs", "joined", "held", "repeat_rate", "repeated", "fill_segment",
            "probe_settings", "probe_mask", "clip_trust", "probe_errors", "ProbeScore",
-           "choose_trust", "prior_scale", "time_filled", "TRUST_LEVELS", "FUSED_POOL"]
+           "choose_trust", "prior_scale", "time_filled", "TRUST_LEVELS", "FUSED_POOL",
+           "carries", "choose_carry"]
 
 
 @dataclass(frozen=True)
@@ -156,6 +158,22 @@ class TemporalSettings:
         the confidence and the trust): 0 for clean input; a fused segment's
         is its track's :func:`prior_scale` (1 while it is being measured,
         :func:`segment_settings`).
+    carry : float
+        Where the observations are noisy (:func:`carries`: real keypoints),
+        a joint observed somewhere in the segment takes as its prior, instead
+        of the per-frame answer, its position carried from its nearest
+        observed frames by its nearest observed neighbours in the skeleton
+        (:func:`sparseedm.temporal.carried.carried_prior`), those frames
+        weighted by ``exp(-distance / carry)`` (frames), at full trust, unless
+        the track's probes find the per-frame answers nearer their hidden
+        observations (:func:`choose_carry`); a joint never observed keeps the
+        per-frame answer. 0: the per-frame answers alone. On Bonn PoseTrack's
+        validation clips, one per call, it lowered the error over transplanted
+        invisibility runs of joints seen elsewhere in the clip from 5.44 to
+        4.29 % of the body size (runs of 16-45 frames 8.97 to 6.57) and at
+        30-frame gaps from 6.03 to 5.72; clean motion capture is unchanged and
+        with 1 % jitter moved by -0.5 % (gaps) and +1.0 % (self-occlusion)
+        (``studies/real_video/select_prior.py``).
     """
 
     acceleration: float = 30.0
@@ -178,6 +196,7 @@ class TemporalSettings:
     fusion: bool = False
     fusion_share: float = 0.25
     ramp_floor: float = 0.0
+    carry: float = 3.0
 
     def __post_init__(self):
         check_settings(self)
@@ -910,15 +929,19 @@ def fill_segment(values, free, prior, confidence, settings=DEFAULT_SETTINGS, par
     weight = prior_weights(free, confidence, settings)
     if not free.any():
         return values.copy(), weight, np.zeros(values.shape[1])
+    if parents is None and values.shape[1] == SKELETON_14.num_joints:
+        parents = SKELETON_14.parents
+    w_obs = observation_weight(values, free, settings)
+    if settings.carry > 0 and w_obs is not None and parents is not None:
+        prior = _carried(values, free, prior, weight, parents, settings.carry)
     weight[:, (~free).any(axis=0)] *= trust
     still = still_runs(values, free, settings)
     weight[still] = 0.0
     if not settings.hold_still:
         still = np.zeros_like(still)
-    unknown, data, data_weight, settings = _data_terms(values, free, prior, weight, settings)
+    unknown, data, data_weight, settings = _data_terms(values, free, prior, weight, settings,
+                                                       w_obs)
     filled, residual = _smooth_joints(values, unknown, data, data_weight, settings)
-    if parents is None and values.shape[1] == SKELETON_14.num_joints:
-        parents = SKELETON_14.parents
     if settings.relative and parents is not None:
         ref = reference_trajectories(filled, parents)
         ref *= coupling(values, free, ref)[None, :, None]
@@ -934,12 +957,18 @@ def fill_segment(values, free, prior, confidence, settings=DEFAULT_SETTINGS, par
     return np.where(free[..., None], filled, values), weight, residual
 
 
-def _data_terms(values, free, prior, weight, settings):
+def _carried(values, free, prior, weight, parents, tau):
+    """`prior` with :func:`~sparseedm.temporal.carried.carried_prior` where the
+    prior weighs and a joint could be carried."""
+    carried = carried_prior(values, free, parents, tau, frames=(weight > 0).any(axis=1))
+    return np.where(np.isfinite(carried) & (weight > 0)[..., None], carried, prior)
+
+
+def _data_terms(values, free, prior, weight, settings, w_obs):
     """Unknown frames, data, data weights and settings of the banded solves:
     the free frames against the prior, and, when :func:`observation_weight`
-    finds the observations noisy, every frame, the observed ones against
-    their values (with ``settings.noisy_acceleration``)."""
-    w_obs = observation_weight(values, free, settings)
+    found the observations noisy (`w_obs` not None), every frame, the observed
+    ones against their values (with ``settings.noisy_acceleration``)."""
     if w_obs is None:
         return free, prior, weight, settings
     data = np.where(free[..., None], prior, values)
@@ -1057,13 +1086,16 @@ def clip_trust(values, free, probe, prior, confidence, settings=DEFAULT_SETTINGS
     Returns
     -------
     float
-        The level whose fill of ``free | probe`` lies nearest the hidden
-        observations, over the probed joint-frames where the prior weighs
+        The full trust (the last level) when :func:`choose_carry` keeps the
+        carried prior; else the level whose fill of ``free | probe`` lies
+        nearest the hidden observations, over the probed joint-frames where the prior weighs
         and the joint is not still (ties to the smaller), when it beats the
         full trust's (the last level) by :data:`TRUST_MARGIN`; else, or with
         nothing to score, 1.0.
     """
     score = probe_errors(values, free, probe, prior, confidence, settings, parents)
+    if choose_carry(score.answers_distance, score.carried_distance):
+        return TRUST_LEVELS[-1]
     return choose_trust(score.errors, score.count)
 
 
@@ -1084,12 +1116,19 @@ class ProbeScore(NamedTuple):
         unless :func:`segment_settings` fuses the segment).
     prior_count : int
         Joint-frames summed in ``prior_error``.
+    answers_distance, carried_distance : float
+        Summed distances (pixels) of the per-frame answers and of the carried
+        placements (``TemporalSettings.carry``) to the hidden observations,
+        over the probed joint-frames that have both (0 when the carried prior
+        was not tried: ``carry`` 0, clean observations, nothing to score).
     """
 
     errors: np.ndarray
     count: int
     prior_error: float
     prior_count: int
+    answers_distance: float
+    carried_distance: float
 
 
 def probe_errors(values, free, probe, prior, confidence, settings=DEFAULT_SETTINGS,
@@ -1132,19 +1171,84 @@ def probe_errors(values, free, probe, prior, confidence, settings=DEFAULT_SETTIN
     distance = distance_to_observed(probed)
     scored = probe & (_ramp(distance, settings) > 0) & ~still
     errors = np.zeros(len(TRUST_LEVELS))
+    distances = (0.0, 0.0)
     if scored.any():
-        errors, probing = [], probe_settings(settings)
+        # the trust levels rank the per-frame answers: the carried prior, when
+        # kept, has the full weight
+        errors, probing = [], probe_settings(replace(settings, carry=0.0))
         for level in TRUST_LEVELS:
             out = fill_segment(values, probed, prior, confidence, probing, parents, level)[0]
             errors.append(np.linalg.norm(out[scored] - values[scored], axis=-1).sum())
         errors = np.nan_to_num(np.asarray(errors), nan=np.inf)
+        if carries(values, free, settings):
+            distances = _carried_distances(values, probed, probe, prior, parents,
+                                           settings.carry)
     answered = probe & (_ramp(distance, fused) > 0) & ~still \
         & np.isfinite(prior).all(axis=-1) & (confidence[:, None] > 0)
     if fused.ramp_floor == settings.ramp_floor or not answered.any():
-        return ProbeScore(errors, int(scored.sum()), 0.0, 0)
+        return ProbeScore(errors, int(scored.sum()), 0.0, 0, *distances)
     square = float(((prior[answered] - values[answered]) ** 2).sum())
     return ProbeScore(errors, int(scored.sum()), square / body_extent(values, free) ** 2,
-                      int(answered.sum()))
+                      int(answered.sum()), *distances)
+
+
+def _carried_distances(values, probed, probe, prior, parents, tau):
+    """Summed distances of the per-frame answers and of the carried placements to
+    the probed observations, where both exist."""
+    if parents is None:
+        parents = SKELETON_14.parents
+    carried = carried_prior(values, probed, parents, tau, frames=probe.any(axis=1))
+    both = probe & np.isfinite(prior).all(axis=-1) & np.isfinite(carried).all(axis=-1)
+    return (float(np.linalg.norm(prior[both] - values[both], axis=-1).sum()),
+            float(np.linalg.norm(carried[both] - values[both], axis=-1).sum()))
+
+
+def carries(values, free, settings=DEFAULT_SETTINGS):
+    """Whether a segment may take the carried prior (``settings.carry``): only
+    where its observations are noisy (:func:`observation_weight`: real
+    keypoints; on clean ones the per-frame answers stay).
+
+    Parameters
+    ----------
+    values : ndarray (T, N, 2)
+        The segment's coordinates (read where not free).
+    free : ndarray of bool (T, N)
+        The segment's unknown joints.
+    settings : TemporalSettings, optional
+        The temporal model's constants; default :class:`TemporalSettings`'s.
+
+    Returns
+    -------
+    bool
+    """
+    return settings.carry > 0 and observation_weight(values, free, settings) is not None
+
+
+def choose_carry(answers_distance, carried_distance):
+    """Whether a track's probes keep the carried prior: its placements nearer
+    the hidden observations than the per-frame answers (:class:`ProbeScore`,
+    pooled).
+
+    Parameters
+    ----------
+    answers_distance, carried_distance : float
+        Pooled summed distances of the per-frame answers and of the carried
+        placements at the probed joint-frames that have both.
+
+    Returns
+    -------
+    bool or None
+        None when the carried prior was not tried (the segment keeps what
+        ``TemporalSettings.carry`` says).
+
+    Examples
+    --------
+    >>> choose_carry(40.0, 25.0), choose_carry(20.0, 25.0), choose_carry(0.0, 0.0)
+    (True, False, None)
+    """
+    if not carried_distance:
+        return None
+    return bool(carried_distance < answers_distance)
 
 
 def choose_trust(errors, count):

@@ -7,7 +7,8 @@ only for the frames whose answer carries weight, every
 ``settings.prior_stride``-th of them
 (:func:`sparseedm.temporal.model.prior_frames`), asks it once more for the
 frames of each segment's probes (observed joints hidden to test how far the
-per-frame prior is to be trusted in that segment,
+per-frame prior is to be trusted in that segment, and on noisy keypoints
+whether the joints carried from their own frames beat it,
 :func:`sparseedm.temporal.model.clip_trust`), fills every segment with the
 temporal model (:func:`sparseedm.temporal.model.fill_segment`) and returns a
 :class:`TemporalResult` in the caller's row order. Rows that cannot be placed
@@ -36,7 +37,7 @@ from ..ensemble import adapt_members
 from ..normalize import normalize
 from ..skeleton import SKELETON_14
 from .linking import link_tracks, needs_linking, split_at_jumps
-from .model import (DEFAULT_SETTINGS, choose_trust, fill_segment, prior_frames,
+from .model import (DEFAULT_SETTINGS, choose_carry, choose_trust, fill_segment, prior_frames,
                     prior_scale, probe_errors, probe_mask, probe_settings, segment_settings,
                     time_filled)
 from .tracks import split_tracks
@@ -469,22 +470,27 @@ def _trusts(layout, poses, mask, usable, per, settings, members, kwargs, track_o
     answers with the probes hidden; `planned`: :func:`_probes`) pooled over
     the segments of one track (`track_of`: a track key per row), so that a
     cut in a track does not change what its other rows are filled with: the
-    trust level times the fused prior's scale
-    (:func:`~sparseedm.temporal.model.prior_scale`); and the rows asked."""
+    trust level, the fused prior's scale
+    (:func:`~sparseedm.temporal.model.prior_scale`) and whether the carried
+    prior is kept (:func:`~sparseedm.temporal.model.choose_carry`; None: not
+    tried), per segment; and the rows asked."""
     probes, probed, need = planned
     if not need.any():
-        return [(1.0, 1.0)] * len(probes), 0
+        return [(1.0, 1.0, None)] * len(probes), 0
     test = _per_frame(poses, probed, need, members, settings, kwargs)
     pooled = {}
     for rows, off, probe in zip(layout.segments, layout.offsets, probes):
         if probe.any():
             score = probe_errors(*_probed_segment(rows, off, probe, poses, mask, usable, per,
                                                   test), settings)
-            sums = pooled.setdefault(track_of[rows[0]], [0.0, 0, 0.0, 0])
+            sums = pooled.setdefault(track_of[rows[0]], [0.0, 0, 0.0, 0, 0.0, 0.0])
             sums[:] = [a + b for a, b in zip(sums, score)]
-    trust = {key: (choose_trust(errors, count), prior_scale(square, answered, settings))
-             for key, (errors, count, square, answered) in pooled.items()}
-    return [trust.get(track_of[rows[0]], (1.0, 1.0)) for rows in layout.segments], \
+    trust = {}
+    for key, (errors, count, square, answered, *distances) in pooled.items():
+        keep = choose_carry(*distances)  # kept: the carried prior at full weight
+        trust[key] = (1.0 if keep else choose_trust(errors, count),
+                      prior_scale(square, answered, settings), keep)
+    return [trust.get(track_of[rows[0]], (1.0, 1.0, None)) for rows in layout.segments], \
         int(need.sum())
 
 
@@ -505,12 +511,14 @@ def _fill_segments(layout, poses, mask, usable, per, settings, trusts):
     filled = np.full_like(poses, np.nan)
     weight = np.zeros((n, N))
     residual = np.full(n, np.nan)
-    for rows, off, (trust, scale) in zip(layout.segments, layout.offsets, trusts):
+    for rows, off, (trust, scale, carry) in zip(layout.segments, layout.offsets, trusts):
         values, free = _dense(rows, off, poses, mask, usable)
         prior, confidence = _segment_prior(per, rows, off, len(values))
         fused = segment_settings(values, free, settings)
         if fused is not settings:
             fused = replace(fused, ramp_floor=scale)
+        if carry is False:  # the probes preferred the per-frame answers
+            fused = replace(fused, carry=0.0)
         out, w, r = fill_segment(values, free, prior, confidence, fused, trust=trust)
         filled[rows], weight[rows] = out[off], w[off]
         residual[rows] = np.max(np.where(free[off], r[None, :], 0.0), axis=1)
@@ -640,7 +648,7 @@ def recover_temporal(poses, missing=None, *, tracks=None, frames, dictionary=Non
                     len(members))
     res.probe_poses, res.frames = probe_poses, layout.frames
     res.prior_trust = np.full(len(poses), np.nan)
-    for rows, (trust, _) in zip(layout.segments, trusts):
+    for rows, (trust, _, _) in zip(layout.segments, trusts):
         res.prior_trust[rows] = trust
     res.dictionary = members[0] if members else dictionary
     if adaptations:
