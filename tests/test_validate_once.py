@@ -109,3 +109,14 @@ def test_recover_file_on_a_video_validates_each_row_once(track, small_dictionary
     counted.clear()
     recover_file(src, tmp_path / "out.npz", dictionary=str(small_dictionary_path))
     _once(counted, ["validate_poses", "unmask", "check_mask", "check_frames"])
+
+
+def test_recover_blending_hidden_legs_validates_once(track, small_dictionary, counted):
+    """Poses with both knees and ankles hidden are averaged with a second code
+    (sparseedm.exemplars.blend_hidden_legs): still one validation."""
+    poses, mask, _, _ = _clip(track)
+    mask[40:50, [9, 10, 12, 13]] = True
+    poses = np.where(mask[..., None], np.nan, poses)
+    res = sparseedm.recover(poses, mask, dictionary=small_dictionary)
+    assert res.adaptation.file_atoms > 0 and not res.adapted  # the blend's path
+    _once(counted, ["validate_poses", "unmask", "check_poses", "check_mask"])
