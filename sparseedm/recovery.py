@@ -38,7 +38,7 @@ from ._validation import Options, check_adapt, check_frames, validate_params
 from .normalize import REPRESENTATIONS, representation_for
 from .dictionary import Dictionary, check_gram_memory, load_dictionary
 from .ensemble import adapt_members
-from .exemplars import EXEMPLAR_OPTIONS, blend_atoms, blend_hidden_legs
+from .exemplars import EXEMPLAR_OPTIONS, blend_atoms, blend_many_hidden
 from .exceptions import ParameterError, SparseEDMError
 from .outliers import check_confidence, mark_outliers, note_outliers
 from .temporal.recover import recover_temporal
@@ -53,7 +53,7 @@ _recover, _recover_members, _solve_chunk = recover_sparse, recover_members, solv
 
 #: constraints of recover()'s arguments (defined with the kernel, which the guard
 #: of adaptation also validates against)
-#: the recovery settings the blend of poses with hidden legs shares with the path
+#: the recovery settings the blend of poses with many hidden joints shares with the path
 BLEND_SETTINGS = ("representation", "n_jobs", "chunk_size", "progress")
 _PARAMS = dict(RECOVER_PARAMS, representation=[Options(REPRESENTATIONS), None],
                outliers=["boolean"], exemplars=[Options(EXEMPLAR_OPTIONS)], mirror=["boolean"])
@@ -267,10 +267,11 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         them as extra atoms is averaged with the base with them and their
         mirror images as extra atoms when that recovers held-back complete
         poses better. An ensemble then stays at those members. Whichever of
-        these paths (nothing learned) ran, a pose whose knees and ankles are
-        all hidden gets the mean of its answer and the local ridge's over the
-        file's complete poses as the only atoms
-        (:func:`~sparseedm.exemplars.blend_hidden_legs`; from
+        these paths (nothing learned) ran, a pose with at least
+        :data:`~sparseedm.exemplars.BLEND_MIN_HIDDEN` hidden joints gets the
+        mean of its answer and the local ridge's over the file's complete
+        poses as the only atoms
+        (:func:`~sparseedm.exemplars.blend_many_hidden`; from
         :data:`~sparseedm.exemplars.BLEND_MIN_POSES` of them, with the
         default `solver`, no `mirror`, signed codes). ``False``:
         adapt as described under `adapt` (below MIN_COMPLETE_POSES: the base
@@ -416,15 +417,15 @@ def _dispatch(poses, missing, tracks, frames, method, model, preset, opts):
         res = recover_members(poses, missing, members, adaptations, **kernel,
                               check_input=False, **where)
         if adaptations and _blends(opts, preset):
-            res = blend_hidden_legs(
+            res = blend_many_hidden(
                 res, poses, missing, blend_atoms(dictionary, poses, missing, adaptations[0]),
                 **where, **{k: kernel[k] for k in BLEND_SETTINGS})
     return _with_uncertainty(res)
 
 
 def _blends(opts, preset):
-    """Whether the default path's poses with hidden legs are blended
-    (:func:`~sparseedm.exemplars.blend_hidden_legs`): adapt and exemplars "auto",
+    """Whether the default path's poses with many hidden joints are blended
+    (:func:`~sparseedm.exemplars.blend_many_hidden`): adapt and exemplars "auto",
     the default preset and solver, no mirror, codes not asked to be non-negative."""
     return (isinstance(opts["adapt"], str) and opts["adapt"] == "auto"
             and opts["exemplars"] == "auto" and preset == "default" and not opts["mirror"]

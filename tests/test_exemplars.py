@@ -339,7 +339,8 @@ def test_cli_large_file_takes_the_atoms_and_says_so(tmp_path, large_file,
 
 
 def _legs_file(cmu_poses, n_complete=120, n_legs=12):
-    """`_file` with `n_legs` more poses whose knees and ankles are all hidden."""
+    """`_file` (1-3 hidden joints) with `n_legs` more poses whose knees and ankles are
+    all hidden."""
     poses, missing = _file(cmu_poses, n_complete)
     legs = _jittered(cmu_poses[::-1], n_legs, seed=5)
     hidden = np.zeros((n_legs, 14), bool)
@@ -348,12 +349,12 @@ def _legs_file(cmu_poses, n_complete=120, n_legs=12):
             np.concatenate([missing, hidden]))
 
 
-def test_poses_with_hidden_legs_are_averaged_with_the_local_ridge(cmu_poses,
-                                                                  small_dictionary,
-                                                                  monkeypatch):
-    """The default path, nothing learned: each pose whose knees and ankles are all
-    hidden gets the mean of the path's answer and the local ridge's over the file's
-    complete poses as the only atoms; every other pose is the path's answer."""
+def test_poses_with_four_hidden_joints_are_averaged_with_the_local_ridge(cmu_poses,
+                                                                         small_dictionary,
+                                                                         monkeypatch):
+    """The default path, nothing learned: each pose with at least four hidden joints
+    gets the mean of the path's answer and the local ridge's over the file's complete
+    poses as the only atoms; every other pose is the path's answer."""
     import sparseedm.recovery
     from sparseedm._recovery_kernel import FAST_RIDGE
     from sparseedm.exemplars import blend_rows
@@ -362,7 +363,7 @@ def test_poses_with_hidden_legs_are_averaged_with_the_local_ridge(cmu_poses,
 
     poses, missing = _legs_file(cmu_poses)
     rows = blend_rows(missing)
-    assert len(rows) == 12
+    assert len(rows) == 13  # the 12, and the refused pose of 12 hidden joints
     res = recover(poses, missing, dictionary=small_dictionary)
     assert not res.adapted and res.adaptation.file_atoms > 0
     monkeypatch.setattr(sparseedm.recovery, "blend_atoms", lambda *a: None)
@@ -372,7 +373,7 @@ def test_poses_with_hidden_legs_are_averaged_with_the_local_ridge(cmu_poses,
                     solver=LocalRidgeSolver(**FAST_RIDGE))
     np.testing.assert_allclose(res.poses[rows], (path.poses[rows] + ridge.poses) / 2,
                                rtol=0, atol=1e-6)
-    assert np.abs(res.poses[rows] - path.poses[rows]).max() > 1e-3  # the ridge differs
+    assert np.nanmax(np.abs(res.poses[rows] - path.poses[rows])) > 1e-3  # the ridge differs
     others = np.setdiff1d(np.arange(len(poses)), rows)
     np.testing.assert_array_equal(res.poses[others], path.poses[others])
     np.testing.assert_array_equal(res.status, path.status)
@@ -393,3 +394,24 @@ def test_adapted_or_small_files_are_not_blended(cmu_poses, small_dictionary):
     few, few_missing = _legs_file(cmu_poses, n_complete=BLEND_MIN_POSES - 10)
     small = recover(few, few_missing, dictionary=small_dictionary)
     assert blend_atoms(small_dictionary, few, few_missing, small.adaptation) is None
+
+
+def test_recover_file_blends_as_recover_does(cmu_poses, small_dictionary, tmp_path):
+    """recover_file (`sparseedm recover`) averages the same poses with the local
+    ridge as recover() does: the same filled poses."""
+    from sparseedm.batch import recover_file
+    from sparseedm.exemplars import blend_rows
+    from sparseedm.keypoints import KeypointSet, write_keypoints
+
+    poses, missing = _legs_file(cmu_poses)
+    keep = ~np.isinf(poses).any(axis=(1, 2))
+    poses, missing = poses[keep], missing[keep]
+    src = write_keypoints(tmp_path / "in.npz", KeypointSet(poses, missing))
+    recover_file(src, tmp_path / "out.npz", dictionary=small_dictionary)
+    with np.load(tmp_path / "out.npz") as out:
+        filed = out["poses"]
+    res = recover(poses, missing, dictionary=small_dictionary)
+    rows = np.intersect1d(blend_rows(missing), np.flatnonzero(res.ok))  # not the refused
+    assert len(rows) == 12
+    np.testing.assert_allclose(filed[rows], res.poses[rows], rtol=0, atol=1e-6)
+    np.testing.assert_allclose(filed[res.ok], res.poses[res.ok], rtol=0, atol=1e-6)

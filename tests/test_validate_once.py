@@ -111,9 +111,10 @@ def test_recover_file_on_a_video_validates_each_row_once(track, small_dictionary
     _once(counted, ["validate_poses", "unmask", "check_mask", "check_frames"])
 
 
-def test_recover_blending_hidden_legs_validates_once(track, small_dictionary, counted):
-    """Poses with both knees and ankles hidden are averaged with a second code
-    (sparseedm.exemplars.blend_hidden_legs): still one validation."""
+def test_recover_blending_many_hidden_joints_validates_once(track, small_dictionary,
+                                                           counted):
+    """Poses with four hidden joints are averaged with a second code
+    (sparseedm.exemplars.blend_many_hidden): still one validation."""
     poses, mask, _, _ = _clip(track)
     mask[40:50, [9, 10, 12, 13]] = True
     poses = np.where(mask[..., None], np.nan, poses)
