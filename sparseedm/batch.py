@@ -739,11 +739,11 @@ class _Recovery:
                        for d in self.members])
         if self.blend is None:
             return res
-        # the poses as recover() read them: its mask (validated) says what is missing
+        # the poses as recover() read them: its mask (validated) says what is missing;
+        # the few blended rows are coded here, without a cluster's client
         return blend_many_hidden(
             res, np.where(res.missing[..., None], np.nan, np.asarray(poses, float)),
-            res.missing, self.blend, representation=self.representation, n_jobs=self.n_jobs,
-            backend=self.backend, scheduler=self.scheduler)
+            res.missing, self.blend, representation=self.representation, n_jobs=self.n_jobs)
 
 
 @dataclass
