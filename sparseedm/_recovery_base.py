@@ -34,7 +34,7 @@ __all__ = ["STATUSES", "OK_STATUSES", "RecoveryResult", "Screened", "Screening",
            "validate_poses", "bad_coordinates", "screen_poses", "screen",
            "place_occluded_inplace", "combine", "mirror_weights", "MIRROR_TEMPERATURE",
            "SCREENING_REFUSALS", "status_counts", "poses_per_second", "recovery_summary",
-           "take_rows"]
+           "take_rows", "put_rows"]
 
 #: Per-pose statuses and what they mean.
 STATUSES = {
@@ -236,6 +236,34 @@ def take_rows(result, rows):
     field indexed, the other fields as they are."""
     return replace(result, **{f.name: getattr(result, f.name)[rows] for f in fields(result)
                               if isinstance(getattr(result, f.name), np.ndarray)})
+
+
+def put_rows(result, rows, part):
+    """`result` with the poses `rows` (an index array) replaced by those of `part`
+    (a result of the same class over ``len(rows)`` poses): every per-pose array of
+    `result` copied with those rows from `part`'s (strings widened to fit), the
+    other fields as they are.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import sparseedm
+    >>> pose = np.array([[50, 10], [50, 30], [35, 32], [30, 55], [28, 78],
+    ...                  [65, 32], [70, 55], [72, 78], [40, 80], [40, 115],
+    ...                  [40, 150], [60, 80], [60, 115], [60, 150]], float)
+    >>> two = sparseedm.recover(np.stack([pose, pose + 1]), adapt=False)
+    >>> back = put_rows(two, np.array([1]), two.take([0]))
+    >>> bool(np.array_equal(back.poses[1], two.poses[0]))
+    True
+    """
+    out = {}
+    for f in fields(result):
+        mine, theirs = getattr(result, f.name), getattr(part, f.name)
+        if isinstance(mine, np.ndarray) and isinstance(theirs, np.ndarray):
+            new = mine.astype(np.result_type(mine, theirs))  # a copy
+            new[rows] = theirs
+            out[f.name] = new
+    return replace(result, **out)
 
 
 def validate_poses(poses, missing, n_joints, caller="recover", model="dictionary"):

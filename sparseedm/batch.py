@@ -101,7 +101,7 @@ from .adaptation import MIN_COMPLETE_POSES, sample_stream
 from .dictionary import Dictionary, dictionary_path, check_gram_memory, load_dictionary
 from ._safeio import resolved
 from .ensemble import adapt_members
-from .exemplars import EXEMPLAR_OPTIONS
+from .exemplars import EXEMPLAR_OPTIONS, blend_atoms, blend_many_hidden
 from .exceptions import FileFormatError, OutputPathError, ParameterError, SparseEDMError
 from .fconv.model import load_model
 from .formats import FILLED_SCORE, count_below, default_threshold, threshold_line
@@ -478,18 +478,19 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
             source.mark_outliers(dictionary, in_time, alpha, representation, solver, n_jobs)
         if method == "sparse":
             with one_client(backend, scheduler) as dist:  # the adaptation's recoveries
-                members, adaptation = _adapt(source, dictionary, adapt, chunk_size,
-                                             confidence_threshold, n_jobs, self_training,
-                                             ensemble, in_time, preset, dist, exemplars)
+                members, adaptation, blend = _adapt(
+                    source, dictionary, adapt, chunk_size, confidence_threshold, n_jobs,
+                    self_training, ensemble, in_time, preset, dist, exemplars)
             dictionary = members[0]
         else:
-            members, adaptation = [dictionary], None
+            members, adaptation, blend = [dictionary], None, None
         solver = _solver_after(requested, solver, adaptation, preset)
         summary_members = len(members)
         members = _with_mirrors(members, mirror, in_time, method)
-        recovery = _Recovery(members, alpha, representation, solver, n_jobs, backend, scheduler,
-                             method, model, (source.tracks, source.frames) if in_time else None,
-                             mirror == "auto")
+        recovery = _Recovery(members, alpha, representation, solver, n_jobs, backend,
+                             scheduler, method, model, (source.tracks, source.frames)
+                             if in_time else None, mirror == "auto",
+                             _blends(blend, mirror, requested))
         summary = _run(source, outputs, recovery, chunk_size, progress, t0)
     finally:
         source.close()
@@ -507,6 +508,13 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
     if save_dictionary is not None:
         summary["dictionary"] = str(dictionary.save(save_dictionary))
     return summary
+
+
+def _blends(blend, mirror, requested):
+    """The blend's atoms as recover() would use them: none with `mirror` or a
+    solver other than "fast" asked for."""
+    return None if mirror or not (isinstance(requested, str) and requested == "fast") \
+        else blend
 
 
 def _with_mirrors(members, mirror, in_time, method):
@@ -618,19 +626,21 @@ def _adapt(source, dictionary, adapt, chunk_size, threshold, n_jobs, self_traini
     under "auto": as recover(frames=...) adapts (the whole file, read once);
     `preset` "fast": the sampled complete poses as atoms, nothing learned; `dist`
     the adaptation's recovery backend (:func:`~sparseedm._parallel.one_client`'s);
-    `exemplars` as :func:`~sparseedm.ensemble.adapt_members`' (per pose, "auto" only)."""
+    `exemplars` as :func:`~sparseedm.ensemble.adapt_members`' (per pose, "auto" only);
+    third, the atoms of the blend of poses with many hidden joints
+    (:func:`~sparseedm.exemplars.blend_atoms`; None: no blend)."""
     if in_time and preset == "fast":
         raise ParameterError("recover_file: preset 'fast' recovers each pose on its own: "
                              "the file has frames, add --no-temporal (temporal=False)")
     if adapt is False or adapt is None:
-        return [dictionary], None
+        return [dictionary], None, None
     if in_time and isinstance(adapt, str) and adapt == "auto":
         members, results = adapt_in_time(
             dictionary, *source.chunk(0, source.n), tracks=source.tracks,
             frames=source.frames, ensemble=ensemble, n_jobs=n_jobs,
             self_training=self_training, check_input=False)  # as the reader checked them
         # no result when the call's size or gaps ask for no adaptation (adapts())
-        return members, results[0] if results else None
+        return members, results[0] if results else None, None
     chunks = (source.chunk(s, min(s + chunk_size, source.n))
               for s in range(0, source.n, chunk_size))
     complete, partial, partial_missing = sample_stream(chunks)
@@ -645,12 +655,14 @@ def _adapt(source, dictionary, adapt, chunk_size, threshold, n_jobs, self_traini
               preset=preset, exemplars=exemplars, **(dist or {}))
     if isinstance(adapt, str) and adapt == "auto":
         members, results = adapt_members(dictionary, poses, missing, "auto", ensemble, **kw)
-    else:
-        if isinstance(adapt, (str, Path)):
-            adapt, kw["min_poses"] = _adaptation_poses(adapt, threshold)
-        members, results = adapt_members(dictionary, partial, partial_missing, adapt,
-                                         ensemble, **kw)
-    return members, results[0]
+        blend = (blend_atoms(dictionary, poses, missing, results[0])
+                 if exemplars == "auto" and preset == "default" else None)
+        return members, results[0], blend
+    if isinstance(adapt, (str, Path)):
+        adapt, kw["min_poses"] = _adaptation_poses(adapt, threshold)
+    members, results = adapt_members(dictionary, partial, partial_missing, adapt,
+                                     ensemble, **kw)
+    return members, results[0], None
 
 
 def _adaptation_poses(path, threshold):
@@ -693,7 +705,9 @@ _PARAMS = {
 class _Recovery:
     """How every chunk is recovered: the members (one dictionary unless an
     ensemble) and :func:`recover`'s settings; `time_axis` (tracks, frames) sends
-    the poses to temporal recovery, whole tracks per chunk (:meth:`bounds`)."""
+    the poses to temporal recovery, whole tracks per chunk (:meth:`bounds`); `blend`
+    the atoms of :func:`~sparseedm.exemplars.blend_many_hidden` (None: none), as
+    recover() blends."""
 
     members: list
     alpha: object
@@ -706,6 +720,7 @@ class _Recovery:
     model: object
     time_axis: tuple = None
     mirror_gate: bool = False
+    blend: object = None
 
     def bounds(self, n, chunk_size):
         """(rows, keep) of each chunk: `chunk_size` rows (a slice), or in time
@@ -726,7 +741,14 @@ class _Recovery:
                            n_jobs=self.n_jobs, backend=self.backend, scheduler=self.scheduler,
                            method=self.method, model=self.model, adapt=False, **in_time)
                    for d in self.members]
-        return combine(results, mirror_weights(results) if self.mirror_gate else None)
+        res = combine(results, mirror_weights(results) if self.mirror_gate else None)
+        if self.blend is None:
+            return res
+        # the poses as recover() read them: its mask (validated) says what is missing;
+        # the few blended rows are coded here, without a cluster's client
+        return blend_many_hidden(
+            res, np.where(res.missing[..., None], np.nan, np.asarray(poses, float)),
+            res.missing, self.blend, representation=self.representation, n_jobs=self.n_jobs)
 
 
 @dataclass

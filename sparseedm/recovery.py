@@ -38,7 +38,7 @@ from ._validation import Options, check_adapt, check_frames, validate_params
 from .normalize import REPRESENTATIONS, representation_for
 from .dictionary import Dictionary, check_gram_memory, load_dictionary
 from .ensemble import adapt_members
-from .exemplars import EXEMPLAR_OPTIONS
+from .exemplars import EXEMPLAR_OPTIONS, blend_atoms, blend_many_hidden
 from .exceptions import ParameterError, SparseEDMError
 from .outliers import check_confidence, mark_outliers, note_outliers
 from .temporal.recover import recover_temporal
@@ -53,6 +53,8 @@ _recover, _recover_members, _solve_chunk = recover_sparse, recover_members, solv
 
 #: constraints of recover()'s arguments (defined with the kernel, which the guard
 #: of adaptation also validates against)
+#: the recovery settings the blend of poses with many hidden joints shares with the path
+BLEND_SETTINGS = ("representation", "n_jobs", "chunk_size", "progress")
 _PARAMS = dict(RECOVER_PARAMS, representation=[Options(REPRESENTATIONS), None],
                outliers=["boolean"], exemplars=[Options(EXEMPLAR_OPTIONS)],
                mirror=["boolean", Options(("auto",))])
@@ -271,9 +273,16 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         them as extra atoms is averaged with the base with them and their
         mirror images as extra atoms when that recovers held-back complete
         poses better. An ensemble then stays at those members (warned, see
-        `ensemble`). ``False``:
+        `ensemble`). Whichever of
+        these paths (nothing learned) ran, a pose with at least
+        :data:`~sparseedm.exemplars.BLEND_MIN_HIDDEN` hidden joints gets the
+        mean of its answer and the local ridge's over the file's complete
+        poses as the only atoms
+        (:func:`~sparseedm.exemplars.blend_many_hidden`; from
+        :data:`~sparseedm.exemplars.BLEND_MIN_POSES` of them, with the
+        default `solver`, no `mirror`, signed codes). ``False``:
         adapt as described under `adapt` (below MIN_COMPLETE_POSES: the base
-        with the complete poses as extra atoms).
+        with the complete poses as extra atoms), no blend.
         ``res.adaptation.summary()["path"]`` says which ran.
     confidence : array_like (n, N), optional
         The detector's score of each joint in [0, 1] (NaN: none). Turns on the
@@ -415,11 +424,25 @@ def _dispatch(poses, missing, tracks, frames, method, model, preset, opts):
                                          kernel["positive"])
         if opts["mirror"]:
             members = [*members, *(m.mirrored() for m in members)]
-        res = recover_members(
-            poses, missing, members, adaptations, mirror_gate=opts["mirror"] == "auto",
-            **kernel, check_input=False,
-            **(dist or dict(backend=opts["backend"], scheduler=opts["scheduler"])))
+        where = dist or dict(backend=opts["backend"], scheduler=opts["scheduler"])
+        res = recover_members(poses, missing, members, adaptations,
+                              mirror_gate=opts["mirror"] == "auto", **kernel,
+                              check_input=False, **where)
+        if adaptations and _blends(opts, preset):
+            res = blend_many_hidden(
+                res, poses, missing, blend_atoms(dictionary, poses, missing, adaptations[0]),
+                **where, **{k: kernel[k] for k in BLEND_SETTINGS})
     return _with_uncertainty(res)
+
+
+def _blends(opts, preset):
+    """Whether the default path's poses with many hidden joints are blended
+    (:func:`~sparseedm.exemplars.blend_many_hidden`): adapt and exemplars "auto",
+    the default preset and solver, no mirror, codes not asked to be non-negative."""
+    return (isinstance(opts["adapt"], str) and opts["adapt"] == "auto"
+            and opts["exemplars"] == "auto" and preset == "default" and not opts["mirror"]
+            and not opts["positive"] and isinstance(opts["solver"], str)
+            and opts["solver"] == "fast")
 
 
 def _with_uncertainty(res, tracks=None, frames=None):

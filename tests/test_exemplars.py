@@ -402,3 +402,82 @@ def test_cli_large_file_takes_the_atoms_and_says_so(tmp_path, large_file,
     line = next(ln for ln in capsys.readouterr().out.splitlines()
                 if ln.startswith("adaptation:"))
     assert "the file's own poses are the atoms" not in line and "poses used" in line
+
+
+def _legs_file(cmu_poses, n_complete=120, n_legs=12):
+    """`_file` (1-3 hidden joints) with `n_legs` more poses whose knees and ankles are
+    all hidden."""
+    poses, missing = _file(cmu_poses, n_complete)
+    legs = _jittered(cmu_poses[::-1], n_legs, seed=5)
+    hidden = np.zeros((n_legs, 14), bool)
+    hidden[:, [9, 10, 12, 13]] = True
+    return (np.concatenate([poses, np.where(hidden[..., None], np.nan, legs)]),
+            np.concatenate([missing, hidden]))
+
+
+def test_poses_with_four_hidden_joints_are_averaged_with_the_local_ridge(cmu_poses,
+                                                                         small_dictionary,
+                                                                         monkeypatch):
+    """The default path, nothing learned: each pose with at least four hidden joints
+    gets the mean of the path's answer and the local ridge's over the file's complete
+    poses as the only atoms; every other pose is the path's answer."""
+    import sparseedm.recovery
+    from sparseedm._recovery_kernel import FAST_RIDGE
+    from sparseedm.exemplars import blend_rows
+    from sparseedm.file_atoms import complete_rows, file_dictionary
+    from sparseedm.solvers import LocalRidgeSolver
+
+    poses, missing = _legs_file(cmu_poses)
+    rows = blend_rows(missing)
+    assert len(rows) == 13  # the 12, and the refused pose of 12 hidden joints
+    res = recover(poses, missing, dictionary=small_dictionary)
+    assert not res.adapted and res.adaptation.file_atoms > 0
+    monkeypatch.setattr(sparseedm.recovery, "blend_atoms", lambda *a: None)
+    path = recover(poses, missing, dictionary=small_dictionary)
+    atoms = file_dictionary(small_dictionary, poses[complete_rows(poses, missing)]).dictionary
+    ridge = recover(poses[rows], missing[rows], dictionary=atoms, adapt=False,
+                    solver=LocalRidgeSolver(**FAST_RIDGE))
+    np.testing.assert_allclose(res.poses[rows], (path.poses[rows] + ridge.poses) / 2,
+                               rtol=0, atol=1e-6)
+    assert np.nanmax(np.abs(res.poses[rows] - path.poses[rows])) > 1e-3  # the ridge differs
+    others = np.setdiff1d(np.arange(len(poses)), rows)
+    np.testing.assert_array_equal(res.poses[others], path.poses[others])
+    np.testing.assert_array_equal(res.status, path.status)
+
+
+def test_adapted_or_small_files_are_not_blended(cmu_poses, small_dictionary):
+    """An adapted dictionary's answers, and files with fewer than BLEND_MIN_POSES
+    complete poses, stay as the path gives them."""
+    from dataclasses import replace
+
+    from sparseedm.exemplars import BLEND_MIN_POSES, blend_atoms
+
+    poses, missing = _legs_file(cmu_poses)
+    res = recover(poses, missing, dictionary=small_dictionary)
+    assert blend_atoms(small_dictionary, poses, missing, res.adaptation) is not None
+    adapted = replace(res.adaptation, adapted=True)
+    assert blend_atoms(small_dictionary, poses, missing, adapted) is None
+    few, few_missing = _legs_file(cmu_poses, n_complete=BLEND_MIN_POSES - 10)
+    small = recover(few, few_missing, dictionary=small_dictionary)
+    assert blend_atoms(small_dictionary, few, few_missing, small.adaptation) is None
+
+
+def test_recover_file_blends_as_recover_does(cmu_poses, small_dictionary, tmp_path):
+    """recover_file (`sparseedm recover`) averages the same poses with the local
+    ridge as recover() does: the same filled poses."""
+    from sparseedm.batch import recover_file
+    from sparseedm.exemplars import blend_rows
+    from sparseedm.keypoints import KeypointSet, write_keypoints
+
+    poses, missing = _legs_file(cmu_poses)
+    keep = ~np.isinf(poses).any(axis=(1, 2))
+    poses, missing = poses[keep], missing[keep]
+    src = write_keypoints(tmp_path / "in.npz", KeypointSet(poses, missing))
+    recover_file(src, tmp_path / "out.npz", dictionary=small_dictionary)
+    with np.load(tmp_path / "out.npz") as out:
+        filed = out["poses"]
+    res = recover(poses, missing, dictionary=small_dictionary)
+    rows = np.intersect1d(blend_rows(missing), np.flatnonzero(res.ok))  # not the refused
+    assert len(rows) == 12
+    np.testing.assert_allclose(filed[rows], res.poses[rows], rtol=0, atol=1e-6)
+    np.testing.assert_allclose(filed[res.ok], res.poses[res.ok], rtol=0, atol=1e-6)

@@ -132,3 +132,15 @@ def test_recover_file_reads_each_frame_number_once(track, small_dictionary_path,
     s = recover_file(src, tmp_path / "out.csv", dictionary=str(small_dictionary_path))
     assert s["temporal"]["segments"] > 0  # recovered across time
     assert counted["frame_value"] == len(poses), dict(counted)
+
+
+def test_recover_blending_many_hidden_joints_validates_once(track, small_dictionary,
+                                                           counted):
+    """Poses with four hidden joints are averaged with a second code
+    (sparseedm.exemplars.blend_many_hidden): still one validation."""
+    poses, mask, _, _ = _clip(track)
+    mask[40:50, [9, 10, 12, 13]] = True
+    poses = np.where(mask[..., None], np.nan, poses)
+    res = sparseedm.recover(poses, mask, dictionary=small_dictionary)
+    assert res.adaptation.file_atoms > 0 and not res.adapted  # the blend's path
+    _once(counted, ["validate_poses", "unmask", "check_poses", "check_mask"])
