@@ -450,7 +450,6 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
     outputs = _Outputs(in_fmt, out_path, _output_format(out_path, in_fmt, output_format),
                        errors_path, save_edm, filled_score)
     _check_run_paths(outputs, in_path, dictionary, adapt, model, save_dictionary, joint_map)
-    out_fmt = outputs.out_fmt
     if not isinstance(dictionary, Dictionary):
         dictionary = load_dictionary(dictionary)
     check_gram_memory(dictionary)
@@ -467,7 +466,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
     source = _NpySource(in_path, threshold) if in_fmt == "npy" else \
         _MemorySource(in_path, in_fmt, threshold, joint_map)
     below = source.below(threshold)
-    if out_fmt == "openpose" and not _is_folder(out_path, out_fmt) and \
+    if outputs.out_fmt == "openpose" and not _is_folder(out_path, outputs.out_fmt) and \
             source.meta.get("openpose_folder"):
         source.close()
         raise FileFormatError(f"{out_path}: a folder of OpenPose frames is written as a "
