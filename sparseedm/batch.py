@@ -263,7 +263,8 @@ class _NpySource:
         poses = block[..., :2]
         conf = npy_confidence(block, str(self.path), start) if block.shape[-1] == 3 else None
         missing = np.zeros(poses.shape[:2], dtype=bool)
-        return finish_missing(poses, missing, conf, self.threshold)
+        return finish_missing(poses, missing, conf, self.threshold,
+                              where=f"{self.path}, poses {start}-{start + len(poses) - 1}")
 
     def close(self):
         mm = getattr(self.arr, "base", None)

@@ -29,7 +29,10 @@ empty CSV cell), when the file marks it missing (the ``missing`` array of an
 (0, negative or NaN: "not detected" in COCO and OpenPose alike), or when its
 confidence is below ``confidence_threshold`` (default: the format's,
 :data:`sparseedm.formats.DEFAULT_THRESHOLDS`: 0.3 for COCO, 0 for the array
-and CSV formats).
+and CSV formats). In CSV, ``.npy`` and ``.npz`` files a joint at exactly
+(0, 0) of a pose in pixels (no negative coordinate) is missing too, with a
+warning (:func:`origin_joints`: many tools write ``0, 0`` for a joint they did
+not find); :func:`write_keypoints` refuses to write such a joint as observed.
 Missing joints are read as NaN; their coordinates are not kept in ``poses``.
 
 Array files
@@ -423,14 +426,71 @@ def _joint_count_error(where, n_joints):
     )
 
 
-def finish_missing(poses, missing, confidence, threshold):
-    """Combine every missing source, blank the missing joints."""
+def origin_joints(poses, missing):
+    """Joints at exactly (0, 0) in pixel poses: the mark many tools write for a
+    joint they did not find.
+
+    A pose is in pixels when none of its observed coordinates is negative (a
+    pose centred on a joint has negative coordinates, and its joint at the
+    origin stays observed).
+
+    Parameters
+    ----------
+    poses : ndarray, shape (n, 14, 2)
+    missing : ndarray of bool, shape (n, 14)
+
+    Returns
+    -------
+    ndarray of bool, shape (n, 14)
+        The observed joints at (0, 0) of poses with no negative coordinate.
+
+    Examples
+    --------
+    >>> poses = np.array([[[0.0, 0.0], [120.0, 80.0]], [[0.0, 0.0], [-3.0, 5.0]]])
+    >>> origin_joints(poses, np.zeros((2, 2), bool))
+    array([[ True, False],
+           [False, False]])
+    """
+    with np.errstate(invalid="ignore"):
+        seen = ~missing[..., None] & np.isfinite(poses)
+        in_pixels = ~(seen & (poses < 0)).any(axis=(1, 2))
+        return (poses == 0).all(axis=-1) & ~missing & in_pixels[:, None]
+
+
+def _refuse_origin_joints(poses, missing, filled, where):
+    """A writer's check: an observed joint at exactly (0, 0) of a pixel pose
+    would be read back as missing (:func:`origin_joints`; a joint flagged
+    filled reads back as written)."""
+    origin = origin_joints(poses, missing) & ~filled
+    if origin.any():
+        i, j = np.argwhere(origin)[0]
+        raise FileFormatError(
+            f"{where}: pose {i}, joint {JOINT_NAMES[j]} is at exactly (0, 0), which "
+            f"sparseedm reads as a missing joint ({int(origin.sum())} such joint(s)); "
+            "mark them missing (NaN or missing=) or give their true coordinates")
+
+
+def finish_missing(poses, missing, confidence, threshold, where=None):
+    """Combine every missing source, blank the missing joints.
+
+    With `where` (the name of a CSV or NumPy file: formats whose missing joints
+    have no score of their own), joints at exactly (0, 0) in a pixel pose
+    (:func:`origin_joints`) are missing too, and a warning says how many.
+    """
     missing = missing | np.isnan(poses).any(axis=-1)
     if confidence is not None:
         with np.errstate(invalid="ignore"):
             missing = missing | ~(confidence > 0)
             if threshold is not None:
                 missing = missing | (confidence < threshold)
+    origin = origin_joints(poses, missing) if where is not None else None
+    if origin is not None and origin.any():
+        missing = missing | origin
+        warnings.warn(
+            f"{where}: read {int(origin.sum())} joint(s) at exactly (0, 0) in "
+            f"{int(origin.any(axis=1).sum())} pose(s) as missing (a tool's mark for a "
+            "joint it did not find); leave a missing joint's cells empty or NaN to "
+            "say so directly", UserWarning, stacklevel=2)
     poses = np.where(missing[..., None], np.nan, poses)
     return poses, missing
 
@@ -644,7 +704,7 @@ def _read_npz(path, threshold):
     if missing is None:
         missing = np.zeros((n, N_JOINTS), dtype=bool)
     raw = poses
-    poses, missing = finish_missing(poses, missing, confidence, threshold)
+    poses, missing = finish_missing(poses, missing, confidence, threshold, where=path)
     poses, missing = _keep_filled(raw, poses, missing, filled)
     ignored = sorted(set(names) - set(arrays) - {"poses", "missing", "confidence", "ids",
                                                  "filled", "uncertainty"} - set(TIME_KEYS))
@@ -734,7 +794,7 @@ def _read_npy(path, threshold):
     confidence = npy_confidence(arr, str(path)) if arr.shape[-1] == 3 else None
     missing = np.zeros(poses.shape[:2], dtype=bool)
     filled = sidecar_flags(path, len(poses), None)
-    poses, missing = finish_missing(poses, missing, confidence, threshold)
+    poses, missing = finish_missing(poses, missing, confidence, threshold, where=path)
     poses, missing = _keep_filled(arr[..., :2], poses, missing, filled)
     return KeypointSet(poses, missing, confidence, None, {}, filled=filled,
                        uncertainty=sidecar_uncertainty(path, len(poses)))
@@ -982,7 +1042,7 @@ def _read_csv(path, threshold):
     del blocks
     missing = np.zeros((n, N_JOINTS), dtype=bool)
     raw = poses
-    poses, missing = finish_missing(poses, missing, conf, threshold)
+    poses, missing = finish_missing(poses, missing, conf, threshold, where=path)
     poses, missing = _keep_filled(raw, poses, missing, filled)
     ids = None if ids is None else np.asarray(ids, dtype=str).reshape(n)
     tracks = np.asarray([t.strip() for t in extra["track"]], dtype=str).reshape(n) \
@@ -1272,6 +1332,8 @@ def write_keypoints(
     if filled is None:
         filled = _newly_filled(poses, meta) | _read_filled(meta, n)
     filled = _optional(filled, n, "filled", where, bool) & ~mask
+    if fmt in ("csv", "npz", "npy"):
+        _refuse_origin_joints(poses, mask, filled, where)
     frames = _fresh_frames(fmt, frames, n, where, meta, path)
     if fmt in formats.FORMATS:
         rows = formats.Rows(poses, filled, confidence, ids, tracks, frames, filled_score,
