@@ -219,6 +219,7 @@ __all__ = [
     "KeypointSet",
     "read_keypoints",
     "write_keypoints",
+    "origin_joints",
     "FORMATS",
     "output_format",
     "COCO_KEYPOINTS",
@@ -470,12 +471,13 @@ def _refuse_origin_joints(poses, missing, filled, where):
             "mark them missing (NaN or missing=) or give their true coordinates")
 
 
-def finish_missing(poses, missing, confidence, threshold, where=None):
+def finish_missing(poses, missing, confidence, threshold, where=None, filled=None):
     """Combine every missing source, blank the missing joints.
 
     With `where` (the name of a CSV or NumPy file: formats whose missing joints
     have no score of their own), joints at exactly (0, 0) in a pixel pose
-    (:func:`origin_joints`) are missing too, and a warning says how many.
+    (:func:`origin_joints`) are missing too, unless the file flags them
+    `filled` (kept as written), and a warning says how many.
     """
     missing = missing | np.isnan(poses).any(axis=-1)
     if confidence is not None:
@@ -484,6 +486,8 @@ def finish_missing(poses, missing, confidence, threshold, where=None):
             if threshold is not None:
                 missing = missing | (confidence < threshold)
     origin = origin_joints(poses, missing) if where is not None else None
+    if origin is not None and filled is not None:
+        origin &= ~filled
     if origin is not None and origin.any():
         missing = missing | origin
         warnings.warn(
@@ -704,7 +708,8 @@ def _read_npz(path, threshold):
     if missing is None:
         missing = np.zeros((n, N_JOINTS), dtype=bool)
     raw = poses
-    poses, missing = finish_missing(poses, missing, confidence, threshold, where=path)
+    poses, missing = finish_missing(poses, missing, confidence, threshold, where=path,
+                                    filled=filled)
     poses, missing = _keep_filled(raw, poses, missing, filled)
     ignored = sorted(set(names) - set(arrays) - {"poses", "missing", "confidence", "ids",
                                                  "filled", "uncertainty"} - set(TIME_KEYS))
@@ -794,7 +799,8 @@ def _read_npy(path, threshold):
     confidence = npy_confidence(arr, str(path)) if arr.shape[-1] == 3 else None
     missing = np.zeros(poses.shape[:2], dtype=bool)
     filled = sidecar_flags(path, len(poses), None)
-    poses, missing = finish_missing(poses, missing, confidence, threshold, where=path)
+    poses, missing = finish_missing(poses, missing, confidence, threshold, where=path,
+                                    filled=filled)
     poses, missing = _keep_filled(arr[..., :2], poses, missing, filled)
     return KeypointSet(poses, missing, confidence, None, {}, filled=filled,
                        uncertainty=sidecar_uncertainty(path, len(poses)))
@@ -1042,7 +1048,7 @@ def _read_csv(path, threshold):
     del blocks
     missing = np.zeros((n, N_JOINTS), dtype=bool)
     raw = poses
-    poses, missing = finish_missing(poses, missing, conf, threshold, where=path)
+    poses, missing = finish_missing(poses, missing, conf, threshold, where=path, filled=filled)
     poses, missing = _keep_filled(raw, poses, missing, filled)
     ids = None if ids is None else np.asarray(ids, dtype=str).reshape(n)
     tracks = np.asarray([t.strip() for t in extra["track"]], dtype=str).reshape(n) \
@@ -1126,12 +1132,25 @@ def _csv_columns(header, path):
     return out
 
 
+#: what a .json is read as, for a message refusing one
+JSON_KINDS = ("a .json is read as COCO or PoseTrack keypoints ('annotations', or a "
+              "results list with 'keypoints'), an OpenPose frame ('people') or MMPose "
+              "predictions ('instance_info', or instances with [x, y] 'keypoints')")
+
+
+def _some_keys(obj, at_most=8):
+    """The first keys of a JSON object, quoted, for a message."""
+    keys = [repr(k) for k in list(obj)[:at_most]]
+    return ", ".join(keys) + (", ..." if len(obj) > at_most else "") if keys else "none"
+
+
 def _read_coco(path, threshold):
     doc = load_json(path)
     if isinstance(doc, dict):
         if not isinstance(doc.get("annotations"), list):
             raise FileFormatError(
-                f"{path}: a COCO JSON object needs an 'annotations' list"
+                f"{path}: a COCO JSON object needs an 'annotations' list (its keys: "
+                f"{_some_keys(doc)}); {JSON_KINDS}"
             )
         anns = doc["annotations"]
     elif isinstance(doc, list):
@@ -1148,7 +1167,8 @@ def _read_coco(path, threshold):
     for a, ann in enumerate(anns):
         where = f"{path}: annotation {a}"
         if not isinstance(ann, dict) or "keypoints" not in ann:
-            raise FileFormatError(f"{where} has no 'keypoints'")
+            keys = f" (its keys: {_some_keys(ann)})" if isinstance(ann, dict) else ""
+            raise FileFormatError(f"{where} has no 'keypoints'{keys}; {JSON_KINDS}")
         kp = ann["keypoints"]
         if not isinstance(kp, list) or len(kp) != 51:
             count = len(kp) if isinstance(kp, list) else type(kp).__name__
@@ -1332,8 +1352,8 @@ def write_keypoints(
     if filled is None:
         filled = _newly_filled(poses, meta) | _read_filled(meta, n)
     filled = _optional(filled, n, "filled", where, bool) & ~mask
-    if fmt in ("csv", "npz", "npy"):
-        _refuse_origin_joints(poses, mask, filled, where)
+    if fmt in ("csv", "npz", "npy"):  # a .npy keeps no filled flags of its own
+        _refuse_origin_joints(poses, mask, filled & (fmt != "npy"), where)
     frames = _fresh_frames(fmt, frames, n, where, meta, path)
     if fmt in formats.FORMATS:
         rows = formats.Rows(poses, filled, confidence, ids, tracks, frames, filled_score,

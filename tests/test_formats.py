@@ -224,6 +224,22 @@ def test_openpose_person_without_body_keypoints_names_its_keys(tmp_path):
         read_keypoints(path)
 
 
+@pytest.mark.parametrize("whole", [False, True])
+def test_mmpose_inferencer_results_saved_whole_say_how_to_save_them(tmp_path, whole):
+    """``{"predictions": [[instance]], "visualization": []}`` (or a list of them)
+    is refused, saying what the inferencer should write instead."""
+    instance = {"keypoints": [[100.0 + k, 200.0] for k in range(17)],
+                "keypoint_scores": [0.9] * 17}
+    result = {"predictions": [[instance]], "visualization": []}
+    path = tmp_path / "results.json"
+    path.write_text(json.dumps([result, result] if whole else result))
+    with pytest.raises(FileFormatError, match=r"results\.json: not an MMPose .* "
+                                              r"pred_out_dir=.*result\['predictions'\]\[0\]"):
+        read_keypoints(path)
+    path.write_text(json.dumps(result["predictions"][0]))  # one image's instances: read
+    assert len(read_keypoints(path)) == 1
+
+
 def test_openpose_people_and_tracks(tmp_path):
     empty = read_keypoints(_frame(tmp_path / "e_keypoints.json"))
     assert len(empty) == 0

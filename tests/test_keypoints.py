@@ -511,9 +511,9 @@ def test_coco_write_without_meta(tmp_path):
         ('[{"keypoints": [1, 2', "truncated JSON at line 1"),
         ('[{"keypoints": [1, 2, 3]}]', "annotation 0: 'keypoints' has 3 values"),
         ('[{"keypoints": %s}, {"bbox": []}]' % json.dumps([0] * 51),
-         "annotation 1 has no 'keypoints'"),
+         r"annotation 1 has no 'keypoints' \(its keys: 'bbox'\); a .json is read as COCO"),
         ('[{"keypoints": %s}]' % json.dumps(["a"] * 51), "annotation 0: .*non-numeric"),
-        ('{"images": []}', "'annotations' list"),
+        ('{"images": []}', r"'annotations' list \(its keys: 'images'\); .*OpenPose frame"),
         ('42', "list of annotations"),
     ],
 )
@@ -703,3 +703,24 @@ def test_writer_refuses_an_observed_joint_at_the_origin(tmp_path, fmt):
     missing[2, 4] = True  # marked missing: written as missing
     read = read_keypoints(write_keypoints(tmp_path / f"m.{fmt}", poses, missing))
     assert read.missing[2, 4] and read.missing.sum() == 1
+
+
+@pytest.mark.parametrize("fmt", ["csv", "npz", "npy"])
+def test_a_joint_flagged_filled_at_the_origin_reads_back_as_written(tmp_path, fmt):
+    """A filled joint is kept as the file holds it, (0, 0) too, without a warning;
+    write_keypoints keeps no filled flags in a .npy (sparseedm recover puts
+    them in its sidecar), so there it is refused."""
+    poses, _ = _pixel_poses_with_holes()
+    poses[1, 7] = 0.0
+    filled = np.zeros((4, 14), bool)
+    filled[1, 7] = True
+    if fmt == "npy":
+        with pytest.raises(FileFormatError, match="pose 1, joint left_wrist"):
+            write_keypoints(tmp_path / "f.npy", poses, filled=filled)
+        return
+    path = write_keypoints(tmp_path / f"f.{fmt}", poses, filled=filled)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        back = read_keypoints(path)
+    assert not back.missing.any()
+    _assert_same(back.poses, poses)
