@@ -471,13 +471,15 @@ def _refuse_origin_joints(poses, missing, filled, where):
             "mark them missing (NaN or missing=) or give their true coordinates")
 
 
-def finish_missing(poses, missing, confidence, threshold, where=None, filled=None):
+def finish_missing(poses, missing, confidence, threshold, where=None, filled=None,
+                   origin=None):
     """Combine every missing source, blank the missing joints.
 
-    With `where` (the name of a CSV or NumPy file: formats whose missing joints
-    have no score of their own), joints at exactly (0, 0) in a pixel pose
-    (:func:`origin_joints`) are missing too, unless the file flags them
-    `filled` (kept as written), and a warning says how many.
+    With `origin` (default: when `where` is given; the CSV and NumPy formats,
+    whose missing joints have no score of their own), joints at exactly (0, 0)
+    in a pixel pose (:func:`origin_joints`) are missing too, unless the file
+    flags them `filled` (kept as written); with `where` (the file's name), a
+    warning says how many.
     """
     missing = missing | np.isnan(poses).any(axis=-1)
     if confidence is not None:
@@ -485,11 +487,14 @@ def finish_missing(poses, missing, confidence, threshold, where=None, filled=Non
             missing = missing | ~(confidence > 0)
             if threshold is not None:
                 missing = missing | (confidence < threshold)
-    origin = origin_joints(poses, missing) if where is not None else None
+    if origin is None:
+        origin = where is not None
+    origin = origin_joints(poses, missing) if origin else None
     if origin is not None and filled is not None:
         origin &= ~filled
     if origin is not None and origin.any():
         missing = missing | origin
+    if origin is not None and origin.any() and where is not None:
         warnings.warn(
             f"{where}: read {int(origin.sum())} joint(s) at exactly (0, 0) in "
             f"{int(origin.any(axis=1).sum())} pose(s) as missing (a tool's mark for a "
@@ -1076,6 +1081,22 @@ def _parse_flag(text, path, line, column):
     return text == "1"
 
 
+def _warn_unread_joint_columns(extra, path):
+    """Warn of a column per joint with a suffix the reader does not know (e.g.
+    ``<joint>_visibility``): kept as extra columns, never read as scores."""
+    by_suffix = {}
+    for name in extra:
+        stem, _, suffix = name.rpartition("_")
+        if stem in JOINT_NAMES:
+            by_suffix.setdefault(suffix, set()).add(stem)
+    for suffix, stems in by_suffix.items():
+        if len(stems) == N_JOINTS:
+            warnings.warn(
+                f"{path}: the <joint>_{suffix} columns are kept as they are, not read; "
+                "if they are the joints' confidences, name them <joint>_conf (or "
+                + ", ".join("_" + k for k in CONF_SYNONYMS) + ")", UserWarning, stacklevel=4)
+
+
 def _csv_columns(header, path):
     """Map header names to column indices, with clear errors."""
     xy, conf, filled, radii, extra = {}, {}, {}, {}, {}
@@ -1112,10 +1133,12 @@ def _csv_columns(header, path):
         for j in range(N_JOINTS) for a in (0, 1) if (j, a) not in xy
     ]
     if absent:
+        shown = ", ".join(repr(h) for h in header[:6]) + (", ..." if len(header) > 6 else "")
         raise FileFormatError(
             f"{path}, line 1: missing column(s) {', '.join(absent)}; a keypoint CSV "
-            "needs <joint>_x and <joint>_y for all 14 joints"
+            f"needs <joint>_x and <joint>_y for all 14 joints (its columns: {shown})"
         )
+    _warn_unread_joint_columns(extra, path)
     if len(conf_suffixes) > 1:
         raise FileFormatError(
             f"{path}, line 1: the confidence columns mix the suffixes "

@@ -724,3 +724,23 @@ def test_a_joint_flagged_filled_at_the_origin_reads_back_as_written(tmp_path, fm
         back = read_keypoints(path)
     assert not back.missing.any()
     _assert_same(back.poses, poses)
+
+
+def test_csv_scores_under_an_unknown_suffix_are_named(tmp_path):
+    """<joint>_visibility for every joint: kept as extra columns, and a warning
+    says how to have them read as confidences."""
+    poses, _ = _pixel_poses_with_holes()
+    path = write_keypoints(tmp_path / "v.csv", poses, confidence=np.full((4, 14), 0.9))
+    path.write_text(path.read_text().replace("_conf", "_visibility"))
+    with pytest.warns(UserWarning, match=r"<joint>_visibility columns are kept as they are, "
+                                         r"not read; .* name them <joint>_conf"):
+        got = read_keypoints(path)
+    assert got.confidence is None and "left_ankle_visibility" in got.meta["extra_columns"]
+
+
+def test_csv_without_the_joint_columns_shows_its_own(tmp_path):
+    path = tmp_path / "dots.csv"
+    path.write_text(",".join(f"{j}.{c}" for j in JOINT_NAMES for c in "xy") + "\n")
+    with pytest.raises(FileFormatError, match=r"needs <joint>_x and <joint>_y for all 14 "
+                                              r"joints \(its columns: 'head_top.x', "):
+        read_keypoints(path)
