@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import warnings
 
+from . import _progress
 from ._parallel import one_client
 from ._recovery_base import STATUSES, RecoveryResult, screen_poses, validate_poses
 from ._recovery_kernel import (RECOVER_PARAMS, preset_solver, recover_members, recover_sparse,
@@ -166,7 +167,9 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
     positive : bool, optional
         Non-negative codes; default the dictionary's ``positive_code``.
     progress : bool, default False
-        Show a progress bar over chunks.
+        Show a progress bar over chunks, and a line on stderr as each long
+        stage starts (adaptation, the check of the file's own poses, the
+        compilation of the numba kernels), as ``sparseedm recover`` does.
     backend : {None, "loky", "threading", "dask"}, optional
         joblib backend for the chunks when ``n_jobs != 1``; None means
         threads for the "fast" solver (its compiled kernels release the GIL)
@@ -369,16 +372,17 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         _warn_origin_joints(poses, missing)
     if method == "sparse":
         opts["adapt"] = check_adapt(adapt, "recover", dictionary.n_joints)
-    if not check_outliers:
-        return _dispatch(poses, missing, tracks, frames if temporal else None, method, model,
-                         preset, opts)
-    poses, missing, outlier = mark_outliers(
-        poses, missing, check_confidence(confidence, missing.shape, "recover"), dictionary,
-        tracks=tracks, frames=frames if temporal else None, alpha=alpha,
-        representation=representation_for(representation), solver=solver, n_jobs=n_jobs,
-        chunk_size=chunk_size, positive=positive)
-    return note_outliers(_dispatch(poses, missing, tracks, frames if temporal else None,
-                                   method, model, preset, opts), outlier)
+    frames = frames if temporal else None
+    with _progress.turned_on(progress):  # the long stages say what they do, as in the CLI
+        if not check_outliers:
+            return _dispatch(poses, missing, tracks, frames, method, model, preset, opts)
+        poses, missing, outlier = mark_outliers(
+            poses, missing, check_confidence(confidence, missing.shape, "recover"),
+            dictionary, tracks=tracks, frames=frames, alpha=alpha,
+            representation=representation_for(representation), solver=solver,
+            n_jobs=n_jobs, chunk_size=chunk_size, positive=positive)
+        return note_outliers(_dispatch(poses, missing, tracks, frames, method, model,
+                                       preset, opts), outlier)
 
 
 def _warn_origin_joints(poses, missing):
