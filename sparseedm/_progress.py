@@ -20,10 +20,11 @@ e.g. a JIT compilation) and :func:`steps` (an iterable: a bar on a terminal).
 
 from __future__ import annotations
 
+import contextlib
 import sys
 import threading
 
-__all__ = ["enable", "enabled", "say", "steps", "once"]
+__all__ = ["enable", "enabled", "say", "steps", "once", "turned_on"]
 
 _state = {"on": False, "tty": False, "stream": None}
 _seen = set()
@@ -39,6 +40,28 @@ def enable(on=True, stream=None):
 
 def enabled() -> bool:
     return _state["on"]
+
+
+@contextlib.contextmanager
+def turned_on(on):
+    """Reporting on for the block when `on` (an API call's ``progress=True``),
+    then as it was; off stays as the caller set it.
+
+    >>> with turned_on(True):
+    ...     enabled()
+    True
+    >>> enabled()
+    False
+    """
+    if not on or _state["on"]:
+        yield
+        return
+    saved = dict(_state)
+    enable(True)
+    try:
+        yield
+    finally:
+        _state.update(saved)
 
 
 def _write(text):

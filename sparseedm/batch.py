@@ -109,7 +109,7 @@ from .formats import FORMATS as FOLDER_OR_TABLE_FORMATS
 from .formats.deeplabcut import H5_SUFFIXES, check_h5_extra, read_joint_map
 from .keypoints import (FLAGS_IN_SIDECAR, N_JOINTS, EXTENSIONS, beside, check_joint_map,
                         finish_missing, format_of, load_single_npy, npy_confidence,
-                        read_keypoints, status_sidecar, write_keypoints)
+                        origin_joints, read_keypoints, status_sidecar, write_keypoints)
 from .keypoints import output_format as keypoint_output_format
 from ._recovery_base import OK_STATUSES, combine, mirror_weights, recovery_summary
 from ._recovery_kernel import PRESETS, compiled_solver, preset_solver
@@ -242,6 +242,7 @@ class _NpySource:
         self.meta = {}
         self.tracks = self.frames = self.linked = None  # a .npy holds poses only
         self.outliers = None  # streamed: no outlier check
+        self.origin_told = False  # joints at (0, 0) read as missing: said once
 
     def mark_outliers(self, *settings):
         """A streamed .npy is not checked for outliers (the check needs the
@@ -263,7 +264,12 @@ class _NpySource:
         poses = block[..., :2]
         conf = npy_confidence(block, str(self.path), start) if block.shape[-1] == 3 else None
         missing = np.zeros(poses.shape[:2], dtype=bool)
-        return finish_missing(poses, missing, conf, self.threshold)
+        # the first chunk with joints at (0, 0) says so, once (chunks are read twice)
+        where = None if self.origin_told else str(self.path) if len(poses) == self.n else (
+            f"{self.path} (poses {start}-{start + len(poses) - 1}; later chunks alike, not "
+            "counted)")
+        self.origin_told |= bool(origin_joints(poses, np.isnan(poses).any(axis=-1)).any())
+        return finish_missing(poses, missing, conf, self.threshold, where=where, origin=True)
 
     def close(self):
         mm = getattr(self.arr, "base", None)

@@ -29,7 +29,10 @@ empty CSV cell), when the file marks it missing (the ``missing`` array of an
 (0, negative or NaN: "not detected" in COCO and OpenPose alike), or when its
 confidence is below ``confidence_threshold`` (default: the format's,
 :data:`sparseedm.formats.DEFAULT_THRESHOLDS`: 0.3 for COCO, 0 for the array
-and CSV formats).
+and CSV formats). In CSV, ``.npy`` and ``.npz`` files a joint at exactly
+(0, 0) of a pose in pixels (no negative coordinate) is missing too, with a
+warning (:func:`origin_joints`: many tools write ``0, 0`` for a joint they did
+not find); :func:`write_keypoints` refuses to write such a joint as observed.
 Missing joints are read as NaN; their coordinates are not kept in ``poses``.
 
 Array files
@@ -216,6 +219,7 @@ __all__ = [
     "KeypointSet",
     "read_keypoints",
     "write_keypoints",
+    "origin_joints",
     "FORMATS",
     "output_format",
     "COCO_KEYPOINTS",
@@ -423,14 +427,79 @@ def _joint_count_error(where, n_joints):
     )
 
 
-def finish_missing(poses, missing, confidence, threshold):
-    """Combine every missing source, blank the missing joints."""
+def origin_joints(poses, missing):
+    """Joints at exactly (0, 0) in pixel poses: the mark many tools write for a
+    joint they did not find.
+
+    A pose is in pixels when none of its observed coordinates is negative (a
+    pose centred on a joint has negative coordinates, and its joint at the
+    origin stays observed).
+
+    Parameters
+    ----------
+    poses : ndarray, shape (n, 14, 2)
+    missing : ndarray of bool, shape (n, 14)
+
+    Returns
+    -------
+    ndarray of bool, shape (n, 14)
+        The observed joints at (0, 0) of poses with no negative coordinate.
+
+    Examples
+    --------
+    >>> poses = np.array([[[0.0, 0.0], [120.0, 80.0]], [[0.0, 0.0], [-3.0, 5.0]]])
+    >>> origin_joints(poses, np.zeros((2, 2), bool))
+    array([[ True, False],
+           [False, False]])
+    """
+    with np.errstate(invalid="ignore"):
+        seen = ~missing[..., None] & np.isfinite(poses)
+        in_pixels = ~(seen & (poses < 0)).any(axis=(1, 2))
+        return (poses == 0).all(axis=-1) & ~missing & in_pixels[:, None]
+
+
+def _refuse_origin_joints(poses, missing, filled, where):
+    """A writer's check: an observed joint at exactly (0, 0) of a pixel pose
+    would be read back as missing (:func:`origin_joints`; a joint flagged
+    filled reads back as written)."""
+    origin = origin_joints(poses, missing) & ~filled
+    if origin.any():
+        i, j = np.argwhere(origin)[0]
+        raise FileFormatError(
+            f"{where}: pose {i}, joint {JOINT_NAMES[j]} is at exactly (0, 0), which "
+            f"sparseedm reads as a missing joint ({int(origin.sum())} such joint(s)); "
+            "mark them missing (NaN or missing=) or give their true coordinates")
+
+
+def finish_missing(poses, missing, confidence, threshold, where=None, filled=None,
+                   origin=None):
+    """Combine every missing source, blank the missing joints.
+
+    With `origin` (default: when `where` is given; the CSV and NumPy formats,
+    whose missing joints have no score of their own), joints at exactly (0, 0)
+    in a pixel pose (:func:`origin_joints`) are missing too, unless the file
+    flags them `filled` (kept as written); with `where` (the file's name), a
+    warning says how many.
+    """
     missing = missing | np.isnan(poses).any(axis=-1)
     if confidence is not None:
         with np.errstate(invalid="ignore"):
             missing = missing | ~(confidence > 0)
             if threshold is not None:
                 missing = missing | (confidence < threshold)
+    if origin is None:
+        origin = where is not None
+    origin = origin_joints(poses, missing) if origin else None
+    if origin is not None and filled is not None:
+        origin &= ~filled
+    if origin is not None and origin.any():
+        missing = missing | origin
+    if origin is not None and origin.any() and where is not None:
+        warnings.warn(
+            f"{where}: read {int(origin.sum())} joint(s) at exactly (0, 0) in "
+            f"{int(origin.any(axis=1).sum())} pose(s) as missing (a tool's mark for a "
+            "joint it did not find); leave a missing joint's cells empty or NaN to "
+            "say so directly", UserWarning, stacklevel=2)
     poses = np.where(missing[..., None], np.nan, poses)
     return poses, missing
 
@@ -644,7 +713,8 @@ def _read_npz(path, threshold):
     if missing is None:
         missing = np.zeros((n, N_JOINTS), dtype=bool)
     raw = poses
-    poses, missing = finish_missing(poses, missing, confidence, threshold)
+    poses, missing = finish_missing(poses, missing, confidence, threshold, where=path,
+                                    filled=filled)
     poses, missing = _keep_filled(raw, poses, missing, filled)
     ignored = sorted(set(names) - set(arrays) - {"poses", "missing", "confidence", "ids",
                                                  "filled", "uncertainty"} - set(TIME_KEYS))
@@ -734,7 +804,8 @@ def _read_npy(path, threshold):
     confidence = npy_confidence(arr, str(path)) if arr.shape[-1] == 3 else None
     missing = np.zeros(poses.shape[:2], dtype=bool)
     filled = sidecar_flags(path, len(poses), None)
-    poses, missing = finish_missing(poses, missing, confidence, threshold)
+    poses, missing = finish_missing(poses, missing, confidence, threshold, where=path,
+                                    filled=filled)
     poses, missing = _keep_filled(arr[..., :2], poses, missing, filled)
     return KeypointSet(poses, missing, confidence, None, {}, filled=filled,
                        uncertainty=sidecar_uncertainty(path, len(poses)))
@@ -982,7 +1053,7 @@ def _read_csv(path, threshold):
     del blocks
     missing = np.zeros((n, N_JOINTS), dtype=bool)
     raw = poses
-    poses, missing = finish_missing(poses, missing, conf, threshold)
+    poses, missing = finish_missing(poses, missing, conf, threshold, where=path, filled=filled)
     poses, missing = _keep_filled(raw, poses, missing, filled)
     ids = None if ids is None else np.asarray(ids, dtype=str).reshape(n)
     tracks = np.asarray([t.strip() for t in extra["track"]], dtype=str).reshape(n) \
@@ -1008,6 +1079,22 @@ def _parse_flag(text, path, line, column):
         raise FileFormatError(f"{path}, line {line}, column {column!r}: {text[:20]!r} is "
                               "not a filled flag (1, 0 or empty)")
     return text == "1"
+
+
+def _warn_unread_joint_columns(extra, path):
+    """Warn of a column per joint with a suffix the reader does not know (e.g.
+    ``<joint>_visibility``): kept as extra columns, never read as scores."""
+    by_suffix = {}
+    for name in extra:
+        stem, _, suffix = name.rpartition("_")
+        if stem in JOINT_NAMES:
+            by_suffix.setdefault(suffix, set()).add(stem)
+    for suffix, stems in by_suffix.items():
+        if len(stems) == N_JOINTS:
+            warnings.warn(
+                f"{path}: the <joint>_{suffix} columns are kept as they are, not read; "
+                "if they are the joints' confidences, name them <joint>_conf (or "
+                + ", ".join("_" + k for k in CONF_SYNONYMS) + ")", UserWarning, stacklevel=4)
 
 
 def _csv_columns(header, path):
@@ -1046,10 +1133,12 @@ def _csv_columns(header, path):
         for j in range(N_JOINTS) for a in (0, 1) if (j, a) not in xy
     ]
     if absent:
+        shown = ", ".join(repr(h) for h in header[:6]) + (", ..." if len(header) > 6 else "")
         raise FileFormatError(
             f"{path}, line 1: missing column(s) {', '.join(absent)}; a keypoint CSV "
-            "needs <joint>_x and <joint>_y for all 14 joints"
+            f"needs <joint>_x and <joint>_y for all 14 joints (its columns: {shown})"
         )
+    _warn_unread_joint_columns(extra, path)
     if len(conf_suffixes) > 1:
         raise FileFormatError(
             f"{path}, line 1: the confidence columns mix the suffixes "
@@ -1066,12 +1155,25 @@ def _csv_columns(header, path):
     return out
 
 
+#: what a .json is read as, for a message refusing one
+JSON_KINDS = ("a .json is read as COCO or PoseTrack keypoints ('annotations', or a "
+              "results list with 'keypoints'), an OpenPose frame ('people') or MMPose "
+              "predictions ('instance_info', or instances with [x, y] 'keypoints')")
+
+
+def _some_keys(obj, at_most=8):
+    """The first keys of a JSON object, quoted, for a message."""
+    keys = [repr(k) for k in list(obj)[:at_most]]
+    return ", ".join(keys) + (", ..." if len(obj) > at_most else "") if keys else "none"
+
+
 def _read_coco(path, threshold):
     doc = load_json(path)
     if isinstance(doc, dict):
         if not isinstance(doc.get("annotations"), list):
             raise FileFormatError(
-                f"{path}: a COCO JSON object needs an 'annotations' list"
+                f"{path}: a COCO JSON object needs an 'annotations' list (its keys: "
+                f"{_some_keys(doc)}); {JSON_KINDS}"
             )
         anns = doc["annotations"]
     elif isinstance(doc, list):
@@ -1088,7 +1190,8 @@ def _read_coco(path, threshold):
     for a, ann in enumerate(anns):
         where = f"{path}: annotation {a}"
         if not isinstance(ann, dict) or "keypoints" not in ann:
-            raise FileFormatError(f"{where} has no 'keypoints'")
+            keys = f" (its keys: {_some_keys(ann)})" if isinstance(ann, dict) else ""
+            raise FileFormatError(f"{where} has no 'keypoints'{keys}; {JSON_KINDS}")
         kp = ann["keypoints"]
         if not isinstance(kp, list) or len(kp) != 51:
             count = len(kp) if isinstance(kp, list) else type(kp).__name__
@@ -1272,6 +1375,8 @@ def write_keypoints(
     if filled is None:
         filled = _newly_filled(poses, meta) | _read_filled(meta, n)
     filled = _optional(filled, n, "filled", where, bool) & ~mask
+    if fmt in ("csv", "npz", "npy"):  # a .npy keeps no filled flags of its own
+        _refuse_origin_joints(poses, mask, filled & (fmt != "npy"), where)
     frames = _fresh_frames(fmt, frames, n, where, meta, path)
     if fmt in formats.FORMATS:
         rows = formats.Rows(poses, filled, confidence, ids, tracks, frames, filled_score,

@@ -30,6 +30,9 @@ whole dictionary; the others per pattern group).
 
 from __future__ import annotations
 
+import warnings
+
+from . import _progress
 from ._parallel import one_client
 from ._recovery_base import STATUSES, RecoveryResult, screen_poses, validate_poses
 from ._recovery_kernel import (RECOVER_PARAMS, preset_solver, recover_members, recover_sparse,
@@ -40,6 +43,7 @@ from .dictionary import Dictionary, check_gram_memory, load_dictionary
 from .ensemble import adapt_members
 from .exemplars import EXEMPLAR_OPTIONS, blend_atoms, blend_many_hidden
 from .exceptions import ParameterError, SparseEDMError
+from .keypoints import origin_joints
 from .outliers import check_confidence, mark_outliers, note_outliers
 from .temporal.recover import recover_temporal
 from .uncertainty import joint_uncertainty
@@ -166,7 +170,9 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
     positive : bool, optional
         Non-negative codes; default the dictionary's ``positive_code``.
     progress : bool, default False
-        Show a progress bar over chunks.
+        Show a progress bar over chunks, and a line on stderr as each long
+        stage starts (adaptation, the check of the file's own poses, the
+        compilation of the numba kernels), as ``sparseedm recover`` does.
     backend : {None, "loky", "threading", "dask"}, optional
         joblib backend for the chunks when ``n_jobs != 1``; None means
         threads for the "fast" solver (its compiled kernels release the GIL)
@@ -377,18 +383,34 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         if not isinstance(dictionary, Dictionary):
             opts["dictionary"] = dictionary = load_dictionary(dictionary)
         poses, missing, _ = validate_poses(poses, missing, dictionary.n_joints)
+        _warn_origin_joints(poses, missing)
     if method == "sparse":
         opts["adapt"] = check_adapt(adapt, "recover", dictionary.n_joints)
-    if not check_outliers:
-        return _dispatch(poses, missing, tracks, frames if temporal else None, method, model,
-                         preset, opts)
-    poses, missing, outlier = mark_outliers(
-        poses, missing, check_confidence(confidence, missing.shape, "recover"), dictionary,
-        tracks=tracks, frames=frames if temporal else None, alpha=alpha,
-        representation=representation_for(representation), solver=solver, n_jobs=n_jobs,
-        chunk_size=chunk_size, positive=positive)
-    return note_outliers(_dispatch(poses, missing, tracks, frames if temporal else None,
-                                   method, model, preset, opts), outlier)
+    frames = frames if temporal else None
+    with _progress.turned_on(progress):  # the long stages say what they do, as in the CLI
+        if not check_outliers:
+            return _dispatch(poses, missing, tracks, frames, method, model, preset, opts)
+        poses, missing, outlier = mark_outliers(
+            poses, missing, check_confidence(confidence, missing.shape, "recover"),
+            dictionary, tracks=tracks, frames=frames, alpha=alpha,
+            representation=representation_for(representation), solver=solver,
+            n_jobs=n_jobs, chunk_size=chunk_size, positive=positive)
+        return note_outliers(_dispatch(poses, missing, tracks, frames, method, model,
+                                       preset, opts), outlier)
+
+
+def _warn_origin_joints(poses, missing):
+    """Warn of observed joints at exactly (0, 0) in pixel poses: many tools write
+    ``0, 0`` for a joint they did not find (the file readers read those as
+    missing, :func:`sparseedm.keypoints.origin_joints`)."""
+    origin = origin_joints(poses, missing)
+    if origin.any():
+        warnings.warn(
+            f"recover: {int(origin.sum())} joint(s) of {int(origin.any(axis=1).sum())} "
+            "pose(s) in pixels are at exactly (0, 0) and are taken as observed; if your "
+            "tool writes 0, 0 for a joint it did not find, mark them missing "
+            "(missing=sparseedm.keypoints.origin_joints(poses, missing) | missing, or NaN)",
+            UserWarning, stacklevel=3)
 
 
 def _dispatch(poses, missing, tracks, frames, method, model, preset, opts):

@@ -305,3 +305,20 @@ def test_a_video_keeps_its_tracks_and_frames_across_formats(tmp_path):
     again = read_keypoints(back)
     np.testing.assert_array_equal(again.tracks, given.tracks)
     np.testing.assert_array_equal(again.frames, given.frames)
+
+
+def test_a_streamed_npy_with_zeros_for_missing_joints(tmp_path, occluded, small_dictionary_path,
+                                                       capsys):
+    """A .npy read in chunks with 0, 0 for its missing joints is recovered as the
+    same file with NaN there, and the warning is given once, not per chunk."""
+    poses, missing = occluded
+    np.save(tmp_path / "nan.npy", poses)
+    np.save(tmp_path / "zeros.npy", np.nan_to_num(poses))
+    for name in ("nan", "zeros"):
+        _recover(tmp_path / f"{name}.npy", tmp_path / f"{name}_out.npy",
+                 small_dictionary_path, "--chunk-size", "8", "--no-adapt")
+    err = capsys.readouterr().err
+    assert err.count("at exactly (0, 0)") == 1, err
+    assert "zeros.npy (poses 0-7; later chunks alike" in err
+    np.testing.assert_array_equal(np.load(tmp_path / "zeros_out.npy"),
+                                  np.load(tmp_path / "nan_out.npy"))

@@ -202,6 +202,44 @@ def test_openpose_layouts_map_by_their_documented_order(tmp_path):
     assert k.poses[0, NECK].tolist() == [(110 + 112) / 2, (111 + 113) / 2]
 
 
+def test_openpose_before_1_2_names_its_keypoints_pose_keypoints(tmp_path):
+    """OpenPose before 1.2 wrote ``pose_keypoints``: read as ``pose_keypoints_2d``
+    is, and written back under its own name."""
+    new = read_keypoints(_frame(tmp_path / "n_keypoints.json", _person(25)))
+    person = _person(25)
+    person["pose_keypoints"] = person.pop("pose_keypoints_2d")
+    old = read_keypoints(_frame(tmp_path / "o_keypoints.json", person))
+    np.testing.assert_array_equal(old.poses, new.poses)
+    write_keypoints(tmp_path / "back_keypoints.json", old)
+    back = json.loads((tmp_path / "back_keypoints.json").read_text())["people"][0]
+    assert "pose_keypoints" in back and "pose_keypoints_2d" not in back
+    np.testing.assert_array_equal(read_keypoints(tmp_path / "back_keypoints.json").poses,
+                                  new.poses)
+
+
+def test_openpose_person_without_body_keypoints_names_its_keys(tmp_path):
+    path = _frame(tmp_path / "k_keypoints.json", {"person_id": [-1], "pose": [1, 2]})
+    with pytest.raises(FileFormatError, match=r"people\[0\] has no 'pose_keypoints_2d' "
+                                              r"\(its keys: 'person_id', 'pose'\)"):
+        read_keypoints(path)
+
+
+@pytest.mark.parametrize("whole", [False, True])
+def test_mmpose_inferencer_results_saved_whole_say_how_to_save_them(tmp_path, whole):
+    """``{"predictions": [[instance]], "visualization": []}`` (or a list of them)
+    is refused, saying what the inferencer should write instead."""
+    instance = {"keypoints": [[100.0 + k, 200.0] for k in range(17)],
+                "keypoint_scores": [0.9] * 17}
+    result = {"predictions": [[instance]], "visualization": []}
+    path = tmp_path / "results.json"
+    path.write_text(json.dumps([result, result] if whole else result))
+    with pytest.raises(FileFormatError, match=r"results\.json: not an MMPose .* "
+                                              r"pred_out_dir=.*result\['predictions'\]\[0\]"):
+        read_keypoints(path)
+    path.write_text(json.dumps(result["predictions"][0]))  # one image's instances: read
+    assert len(read_keypoints(path)) == 1
+
+
 def test_openpose_people_and_tracks(tmp_path):
     empty = read_keypoints(_frame(tmp_path / "e_keypoints.json"))
     assert len(empty) == 0

@@ -3,6 +3,7 @@
 import csv
 import json
 import os
+import warnings
 
 import numpy as np
 import pytest
@@ -15,6 +16,7 @@ from sparseedm.keypoints import (
     COCO_KEYPOINTS,
     HEAD_TOP_FACTOR,
     KeypointSet,
+    origin_joints,
     read_keypoints,
     write_keypoints,
 )
@@ -509,9 +511,9 @@ def test_coco_write_without_meta(tmp_path):
         ('[{"keypoints": [1, 2', "truncated JSON at line 1"),
         ('[{"keypoints": [1, 2, 3]}]', "annotation 0: 'keypoints' has 3 values"),
         ('[{"keypoints": %s}, {"bbox": []}]' % json.dumps([0] * 51),
-         "annotation 1 has no 'keypoints'"),
+         r"annotation 1 has no 'keypoints' \(its keys: 'bbox'\); a .json is read as COCO"),
         ('[{"keypoints": %s}]' % json.dumps(["a"] * 51), "annotation 0: .*non-numeric"),
-        ('{"images": []}', "'annotations' list"),
+        ('{"images": []}', r"'annotations' list \(its keys: 'images'\); .*OpenPose frame"),
         ('42', "list of annotations"),
     ],
 )
@@ -579,6 +581,12 @@ finite = st.floats(-1e6, 1e6, allow_nan=False)
 def test_round_trip_property(tmp_path, poses, data, fmt):
     missing = data.draw(hnp.arrays(bool, poses.shape[:2]))
     path = tmp_path / f"rt.{fmt}"
+    path.unlink(missing_ok=True)  # tmp_path is shared by hypothesis's examples
+    if origin_joints(poses, missing).any():  # would read back missing: refused
+        with pytest.raises(FileFormatError, match=r"exactly \(0, 0\)"):
+            write_keypoints(path, poses, missing)
+        assert not path.exists()
+        return
     write_keypoints(path, poses, missing)
     kps = read_keypoints(path)
     _assert_same(kps.missing, missing)
@@ -631,4 +639,108 @@ def test_csv_number_cells_read_as_before(tmp_path, text, value):
 def test_csv_non_number_cells_are_named(tmp_path, text):
     path = _csv_with_cell(tmp_path, f'"{text}"', row=2)
     with pytest.raises(FileFormatError, match=r"line 3, column 'neck_y': .* is not a number"):
+        read_keypoints(path)
+
+
+# ------------------------------------------------- zeros for missing joints
+
+
+def _pixel_poses_with_holes(n=4, seed=3):
+    """Pixel poses (all coordinates positive) and a mask of hidden joints."""
+    rng = np.random.default_rng(seed)
+    poses = rng.uniform(100, 500, size=(n, 14, 2))
+    hidden = np.zeros((n, 14), bool)
+    hidden[np.arange(n), rng.integers(0, 14, n)] = True
+    hidden[0, 5] = True
+    return poses, hidden
+
+
+@pytest.mark.parametrize("fmt", ["csv", "npz", "npy"])
+def test_zeros_for_missing_joints_read_as_missing(tmp_path, fmt):
+    """A pixel file that writes (0, 0) for a joint its tool did not find reads as
+    the same file with NaN there, and a warning says how many joints."""
+    poses, hidden = _pixel_poses_with_holes()
+    zeros = np.where(hidden[..., None], 0.0, poses)
+    blank = np.where(hidden[..., None], np.nan, poses)
+    write_keypoints(tmp_path / f"nan.{fmt}", blank)
+    # written by hand: write_keypoints refuses them (they would read back missing)
+    if fmt == "npy":
+        np.save(tmp_path / "zeros.npy", zeros)
+    elif fmt == "npz":
+        np.savez(tmp_path / "zeros.npz", poses=zeros)
+    else:
+        header = ",".join(f"{name}_{c}" for name in JOINT_NAMES for c in "xy")
+        rows = [",".join(repr(v) for v in pose.ravel().tolist()) for pose in zeros]
+        (tmp_path / "zeros.csv").write_text("\n".join([header, *rows]) + "\n")
+    with pytest.warns(UserWarning, match=rf"read {hidden.sum()} joint\(s\) at exactly \(0, 0\)"):
+        got = read_keypoints(tmp_path / f"zeros.{fmt}")
+    want = read_keypoints(tmp_path / f"nan.{fmt}")
+    _assert_same(got.missing, hidden)
+    _assert_same(got.poses, want.poses)
+
+
+def test_a_centred_pose_keeps_its_joint_at_the_origin(tmp_path):
+    """A pose centred on a joint has negative coordinates: its joint at (0, 0)
+    is observed, and written and read back as it is."""
+    poses, _ = _pixel_poses_with_holes()
+    centred = poses - poses[:, 8:9]  # right hip at the origin
+    path = write_keypoints(tmp_path / "c.csv", centred)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        got = read_keypoints(path)
+    assert not got.missing.any()
+    _assert_same(got.poses, centred)
+
+
+@pytest.mark.parametrize("fmt", ["csv", "npz", "npy"])
+def test_writer_refuses_an_observed_joint_at_the_origin(tmp_path, fmt):
+    poses, _ = _pixel_poses_with_holes()
+    poses[2, 4] = 0.0
+    with pytest.raises(FileFormatError, match=r"pose 2, joint right_wrist is at exactly"):
+        write_keypoints(tmp_path / f"o.{fmt}", poses)
+    assert not (tmp_path / f"o.{fmt}").exists()
+    missing = np.zeros((4, 14), bool)
+    missing[2, 4] = True  # marked missing: written as missing
+    read = read_keypoints(write_keypoints(tmp_path / f"m.{fmt}", poses, missing))
+    assert read.missing[2, 4] and read.missing.sum() == 1
+
+
+@pytest.mark.parametrize("fmt", ["csv", "npz", "npy"])
+def test_a_joint_flagged_filled_at_the_origin_reads_back_as_written(tmp_path, fmt):
+    """A filled joint is kept as the file holds it, (0, 0) too, without a warning;
+    write_keypoints keeps no filled flags in a .npy (sparseedm recover puts
+    them in its sidecar), so there it is refused."""
+    poses, _ = _pixel_poses_with_holes()
+    poses[1, 7] = 0.0
+    filled = np.zeros((4, 14), bool)
+    filled[1, 7] = True
+    if fmt == "npy":
+        with pytest.raises(FileFormatError, match="pose 1, joint left_wrist"):
+            write_keypoints(tmp_path / "f.npy", poses, filled=filled)
+        return
+    path = write_keypoints(tmp_path / f"f.{fmt}", poses, filled=filled)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        back = read_keypoints(path)
+    assert not back.missing.any()
+    _assert_same(back.poses, poses)
+
+
+def test_csv_scores_under_an_unknown_suffix_are_named(tmp_path):
+    """<joint>_visibility for every joint: kept as extra columns, and a warning
+    says how to have them read as confidences."""
+    poses, _ = _pixel_poses_with_holes()
+    path = write_keypoints(tmp_path / "v.csv", poses, confidence=np.full((4, 14), 0.9))
+    path.write_text(path.read_text().replace("_conf", "_visibility"))
+    with pytest.warns(UserWarning, match=r"<joint>_visibility columns are kept as they are, "
+                                         r"not read; .* name them <joint>_conf"):
+        got = read_keypoints(path)
+    assert got.confidence is None and "left_ankle_visibility" in got.meta["extra_columns"]
+
+
+def test_csv_without_the_joint_columns_shows_its_own(tmp_path):
+    path = tmp_path / "dots.csv"
+    path.write_text(",".join(f"{j}.{c}" for j in JOINT_NAMES for c in "xy") + "\n")
+    with pytest.raises(FileFormatError, match=r"needs <joint>_x and <joint>_y for all 14 "
+                                              r"joints \(its columns: 'head_top.x', "):
         read_keypoints(path)

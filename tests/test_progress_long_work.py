@@ -122,3 +122,22 @@ def test_cli_lift_shows_the_bar_as_recover_does(tmp_path, monkeypatch, capsys):
     assert "1/1" in capsys.readouterr().err
     assert main(["lift", str(src), "-o", str(tmp_path / "q.csv"), "--no-temporal", "-q"]) == 0
     assert "1/1" not in capsys.readouterr().err
+
+
+def test_recover_progress_true_tells_its_stages_then_stays_silent(capsys):
+    """recover(progress=True) says as each long stage starts (here the adaptation
+    on the example video's complete poses), as the command line does; reporting
+    is off again after the call, and progress=False says nothing."""
+    from pathlib import Path
+
+    import sparseedm
+    from sparseedm.keypoints import read_keypoints
+
+    kps = read_keypoints(Path(__file__).resolve().parents[1] / "examples" / "video_clip.csv")
+    args = dict(tracks=kps.tracks, frames=kps.frames, self_training=0)
+    sparseedm.recover(kps.poses, kps.missing, progress=True, **args)
+    err = capsys.readouterr().err
+    assert "sparseedm: adapting the dictionary on 115 complete poses" in err
+    assert not _progress.enabled()
+    sparseedm.recover(kps.poses, kps.missing, **args)
+    assert "sparseedm:" not in capsys.readouterr().err

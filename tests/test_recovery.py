@@ -2,6 +2,7 @@
 per-pose statuses, and accuracy on real CMU poses (small learned dictionary)."""
 
 import importlib.util
+import warnings
 
 import numpy as np
 import pytest
@@ -280,3 +281,22 @@ def test_a_batch_with_nothing_to_recover(cmu_poses, small_dictionary):
     res = sparseedm.recover(cmu_poses[:5], dictionary=small_dictionary, adapt=False)
     assert res.status.tolist() == ["complete"] * 5
     np.testing.assert_array_equal(res.poses, cmu_poses[:5])
+
+
+def test_recover_warns_of_joints_at_the_origin_of_pixel_poses(cmu_poses):
+    """Zeros for missing joints in arrays passed to recover(): a warning names
+    them and how to mark them; marked missing, the same poses are filled."""
+    from sparseedm.keypoints import origin_joints
+
+    poses = cmu_poses[:6].copy()
+    hidden = np.zeros(poses.shape[:2], bool)
+    hidden[:, 4] = True
+    zeros = np.where(hidden[..., None], 0.0, poses)
+    with pytest.warns(UserWarning, match=r"6 joint\(s\) of 6 pose\(s\) .* exactly \(0, 0\)"):
+        sparseedm.recover(zeros, adapt=False)
+    missing = origin_joints(zeros, np.zeros_like(hidden))
+    np.testing.assert_array_equal(missing, hidden)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        res = sparseedm.recover(zeros, missing, adapt=False)
+    assert res.status.tolist() == ["recovered"] * 6

@@ -63,6 +63,25 @@ with np.load(work / "filled.status.npz") as status:
 print("any NaN left:", bool(np.isnan(filled).any()))
 
 # %%
+# From Python
+# -----------
+# :func:`sparseedm.recover` takes an array of any length and cuts it into
+# chunks itself (``chunk_size`` poses, 2,048 by default): ``n_jobs=2`` codes
+# two chunks at a time, and ``progress=True`` draws a bar over the chunks on
+# stderr (the library is silent by default). ``res.summary()`` counts the
+# statuses and says which way the file was coded; with 2,000 or more complete
+# poses that is over the file's own poses (:doc:`/howto/adaptation`), and
+# ``preset="fast"`` codes each pose over its nearest ones only, much faster on
+# files of 100,000 poses and more.
+import sparseedm  # noqa: E402
+
+res = sparseedm.recover(poses, n_jobs=2, progress=True)
+summary = res.summary()
+print(summary["status"], "| no adaptation:" if not res.adapted else "| adapted:",
+      summary["adaptation"]["reason"])
+print(f"{summary['poses_per_second']:.0f} poses/s")
+
+# %%
 # On a Dask cluster
 # -----------------
 # With the ``dask`` extra (``pip install "sparseedm[dask]"``) on the client and
@@ -77,8 +96,6 @@ print("any NaN left:", bool(np.isnan(filled).any()))
 # with the same results as on one machine; the online learning of the adapted
 # atoms runs on the client (each mini-batch updates the atoms the next is coded
 # on).
-import sparseedm  # noqa: E402
-
 try:
     from dask.distributed import LocalCluster
 except ImportError:

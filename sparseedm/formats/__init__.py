@@ -74,6 +74,17 @@ _EMPTY_LIST = re.compile(rb"\s*\[\s*\]\s*$")
 _KEYPOINT_PAIRS = re.compile(rb'"keypoints"\s*:\s*\[\s*\[')
 
 
+def _inferencer_hint(doc):
+    """What to do with an ``MMPoseInferencer`` result saved whole (``{"predictions":
+    [[instance, ...]], "visualization": ...}``, or a list of them)."""
+    first = doc[0] if isinstance(doc, list) and doc else doc
+    if not (isinstance(first, dict) and "predictions" in first):
+        return ""
+    return ("; it looks like MMPoseInferencer's results saved whole: run the inferencer "
+            "with pred_out_dir= (one file per image, a folder sparseedm reads), or save "
+            "one image's instances, result['predictions'][0]")
+
+
 def default_threshold(fmt):
     """The confidence threshold `fmt` is read with when none is given.
 
@@ -236,7 +247,8 @@ def read(fmt, path, *, joint_map=None):
         doc = load_json(path)
         if not mmpose.is_mmpose(doc):
             raise FileFormatError(f"{path}: not an MMPose prediction file (no "
-                                  "'instance_info' and no instances with [x, y] keypoints)")
+                                  "'instance_info' and no instances with [x, y] keypoints)"
+                                  + _inferencer_hint(doc))
         return mmpose.read(path, doc)
     if fmt == "dlc":
         return deeplabcut.read(path, joint_map)

@@ -251,7 +251,10 @@ def keypoint_rows(obj, where, key, width, layouts, described):
     """``obj[key]`` as a (K, width) array, K one of `layouts`' sizes; `obj` an object."""
     if not isinstance(obj, dict):
         raise FileFormatError(f"{where} is not an object")
-    values = numbers(obj.get(key), where, key)
+    if key not in obj:
+        keys = ", ".join(repr(k) for k in list(obj)[:8]) or "none"
+        raise FileFormatError(f"{where} has no '{key}' (its keys: {keys})")
+    values = numbers(obj[key], where, key)
     if values.size % width or values.size // width not in layouts:
         raise FileFormatError(f"{where}: '{key}' has {values.size} values; {described}")
     return values.reshape(-1, width)

@@ -2,7 +2,8 @@
 
 Each file is ``{"version": ..., "people": [{"person_id": [-1],
 "pose_keypoints_2d": [x1, y1, c1, ...], "face_keypoints_2d": [...], ...}]}``
-(OpenPose ``doc/02_output.md``); its frame number is the one in its name
+(OpenPose ``doc/02_output.md``; files of OpenPose before 1.2 name it
+``pose_keypoints``, read and written back under that name); its frame number is the one in its name
 (``video_000000000012_keypoints.json``; files without one are numbered in name
 order). A folder is one video: one file stem (the name without its frame
 number) is one video, and a folder whose files have two stems
@@ -64,7 +65,8 @@ from ..exceptions import FileFormatError
 from . import _base
 from ._base import COCO17, EXTRA_KEY, Layout, Person
 
-__all__ = ["BODY_25", "COCO_18", "BODY_135", "LAYOUTS", "read", "write", "is_openpose"]
+__all__ = ["BODY_25", "COCO_18", "BODY_135", "LAYOUTS", "read", "write", "is_openpose",
+           "body_key"]
 
 _SIDES = ("shoulder", "elbow", "wrist")
 _LEGS = ("hip", "knee", "ankle")
@@ -100,12 +102,25 @@ def _stem(name):
     return name[: -len(_SUFFIX)] if name.endswith(_SUFFIX) else Path(name).stem
 
 
+def body_key(person):
+    """The key of a person's body keypoints: ``pose_keypoints_2d``, or
+    ``pose_keypoints`` in files of OpenPose before version 1.2.
+
+    >>> body_key({"pose_keypoints": []}), body_key({"pose_keypoints_2d": []})
+    ('pose_keypoints', 'pose_keypoints_2d')
+    """
+    old = "pose_keypoints"
+    return old if isinstance(person, dict) and old in person \
+        and "pose_keypoints_2d" not in person else "pose_keypoints_2d"
+
+
 def _person(person, path, p, frame):
     where = f"{path}: people[{p}]"
-    kp = _base.keypoint_rows(person, where, "pose_keypoints_2d", 3, LAYOUTS,
+    key = body_key(person)
+    kp = _base.keypoint_rows(person, where, key, 3, LAYOUTS,
                              "OpenPose body models have 75 (BODY_25), 54 (COCO) or "
                              "405 (BODY_135): x, y, c per keypoint")
-    _base.check_scores(kp[:, 2], where, "pose_keypoints_2d confidence", upper=1.0)
+    _base.check_scores(kp[:, 2], where, f"{key} confidence", upper=1.0)
     pid = person.get("person_id", -1)
     if isinstance(pid, list) and len(pid) == 1:
         pid = pid[0]
@@ -193,10 +208,11 @@ def _updated(files, rows, meta, filled_score, row_fields, path):
     for f in files:
         doc = json.loads(json.dumps(f["doc"]))
         for person in doc["people"]:
-            kp = np.asarray(person["pose_keypoints_2d"], dtype=float).reshape(-1, 3)
+            key = body_key(person)
+            kp = np.asarray(person[key], dtype=float).reshape(-1, 3)
             _base.update_person(kp[:, :2], kp[:, 2], rows.poses[r], rows.filled[r], layout,
                                 filled_score)
-            person["pose_keypoints_2d"] = [float(v) for v in kp.ravel()]
+            person[key] = [float(v) for v in kp.ravel()]
             person[EXTRA_KEY] = _base.write_extra(rows.poses[r], rows.filled[r],
                                                   _base.row_status(row_fields, r),
                                                   rows.radii(r))

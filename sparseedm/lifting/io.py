@@ -142,9 +142,12 @@ def _one_person(kps, input, output, fmt):
     elif needs_linking(kps.tracks, kps.frames):
         several = "several poses in one frame"
     if several:
+        how = "" if people > 1 else (
+            "; `sparseedm recover` links them into tracks and writes the track ids back")
         raise FileFormatError(
             f"{output}: a .trc file holds one person's markers, and {input} has {several}; "
-            "write .csv, .npz or .json (they keep a track column), or one track per file")
+            "write .csv, .npz or .json (they keep a track column), or lift each track's "
+            f"rows from a file of their own{how}")
 
 
 def _when(tracks, frames):
