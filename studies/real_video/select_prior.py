@@ -49,9 +49,10 @@ import argparse
 import sys
 import time
 import warnings
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 from dataclasses import replace
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -59,6 +60,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from benchmarks import real2d  # noqa: E402
+from sparseedm._recovery_base import mirror_weights  # noqa: E402
 from sparseedm.dictionary import load_dictionary  # noqa: E402
 from sparseedm.evaluation_real import clip_cases  # noqa: E402
 from sparseedm.file_atoms import mirror_images, with_file_atoms  # noqa: E402
@@ -117,6 +119,48 @@ CANDIDATES = {
 }
 
 
+def _gated_rows(poses, mask, need, never_only):
+    """The rows whose answers the gate changes and the joints it may move:
+    every asked row and hidden joint, or (`never_only`) the asked rows with a
+    joint hidden in every row of the call (one clip, one track) and those joints."""
+    if not never_only:
+        return need, mask
+    never = mask.all(axis=0)
+    return need & (mask & never).any(axis=1), mask & never
+
+
+@contextmanager
+def gated(second, never_only):
+    """recover_temporal's per-frame answers with ``second(member)``'s answers
+    weighed in per pose by :func:`sparseedm._recovery_base.mirror_weights`
+    (``recover(mirror="auto")``'s gate; `second` the mirrored member or another
+    dictionary), on every hidden joint or (`never_only`) on the joints the call
+    never shows."""
+    own = temporal_recover._per_frame
+    cache = {}
+
+    def per_frame(poses, mask, need, members, settings, kwargs):
+        first = own(poses, mask, need, members, settings, kwargs)
+        rows, joints = _gated_rows(poses, mask, need, never_only)
+        if not rows.any():
+            return first
+        others = [cache.setdefault(id(m), second(m)) for m in members]
+        other = own(poses, mask, rows, others, settings, kwargs)
+        k = np.flatnonzero(rows)
+        w = mirror_weights([SimpleNamespace(objective=first.fields["objective"][k]),
+                            SimpleNamespace(objective=other.fields["objective"][k])])
+        mixed = w[0][:, None, None] * first.poses[k] + w[1][:, None, None] * other.poses[k]
+        ok = joints[k] & np.isfinite(mixed).all(axis=-1)
+        first.poses[k] = np.where(ok[..., None], mixed, first.poses[k])
+        return first
+
+    temporal_recover._per_frame = per_frame
+    try:
+        yield
+    finally:
+        temporal_recover._per_frame = own
+
+
 @contextmanager
 def members(make):
     """recover_temporal's per-frame members made by ``make(base, offered)`` (None: its own)."""
@@ -136,10 +180,11 @@ def members(make):
         temporal_recover._adapt = own
 
 
-def model_arm(dictionary, make=None, settings=PER_FRAME):
-    """fill(given, mask, frames) of the temporal model with the members `make` makes."""
+def model_arm(dictionary, make=None, settings=PER_FRAME, gate=None):
+    """fill(given, mask, frames) of the temporal model with the members `make` makes
+    (`gate`: (second, never_only) of :func:`gated`)."""
     def fill(given, mask, frames):
-        with members(make):
+        with members(make), (gated(*gate) if gate else nullcontext()):
             return temporal_recover.recover_temporal(given, mask, frames=frames,
                                                      dictionary=dictionary,
                                                      settings=settings).poses
@@ -157,6 +202,23 @@ def carry_settings(name):
     return replace(DEFAULT_SETTINGS, **kw)
 
 
+def gate_of(name):
+    """(second, never_only) of an arm ``carry T, gated[ coco][ never]`` (None: no gate)."""
+    rest = name.partition(",")[2].split()
+    if not rest or rest[0] != "gated":
+        return None
+    if "coco" in rest:
+        coco = load_dictionary("cmu-coco-k2932")
+        return (lambda member: coco), "never" in rest
+    return (lambda member: member.mirrored()), "never" in rest
+
+
+def carry_arm(name, dictionary):
+    """fill of a ``carry ...`` arm on `dictionary`."""
+    return model_arm(dictionary, CANDIDATES["mirror"] if name.endswith("mirror") else None,
+                     settings=carry_settings(name), gate=gate_of(name))
+
+
 def arms(names):
     """{name: fill} for the arm names."""
     base = load_dictionary()
@@ -165,8 +227,7 @@ def arms(names):
     coco = None
     for name in names:
         if name.startswith("carry"):
-            out[name] = model_arm(base, CANDIDATES["mirror"] if name.endswith("mirror")
-                                  else None, settings=carry_settings(name))
+            out[name] = carry_arm(name, base)
         elif name.startswith("coco"):
             coco = coco or load_dictionary("cmu-coco-k2932")
             rest = name.removeprefix("coco").lstrip(", ") or "base"
@@ -250,6 +311,10 @@ def _clip_shares(errors, labels, model):
     return dict(sorted(share.items(), key=lambda kv: -kv[1]["share"]))
 
 
+#: seconds of each source's arm over its motion-capture runs (filled by :func:`mocap`)
+MOCAP_SECONDS = {}
+
+
 def mocap(max_sequences, names, jitter=0.01):
     """{source: {'as given' | 'jitter': {protocol: {arm: mean error (% body height)}}}}
     on motion-capture validation sequences, as given and with seeded white jitter of
@@ -262,10 +327,8 @@ def mocap(max_sequences, names, jitter=0.01):
     out = {}
     for source in ("cmu", "bandai"):
         dictionary = load_dictionary(video_protocols.DICTIONARY[source])
-        fills = {n: (model_arm(dictionary, CANDIDATES["mirror"] if n.endswith("mirror")
-                               else None, settings=carry_settings(n))
-                     if n.startswith("carry") else model_arm(dictionary, CANDIDATES[n]))
-                 for n in names}
+        fills = {n: (carry_arm(n, dictionary) if n.startswith("carry")
+                     else model_arm(dictionary, CANDIDATES[n])) for n in names}
         errors = {}
         for i, seq, protocol, _, mask, given in mocap_cases(source, max_sequences):
             kinds = {"as given": given}
@@ -273,9 +336,13 @@ def mocap(max_sequences, names, jitter=0.01):
                 kinds["jitter"] = given + detector_jitter(seq, jitter, random_state=i)
             for kind, poses in kinds.items():
                 for name, fill in fills.items():
+                    t0 = time.perf_counter()
                     with warnings.catch_warnings():
                         warnings.simplefilter("ignore")
                         filled = fill(poses, mask, seq.frames)
+                    key = f"{source} {name}"
+                    MOCAP_SECONDS[key] = round(MOCAP_SECONDS.get(key, 0.0)
+                                               + time.perf_counter() - t0, 2)
                     err = np.nanmean(joint_error(filled, seq.poses2d, mask)) / seq.height * 100
                     errors.setdefault(kind, {}).setdefault(protocol, {}).setdefault(
                         name, []).append(float(err))
@@ -299,6 +366,7 @@ def main(argv=None):
     if args.mocap:
         doc["mocap_validation"] = mocap(args.mocap, [a for a in args.arms
                                                     if not a.startswith("coco")])
+        doc["mocap_seconds"] = MOCAP_SECONDS
     emit(doc, args.out)
 
 
