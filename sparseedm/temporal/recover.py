@@ -25,10 +25,12 @@ from __future__ import annotations
 import time
 import warnings
 from dataclasses import dataclass, field, replace
+from types import SimpleNamespace
 
 import numpy as np
 
-from .._recovery_base import RecoveryResult, bad_coordinates, screen_poses, validate_poses
+from .._recovery_base import (RecoveryResult, bad_coordinates, mirror_weights, screen_poses,
+                              validate_poses)
 from .._recovery_kernel import compiled_solver, recover_members
 from .._validation import check_frames
 from ..dictionary import Dictionary, load_dictionary
@@ -464,7 +466,8 @@ def _probes(layout, poses, mask, usable, settings):
     return probes, probed, need & usable
 
 
-def _trusts(layout, poses, mask, usable, per, settings, members, kwargs, track_of, planned):
+def _trusts(layout, poses, mask, usable, per, settings, members, kwargs, track_of, planned,
+            never=None):
     """Each segment's trust in the per-frame prior: the probes' errors
     (:func:`~sparseedm.temporal.model.probe_errors`, one batch of per-frame
     answers with the probes hidden; `planned`: :func:`_probes`) pooled over
@@ -477,7 +480,7 @@ def _trusts(layout, poses, mask, usable, per, settings, members, kwargs, track_o
     probes, probed, need = planned
     if not need.any():
         return [(1.0, 1.0, None)] * len(probes), 0
-    test = _per_frame(poses, probed, need, members, settings, kwargs)
+    test = _per_frame(poses, probed, need, members, settings, kwargs, never)
     pooled = {}
     for rows, off, probe in zip(layout.segments, layout.offsets, probes):
         if probe.any():
@@ -540,8 +543,39 @@ class _PerFrame:
     alpha: float
 
 
-def _per_frame(poses, mask, need, members, settings, kwargs):
-    """The per-frame model on the `need` rows only."""
+def _never_seen(layout, mask, track_of):
+    """(n, N) bool: the hidden joints of the segments' rows that no segment of
+    their track (`track_of`: a track key per row) shows."""
+    seen = {}
+    for rows in layout.segments:
+        key = track_of[rows[0]]
+        seen[key] = seen.get(key, False) | (~mask[rows]).any(axis=0)
+    never = np.zeros_like(mask)
+    for rows in layout.segments:
+        never[rows] = mask[rows] & ~seen[track_of[rows[0]]]
+    return never
+
+
+def _mirror_never(poses, mask, rows, res, never, members, kwargs):
+    """`res` (the answers of `rows`) with the mirror image's answers weighed in
+    (:func:`~sparseedm._recovery_base.mirror_weights`) at the `never` joints."""
+    moved = never[rows].any(axis=1)
+    if not moved.any():
+        return res.poses
+    sub = rows[moved]
+    mirror = recover_members(poses[sub], mask[sub], [m.mirrored() for m in members], [],
+                             **kwargs)
+    w = mirror_weights([SimpleNamespace(objective=res.objective[moved]), mirror])
+    mixed = w[0][:, None, None] * res.poses[moved] + w[1][:, None, None] * mirror.poses
+    out = res.poses.copy()
+    keep = never[sub] & np.isfinite(mixed).all(axis=-1)
+    out[moved] = np.where(keep[..., None], mixed, out[moved])
+    return out
+
+
+def _per_frame(poses, mask, need, members, settings, kwargs, never=None):
+    """The per-frame model on the `need` rows only (`never`: the joints whose
+    answers take their mirror image's in, ``settings.never_mirror``)."""
     n, N = mask.shape
     m = N * (N - 1) // 2
     fields = dict(vectors=np.full((n, m), np.nan), center=np.full((n, 2), np.nan),
@@ -557,7 +591,8 @@ def _per_frame(poses, mask, need, members, settings, kwargs):
         res = recover_members(poses[rows], mask[rows], members, [], **kwargs)
         for key in _PER_FRAME_KEYS:
             fields[key][rows] = getattr(res, key)
-        full[rows] = res.poses
+        full[rows] = (res.poses if never is None or not settings.never_mirror
+                      else _mirror_never(poses, mask, rows, res, never, members, kwargs))
         confidence[rows] = _confidence(res.status, settings) * ~_runaway(
             res.poses, mask[rows])
         alpha = res.alpha
@@ -637,11 +672,12 @@ def recover_temporal(poses, missing=None, *, tracks=None, frames, dictionary=Non
     # round-off, 2-4x faster a row; a process's first call loads it once
     kwargs["solver"] = compiled_solver(kwargs.get("solver", "fast"))
     kwargs["check_input"] = False  # rows of the poses validated above
-    per = _per_frame(poses, mask, need, members, settings, kwargs)
     track_of = layout.linked if layout.linked is not None else (
         np.zeros(len(poses), int) if tracks is None else np.asarray(tracks))
+    never = _never_seen(layout, mask, track_of)
+    per = _per_frame(poses, mask, need, members, settings, kwargs, never)
     trusts, probe_poses = _trusts(layout, poses, mask, usable, per, settings, members, kwargs,
-                                  track_of, planned)
+                                  track_of, planned, never)
     filled, weight, residual = _fill_segments(layout, poses, mask, usable, per, settings,
                                               trusts)
     res = _assemble(poses, mask, refusal, why, layout, per, filled, weight, residual,
