@@ -29,13 +29,19 @@ without a prior (``time``), and the temporal model with different priors:
   ``field:value``): the joints seen in the clip carried from their own
   frames by their observed neighbours (:mod:`sparseedm.temporal.carried`),
   on noisy keypoints, kept where the probes prefer them; ``carry 3, mirror``
-  with the mirrored dictionary averaged in for the joints never seen.
+  with the mirrored dictionary averaged in for the joints never seen;
+  ``carry 3, gated[ coco][ never]``: ``recover(mirror="auto")``'s per-pose
+  gate (:func:`sparseedm._recovery_base.mirror_weights`) weighing in the
+  mirrored member's answers (``coco``: ``cmu-coco-k2932``'s) at every hidden
+  joint or (``never``) at the joints the clip never shows
+  (``TemporalSettings.never_mirror`` is the latter with the mirror; give
+  ``never_mirror:False`` for the model before it).
 
 The per-frame members are given to the temporal model by replacing the
 module's own choice for the duration of a call (study only). ``--mocap N``
 runs the arms without ``coco`` on the first N motion-capture validation
 sequences of each source, as given and (CMU) with 1 % white jitter (% of body
-height)::
+height; ``--mocap-only``: those alone)::
 
     nice python studies/real_video/select_prior.py --gaps --mocap 8 \
         --out studies/real_video/selection_prior.json
