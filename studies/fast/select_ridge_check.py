@@ -16,7 +16,9 @@ the default path's held-back check (:mod:`sparseedm.exemplars`):
   members, then the blend) averaged with ``R base+atoms`` made of them has
   a lower hidden-joint error than the path's answer alone; ``shipped``
   otherwise (and on adapted files, or below ``FEW_MIN_POSES`` complete
-  poses, where the check does not run).
+  poses, where the check does not run);
+* ``checked, 1 se``: the same, chosen only when the held-back gain exceeds
+  its paired standard error.
 
 Files: ``select_photo_blend.files`` (validation photo files from the split
 and from train, ``mix`` and ``transplanted`` masks; CMU held-out clips and
@@ -28,6 +30,7 @@ blend) and the full file's local ridge (added only when chosen).
 
     python studies/fast/select_ridge_check.py --daz daz_indian.npz --out ridge_check.json
     python studies/fast/select_ridge_check.py --table ridge_check.json
+    python studies/fast/select_ridge_check.py --pool seed0.json seed1.json seed2.json
 """
 
 from __future__ import annotations
@@ -73,9 +76,9 @@ def ridge(dictionary, given, missing):
                            solver=LocalRidgeSolver(**FAST_RIDGE), n_jobs=2)
 
 
-def held_error(res, truth, mask):
-    """The check's score: mean over poses of the hidden joints' error, % of the
-    pose's RMS radius."""
+def held_errors(res, truth, mask):
+    """The check's score per held-back pose: the hidden joints' mean error, % of
+    the pose's RMS radius (NaN where not recovered)."""
     from sparseedm.normalize import rms_radius
 
     _, size = rms_radius(truth, np.zeros(mask.shape, bool))
@@ -83,13 +86,13 @@ def held_error(res, truth, mask):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         per = np.nanmean(np.where(mask, err, np.nan), axis=1)
-    per = per[res.ok & np.isfinite(per)]
-    return float(per.mean()) if len(per) else float("nan")
+    return np.where(res.ok, per, np.nan)
 
 
 def held_check(base, given, missing, complete, path, seed=0):
-    """(error of the path's answer, error of its mean with R base+atoms) on the
-    check's held-back poses; None when the path has no check."""
+    """(error of the path's answer, error of its mean with R base+atoms, their
+    paired difference's standard error) on the check's held-back poses; None
+    when the path has no check."""
     from sparseedm._recovery_base import combine
     from sparseedm._recovery_kernel import compiled_solver, recover_members
     from sparseedm.exemplars import (BLEND_MIN_POSES, FEW_MIN_POSES, HELD_FRACTION, MAX_HELD,
@@ -116,7 +119,10 @@ def held_check(base, given, missing, complete, path, seed=0):
             res = blend_many_hidden(res, hidden, mask, file_dictionary(base, rest).dictionary,
                                     n_jobs=2)
         both = combine([res, ridge(with_file_atoms(base, rest).dictionary, hidden, mask)])
-    return held_error(res, truth, mask), held_error(both, truth, mask)
+    a, b = held_errors(res, truth, mask), held_errors(both, truth, mask)
+    ok = np.isfinite(a) & np.isfinite(b)
+    d = b[ok] - a[ok]
+    return float(a[ok].mean()), float(b[ok].mean()), float(d.std(ddof=1) / np.sqrt(len(d)))
 
 
 def measure(base, truth, missing):
@@ -143,8 +149,10 @@ def measure(base, truth, missing):
         always = combine([res.take(np.flatnonzero(occ)), r]).poses
     secs["full ridge"] = round(time.perf_counter() - t0, 2)
     chosen = check is not None and check[1] < check[0]
+    sure = check is not None and check[1] + check[2] < check[0]
     got = {"shipped": res.poses[occ], "always": always,
-           "checked": always if chosen else res.poses[occ]}
+           "checked": always if chosen else res.poses[occ],
+           "checked, 1 se": always if sure else res.poses[occ]}
     errors = {k: per_pose(v, truth[occ], missing[occ]) for k, v in got.items()}
     return path, check, chosen, secs, errors
 
@@ -152,16 +160,43 @@ def measure(base, truth, missing):
 def table(doc):
     """Markdown: per file, the path, the check's errors, shipped's error, the
     candidates' paired differences and the seconds."""
-    lines = ["| file | path | held: path / mean | chosen | shipped | always | checked "
-             "| s: shipped / check / ridge |", "|---|---|---:|---|---:|---:|---:|---:|"]
+    cands = ("always", "checked", "checked, 1 se")
+    lines = ["| file | path | held: path / mean (se) | chosen | shipped | "
+             + " | ".join(cands) + " | s: shipped / check / ridge |",
+             "|---|---|---:|---|---:|---:|---:|---:|---:|"]
     for name, r in doc["files"].items():
-        held = "" if r["held"] is None else f"{r['held'][0]:.2f} / {r['held'][1]:.2f}"
+        held = ("" if r["held"] is None else f"{r['held'][0]:.2f} / {r['held'][1]:.2f} "
+                f"({r['held'][2]:.2f})")
         cells = [f"{r['candidates'][c]['minus_shipped'][0]:+.2f} ± "
-                 f"{r['candidates'][c]['minus_shipped'][1]:.2f}" for c in ("always", "checked")]
+                 f"{r['candidates'][c]['minus_shipped'][1]:.2f}" for c in cands]
         s = r["seconds"]
         lines.append(f"| {name} | {r['path']} | {held} | {'yes' if r['chosen'] else 'no'} | "
                      f"{r['candidates']['shipped']['mean']:.2f} | " + " | ".join(cells)
                      + f" | {s['shipped']} / {s['check']} / {s['full ridge']} |")
+    return "\n".join(lines)
+
+
+def pooled(docs):
+    """Markdown: per file, each candidate's paired difference averaged over the
+    seeds' runs (standard error combined), and the seeds where the check chose."""
+    import re
+
+    cands = ("always", "checked", "checked, 1 se")
+    rows = {}
+    for doc in docs:
+        for name, r in doc["files"].items():
+            rows.setdefault(re.sub(r" seed \d+$", "", name), []).append(r)
+    lines = ["| file | seeds | chosen / 1 se | " + " | ".join(cands) + " |",
+             "|---|---:|---:|" + "---:|" * len(cands)]
+    for name, rs in rows.items():
+        cells = []
+        for c in cands:
+            d = np.array([r["candidates"][c]["minus_shipped"] for r in rs])
+            cells.append(f"{d[:, 0].mean():+.2f} ± {np.sqrt((d[:, 1] ** 2).sum()) / len(d):.2f}")
+        sure = sum(r["held"] is not None and r["held"][1] + r["held"][2] < r["held"][0]
+                   for r in rs)
+        lines.append(f"| {name} | {len(rs)} | {sum(r['chosen'] for r in rs)} / {sure} | "
+                     + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 
@@ -180,7 +215,12 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, default=0, help="seed of the files' draws")
     ap.add_argument("--out", type=Path, default=Path("ridge_check.json"))
     ap.add_argument("--table", type=Path, help="print the Markdown table of this JSON, stop")
+    ap.add_argument("--pool", nargs="+", type=Path,
+                    help="print the table pooled over these JSONs (seeds), stop")
     a = ap.parse_args(argv)
+    if a.pool:
+        print(pooled([json.loads(p.read_text()) for p in a.pool]))
+        return
     if a.table:
         print(table(json.loads(a.table.read_text())))
         return
