@@ -41,7 +41,7 @@ from ._validation import Options, check_adapt, check_frames, validate_params
 from .normalize import REPRESENTATIONS, representation_for
 from .dictionary import Dictionary, check_gram_memory, load_dictionary
 from .ensemble import adapt_members
-from .exemplars import EXEMPLAR_OPTIONS, blend_atoms, blend_many_hidden
+from .exemplars import EXEMPLAR_OPTIONS, blend_atoms, blend_many_hidden, ridge_mean_atoms
 from .exceptions import ParameterError, SparseEDMError
 from .keypoints import origin_joints
 from .outliers import check_confidence, mark_outliers, note_outliers
@@ -453,6 +453,7 @@ def _dispatch(poses, missing, tracks, frames, method, model, preset, opts):
         if adaptations and _blends(opts, preset):
             res = blend_many_hidden(
                 res, poses, missing, blend_atoms(dictionary, poses, missing, adaptations[0]),
+                ridge_mean_atoms(dictionary, poses, missing, adaptations[0]),
                 **where, **{k: kernel[k] for k in BLEND_SETTINGS})
     return _with_uncertainty(res)
 
