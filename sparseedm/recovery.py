@@ -286,7 +286,11 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         poses as the only atoms
         (:func:`~sparseedm.exemplars.blend_many_hidden`; from
         :data:`~sparseedm.exemplars.BLEND_MIN_POSES` of them, with the
-        default `solver`, no `mirror`, signed codes). ``False``:
+        default `solver`, no `mirror`, signed codes); then, when the check's
+        held-back poses were recovered better so, every occluded pose gets the
+        mean of that answer and the local ridge's over the base with the
+        complete poses as extra atoms
+        (:func:`~sparseedm.exemplars.ridge_mean_atoms`). ``False``:
         adapt as described under `adapt` (below MIN_COMPLETE_POSES: the base
         with the complete poses as extra atoms), no blend.
         ``res.adaptation.summary()["path"]`` says which ran.
