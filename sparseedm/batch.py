@@ -101,7 +101,7 @@ from .adaptation import MIN_COMPLETE_POSES, sample_stream
 from .dictionary import Dictionary, dictionary_path, check_gram_memory, load_dictionary
 from ._safeio import resolved
 from .ensemble import adapt_members
-from .exemplars import EXEMPLAR_OPTIONS, blend_atoms, blend_many_hidden
+from .exemplars import EXEMPLAR_OPTIONS, blend_atoms, blend_many_hidden, ridge_mean_atoms
 from .exceptions import FileFormatError, OutputPathError, ParameterError, SparseEDMError
 from .fconv.model import load_model
 from .formats import FILLED_SCORE, count_below, default_threshold, threshold_line
@@ -632,8 +632,9 @@ def _adapt(source, dictionary, adapt, chunk_size, threshold, n_jobs, self_traini
     `preset` "fast": the sampled complete poses as atoms, nothing learned; `dist`
     the adaptation's recovery backend (:func:`~sparseedm._parallel.one_client`'s);
     `exemplars` as :func:`~sparseedm.ensemble.adapt_members`' (per pose, "auto" only);
-    third, the atoms of the blend of poses with many hidden joints
-    (:func:`~sparseedm.exemplars.blend_atoms`; None: no blend)."""
+    third, the atoms of the blend of poses with many hidden joints and of the
+    mean on every occluded pose (:func:`~sparseedm.exemplars.blend_atoms`,
+    :func:`~sparseedm.exemplars.ridge_mean_atoms`; None: no blend)."""
     if in_time and preset == "fast":
         raise ParameterError("recover_file: preset 'fast' recovers each pose on its own: "
                              "the file has frames, add --no-temporal (temporal=False)")
@@ -660,7 +661,8 @@ def _adapt(source, dictionary, adapt, chunk_size, threshold, n_jobs, self_traini
               preset=preset, exemplars=exemplars, **(dist or {}))
     if isinstance(adapt, str) and adapt == "auto":
         members, results = adapt_members(dictionary, poses, missing, "auto", ensemble, **kw)
-        blend = (blend_atoms(dictionary, poses, missing, results[0])
+        blend = ((blend_atoms(dictionary, poses, missing, results[0]),
+                  ridge_mean_atoms(dictionary, poses, missing, results[0]))
                  if exemplars == "auto" and preset == "default" else None)
         return members, results[0], blend
     if isinstance(adapt, (str, Path)):
@@ -711,8 +713,8 @@ class _Recovery:
     """How every chunk is recovered: the members (one dictionary unless an
     ensemble) and :func:`recover`'s settings; `time_axis` (tracks, frames) sends
     the poses to temporal recovery, whole tracks per chunk (:meth:`bounds`); `blend`
-    the atoms of :func:`~sparseedm.exemplars.blend_many_hidden` (None: none), as
-    recover() blends."""
+    the atoms of :func:`~sparseedm.exemplars.blend_many_hidden` (its `atoms` and
+    `mean_atoms`; None: none), as recover() blends."""
 
     members: list
     alpha: object
@@ -753,7 +755,7 @@ class _Recovery:
         # the few blended rows are coded here, without a cluster's client
         return blend_many_hidden(
             res, np.where(res.missing[..., None], np.nan, np.asarray(poses, float)),
-            res.missing, self.blend, representation=self.representation, n_jobs=self.n_jobs)
+            res.missing, *self.blend, representation=self.representation, n_jobs=self.n_jobs)
 
 
 @dataclass

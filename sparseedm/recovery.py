@@ -41,7 +41,7 @@ from ._validation import Options, check_adapt, check_frames, validate_params
 from .normalize import REPRESENTATIONS, representation_for
 from .dictionary import Dictionary, check_gram_memory, load_dictionary
 from .ensemble import adapt_members
-from .exemplars import EXEMPLAR_OPTIONS, blend_atoms, blend_many_hidden
+from .exemplars import EXEMPLAR_OPTIONS, blend_atoms, blend_many_hidden, ridge_mean_atoms
 from .exceptions import ParameterError, SparseEDMError
 from .keypoints import origin_joints
 from .outliers import check_confidence, mark_outliers, note_outliers
@@ -286,7 +286,11 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         poses as the only atoms
         (:func:`~sparseedm.exemplars.blend_many_hidden`; from
         :data:`~sparseedm.exemplars.BLEND_MIN_POSES` of them, with the
-        default `solver`, no `mirror`, signed codes). ``False``:
+        default `solver`, no `mirror`, signed codes); then, when the check's
+        held-back poses were recovered better so, every occluded pose gets the
+        mean of that answer and the local ridge's over the base with the
+        complete poses as extra atoms
+        (:func:`~sparseedm.exemplars.ridge_mean_atoms`). ``False``:
         adapt as described under `adapt` (below MIN_COMPLETE_POSES: the base
         with the complete poses as extra atoms), no blend.
         ``res.adaptation.summary()["path"]`` says which ran.
@@ -453,6 +457,7 @@ def _dispatch(poses, missing, tracks, frames, method, model, preset, opts):
         if adaptations and _blends(opts, preset):
             res = blend_many_hidden(
                 res, poses, missing, blend_atoms(dictionary, poses, missing, adaptations[0]),
+                ridge_mean_atoms(dictionary, poses, missing, adaptations[0]),
                 **where, **{k: kernel[k] for k in BLEND_SETTINGS})
     return _with_uncertainty(res)
 

@@ -37,6 +37,15 @@ def _file(cmu_poses, n_complete, n_occluded=60, seed=0):
     return np.where(missing[..., None], np.nan, poses), missing
 
 
+@pytest.fixture
+def without_ridge_mean(monkeypatch):
+    """recover() without the mean with the local ridge over base + file atoms on
+    every occluded pose: the path's own answers."""
+    import sparseedm.recovery
+
+    monkeypatch.setattr(sparseedm.recovery, "ridge_mean_atoms", lambda *a: None)
+
+
 @pytest.fixture(scope="module")
 def large_file(cmu_poses):
     return _file(cmu_poses, EXEMPLAR_MIN_POSES + 50)
@@ -288,7 +297,8 @@ def test_the_check_prefers_exemplars_that_hold_the_poses(cmu_poses, small_dictio
     assert res.adaptation.path == own and res.adaptation.candidate is None
 
 
-def test_the_check_averages_the_two_when_their_mean_recovers_best(cmu_poses, small_dictionary):
+def test_the_check_averages_the_two_when_their_mean_recovers_best(cmu_poses, small_dictionary,
+                                                                  without_ridge_mean):
     """A file where the mean of the answers of the exemplars, the exemplars with their
     mirror images and the base with the exemplars as extra atoms recovered the
     held-back hidden joints better than the exemplars or the base: recover() codes
@@ -417,7 +427,8 @@ def _legs_file(cmu_poses, n_complete=120, n_legs=12):
 
 def test_poses_with_four_hidden_joints_are_averaged_with_the_local_ridge(cmu_poses,
                                                                          small_dictionary,
-                                                                         monkeypatch):
+                                                                         monkeypatch,
+                                                                         without_ridge_mean):
     """The default path, nothing learned: each pose with at least four hidden joints
     gets the mean of the path's answer and the local ridge's over the file's complete
     poses as the only atoms; every other pose is the path's answer."""
@@ -481,3 +492,59 @@ def test_recover_file_blends_as_recover_does(cmu_poses, small_dictionary, tmp_pa
     assert len(rows) == 12
     np.testing.assert_allclose(filed[rows], res.poses[rows], rtol=0, atol=1e-6)
     np.testing.assert_allclose(filed[res.ok], res.poses[res.ok], rtol=0, atol=1e-6)
+
+
+def test_every_occluded_pose_gets_the_mean_with_the_ridge_when_the_check_says_so(
+        cmu_poses, small_dictionary, monkeypatch):
+    """A file whose held-back poses the mean of the path's answer and the local
+    ridge's over the base with the file atoms recovered better: every occluded pose
+    is that mean, the complete poses and their statuses as the path gives them."""
+    import sparseedm.recovery
+    from sparseedm._recovery_base import combine
+    from sparseedm._recovery_kernel import FAST_RIDGE
+    from sparseedm.file_atoms import complete_rows, with_file_atoms
+    from sparseedm.solvers import LocalRidgeSolver
+
+    poses, missing = _file(cmu_poses, 400, seed=1)
+    check = choose_exemplars(small_dictionary, poses, missing)
+    assert check.err_ridge_mean < check.err_path
+    res = recover(poses, missing, dictionary=small_dictionary)
+    assert res.adaptation.settings["held_err_ridge_mean"] == check.err_ridge_mean
+    monkeypatch.setattr(sparseedm.recovery, "ridge_mean_atoms", lambda *a: None)
+    path = recover(poses, missing, dictionary=small_dictionary)  # without the mean
+    occ = np.flatnonzero(missing.any(axis=1))
+    complete = poses[complete_rows(poses, missing)]
+    ridge = recover(poses[occ], missing[occ], adapt=False, solver=LocalRidgeSolver(**FAST_RIDGE),
+                    dictionary=with_file_atoms(small_dictionary, complete).dictionary)
+    mean = combine([path.take(occ), ridge])
+    np.testing.assert_allclose(res.poses[occ], mean.poses, rtol=0, atol=1e-6)
+    assert np.nanmax(np.abs(res.poses[occ] - path.poses[occ])) > 1e-3  # the ridge differs
+    done = np.setdiff1d(np.arange(len(poses)), occ)
+    np.testing.assert_array_equal(res.poses[done], path.poses[done])
+    np.testing.assert_array_equal(res.status[done], path.status[done])
+
+
+def test_the_mean_with_the_ridge_follows_the_checks_errors(cmu_poses, small_dictionary):
+    """ridge_mean_atoms answers the base with the file atoms only when the check's
+    held-back error of the mean is below the path's; never for an adapted
+    dictionary or without a check."""
+    from dataclasses import replace
+
+    from sparseedm.exemplars import ridge_mean_atoms
+    from sparseedm.file_atoms import complete_rows
+
+    poses, missing = _file(cmu_poses, 400, seed=1)
+    res = recover(poses, missing, dictionary=small_dictionary)
+    found = res.adaptation
+    err = found.settings["held_err_path"]
+    lower = replace(found, settings=dict(found.settings, held_err_ridge_mean=err - 0.01))
+    higher = replace(found, settings=dict(found.settings, held_err_ridge_mean=err + 0.01))
+    unchecked = replace(found, settings={k: v for k, v in found.settings.items()
+                                         if not k.startswith("held_err")})
+    atoms = ridge_mean_atoms(small_dictionary, poses, missing, lower)
+    assert atoms.n_components == (small_dictionary.n_components
+                                  + int(complete_rows(poses, missing).sum()))
+    assert ridge_mean_atoms(small_dictionary, poses, missing, higher) is None
+    assert ridge_mean_atoms(small_dictionary, poses, missing, unchecked) is None
+    assert ridge_mean_atoms(small_dictionary, poses, missing,
+                            replace(lower, adapted=True)) is None

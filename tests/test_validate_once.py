@@ -144,3 +144,19 @@ def test_recover_blending_many_hidden_joints_validates_once(track, small_diction
     res = sparseedm.recover(poses, mask, dictionary=small_dictionary)
     assert res.adaptation.file_atoms > 0 and not res.adapted  # the blend's path
     _once(counted, ["validate_poses", "unmask", "check_poses", "check_mask"])
+
+
+def test_recover_with_the_mean_with_the_ridge_validates_once(track, small_dictionary,
+                                                            counted, monkeypatch):
+    """Every occluded pose averaged with the local ridge over the base with the file
+    atoms (sparseedm.exemplars.ridge_mean_atoms, here forced on): still one validation."""
+    import sparseedm.recovery
+    from sparseedm.file_atoms import complete_rows, with_file_atoms
+
+    monkeypatch.setattr(sparseedm.recovery, "ridge_mean_atoms", lambda d, p, m, a: (
+        with_file_atoms(d, p[complete_rows(p, m)]).dictionary))
+    poses, mask, _, _ = _clip(track)
+    res = sparseedm.recover(poses, mask, dictionary=small_dictionary)
+    assert res.adaptation.file_atoms > 0 and not res.adapted  # the blend's path
+    assert "held_err_ridge_mean" in res.adaptation.settings  # the check scored the mean
+    _once(counted, ["validate_poses", "unmask", "check_poses", "check_mask"])
