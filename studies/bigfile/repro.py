@@ -1,9 +1,10 @@
 """Big files of near-copies: the default path's time and hidden-joint error.
 
-``python -m studies.bigfile.repro SOURCE N [spacing=S] [n_jobs=J] [--profile]``: N poses resampled from the
+``python -m studies.bigfile.repro SOURCE N [spacing=S] [seed=K] [n_jobs=J] [--profile]``: N poses resampled from the
 validation split's fully annotated poses of a real2d SOURCE (mpii or bonn)
-with 0.5 px noise, each hidden by its own source pose's visibility mask; or
-SOURCE ``bandai`` / ``cmu``: the frontier's file of N poses (Mix masks).
+with 0.5 px noise (N = 0: those poses once each, as they are), each hidden by its own source pose's visibility mask; or
+SOURCE ``bandai``: the frontier's file of N poses (Mix masks); ``cmu``: the
+frontier's video file of N frames (CMU clips, hidden runs), without tracks.
 """
 from __future__ import annotations
 
@@ -19,15 +20,20 @@ def real_file(source, n, seed=0):
     rs = real2d.load(source)
     rs = rs.take((real2d.split(rs) == "val") & rs.annotated.all(axis=1))
     rng = np.random.default_rng(seed)
-    pick = rng.integers(0, len(rs), n)
-    P = rs.poses[pick] + rng.normal(scale=0.5, size=(n, 14, 2))
+    pick = rng.integers(0, len(rs), n) if n else np.arange(len(rs))
+    P = rs.poses[pick] + (rng.normal(scale=0.5, size=(n, 14, 2)) if n else 0)
     mask = ~rs.visible[pick]
     mask[mask.sum(axis=1) > 10] = False  # too few seen: treat as complete
     return P, mask, len(rs)
 
 
 def mocap_file(source, n):
+    from benchmarks import CMU_RAW
     from benchmarks.default_path import load_bandai, make_file
+    from benchmarks.temporal import build_video
+    if source == "cmu":  # the frontier's video file, its frames given without tracks
+        _, mask, tracks, _, P = build_video(CMU_RAW.parent, n, return_truth=True)
+        return P, mask, len(np.unique(tracks))
     pool, _ = load_bandai()
     P, mask = make_file(pool, n)
     return P, mask, len(pool)
@@ -58,6 +64,9 @@ def main(argv=None):
     if "spacing" in kw:  # spacing=0: the atoms as before the near-copies were merged
         from sparseedm import file_atoms
         file_atoms.file_dictionary.__kwdefaults__["spacing"] = float(kw.pop("spacing"))
+    if "seed" in kw:  # another sample of the atoms: the noise of a changed sample
+        from sparseedm import file_atoms
+        file_atoms.file_dictionary.__kwdefaults__["random_state"] = int(kw.pop("seed"))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         t0 = time.perf_counter()
