@@ -272,7 +272,12 @@ def spaced_rows(X, spacing, random_state=0):
 
     X = np.asarray(X, dtype=float)
     owner = np.full(len(X), -1)
-    tree = cKDTree(X) if len(X) else None
+    if len(X) < 2:
+        return np.arange(len(X)), np.arange(len(X))
+    tree = cKDTree(X)
+    # a row with no other within `spacing` is taken whatever the order
+    alone = ~np.isfinite(tree.query(X, k=2, distance_upper_bound=float(spacing))[0][:, 1])
+    owner[alone] = np.flatnonzero(alone)
     for i in np.random.default_rng([int(random_state), 43]).permutation(len(X)):
         if owner[i] < 0:
             near = np.asarray(tree.query_ball_point(X[i], float(spacing)), dtype=int)
