@@ -157,10 +157,10 @@ def file_dictionary(dictionary, poses, missing=None, *, max_atoms=MAX_FAST_ATOMS
     Each usable complete pose (repeats dropped,
     :func:`sparseedm.adaptation.repeat_rows`, and each group of near-copies
     within `spacing` of one another, :func:`spaced_rows`, merged into its
-    mean; at most `max_atoms`, a seeded sample) becomes a unit-norm atom, as in :func:`with_file_atoms`,
-    but without the base's atoms: the lasso then codes each occluded pose
-    over exemplars of the same file only, which are in-domain, and nothing is
-    learned. The result keeps `dictionary`'s settings (normalisation,
+    mean; at most `max_atoms`, a seeded sample) becomes a unit-norm atom, as
+    in :func:`with_file_atoms`, but without the base's atoms: the lasso then
+    codes each occluded pose over exemplars of the same file only, which are
+    in-domain, and nothing is learned. The result keeps `dictionary`'s settings (normalisation,
     representation, alpha scaling) and recommends `alpha_recover`.
 
     Parameters

@@ -1,9 +1,11 @@
 """Big files of near-copies: the default path's time and hidden-joint error.
 
-``python -m studies.bigfile.repro SOURCE N [spacing=S] [seed=K] [n_jobs=J] [--profile]``: N poses resampled from the
-validation split's fully annotated poses of a real2d SOURCE (mpii or bonn)
-with 0.5 px noise (N = 0: those poses once each, as they are), each hidden by its own source pose's visibility mask; or
-SOURCE ``bandai``: the frontier's file of N poses (Mix masks); ``cmu``: the
+``python -m studies.bigfile.repro SOURCE N [spacing=S] [seed=K] [n_jobs=J]
+[--profile]`` (other ``key=value`` pairs go to ``recover``): N poses
+resampled from the validation split's fully annotated poses of a real2d
+SOURCE (mpii or bonn) with 0.5 px noise (N = 0: those poses once each, as
+they are), each hidden by its own source pose's visibility flags; or SOURCE
+``bandai``: the frontier's file of N poses (Mix masks); ``cmu``: the
 frontier's video file of N frames (CMU clips, hidden runs), without tracks.
 """
 from __future__ import annotations
@@ -50,28 +52,30 @@ def hidden_error(out, truth, mask):
 
 def main(argv=None):
     import sparseedm
+    import sparseedm.file_atoms
     argv = sys.argv[1:] if argv is None else argv
     source, n = argv[0], int(argv[1])
     P, mask, pool = (mocap_file if source in ("bandai", "cmu") else real_file)(source, n)
     X = np.where(mask[..., None], np.nan, P)
-    print(f"{source}: {n} poses from {pool}, {int((~mask.any(1)).sum())} complete, "
+    print(f"{source}: {len(P)} poses from {pool}, {int((~mask.any(1)).sum())} complete, "
           f"{int(mask.any(1).sum())} occluded", flush=True)
     kw = {}
     for a in argv[2:]:
         if "=" in a:
             k, v = a.split("=")
             kw[k] = v
-    if "spacing" in kw:  # spacing=0: the atoms as before the near-copies were merged
-        from sparseedm import file_atoms
-        file_atoms.file_dictionary.__kwdefaults__["spacing"] = float(kw.pop("spacing"))
-    if "seed" in kw:  # another sample of the atoms: the noise of a changed sample
-        from sparseedm import file_atoms
-        file_atoms.file_dictionary.__kwdefaults__["random_state"] = int(kw.pop("seed"))
+    # spacing=0: the atoms as before near-copies were merged; seed=K: another sample
+    defaults = sparseedm.file_atoms.file_dictionary.__kwdefaults__
+    if "spacing" in kw:
+        defaults["spacing"] = float(kw.pop("spacing"))
+    if "seed" in kw:
+        defaults["random_state"] = int(kw.pop("seed"))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         t0 = time.perf_counter()
         if "--profile" in argv:
-            import cProfile, pstats
+            import cProfile
+            import pstats
             pr = cProfile.Profile()
             pr.enable()
         res = sparseedm.recover(X, n_jobs=int(kw.pop("n_jobs", 2)), **kw)
@@ -79,7 +83,7 @@ def main(argv=None):
         if "--profile" in argv:
             pr.disable()
             pstats.Stats(pr).sort_stats("cumulative").print_stats(35)
-    print(f"{t:.1f} s, {n / t:,.0f} poses/s, hidden-joint error "
+    print(f"{t:.1f} s, {len(P) / t:,.0f} poses/s, hidden-joint error "
           f"{hidden_error(res.poses, P, mask):.3f} % of pose size; "
           f"path {res.adaptation.summary().get('path') if res.adaptation else None}")
 
