@@ -38,9 +38,9 @@ from .dictionary import Dictionary
 from .normalize import usable_rows
 from .skeleton import SKELETON_14
 
-__all__ = ["MAX_FILE_ATOMS", "MAX_FAST_ATOMS", "FAST_ALPHA", "FileAtoms",
+__all__ = ["MAX_FILE_ATOMS", "MAX_FAST_ATOMS", "FAST_ALPHA", "ATOM_SPACING", "FileAtoms",
            "with_file_atoms", "file_dictionary", "resolve_fast", "complete_rows",
-           "atoms_adaptation", "mirror_images"]
+           "spaced_rows", "atoms_adaptation", "mirror_images"]
 
 #: at most this many of a file's complete poses become atoms (a seeded sample)
 MAX_FILE_ATOMS = 1000
@@ -52,6 +52,17 @@ MAX_FILE_ATOMS = 1000
 #: :data:`sparseedm._recovery_kernel.FAST_MAX_ATOMS`)
 MAX_FAST_ATOMS = 3000
 FAST_ALPHA = 0.0005
+
+#: :func:`file_dictionary` merges poses closer than this (unit-norm EDM
+#: vectors, :func:`spaced_rows`) into one atom, their mean: near-copies of one
+#: pose (neighbouring frames of a still person, a pose resampled with a pixel
+#: of noise) are nearly collinear atoms, among which the lasso's working sets
+#: converge slowly without coding any better. About half a percent of the pose's size at
+#: every joint: below the closest distinct poses of the validation files
+#: (Bandai-Namco frames 1.5e-2 at the 5th percentile of nearest neighbours, MPII
+#: and COCO photos 4e-2), above a pixel's noise on a 200 px person
+#: (``studies/bigfile/README.md``)
+ATOM_SPACING = 0.005
 
 _PARAMS = {"dictionary": [Dictionary], "max_atoms": [Interval(Integral, 1, None)],
            "filter": BOOLEAN, "random_state": [Interval(Integral, 0, None)]}
@@ -140,15 +151,16 @@ def with_file_atoms(dictionary, poses, missing=None, *, max_atoms=MAX_FILE_ATOMS
 
 
 def file_dictionary(dictionary, poses, missing=None, *, max_atoms=MAX_FAST_ATOMS,
-                    alpha_recover=FAST_ALPHA, random_state=0):
+                    alpha_recover=FAST_ALPHA, spacing=ATOM_SPACING, random_state=0):
     """A dictionary of the complete rows of `poses` alone: ``recover(preset="fast")``'s.
 
     Each usable complete pose (repeats dropped,
-    :func:`sparseedm.adaptation.repeat_rows`; at most `max_atoms`, a
-    seeded sample) becomes a unit-norm atom, as in :func:`with_file_atoms`,
-    but without the base's atoms: the lasso then codes each occluded pose
-    over exemplars of the same file only, which are in-domain, and nothing is
-    learned. The result keeps `dictionary`'s settings (normalisation,
+    :func:`sparseedm.adaptation.repeat_rows`, and each group of near-copies
+    within `spacing` of one another, :func:`spaced_rows`, merged into its
+    mean; at most `max_atoms`, a seeded sample) becomes a unit-norm atom, as
+    in :func:`with_file_atoms`, but without the base's atoms: the lasso then
+    codes each occluded pose over exemplars of the same file only, which are
+    in-domain, and nothing is learned. The result keeps `dictionary`'s settings (normalisation,
     representation, alpha scaling) and recommends `alpha_recover`.
 
     Parameters
@@ -163,8 +175,12 @@ def file_dictionary(dictionary, poses, missing=None, *, max_atoms=MAX_FAST_ATOMS
         At most this many poses become atoms (a seeded sample, order kept).
     alpha_recover : float, default FAST_ALPHA
         The recovery alpha the dictionary recommends.
+    spacing : float, default ATOM_SPACING
+        Poses within this distance of a pose taken first (unit-norm EDM
+        vectors) are merged into one atom, their mean; 0: repeats only are
+        dropped.
     random_state : int, default 0
-        Seed of the sample.
+        Seed of the sample (and of the order :func:`spaced_rows` visits the poses in).
 
     Returns
     -------
@@ -182,21 +198,22 @@ def file_dictionary(dictionary, poses, missing=None, *, max_atoms=MAX_FAST_ATOMS
     (30, 30, 0.0005)
     """
     atoms, n_complete = _file_vectors(dictionary, poses, missing, max_atoms, False,
-                                      random_state)
+                                      random_state, spacing)
     if not len(atoms):
         return FileAtoms(dictionary, 0, n_complete)
     prov = {"file_dictionary": {"atoms": int(len(atoms)), "complete_poses": int(n_complete),
-                                "seed": int(random_state),
+                                "seed": int(random_state), "spacing": float(spacing),
                                 "settings_from": (dictionary.provenance or {}).get("sha256", "")}}
     out = replace(dictionary, components=atoms, alpha_recover=float(alpha_recover),
                   provenance=prov)
     return FileAtoms(out, int(len(atoms)), int(n_complete))
 
 
-def _file_vectors(dictionary, poses, missing, max_atoms, filter, random_state):
+def _file_vectors(dictionary, poses, missing, max_atoms, filter, random_state, spacing=0.0):
     """The unit-norm EDM vectors of the usable complete rows of `poses` (repeats or,
-    with `filter`, implausible poses dropped; a seeded sample of at most
-    `max_atoms`), and how many complete rows were offered."""
+    with `filter`, implausible poses dropped; near-copies within `spacing`
+    merged into their mean; a seeded sample of at most `max_atoms`), and how
+    many complete rows were offered."""
     poses = np.asarray(poses, dtype=float)
     check_pose_shape(poses, n_joints=dictionary.n_joints)
     poses = poses[complete_rows(poses, missing)]
@@ -207,12 +224,76 @@ def _file_vectors(dictionary, poses, missing, max_atoms, filter, random_state):
         vectors = pose_vectors(poses)  # one vector per pose: the atoms are its rows
         keep = (filter_poses(poses, dictionary).keep if filter
                 else ~repeat_rows(vectors))
-    rows = np.flatnonzero(keep)
-    if len(rows) > max_atoms:
+    unit = vectors[keep] / np.linalg.norm(vectors[keep], axis=1, keepdims=True)
+    if spacing > 0 and len(unit) > 1:
+        unit = _merged_atoms(unit, spacing, random_state)
+    if len(unit) > max_atoms:
         rng = np.random.default_rng([int(random_state), 41])
-        rows = np.sort(rng.choice(rows, int(max_atoms), replace=False))
-    X = vectors[rows]
-    return X / np.linalg.norm(X, axis=1, keepdims=True), len(poses)
+        unit = unit[np.sort(rng.choice(len(unit), int(max_atoms), replace=False))]
+    return unit, len(poses)
+
+
+def spaced_rows(X, spacing, random_state=0):
+    """Rows of `X` no two of which are closer than `spacing`, and whom each row joins.
+
+    The rows are visited in a seeded random order; each is taken unless it lies
+    within `spacing` of a row taken before it, and joins the first taken row
+    it lies that close to. A group of near-copies so becomes one taken row and
+    its members; rows farther apart than `spacing` are all taken.
+
+    Parameters
+    ----------
+    X : ndarray (n, m)
+        The rows (unit-norm EDM vectors).
+    spacing : float
+        Smallest distance between two rows taken.
+    random_state : int, default 0
+        Seed of the visiting order.
+
+    Returns
+    -------
+    taken : ndarray of int
+        Indices of the rows taken, ascending.
+    group : ndarray of int (n,)
+        For each row, the position in `taken` of the row it joined (its own
+        for a taken row).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> X = np.array([[0.0, 1.0], [0.0, 1.001], [1.0, 0.0], [0.0, 0.999]])
+    >>> taken, group = spaced_rows(X, 0.01)        # three near-copies make one
+    >>> taken.size, group[[0, 1, 3]].tolist() == [group[0]] * 3
+    (2, True)
+    >>> spaced_rows(X, 0.0001)[0].tolist()         # all farther apart than that
+    [0, 1, 2, 3]
+    """
+    from scipy.spatial import cKDTree
+
+    X = np.asarray(X, dtype=float)
+    owner = np.full(len(X), -1)
+    if len(X) < 2:
+        return np.arange(len(X)), np.arange(len(X))
+    tree = cKDTree(X)
+    # a row with no other within `spacing` is taken whatever the order
+    alone = ~np.isfinite(tree.query(X, k=2, distance_upper_bound=float(spacing))[0][:, 1])
+    owner[alone] = np.flatnonzero(alone)
+    for i in np.random.default_rng([int(random_state), 43]).permutation(len(X)):
+        if owner[i] < 0:
+            near = np.asarray(tree.query_ball_point(X[i], float(spacing)), dtype=int)
+            owner[near[owner[near] < 0]] = i
+            owner[i] = i
+    taken = np.unique(owner)
+    return taken, np.searchsorted(taken, owner)
+
+
+def _merged_atoms(unit, spacing, random_state):
+    """`unit`'s rows with each group of near-copies (:func:`spaced_rows`)
+    replaced by its mean, scaled to unit norm: one denoised atom per pose."""
+    _, group = spaced_rows(unit, spacing, random_state)
+    sums = np.zeros((group.max() + 1, unit.shape[1]))
+    np.add.at(sums, group, unit)
+    return sums / np.linalg.norm(sums, axis=1, keepdims=True)
 
 
 def resolve_fast(dictionary, poses, missing, adapt, *, min_poses=MIN_COMPLETE_POSES,

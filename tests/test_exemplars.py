@@ -59,7 +59,9 @@ def test_many_complete_poses_take_the_file_atoms(large_file, small_dictionary):
     assert s["path"] == "file atoms" and not res.adapted
     # nothing learned, no self-training: the atoms are the file's complete poses
     assert ad.candidate is None and s["poses_used"] == 0 and s["self_training"] == []
-    assert res.dictionary.n_components == ad.file_atoms == EXEMPLAR_MIN_POSES + 50
+    # jittered copies of the fixture's few hundred poses: near-copies thinned
+    # (file_atoms.ATOM_SPACING), yet the rule counts the distinct complete poses
+    assert res.dictionary.n_components == ad.file_atoms < EXEMPLAR_MIN_POSES + 50
     assert str(EXEMPLAR_MIN_POSES) in ad.reason
     assert ad.line().startswith("adaptation: none, the file's own poses are the atoms")
     # the same dictionary as the fast preset's, coded by the lasso (the preset's

@@ -136,3 +136,42 @@ def test_bad_arguments_are_refused(cmu_poses, small_dictionary):
         with_file_atoms(small_dictionary, cmu_poses[:5], max_atoms=0)
     with pytest.raises(PoseError):
         with_file_atoms(small_dictionary, cmu_poses[:5, :10])
+
+
+def test_near_copies_make_one_atom_each(cmu_poses, small_dictionary):
+    """A file of a few poses each resampled with a little noise (a still person's
+    frames) gives the exemplar dictionary one atom per pose, not one per copy."""
+    from sparseedm.file_atoms import file_dictionary
+
+    rng = np.random.default_rng(0)
+    distinct = cmu_poses[::40][:6]                # six poses ~100-260 px across
+    copies = np.repeat(distinct, 25, axis=0)
+    copies = copies + rng.normal(scale=0.2, size=copies.shape)   # a fifth of a pixel
+    out = file_dictionary(small_dictionary, copies)
+    assert out.n_complete == 150
+    assert out.n_atoms == 6
+    U = pose_vectors(distinct)
+    U /= np.linalg.norm(U, axis=1, keepdims=True)
+    # every pose is one atom, the mean of its copies: nearer to it than a copy is
+    near = np.linalg.norm(U[:, None] - out.dictionary.components[None], axis=-1).min(axis=1)
+    V = pose_vectors(copies)
+    V /= np.linalg.norm(V, axis=1, keepdims=True)
+    copy = np.linalg.norm(V - np.repeat(U, 25, axis=0), axis=1).reshape(6, 25)
+    assert (near < np.median(copy, axis=1)).all()
+    every = file_dictionary(small_dictionary, copies, spacing=0.0)
+    assert every.n_atoms == 150
+
+
+def test_spaced_rows_keeps_distant_rows_and_covers_the_rest():
+    from sparseedm.file_atoms import spaced_rows
+
+    X = np.random.default_rng(1).normal(size=(300, 5))
+    X /= np.linalg.norm(X, axis=1, keepdims=True)
+    taken, group = spaced_rows(X, 0.5, random_state=2)
+    D = np.linalg.norm(X[:, None] - X[None], axis=-1)
+    sub = D[np.ix_(taken, taken)] + np.eye(len(taken))
+    assert sub.min() > 0.5                               # none closer than the spacing
+    assert D[np.arange(300), taken[group]].max() <= 0.5  # every row joins a taken one near
+    np.testing.assert_array_equal(group[taken], np.arange(len(taken)))
+    assert 1 < len(taken) < 300
+    np.testing.assert_array_equal(spaced_rows(X, 1e-6)[0], np.arange(300))
