@@ -10,7 +10,7 @@ frontier's video file of N frames (CMU clips, hidden runs), without tracks.
 """
 from __future__ import annotations
 
-import sys
+import argparse
 import time
 import warnings
 
@@ -53,16 +53,22 @@ def hidden_error(out, truth, mask):
 def main(argv=None):
     import sparseedm
     import sparseedm.file_atoms
-    argv = sys.argv[1:] if argv is None else argv
-    source, n = argv[0], int(argv[1])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("source", choices=("mpii", "bonn", "bandai", "cmu"))
+    ap.add_argument("n", type=int, help="poses (frames for cmu); 0: the real poses once each")
+    ap.add_argument("options", nargs="*", metavar="KEY=VALUE",
+                    help="spacing=S, seed=K, n_jobs=J; others go to recover()")
+    ap.add_argument("--profile", action="store_true", help="print a cProfile of recover()")
+    a = ap.parse_args(argv)
+    source, n = a.source, a.n
     P, mask, pool = (mocap_file if source in ("bandai", "cmu") else real_file)(source, n)
     X = np.where(mask[..., None], np.nan, P)
     print(f"{source}: {len(P)} poses from {pool}, {int((~mask.any(1)).sum())} complete, "
           f"{int(mask.any(1).sum())} occluded", flush=True)
     kw = {}
-    for a in argv[2:]:
-        if "=" in a:
-            k, v = a.split("=")
+    for option in a.options:
+        if "=" in option:
+            k, v = option.split("=", 1)
             kw[k] = v
     # spacing=0: the atoms as before near-copies were merged; seed=K: another sample
     defaults = sparseedm.file_atoms.file_dictionary.__kwdefaults__
@@ -73,14 +79,14 @@ def main(argv=None):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         t0 = time.perf_counter()
-        if "--profile" in argv:
+        if a.profile:
             import cProfile
             import pstats
             pr = cProfile.Profile()
             pr.enable()
         res = sparseedm.recover(X, n_jobs=int(kw.pop("n_jobs", 2)), **kw)
         t = time.perf_counter() - t0
-        if "--profile" in argv:
+        if a.profile:
             pr.disable()
             pstats.Stats(pr).sort_stats("cumulative").print_stats(35)
     print(f"{t:.1f} s, {len(P) / t:,.0f} poses/s, hidden-joint error "
