@@ -345,27 +345,30 @@ def held_masks(poses, missing, n_held, random_state=0):
 def _scores(dictionary, complete, held, mask, kw):
     """Hidden-joint errors on ``complete[held]`` under `mask` of the exemplars made of
     the other complete poses, of the base with those as extra atoms, and of the mean
-    of the answers of :func:`averaged_members` (each dictionary recovers once), and
-    the answers of the exemplars and of the mean."""
+    of the answers of :func:`averaged_members` (each dictionary recovers once), the
+    answers of the exemplars and of the mean, and those members."""
     truth, rest = complete[held], complete[~held]
-    results = [_held_recovery(d, truth, mask, **kw)
-               for d in averaged_members(dictionary, rest)]
+    members = averaged_members(dictionary, rest)
+    results = [_held_recovery(d, truth, mask, **kw) for d in members]
     answers = (results[0], results[-1], combine(results))
-    return tuple(_error(r, truth, mask) for r in answers), answers[::2]
+    return tuple(_error(r, truth, mask) for r in answers), answers[::2], members
 
 
-def _ridge_mean_errors(dictionary, complete, held, mask, res, kw):
+def _ridge_mean_errors(dictionary, complete, held, mask, res, kw, exemplars, base_atoms):
     """Held-back errors of the path's answer `res` on ``complete[held]`` (after
     the blend of poses with many hidden joints) and of its mean with the local
-    ridge's over `dictionary` with the other complete poses as extra atoms."""
+    ridge's over `dictionary` with the other complete poses as extra atoms
+    (`base_atoms`, built by the caller's check; `exemplars`: those poses as the only
+    atoms, None: made here when the blend needs them)."""
     truth, rest = complete[held], complete[~held]
     hidden = np.where(mask[..., None], np.nan, truth)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         if len(rest) >= BLEND_MIN_POSES:
-            res = blend_many_hidden(res, hidden, mask,
-                                    file_dictionary(dictionary, rest).dictionary, **kw)
-        ridge = _local_ridge(with_file_atoms(dictionary, rest).dictionary, hidden, mask, kw)
+            if exemplars is None:
+                exemplars = file_dictionary(dictionary, rest).dictionary
+            res = blend_many_hidden(res, hidden, mask, exemplars, **kw)
+        ridge = _local_ridge(base_atoms, hidden, mask, kw)
     return _error(res, truth, mask), _error(combine([res, ridge]), truth, mask)
 
 
@@ -429,13 +432,13 @@ def choose_exemplars(dictionary, poses, missing, *, n_jobs=1, random_state=0,
                              seconds=time.perf_counter() - t0)
     held, mask = _held_back(poses, missing, n, random_state)
     want = int(held.sum())
-    errors, answers = _scores(dictionary, complete, held, mask, kw)
+    errors, answers, members = _scores(dictionary, complete, held, mask, kw)
     out = ExemplarCheck(None, n, *errors)
     own = min(out.err_atoms, out.err_both)
     if own <= (1 + margin) * out.err_base:
         both = out.err_both < out.err_atoms
         out.err_path, out.err_ridge_mean = _ridge_mean_errors(
-            dictionary, complete, held, mask, answers[int(both)], kw)
+            dictionary, complete, held, mask, answers[int(both)], kw, members[0], members[-1])
         what = ("as atoms, alone and with their mirror images, averaged with the base "
                 "dictionary with them as extra atoms, they " if both else
                 "as the only atoms they ")
@@ -473,13 +476,13 @@ def _few_poses(dictionary, poses, missing, complete, count, t0, random_state, kw
     the default path as it was) or the mean with base + them and their mirror images."""
     held, mask = _held_back(poses, missing, len(complete), random_state)
     truth = complete[held]
-    results = [_held_recovery(f.dictionary, truth, mask, **kw)
-               for f in _mirrored_atoms(dictionary, complete[~held])]
+    members = [f.dictionary for f in _mirrored_atoms(dictionary, complete[~held])]
+    results = [_held_recovery(d, truth, mask, **kw) for d in members]
     out = ExemplarCheck(None, len(complete), err_base=_error(results[0], truth, mask),
                         err_both=_error(combine(results), truth, mask))
     out.err_path, out.err_ridge_mean = _ridge_mean_errors(
         dictionary, complete, held, mask,
-        combine(results) if out.err_both < out.err_base else results[0], kw)
+        combine(results) if out.err_both < out.err_base else results[0], kw, None, members[0])
     if out.err_both < out.err_base:
         found, mirror = _mirrored_atoms(dictionary, complete)
         reason = (f"{count}: too few to adapt on; the base dictionary with them as extra "
@@ -539,15 +542,22 @@ def blend_atoms(dictionary, poses, missing, adaptation):
         None: no blend (adapted, fewer than :data:`BLEND_MIN_POSES` usable
         complete poses, not 14 joints, non-negative codes).
     """
-    if (adaptation is None or adaptation.adapted or adaptation.file_atoms == 0
-            or dictionary.n_joints != SKELETON_14.num_joints or dictionary.positive_code):
-        return None
-    complete = complete_rows(poses, missing)
-    if complete.sum() < BLEND_MIN_POSES:
+    complete = _blend_complete(dictionary, poses, missing, adaptation)
+    if complete is None:
         return None
     if adaptation.over_file_atoms:  # the path's own dictionary: the same atoms
         return adaptation.dictionary
     return file_dictionary(dictionary, poses[complete]).dictionary
+
+
+def _blend_complete(dictionary, poses, missing, adaptation):
+    """The file's usable complete rows (mask) when the blends follow the default
+    path's `adaptation` (:func:`blend_atoms`), else None."""
+    if (adaptation is None or adaptation.adapted or adaptation.file_atoms == 0
+            or dictionary.n_joints != SKELETON_14.num_joints or dictionary.positive_code):
+        return None
+    complete = complete_rows(poses, missing)
+    return complete if complete.sum() >= BLEND_MIN_POSES else None
 
 
 def blend_many_hidden(res, poses, missing, atoms, mean_atoms=None, **kernel):
@@ -631,10 +641,11 @@ def ridge_mean_atoms(dictionary, poses, missing, adaptation):
         None: the path's answers stay (no check, the mean's held-back error not
         lower, or a path :func:`blend_atoms` does not blend).
     """
-    if blend_atoms(dictionary, poses, missing, adaptation) is None:
+    complete = _blend_complete(dictionary, poses, missing, adaptation)
+    if complete is None:
         return None
     settings = adaptation.settings
     if not (settings.get("held_err_ridge_mean", np.nan)
             < settings.get("held_err_path", np.nan)):
         return None
-    return with_file_atoms(dictionary, poses[complete_rows(poses, missing)]).dictionary
+    return with_file_atoms(dictionary, poses[complete]).dictionary
