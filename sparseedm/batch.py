@@ -101,7 +101,8 @@ from .adaptation import MIN_COMPLETE_POSES, sample_stream
 from .dictionary import Dictionary, dictionary_path, check_gram_memory, load_dictionary
 from ._safeio import resolved
 from .ensemble import adapt_members
-from .exemplars import EXEMPLAR_OPTIONS, blend_atoms, blend_many_hidden, ridge_mean_atoms
+from .exemplars import (EXEMPLAR_OPTIONS, blend_atoms, blend_many_hidden, blends,
+                         ridge_mean_atoms)
 from .exceptions import FileFormatError, OutputPathError, ParameterError, SparseEDMError
 from .fconv.model import load_model
 from .formats import FILLED_SCORE, count_below, default_threshold, threshold_line
@@ -485,7 +486,8 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
             with one_client(backend, scheduler) as dist:  # the adaptation's recoveries
                 members, adaptation, blend = _adapt(
                     source, dictionary, adapt, chunk_size, confidence_threshold, n_jobs,
-                    self_training, ensemble, in_time, preset, dist, exemplars)
+                    self_training, ensemble, in_time, preset, dist, exemplars,
+                    blends(adapt, exemplars, preset, mirror, requested))
             dictionary = members[0]
         else:
             members, adaptation, blend = [dictionary], None, None
@@ -494,8 +496,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
         members = _with_mirrors(members, mirror, in_time, method)
         recovery = _Recovery(members, alpha, representation, solver, n_jobs, backend,
                              scheduler, method, model, (source.tracks, source.frames)
-                             if in_time else None, mirror == "auto",
-                             _blends(blend, mirror, requested))
+                             if in_time else None, mirror == "auto", blend)
         summary = _run(source, outputs, recovery, chunk_size, progress, t0)
     finally:
         source.close()
@@ -513,13 +514,6 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
     if save_dictionary is not None:
         summary["dictionary"] = str(dictionary.save(save_dictionary))
     return summary
-
-
-def _blends(blend, mirror, requested):
-    """The blend's atoms as recover() would use them: none with `mirror` or a
-    solver other than "fast" asked for."""
-    return None if mirror or not (isinstance(requested, str) and requested == "fast") \
-        else blend
 
 
 def _with_mirrors(members, mirror, in_time, method):
@@ -623,7 +617,8 @@ def _solver_after(requested, solver, adaptation, preset="default"):
 
 
 def _adapt(source, dictionary, adapt, chunk_size, threshold, n_jobs, self_training,
-           ensemble=1, in_time=False, preset="default", dist=None, exemplars=False):
+           ensemble=1, in_time=False, preset="default", dist=None, exemplars=False,
+           blend=False):
     """The dictionaries to recover with (one unless an ensemble is asked for) and
     the first one's AdaptationResult: adapted on the file's complete poses or
     on other poses, then self-trained on the file's incomplete poses (bounded
@@ -632,8 +627,9 @@ def _adapt(source, dictionary, adapt, chunk_size, threshold, n_jobs, self_traini
     `preset` "fast": the sampled complete poses as atoms, nothing learned; `dist`
     the adaptation's recovery backend (:func:`~sparseedm._parallel.one_client`'s);
     `exemplars` as :func:`~sparseedm.ensemble.adapt_members`' (per pose, "auto" only);
-    third, the atoms of the blend of poses with many hidden joints and of the
-    mean on every occluded pose (:func:`~sparseedm.exemplars.blend_atoms`,
+    third, with `blend` (:func:`~sparseedm.exemplars.blends`), the atoms of the
+    blend of poses with many hidden joints and of the mean on every occluded pose
+    (:func:`~sparseedm.exemplars.blend_atoms`,
     :func:`~sparseedm.exemplars.ridge_mean_atoms`; None: no blend)."""
     if in_time and preset == "fast":
         raise ParameterError("recover_file: preset 'fast' recovers each pose on its own: "
@@ -663,7 +659,7 @@ def _adapt(source, dictionary, adapt, chunk_size, threshold, n_jobs, self_traini
         members, results = adapt_members(dictionary, poses, missing, "auto", ensemble, **kw)
         blend = ((blend_atoms(dictionary, poses, missing, results[0]),
                   ridge_mean_atoms(dictionary, poses, missing, results[0]))
-                 if exemplars == "auto" and preset == "default" else None)
+                 if blend else None)
         return members, results[0], blend
     if isinstance(adapt, (str, Path)):
         adapt, kw["min_poses"] = _adaptation_poses(adapt, threshold)

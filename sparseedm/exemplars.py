@@ -109,7 +109,7 @@ from .solvers.local_ridge import LocalRidgeSolver
 __all__ = ["EXEMPLAR_MIN_POSES", "EXEMPLAR_MARGIN", "EXEMPLAR_OPTIONS", "ExemplarCheck",
            "hidden_joint_error", "choose_exemplars", "averaged_members", "held_masks",
            "HELD_FRACTION", "MAX_HELD", "FEW_MIN_POSES", "BLEND_MIN_HIDDEN", "BLEND_MIN_POSES",
-           "blend_rows", "blend_atoms", "blend_many_hidden", "ridge_mean_atoms"]
+           "blend_rows", "blend_atoms", "blend_many_hidden", "ridge_mean_atoms", "blends"]
 
 #: From this many usable complete poses the file's own poses are the atoms,
 #: no check, no adaptation (chosen on validation files: studies/fast/README.md)
@@ -518,6 +518,23 @@ def blend_rows(missing):
     [1]
     """
     return np.flatnonzero(np.asarray(missing, bool).sum(axis=1) >= BLEND_MIN_HIDDEN)
+
+
+def blends(adapt, exemplars, preset, mirror, solver, positive=False):
+    """Whether recover()'s and recover_file()'s default path blends (:func:`blend_atoms`,
+    :func:`ridge_mean_atoms`): `adapt` and `exemplars` "auto", the default preset,
+    no `mirror`, the default solver asked for by name, signed codes.
+
+    Examples
+    --------
+    >>> blends("auto", "auto", "default", False, "fast")
+    True
+    >>> blends("auto", "auto", "fast", False, "fast")       # preset="fast"
+    False
+    """
+    return (isinstance(adapt, str) and adapt == "auto" and isinstance(exemplars, str)
+            and exemplars == "auto" and preset == "default" and not mirror and not positive
+            and isinstance(solver, str) and solver == "fast")
 
 
 def blend_atoms(dictionary, poses, missing, adaptation):

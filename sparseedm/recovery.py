@@ -41,7 +41,8 @@ from ._validation import Options, check_adapt, check_frames, validate_params
 from .normalize import REPRESENTATIONS, representation_for
 from .dictionary import Dictionary, check_gram_memory, load_dictionary
 from .ensemble import adapt_members
-from .exemplars import EXEMPLAR_OPTIONS, blend_atoms, blend_many_hidden, ridge_mean_atoms
+from .exemplars import (EXEMPLAR_OPTIONS, blend_atoms, blend_many_hidden, blends,
+                         ridge_mean_atoms)
 from .exceptions import ParameterError, SparseEDMError
 from .keypoints import origin_joints
 from .outliers import check_confidence, mark_outliers, note_outliers
@@ -454,22 +455,13 @@ def _dispatch(poses, missing, tracks, frames, method, model, preset, opts):
         res = recover_members(poses, missing, members, adaptations,
                               mirror_gate=opts["mirror"] == "auto", **kernel,
                               check_input=False, **where)
-        if adaptations and _blends(opts, preset):
+        if adaptations and blends(opts["adapt"], opts["exemplars"], preset, opts["mirror"],
+                                  opts["solver"], opts["positive"]):
             res = blend_many_hidden(
                 res, poses, missing, blend_atoms(dictionary, poses, missing, adaptations[0]),
                 ridge_mean_atoms(dictionary, poses, missing, adaptations[0]),
                 **where, **{k: kernel[k] for k in BLEND_SETTINGS})
     return _with_uncertainty(res)
-
-
-def _blends(opts, preset):
-    """Whether the default path's poses with many hidden joints are blended
-    (:func:`~sparseedm.exemplars.blend_many_hidden`): adapt and exemplars "auto",
-    the default preset and solver, no mirror, codes not asked to be non-negative."""
-    return (isinstance(opts["adapt"], str) and opts["adapt"] == "auto"
-            and opts["exemplars"] == "auto" and preset == "default" and not opts["mirror"]
-            and not opts["positive"] and isinstance(opts["solver"], str)
-            and opts["solver"] == "fast")
 
 
 def _with_uncertainty(res, tracks=None, frames=None):
