@@ -1001,12 +1001,13 @@ def _json_num(v):
     return None if math.isnan(v) else float(v)
 
 
-def write_errors(path, refused, ids, status, reason, skipped=()):
+def write_errors(path, refused, ids, status, reason, skipped=(), rows=None):
     """The errors file: a row per refused pose (row, id, status, reason), then a
     row per input file that could not be read at all (`skipped`: (file, why)
     pairs, e.g. an OpenPose frame file: no row, the file as id, status
     ``unreadable_file``); removed if an earlier run left one and there is
-    nothing to list."""
+    nothing to list. `rows`: each pose's row in the input (default its
+    position), for poses that are some of the input's rows."""
     if not refused.any() and not len(skipped):
         _remove_stale_errors(path)
         return
@@ -1015,7 +1016,8 @@ def write_errors(path, refused, ids, status, reason, skipped=()):
             w = csv.writer(f)
             w.writerow(_ERRORS_HEADER)
             for r in np.flatnonzero(refused):
-                w.writerow([int(r), "" if ids is None else ids[r], status[r], reason[r]])
+                w.writerow([int(r if rows is None else rows[r]), "" if ids is None else ids[r],
+                            status[r], reason[r]])
             for name, why in skipped:
                 w.writerow(["", name, "unreadable_file", why])
 

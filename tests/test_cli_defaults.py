@@ -60,7 +60,8 @@ CASES = [  # (command line, option dest, API function, its parameter)
         ("jobs", lift_file, "n_jobs"),
         ("input_format", lift_file, "input_format"),
         ("representation", lift_file, "representation"),
-        ("frames", lift_file, "plot_frames")]),
+        ("frames", lift_file, "plot_frames"),
+        ("track", lift_file, "track")]),
     (["plot", "in.csv", "out.csv", "-o", "f.png"], [
         ("poses", plot_recovery, "n_poses"),
         ("tracks", plot_recovery, "show_tracks"),

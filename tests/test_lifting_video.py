@@ -262,8 +262,57 @@ def test_a_video_trc_follows_the_frames_and_holds_one_person(tmp_path, capsys):
     capsys.readouterr()
     out = tmp_path / "two.trc"
     assert main(["lift", str(EXAMPLES / "video_clip.csv"), "-o", str(out), "-q"]) == 2
-    assert "a .trc file holds one person's markers" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "a .trc file holds one person's markers" in err
+    assert "2 tracks ('02_01', '02_05')" in err and "--track" in err
     assert not out.exists()
+
+
+def test_lift_track_writes_one_persons_trc_from_a_file_of_two(tmp_path, capsys):
+    """--track lifts one person's rows: the .trc a file of that person alone gives."""
+    from sparseedm.lifting.trc import read_trc
+
+    rows = _example_rows()
+    run = tmp_path / "run.trc"
+    argv = ["lift", str(EXAMPLES / "video_clip.csv"), "-o", str(run), "--track", "02_05",
+            "--no-adapt", "-q"]
+    assert main(argv) == 0
+    alone = _write_rows(tmp_path / "alone.csv", [r for r in rows if r["track"] == "02_05"])
+    assert main(["lift", str(alone), "-o", str(tmp_path / "alone.trc"), "--no-adapt",
+                 "-q"]) == 0
+    got, want = read_trc(run), read_trc(tmp_path / "alone.trc")
+    frames = sorted(int(r["frame"]) for r in rows if r["track"] == "02_05")
+    np.testing.assert_array_equal(got["frames"], np.asarray(frames) + 1)
+    np.testing.assert_array_equal(got["poses"], want["poses"])
+
+
+@pytest.mark.parametrize("source, track, words", [
+    ("video_clip.csv", "02_09", "has no track '02_09'; its tracks: '02_01', '02_05'"),
+    ("occluded_poses.csv", "1", "has no track ids")])
+def test_lift_track_refuses_a_track_the_input_lacks(tmp_path, capsys, source, track, words):
+    out = tmp_path / "p.trc"
+    assert main(["lift", str(EXAMPLES / source), "-o", str(out), "--track", track, "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "--track" in err and words in err
+    assert not out.exists()
+
+
+def test_lift_track_errors_file_names_the_inputs_rows(tmp_path, capsys):
+    rows = _example_rows()
+    first = [i for i, r in enumerate(rows) if r["track"] == "02_05"]
+    bad = first[3]  # a pose of no joint at all: refused
+    for key in rows[bad]:
+        if key.endswith(("_x", "_y")):
+            rows[bad][key] = ""
+    src = _write_rows(tmp_path / "two.csv", rows)
+    out = tmp_path / "p.csv"
+    assert main(["lift", str(src), "-o", str(out), "--track", "02_05", "--no-temporal",
+                 "-q"]) == 1
+    with open(tmp_path / "p.errors.csv", newline="") as f:
+        errors = list(csv.DictReader(f))
+    assert [int(e["row"]) for e in errors] == [bad]
+    with open(out, newline="") as f:
+        assert {r["track"] for r in csv.DictReader(f)} == {"02_05"}
 
 
 def test_a_video_with_unreadable_frame_numbers_still_writes_a_pickle_free_npz(tmp_path):

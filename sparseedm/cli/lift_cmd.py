@@ -64,6 +64,11 @@ def add_parser(sub):
                    "'tracks' for several people, turns on lifting across time: missing 2D "
                    "joints filled across time first, each person's depth reflections "
                    "chosen together)")
+    p.add_argument("--track", default=None, metavar="ID",
+                   help="lift only this person's rows (a track id of INPUT: a CSV 'track' "
+                   "cell, an .npz 'tracks' value, a detector's track id), as a .trc output "
+                   "(one person) needs from a file of several people; the errors file keeps "
+                   "INPUT's row numbers")
     add_joint_map(p)
     add_input_format(p)
     p.add_argument("--dictionary", default=None, metavar="NAME|PATH",
@@ -108,7 +113,7 @@ def run(args):
                   joint_map=args.joint_map, dictionary=args.dictionary,
                   adapt=not args.no_adapt, self_training=args.self_training,
                   plot_frames=args.frames, input_format=args.input_format,
-                  progress=show_progress(args))
+                  progress=show_progress(args), track=args.track)
     out = sys.stderr if args.quiet or is_stream(args.output) else sys.stdout  # -o /dev/stdout
     rate = f"{s['poses_per_second']:,.0f} poses/s" if s["poses_per_second"] else "-"
     counts = ", ".join(f"{k} {v}" for k, v in s["status"].items()) or "none"

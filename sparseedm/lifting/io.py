@@ -62,12 +62,13 @@ import numpy as np
 from .. import _progress
 from .._atomic import atomic_path, check_paths, save_npz
 from .._extras import require as require_extra
-from .._validation import BOOLEAN, CHUNK_SIZE, N_JOBS, Interval, validate_params
+from .._validation import (BOOLEAN, CHUNK_SIZE, N_JOBS, Interval, read_frames,
+                           validate_params)
 from ..batch import write_errors, default_errors_path
 from ..dictionary import load_dictionary
 from ..exceptions import FileFormatError, ParameterError, SparseEDMError
 from ..formats.deeplabcut import check_h5_extra
-from ..keypoints import read_keypoints
+from ..keypoints import KeypointSet, read_keypoints
 from ..plotting import select_values
 from ..skeleton import JOINT_NAMES
 from ..temporal.recover import adapt_in_time, linked_tracks
@@ -131,23 +132,58 @@ def _trc_order(frames, n, output, rate=30.0):
     return order, values[order]
 
 
-def _one_person(kps, input, output, fmt):
+def _one_person(tracks, frames, input, output, fmt):
     """Refuse, before any work, a .trc output of a file with several people."""
     if fmt != "trc":
         return
     several = None
-    people = 0 if kps.tracks is None else len(np.unique(np.asarray(kps.tracks).astype(str)))
+    people = 0 if tracks is None else len(np.unique(np.asarray(tracks).astype(str)))
     if people > 1:
-        several = f"{people} tracks"
-    elif needs_linking(kps.tracks, kps.frames):
+        several = f"{people} tracks ({_track_list(tracks)})"
+    elif needs_linking(tracks, frames):
         several = "several poses in one frame"
     if several:
-        how = "" if people > 1 else (
-            "; `sparseedm recover` links them into tracks and writes the track ids back")
+        how = "pick one with --track (track=)" if people > 1 else (
+            "`sparseedm recover` links them into tracks and writes the track ids back, "
+            "then lift one with --track (track=)")
         raise FileFormatError(
             f"{output}: a .trc file holds one person's markers, and {input} has {several}; "
-            "write .csv, .npz or .json (they keep a track column), or lift each track's "
-            f"rows from a file of their own{how}")
+            f"{how}, or write .csv, .npz or .json (they keep a track column)")
+
+
+def _track_list(tracks, at_most=10):
+    """A file's track ids as text for a message, the first `at_most` of them.
+
+    >>> _track_list(np.array([2, 1, 2, 10]))
+    "'1', '10', '2'"
+    """
+    names = np.unique(np.asarray(tracks).astype(str))
+    shown = ", ".join(repr(str(t)) for t in names[:at_most])
+    return shown + (f", ... ({len(names)} tracks)" if len(names) > at_most else "")
+
+
+def _track_rows(kps, track, input):
+    """The KeypointSet of `track`'s rows and their input row numbers; `kps` and
+    None without `track`. Refused before any work: an input without track ids,
+    or a track it does not hold (the message names the ones it has)."""
+    if track is None:
+        return kps, None
+    if kps.tracks is None:
+        link = (" (it has several poses in a frame: `sparseedm recover` links them into "
+                "tracks and writes the ids back)" if needs_linking(None, kps.frames) else "")
+        raise ParameterError(f"track={track!r} (--track): {input} has no track ids{link}")
+    rows = np.flatnonzero(np.asarray(kps.tracks).astype(str) == str(track))
+    if not len(rows):
+        raise ParameterError(f"track={track!r} (--track): {input} has no track {str(track)!r}; "
+                             f"its tracks: {_track_list(kps.tracks)}")
+
+    def take(a):
+        return None if a is None else np.asarray(a)[rows]
+
+    return KeypointSet(kps.poses[rows], kps.missing[rows], take(kps.confidence),
+                       take(kps.ids), kps.meta, tracks=take(kps.tracks),
+                       frames=take(kps.frames), filled=take(kps.filled),
+                       uncertainty=take(kps.uncertainty)), rows
 
 
 def _when(tracks, frames):
@@ -255,7 +291,8 @@ def write_poses3d(path, result, ids=None, output_format=None, rate=30.0, *, trac
 def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, errors_path=None,
               confidence_threshold=None, representation=None, rate=30.0, plot=None,
               temporal=True, chunk_size=50_000, joint_map=None, dictionary=None, adapt=True,
-              self_training=None, plot_frames=None, input_format=None, progress=False):
+              self_training=None, plot_frames=None, input_format=None, progress=False,
+              track=None):
     """Read 2D keypoints, lift them, write 3D poses and an errors file; return a summary.
 
     Nothing the run reads is ever written, and no output overwrites another:
@@ -322,6 +359,14 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
         A progress bar over each chunk's lifting (:func:`lift`'s `progress`);
         ``sparseedm lift`` shows it on a terminal unless ``--quiet``, as
         ``sparseedm recover`` does.
+    track : str or int, optional
+        Lift only this person's rows: the input's track id (a CSV ``track``
+        cell, an ``.npz`` ``tracks`` value, a detector's track / person id),
+        compared as text, so ``1`` and ``"1"`` are one track. What a .trc
+        (one person) needs from a file of several people. An input without
+        track ids, or a track it does not hold, is refused before any work,
+        naming the tracks it has. The errors file keeps the input's row
+        numbers.
 
     Returns
     -------
@@ -340,8 +385,8 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
         row by row.
     """
     validate_params("lift_file", dict(n_jobs=n_jobs, chunk_size=chunk_size, adapt=adapt,
-                                      self_training=self_training, progress=progress),
-                    _PARAMS)  # before adapting
+                                      self_training=self_training, progress=progress,
+                                      track=track), _PARAMS)  # before adapting
     errors = Path(errors_path) if errors_path else default_errors_path(output)
     _output_format(output, output_format)
     if not 0 < float(rate) < np.inf:  # inf: every .trc time would be 0
@@ -355,23 +400,30 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
     check_paths(inputs, [("output", output), ("errors file", errors), ("plot", plot)])
     kps = read_keypoints(input, format=input_format, confidence_threshold=confidence_threshold,
                          joint_map=joint_map)
-    plot_rows = _plot_rows(kps, plot, plot_frames)
-    _one_person(kps, input, output, _output_format(output, output_format))
-    if _output_format(output, output_format) == "trc":  # its time, before any work
-        _trc_order(kps.frames, len(kps.poses), output, rate)
-    in_time = bool(temporal) and has_time(kps.frames)  # (no poses: no time)
+    kps, input_rows = _track_rows(kps, track, input)
+    # the frame numbers read once here, not again by each step's rule; the
+    # outputs keep the file's own (kps.frames)
+    frames = read_frames(kps.frames)
+    plot_rows = _plot_rows(kps, frames, plot, plot_frames)
+    fmt = _output_format(output, output_format)
+    _one_person(kps.tracks, frames, input, output, fmt)
+    if fmt == "trc":  # its time, before any work
+        _trc_order(frames, len(kps.poses), output, rate)
+    in_time = bool(temporal) and has_time(frames)  # (no poses: no time)
     fill = _fill_options(in_time, dictionary, adapt, self_training)
     _progress.say(f"lifting {len(kps.poses):,} poses to 3D"
                   + (" across time (the input has frames: missing 2D joints filled across "
                      "time first; --no-temporal lifts each row alone)" if in_time else ""))
-    result, tracks = _lift_chunks(kps, in_time, chunk_size, fill, lifter=load_lifter(lifter),
-                                  n_jobs=n_jobs, representation=representation,
-                                  progress=progress, uncertainty3d=_output_format(output, output_format) != "trc")
+    result, tracks = _lift_chunks(kps, frames, in_time, chunk_size, fill,
+                                  lifter=load_lifter(lifter), n_jobs=n_jobs,
+                                  representation=representation, progress=progress,
+                                  uncertainty3d=fmt != "trc")
     write_poses3d(output, result, kps.ids, output_format, rate=rate, tracks=tracks,
                   frames=kps.frames)
     refused = ~result.ok
     skipped = list((kps.meta or {}).get("skipped") or [])
-    write_errors(errors, refused, kps.ids, result.status, result.reason, skipped)
+    write_errors(errors, refused, kps.ids, result.status, result.reason, skipped,
+                 rows=input_rows)
     summary = result.summary()
     summary.update(output=str(output), skipped_files=skipped,
                    errors=str(errors) if refused.any() or skipped else None,
@@ -382,7 +434,8 @@ def lift_file(input, output, *, lifter=None, n_jobs=1, output_format=None, error
 
 #: constraints of lift_file()'s arguments (see sparseedm._validation)
 _PARAMS = {"n_jobs": N_JOBS, "chunk_size": CHUNK_SIZE, "adapt": BOOLEAN,
-           "self_training": [Interval(Integral, 0, None), None], "progress": BOOLEAN}
+           "self_training": [Interval(Integral, 0, None), None], "progress": BOOLEAN,
+           "track": [str, Interval(Integral, None, None), None]}
 
 
 def _names_a_file(value):
@@ -409,7 +462,7 @@ def _fill_options(in_time, dictionary, adapt, self_training):
                 self_training=self_training)
 
 
-def _lift_chunks(kps, in_time, chunk_size, fill, **kw):
+def _lift_chunks(kps, frames, in_time, chunk_size, fill, **kw):
     """:func:`lift` over a file's rows, `chunk_size` at a time; the whole LiftResult
     and the tracks (linked ones when the input had none and needed them).
 
@@ -421,22 +474,22 @@ def _lift_chunks(kps, in_time, chunk_size, fill, **kw):
         bounds = [(slice(s, min(s + chunk_size, n)), None)
                   for s in range(0, max(n, 1), chunk_size)]
     else:
-        linked = linked_tracks(kps.poses, kps.missing, tracks, kps.frames)
+        linked = linked_tracks(kps.poses, kps.missing, tracks, frames)
         tracks = tracks if linked is None else linked
         base = fill["dictionary"]
         if fill["adapt"]:
-            base = adapt_in_time(base, kps.poses, kps.missing, tracks=tracks, frames=kps.frames,
+            base = adapt_in_time(base, kps.poses, kps.missing, tracks=tracks, frames=frames,
                                  n_jobs=kw["n_jobs"], self_training=fill["self_training"])[0][0]
         kw.update(dictionary=base, fill_adapt=False)
         bounds = [(slice(*b) if isinstance(b, tuple) else b, keep)
-                  for b, keep in track_windows(tracks, kps.frames, n, chunk_size)]
+                  for b, keep in track_windows(tracks, frames, n, chunk_size)]
     if len(bounds) > 1:
         bounds = _progress.steps(bounds, f"lifting in {len(bounds)} chunks",
                                  total=len(bounds), unit="chunk")
     parts = []
     for rows, keep in bounds:
         when = {} if not in_time else dict(
-            frames=np.asarray(kps.frames)[rows],
+            frames=np.asarray(frames)[rows],
             tracks=None if tracks is None else np.asarray(tracks)[rows])
         part = lift(kps.poses[rows], kps.missing[rows], **kw, **when)
         if keep is not None:  # a window of a long track: its own rows only
@@ -470,16 +523,16 @@ def _joined(parts, n):
 PLOT_MAX = 8
 
 
-def _plot_rows(kps, plot, spec):
-    """The rows `spec` chooses to draw (frames, or rows without frames), in frame
+def _plot_rows(kps, frames, plot, spec):
+    """The rows `spec` chooses to draw (`frames`, or rows without frames), in frame
     order; None: the first lifted. Refused without a figure, or naming an unknown one."""
     if spec is None:
         return None
     if plot is None:
         raise ParameterError("plot_frames (--frames) chooses what the figure draws: it "
                              "needs plot (--plot FIG)")
-    timed = kps.frames is not None
-    values = np.asarray(kps.frames) if timed else np.arange(len(kps.poses))
+    timed = frames is not None
+    values = np.asarray(frames) if timed else np.arange(len(kps.poses))
     rows = np.flatnonzero(select_values(spec, values, "frame" if timed else "row"))
     return rows[np.argsort(values[rows], kind="stable")]
 
