@@ -1,5 +1,5 @@
 """Read and write users' 2D keypoints: ``.npz``/``.npy``, CSV, COCO-style JSON, and
-(through :mod:`sparseedm.formats`) OpenPose, MMPose and DeepLabCut output.
+(through :mod:`sparseedm.formats`) OpenPose, MMPose, AlphaPose and DeepLabCut output.
 
 Every reader returns one in-memory form, a :class:`KeypointSet`:
 
@@ -406,7 +406,8 @@ def output_format(path, format=None, read_format=None):
     if format is not None:
         return format_of(path, format)
     ext = path.suffix.lower()
-    suits = {"openpose": ("", ".json"), "mmpose": ("", ".json"), "dlc": (".csv",) + H5_SUFFIXES}
+    suits = {"openpose": ("", ".json"), "mmpose": ("", ".json"), "alphapose": (".json",),
+             "dlc": (".csv",) + H5_SUFFIXES}
     if ext in suits.get(read_format, ()):
         return read_format
     if ext in H5_SUFFIXES:
@@ -552,7 +553,7 @@ def read_keypoints(path, *, format=None, confidence_threshold=None, joint_map=No
     ----------
     path : str or path-like
         A file, or a folder of OpenPose frame files or MMPose per-image files.
-    format : {"npz", "npy", "csv", "coco", "openpose", "mmpose", "dlc"}, optional
+    format : {"npz", "npy", "csv", "coco", "openpose", "mmpose", "alphapose", "dlc"}, optional
         Default: told from the path (:func:`sparseedm.formats.detect`: a
         folder is OpenPose or MMPose by its files' content, ``.h5``
         DeepLabCut, a ``.json`` by its content, else the extension; ``.json``
@@ -560,8 +561,8 @@ def read_keypoints(path, *, format=None, confidence_threshold=None, joint_map=No
     confidence_threshold : float, optional
         Joints whose confidence is below it are missing (joints with a
         confidence <= 0 are always missing). Default: the format's,
-        :data:`sparseedm.formats.DEFAULT_THRESHOLDS` (DeepLabCut 0.6, MMPose
-        and COCO 0.3, OpenPose 0.05, npz/npy/CSV 0).
+        :data:`sparseedm.formats.DEFAULT_THRESHOLDS` (DeepLabCut 0.6, MMPose,
+        AlphaPose and COCO 0.3, OpenPose 0.05, npz/npy/CSV 0).
     joint_map : str or path-like, optional
         DeepLabCut only: the joints map file (:mod:`sparseedm.formats.deeplabcut`).
 
@@ -1157,8 +1158,9 @@ def _csv_columns(header, path):
 
 #: what a .json is read as, for a message refusing one
 JSON_KINDS = ("a .json is read as COCO or PoseTrack keypoints ('annotations', or a "
-              "results list with 'keypoints'), an OpenPose frame ('people') or MMPose "
-              "predictions ('instance_info', or instances with [x, y] 'keypoints')")
+              "results list with 'keypoints'), an OpenPose frame ('people'), MMPose "
+              "predictions ('instance_info', or instances with [x, y] 'keypoints') or "
+              "AlphaPose results (a results list with 'idx' or 'box')")
 
 
 def _some_keys(obj, at_most=8):
@@ -1197,7 +1199,7 @@ def _read_coco(path, threshold):
             count = len(kp) if isinstance(kp, list) else type(kp).__name__
             raise FileFormatError(
                 f"{where}: 'keypoints' has {count} values; COCO-17 needs 51 "
-                "(x, y, v for each of 17 keypoints)"
+                f"(x, y, v for each of 17 keypoints){_alphapose_hint(count)}"
             )
         bad = next((k for k, x in enumerate(kp)
                     if isinstance(x, bool) or not isinstance(x, (int, float))), None)
@@ -1247,6 +1249,21 @@ def _read_coco(path, threshold):
     return KeypointSet(poses, missing, conf, np.asarray(ids, dtype=str).reshape(n), meta,
                        tracks=tracks, frames=frames, filled=filled if filled.any() else None,
                        uncertainty=radii)
+
+
+def _alphapose_hint(count):
+    """What a COCO results list of `count` keypoint values is when AlphaPose's
+    other layouts have that many (Halpe-26: 78).
+
+    >>> _alphapose_hint(78)[:44], _alphapose_hint(60)
+    (' (26 keypoints: Halpe-26, as AlphaPose writes', '')
+    """
+    layout = formats.alphapose.LAYOUTS.get(count // 3) if isinstance(count, int) \
+        and count % 3 == 0 else None
+    if layout is None:
+        return ""
+    return (f" ({count // 3} keypoints: {layout.name}, as AlphaPose writes them; read it "
+            "with format='alphapose', --input-format alphapose)")
 
 
 def _coco_to_14(xy, v, coco_missing):
@@ -1423,8 +1440,9 @@ def _fresh_frames(fmt, frames, n, where, meta, path):
     and a DeepLabCut input's table go back as read)."""
     if frames is None:
         return None
-    if fmt in ("openpose", "mmpose") and meta.get("format") != fmt:
-        named = fmt == "openpose" or path.suffix.lower() != ".json"  # files named by frame
+    if fmt in ("openpose", "mmpose", "alphapose") and meta.get("format") != fmt:
+        # files (OpenPose, MMPose folders) or images (AlphaPose) named by frame
+        named = fmt in ("openpose", "alphapose") or path.suffix.lower() != ".json"
         return _frame_numbers(frames, n, where, named)
     if fmt == "dlc" and meta.get("dlc_columns") is None:
         return _frame_numbers(frames, n, where, False)  # the table's row index

@@ -48,7 +48,7 @@ from sparseedm.recovery import STATUSES
 ROOT = Path(__file__).resolve().parent
 FIXTURES = ROOT / "fixtures"
 CORPUS = FIXTURES / "bad_input"
-KEYPOINT_DIRS = ("csv", "coco", "npy", "npz", "openpose", "mmpose", "dlc")
+KEYPOINT_DIRS = ("csv", "coco", "npy", "npz", "openpose", "mmpose", "alphapose", "dlc")
 CORPUS_FILES = sorted(p for p in CORPUS.rglob("*") if p.is_file() and p.suffix != ".py")
 SETTINGS = settings(max_examples=40, deadline=None, derandomize=True, database=None,
                     suppress_health_check=[HealthCheck.function_scoped_fixture,

@@ -1,4 +1,4 @@
-"""Detector and tracker formats: OpenPose, MMPose, DeepLabCut, PoseTrack.
+"""Detector and tracker formats: OpenPose, MMPose, AlphaPose, DeepLabCut, PoseTrack.
 
 Fixtures: tests/fixtures/formats (made by make_formats.py from the formats'
 documented layouts). Round trips go read -> recover -> write -> read.
@@ -9,6 +9,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import re
 import shutil
 import stat
 import warnings
@@ -50,6 +51,8 @@ CASES = {
     "openpose-file": (F / "openpose" / "video_000000000001_keypoints.json", "out.json", {},
                       0.05),
     "mmpose": (F / "mmpose_predictions.json", "out.json", {}, 0.3),
+    "alphapose-halpe26": (F / "alphapose_halpe26.json", "out.json", {}, 0.3),
+    "alphapose-coco17": (F / "alphapose_coco17.json", "out.json", {}, 0.3),
     "dlc-csv": (F / "dlc.csv", "out.csv", {"joint_map": MAP}, 0.6),
     "dlc-h5": (F / "dlc.h5", "out.h5", {"joint_map": MAP}, 0.6),
     "dlc-multi": (F / "dlc_multi.csv", "out.csv", {"joint_map": MAP}, 0.6),
@@ -335,6 +338,112 @@ def test_mmpose_scores_above_one_are_kept_negative_refused(tmp_path):
     with pytest.raises(FileFormatError, match=r"s.json: frame 0, instance 0: "
                        r"'keypoint_scores' value 16"):
         read_keypoints(path)
+
+
+# --------------------------------------------------------------------------
+# AlphaPose
+
+
+def _alphapose(k, scores=None, **extra):
+    """One AlphaPose result of `k` keypoints: flat x, y, score."""
+    xy = np.arange(2 * k).reshape(k, 2) + 10.0
+    kp = np.column_stack([xy, scores or [0.9] * k]).ravel().tolist()
+    return dict(image_id="0.jpg", category_id=1, keypoints=kp, score=2.5, **extra)
+
+
+def test_alphapose_halpe26_maps_its_own_head_and_neck():
+    k = read_keypoints(F / "alphapose_halpe26.json")
+    assert k.meta["format"] == "alphapose" and k.meta["layout"] == "Halpe-26"
+    doc = json.loads((F / "alphapose_halpe26.json").read_text())
+    kp = np.asarray(doc[2]["keypoints"]).reshape(26, 3)
+    assert k.poses[2, HEAD_TOP].tolist() == kp[17, :2].tolist()  # Halpe head (17)
+    assert k.poses[2, NECK].tolist() == kp[18, :2].tolist()      # Halpe neck (18)
+    assert k.poses[2, LW].tolist() == kp[9, :2].tolist()         # COCO's left wrist
+    # idx is the track, the image's number the frame; scores below 0.3 are missing
+    assert k.tracks.tolist() == [1, 2] * 3 and k.frames.tolist() == [0, 0, 1, 1, 2, 2]
+    assert k.ids.tolist() == ["0.jpg", "0.jpg", "1.jpg", "1.jpg", "2.jpg", "2.jpg"]
+    assert k.missing.sum() == 3 and k.missing[0, LW]
+
+
+def test_alphapose_coco17_reads_as_the_same_coco_results(tmp_path):
+    """A COCO-17 AlphaPose file gives the poses its keypoints give as a COCO file."""
+    doc = json.loads((F / "alphapose_coco17.json").read_text())
+    ap = read_keypoints(F / "alphapose_coco17.json")
+    coco = tmp_path / "coco.json"
+    coco.write_text(json.dumps([{k: v for k, v in d.items() if k not in ("idx", "box")}
+                                for d in doc]))
+    assert detect(coco) is None  # no idx, no box: a COCO results file
+    plain = read_keypoints(coco)
+    assert plain.meta["format"] == "coco"
+    np.testing.assert_array_equal(ap.poses, plain.poses)
+    np.testing.assert_array_equal(ap.missing, plain.missing)
+    # untracked: idx holds the pose NMS's box ids; one pose a frame is one track
+    assert ap.tracks.tolist() == [0, 0, 0] and ap.frames.tolist() == [0, 1, 2]
+
+
+@pytest.mark.parametrize("entry, fmt", [
+    (_alphapose(17, idx=3), "alphapose"), (_alphapose(17, box=[0, 0, 1, 1]), "alphapose"),
+    (_alphapose(26), "alphapose"), (_alphapose(136), "alphapose"),
+    (_alphapose(17), None)])
+def test_alphapose_is_told_from_its_content(tmp_path, entry, fmt):
+    path = tmp_path / "alphapose-results.json"
+    path.write_text(json.dumps([entry]))
+    assert detect(path) == fmt
+    assert read_keypoints(path).meta["format"] == (fmt or "coco")
+
+
+@pytest.mark.parametrize("names, frames, tracks", [
+    (["frame_000010.png", "frame_000011.png"], [10, 11], [0, 0]),
+    ([10, 11], [10, 11], [0, 0]),                           # --eval: integer image ids
+    (["dog.jpg", "cat.jpg"], None, None),                   # photos: no frames, no tracks
+    (["IMG_7.jpg", "img7.jpg"], None, None)])
+def test_alphapose_frames_from_image_names(tmp_path, names, frames, tracks):
+    path = tmp_path / "a.json"
+    path.write_text(json.dumps([_alphapose(17, idx=[0.0]) | {"image_id": n} for n in names]))
+    k = read_keypoints(path)
+    assert (None if k.frames is None else k.frames.tolist()) == frames
+    assert (None if k.tracks is None else k.tracks.tolist()) == tracks
+    assert k.ids.tolist() == [str(n) for n in names]
+
+
+@pytest.mark.parametrize("change, words", [
+    ({"image_id": "camB_000001.jpg"}, "images of 2 videos (name stems 'camA_*.jpg', "
+                                      "'camB_*.jpg')"),
+    ({"idx": 1.5}, "result 1: 'idx' must be an integer or a string"),
+    ({"keypoints": [1.0] * 60}, "result 1: 'keypoints' has 60 values; AlphaPose layouts"),
+    ({"keypoints": [1.0, 2.0, -0.5] * 17}, "result 1: 'keypoints score' value 0 is -0.5")])
+def test_alphapose_refusals_name_the_result(tmp_path, change, words):
+    path = tmp_path / "a.json"
+    first = _alphapose(17, idx=0) | {"image_id": "camA_000001.jpg"}
+    path.write_text(json.dumps([first, first | change]))
+    with pytest.raises(FileFormatError, match=re.escape(words)):
+        read_keypoints(path)
+
+
+def test_alphapose_scores_above_one_are_kept(tmp_path):
+    path = tmp_path / "a.json"
+    path.write_text(json.dumps([_alphapose(26, [2.7] * 26, idx=0)]))
+    assert not read_keypoints(path).missing.any()
+
+
+def test_halpe_read_as_coco_says_what_it_is(tmp_path):
+    path = tmp_path / "a.json"
+    path.write_text(json.dumps([_alphapose(26)]))
+    with pytest.raises(FileFormatError, match="78 values; COCO-17 needs 51.*26 keypoints: "
+                       "Halpe-26, as AlphaPose writes them; read it with format='alphapose'"):
+        read_keypoints(path, format="coco")
+    assert read_keypoints(path, format="alphapose").meta["layout"] == "Halpe-26"
+
+
+def test_alphapose_recover_flags_the_low_scored_joints(tmp_path, small_dictionary):
+    """The occluded joints (scored 0.03-0.2) are filled, written back with score 0."""
+    summary = recover_file(F / "alphapose_halpe26.json", tmp_path / "o.json",
+                           dictionary=small_dictionary, adapt=False)
+    assert summary["recovered_joints"] == 3
+    doc = json.loads((tmp_path / "o.json").read_text())
+    assert doc[0]["sparseedm"]["filled"] == ["left_wrist"] and doc[0]["keypoints"][29] == 0.0
+    assert doc[0]["idx"] == 1 and doc[0]["box"] == json.loads(
+        (F / "alphapose_halpe26.json").read_text())[0]["box"]
 
 
 def test_low_detector_scores_are_recovered_with_the_default_threshold(tmp_path,
@@ -889,3 +998,12 @@ def test_dlc_body_part_named_twice_is_named(cmu_poses, tmp_path):
     src = _labelled_csv(tmp_path / "twice.csv", parts, [("img0.png", cmu_poses[0])])
     with pytest.raises(FileFormatError, match="body part 'left_wrist' is named twice"):
         read_keypoints(src)
+
+
+def test_alphapose_open_format_results_say_what_to_read(tmp_path):
+    """AlphaPose's --format open writes OpenPose frames by image name in one file."""
+    path = tmp_path / "alphapose-results.json"
+    frame = {"version": "AlphaPose v0.3", "people": [{"pose_keypoints_2d": [1.0] * 54}]}
+    path.write_text(json.dumps({"0.jpg": frame, "1.jpg": frame}))
+    with pytest.raises(FileFormatError, match="AlphaPose --format open results.*sep-json"):
+        read_keypoints(path)

@@ -131,6 +131,30 @@ def test_mmpose_round_trip(tmp_path_factory, case, folder):
         _assert_read_back(kps, case, _order(case, True), derived=[NECK, HEAD_TOP])
 
 
+# AlphaPose results JSON: one result per pose, in row order; the frame in
+# ``image_id`` (``<frame>.jpg``, a whole number from 0: a negative one is
+# refused) and in the "sparseedm" object (null without frames: no frame then),
+# the track in ``idx`` (an int or text).
+@SETTINGS
+@given(case=cases(track=st.one_of(st.integers(-2**53, 2**53), st.text(min_size=1))),
+       timed=st.booleans(), ids=st.booleans())
+def test_alphapose_round_trip(tmp_path_factory, case, timed, ids):
+    n = len(case["poses"])
+    if not timed:  # photos: no frames, no tracks
+        case.pop("frames")
+        case.pop("tracks")
+    extra = {"ids": [f"img_{r}.png" for r in range(n)]} if ids else {}
+    path = _write(tmp_path_factory.mktemp("ap") / "out.json", case, "alphapose", **extra)
+    if path is not None:
+        kps = read_keypoints(path, confidence_threshold=0)  # told from its content
+        assert kps.meta["format"] == "alphapose"
+        _assert_read_back(kps, case, np.arange(n), frames=timed, derived=[NECK, HEAD_TOP])
+        if not timed:
+            assert kps.frames is None and kps.tracks is None
+        if ids and not timed:
+            assert kps.ids.tolist() == extra["ids"]
+
+
 # COCO / PoseTrack keypoints JSON: annotations with ``image_id`` from the ids,
 # ``track_id`` from the tracks and, with frames (tracks or not), PoseTrack's
 # ``images`` holding each image's ``frame_id`` (any whole number up to 2**53;
@@ -353,7 +377,8 @@ def test_posetrack_frames_read_back(tmp_path):
 
 
 @pytest.mark.parametrize("frame,fmt,name", [(0.5, "mmpose", "m.json"), (-1, "openpose", "f"),
-                                            (-1, "mmpose", "f")])
+                                            (-1, "mmpose", "f"), (-1, "alphapose", "a.json"),
+                                            (2.5, "alphapose", "a.json")])
 def test_a_frame_its_files_cannot_hold_is_refused(tmp_path, frame, fmt, name):
     with pytest.raises(SparseEDMError, match=f"frame number {frame}"):
         write_keypoints(tmp_path / name, np.ones((1, N, 2)), format=fmt, frames=[frame])
@@ -365,7 +390,8 @@ def test_a_frame_its_files_cannot_hold_is_refused(tmp_path, frame, fmt, name):
 # and radii in the "sparseedm" objects), read again.
 @SETTINGS
 @given(case=cases(), where=st.sampled_from([("frames", "openpose"), ("out.json", "mmpose"),
-                                            ("frames", "mmpose"), ("out.json", "coco")]),
+                                            ("frames", "mmpose"), ("out.json", "coco"),
+                                            ("out.json", "alphapose")]),
        data=st.data())
 def test_written_back_after_a_read_round_trip(tmp_path_factory, case, where, data):
     name, fmt = where
@@ -377,7 +403,7 @@ def test_written_back_after_a_read_round_trip(tmp_path_factory, case, where, dat
     if src is None:
         return
     kps = read_keypoints(src, format=fmt, confidence_threshold=0)
-    order = _order(case, fmt != "coco")
+    order = _order(case, fmt not in ("coco", "alphapose"))  # rows kept in order
     kps.poses, kps.missing = case["poses"][order], case["missing"][order]  # the fill
     status = data.draw(st.lists(st.sampled_from(["recovered", "refused"]),
                                 min_size=len(kps), max_size=len(kps)))

@@ -39,7 +39,7 @@ def add_joint_map(parser):
 #: the keypoint formats read_keypoints reads (with its aliases json, posetrack, deeplabcut);
 #: tests/test_cli_defaults.py keeps the two equal
 INPUT_FORMATS = ("csv", "npz", "npy", "coco", "json", "posetrack", "openpose", "mmpose",
-                 "dlc", "deeplabcut")
+                 "alphapose", "dlc", "deeplabcut")
 
 
 def add_input_format(parser):

@@ -1,10 +1,11 @@
-"""Detector and tracker keypoint formats: OpenPose, MMPose, DeepLabCut (and PoseTrack).
+"""Detector and tracker keypoint formats: OpenPose, MMPose, AlphaPose, DeepLabCut (and PoseTrack).
 
 One module per format, each reading into the 14-joint layout and writing back
 in the same format with the filled joints flagged:
 
 - :mod:`~sparseedm.formats.openpose`: OpenPose ``--write_json`` frame files or a folder of them
 - :mod:`~sparseedm.formats.mmpose`: MMPose prediction JSON (COCO-17, Halpe, COCO-WholeBody)
+- :mod:`~sparseedm.formats.alphapose`: AlphaPose results JSON (COCO-17, Halpe, COCO-WholeBody)
 - :mod:`~sparseedm.formats.deeplabcut`: DeepLabCut ``.csv`` / ``.h5`` tables with a joints map
 - :mod:`~sparseedm.formats.posetrack`: ``track_id`` / ``frame_id`` of COCO files (PoseTrack)
 
@@ -15,7 +16,9 @@ tells a format from a path: a folder is OpenPose, or MMPose when its first
 files are MMPose per-image files (lists of instances), ``.h5`` DeepLabCut, a
 ``.csv`` whose first cell is ``scorer`` DeepLabCut, and a ``.json`` by its
 first MiB (``"people"``: OpenPose; ``"instance_info"`` or keypoints as
-``[[x, y], ...]`` pairs: MMPose; otherwise COCO).
+``[[x, y], ...]`` pairs: MMPose; a results list with AlphaPose's ``"idx"``
+or ``"box"``, or flat keypoints of a Halpe or COCO-WholeBody layout (78, 399
+or 408 values): AlphaPose; otherwise COCO).
 
 Default confidence thresholds
 -----------------------------
@@ -32,6 +35,10 @@ none is given (a joint whose confidence is below it is missing, and recovered):
     when it rescores instances, so detectors' occluded joints (0.02-0.2) fall
     below either. COCO ground truth (``v`` 0/1/2) is unaffected: labelled joints
     have v >= 1;
+``alphapose``: 0.3
+    as COCO results (AlphaPose's are COCO results lists): between the 0.2
+    above which AlphaPose's default drawing shows a keypoint and the 0.4 of
+    its fast drawing (``--vis_fast``);
 ``openpose``: 0.05
     OpenPose's ``--render_threshold`` default: below it OpenPose itself does
     not draw a keypoint (it writes 0 for joints it did not find at all);
@@ -50,19 +57,19 @@ import numpy as np
 
 from .._safeio import load_json
 from ..exceptions import FileFormatError
-from . import deeplabcut, mmpose, openpose, posetrack
+from . import alphapose, deeplabcut, mmpose, openpose, posetrack
 from ._base import COCO_17, HEAD_TOP_FACTOR, Parsed, Rows, read_extra, to_14
 
 __all__ = ["FORMATS", "DEFAULT_THRESHOLDS", "FILLED_SCORE", "detect", "read", "write",
            "default_threshold", "count_below", "threshold_line", "read_extra", "to_14",
-           "COCO_17", "HEAD_TOP_FACTOR", "Parsed", "Rows", "deeplabcut", "mmpose", "openpose",
-           "posetrack"]
+           "COCO_17", "HEAD_TOP_FACTOR", "Parsed", "Rows", "alphapose", "deeplabcut", "mmpose",
+           "openpose", "posetrack"]
 
 #: formats read and written by this subpackage
-FORMATS = ("openpose", "mmpose", "dlc")
+FORMATS = ("openpose", "mmpose", "alphapose", "dlc")
 #: confidence threshold per format when none is given (see the module docstring)
-DEFAULT_THRESHOLDS = {"dlc": 0.6, "mmpose": 0.3, "coco": 0.3, "openpose": 0.05,
-                      "csv": 0.0, "npz": 0.0, "npy": 0.0}
+DEFAULT_THRESHOLDS = {"dlc": 0.6, "mmpose": 0.3, "coco": 0.3, "alphapose": 0.3,
+                      "openpose": 0.05, "csv": 0.0, "npz": 0.0, "npy": 0.0}
 #: the score a filled joint is written with by default: below every threshold,
 #: and "not detected" to COCO and OpenPose readers
 FILLED_SCORE = 0.0
@@ -72,6 +79,9 @@ _MMPOSE = re.compile(rb'"instance_info"\s*:|"instances"\s*:\s*\[|"keypoints"\s*:
 #: an MMPose per-image file: a list, empty or of instances with [x, y] keypoints
 _EMPTY_LIST = re.compile(rb"\s*\[\s*\]\s*$")
 _KEYPOINT_PAIRS = re.compile(rb'"keypoints"\s*:\s*\[\s*\[')
+#: an AlphaPose results list: AlphaPose's own keys, or the first entry's flat keypoints
+_ALPHAPOSE_KEYS = re.compile(rb'"(?:idx|box)"\s*:')
+_FLAT_KEYPOINTS = re.compile(rb'"keypoints"\s*:\s*\[([^\[\]]*)\]')
 
 
 def _inferencer_hint(doc):
@@ -174,7 +184,7 @@ def detect(path):
     Returns
     -------
     str or None
-        ``"openpose"``, ``"mmpose"``, ``"dlc"`` or None.
+        ``"openpose"``, ``"mmpose"``, ``"alphapose"``, ``"dlc"`` or None.
     """
     path = Path(path)
     if path.is_dir():
@@ -196,7 +206,21 @@ def detect(path):
         return "openpose"
     if _MMPOSE.search(head):
         return "mmpose"
+    if _is_alphapose_head(head):
+        return "alphapose"
     return None
+
+
+def _is_alphapose_head(head):
+    """Whether a JSON file's first bytes are an AlphaPose results list
+    (:func:`sparseedm.formats.alphapose.is_alphapose`'s rule)."""
+    if head.lstrip(b"\xef\xbb\xbf \t\r\n")[:1] != b"[":
+        return False
+    if _ALPHAPOSE_KEYS.search(head):
+        return True
+    first = _FLAT_KEYPOINTS.search(head)
+    count = 0 if first is None or not first.group(1).strip() else first.group(1).count(b",") + 1
+    return count % 3 == 0 and count // 3 in set(alphapose.LAYOUTS) - {len(COCO_17)}
 
 
 def _folder_format(path, tries=20):
@@ -250,6 +274,12 @@ def read(fmt, path, *, joint_map=None):
                                   "'instance_info' and no instances with [x, y] keypoints)"
                                   + _inferencer_hint(doc))
         return mmpose.read(path, doc)
+    if fmt == "alphapose":
+        doc = load_json(path)
+        if not alphapose.is_alphapose(doc):
+            raise FileFormatError(f"{path}: not an AlphaPose results file (a list of "
+                                  "results with flat 'keypoints' and 'idx' or 'box')")
+        return alphapose.read(path, doc)
     if fmt == "dlc":
         return deeplabcut.read(path, joint_map)
     raise FileFormatError(f"{path}: unknown format {fmt!r}; one of {FORMATS}")
@@ -273,6 +303,7 @@ def write(fmt, path, rows, meta, *, filled_score=FILLED_SCORE, row_fields=None):
     row_fields : dict, optional
         Per-row fields (status, reason...) to add to each person.
     """
-    module = {"openpose": openpose, "mmpose": mmpose, "dlc": deeplabcut}[fmt]
+    module = {"openpose": openpose, "mmpose": mmpose, "alphapose": alphapose,
+              "dlc": deeplabcut}[fmt]
     module.write(path, rows, meta if meta.get("format") == fmt else {}, filled_score,
                  row_fields)

@@ -87,8 +87,22 @@ COCO17 = ("nose", "left_eye", "right_eye", "left_ear", "right_ear",
           "left_shoulder", "right_shoulder", "left_elbow", "right_elbow",
           "left_wrist", "right_wrist", "left_hip", "right_hip",
           "left_knee", "right_knee", "left_ankle", "right_ankle")
-#: the COCO-17 layout (COCO results / ground truth, MMPose's COCO models)
+#: the COCO-17 layout (COCO results / ground truth, MMPose's and AlphaPose's COCO models)
 COCO_17 = Layout("COCO-17", COCO17)
+_HALPE_EXTRA = ("head", "neck", "hip", "left_big_toe", "right_big_toe", "left_small_toe",
+                "right_small_toe", "left_heel", "right_heel")
+#: Halpe-26 (MMPose's and AlphaPose's Halpe models): COCO-17, then head (its top), neck,
+#: hip, big toes, small toes, heels
+HALPE_26 = Layout("Halpe-26", COCO17 + _HALPE_EXTRA, neck="neck", head_top="head")
+#: Halpe-136: Halpe-26, then 68 face and 2 x 21 hand keypoints
+HALPE_136 = Layout("Halpe-136", HALPE_26.keypoints + tuple(f"face_or_hand_{i}"
+                                                           for i in range(110)),
+                   neck="neck", head_top="head")
+#: COCO-WholeBody: COCO-17, then 6 foot, 68 face and 2 x 21 hand keypoints
+COCO_WHOLEBODY = Layout("COCO-WholeBody", COCO17 + tuple(f"foot_face_or_hand_{i}"
+                                                         for i in range(116)))
+#: the COCO and Halpe layouts by their number of keypoints (MMPose, AlphaPose)
+BODY_LAYOUTS = {len(lay): lay for lay in (COCO_17, HALPE_26, HALPE_136, COCO_WHOLEBODY)}
 
 
 @dataclass

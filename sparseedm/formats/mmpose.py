@@ -57,21 +57,14 @@ from .._safeio import load_json
 from .._validation import frame_array
 from ..exceptions import FileFormatError
 from . import _base
-from ._base import COCO17, COCO_17, EXTRA_KEY, Layout, Person
+from ._base import (BODY_LAYOUTS, COCO_17, COCO_WHOLEBODY, EXTRA_KEY, HALPE_26, HALPE_136,
+                    Person)
 
 __all__ = ["COCO_17", "HALPE_26", "HALPE_136", "COCO_WHOLEBODY", "LAYOUTS", "read",
            "read_folder", "write", "is_mmpose", "is_image_file", "MAX_FILES"]
 
-_HALPE_EXTRA = ("head", "neck", "hip", "left_big_toe", "right_big_toe", "left_small_toe",
-                "right_small_toe", "left_heel", "right_heel")
-HALPE_26 = Layout("Halpe-26", COCO17 + _HALPE_EXTRA, neck="neck", head_top="head")
-HALPE_136 = Layout("Halpe-136", HALPE_26.keypoints + tuple(f"face_or_hand_{i}"
-                                                           for i in range(110)),
-                   neck="neck", head_top="head")
-COCO_WHOLEBODY = Layout("COCO-WholeBody", COCO17 + tuple(f"foot_face_or_hand_{i}"
-                                                         for i in range(116)))
-#: layouts by their number of keypoints
-LAYOUTS = {len(lay): lay for lay in (COCO_17, HALPE_26, HALPE_136, COCO_WHOLEBODY)}
+#: layouts by their number of keypoints (:data:`sparseedm.formats._base.BODY_LAYOUTS`)
+LAYOUTS = BODY_LAYOUTS
 #: most files a folder may hold (a 9-hour video at 30 fps)
 MAX_FILES = 1_000_000
 

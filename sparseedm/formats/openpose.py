@@ -139,8 +139,24 @@ def _frame_file(path, frame):
     """The people of one frame file and its document."""
     doc = load_json(path)
     if not is_openpose(doc):
-        raise FileFormatError(f"{path}: not an OpenPose frame (no 'people' list)")
+        raise FileFormatError(f"{path}: not an OpenPose frame (no 'people' list)"
+                              + _by_image_hint(doc))
     return [_person(person, path, p, frame) for p, person in enumerate(doc["people"])], doc
+
+
+def _by_image_hint(doc):
+    """What to read instead of AlphaPose's ``--format open`` results file (OpenPose
+    frames by image name, ``{"0.jpg": {"people": [...]}, ...}``).
+
+    >>> _by_image_hint({"0.jpg": {"version": "AlphaPose v0.3", "people": []}})[:40]
+    '; it looks like AlphaPose --format open '
+    """
+    first = next(iter(doc.values()), None) if isinstance(doc, dict) and doc else None
+    if not is_openpose(first):
+        return ""
+    return ("; it looks like AlphaPose --format open results (OpenPose frames by image "
+            "name): read its sep-json folder (one OpenPose file per image), or run "
+            "AlphaPose without --format (its results list, which sparseedm reads)")
 
 
 def read(path):
