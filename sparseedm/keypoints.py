@@ -1255,7 +1255,7 @@ def _alphapose_hint(count):
     """What a COCO results list of `count` keypoint values is when AlphaPose's
     other layouts have that many (Halpe-26: 78).
 
-    >>> _alphapose_hint(78)[:44], _alphapose_hint(60)
+    >>> _alphapose_hint(78)[:45], _alphapose_hint(60)
     (' (26 keypoints: Halpe-26, as AlphaPose writes', '')
     """
     layout = formats.alphapose.LAYOUTS.get(count // 3) if isinstance(count, int) \
