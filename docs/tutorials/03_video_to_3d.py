@@ -19,7 +19,6 @@ person's markers, one row per frame.
 # ------------------------------
 # ``examples/video_clip.csv`` holds two people (``track`` 02_01 and 02_05).
 # A TRC file holds one person, so we keep the first.
-import csv
 
 
 # %%
@@ -37,26 +36,21 @@ work = work_folder("examples/video_clip.csv")
 
 # %%
 # Asking for a TRC of the two-person file is refused before any work, and the
-# message says what to do instead:
+# message names the tracks and says what to do instead:
 sh("sparseedm lift video_clip.csv -o both.trc", work, expect=2)
 
 # %%
-# So write the first person's rows to their own file:
-with open(work / "video_clip.csv", newline="") as f:
-    rows = list(csv.DictReader(f))
-with open(work / "walk.csv", "w", newline="") as f:
-    writer = csv.DictWriter(f, fieldnames=list(rows[0]))
-    writer.writeheader()
-    writer.writerows(r for r in rows if r["track"] == "02_01")
-print(sum(r["track"] == "02_01" for r in rows), "frames of track 02_01")
+# A track that is not in the file is refused the same way:
+sh("sparseedm lift video_clip.csv -o walk.trc --track 02_09", work, expect=2)
 
 # %%
-# Lift it
-# -------
-# ``--rate`` is the video's frame rate (the TRC's time column); ``--plot``
-# also draws a few lifted poses, those of the frames ``--frames`` chooses
-# (at most 8; the first 4 without it).
-sh("sparseedm lift walk.csv -o walk.trc --rate 30 --plot walk3d.png --frames 0,28,56,84", work)
+# Lift one person
+# ---------------
+# ``--track`` picks the first person's rows; ``--rate`` is the video's frame
+# rate (the TRC's time column); ``--plot`` also draws a few lifted poses,
+# those of the frames ``--frames`` chooses (at most 8; the first 4 without it).
+sh("sparseedm lift video_clip.csv -o walk.trc --track 02_01 --rate 30 --plot walk3d.png "
+   "--frames 0,28,56,84", work)
 
 # %%
 # The TRC file: a header, then a frame number, a time and x, y, z per joint.
@@ -74,8 +68,9 @@ import numpy as np  # noqa: E402
 import sparseedm  # noqa: E402
 from sparseedm.keypoints import read_keypoints  # noqa: E402
 
-kps = read_keypoints(work / "walk.csv")
-res = sparseedm.lift(kps.poses, frames=kps.frames)
+kps = read_keypoints(work / "video_clip.csv")
+walk = kps.tracks == "02_01"
+res = sparseedm.lift(kps.poses[walk], frames=kps.frames[walk])
 print(res.poses3d.shape, np.unique(res.status, return_counts=True))
 height = np.linalg.norm(res.poses3d[:, 0] - res.poses3d[:, [10, 13]].mean(axis=1), axis=-1)
 print(f"head top to ankles: {np.median(height):.2f} m (median over the frames)")

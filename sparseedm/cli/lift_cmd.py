@@ -33,7 +33,8 @@ def add_parser(sub):
     )
     p.add_argument("input", help="keypoints: .csv, .npz, .npy, COCO-style .json, OpenPose "
                    ".json or a folder of them, MMPose predictions .json or a folder of "
-                   "per-image files, DeepLabCut .csv/.h5 (see sparseedm.formats)")
+                   "per-image files, AlphaPose results .json, DeepLabCut .csv/.h5 (see "
+                   "sparseedm.formats)")
     p.add_argument("-o", "--output", required=True,
                    help="3D output: .csv, .npz, .json or .trc (OpenSim)")
     p.add_argument("--lifter", default=None, metavar="NAME|PATH",

@@ -32,12 +32,14 @@ def add_parser(sub):
     )
     p.add_argument("input", help="keypoints: .csv, .npz, .npy, COCO-style .json, OpenPose "
                    ".json or a folder of them, MMPose predictions .json or a folder of "
-                   "per-image files, DeepLabCut .csv/.h5 (see sparseedm.formats)")
+                   "per-image files, AlphaPose results .json, DeepLabCut .csv/.h5 (see "
+                   "sparseedm.formats)")
     p.add_argument("-o", "--output", required=True,
                    help="file (or OpenPose/MMPose folder) to write, at exactly this path, in "
                    "--format, else INPUT's own format when the extension suits it "
                    "(OpenPose: no extension for a folder, .json for one frame file; "
-                   "MMPose .json, no extension for a folder of per-image files; DeepLabCut "
+                   "MMPose .json, no extension for a folder of per-image files; AlphaPose "
+                   ".json; DeepLabCut "
                    ".csv or .h5), else its extension's (.csv "
                    ".npz .npy, .json COCO, .h5 DeepLabCut), else INPUT's; never the "
                    "input, the dictionary or the errors file")
@@ -70,14 +72,14 @@ def _add_recovery_options(p):
 def _add_format_options(p):
     """The output format, errors file, confidence threshold, joint map, filled score."""
     p.add_argument("--format", choices=("csv", "npz", "npy", "coco", "json", "openpose",
-                                        "mmpose", "dlc"), default=None,
+                                        "mmpose", "alphapose", "dlc"), default=None,
                    help="output format (default: from OUTPUT's extension, else INPUT's)")
     p.add_argument("--errors", default=None, metavar="FILE",
                    help="errors file listing refused rows (default OUTPUT stem + .errors.csv)")
     p.add_argument("--confidence-threshold", type=float, default=None, metavar="T",
                    help="joints with a confidence below T count as missing and are "
                    "recovered (default: the input format's: DeepLabCut 0.6 (its pcutoff), "
-                   "MMPose and COCO 0.3, OpenPose 0.05, csv/npz/npy 0; see "
+                   "MMPose, AlphaPose and COCO 0.3, OpenPose 0.05, csv/npz/npy 0; see "
                    "sparseedm.formats)")
     add_joint_map(p)
     add_input_format(p)
