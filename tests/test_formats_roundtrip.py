@@ -137,12 +137,13 @@ def test_mmpose_round_trip(tmp_path_factory, case, folder):
 # the track in ``idx`` (an int or text).
 @SETTINGS
 @given(case=cases(track=st.one_of(st.integers(-2**53, 2**53), st.text(min_size=1))),
-       timed=st.booleans(), ids=st.booleans())
-def test_alphapose_round_trip(tmp_path_factory, case, timed, ids):
+       timed=st.booleans(), tracked=st.booleans(), ids=st.booleans())
+def test_alphapose_round_trip(tmp_path_factory, case, timed, tracked, ids):
     n = len(case["poses"])
-    if not timed:  # photos: no frames, no tracks
+    if not timed:  # photos: no frames, tracks only when given
         case.pop("frames")
-        case.pop("tracks")
+        if not tracked:
+            case.pop("tracks")
     extra = {"ids": [f"img_{r}.png" for r in range(n)]} if ids else {}
     path = _write(tmp_path_factory.mktemp("ap") / "out.json", case, "alphapose", **extra)
     if path is not None:
@@ -150,7 +151,7 @@ def test_alphapose_round_trip(tmp_path_factory, case, timed, ids):
         assert kps.meta["format"] == "alphapose"
         _assert_read_back(kps, case, np.arange(n), frames=timed, derived=[NECK, HEAD_TOP])
         if not timed:
-            assert kps.frames is None and kps.tracks is None
+            assert kps.frames is None and (kps.tracks is None) is not tracked
         if ids and not timed:
             assert kps.ids.tolist() == extra["ids"]
 

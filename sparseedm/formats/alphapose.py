@@ -31,7 +31,8 @@ is one video: a file whose names have two stems is refused, naming them.
 Tracks: ``idx`` where every entry's is an integer (``--pose_track`` or
 ``--pose_flow``; a string is read as a track id too); untracked runs write the pose NMS's box ids there (a list,
 ``[0.0]``), which are no tracks: then one track when no frame holds more
-than one pose, else none (``sparseedm recover`` links them).
+than one pose, else none (``sparseedm recover`` links them); photos have
+tracks only from ``idx``.
 
 Writing back: the input document with the filled keypoints set to their
 recovered ``x, y`` and score ``filled_score``, and a ``"sparseedm"`` object
@@ -176,8 +177,10 @@ def read(path, doc):
     layout = LAYOUTS[sizes.pop()] if sizes else COCO_17
     frames = _frames(doc, path)
     meta = {"alphapose_document": doc, "layout": layout.name}
-    if not people or any(f is None for f in frames):  # photos: no frames, no tracks
-        return _base.assemble(people, layout, meta)
+    if not people or any(f is None for f in frames):  # photos: no frames
+        tracked = people and all(p.track is not None for p in people)
+        return _base.assemble(people, layout, meta, tracks=_base.person_tracks(people)
+                              if tracked else None)
     for p, frame in zip(people, frames):
         p.frame = frame
     return _base.assemble(people, layout, meta, tracks=_base.person_tracks(people),
