@@ -37,7 +37,7 @@ from ..dictionary import Dictionary, load_dictionary
 from ..edm import pose_to_vector
 from ..ensemble import adapt_members
 from ..normalize import normalize
-from ..skeleton import SKELETON_14
+from ..skeleton import JOINT_NAMES, SKELETON_14
 from .linking import link_tracks, needs_linking, split_at_jumps
 from .model import (DEFAULT_SETTINGS, choose_carry, choose_trust, fill_segment, prior_frames,
                     prior_scale, probe_errors, probe_mask, probe_settings, segment_settings,
@@ -674,7 +674,9 @@ def recover_temporal(poses, missing=None, *, tracks=None, frames, dictionary=Non
     kwargs["check_input"] = False  # rows of the poses validated above
     track_of = layout.linked if layout.linked is not None else (
         np.zeros(len(poses), int) if tracks is None else np.asarray(tracks))
-    never = _never_seen(layout, mask, track_of)
+    # mirror images need the 14-joint layout's left and right (Dictionary.mirrored)
+    never = (_never_seen(layout, mask, track_of) if dictionary.joint_names == JOINT_NAMES
+             else None)
     per = _per_frame(poses, mask, need, members, settings, kwargs, never)
     trusts, probe_poses = _trusts(layout, poses, mask, usable, per, settings, members, kwargs,
                                   track_of, planned, never)
