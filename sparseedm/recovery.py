@@ -370,9 +370,9 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
     if method != "fconv":  # an FConv model says its own (recover_fconv)
         representation = representation_for(representation)
     if mirror and (method == "fconv" or (frames is not None and temporal)):
-        raise ParameterError("recover: mirror=True averages the sparse answers of each pose "
-                             "and its mirror image: it needs method='sparse' and no frames "
-                             "(or temporal=False)")
+        raise ParameterError(f"recover: mirror={mirror!r} averages the sparse answers of each "
+                             "pose and its mirror image: it needs method='sparse' and no "
+                             "frames (or temporal=False)")
     if frames is not None and temporal:
         if preset == "fast":
             raise ParameterError("recover: preset='fast' recovers each pose on its own: "
