@@ -272,6 +272,13 @@ def _adapt(dictionary, poses, mask, layout, usable, adapt, ensemble, settings, k
         adapt_now, self_train = adapts(len(poses), asks_per_frame)
         if not adapt_now:
             adapt = False
+            if int(ensemble) > 1:  # as adapt_members says when it fits fewer members
+                why = (f"{len(poses)} poses, fewer than the {ADAPT_MIN_FRAMES} a call in "
+                       "time adapts from" if asks_per_frame else
+                       "no pose asks the per-frame model")
+                warnings.warn(f"ensemble={int(ensemble)}: no dictionary is adapted ({why}); "
+                              f"1 dictionary recovers, not {int(ensemble)} members",
+                              UserWarning, stacklevel=6)  # recover()'s caller
         elif not self_train and kw.get("self_training") is None:
             kw = dict(kw, self_training=0)
     if adapt is False or adapt is None:
