@@ -140,7 +140,8 @@ class RecoveryResult:
         How sure each joint is: the radius (the input's units) of a circle
         around the joint that holds the true joint 9 times in 10; 0 for an
         observed joint, NaN on a refused pose (:mod:`sparseedm.uncertainty`).
-        Set by :func:`sparseedm.recover`; None from the lower layers.
+        Set by :func:`sparseedm.recover` for the 14-joint layout; None from the
+        lower layers and for other layouts.
     outliers : ndarray of bool (n, N) or None
         Points given with a low confidence that the pose model and the track
         both contradicted, treated as missing and filled

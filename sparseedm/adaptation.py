@@ -443,9 +443,12 @@ def filter_poses(poses, dictionary, *, outlier_factor=3.0, swap_ratio=0.5):
     out = outlier_rows(err, outlier_factor)
     counts["outlier"] = int(out.sum())
     idx = idx[~out]
-    # a pose with exchanged labels is explained badly: only the worst quarter is checked
+    # a pose with exchanged labels is explained badly: only the worst quarter is
+    # checked, in the 14-joint layout (whose left and right joints are known)
     err = err[~out]
-    check = err > np.percentile(err, 75) if len(err) else np.zeros(0, dtype=bool)
+    check = (err > np.percentile(err, 75)
+             if len(err) and dictionary.n_joints == SKELETON_14.num_joints
+             else np.zeros(len(err), dtype=bool))
     sw = np.zeros(len(idx), dtype=bool)
     sw[check] = swapped_rows(poses[idx[check]], dictionary.components, alpha, ratio=swap_ratio,
                              errors=err[check])

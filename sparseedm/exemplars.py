@@ -367,7 +367,7 @@ def _ridge_mean_errors(dictionary, complete, held, mask, res, kw, exemplars, bas
         if len(rest) >= BLEND_MIN_POSES:
             if exemplars is None:
                 exemplars = file_dictionary(dictionary, rest).dictionary
-            res = blend_many_hidden(res, hidden, mask, exemplars, **kw)
+            res = blend_many_hidden(res, hidden, mask, _enough_atoms(exemplars), **kw)
         ridge = _local_ridge(base_atoms, hidden, mask, kw)
     return _error(res, truth, mask), _error(combine([res, ridge]), truth, mask)
 
@@ -557,14 +557,21 @@ def blend_atoms(dictionary, poses, missing, adaptation):
     -------
     Dictionary or None
         None: no blend (adapted, fewer than :data:`BLEND_MIN_POSES` usable
-        complete poses, not 14 joints, non-negative codes).
+        complete poses or atoms made of them, not 14 joints, non-negative codes).
     """
     complete = _blend_complete(dictionary, poses, missing, adaptation)
     if complete is None:
         return None
-    if adaptation.over_file_atoms:  # the path's own dictionary: the same atoms
-        return adaptation.dictionary
-    return file_dictionary(dictionary, poses[complete]).dictionary
+    # the path's own dictionary when it is made of them: the same atoms
+    return _enough_atoms(adaptation.dictionary if adaptation.over_file_atoms
+                         else file_dictionary(dictionary, poses[complete]).dictionary)
+
+
+def _enough_atoms(atoms):
+    """`atoms` (the file's complete poses as the only atoms) when they are at least
+    :data:`BLEND_MIN_POSES`, else None: copies of a few poses merge into as few
+    atoms (:func:`~sparseedm.file_atoms.file_dictionary`), too few to average over."""
+    return atoms if atoms.n_components >= BLEND_MIN_POSES else None
 
 
 def _blend_complete(dictionary, poses, missing, adaptation):

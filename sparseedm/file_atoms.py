@@ -27,7 +27,7 @@ from __future__ import annotations
 import time
 import warnings
 from dataclasses import dataclass, replace
-from numbers import Integral
+from numbers import Integral, Real
 
 import numpy as np
 
@@ -65,7 +65,8 @@ FAST_ALPHA = 0.0005
 ATOM_SPACING = 0.005
 
 _PARAMS = {"dictionary": [Dictionary], "max_atoms": [Interval(Integral, 1, None)],
-           "filter": BOOLEAN, "random_state": [Interval(Integral, 0, None)]}
+           "filter": BOOLEAN, "random_state": [Interval(Integral, 0, None)],
+           "spacing": [Interval(Real, 0, None)]}
 
 
 @dataclass
@@ -188,6 +189,12 @@ def file_dictionary(dictionary, poses, missing=None, *, max_atoms=MAX_FAST_ATOMS
         The file's dictionary (`dictionary` itself when no pose was usable),
         its atom count and the complete poses offered.
 
+    Raises
+    ------
+    ParameterError
+        `dictionary` is not a Dictionary, or `max_atoms`, `spacing` or
+        `random_state` is out of range.
+
     Examples
     --------
     >>> import numpy as np
@@ -197,6 +204,9 @@ def file_dictionary(dictionary, poses, missing=None, *, max_atoms=MAX_FAST_ATOMS
     >>> out.n_atoms, out.dictionary.n_components, out.dictionary.alpha_recover
     (30, 30, 0.0005)
     """
+    validate_params("file_dictionary", dict(dictionary=dictionary, max_atoms=max_atoms,
+                                           spacing=spacing, random_state=random_state),
+                    _PARAMS)
     atoms, n_complete = _file_vectors(dictionary, poses, missing, max_atoms, False,
                                       random_state, spacing)
     if not len(atoms):
@@ -270,6 +280,7 @@ def spaced_rows(X, spacing, random_state=0):
     """
     from scipy.spatial import cKDTree
 
+    validate_params("spaced_rows", dict(spacing=spacing, random_state=random_state), _PARAMS)
     X = np.asarray(X, dtype=float)
     owner = np.full(len(X), -1)
     if len(X) < 2:

@@ -428,7 +428,7 @@ def _joint_count_error(where, n_joints):
     )
 
 
-def origin_joints(poses, missing):
+def origin_joints(poses, missing=None):
     """Joints at exactly (0, 0) in pixel poses: the mark many tools write for a
     joint they did not find.
 
@@ -438,8 +438,10 @@ def origin_joints(poses, missing):
 
     Parameters
     ----------
-    poses : ndarray, shape (n, 14, 2)
-    missing : ndarray of bool, shape (n, 14)
+    poses : array_like, shape (n, 14, 2)
+    missing : array_like of bool, shape (n, 14), optional
+        The joints already missing; default the NaN ones (as ``recover(poses)``
+        reads them).
 
     Returns
     -------
@@ -453,6 +455,9 @@ def origin_joints(poses, missing):
     array([[ True, False],
            [False, False]])
     """
+    poses = np.asarray(poses, dtype=float)
+    missing = (np.isnan(poses).any(axis=-1) if missing is None
+               else np.asarray(missing, dtype=bool))
     with np.errstate(invalid="ignore"):
         seen = ~missing[..., None] & np.isfinite(poses)
         in_pixels = ~(seen & (poses < 0)).any(axis=(1, 2))

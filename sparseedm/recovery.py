@@ -370,9 +370,9 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
     if method != "fconv":  # an FConv model says its own (recover_fconv)
         representation = representation_for(representation)
     if mirror and (method == "fconv" or (frames is not None and temporal)):
-        raise ParameterError("recover: mirror=True averages the sparse answers of each pose "
-                             "and its mirror image: it needs method='sparse' and no frames "
-                             "(or temporal=False)")
+        raise ParameterError(f"recover: mirror={mirror!r} averages the sparse answers of each "
+                             "pose and its mirror image: it needs method='sparse' and no "
+                             "frames (or temporal=False)")
     if frames is not None and temporal:
         if preset == "fast":
             raise ParameterError("recover: preset='fast' recovers each pose on its own: "
@@ -413,8 +413,9 @@ def _warn_origin_joints(poses, missing):
         warnings.warn(
             f"recover: {int(origin.sum())} joint(s) of {int(origin.any(axis=1).sum())} "
             "pose(s) in pixels are at exactly (0, 0) and are taken as observed; if your "
-            "tool writes 0, 0 for a joint it did not find, mark them missing "
-            "(missing=sparseedm.keypoints.origin_joints(poses, missing) | missing, or NaN)",
+            "tool writes 0, 0 for a joint it did not find, set them to NaN "
+            "(poses[sparseedm.keypoints.origin_joints(poses)] = np.nan) or, with a "
+            "missing mask, add them to it (missing | origin_joints(poses, missing))",
             UserWarning, stacklevel=3)
 
 

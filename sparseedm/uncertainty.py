@@ -386,10 +386,11 @@ def joint_uncertainty(result, tracks=None, frames=None, calibration=None):
 
     Returns
     -------
-    ndarray (n, N)
+    ndarray (n, N) or None
         Pixels (the input's units): 0 for an observed joint, NaN for every
         joint of a refused pose, else the radius of the circle around the
-        filled joint that holds the true joint with 90 % probability.
+        filled joint that holds the true joint with 90 % probability. None
+        for poses of another layout than the 14 joints (no rule calibrated).
 
     Examples
     --------
@@ -403,6 +404,8 @@ def joint_uncertainty(result, tracks=None, frames=None, calibration=None):
     >>> bool(r[0, 4] > 0), float(r[0, 0])
     (True, 0.0)
     """
+    if np.shape(result.missing)[1] != SKELETON_14.num_joints:
+        return None  # the rule's features and table are the 14-joint skeleton's
     with np.errstate(over="ignore", invalid="ignore"):  # poses near float's limits
         radius = uncertainty_rule(joint_features(result, tracks, frames), calibration)
     radius[~np.asarray(result.missing) & np.isfinite(radius)] = 0.0

@@ -72,6 +72,22 @@ def test_no_adaptation_means_one_member(split, shifted):
         sparseedm.recover(inputs, mask, dictionary=shifted, ensemble=0)
 
 
+def test_a_clip_too_short_to_adapt_says_the_ensemble_is_one_member(track, shifted):
+    """recover(frames=..., ensemble=K) on a clip shorter than ADAPT_MIN_FRAMES
+    (nothing adapted) warns as the photo path does, instead of recovering with
+    one dictionary unsaid."""
+    from sparseedm.temporal.recover import ADAPT_MIN_FRAMES
+
+    n = ADAPT_MIN_FRAMES - 1
+    mask = np.zeros((n, 14), bool)
+    mask[10:50, 4] = True  # a long gap: its middle asks the per-frame model
+    poses = np.where(mask[..., None], np.nan, track[:n])
+    with pytest.warns(UserWarning, match=f"ensemble=3: no dictionary is adapted \\({n} poses"):
+        res = sparseedm.recover(poses, mask, frames=np.arange(n), dictionary=shifted,
+                                ensemble=3)
+    assert res.members == 1 and res.ok.all()
+
+
 def test_combine_fails_a_row_any_member_failed_and_keeps_refusals(split, shifted):
     _, inputs, mask = split
     bad = inputs[:6].copy()

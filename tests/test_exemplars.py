@@ -475,6 +475,29 @@ def test_adapted_or_small_files_are_not_blended(cmu_poses, small_dictionary):
     assert blend_atoms(small_dictionary, few, few_missing, small.adaptation) is None
 
 
+@pytest.mark.parametrize("noise", [0.0, 1e-4])
+def test_copies_of_one_pose_are_not_blended(cmu_poses, small_dictionary, noise):
+    """A file whose BLEND_MIN_POSES or more complete poses are copies of one pose (a
+    still person) makes one exemplar atom: the poses of other people with four
+    hidden joints keep the path's answer, not its mean with that one pose."""
+    from sparseedm.exemplars import BLEND_MIN_POSES, blend_atoms
+
+    still = cmu_poses[0] + np.random.default_rng(0).normal(0, noise, (BLEND_MIN_POSES + 10,
+                                                                      14, 2))
+    legs = _jittered(cmu_poses[100:], 20)
+    hidden = np.zeros((20, 14), bool)
+    hidden[:, [9, 10, 12, 13]] = True
+    poses = np.concatenate([still, np.where(hidden[..., None], np.nan, legs)])
+    missing = np.concatenate([np.zeros(still.shape[:2], bool), hidden])
+    res = recover(poses, missing, dictionary=small_dictionary)
+    assert blend_atoms(small_dictionary, poses, missing, res.adaptation) is None
+    base = recover(poses, missing, dictionary=small_dictionary, adapt=False)
+
+    def err(r):
+        return np.linalg.norm(r.poses[len(still):] - legs, axis=-1)[hidden].mean()
+    assert err(res) < 1.1 * err(base)
+
+
 def test_recover_file_blends_as_recover_does(cmu_poses, small_dictionary, tmp_path):
     """recover_file (`sparseedm recover`) averages the same poses with the local
     ridge as recover() does: the same filled poses."""

@@ -138,6 +138,24 @@ def test_bad_arguments_are_refused(cmu_poses, small_dictionary):
         with_file_atoms(small_dictionary, cmu_poses[:5, :10])
 
 
+@pytest.mark.parametrize("kw, name", [(dict(spacing=-1.0), "spacing"),
+                                      (dict(spacing=float("nan")), "spacing"),
+                                      (dict(max_atoms=-1), "max_atoms"),
+                                      (dict(random_state=-1), "random_state")])
+def test_file_dictionary_and_spaced_rows_refuse_bad_arguments(cmu_poses, small_dictionary,
+                                                               kw, name):
+    """A negative spacing merged rows 0.5 apart in spaced_rows (scipy's ball query
+    reads a negative radius its own way); the others failed inside numpy."""
+    from sparseedm.exceptions import ParameterError
+    from sparseedm.file_atoms import file_dictionary, spaced_rows
+
+    with pytest.raises(ParameterError, match=f"file_dictionary: {name}"):
+        file_dictionary(small_dictionary, cmu_poses[:5], **kw)
+    if name in ("spacing", "random_state"):
+        with pytest.raises(ParameterError, match=f"spaced_rows: {name}"):
+            spaced_rows(np.eye(4), **dict(dict(spacing=0.1), **kw))
+
+
 def test_near_copies_make_one_atom_each(cmu_poses, small_dictionary):
     """A file of a few poses each resampled with a little noise (a still person's
     frames) gives the exemplar dictionary one atom per pose, not one per copy."""

@@ -54,6 +54,8 @@ def test_mirror_is_refused_where_it_would_be_ignored_or_has_no_meaning():
     given, _ = occluded(6)
     with pytest.raises(ParameterError, match="mirror"):
         sparseedm.recover(given, mirror=True, frames=np.arange(6))
+    with pytest.raises(ParameterError, match="mirror='auto' averages"):  # the value given
+        sparseedm.recover(given, mirror="auto", frames=np.arange(6))
     with pytest.raises(ParameterError, match="mirror"):
         sparseedm.recover(given, mirror="yes")
     three = Dictionary(np.eye(3), ("a", "b", "c"), alpha_recover=0.1)

@@ -300,3 +300,13 @@ def test_recover_warns_of_joints_at_the_origin_of_pixel_poses(cmu_poses):
         warnings.simplefilter("error")
         res = sparseedm.recover(zeros, missing, adapt=False)
     assert res.status.tolist() == ["recovered"] * 6
+    # the warning's recipe without a mask (it used to need one: origin_joints(poses,
+    # None) raised TypeError): the NaN joints are the missing ones
+    nan = zeros.copy()
+    nan[0, 9] = np.nan
+    nan[origin_joints(nan.tolist())] = np.nan
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        again = sparseedm.recover(nan, adapt=False)
+    assert again.status.tolist() == ["recovered"] * 6
+    np.testing.assert_array_equal(again.poses[1:], res.poses[1:])

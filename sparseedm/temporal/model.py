@@ -943,8 +943,7 @@ def fill_segment(values, free, prior, confidence, settings=DEFAULT_SETTINGS, par
     weight = prior_weights(free, confidence, settings)
     if not free.any():
         return values.copy(), weight, np.zeros(values.shape[1])
-    if parents is None and values.shape[1] == SKELETON_14.num_joints:
-        parents = SKELETON_14.parents
+    parents = _skeleton_parents(parents, values.shape[1])
     w_obs = observation_weight(values, free, settings)
     if settings.carry > 0 and w_obs is not None and parents is not None:
         prior = _carried(values, free, prior, weight, parents, settings.carry)
@@ -969,6 +968,14 @@ def fill_segment(values, free, prior, confidence, settings=DEFAULT_SETTINGS, par
     if settings.repeats:
         filled = repeated(filled, values, free, repeat_rate(values, free))
     return np.where(free[..., None], filled, values), weight, residual
+
+
+def _skeleton_parents(parents, n_joints):
+    """`parents`, or when None the 14-joint skeleton's for poses of its N joints
+    (None for other layouts: no skeleton known, nothing carried or related)."""
+    if parents is None and n_joints == SKELETON_14.num_joints:
+        return SKELETON_14.parents
+    return parents
 
 
 def _carried(values, free, prior, weight, parents, tau):
@@ -1209,8 +1216,9 @@ def probe_errors(values, free, probe, prior, confidence, settings=DEFAULT_SETTIN
 def _carried_distances(values, probed, probe, prior, parents, tau):
     """Summed distances of the per-frame answers and of the carried placements to
     the probed observations, where both exist."""
-    if parents is None:
-        parents = SKELETON_14.parents
+    parents = _skeleton_parents(parents, values.shape[1])
+    if parents is None:  # nothing carried (as fill_segment): not tried
+        return 0.0, 0.0
     carried = carried_prior(values, probed, parents, tau, frames=probe.any(axis=1))
     both = probe & np.isfinite(prior).all(axis=-1) & np.isfinite(carried).all(axis=-1)
     return (float(np.linalg.norm(prior[both] - values[both], axis=-1).sum()),

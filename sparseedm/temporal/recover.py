@@ -37,7 +37,7 @@ from ..dictionary import Dictionary, load_dictionary
 from ..edm import pose_to_vector
 from ..ensemble import adapt_members
 from ..normalize import normalize
-from ..skeleton import SKELETON_14
+from ..skeleton import JOINT_NAMES, SKELETON_14
 from .linking import link_tracks, needs_linking, split_at_jumps
 from .model import (DEFAULT_SETTINGS, choose_carry, choose_trust, fill_segment, prior_frames,
                     prior_scale, probe_errors, probe_mask, probe_settings, segment_settings,
@@ -272,6 +272,13 @@ def _adapt(dictionary, poses, mask, layout, usable, adapt, ensemble, settings, k
         adapt_now, self_train = adapts(len(poses), asks_per_frame)
         if not adapt_now:
             adapt = False
+            if int(ensemble) > 1:  # as adapt_members says when it fits fewer members
+                why = (f"{len(poses)} poses, fewer than the {ADAPT_MIN_FRAMES} a call in "
+                       "time adapts from" if asks_per_frame else
+                       "no pose asks the per-frame model")
+                warnings.warn(f"ensemble={int(ensemble)}: no dictionary is adapted ({why}); "
+                              f"1 dictionary recovers, not {int(ensemble)} members",
+                              UserWarning, stacklevel=6)  # recover()'s caller
         elif not self_train and kw.get("self_training") is None:
             kw = dict(kw, self_training=0)
     if adapt is False or adapt is None:
@@ -674,7 +681,9 @@ def recover_temporal(poses, missing=None, *, tracks=None, frames, dictionary=Non
     kwargs["check_input"] = False  # rows of the poses validated above
     track_of = layout.linked if layout.linked is not None else (
         np.zeros(len(poses), int) if tracks is None else np.asarray(tracks))
-    never = _never_seen(layout, mask, track_of)
+    # mirror images need the 14-joint layout's left and right (Dictionary.mirrored)
+    never = (_never_seen(layout, mask, track_of) if dictionary.joint_names == JOINT_NAMES
+             else None)
     per = _per_frame(poses, mask, need, members, settings, kwargs, never)
     trusts, probe_poses = _trusts(layout, poses, mask, usable, per, settings, members, kwargs,
                                   track_of, planned, never)
