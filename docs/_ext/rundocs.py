@@ -18,7 +18,9 @@ command and every output a page shows comes from a real run:
 
 The sandbox of a page is a fresh folder holding copies of the repository's
 ``examples/`` and ``tests/fixtures/``, so the commands read exactly as a user
-runs them from the root of a clone.
+runs them from the root of a clone; it lies beside the output folder
+(``sandbox-html`` beside ``docs/_build/html``), one per output folder, so that
+builds into different folders do not share it.
 """
 
 from __future__ import annotations
@@ -49,7 +51,8 @@ def sandbox(env):
     """The current page's sandbox folder, made on its first use."""
     folder = env.temp_data.get("rundocs_sandbox")
     if folder is None:
-        base = Path(env.app.outdir).parent / "sandbox"
+        out = Path(env.app.outdir)
+        base = out.parent / f"sandbox-{out.name}"  # one per output folder: builds side by side
         base.mkdir(parents=True, exist_ok=True)
         folder = base / env.docname.replace("/", "-")
         shutil.rmtree(folder, ignore_errors=True)
