@@ -6,10 +6,12 @@ matches a file's name wins; a file no pattern names goes to ``accuracy``). A new
 ``benchmarks/results-*.json`` therefore appears on the next build with no change
 here; :data:`TITLES` gives it a readable title.
 
-The renderer knows two shapes and falls back to a generic one:
+The renderer knows three shapes and falls back to a generic one:
 
 * the video protocols' ``runs`` (each with ``rows`` of ``method``, ``group``,
   ``error``): one table per run, a row per method and a column per group;
+* the real-people files' ``results`` (per source, ``rows`` of ``method``,
+  ``condition``, ``group``, ``mean``): one table per source and condition;
 * anything else: scalars as a two-column table, a mapping of mappings as one
   table (a row per key), a list of mappings as one table (a row per item),
   nested up to three levels under small headings.
@@ -63,6 +65,13 @@ TITLES = {
     "results-video-validation.json": "Video protocols, validation sequences",
     "results-video-validation-30.json": "Video protocols, validation, 30 sequences",
     "results-real-people-val.json": "Real people, validation split",
+    "results-real-people-val-train-complete.json":
+        "Real people, validation split, training poses added as complete poses",
+    "results-video-kalman.json": "Video protocols: the Kalman smoother beside the splines",
+    "results-video-kalman-noise.json":
+        "Video protocols: the Kalman smoother beside the splines, 1 % keypoint jitter",
+    "results-video-kalman-bonn.json":
+        "The Kalman smoother's settings on Bonn PoseTrack validation clips",
 }
 META_KEYS = {"machine", "versions", "meta", "date", "loadavg_start", "loadavg_end",
              "load_average", "load_average_before", "load_average_after", "load_start",
@@ -178,6 +187,47 @@ def _protocol_tables(obj):
     return out
 
 
+def _is_real_people(obj):
+    results = obj.get("results") if isinstance(obj, dict) else None
+    return (isinstance(results, dict) and results
+            and all(isinstance(r, dict) and isinstance(r.get("rows"), list) and r["rows"]
+                    and {"method", "condition", "group", "mean"} <= set(r["rows"][0])
+                    for r in results.values()))
+
+
+def _real_people_tables(obj):
+    """benchmarks/real_people.py's files: per source and condition, the mean error
+    of each method (rows) by joint group or run length (columns), and its seconds."""
+    out = []
+    for source, result in obj["results"].items():
+        conditions = []
+        for r in result["rows"]:
+            if r["condition"] not in conditions:
+                conditions.append(r["condition"])
+        for condition in conditions:
+            rows = [r for r in result["rows"] if r["condition"] == condition]
+            groups, methods, cells, own = [], [], {}, {}
+            for r in rows:
+                groups += [r["group"]] if r["group"] not in groups else []
+                methods += [r["method"]] if r["method"] not in methods else []
+                cells[r["method"], r["group"]] = r["mean"]
+                if r["group"] == "overall":
+                    own[r["method"]] = r.get("mean_own", r["mean"])
+            seconds = result.get("seconds", {}).get(condition, {})
+            extra = any(own[m] != cells[m, "overall"] for m in own)
+            header = ["method"] + groups + (["overall, every hidden joint"] if extra else [])
+            body = [[clean(m)] + [fmt(cells.get((m, g))) for g in groups]
+                    + ([fmt(own.get(m))] if extra else []) + [fmt(seconds.get(m))]
+                    for m in methods]
+            out.append(nodes.rubric(text=f"{source} · {condition}: mean error of the hidden "
+                                         "joints, % of body size"))
+            out.append(table(header + ["seconds"], body))
+        notes = result.get("settings", {}).get("notes") or []
+        for note in notes:
+            out.append(nodes.paragraph(text=clean(note)))
+    return out
+
+
 def _walk(obj, depth):
     out = []
     if isinstance(obj, list):
@@ -236,10 +286,52 @@ def render(path):
     if line:
         para += nodes.Text(f" ({line})")
     section += para
-    body = _protocol_tables(obj) if _is_protocol_runs(obj) else _walk(obj, 0)
+    body = (_protocol_tables(obj) if _is_protocol_runs(obj)
+            else _real_people_tables(obj) if _is_real_people(obj) else _walk(obj, 0))
     for node in body:
         section += node
     return section
+
+
+#: the real-people files the summary table reads, and how their rows are named
+SUMMARY_FILES = {"results-real-people-val.json": "",
+                 "results-real-people-val-train-complete.json": ", training poses added"}
+#: the summary's columns: sparseedm's methods as the files name them
+SUMMARY_OURS = {"sparseedm": "sparseedm defaults", "sparseedm-no-adapt": "adapt=False"}
+
+
+def summary_rows():
+    """One row per real-people file, source and condition: the overall mean error of
+    sparseedm's methods, of IterativeImputer, and of the best other peer."""
+    out = []
+    for name, suffix in SUMMARY_FILES.items():
+        path = ROOT / "benchmarks" / name
+        if not path.is_file():
+            continue
+        for source, result in json.loads(path.read_text(encoding="utf-8"))["results"].items():
+            overall = {}
+            for r in result["rows"]:
+                if r["group"] == "overall":
+                    overall.setdefault(r["condition"], {})[r["method"]] = r["mean"]
+            for condition, means in overall.items():
+                peers = {m: v for m, v in means.items()
+                         if m not in SUMMARY_OURS and m != "per-frame"}
+                best = min(peers, key=peers.get)
+                out.append([f"{source}{suffix} · {condition}"]
+                           + [fmt(means.get(m)) for m in SUMMARY_OURS]
+                           + [fmt(means.get("iterative")), f"{best} {fmt(peers[best])}"])
+    return out
+
+
+class RealPeopleSummary(Directive):
+    """The real-people files' overall errors in one table (``real-people-summary``)."""
+
+    def run(self):
+        env = self.state.document.settings.env
+        for name in SUMMARY_FILES:
+            env.note_dependency(str(ROOT / "benchmarks" / name))
+        header = ["file · condition", *SUMMARY_OURS.values(), "IterativeImputer", "best peer"]
+        return [table(header, summary_rows())]
 
 
 class BenchmarkResults(Directive):
@@ -258,4 +350,5 @@ class BenchmarkResults(Directive):
 
 def setup(app):
     app.add_directive("benchmark-results", BenchmarkResults)
+    app.add_directive("real-people-summary", RealPeopleSummary)
     return {"parallel_read_safe": True, "parallel_write_safe": True}

@@ -8,20 +8,26 @@ command and every output a page shows comes from a real run:
     page's sandbox; the page shows each command after ``$`` and what it printed
     (stdout and stderr, in order). ``:returncode: N`` states the exit code the
     last command must give (default 0); any other exit code fails the build.
+    ``:image: FILE`` shows the PNG the commands wrote there (a figure of
+    ``sparseedm plot``), embedded in the page.
 ``run-python``
     Python source executed in a namespace shared by the page's ``run-python``
     blocks, with the sandbox as the current folder; the page shows the code and
     what it printed. ``:raises: NAME`` states the exception the block must raise
-    (its message is shown, as a user would see it).
+    (its message is shown, as a user would see it). ``:image: FILE`` as above.
 
 The sandbox of a page is a fresh folder holding copies of the repository's
 ``examples/`` and ``tests/fixtures/``, so the commands read exactly as a user
-runs them from the root of a clone.
+runs them from the root of a clone; it lies beside the output folder
+(``sandbox-html`` beside ``docs/_build/html``), one per output folder, so that
+builds into different folders do not share it.
 """
 
 from __future__ import annotations
 
+import base64
 import contextlib
+import html
 import io
 import os
 import shutil
@@ -45,7 +51,8 @@ def sandbox(env):
     """The current page's sandbox folder, made on its first use."""
     folder = env.temp_data.get("rundocs_sandbox")
     if folder is None:
-        base = Path(env.app.outdir).parent / "sandbox"
+        out = Path(env.app.outdir)
+        base = out.parent / f"sandbox-{out.name}"  # one per output folder: builds side by side
         base.mkdir(parents=True, exist_ok=True)
         folder = base / env.docname.replace("/", "-")
         shutil.rmtree(folder, ignore_errors=True)
@@ -81,6 +88,19 @@ def _commands(lines):
     return commands
 
 
+def _image(env, lineno, name):
+    """The PNG `name` of the page's sandbox, embedded in the HTML page (a list of
+    nodes; none, with a build warning, when it was not written)."""
+    path = sandbox(env) / name
+    if not path.is_file():
+        logger.warning("image %r was not written", name, location=(env.docname, lineno))
+        return []
+    data = base64.b64encode(path.read_bytes()).decode("ascii")
+    tag = (f'<img src="data:image/png;base64,{data}" alt="{html.escape(path.name)}" '
+           'style="max-width: 100%">')
+    return [nodes.raw("", tag, format="html")]
+
+
 def _block(text, language):
     block = nodes.literal_block(text, text)
     block["language"] = language
@@ -91,7 +111,8 @@ class RunBash(Directive):
     """Run shell commands at build time and show them with their output."""
 
     has_content = True
-    option_spec = {"returncode": int, "hide-output": directives.flag}
+    option_spec = {"returncode": int, "hide-output": directives.flag,
+                   "image": directives.unchanged}
 
     def run(self):
         env = self.state.document.settings.env
@@ -114,14 +135,17 @@ class RunBash(Directive):
             shown.append("$ " + command)
             if done.stdout.strip() and "hide-output" not in self.options:
                 shown.append(_shorten(done.stdout))
-        return [_block("\n".join(shown), "console")]
+        result = [_block("\n".join(shown), "console")]
+        if "image" in self.options:
+            result.extend(_image(env, self.lineno, self.options["image"]))
+        return result
 
 
 class RunPython(Directive):
     """Execute Python at build time and show the code with what it printed."""
 
     has_content = True
-    option_spec = {"raises": directives.unchanged}
+    option_spec = {"raises": directives.unchanged, "image": directives.unchanged}
 
     def run(self):
         env = self.state.document.settings.env
@@ -154,6 +178,8 @@ class RunPython(Directive):
             output = _block(_shorten(printed), "text")
             output["classes"].append("rundocs-output")
             result.append(output)
+        if "image" in self.options:
+            result.extend(_image(env, self.lineno, self.options["image"]))
         return result
 
 

@@ -58,8 +58,8 @@ sh("sparseedm dataset build mocap -o train.npz --frame-step 1 --cameras-per-pose
 # %%
 # Learn the dictionary
 # --------------------
-# 32 atoms and one pass keep this tutorial fast; the defaults (2,000 atoms, two
-# passes) are what the shipped dictionary uses.
+# 32 atoms and one pass keep this tutorial fast; ``fit``'s defaults are 2,000
+# atoms and two passes.
 sh("sparseedm fit train.npz -o mine.npz --atoms 32 --passes 1 --seed 0", work)
 sh("sparseedm info mine.npz", work)
 
@@ -97,10 +97,13 @@ sh("sparseedm dataset build mocap -o train2.npz --seed 0", work, expect=1)
 # %%
 # At full size
 # ------------
-# On a folder of many clips, the defaults are what the shipped dictionary
-# used: ``sparseedm dataset build CLIPS/ -o train.npz --seed 0``, then
-# ``sparseedm fit train.npz -o my.npz`` (2,000 atoms, two passes; minutes on
-# two cores for the CMU database's 34,000 poses). ``fit`` shows a progress bar with the time left; Ctrl-C leaves a checkpoint
+# On a folder of many clips: ``sparseedm dataset build CLIPS/ -o train.npz
+# --seed 0``, then ``sparseedm fit train.npz -o my.npz`` (2,000 atoms, two
+# passes, training alpha 1.6: the defaults chosen for a training set of a few
+# subjects; the shipped ``cmu-all-k2000`` was learned from every CMU clip,
+# 52,145 poses, with ``--alpha 0.8 --alpha-recover 0.0005 --passes 1``, as
+# ``sparseedm info default`` says and :doc:`/explanation/settings` explains).
+# ``fit`` shows a progress bar with the time left; Ctrl-C leaves a checkpoint
 # and ``--resume`` continues from it. To start from the shipped dictionary
 # instead of from scratch, ``sparseedm fit mine.npz -o tuned.npz --init default``
 # fine-tunes it on your poses.

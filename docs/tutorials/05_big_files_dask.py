@@ -119,7 +119,7 @@ if LocalCluster is not None:
 # --------
 # The benchmarks measure the lasso against SPAMS and scikit-learn on the same
 # machine in the same run; see :doc:`/results/speed`. On two cores the
-# certified path recovers several hundred poses a second with the dictionary
+# certified path recovers about a thousand poses a second with the dictionary
 # as shipped; adapting the dictionary costs a fixed few seconds to half a
 # minute per file, and a file with 2,000 or more complete poses skips it (its
 # own complete poses are the atoms).

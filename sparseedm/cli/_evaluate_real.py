@@ -86,7 +86,7 @@ def add_arguments(p):
     g = p.add_argument_group(
         "real-people protocols", "with --protocol photos or video-real, --data is any keypoint "
         "file (CSV, .npz, COCO JSON, detector formats) and the error of each hidden joint is "
-        "printed in %% of the body size (head top to the ankles' midpoint) as mean (median); "
+        "printed in % of the body size (head top to the ankles' midpoint) as mean (median); "
         "-o gets <protocol>.json and .csv. photos: the file's complete poses, C kept "
         "complete and M with hidden joints, given to each method in one call; methods "
         "sparseedm, sparseedm-no-adapt, iterative, knn, mean-fill, nearest. video-real: each "
