@@ -264,12 +264,34 @@ def joint_features(result, tracks=None, frames=None):
                             np.log(residual + _EPS))
     out["log_residual"] = np.repeat(log_residual[:, None], N, axis=1)
     size = np.repeat(size[:, None], N, axis=1)
+    out.update(_averaging_features(result, filled, size))
     time = _time_features(result, way, filled, safe, tracks, frames, size, noise)
     out.update(time)
     with np.errstate(invalid="ignore", divide="ignore"):
         out["log_noise"] = np.log(np.nan_to_num(noise / size) + _EPS)
     out.update(way=way.astype(str), size=size, noise=noise)
     return out
+
+
+def _averaging_features(result, filled, size):
+    """What the result's record says was averaged (``RecoveryResult.averaged``
+    and ``spread``, read as recorded, not re-derived): ``averaged`` (n, N) the
+    answers averaged into the pose's after its path's own (0, 1, 2),
+    ``rel_spread`` the distance between the answers averaged at the joint over
+    the pose's size (0: none), ``log_complete`` the log of the file's complete
+    poses (:attr:`~sparseedm.adaptation.AdaptationResult.n_complete`, 0 without)."""
+    n, N = filled.shape
+    record = getattr(result, "averaged", None)
+    count = np.zeros(n) if record is None else np.array(
+        [len([k for k in str(t).split("; ") if k]) for t in record], float)
+    spread = getattr(result, "spread", None)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rel = np.zeros((n, N)) if spread is None else np.nan_to_num(
+            np.asarray(spread, float) / size, nan=0.0, posinf=0.0)
+    complete = getattr(getattr(result, "adaptation", None), "n_complete", 0) or 0
+    return {"averaged": np.repeat(count[:, None], N, axis=1),
+            "rel_spread": np.where(filled, rel, 0.0),
+            "log_complete": np.full((n, N), np.log1p(float(complete)))}
 
 
 def coding_way(result):

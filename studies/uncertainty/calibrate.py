@@ -83,7 +83,10 @@ LEVELS = (0.5, 0.6, 0.7, 0.8, 0.9, 0.95)
 #: the options that say what was collected (kept with the cache)
 COLLECTION = ("split", "photo_sources", "fast_sources", "adapt_sources", "cmu_poses", "seeds",
               "coco_seeds", "max_clips", "mocap", "mask_seed")
-KEYS = sorted({f for names in FEATURES.values() for f in names} | {"size", "noise"})
+#: features collected besides the table's (candidates for a re-fit: what was averaged)
+CANDIDATES = ("averaged", "rel_spread", "log_complete")
+KEYS = sorted({f for names in FEATURES.values() for f in names} | {"size", "noise"}
+              | set(CANDIDATES))
 
 
 def _record(res, truth, keep, label, tracks=None, frames=None):
