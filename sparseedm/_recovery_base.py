@@ -276,7 +276,7 @@ def averaged_summary(averaged, answers=(), rows=True):
     kinds = {}
     texts, which = np.unique(np.asarray(averaged, str), return_inverse=True)
     for i, text in enumerate(texts):
-        for kind in filter(None, text.split("; ")):
+        for kind in filter(None, str(text).split("; ")):
             kinds.setdefault(kind, []).append(np.flatnonzero(which == i))
     if kinds:
         out["with"] = {}
