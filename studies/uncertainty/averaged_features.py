@@ -1,0 +1,136 @@
+"""Features that see the averaged answers: do they calibrate the 90 % radius better?
+
+The default path averages some poses' answers with a local ridge's
+(``RecoveryResult.averaged``: poses of at least 4 hidden joints, or every
+occluded pose when the held-back check prefers the mean) and averages three or
+two codes on its averaging paths. The table of ``sparseedm.uncertainty`` was
+fitted on answers of one code. This study re-fits the two ways of filling
+whose answers are averaged (``per_frame``, ``file_atoms``; the other ways'
+answers are unchanged and keep their entries) with candidate features read
+from the result's record (:func:`sparseedm.uncertainty.joint_features`):
+
+* ``averaged``: how many answers were averaged into the pose's (0, 1, 2);
+* ``log_spread``: log of the distance between the two answers averaged at
+  the joint over the pose's size, plus ``SPREAD_FLOOR`` (0 when nothing
+  was averaged: the floor's log);
+* ``log_complete``: log(1 + the file's complete poses).
+
+It fits on the joints ``calibrate.py`` collected on validation masks of seed 0
+and reads the coverage on new validation masks (seed 1); the test split is
+never read here::
+
+    python studies/uncertainty/calibrate.py --check --cache /tmp/val0.npz -o /tmp/c0.json
+    python studies/uncertainty/calibrate.py --check --mask-seed 1 --cache /tmp/val1.npz \
+        -o /tmp/c1.json
+    python studies/uncertainty/averaged_features.py --fit-cache /tmp/val0.npz \
+        --check-cache /tmp/val1.npz          # writes averaged_features.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parents[1]))
+sys.path.insert(0, str(HERE))
+
+import calibrate  # noqa: E402
+from sparseedm.uncertainty import CALIBRATION, FEATURES  # noqa: E402
+
+#: the ways of filling whose answers the default path averages
+WAYS = ("per_frame", "file_atoms")
+#: log_spread = log(spread / size + SPREAD_FLOOR)
+SPREAD_FLOOR = 0.01
+#: candidate feature sets added to both ways' own
+VARIANTS = {
+    "shipped": None,  # the table as it is, no fit
+    "refit": (),
+    "averaged": ("averaged",),
+    "spread": ("log_spread",),
+    "averaged+spread": ("averaged", "log_spread"),
+    "averaged+spread+complete": ("averaged", "log_spread", "log_complete"),
+}
+#: the rule a real-people protocol's coverage is held to (calibrate.MIN_COVERAGE)
+LOW = calibrate.MIN_COVERAGE
+
+
+def load(path):
+    with np.load(path, allow_pickle=False) as f:
+        data = {k: f[k] for k in f.files if k != "settings"}
+    data["log_spread"] = np.log(data["rel_spread"] + SPREAD_FLOOR)
+    return data
+
+
+def _subset(data, at):
+    return {k: (v if k == "refused" else v[at]) for k, v in data.items()}
+
+
+def fit_variant(data, extra):
+    """The table with WAYS re-fitted on `data` with `extra` features added."""
+    saved = {w: FEATURES[w] for w in WAYS}
+    try:
+        for w in WAYS:
+            FEATURES[w] = saved[w] + tuple(extra)
+        table = calibrate.fit(_subset(data, np.isin(data["way"], WAYS)))
+        return {w: table[w] for w in WAYS}, {w: FEATURES[w] for w in WAYS}
+    finally:
+        FEATURES.update(saved)
+
+
+def measure(data, table, names):
+    """Coverage per label and way (calibrate.report) with `names` as WAYS' features."""
+    saved = {w: FEATURES[w] for w in WAYS}
+    try:
+        FEATURES.update(names)
+        return calibrate.report(data, table)
+    finally:
+        FEATURES.update(saved)
+
+
+def digest(rows):
+    """The real-people protocols' coverage (the ones WAYS fill), their lowest,
+    how many fall below LOW, each way's pooled coverage and rank correlation."""
+    real = {lab: r for lab, r in rows.items()
+            if "|" in lab and not lab.startswith("cmu|video") and not lab.endswith("gaps")
+            and set(r["by_way"]) & set(WAYS)}
+    photos = {lab: r["coverage"] for lab, r in real.items() if not lab.startswith("cmu|")}
+    return {"protocols": {lab: real[lab]["coverage"] for lab in sorted(real)},
+            "rank": {lab: real[lab]["spearman"] for lab in sorted(real)},
+            "lowest_real": min(photos.values()),
+            "below_rule": sorted(lab for lab, c in photos.items() if c < LOW),
+            "ways": {w: {"coverage": rows[w]["coverage"], "spearman": rows[w]["spearman"],
+                         "informativeness": rows[w]["informativeness"]}
+                     for w in WAYS if w in rows}}
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--fit-cache", required=True, help="calibrate.py's cache, val seed 0")
+    ap.add_argument("--check-cache", required=True, help="calibrate.py's cache, val seed 1")
+    ap.add_argument("-o", "--output", default=str(HERE / "averaged_features.json"))
+    args = ap.parse_args(argv)
+    fit_data, check_data = load(args.fit_cache), load(args.check_cache)
+    out = {"spread_floor": SPREAD_FLOOR, "variants": {}}
+    for name, extra in VARIANTS.items():
+        if extra is None:
+            table, names = {w: CALIBRATION[w] for w in WAYS}, {w: FEATURES[w] for w in WAYS}
+        else:
+            table, names = fit_variant(fit_data, extra)
+        out["variants"][name] = {
+            "features": {w: list(v) for w, v in names.items()}, "calibration": table,
+            "fit_seed0": digest(measure(fit_data, table, names)),
+            "check_seed1": digest(measure(check_data, table, names))}
+        c = out["variants"][name]["check_seed1"]
+        print(f"{name:26s} seed 1: lowest {c['lowest_real']:.3f} below {c['below_rule']} "
+              + " ".join(f"{w} {v['coverage']:.3f}/{v['spearman']:.2f}"
+                         for w, v in c["ways"].items()), flush=True)
+    Path(args.output).write_text(json.dumps(out, indent=1) + "\n")
+
+
+if __name__ == "__main__":
+    main()
