@@ -92,7 +92,7 @@ import csv
 import json
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -126,6 +126,7 @@ from ._recovery_kernel import PRESETS, compiled_solver, preset_solver
 from .normalize import REPRESENTATIONS, representation_for
 from .outliers import mark_outliers, outlier_names
 from .recovery import STATUSES, check_options_apply, recover
+from .uncertainty import joint_uncertainty
 from .skeleton import JOINT_NAMES
 from .temporal.recover import CLIP_MIN_POSES, adapt_in_time, linked_tracks, offered_poses
 from .temporal.tracks import add_summaries, has_time, track_windows
@@ -510,7 +511,8 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
         members = _with_mirrors(members, mirror, in_time, method)
         recovery = _Recovery(members, alpha, representation, solver, n_jobs, backend,
                              scheduler, method, model, (source.tracks, source.frames)
-                             if in_time else None, mirror == "auto", blend)
+                             if in_time else None, mirror == "auto", blend,
+                             adaptation if method == "sparse" else None)
         summary = _run(source, outputs, recovery, chunk_size, progress, t0)
     finally:
         source.close()
@@ -730,7 +732,10 @@ class _Recovery:
     ensemble) and :func:`recover`'s settings; `time_axis` (tracks, frames) sends
     the poses to temporal recovery, whole tracks per chunk (:meth:`bounds`); `blend`
     the atoms of :func:`~sparseedm.exemplars.blend_many_hidden` (its `atoms` and
-    `mean_atoms`; None: none), as recover() blends."""
+    `mean_atoms`; None: none), as recover() blends; `adaptation` what the run's
+    adaptation did: per pose, each chunk's radii are then rated as recover() rates
+    that path's answers (:func:`~sparseedm.uncertainty.coding_way`), not as the
+    members' own, recovered without it."""
 
     members: list
     alpha: object
@@ -744,6 +749,7 @@ class _Recovery:
     time_axis: tuple = None
     mirror_gate: bool = False
     blend: object = None
+    adaptation: object = None
 
     def bounds(self, n, chunk_size):
         """(rows, keep) of each chunk: `chunk_size` rows (a slice), or in time
@@ -765,13 +771,17 @@ class _Recovery:
                            method=self.method, model=self.model, adapt=False, **in_time)
                    for d in self.members]
         res = combine(results, mirror_weights(results) if self.mirror_gate else None)
-        if self.blend is None:
-            return res
-        # the poses as recover() read them: its mask (validated) says what is missing;
-        # the few blended rows are coded here, without a cluster's client
-        return blend_many_hidden(
-            res, np.where(res.missing[..., None], np.nan, np.asarray(poses, float)),
-            res.missing, *self.blend, representation=self.representation, n_jobs=self.n_jobs)
+        if self.blend is not None:
+            # the poses as recover() read them: its mask (validated) says what is missing;
+            # the few blended rows are coded here, without a cluster's client
+            res = blend_many_hidden(
+                res, np.where(res.missing[..., None], np.nan, np.asarray(poses, float)),
+                res.missing, *self.blend, representation=self.representation,
+                n_jobs=self.n_jobs)
+        if self.adaptation is not None and self.time_axis is None:
+            res = replace(res, adaptation=self.adaptation)
+            res.uncertainty = joint_uncertainty(res)
+        return res
 
 
 @dataclass

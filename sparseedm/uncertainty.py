@@ -25,7 +25,14 @@ with one set of coefficients per way of filling (:data:`CALIBRATION`):
   :func:`coding_way`): over a dictionary adapted (and self-trained) on the
   file, and over the file's own complete poses as the only atoms, by the
   lasso (the default path's exemplars, :mod:`sparseedm.exemplars`) or by
-  ``preset="fast"``'s local ridge. Each path has its own coefficients: a
+  ``preset="fast"``'s local ridge. ``file_atoms`` also reads the file's own
+  measured error: when the default path's check recovered held-back complete
+  poses of the file (hidden as its incomplete poses are) before taking that
+  path, the log of their hidden joints' mean error over the pose's size
+  (``checked`` 1, ``log_held_error``; ``settings["held_err_path"]`` of
+  ``res.adaptation``); a file of such alike people as video frames errs far
+  less than a file of strangers, which the joint's own features do not see.
+  Each path has its own coefficients: a
   dictionary adapted and self-trained on the file agrees with its own
   fills whatever their error, over the file's own poses the errors depend
   on how alike the file's people are, and a ridge's residual is not a
@@ -71,7 +78,7 @@ FEATURES = {
                   "log_residual"),
     "adapted": ("const", "log_missing", "hops", "depth", "log_disagreement"),
     "file_atoms": ("const", "log_missing", "hops", "depth", "log_disagreement",
-                   "log_residual"),
+                   "log_residual", "checked", "log_held_error"),
     "local_ridge": ("const", "log_missing", "hops", "depth", "log_disagreement",
                     "log_residual"),
     "temporal": ("const", "log_frames", "one_sided", "never", "hops", "depth",
@@ -86,8 +93,8 @@ CALIBRATION = {
         "coef": (2.4431, 0.6146, 0.4932, 0.1552, 0.4376, 0.7945)},
     "adapted": {"conformal": 1.1945,
         "coef": (-1.7005, 0.3744, 0.4231, 0.2761, 0.0855)},
-    "file_atoms": {"conformal": 1.0632,
-        "coef": (1.8037, 0.3945, 0.3829, 0.2546, 0.6612, 0.48)},
+    "file_atoms": {"conformal": 1.0005,
+        "coef": (1.7623, 0.1811, 0.282, 0.2963, 0.4739, 0.6574, 1.1055, 0.3902)},
     "local_ridge": {"conformal": 1.086,
         "coef": (-0.1289, 0.4269, 0.4935, 0.3076, 0.4877, 0.1854)},
     "temporal": {"conformal": 1.1385,
@@ -279,7 +286,10 @@ def _averaging_features(result, filled, size):
     answers averaged into the pose's after its path's own (0, 1, 2),
     ``rel_spread`` the distance between the answers averaged at the joint over
     the pose's size (0: none), ``log_complete`` the log of the file's complete
-    poses (:attr:`~sparseedm.adaptation.AdaptationResult.n_complete`, 0 without)."""
+    poses (:attr:`~sparseedm.adaptation.AdaptationResult.n_complete`, 0 without),
+    ``checked`` 1 when the default path's check measured the path's error on
+    held-back complete poses and ``log_held_error`` the log of that error as a
+    fraction of the pose's size (0 unchecked)."""
     n, N = filled.shape
     record = getattr(result, "averaged", None)
     count = np.zeros(n) if record is None else np.array(
@@ -288,10 +298,15 @@ def _averaging_features(result, filled, size):
     with np.errstate(invalid="ignore", divide="ignore"):
         rel = np.zeros((n, N)) if spread is None else np.nan_to_num(
             np.asarray(spread, float) / size, nan=0.0, posinf=0.0)
-    complete = getattr(getattr(result, "adaptation", None), "n_complete", 0) or 0
+    adaptation = getattr(result, "adaptation", None)
+    complete = getattr(adaptation, "n_complete", 0) or 0
+    held = float(getattr(adaptation, "settings", {}).get("held_err_path", np.nan))
+    checked = np.isfinite(held) and held > 0
     return {"averaged": np.repeat(count[:, None], N, axis=1),
             "rel_spread": np.where(filled, rel, 0.0),
-            "log_complete": np.full((n, N), np.log1p(float(complete)))}
+            "log_complete": np.full((n, N), np.log1p(float(complete))),
+            "checked": np.full((n, N), float(checked)),
+            "log_held_error": np.full((n, N), np.log(held / 100) if checked else 0.0)}
 
 
 def coding_way(result):

@@ -512,12 +512,14 @@ def test_recover_file_blends_as_recover_does(cmu_poses, small_dictionary, tmp_pa
     src = write_keypoints(tmp_path / "in.npz", KeypointSet(poses, missing))
     summary = recover_file(src, tmp_path / "out.npz", dictionary=small_dictionary)
     with np.load(tmp_path / "out.npz") as out:
-        filed, averaged = out["poses"], out["averaged"]
+        filed, averaged, radii = out["poses"], out["averaged"], out["uncertainty"]
     res = recover(poses, missing, dictionary=small_dictionary)
     rows = np.intersect1d(blend_rows(missing), np.flatnonzero(res.ok))  # not the refused
     assert len(rows) == 12
     np.testing.assert_allclose(filed[rows], res.poses[rows], rtol=0, atol=1e-6)
     np.testing.assert_allclose(filed[res.ok], res.poses[res.ok], rtol=0, atol=1e-6)
+    # rated as recover() rates the path's answers (not as the members' own)
+    np.testing.assert_allclose(radii[res.ok], res.uncertainty[res.ok], rtol=1e-6, atol=1e-6)
     # which poses were averaged reaches the file, its summary and its reader
     np.testing.assert_array_equal(averaged, res.averaged)
     assert all(AVERAGED_MANY_HIDDEN in a for a in averaged[rows])

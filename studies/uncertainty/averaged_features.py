@@ -13,7 +13,10 @@ from the result's record (:func:`sparseedm.uncertainty.joint_features`):
 * ``log_spread``: log of the distance between the two answers averaged at
   the joint over the pose's size, plus ``SPREAD_FLOOR`` (0 when nothing
   was averaged: the floor's log);
-* ``log_complete``: log(1 + the file's complete poses).
+* ``log_complete``: log(1 + the file's complete poses);
+* ``checked``, ``log_held_error``: whether the default path's check measured
+  its answer's error on held-back complete poses of the file, and the log of
+  that error (a fraction of the pose's size; 0 unchecked).
 
 It fits on the joints ``calibrate.py`` collected on validation masks of seed 0
 and reads the coverage on new validation masks (seed 1); the test split is
@@ -46,17 +49,25 @@ from sparseedm.uncertainty import CALIBRATION, FEATURES  # noqa: E402
 WAYS = ("per_frame", "file_atoms")
 #: log_spread = log(spread / size + SPREAD_FLOOR)
 SPREAD_FLOOR = 0.01
-#: candidate feature sets added to both ways' own
-VARIANTS = {
-    "shipped": None,  # the table as it is, no fit
+#: candidate feature sets added to each way's own (None: the shipped entry, no fit)
+_BOTH = {
     "refit": (),
     "averaged": ("averaged",),
     "spread": ("log_spread",),
     "averaged+spread": ("averaged", "log_spread"),
     "averaged+spread+complete": ("averaged", "log_spread", "log_complete"),
+    "held": ("checked", "log_held_error"),
+    "spread+held": ("log_spread", "checked", "log_held_error"),
+    "averaged+spread+held": ("averaged", "log_spread", "checked", "log_held_error"),
 }
+VARIANTS = {"shipped": {"per_frame": None, "file_atoms": None},
+            **{name: {"per_frame": extra, "file_atoms": extra} for name, extra in _BOTH.items()},
+            # file atoms only (per_frame's shipped entry): its files are the ones checked
+            **{f"file_atoms:{name}": {"per_frame": None, "file_atoms": _BOTH[name]}
+               for name in ("held", "spread+held", "averaged+spread+held")}}
 #: the rule a real-people protocol's coverage is held to (calibrate.MIN_COVERAGE)
 LOW = calibrate.MIN_COVERAGE
+calibrate.KEYS.append("log_spread")  # derived here from rel_spread (load)
 
 
 def load(path):
@@ -70,13 +81,17 @@ def _subset(data, at):
     return {k: (v if k == "refused" else v[at]) for k, v in data.items()}
 
 
-def fit_variant(data, extra):
-    """The table with WAYS re-fitted on `data` with `extra` features added."""
+def fit_variant(data, extras):
+    """The table of WAYS, each re-fitted on `data` with its `extras` features
+    added (None: its shipped entry), and each way's feature names."""
     saved = {w: FEATURES[w] for w in WAYS}
+    fitted = [w for w in WAYS if extras[w] is not None]
+    table = {w: CALIBRATION[w] for w in WAYS}
     try:
-        for w in WAYS:
-            FEATURES[w] = saved[w] + tuple(extra)
-        table = calibrate.fit(_subset(data, np.isin(data["way"], WAYS)))
+        for w in fitted:
+            FEATURES[w] = saved[w] + tuple(extras[w])
+        if fitted:
+            table.update(calibrate.fit(_subset(data, np.isin(data["way"], fitted))))
         return {w: table[w] for w in WAYS}, {w: FEATURES[w] for w in WAYS}
     finally:
         FEATURES.update(saved)
@@ -116,11 +131,8 @@ def main(argv=None):
     args = ap.parse_args(argv)
     fit_data, check_data = load(args.fit_cache), load(args.check_cache)
     out = {"spread_floor": SPREAD_FLOOR, "variants": {}}
-    for name, extra in VARIANTS.items():
-        if extra is None:
-            table, names = {w: CALIBRATION[w] for w in WAYS}, {w: FEATURES[w] for w in WAYS}
-        else:
-            table, names = fit_variant(fit_data, extra)
+    for name, extras in VARIANTS.items():
+        table, names = fit_variant(fit_data, extras)
         out["variants"][name] = {
             "features": {w: list(v) for w, v in names.items()}, "calibration": table,
             "fit_seed0": digest(measure(fit_data, table, names)),
