@@ -511,8 +511,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
         members = _with_mirrors(members, mirror, in_time, method)
         recovery = _Recovery(members, alpha, representation, solver, n_jobs, backend,
                              scheduler, method, model, (source.tracks, source.frames)
-                             if in_time else None, mirror == "auto", blend,
-                             adaptation if method == "sparse" else None)
+                             if in_time else None, mirror == "auto", blend, adaptation)
         summary = _run(source, outputs, recovery, chunk_size, progress, t0)
     finally:
         source.close()
@@ -522,13 +521,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
     summary["threshold_line"] = threshold_line(threshold, confidence_threshold is not None,
                                                in_fmt, summary["below_threshold"])
     summary["adaptation"] = adaptation.summary() if adaptation is not None else None
-    # the path's own averaged answers (nothing learned) are not an ensemble asked for
-    own = adaptation.averaged_answers if adaptation is not None and summary_members > 1 \
-        else ()
-    if own:
-        summary["averaged"] = {"answers": list(own), **summary["averaged"]}
-    summary["ensemble"] = 1 if own and "ensemble" not in adaptation.settings else \
-        summary_members
+    _say_averaged(summary, adaptation, summary_members)
     summary["mirror"] = mirror
     summary["linked_tracks"] = None if source.linked is None else \
         int(len(np.unique(source.linked)))
@@ -536,6 +529,16 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
     if save_dictionary is not None:
         summary["dictionary"] = str(dictionary.save(save_dictionary))
     return summary
+
+
+def _say_averaged(summary, adaptation, n_members):
+    """`summary`'s ``averaged`` with the path's own averaged answers, and its
+    ``ensemble``: 1 when the `n_members` dictionaries are those answers (nothing
+    learned) and no ensemble was asked for."""
+    own = adaptation.averaged_answers if adaptation is not None and n_members > 1 else ()
+    if own:
+        summary["averaged"] = {"answers": list(own), **summary["averaged"]}
+    summary["ensemble"] = 1 if own and "ensemble" not in adaptation.settings else n_members
 
 
 def _with_mirrors(members, mirror, in_time, method):
