@@ -43,13 +43,19 @@ sys.path.insert(0, str(HERE.parents[1]))
 sys.path.insert(0, str(HERE))
 
 import calibrate  # noqa: E402
-from sparseedm.uncertainty import CALIBRATION, FEATURES  # noqa: E402
+from sparseedm.uncertainty import FEATURES  # noqa: E402
 
 #: the ways of filling whose answers the default path averages
 WAYS = ("per_frame", "file_atoms")
+#: their features and entries before this study (fitted on answers of one code)
+BEFORE_FEATURES = ("const", "log_missing", "hops", "depth", "log_disagreement", "log_residual")
+BEFORE = {"per_frame": {"conformal": 1.0682,
+                        "coef": (2.4431, 0.6146, 0.4932, 0.1552, 0.4376, 0.7945)},
+          "file_atoms": {"conformal": 1.0632,
+                         "coef": (1.8037, 0.3945, 0.3829, 0.2546, 0.6612, 0.48)}}
 #: log_spread = log(spread / size + SPREAD_FLOOR)
 SPREAD_FLOOR = 0.01
-#: candidate feature sets added to each way's own (None: the shipped entry, no fit)
+#: candidate feature sets added to each way's own (None: its BEFORE entry, no fit)
 _BOTH = {
     "refit": (),
     "averaged": ("averaged",),
@@ -60,9 +66,9 @@ _BOTH = {
     "spread+held": ("log_spread", "checked", "log_held_error"),
     "averaged+spread+held": ("averaged", "log_spread", "checked", "log_held_error"),
 }
-VARIANTS = {"shipped": {"per_frame": None, "file_atoms": None},
+VARIANTS = {"before": {"per_frame": None, "file_atoms": None},
             **{name: {"per_frame": extra, "file_atoms": extra} for name, extra in _BOTH.items()},
-            # file atoms only (per_frame's shipped entry): its files are the ones checked
+            # file atoms only (per_frame's entry as before): its files are the ones checked
             **{f"file_atoms:{name}": {"per_frame": None, "file_atoms": _BOTH[name]}
                for name in ("held", "spread+held", "averaged+spread+held")}}
 #: the rule a real-people protocol's coverage is held to (calibrate.MIN_COVERAGE)
@@ -83,15 +89,16 @@ def _subset(data, at):
 
 def fit_variant(data, extras):
     """The table of WAYS, each re-fitted on `data` with its `extras` features
-    added (None: its shipped entry), and each way's feature names."""
+    added to BEFORE_FEATURES (None: its BEFORE entry), and each way's feature names."""
     saved = {w: FEATURES[w] for w in WAYS}
     fitted = [w for w in WAYS if extras[w] is not None]
-    table = {w: CALIBRATION[w] for w in WAYS}
+    table = dict(BEFORE)
     try:
-        for w in fitted:
-            FEATURES[w] = saved[w] + tuple(extras[w])
+        for w in WAYS:
+            FEATURES[w] = BEFORE_FEATURES + tuple(extras[w] or ())
         if fitted:
-            table.update(calibrate.fit(_subset(data, np.isin(data["way"], fitted))))
+            found = calibrate.fit(_subset(data, np.isin(data["way"], fitted)))
+            table.update({w: found[w] for w in fitted})
         return {w: table[w] for w in WAYS}, {w: FEATURES[w] for w in WAYS}
     finally:
         FEATURES.update(saved)
