@@ -69,8 +69,8 @@ from .normalize import rms_radius
 from .skeleton import SKELETON_14
 
 __all__ = ["joint_uncertainty", "joint_features", "uncertainty_rule", "coding_way",
-           "CALIBRATION", "FEATURES", "MIN_RELATIVE", "NOISE_RADIUS", "UNSOLVED_LOG_RESIDUAL",
-           "radius_at"]
+           "CALIBRATION", "FEATURES", "UNCHECKED_FEATURES", "MIN_RELATIVE", "NOISE_RADIUS",
+           "UNSOLVED_LOG_RESIDUAL", "radius_at"]
 
 #: the features each way of filling uses, in the order of its coefficients
 FEATURES = {
@@ -78,23 +78,32 @@ FEATURES = {
                   "log_residual"),
     "adapted": ("const", "log_missing", "hops", "depth", "log_disagreement"),
     "file_atoms": ("const", "log_missing", "hops", "depth", "log_disagreement",
-                   "log_residual", "checked", "log_held_error"),
+                   "log_residual", "log_held_error"),
     "local_ridge": ("const", "log_missing", "hops", "depth", "log_disagreement",
                     "log_residual"),
     "temporal": ("const", "log_frames", "one_sided", "never", "hops", "depth",
                  "log_missing", "log_noise"),
 }
 
+#: the features of a way's ``"unchecked"`` entry: its joints in files the default
+#: path's check did not measure (no held-back error)
+UNCHECKED_FEATURES = {"file_atoms": ("const", "log_missing", "hops", "depth",
+                                     "log_disagreement", "log_residual")}
+
 #: coefficients of log(radius / size) per way of filling, and the conformal
 #: factor; fitted by ``studies/uncertainty/calibrate.py`` on validation data
-#: (studies/uncertainty/calibration.json has the run's coverage per source)
+#: (studies/uncertainty/calibration.json has the run's coverage per source);
+#: ``"unchecked"``: the entry (features :data:`UNCHECKED_FEATURES`) of the way's
+#: joints in files without a held-back error
 CALIBRATION = {
     "per_frame": {"conformal": 1.0682,
         "coef": (2.4431, 0.6146, 0.4932, 0.1552, 0.4376, 0.7945)},
     "adapted": {"conformal": 1.1945,
         "coef": (-1.7005, 0.3744, 0.4231, 0.2761, 0.0855)},
-    "file_atoms": {"conformal": 1.0005,
-        "coef": (1.7623, 0.1811, 0.282, 0.2963, 0.4739, 0.6574, 1.1055, 0.3902)},
+    "file_atoms": {"conformal": 0.9998,
+        "coef": (3.0178, 0.1843, 0.3024, 0.2605, 0.4772, 0.6809, 0.3898),
+        "unchecked": {"conformal": 1.0632,
+                      "coef": (1.8037, 0.3945, 0.3829, 0.2546, 0.6612, 0.48)}},
     "local_ridge": {"conformal": 1.086,
         "coef": (-0.1289, 0.4269, 0.4935, 0.3076, 0.4877, 0.1854)},
     "temporal": {"conformal": 1.1385,
@@ -401,12 +410,25 @@ def uncertainty_rule(features, calibration=None):
         if not at.any():
             continue
         entry = calibration[name]
-        x = np.stack([features[f][at] for f in names], axis=-1)
-        relative = np.exp(x @ np.asarray(entry["coef"], float)) * entry["conformal"]
-        floor = np.maximum(np.nan_to_num(features["noise"][at]), MIN_RELATIVE * size[at])
-        with np.errstate(over="ignore"):  # a pose near float's limit: the largest radius
-            radius[at] = np.minimum(np.maximum(floor, size[at] * relative), _HUGE)
+        if "unchecked" in entry:  # files without the check's held-back error
+            unchecked = at & (features["checked"] == 0)
+            _radius_into(radius, features, unchecked, UNCHECKED_FEATURES[name],
+                         entry["unchecked"])
+            at &= ~unchecked
+        _radius_into(radius, features, at, names, entry)
     return radius
+
+
+def _radius_into(radius, features, at, names, entry):
+    """`radius` at `at` by the rule `entry` over the features `names`."""
+    if not at.any():
+        return
+    size = features["size"][at]
+    x = np.stack([features[f][at] for f in names], axis=-1)
+    relative = np.exp(x @ np.asarray(entry["coef"], float)) * entry["conformal"]
+    floor = np.maximum(np.nan_to_num(features["noise"][at]), MIN_RELATIVE * size)
+    with np.errstate(over="ignore"):  # a pose near float's limit: the largest radius
+        radius[at] = np.minimum(np.maximum(floor, size * relative), _HUGE)
 
 
 def joint_uncertainty(result, tracks=None, frames=None, calibration=None):

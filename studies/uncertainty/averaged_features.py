@@ -43,7 +43,7 @@ sys.path.insert(0, str(HERE.parents[1]))
 sys.path.insert(0, str(HERE))
 
 import calibrate  # noqa: E402
-from sparseedm.uncertainty import FEATURES  # noqa: E402
+from sparseedm.uncertainty import CALIBRATION, FEATURES  # noqa: E402
 
 #: the ways of filling whose answers the default path averages
 WAYS = ("per_frame", "file_atoms")
@@ -56,6 +56,8 @@ BEFORE = {"per_frame": {"conformal": 1.0682,
 #: log_spread = log(spread / size + SPREAD_FLOOR)
 SPREAD_FLOOR = 0.01
 #: candidate feature sets added to each way's own (None: its BEFORE entry, no fit)
+#: marks a variant fitted on the checked files only (:func:`fit_variant`)
+CHECKED = "checked files only"
 _BOTH = {
     "refit": (),
     "averaged": ("averaged",),
@@ -70,7 +72,11 @@ VARIANTS = {"before": {"per_frame": None, "file_atoms": None},
             **{name: {"per_frame": extra, "file_atoms": extra} for name, extra in _BOTH.items()},
             # file atoms only (per_frame's entry as before): its files are the ones checked
             **{f"file_atoms:{name}": {"per_frame": None, "file_atoms": _BOTH[name]}
-               for name in ("held", "spread+held", "averaged+spread+held")}}
+               for name in ("held", "spread+held", "averaged+spread+held")},
+            # the held-back error, fitted on the checked files only; files without
+            # it keep the rule before (its unchecked term rested on one mocap file)
+            "file_atoms:held, checked files": {"per_frame": None,
+                                               "file_atoms": (CHECKED, "log_held_error")}}
 #: the rule a real-people protocol's coverage is held to (calibrate.MIN_COVERAGE)
 LOW = calibrate.MIN_COVERAGE
 calibrate.KEYS.append("log_spread")  # derived here from rel_spread (load)
@@ -91,17 +97,23 @@ def fit_variant(data, extras):
     """The table of WAYS, each re-fitted on `data` with its `extras` features
     added to BEFORE_FEATURES (None: its BEFORE entry), and each way's feature names."""
     saved = {w: FEATURES[w] for w in WAYS}
+    entries = {w: CALIBRATION[w] for w in WAYS}
     fitted = [w for w in WAYS if extras[w] is not None]
     table = dict(BEFORE)
     try:
         for w in WAYS:
-            FEATURES[w] = BEFORE_FEATURES + tuple(extras[w] or ())
+            extra = tuple(extras[w] or ())
+            # CHECKED: fitted on the checked files only, the others keep BEFORE's rule
+            CALIBRATION[w] = dict(BEFORE[w], **(
+                {"unchecked": BEFORE[w]} if extra[:1] == (CHECKED,) else {}))
+            FEATURES[w] = BEFORE_FEATURES + tuple(f for f in extra if f != CHECKED)
         if fitted:
             found = calibrate.fit(_subset(data, np.isin(data["way"], fitted)))
             table.update({w: found[w] for w in fitted})
         return {w: table[w] for w in WAYS}, {w: FEATURES[w] for w in WAYS}
     finally:
         FEATURES.update(saved)
+        CALIBRATION.update(entries)
 
 
 def measure(data, table, names):

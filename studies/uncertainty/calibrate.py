@@ -283,6 +283,9 @@ def fit(data, quantile=0.9, ways=None):
         if not at.any() or (ways is not None and way not in ways):
             table[way] = CALIBRATION[way]
             continue
+        unchecked = CALIBRATION[way].get("unchecked")
+        if unchecked is not None:  # fitted on the checked files; the others keep theirs
+            at &= data["checked"] == 1
         X = np.stack([data[f][at] for f in names], axis=-1)
         y = np.log(np.maximum(data["error"][at], 1e-3 * data["size"][at]) / data["size"][at])
         w = _balanced_weights(data["label"][at])
@@ -300,6 +303,8 @@ def fit(data, quantile=0.9, ways=None):
         # no real protocol below MIN_COVERAGE: the factor its joints need, if larger
         floor = max(np.quantile(ratio[labels == lab], MIN_COVERAGE) for lab in np.unique(labels))
         entry["conformal"] = round(float(max(_weighted_quantile(ratio, w, quantile), floor)), 4)
+        if unchecked is not None:
+            entry["unchecked"] = unchecked
         table[way] = entry
     return table
 
@@ -381,7 +386,13 @@ def write_module(table, path=ROOT / "sparseedm" / "uncertainty.py"):
     for way, entry in table.items():
         coef = ", ".join(repr(float(c)) for c in entry["coef"])
         lines.append(f'    "{way}": {{"conformal": {float(entry["conformal"])!r},')
-        lines.append(f'{" " * 8}"coef": ({coef})}},')
+        if "unchecked" not in entry:
+            lines.append(f'{" " * 8}"coef": ({coef})}},')
+            continue
+        lines.append(f'{" " * 8}"coef": ({coef}),')
+        rest = entry["unchecked"]
+        lines.append(f'{" " * 8}"unchecked": {{"conformal": {float(rest["conformal"])!r},')
+        lines.append(f'{" " * 22}"coef": ({", ".join(repr(float(c)) for c in rest["coef"])})}}}},')
     lines.append("}")
     new, count = re.subn(r"CALIBRATION = \{\n.*?\n\}", "\n".join(lines), text, flags=re.S)
     if count != 1:
