@@ -31,7 +31,9 @@ with one set of coefficients per way of filling (:data:`CALIBRATION`):
   path, the log of their hidden joints' mean error over the pose's size
   (``checked`` 1, ``log_held_error``; ``settings["held_err_path"]`` of
   ``res.adaptation``); a file of such alike people as video frames errs far
-  less than a file of strangers, which the joint's own features do not see.
+  less than a file of strangers, which the joint's own features do not see;
+  a file the check did not measure (from 2,000 complete poses) gets the
+  way's ``"unchecked"`` rule, without that error (:data:`UNCHECKED_FEATURES`).
   Each path has its own coefficients: a
   dictionary adapted and self-trained on the file agrees with its own
   fills whatever their error, over the file's own poses the errors depend

@@ -200,6 +200,20 @@ def test_few_poses_are_averaged_with_their_mirror_images_when_the_check_says_so(
     assert "ensemble" not in said and len(said["averaged"]["answers"]) == 2
 
 
+def test_recover_file_says_the_paths_own_averaged_answers_are_no_ensemble(
+        cmu_poses, small_dictionary, tmp_path):
+    """`sparseedm recover` on a file the default path averages two codes of: its
+    summary names the answers averaged and reports no ensemble nobody asked for."""
+    from sparseedm.batch import recover_file
+    from sparseedm.keypoints import KeypointSet, write_keypoints
+
+    poses, missing = _mirror_twins(cmu_poses, 120)
+    src = write_keypoints(tmp_path / "in.npz", KeypointSet(poses, missing))
+    summary = recover_file(src, tmp_path / "out.npz", dictionary=small_dictionary)
+    assert summary["adaptation"]["path"] == MIRRORED_ATOMS_PATH
+    assert summary["ensemble"] == 1 and len(summary["averaged"]["answers"]) == 2
+
+
 def test_few_poses_keep_the_base_with_file_atoms_when_the_check_declines(
         cmu_poses, small_dictionary):
     """Below MIN_COMPLETE_POSES, when the mean with the mirror images did not recover
