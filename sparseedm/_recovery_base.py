@@ -34,7 +34,7 @@ __all__ = ["STATUSES", "OK_STATUSES", "RecoveryResult", "Screened", "Screening",
            "validate_poses", "bad_coordinates", "screen_poses", "screen",
            "place_occluded_inplace", "combine", "mirror_weights", "MIRROR_TEMPERATURE",
            "SCREENING_REFUSALS", "status_counts", "poses_per_second", "recovery_summary",
-           "take_rows", "put_rows"]
+           "take_rows", "put_rows", "averaged_summary"]
 
 #: Per-pose statuses and what they mean.
 STATUSES = {
@@ -147,6 +147,17 @@ class RecoveryResult:
         both contradicted, treated as missing and filled
         (:mod:`sparseedm.outliers`); None when no confidence was given or the
         check was off.
+    averaged : ndarray of str (n,) or None
+        What each pose's answer was averaged with after its path's own answer,
+        ``""``: nothing (:func:`sparseedm.exemplars.blend_many_hidden`: the
+        local ridge's answer over the file's complete poses,
+        :data:`~sparseedm.exemplars.AVERAGED_MANY_HIDDEN`, and over the base
+        with them as extra atoms, :data:`~sparseedm.exemplars.AVERAGED_RIDGE_MEAN`,
+        joined by ``"; "``); None: the path averaged nothing so.
+    spread : ndarray (n, N) or None
+        With ``averaged``: the distance (the input's units) between the two
+        answers averaged at each filled joint (the largest when averaged
+        twice), 0 where nothing was averaged.
     """
 
     poses: np.ndarray
@@ -167,6 +178,8 @@ class RecoveryResult:
     members: int = 1
     uncertainty: np.ndarray | None = None
     outliers: np.ndarray | None = None
+    averaged: np.ndarray | None = None
+    spread: np.ndarray | None = None
 
     @property
     def edms(self) -> np.ndarray:
@@ -215,15 +228,63 @@ class RecoveryResult:
             each status present), as :func:`recovery_summary` gives them; also
             ``adaptation`` (:meth:`AdaptationResult.summary
             <sparseedm.adaptation.AdaptationResult.summary>`) when adaptation
-            ran, and ``ensemble`` (the members) when more than one.
+            ran; ``averaged`` (:func:`averaged_summary`) when the path averaged
+            answers of its own (``answers``) or some poses' answers with
+            another's (``with``); and ``ensemble`` (the members) when more
+            than one and not the path's own averaged answers.
         """
         recovered = self.missing[np.isin(self.status, ("recovered", "inaccurate"))].sum()
         out = recovery_summary(self.status, recovered, self.fallback, self.seconds)
         if self.adaptation is not None:
             out["adaptation"] = self.adaptation.summary()
-        if self.members > 1:
+        averaged = averaged_summary(self.averaged, getattr(
+            self.adaptation, "averaged_answers", ()) if self.members > 1 else ())
+        if averaged:
+            out["averaged"] = averaged
+        if self.members > 1 and not (averaged.get("answers") and
+                                     "ensemble" not in out.get("adaptation", {})):
             out["ensemble"] = self.members
         return out
+
+
+def averaged_summary(averaged, answers=(), rows=True):
+    """What a result's answers average, said for a person: ``answers`` (the
+    codes the path itself averages for every occluded pose, :attr:`AdaptationResult.averaged_answers
+    <sparseedm.adaptation.AdaptationResult.averaged_answers>`) and ``with``
+    (per kind of :attr:`RecoveryResult.averaged`, the ``poses`` whose answer
+    was averaged with it and, with `rows`, their ``rows``); {} when nothing
+    was averaged (an ensemble asked for is ``summary()["ensemble"]``).
+
+    Parameters
+    ----------
+    averaged : array_like of str (n,) or None
+        :attr:`RecoveryResult.averaged`.
+    answers : sequence of str, default ()
+        The path's own averaged answers.
+    rows : bool, default True
+        List the rows of each kind.
+
+    Examples
+    --------
+    >>> averaged_summary(np.array(["", "a", "a; b"]))
+    {'with': {'a': {'poses': 2, 'rows': [1, 2]}, 'b': {'poses': 1, 'rows': [2]}}}
+    >>> averaged_summary(None, ("x", "y"))
+    {'answers': ['x', 'y']}
+    """
+    out = {"answers": list(answers)} if len(answers) else {}
+    if averaged is None:
+        return out
+    kinds = {}
+    texts, which = np.unique(np.asarray(averaged, str), return_inverse=True)
+    for i, text in enumerate(texts):
+        for kind in filter(None, str(text).split("; ")):
+            kinds.setdefault(kind, []).append(np.flatnonzero(which == i))
+    if kinds:
+        out["with"] = {}
+        for kind, parts in kinds.items():
+            at = np.sort(np.concatenate(parts))
+            out["with"][kind] = dict(poses=len(at), **({"rows": at.tolist()} if rows else {}))
+    return out
 
 
 #: the smallest extent a pose may have: below it 1/extent overflows or loses bits

@@ -113,6 +113,10 @@ MIRRORED_ATOMS_PATH = "base + file atoms averaged with base + file atoms and mir
 #: AdaptationResult.path values where the file's own complete poses are the only
 #: atoms (their answers alone, or averaged with others': :data:`AVERAGED_PATH`)
 FILE_ATOMS_PATHS = ("file atoms", AVERAGED_PATH)
+#: the answers each averaging path averages (AdaptationResult.averaged_answers)
+_AVERAGED_ANSWERS = {
+    AVERAGED_PATH: ("file atoms", "file atoms and their mirror images", "base + file atoms"),
+    MIRRORED_ATOMS_PATH: ("base + file atoms", "base + file atoms and their mirror images")}
 #: Inner-statistics modes of :func:`adapt_vectors`.
 STATS = ("fresh", "carried")
 # defaults chosen by studies/adaptation/select_adaptation.py (see docs/explanation/settings.md)
@@ -820,6 +824,13 @@ class AdaptationResult:
         if self.adapted:
             return "adapted"
         return "base + file atoms" if self.file_atoms else "base"
+
+    @property
+    def averaged_answers(self) -> tuple:
+        """The codes whose answers the path averages for every occluded pose
+        (:data:`AVERAGED_PATH`, :data:`MIRRORED_ATOMS_PATH`: nothing learned, no
+        ensemble asked for); empty: one answer per dictionary recovered with."""
+        return _AVERAGED_ANSWERS.get(self.settings.get("path"), ())
 
     @property
     def over_file_atoms(self) -> bool:

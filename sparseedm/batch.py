@@ -41,6 +41,14 @@ Every output holds, per row, ``status`` (one of
     a plain (n, 14, 2) array cannot hold them: they go to a sidecar
     ``<output stem>.status.npz`` (with ``ids`` when the input had them).
 
+When the run may average some poses' answers with another's (the default
+path over the file's complete poses:
+:func:`sparseedm.exemplars.blend_many_hidden`), one more per-row field,
+``averaged``, says what each pose's answer was averaged with
+(:attr:`sparseedm.recovery.RecoveryResult.averaged`; empty: nothing), in
+every format as ``outliers`` is below, and ``summary["averaged"]`` counts the
+poses per kind.
+
 Refused rows are written back as they were read (observed joints kept, the
 missing ones NaN / missing), so row i of the output is always row i of the
 input. Detector confidences are not written to csv/npz/npy outputs. Every
@@ -84,7 +92,7 @@ import csv
 import json
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -112,11 +120,13 @@ from .keypoints import (FLAGS_IN_SIDECAR, N_JOINTS, EXTENSIONS, beside, check_jo
                         finish_missing, format_of, load_single_npy, npy_confidence,
                         origin_joints, read_keypoints, status_sidecar, write_keypoints)
 from .keypoints import output_format as keypoint_output_format
-from ._recovery_base import OK_STATUSES, combine, mirror_weights, recovery_summary
+from ._recovery_base import (OK_STATUSES, averaged_summary, combine, mirror_weights,
+                             recovery_summary)
 from ._recovery_kernel import PRESETS, compiled_solver, preset_solver
 from .normalize import REPRESENTATIONS, representation_for
 from .outliers import mark_outliers, outlier_names
 from .recovery import STATUSES, check_options_apply, recover
+from .uncertainty import joint_uncertainty
 from .skeleton import JOINT_NAMES
 from .temporal.recover import CLIP_MIN_POSES, adapt_in_time, linked_tracks, offered_poses
 from .temporal.tracks import add_summaries, has_time, track_windows
@@ -422,7 +432,12 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
         ``seconds``, ``poses_per_second``, ``status`` (counts per status),
         ``output``, ``format``, ``errors`` (the errors file, or None),
         ``sidecars`` (other files written), ``adaptation`` (what adaptation
-        did, :meth:`AdaptationResult.summary`, or None), ``adaptation_line``,
+        did, :meth:`AdaptationResult.summary`, or None), ``averaged`` (what
+        was averaged: the path's own averaged ``answers`` and, ``with`` each
+        kind, its ``poses``, :func:`~sparseedm._recovery_base.averaged_summary`;
+        {} nothing), ``ensemble`` (the dictionaries of an ensemble, 1 when
+        none was asked for: the path's own averaged answers are not one),
+        ``adaptation_line``,
         ``confidence_threshold`` (the one used), ``below_threshold`` (scored
         joints below it; None when the file has no scores), ``threshold_line``
         and ``skipped_files`` ((file, reason) of the bad frame files an
@@ -496,7 +511,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
         members = _with_mirrors(members, mirror, in_time, method)
         recovery = _Recovery(members, alpha, representation, solver, n_jobs, backend,
                              scheduler, method, model, (source.tracks, source.frames)
-                             if in_time else None, mirror == "auto", blend)
+                             if in_time else None, mirror == "auto", blend, adaptation)
         summary = _run(source, outputs, recovery, chunk_size, progress, t0)
     finally:
         source.close()
@@ -506,7 +521,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
     summary["threshold_line"] = threshold_line(threshold, confidence_threshold is not None,
                                                in_fmt, summary["below_threshold"])
     summary["adaptation"] = adaptation.summary() if adaptation is not None else None
-    summary["ensemble"] = summary_members
+    _say_averaged(summary, adaptation, summary_members)
     summary["mirror"] = mirror
     summary["linked_tracks"] = None if source.linked is None else \
         int(len(np.unique(source.linked)))
@@ -514,6 +529,16 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
     if save_dictionary is not None:
         summary["dictionary"] = str(dictionary.save(save_dictionary))
     return summary
+
+
+def _say_averaged(summary, adaptation, n_members):
+    """`summary`'s ``averaged`` with the path's own averaged answers, and its
+    ``ensemble``: 1 when the `n_members` dictionaries are those answers (nothing
+    learned) and no ensemble was asked for."""
+    own = adaptation.averaged_answers if adaptation is not None and n_members > 1 else ()
+    if own:
+        summary["averaged"] = {"answers": list(own), **summary["averaged"]}
+    summary["ensemble"] = 1 if own and "ensemble" not in adaptation.settings else n_members
 
 
 def _with_mirrors(members, mirror, in_time, method):
@@ -710,7 +735,10 @@ class _Recovery:
     ensemble) and :func:`recover`'s settings; `time_axis` (tracks, frames) sends
     the poses to temporal recovery, whole tracks per chunk (:meth:`bounds`); `blend`
     the atoms of :func:`~sparseedm.exemplars.blend_many_hidden` (its `atoms` and
-    `mean_atoms`; None: none), as recover() blends."""
+    `mean_atoms`; None: none), as recover() blends; `adaptation` what the run's
+    adaptation did: per pose, each chunk's radii are then rated as recover() rates
+    that path's answers (:func:`~sparseedm.uncertainty.coding_way`), not as the
+    members' own, recovered without it."""
 
     members: list
     alpha: object
@@ -724,6 +752,7 @@ class _Recovery:
     time_axis: tuple = None
     mirror_gate: bool = False
     blend: object = None
+    adaptation: object = None
 
     def bounds(self, n, chunk_size):
         """(rows, keep) of each chunk: `chunk_size` rows (a slice), or in time
@@ -745,13 +774,17 @@ class _Recovery:
                            method=self.method, model=self.model, adapt=False, **in_time)
                    for d in self.members]
         res = combine(results, mirror_weights(results) if self.mirror_gate else None)
-        if self.blend is None:
-            return res
-        # the poses as recover() read them: its mask (validated) says what is missing;
-        # the few blended rows are coded here, without a cluster's client
-        return blend_many_hidden(
-            res, np.where(res.missing[..., None], np.nan, np.asarray(poses, float)),
-            res.missing, *self.blend, representation=self.representation, n_jobs=self.n_jobs)
+        if self.blend is not None:
+            # the poses as recover() read them: its mask (validated) says what is missing;
+            # the few blended rows are coded here, without a cluster's client
+            res = blend_many_hidden(
+                res, np.where(res.missing[..., None], np.nan, np.asarray(poses, float)),
+                res.missing, *self.blend, representation=self.representation,
+                n_jobs=self.n_jobs)
+        if self.adaptation is not None and self.time_axis is None:
+            res = replace(res, adaptation=self.adaptation)
+            res.uncertainty = joint_uncertainty(res)
+        return res
 
 
 @dataclass
@@ -786,6 +819,7 @@ class _Columns:
         self.fallback = np.zeros(n, dtype=bool)
         self.flags = np.zeros((n, N_JOINTS), dtype=bool)  # joints filled by this run
         self.uncertainty = np.full((n, N_JOINTS), np.nan)  # the 90 % radius per joint
+        self.averaged = None  # what each pose's answer was averaged with (blends only)
         self.recovered_joints = 0
         self.edm = None
         if save_edm:
@@ -804,6 +838,10 @@ class _Columns:
         self.flags[rows] = missing & res.ok[:, None] & np.isfinite(res.poses).all(axis=-1)
         if res.uncertainty is not None:
             self.uncertainty[rows] = res.uncertainty
+        if res.averaged is not None:
+            if self.averaged is None:
+                self.averaged = np.full(len(self.status), "", dtype=object)
+            self.averaged[rows] = res.averaged
         self.recovered_joints += int(
             res.missing[np.isin(res.status, ("recovered", "inaccurate"))].sum())
         if self.edm is not None:
@@ -811,11 +849,17 @@ class _Columns:
             self.edm["center"][rows] = res.center
             self.edm["scale"][rows] = res.scale
 
-    def fields(self):
-        """The :data:`STATUS_FIELDS` columns, reasons as strings."""
+    def fields(self, averaged=False):
+        """The :data:`STATUS_FIELDS` columns, reasons as strings; with `averaged`
+        (the run may blend) also ``averaged``, what each pose's answer was averaged
+        with (:attr:`~sparseedm.recovery.RecoveryResult.averaged`, "" nothing)."""
         reason = self.reason.astype(str) if len(self.reason) else np.zeros(0, dtype="<U1")
-        return {"status": self.status, "reason": reason, "objective": self.objective,
-                "gap": self.gap, "n_active": self.n_active}
+        out = {"status": self.status, "reason": reason, "objective": self.objective,
+               "gap": self.gap, "n_active": self.n_active}
+        if averaged:
+            out["averaged"] = np.full(len(self.status), "", dtype="<U1") \
+                if self.averaged is None else self.averaged.astype(str)
+        return out
 
 
 def _run(source, outputs, recovery, chunk_size, progress, t0):
@@ -837,7 +881,7 @@ def _run(source, outputs, recovery, chunk_size, progress, t0):
             filled = np.empty((n, N_JOINTS, 2))
         temporal_summary = _recover_chunks_into(filled, columns, source, recovery,
                                                 chunk_size, progress)
-        fields = columns.fields()
+        fields = columns.fields(averaged=recovery.blend is not None)
         if source.outliers is not None:  # named per row, in every format
             fields["outliers"] = outlier_names(source.outliers, JOINT_NAMES)
         flags = columns.flags
@@ -862,7 +906,8 @@ def _run(source, outputs, recovery, chunk_size, progress, t0):
     return dict(summary, output=str(out_path), format=out_fmt,
                 errors=str(outputs.errors_path) if refused.any() or skipped else None,
                 sidecars=[str(p) for p in sidecars.values()], temporal=temporal_summary,
-                outliers=None if source.outliers is None else int(source.outliers.sum()))
+                outliers=None if source.outliers is None else int(source.outliers.sum()),
+                averaged=averaged_summary(columns.averaged, rows=False))
 
 
 def _recover_chunks_into(filled, columns, source, recovery, chunk_size, progress):
@@ -959,8 +1004,9 @@ def _write_output(tmp, fmt, filled, ids, meta, in_fmt, fields, edm,
             "gap": [_num(v) for v in fields["gap"]],
             "n_active": fields["n_active"],
         })
-        if "outliers" in fields:
-            extra["outliers"] = fields["outliers"]
+        for key in ("outliers", "averaged"):
+            if key in fields:
+                extra[key] = fields[key]
         write_keypoints(tmp, filled, format="csv", ids=ids, extra_columns=extra,
                         **_time_axis(kps, linked, in_fmt, fmt), **flagged)
     else:  # coco: the original document (or a results list), status in "sparseedm"
@@ -978,8 +1024,9 @@ def _write_output(tmp, fmt, filled, ids, meta, in_fmt, fields, edm,
                 "gap": _json_num(fields["gap"][r]),
                 "n_active": int(fields["n_active"][r]),
             })
-            if "outliers" in fields:
-                ann["sparseedm"]["outliers"] = str(fields["outliers"][r])
+            for key in ("outliers", "averaged"):
+                if key in fields:
+                    ann["sparseedm"][key] = str(fields[key][r])
         with open(tmp, "w", encoding="utf-8") as f:
             json.dump(doc, f)
 

@@ -109,7 +109,8 @@ from .solvers.local_ridge import LocalRidgeSolver
 __all__ = ["EXEMPLAR_MIN_POSES", "EXEMPLAR_MARGIN", "EXEMPLAR_OPTIONS", "ExemplarCheck",
            "hidden_joint_error", "choose_exemplars", "averaged_members", "held_masks",
            "HELD_FRACTION", "MAX_HELD", "FEW_MIN_POSES", "BLEND_MIN_HIDDEN", "BLEND_MIN_POSES",
-           "blend_rows", "blend_atoms", "blend_many_hidden", "ridge_mean_atoms", "blends"]
+           "blend_rows", "blend_atoms", "blend_many_hidden", "ridge_mean_atoms", "blends",
+           "AVERAGED_MANY_HIDDEN", "AVERAGED_RIDGE_MEAN"]
 
 #: From this many usable complete poses the file's own poses are the atoms,
 #: no check, no adaptation (chosen on validation files: studies/fast/README.md)
@@ -133,6 +134,12 @@ FEW_MIN_POSES = 50
 #: from BLEND_MIN_POSES usable complete poses
 BLEND_MIN_HIDDEN = 4
 BLEND_MIN_POSES = 50
+
+#: RecoveryResult.averaged of a pose whose answer was averaged with the local
+#: ridge's over the file's complete poses (:func:`blend_many_hidden`'s `atoms`)
+AVERAGED_MANY_HIDDEN = "local ridge over file atoms"
+#: ... and over the base with them as extra atoms (its `mean_atoms`)
+AVERAGED_RIDGE_MEAN = "local ridge over base + file atoms"
 
 #: recover()'s ``exemplars`` values: "auto" applies the rule, False never
 #: takes the exemplars instead of adapting
@@ -622,18 +629,43 @@ def blend_many_hidden(res, poses, missing, atoms, mean_atoms=None, **kernel):
     -------
     RecoveryResult
         `res` itself when nothing is blended; else a copy with those poses' rows
-        averaged, ``seconds`` including the local ridge's.
+        averaged, ``seconds`` including the local ridge's, and the record of
+        what was averaged: ``averaged`` (per pose, :data:`AVERAGED_MANY_HIDDEN`
+        and/or :data:`AVERAGED_RIDGE_MEAN`) and ``spread`` (per filled joint,
+        the distance between the two answers averaged).
     """
     out = res
-    for rows, dictionary in ((blend_rows(missing), atoms),
-                             (np.flatnonzero(np.asarray(missing, bool).any(axis=1)), mean_atoms)):
+    for rows, dictionary, kind in (
+            (blend_rows(missing), atoms, AVERAGED_MANY_HIDDEN),
+            (np.flatnonzero(np.asarray(missing, bool).any(axis=1)), mean_atoms,
+             AVERAGED_RIDGE_MEAN)):
         if dictionary is None or not len(rows):
             continue
         ridge = _local_ridge(dictionary, poses[rows], missing[rows], kernel)
         seconds = out.seconds + ridge.seconds
+        before = out
         out = put_rows(out, rows, combine([out.take(rows), ridge]))
+        out = _averaged_record(out, before, rows, ridge, kind)
         out.seconds = seconds
     return out
+
+
+def _averaged_record(out, before, rows, ridge, kind):
+    """`out` (`before` with `rows` averaged with `ridge`) with ``averaged`` saying
+    `kind` on those rows (usable in both) and ``spread`` the two answers' distance
+    per filled joint."""
+    n, N = out.missing.shape
+    averaged = np.full(n, "", object) if before.averaged is None else \
+        before.averaged.astype(object)
+    spread = np.zeros((n, N)) if before.spread is None else before.spread.copy()
+    both = out.ok[rows] & before.ok[rows]
+    with np.errstate(invalid="ignore"):
+        gap = np.linalg.norm(before.poses[rows] - ridge.poses, axis=-1)
+    gap = np.where(out.missing[rows] & both[:, None] & np.isfinite(gap), gap, 0.0)
+    spread[rows] = np.maximum(spread[rows], gap)
+    text = averaged[rows]  # a refused pose's answer is no mean
+    averaged[rows] = np.where(~both, text, np.where(text == "", kind, text + "; " + kind))
+    return replace(out, averaged=averaged.astype(str), spread=spread)
 
 
 def _local_ridge(dictionary, poses, missing, kernel):

@@ -234,7 +234,7 @@ __all__ = [
 FORMATS = ("npz", "npy", "csv", "coco") + formats.FORMATS
 #: Per-row result arrays of :func:`sparseedm.batch.recover_file` an ``.npz`` keeps.
 RESULT_FIELDS = ("status", "reason", "objective", "gap", "n_active", "edm_vectors",
-                 "center", "scale", "outliers")
+                 "center", "scale", "outliers", "averaged")
 EXTENSIONS = {".npz": "npz", ".npy": "npy", ".csv": "csv", ".json": "coco"}
 #: formats whose files have no room for the filled flags: ``sparseedm recover``
 #: writes them to the file's status sidecar (:func:`status_sidecar`), and

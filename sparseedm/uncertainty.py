@@ -25,7 +25,16 @@ with one set of coefficients per way of filling (:data:`CALIBRATION`):
   :func:`coding_way`): over a dictionary adapted (and self-trained) on the
   file, and over the file's own complete poses as the only atoms, by the
   lasso (the default path's exemplars, :mod:`sparseedm.exemplars`) or by
-  ``preset="fast"``'s local ridge. Each path has its own coefficients: a
+  ``preset="fast"``'s local ridge. ``file_atoms`` also reads the file's own
+  measured error: when the default path's check recovered held-back complete
+  poses of the file (hidden as its incomplete poses are) before taking that
+  path, the log of their hidden joints' mean error over the pose's size
+  (``checked`` 1, ``log_held_error``; ``settings["held_err_path"]`` of
+  ``res.adaptation``); a file of such alike people as video frames errs far
+  less than a file of strangers, which the joint's own features do not see;
+  a file the check did not measure (from 2,000 complete poses) gets the
+  way's ``"unchecked"`` rule, without that error (:data:`UNCHECKED_FEATURES`).
+  Each path has its own coefficients: a
   dictionary adapted and self-trained on the file agrees with its own
   fills whatever their error, over the file's own poses the errors depend
   on how alike the file's people are, and a ridge's residual is not a
@@ -62,8 +71,8 @@ from .normalize import rms_radius
 from .skeleton import SKELETON_14
 
 __all__ = ["joint_uncertainty", "joint_features", "uncertainty_rule", "coding_way",
-           "CALIBRATION", "FEATURES", "MIN_RELATIVE", "NOISE_RADIUS", "UNSOLVED_LOG_RESIDUAL",
-           "radius_at"]
+           "CALIBRATION", "FEATURES", "UNCHECKED_FEATURES", "MIN_RELATIVE", "NOISE_RADIUS",
+           "UNSOLVED_LOG_RESIDUAL", "radius_at"]
 
 #: the features each way of filling uses, in the order of its coefficients
 FEATURES = {
@@ -71,23 +80,32 @@ FEATURES = {
                   "log_residual"),
     "adapted": ("const", "log_missing", "hops", "depth", "log_disagreement"),
     "file_atoms": ("const", "log_missing", "hops", "depth", "log_disagreement",
-                   "log_residual"),
+                   "log_residual", "log_held_error"),
     "local_ridge": ("const", "log_missing", "hops", "depth", "log_disagreement",
                     "log_residual"),
     "temporal": ("const", "log_frames", "one_sided", "never", "hops", "depth",
                  "log_missing", "log_noise"),
 }
 
+#: the features of a way's ``"unchecked"`` entry: its joints in files the default
+#: path's check did not measure (no held-back error)
+UNCHECKED_FEATURES = {"file_atoms": ("const", "log_missing", "hops", "depth",
+                                     "log_disagreement", "log_residual")}
+
 #: coefficients of log(radius / size) per way of filling, and the conformal
 #: factor; fitted by ``studies/uncertainty/calibrate.py`` on validation data
-#: (studies/uncertainty/calibration.json has the run's coverage per source)
+#: (studies/uncertainty/calibration.json has the run's coverage per source);
+#: ``"unchecked"``: the entry (features :data:`UNCHECKED_FEATURES`) of the way's
+#: joints in files without a held-back error
 CALIBRATION = {
     "per_frame": {"conformal": 1.0682,
         "coef": (2.4431, 0.6146, 0.4932, 0.1552, 0.4376, 0.7945)},
     "adapted": {"conformal": 1.1945,
         "coef": (-1.7005, 0.3744, 0.4231, 0.2761, 0.0855)},
-    "file_atoms": {"conformal": 1.0632,
-        "coef": (1.8037, 0.3945, 0.3829, 0.2546, 0.6612, 0.48)},
+    "file_atoms": {"conformal": 0.9998,
+        "coef": (3.0178, 0.1843, 0.3024, 0.2605, 0.4772, 0.6809, 0.3898),
+        "unchecked": {"conformal": 1.0632,
+                      "coef": (1.8037, 0.3945, 0.3829, 0.2546, 0.6612, 0.48)}},
     "local_ridge": {"conformal": 1.086,
         "coef": (-0.1289, 0.4269, 0.4935, 0.3076, 0.4877, 0.1854)},
     "temporal": {"conformal": 1.1385,
@@ -264,12 +282,42 @@ def joint_features(result, tracks=None, frames=None):
                             np.log(residual + _EPS))
     out["log_residual"] = np.repeat(log_residual[:, None], N, axis=1)
     size = np.repeat(size[:, None], N, axis=1)
+    out.update(_averaging_features(result, filled, size))
     time = _time_features(result, way, filled, safe, tracks, frames, size, noise)
     out.update(time)
     with np.errstate(invalid="ignore", divide="ignore"):
         out["log_noise"] = np.log(np.nan_to_num(noise / size) + _EPS)
     out.update(way=way.astype(str), size=size, noise=noise)
     return out
+
+
+def _averaging_features(result, filled, size):
+    """What the result's record says was averaged (``RecoveryResult.averaged``
+    and ``spread``, read as recorded, not re-derived): ``averaged`` (n, N) the
+    answers averaged into the pose's after its path's own (0, 1, 2),
+    ``rel_spread`` the distance between the answers averaged at the joint over
+    the pose's size (0: none), ``log_complete`` the log of the file's complete
+    poses (:attr:`~sparseedm.adaptation.AdaptationResult.n_complete`, 0 without),
+    ``checked`` 1 when the default path's check measured the path's error on
+    held-back complete poses and ``log_held_error`` the log of that error as a
+    fraction of the pose's size (0 unchecked)."""
+    n, N = filled.shape
+    record = getattr(result, "averaged", None)
+    count = np.zeros(n) if record is None else np.array(
+        [len([k for k in str(t).split("; ") if k]) for t in record], float)
+    spread = getattr(result, "spread", None)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rel = np.zeros((n, N)) if spread is None else np.nan_to_num(
+            np.asarray(spread, float) / size, nan=0.0, posinf=0.0)
+    adaptation = getattr(result, "adaptation", None)
+    complete = getattr(adaptation, "n_complete", 0) or 0
+    held = float(getattr(adaptation, "settings", {}).get("held_err_path", np.nan))
+    checked = np.isfinite(held) and held > 0
+    return {"averaged": np.repeat(count[:, None], N, axis=1),
+            "rel_spread": np.where(filled, rel, 0.0),
+            "log_complete": np.full((n, N), np.log1p(float(complete))),
+            "checked": np.full((n, N), float(checked)),
+            "log_held_error": np.full((n, N), np.log(held / 100) if checked else 0.0)}
 
 
 def coding_way(result):
@@ -364,12 +412,25 @@ def uncertainty_rule(features, calibration=None):
         if not at.any():
             continue
         entry = calibration[name]
-        x = np.stack([features[f][at] for f in names], axis=-1)
-        relative = np.exp(x @ np.asarray(entry["coef"], float)) * entry["conformal"]
-        floor = np.maximum(np.nan_to_num(features["noise"][at]), MIN_RELATIVE * size[at])
-        with np.errstate(over="ignore"):  # a pose near float's limit: the largest radius
-            radius[at] = np.minimum(np.maximum(floor, size[at] * relative), _HUGE)
+        if "unchecked" in entry:  # files without the check's held-back error
+            unchecked = at & (features["checked"] == 0)
+            _radius_into(radius, features, unchecked, UNCHECKED_FEATURES[name],
+                         entry["unchecked"])
+            at &= ~unchecked
+        _radius_into(radius, features, at, names, entry)
     return radius
+
+
+def _radius_into(radius, features, at, names, entry):
+    """`radius` at `at` by the rule `entry` over the features `names`."""
+    if not at.any():
+        return
+    size = features["size"][at]
+    x = np.stack([features[f][at] for f in names], axis=-1)
+    relative = np.exp(x @ np.asarray(entry["coef"], float)) * entry["conformal"]
+    floor = np.maximum(np.nan_to_num(features["noise"][at]), MIN_RELATIVE * size)
+    with np.errstate(over="ignore"):  # a pose near float's limit: the largest radius
+        radius[at] = np.minimum(np.maximum(floor, size * relative), _HUGE)
 
 
 def joint_uncertainty(result, tracks=None, frames=None, calibration=None):

@@ -14,8 +14,9 @@ from sparseedm.adaptation import (AVERAGED_PATH, GUARD_POSES_PER_PATTERN, MIN_CO
                                   MIRRORED_ATOMS_PATH, guard_masks)
 from sparseedm.cli import build_parser
 from sparseedm.exceptions import ParameterError
-from sparseedm.exemplars import (EXEMPLAR_MARGIN, EXEMPLAR_MIN_POSES, FEW_MIN_POSES,
-                                 choose_exemplars, held_masks, hidden_joint_error)
+from sparseedm.exemplars import (AVERAGED_MANY_HIDDEN, AVERAGED_RIDGE_MEAN, EXEMPLAR_MARGIN,
+                                 EXEMPLAR_MIN_POSES, FEW_MIN_POSES, choose_exemplars,
+                                 held_masks, hidden_joint_error)
 from sparseedm.solvers.fast import FastSolver
 
 
@@ -121,6 +122,9 @@ def test_the_summary_says_an_ensemble_only_for_adapted_members():
                                                      "path": AVERAGED_PATH}))
     adapted = format_summary(dict(base, adaptation={"adapted": True, "path": "adapted"}))
     assert "adapted dictionaries" not in averaged
+    said = format_summary(dict(base, averaged={"with": {"local ridge over file atoms": {
+        "poses": 12}}}))
+    assert "averaged with the local ridge over file atoms's answer: 12 pose(s)" in said
     assert "ensemble: the mean of 3 adapted dictionaries' recoveries" in adapted
 
 
@@ -192,6 +196,22 @@ def test_few_poses_are_averaged_with_their_mirror_images_when_the_check_says_so(
     rec = res.status == "recovered"
     assert rec.sum() > 50 and (res.gap[rec] <= 1e-6 * res.objective[rec]).all()
     assert "mirror images" in res.adaptation.reason
+    said = res.summary()
+    assert "ensemble" not in said and len(said["averaged"]["answers"]) == 2
+
+
+def test_recover_file_says_the_paths_own_averaged_answers_are_no_ensemble(
+        cmu_poses, small_dictionary, tmp_path):
+    """`sparseedm recover` on a file the default path averages two codes of: its
+    summary names the answers averaged and reports no ensemble nobody asked for."""
+    from sparseedm.batch import recover_file
+    from sparseedm.keypoints import KeypointSet, write_keypoints
+
+    poses, missing = _mirror_twins(cmu_poses, 120)
+    src = write_keypoints(tmp_path / "in.npz", KeypointSet(poses, missing))
+    summary = recover_file(src, tmp_path / "out.npz", dictionary=small_dictionary)
+    assert summary["adaptation"]["path"] == MIRRORED_ATOMS_PATH
+    assert summary["ensemble"] == 1 and len(summary["averaged"]["answers"]) == 2
 
 
 def test_few_poses_keep_the_base_with_file_atoms_when_the_check_declines(
@@ -330,6 +350,11 @@ def test_the_check_averages_the_two_when_their_mean_recovers_best(cmu_poses, sma
     assert rec.sum() > 50 and (res.gap[rec] <= 1e-6 * res.objective[rec]).all()
     assert np.isfinite(res.uncertainty[rec][missing[rec]]).all()
     assert "mirror images, averaged with the base dictionary" in res.adaptation.reason
+    # said as the path's own averaged answers, not as an ensemble nobody asked for
+    said = res.summary()
+    assert "ensemble" not in said and "ensemble" not in said["adaptation"]
+    assert said["averaged"]["answers"] == list(res.adaptation.averaged_answers)
+    assert len(said["averaged"]["answers"]) == 3 and "with" not in said["averaged"]
 
 
 def test_the_check_hides_the_files_own_missing_patterns(cmu_poses):
@@ -456,6 +481,19 @@ def test_poses_with_four_hidden_joints_are_averaged_with_the_local_ridge(cmu_pos
     others = np.setdiff1d(np.arange(len(poses)), rows)
     np.testing.assert_array_equal(res.poses[others], path.poses[others])
     np.testing.assert_array_equal(res.status, path.status)
+    # the record: which poses, and how far apart the two answers were per joint
+    done = rows[res.ok[rows]]
+    assert len(done) == 12 and path.averaged is None
+    assert (res.averaged[done] == AVERAGED_MANY_HIDDEN).all()
+    assert (res.averaged[np.setdiff1d(np.arange(len(poses)), done)] == "").all()
+    apart = np.linalg.norm(path.poses[done] - ridge.poses[res.ok[rows]], axis=-1)
+    np.testing.assert_allclose(res.spread[done], np.where(missing[done], apart, 0.0),
+                               rtol=1e-9, atol=1e-9)
+    assert (res.spread[others] == 0).all()
+    said = res.summary()
+    assert said["averaged"] == {"with": {AVERAGED_MANY_HIDDEN: {
+        "poses": 12, "rows": done.tolist()}}} and "ensemble" not in said
+    assert "averaged" not in path.summary()
 
 
 def test_adapted_or_small_files_are_not_blended(cmu_poses, small_dictionary):
@@ -503,20 +541,32 @@ def test_recover_file_blends_as_recover_does(cmu_poses, small_dictionary, tmp_pa
     ridge as recover() does: the same filled poses."""
     from sparseedm.batch import recover_file
     from sparseedm.exemplars import blend_rows
-    from sparseedm.keypoints import KeypointSet, write_keypoints
+    from sparseedm.keypoints import KeypointSet, read_keypoints, write_keypoints
 
     poses, missing = _legs_file(cmu_poses)
     keep = ~np.isinf(poses).any(axis=(1, 2))
     poses, missing = poses[keep], missing[keep]
     src = write_keypoints(tmp_path / "in.npz", KeypointSet(poses, missing))
-    recover_file(src, tmp_path / "out.npz", dictionary=small_dictionary)
+    summary = recover_file(src, tmp_path / "out.npz", dictionary=small_dictionary)
     with np.load(tmp_path / "out.npz") as out:
-        filed = out["poses"]
+        filed, averaged, radii = out["poses"], out["averaged"], out["uncertainty"]
     res = recover(poses, missing, dictionary=small_dictionary)
     rows = np.intersect1d(blend_rows(missing), np.flatnonzero(res.ok))  # not the refused
     assert len(rows) == 12
     np.testing.assert_allclose(filed[rows], res.poses[rows], rtol=0, atol=1e-6)
     np.testing.assert_allclose(filed[res.ok], res.poses[res.ok], rtol=0, atol=1e-6)
+    # rated as recover() rates the path's answers (not as the members' own)
+    np.testing.assert_allclose(radii[res.ok], res.uncertainty[res.ok], rtol=1e-6, atol=1e-6)
+    # which poses were averaged reaches the file, its summary and its reader
+    np.testing.assert_array_equal(averaged, res.averaged)
+    assert all(AVERAGED_MANY_HIDDEN in a for a in averaged[rows])
+    want = {k: {"poses": v["poses"]} for k, v in res.summary()["averaged"]["with"].items()}
+    assert summary["averaged"]["with"] == want and summary["ensemble"] == 1
+    back = read_keypoints(tmp_path / "out.npz")
+    np.testing.assert_array_equal(back.meta["npz_extra"]["averaged"], res.averaged)
+    recover_file(src, tmp_path / "out.csv", dictionary=small_dictionary)
+    column = read_keypoints(tmp_path / "out.csv").meta["extra_columns"]["averaged"]
+    np.testing.assert_array_equal(np.asarray(column, str), res.averaged)
 
 
 def test_every_occluded_pose_gets_the_mean_with_the_ridge_when_the_check_says_so(
@@ -547,6 +597,10 @@ def test_every_occluded_pose_gets_the_mean_with_the_ridge_when_the_check_says_so
     done = np.setdiff1d(np.arange(len(poses)), occ)
     np.testing.assert_array_equal(res.poses[done], path.poses[done])
     np.testing.assert_array_equal(res.status[done], path.status[done])
+    usable = occ[res.ok[occ]]  # recorded: averaged with the ridge over base + file atoms
+    assert all(a.endswith(AVERAGED_RIDGE_MEAN) for a in res.averaged[usable])
+    assert (res.averaged[done] == "").all() and (res.spread[done] == 0).all()
+    assert res.summary()["averaged"]["with"][AVERAGED_RIDGE_MEAN]["poses"] == len(usable)
 
 
 def test_the_mean_with_the_ridge_follows_the_checks_errors(cmu_poses, small_dictionary):

@@ -134,6 +134,48 @@ def test_each_coding_path_gets_its_own_rule(cmu_poses, small_dictionary):
         assert (way == "per_frame") == np.allclose(base_rule, res.uncertainty[filled])
 
 
+def test_the_file_atoms_rule_reads_the_files_held_back_error(cmu_poses, small_dictionary):
+    """The file-atoms rule reads the error the default path's check measured on the
+    file's held-back poses from the result's record: a file measured to err more gets
+    wider circles (by that error's ratio to the power of its coefficient); a file
+    without a check gets the way's unchecked rule, which reads no such error."""
+    from dataclasses import replace
+
+    from sparseedm.uncertainty import (CALIBRATION, FEATURES, MIN_RELATIVE,
+                                       UNCHECKED_FEATURES)
+
+    poses, missing = _own_poses_file(cmu_poses[:60])
+    weak = replace(small_dictionary, components=small_dictionary.components[:10])
+    res = sparseedm.recover(poses, missing, dictionary=weak)
+    assert coding_way(res) == "file_atoms"
+    filled = res.missing & res.ok[:, None]
+    measured = res.adaptation.settings["held_err_path"]
+    features = joint_features(res)
+    assert (features["checked"][filled] == 1).all()
+    np.testing.assert_allclose(features["log_held_error"][filled], np.log(measured / 100))
+
+    def radius(**settings):
+        kept = {k: v for k, v in res.adaptation.settings.items() if k != "held_err_path"}
+        again = replace(res, adaptation=replace(res.adaptation, settings=dict(kept, **settings)))
+        return joint_uncertainty(again)[filled], joint_features(again)
+
+    (low, _), (high, _), (unchecked, seen) = (radius(held_err_path=5.0),
+                                              radius(held_err_path=20.0), radius())
+    assert (seen["checked"][filled] == 0).all() and (seen["log_held_error"] == 0).all()
+    entry = CALIBRATION["file_atoms"]
+    coef = dict(zip(FEATURES["file_atoms"], entry["coef"]))
+    size = features["size"][filled]
+    above = low > MIN_RELATIVE * size * 1.001  # not at the floor
+    assert above.sum() > 50 and (high >= low).all()
+    np.testing.assert_allclose(high[above] / low[above], 4.0 ** coef["log_held_error"])
+    rule = entry["unchecked"]
+    x = np.stack([seen[f][filled] for f in UNCHECKED_FEATURES["file_atoms"]], axis=-1)
+    own = size * np.exp(x @ np.asarray(rule["coef"])) * rule["conformal"]
+    at = own > MIN_RELATIVE * size * 1.001
+    assert at.sum() > 50
+    np.testing.assert_allclose(unchecked[at], own[at])
+
+
 def test_averaged_codes_of_the_files_poses_take_the_file_atoms_rule():
     """The default path's mean of three codes of the file's own poses is rated as the
     file's poses as atoms, not as the base dictionary."""

@@ -83,7 +83,10 @@ LEVELS = (0.5, 0.6, 0.7, 0.8, 0.9, 0.95)
 #: the options that say what was collected (kept with the cache)
 COLLECTION = ("split", "photo_sources", "fast_sources", "adapt_sources", "cmu_poses", "seeds",
               "coco_seeds", "max_clips", "mocap", "mask_seed")
-KEYS = sorted({f for names in FEATURES.values() for f in names} | {"size", "noise"})
+#: features collected besides the table's (candidates for a re-fit: what was averaged)
+CANDIDATES = ("averaged", "rel_spread", "log_complete", "checked", "log_held_error")
+KEYS = sorted({f for names in FEATURES.values() for f in names} | {"size", "noise"}
+              | set(CANDIDATES))
 
 
 def _record(res, truth, keep, label, tracks=None, frames=None):
@@ -269,16 +272,20 @@ def _weighted_quantile(values, weights, q):
     return float(values[order][np.searchsorted(cum, q * cum[-1])])
 
 
-def fit(data, quantile=0.9):
-    """{way: {"coef", "conformal"}} fitted on `data` (the collected joints)."""
+def fit(data, quantile=0.9, ways=None):
+    """{way: {"coef", "conformal"}} fitted on `data` (the collected joints); only
+    `ways` (None: every way), the others' entries as the module has them."""
     from sklearn.linear_model import QuantileRegressor
 
     table = {}
     for way, names in FEATURES.items():
         at = data["way"] == way
-        if not at.any():
+        if not at.any() or (ways is not None and way not in ways):
             table[way] = CALIBRATION[way]
             continue
+        unchecked = CALIBRATION[way].get("unchecked")
+        if unchecked is not None:  # fitted on the checked files; the others keep theirs
+            at &= data["checked"] == 1
         X = np.stack([data[f][at] for f in names], axis=-1)
         y = np.log(np.maximum(data["error"][at], 1e-3 * data["size"][at]) / data["size"][at])
         w = _balanced_weights(data["label"][at])
@@ -296,6 +303,8 @@ def fit(data, quantile=0.9):
         # no real protocol below MIN_COVERAGE: the factor its joints need, if larger
         floor = max(np.quantile(ratio[labels == lab], MIN_COVERAGE) for lab in np.unique(labels))
         entry["conformal"] = round(float(max(_weighted_quantile(ratio, w, quantile), floor)), 4)
+        if unchecked is not None:
+            entry["unchecked"] = unchecked
         table[way] = entry
     return table
 
@@ -377,7 +386,13 @@ def write_module(table, path=ROOT / "sparseedm" / "uncertainty.py"):
     for way, entry in table.items():
         coef = ", ".join(repr(float(c)) for c in entry["coef"])
         lines.append(f'    "{way}": {{"conformal": {float(entry["conformal"])!r},')
-        lines.append(f'{" " * 8}"coef": ({coef})}},')
+        if "unchecked" not in entry:
+            lines.append(f'{" " * 8}"coef": ({coef})}},')
+            continue
+        lines.append(f'{" " * 8}"coef": ({coef}),')
+        rest = entry["unchecked"]
+        lines.append(f'{" " * 8}"unchecked": {{"conformal": {float(rest["conformal"])!r},')
+        lines.append(f'{" " * 22}"coef": ({", ".join(repr(float(c)) for c in rest["coef"])})}}}},')
     lines.append("}")
     new, count = re.subn(r"CALIBRATION = \{\n.*?\n\}", "\n".join(lines), text, flags=re.S)
     if count != 1:
@@ -412,6 +427,8 @@ def main(argv=None):
     ap.add_argument("--check", action="store_true",
                     help="report the module's table on the collected joints, no fit")
     ap.add_argument("--write-module", action="store_true")
+    ap.add_argument("--ways", help="re-fit only these ways of filling (comma-separated; "
+                    "the others keep the module's entries); default every way")
     ap.add_argument("--figure", help="the reliability diagram (.png) to write")
     ap.add_argument("-o", "--output", help="the JSON written; default calibration.json "
                     "beside this script, check_<split>_seed<S>.json with --check")
@@ -429,7 +446,8 @@ def main(argv=None):
     settings = data.pop("settings", None)
     settings = {} if settings is None else json.loads(str(settings))
     before = report(data, CALIBRATION)
-    table = CALIBRATION if args.check else fit(data)
+    ways = None if not args.ways else args.ways.split(",")
+    table = CALIBRATION if args.check else fit(data, ways=ways)
     after = report(data, table)
     for lab, row in after.items():
         print(f"{lab:36s} n={row['joints']:6d} coverage {row['coverage']:.3f} "
@@ -439,7 +457,8 @@ def main(argv=None):
     print(json.dumps(table))
     out = {"split": settings.get("split", "val"), "calibration": table, "sources": after,
            "refused_hidden_joints": int(data["refused"][0]),
-           "fitted": not args.check, "collection": settings}
+           "fitted": not args.check, "collection": settings,
+           "ways_fitted": None if args.check else (ways or list(FEATURES))}
     name = f"check_{args.split}_seed{args.mask_seed}.json" if args.check else \
         "calibration.json"
     output = args.output or Path(__file__).with_name(name)
