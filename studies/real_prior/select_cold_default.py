@@ -1,4 +1,4 @@
-"""The prior of ``recover(adapt=False)`` without a dictionary, checked on motion capture held out from it.
+"""The prior of ``recover(adapt=False)`` without a dictionary, on mocap held out from it.
 
 ``recover(adapt=False, dictionary="cmu-coco-k2932", mirror="auto")`` reaches
 IterativeImputer on MPII's validation photos; the mocap checks that kept it
@@ -47,8 +47,10 @@ difference per occluded pose (mean, standard error).
         --daz /tmp/daz.npz --out studies/real_prior/selection_cold_default.json
     python studies/real_prior/select_cold_default.py --part photos --pair control,shipped \\
         --out studies/real_prior/selection_cold_default.json
-    python studies/real_prior/select_cold_default.py --part bandai --pair shipped \\
-        --out studies/real_prior/selection_cold_default.json
+    python studies/real_prior/select_cold_default.py --part bandai --pair shipped --per-clip 30 \\
+        --protocols mix --out studies/real_prior/selection_cold_default.json
+    python studies/real_prior/select_cold_default.py --part cmu-others,daz --pair shipped \\
+        --protocols mix --daz /tmp/daz.npz --out studies/real_prior/selection_cold_default.json
     python studies/real_prior/select_cold_default.py --table studies/real_prior/selection_cold_default.json
 
 (each run adds its parts to the JSON; ``--cache DIR`` keeps each file's rows.)
@@ -108,7 +110,7 @@ def per_pose(filled, truth, missing):
     return (err * missing).sum(axis=1)[occ] / missing.sum(axis=1)[occ]
 
 
-def clip_files(poses, clips, groups, per_clip, seed=0):
+def clip_files(poses, clips, groups, per_clip, protocols=MOCAP_PROTOCOLS, seed=0):
     """(clip, group, protocol, truth, missing): each clip's poses (at most
     `per_clip`, a seeded draw), every one occluded by the protocol's masks."""
     for i, clip in enumerate(sorted(set(clips.tolist()))):
@@ -116,7 +118,7 @@ def clip_files(poses, clips, groups, per_clip, seed=0):
         rng = np.random.default_rng([seed, i])
         rows = np.sort(rng.choice(rows, min(per_clip, len(rows)), replace=False))
         truth = poses[rows].astype(float)
-        for protocol in MOCAP_PROTOCOLS:
+        for protocol in protocols:
             count = protocol if protocol == "mix" else int(protocol)
             missing = occlusion_masks(len(rows), 14, (count,), seed * 1000 + i)[count]
             yield clip, groups[rows[0]], protocol, truth, missing
@@ -145,10 +147,10 @@ def mocap_sets(parts, daz_path):
     return out
 
 
-def run_mocap(part, data, dics, per_clip, cache):
+def run_mocap(part, data, dics, per_clip, protocols, cache):
     """Rows {file, group, protocol, method: error} of one mocap part."""
     rows = []
-    for clip, group, protocol, truth, missing in clip_files(*data, per_clip):
+    for clip, group, protocol, truth, missing in clip_files(*data, per_clip, protocols):
         key = f"{part} {clip} {protocol}".replace("/", "_")
         path = cache and cache / f"{key} {'+'.join(dics)}.json"
         if path is not None and path.exists():
@@ -174,8 +176,8 @@ def paired_files(rows, key, ref):
     sums = np.array([(d[g == k] - m).sum() for k in np.unique(g)])
     k = len(sums)
     cl = np.sqrt(k / (k - 1) * (sums ** 2).sum()) / n if k > 1 else float("nan")
-    return {"mean": round(float(m), 3), "se_files": round(float(se), 3),
-            "se_groups": round(float(cl), 3)}
+    return {"mean": round(float(m), 3), "se_files": round(float(se), 3) if n > 1 else None,
+            "se_groups": round(float(cl), 3) if k > 1 else None}  # one group: none
 
 
 def mocap_summary(rows, dics):
@@ -183,7 +185,7 @@ def mocap_summary(rows, dics):
     methods = [f"{n} {m}" for n in dics for m in ("off", "auto")]
     ref = methods[0]
     out = {}
-    for protocol in (*MOCAP_PROTOCOLS, "all"):
+    for protocol in (*dict.fromkeys(r["protocol"] for r in rows), "all"):
         sel = [r for r in rows if protocol in ("all", r["protocol"])]
         if protocol == "all":  # one row per clip: its protocols' mean
             by = {}
@@ -265,7 +267,8 @@ def table(doc):
             for protocol, r in res.items():
                 ref = next(iter(r["error"]))
                 cells = [f"{r['error'][ref]:.2f}"] + [
-                    f"{p['mean']:+.3f} ± {p['se_files']:.3f} ({p['se_groups']:.3f})"
+                    f"{p['mean']:+.3f} ± {p['se_files']:.3f}"
+                    + (f" ({p['se_groups']:.3f})" if p["se_groups"] is not None else "")
                     for m, p in r["paired"].items() if " - " not in m]
                 lines.append(f"| {protocol} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
@@ -296,6 +299,8 @@ def main(argv=None):
     ap.add_argument("--pair", default="control", help="control, shipped (comma-separated)")
     ap.add_argument("--daz", type=Path, help="the Daz dataset .npz (dataset build)")
     ap.add_argument("--per-clip", type=int, default=80)
+    ap.add_argument("--protocols", default=",".join(MOCAP_PROTOCOLS),
+                    help="mocap masks: mix, 1, 2, 3 (comma-separated)")
     ap.add_argument("--seeds", type=int, default=2, help="photo files' seeds")
     ap.add_argument("--cache", type=Path)
     ap.add_argument("--out", type=Path)
@@ -314,7 +319,8 @@ def main(argv=None):
         entry = doc.setdefault(pair, {"alpha": {n: d.alpha_recover for n, d in dics.items()}})
         t0 = time.perf_counter()
         for part, data in sets.items():
-            entry[part] = mocap_summary(run_mocap(part, data, dics, a.per_clip, a.cache), dics)
+            entry[part] = mocap_summary(run_mocap(part, data, dics, a.per_clip,
+                                                  a.protocols.split(","), a.cache), dics)
             print(pair, part, json.dumps(entry[part]["all"]), flush=True)
         if "photos" in parts:
             entry["photos"] = run_photos(dics, a.seeds, a.cache)
