@@ -32,6 +32,9 @@ Files:
   by ``cmu-all-k2000``;
 * ``bandai``: Bandai-Namco-1 (in no dictionary; a benchmark reading only:
   no setting is chosen on it), its 174 clips the same way;
+* ``defaults``: ``recover()``'s defaults (the path that adapts) started from
+  each dictionary, on files of 100 complete + 500 Mix poses drawn from the
+  ``cmu-others`` poses (one file per seed);
 * ``photos``: ``harness.py``'s validation photo files (MPII val, COCO val,
   Bonn PoseTrack val frames; 1 / 2 / 3 random hidden joints and transplanted
   real masks), seeds 0 .. S-1, with IterativeImputer fitted on each file.
@@ -51,6 +54,8 @@ difference per occluded pose (mean, standard error).
         --protocols mix --out studies/real_prior/selection_cold_default.json
     python studies/real_prior/select_cold_default.py --part cmu-others,daz --pair shipped \\
         --protocols mix --daz /tmp/daz.npz --out studies/real_prior/selection_cold_default.json
+    python studies/real_prior/select_cold_default.py --part defaults --pair control --seeds 3 \\
+        --out studies/real_prior/selection_cold_default.json
     python studies/real_prior/select_cold_default.py --table studies/real_prior/selection_cold_default.json
 
 (each run adds its parts to the JSON; ``--cache DIR`` keeps each file's rows.)
@@ -203,6 +208,36 @@ def mocap_summary(rows, dics):
     return out
 
 
+def run_defaults(part, data, dics, seeds, cache, C=100, M=500):
+    """Rows {file, group, method: error} of ``recover()``'s defaults (the path that
+    adapts) started from each dictionary, on files of C complete + M Mix poses
+    drawn from the part's poses (one per seed)."""
+    import sparseedm
+
+    rows = []
+    for seed in range(seeds):
+        path = cache and cache / f"defaults {part} {seed} {'+'.join(dics)}.json"
+        if path is not None and path.exists():
+            rows.append(json.loads(path.read_text()))
+            continue
+        poses = data[0]
+        truth = poses[np.random.default_rng(seed).choice(len(poses), C + M, replace=False)]
+        truth = truth.astype(float)
+        missing = np.zeros((C + M, 14), bool)
+        missing[C:] = occlusion_masks(M, 14, ("mix",), seed)["mix"]
+        row = {"file": f"seed {seed}", "group": f"seed {seed}", "protocol": "mix"}
+        for name, d in dics.items():
+            res = sparseedm.recover(np.where(missing[..., None], np.nan, truth), missing,
+                                    dictionary=d)
+            row[f"{name} defaults"] = float(per_pose(res.poses, truth, missing).mean())
+            row[f"{name} path"] = res.summary()["adaptation"]["path"]
+        rows.append(row)
+        print(part, json.dumps(row), flush=True)
+        if path is not None:
+            path.write_text(json.dumps(row))
+    return rows
+
+
 def run_photos(dics, seeds, cache):
     """{file protocol: {method: error, ratio, paired}} on harness.py's photo files."""
     out = {}
@@ -295,7 +330,7 @@ def photo_table(doc):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--part", default="cmu-others,daz,photos",
-                    help="cmu-others, daz, bandai, photos (comma-separated)")
+                    help="cmu-others, daz, bandai, photos, defaults (comma-separated)")
     ap.add_argument("--pair", default="control", help="control, shipped (comma-separated)")
     ap.add_argument("--daz", type=Path, help="the Daz dataset .npz (dataset build)")
     ap.add_argument("--per-clip", type=int, default=80)
@@ -313,7 +348,7 @@ def main(argv=None):
     doc = json.loads(a.out.read_text()) if a.out and a.out.exists() else {}
     parts = a.part.split(",")
     all_pairs = pairs()
-    sets = mocap_sets(parts, a.daz)
+    sets = mocap_sets([p for p in parts if p != "defaults"], a.daz)
     for pair in a.pair.split(","):
         dics = all_pairs[pair]
         entry = doc.setdefault(pair, {"alpha": {n: d.alpha_recover for n, d in dics.items()}})
@@ -322,6 +357,9 @@ def main(argv=None):
             entry[part] = mocap_summary(run_mocap(part, data, dics, a.per_clip,
                                                   a.protocols.split(","), a.cache), dics)
             print(pair, part, json.dumps(entry[part]["all"]), flush=True)
+        if "defaults" in parts:
+            entry["defaults"] = {part: run_defaults(part, data, dics, a.seeds, a.cache)
+                                 for part, data in mocap_sets(("cmu-others",), None).items()}
         if "photos" in parts:
             entry["photos"] = run_photos(dics, a.seeds, a.cache)
         entry.setdefault("seconds", {})[a.part] = round(time.perf_counter() - t0, 1)
