@@ -570,7 +570,7 @@ def cold_prior(dictionary, adapt, mirror, per_pose=True):
     """(dictionary, mirror) a recovery uses when it was given `dictionary` and
     `mirror` (None: unset).
 
-    With ``adapt=False`` and no dictionary, poses coded one by one
+    With ``adapt=False`` (or None, taken as False) and no dictionary, poses coded one by one
     (`per_pose`: the sparse method, no frames) are coded over
     :data:`COLD_DICTIONARY` with ``mirror="auto"`` unless `mirror` says
     otherwise; anywhere else no dictionary is the shipped default
@@ -585,7 +585,7 @@ def cold_prior(dictionary, adapt, mirror, per_pose=True):
     >>> cold_prior("default", False, None), cold_prior(None, False, None, per_pose=False)
     (('default', False), (None, False))
     """
-    cold = dictionary is None and adapt is False and per_pose
+    cold = dictionary is None and (adapt is False or adapt is None) and per_pose
     if mirror is None:
         mirror = "auto" if cold else False
     return (COLD_DICTIONARY if cold else dictionary), mirror

@@ -160,7 +160,7 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         people) with ``mirror="auto"``: the cold prior that does best on
         photos of real people and on motion capture it did not learn from
         (``docs/explanation/settings.md``, "Without adaptation");
-        ``dictionary="default"`` codes over the default alone, as before.
+        ``dictionary="default"`` codes over the default alone.
     alpha : float, optional
         Lasso penalty; default the dictionary's recommended ``alpha_recover``.
         Scaled per pose by the dictionary's ``alpha_scaling`` rule.

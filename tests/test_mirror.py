@@ -190,6 +190,7 @@ def test_adapt_false_without_a_dictionary_codes_over_the_cold_prior_with_the_gat
     cold = sparseedm.recover(given, adapt=False)
     union = sparseedm.recover(given, adapt=False, dictionary="cmu-coco-k2932", mirror="auto")
     assert np.array_equal(cold.poses, union.poses)
+    assert np.array_equal(sparseedm.recover(given, adapt=None).poses, cold.poses)
     default = sparseedm.recover(given, adapt=False, dictionary="default")
     assert not np.allclose(cold.poses[missing], default.poses[missing])
     plain = sparseedm.recover(given, adapt=False, mirror=False)
