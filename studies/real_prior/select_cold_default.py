@@ -35,6 +35,9 @@ Files:
 * ``defaults``: ``recover()``'s defaults (the path that adapts) started from
   each dictionary, on files of 100 complete + 500 Mix poses drawn from the
   ``cmu-others`` poses (one file per seed);
+* ``coverage`` (no pair): the share of hidden joints within the 90 % radius
+  of ``RecoveryResult.uncertainty`` on the MPII and Bonn photo files, cold
+  over ``dictionary="default"`` and without a dictionary;
 * ``photos``: ``harness.py``'s validation photo files (MPII val, COCO val,
   Bonn PoseTrack val frames; 1 / 2 / 3 random hidden joints and transplanted
   real masks), seeds 0 .. S-1, with IterativeImputer fitted on each file.
@@ -55,6 +58,8 @@ difference per occluded pose (mean, standard error).
     python studies/real_prior/select_cold_default.py --part cmu-others,daz --pair shipped \\
         --protocols mix --daz /tmp/daz.npz --out studies/real_prior/selection_cold_default.json
     python studies/real_prior/select_cold_default.py --part defaults --pair control --seeds 3 \\
+        --out studies/real_prior/selection_cold_default.json
+    python studies/real_prior/select_cold_default.py --part coverage --pair control \\
         --out studies/real_prior/selection_cold_default.json
     python studies/real_prior/select_cold_default.py --table studies/real_prior/selection_cold_default.json
 
@@ -238,6 +243,30 @@ def run_defaults(part, data, dics, seeds, cache, C=100, M=500):
     return rows
 
 
+def run_coverage(seeds):
+    """{file protocol: {"default": coverage, "cold prior": coverage}}: the share
+    of hidden joints within ``RecoveryResult.uncertainty``'s 90 % radius, cold
+    over ``dictionary="default"`` and without a dictionary (the cold prior)."""
+    import sparseedm
+
+    out = {}
+    for source in ("mpii", "bonn"):
+        rs = real2d.load(harness.FILES[source][0])
+        for protocol in harness.PROTOCOLS:
+            hit = {"default": [], "cold prior": []}
+            for seed in range(seeds):
+                truth, missing = harness.make_file(source, protocol, seed, realset=rs)
+                given = np.where(missing[..., None], np.nan, truth)
+                for key, kw in (("default", dict(dictionary="default")), ("cold prior", {})):
+                    res = sparseedm.recover(given, missing, adapt=False, **kw)
+                    err = np.linalg.norm(res.poses - truth, axis=-1)
+                    hit[key].append(err[missing] <= res.uncertainty[missing])
+            out[f"{source} {protocol}"] = {k: round(float(np.concatenate(v).mean()), 3)
+                                           for k, v in hit.items()}
+            print(source, protocol, out[f"{source} {protocol}"], flush=True)
+    return out
+
+
 def run_photos(dics, seeds, cache):
     """{file protocol: {method: error, ratio, paired}} on harness.py's photo files."""
     out = {}
@@ -330,7 +359,8 @@ def photo_table(doc):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--part", default="cmu-others,daz,photos",
-                    help="cmu-others, daz, bandai, photos, defaults (comma-separated)")
+                    help="cmu-others, daz, bandai, photos, defaults, coverage "
+                    "(comma-separated)")
     ap.add_argument("--pair", default="control", help="control, shipped (comma-separated)")
     ap.add_argument("--daz", type=Path, help="the Daz dataset .npz (dataset build)")
     ap.add_argument("--per-clip", type=int, default=80)
@@ -348,7 +378,7 @@ def main(argv=None):
     doc = json.loads(a.out.read_text()) if a.out and a.out.exists() else {}
     parts = a.part.split(",")
     all_pairs = pairs()
-    sets = mocap_sets([p for p in parts if p != "defaults"], a.daz)
+    sets = mocap_sets([p for p in parts if p not in ("defaults", "coverage")], a.daz)
     for pair in a.pair.split(","):
         dics = all_pairs[pair]
         entry = doc.setdefault(pair, {"alpha": {n: d.alpha_recover for n, d in dics.items()}})
@@ -357,6 +387,8 @@ def main(argv=None):
             entry[part] = mocap_summary(run_mocap(part, data, dics, a.per_clip,
                                                   a.protocols.split(","), a.cache), dics)
             print(pair, part, json.dumps(entry[part]["all"]), flush=True)
+        if "coverage" in parts:
+            doc["coverage"] = run_coverage(a.seeds)
         if "defaults" in parts:
             entry["defaults"] = {part: run_defaults(part, data, dics, a.seeds, a.cache)
                                  for part, data in mocap_sets(("cmu-others",), None).items()}
