@@ -14,6 +14,7 @@ imports nothing above the geometry, the dictionary format and validation.
 - :func:`place_occluded_inplace`         occluded joints placed from recovered distances
 - :func:`combine`                        one result from several members' results
 - :func:`mirror_weights`                 recover(mirror="auto")'s weights per pose
+- :func:`cold_prior`                     the dictionary and mirror rule of a call given neither
 """
 
 from __future__ import annotations
@@ -33,6 +34,7 @@ from .placement import WEIGHT_POWER, place_missing_joints
 __all__ = ["STATUSES", "OK_STATUSES", "RecoveryResult", "Screened", "Screening",
            "validate_poses", "bad_coordinates", "screen_poses", "screen",
            "place_occluded_inplace", "combine", "mirror_weights", "MIRROR_TEMPERATURE",
+           "COLD_DICTIONARY", "cold_prior",
            "SCREENING_REFUSALS", "status_counts", "poses_per_second", "recovery_summary",
            "take_rows", "put_rows", "averaged_summary"]
 
@@ -619,6 +621,36 @@ def mirror_weights(results):
         w = np.minimum(0.5, 1 / (1 + np.exp(np.clip(r / MIRROR_TEMPERATURE, -50, 50))))
     w = np.where(np.isfinite(w), w, 0.5)
     return np.concatenate([1 - w, w]) / k
+
+
+#: what ``adapt=False`` codes poses one by one over when no dictionary is given: the
+#: default's CMU atoms plus COCO's people (``dictionaries/README.md``)
+COLD_DICTIONARY = "cmu-coco-k2932"
+
+
+def cold_prior(dictionary, adapt, mirror, per_pose=True):
+    """(dictionary, mirror) a recovery uses when it was given `dictionary` and
+    `mirror` (None: unset).
+
+    With ``adapt=False`` (or None, taken as False) and no dictionary, poses coded one by one
+    (`per_pose`: the sparse method, no frames) are coded over
+    :data:`COLD_DICTIONARY` with ``mirror="auto"`` unless `mirror` says
+    otherwise; anywhere else no dictionary is the shipped default
+    (``None``, ``cmu-all-k2000``) and no `mirror` is False.
+
+    Examples
+    --------
+    >>> cold_prior(None, False, None)
+    ('cmu-coco-k2932', 'auto')
+    >>> cold_prior(None, False, False), cold_prior(None, "auto", None)
+    (('cmu-coco-k2932', False), (None, False))
+    >>> cold_prior("default", False, None), cold_prior(None, False, None, per_pose=False)
+    (('default', False), (None, False))
+    """
+    cold = dictionary is None and (adapt is False or adapt is None) and per_pose
+    if mirror is None:
+        mirror = "auto" if cold else False
+    return (COLD_DICTIONARY if cold else dictionary), mirror
 
 
 def _mean_uncertainty(results, unusable):

@@ -120,8 +120,8 @@ from .keypoints import (FLAGS_IN_SIDECAR, N_JOINTS, EXTENSIONS, beside, check_jo
                         finish_missing, format_of, load_single_npy, npy_confidence,
                         origin_joints, read_keypoints, status_sidecar, write_keypoints)
 from .keypoints import output_format as keypoint_output_format
-from ._recovery_base import (OK_STATUSES, averaged_summary, combine, mirror_weights,
-                             recovery_summary)
+from ._recovery_base import (OK_STATUSES, averaged_summary, cold_prior, combine,
+                             mirror_weights, recovery_summary)
 from ._recovery_kernel import PRESETS, compiled_solver, preset_solver
 from .normalize import REPRESENTATIONS, representation_for
 from .outliers import mark_outliers, outlier_names
@@ -321,7 +321,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
                  method="sparse", model=None, adapt="auto", save_dictionary=None,
                  self_training=None, ensemble=1, joint_map=None,
                  filled_score=FILLED_SCORE, temporal=True, input_format=None,
-                 preset="default", outliers=True, exemplars="auto", mirror=False):
+                 preset="default", outliers=True, exemplars="auto", mirror=None):
     """Recover every pose of a keypoint file and write the filled poses.
 
     Parameters
@@ -332,7 +332,9 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
     output : str or path-like
         Where to write the filled poses; written atomically.
     dictionary : Dictionary, str or path, optional
-        Default: the shipped default dictionary.
+        Default: the shipped default dictionary; with ``adapt=False`` on poses
+        coded one by one (no frames, or ``temporal=False``; sparse method),
+        ``cmu-coco-k2932`` with ``mirror="auto"``, as :func:`sparseedm.recover`.
     alpha : float, optional
         Lasso penalty; default the dictionary's ``alpha_recover``.
     representation : {"average", "zero"}, optional
@@ -410,7 +412,9 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
         are averaged with two other codes of them), nothing learned, when
         :mod:`sparseedm.exemplars`'s rule finds them better than adapting;
         False: adapt as before (``--no-exemplars``).
-    mirror : {False, True, "auto"}, default False
+    mirror : {False, True, "auto"}, optional
+        Default ``"auto"`` with ``adapt=False`` and no `dictionary` (poses coded
+        one by one), else False.
         As :func:`sparseedm.recover`'s: also code each pose's mirror image and
         average the two answers (``--mirror``), or weigh them by their lasso
         objectives (``"auto"``, ``--mirror-auto``); per pose: refused on a file
@@ -472,9 +476,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
     outputs = _Outputs(in_fmt, out_path, _output_format(out_path, in_fmt, output_format),
                        errors_path, save_edm, filled_score)
     _check_run_paths(outputs, in_path, dictionary, adapt, model, save_dictionary, joint_map)
-    if not isinstance(dictionary, Dictionary):
-        dictionary = load_dictionary(dictionary)
-    check_gram_memory(dictionary)
+    given, dictionary = dictionary, _loaded(dictionary)
     if method == "sparse" and not isinstance(adapt, (str, os.PathLike)):  # a path is read
         adapt = check_adapt(adapt, "recover_file", dictionary.n_joints)
     requested, solver = solver, _one_solver(solver)
@@ -495,6 +497,8 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
                               "folder; give an output path without .json")
     try:
         in_time = _in_time(source, temporal and method == "sparse")
+        cold, mirror = cold_prior(given, adapt, mirror, method == "sparse" and not in_time)
+        dictionary = dictionary if cold is given else _loaded(cold)
         if outliers:  # scored points its track and the pose model contradict: missing
             source.mark_outliers(dictionary, in_time, alpha, representation, solver, n_jobs)
         if method == "sparse":
@@ -539,6 +543,12 @@ def _say_averaged(summary, adaptation, n_members):
     if own:
         summary["averaged"] = {"answers": list(own), **summary["averaged"]}
     summary["ensemble"] = 1 if own and "ensemble" not in adaptation.settings else n_members
+def _loaded(dictionary):
+    """`dictionary` loaded (a name or path) and its Gram matrix's memory checked."""
+    if not isinstance(dictionary, Dictionary):
+        dictionary = load_dictionary(dictionary)
+    check_gram_memory(dictionary)
+    return dictionary
 
 
 def _with_mirrors(members, mirror, in_time, method):
@@ -725,7 +735,7 @@ _PARAMS = {
     "preset": [Options(PRESETS)],
     "exemplars": [Options(EXEMPLAR_OPTIONS)],
     "outliers": BOOLEAN,
-    "mirror": BOOLEAN + [Options(("auto",))],
+    "mirror": BOOLEAN + [Options(("auto",)), None],
 }
 
 

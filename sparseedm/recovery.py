@@ -34,7 +34,8 @@ import warnings
 
 from . import _progress
 from ._parallel import one_client
-from ._recovery_base import STATUSES, RecoveryResult, screen_poses, validate_poses
+from ._recovery_base import (STATUSES, RecoveryResult, cold_prior, screen_poses,
+                             validate_poses)
 from ._recovery_kernel import (RECOVER_PARAMS, preset_solver, recover_members, recover_sparse,
                                 solve_chunk)
 from ._validation import Options, check_adapt, check_frames, validate_params
@@ -62,7 +63,7 @@ _recover, _recover_members, _solve_chunk = recover_sparse, recover_members, solv
 BLEND_SETTINGS = ("representation", "n_jobs", "chunk_size", "progress")
 _PARAMS = dict(RECOVER_PARAMS, representation=[Options(REPRESENTATIONS), None],
                outliers=["boolean"], exemplars=[Options(EXEMPLAR_OPTIONS)],
-               mirror=["boolean", Options(("auto",))])
+               mirror=["boolean", Options(("auto",)), None])
 
 
 def check_options_apply(caller, *, method, model, backend, scheduler, adapt, ensemble,
@@ -143,7 +144,7 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
             positive=None, progress=False, backend=None, scheduler=None,
             method="sparse", model=None, adapt="auto", self_training=None, ensemble=1,
             tracks=None, frames=None, temporal=True, preset="default",
-            confidence=None, outliers=True, exemplars="auto", mirror=False):
+            confidence=None, outliers=True, exemplars="auto", mirror=None):
     """Recover the occluded joints of 2D poses.
 
     Parameters
@@ -153,7 +154,13 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
     missing : array_like of bool, shape (n, N), optional
         True where a joint is occluded; by default NaN coordinates mark them.
     dictionary : Dictionary, str or path, optional
-        None means the shipped default.
+        None means the shipped default, ``cmu-all-k2000``: the base adaptation
+        starts from. With ``adapt=False`` and poses coded one by one (no
+        `frames`), None means ``cmu-coco-k2932`` (its CMU atoms plus COCO's
+        people) with ``mirror="auto"``: the cold prior that does best on
+        photos of real people and on motion capture it did not learn from
+        (``docs/explanation/settings.md``, "Without adaptation");
+        ``dictionary="default"`` codes over the default alone.
     alpha : float, optional
         Lasso penalty; default the dictionary's recommended ``alpha_recover``.
         Scaled per pose by the dictionary's ``alpha_scaling`` rule.
@@ -304,7 +311,9 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         do, :func:`sparseedm.keypoints.read_keypoints`).
     outliers : bool, default True
         False turns the outlier check off (the scores are then unused).
-    mirror : {False, True, "auto"}, default False
+    mirror : {False, True, "auto"}, optional
+        Default ``"auto"`` with ``adapt=False`` and no `dictionary` (poses
+        coded one by one), else False.
         (sparse method, per pose) Also code each pose's mirror image (left and
         right joints swapped: :meth:`~sparseedm.dictionary.Dictionary.mirrored`)
         and return the mean of the two answers, twice the work. It helps where
@@ -314,8 +323,8 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         (:func:`~sparseedm._recovery_base.mirror_weights`): about the mean on
         photos of real people, about the pose's own answer on poses the
         dictionary learned from. With ``adapt=False`` and
-        ``dictionary="cmu-coco-k2932"`` it is the setting recommended for
-        photos of real people (``docs/explanation/settings.md``, "Without
+        ``dictionary="cmu-coco-k2932"`` it is the default without a
+        dictionary (``docs/explanation/settings.md``, "Without
         adaptation"). With an ensemble, every member is mirrored.
 
     Returns
@@ -367,6 +376,8 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
     check_options_apply("recover", method=method, model=model, backend=backend,
                         scheduler=scheduler, adapt=adapt, ensemble=ensemble, preset=preset,
                         self_training=self_training, exemplars=exemplars)
+    dictionary, mirror = cold_prior(dictionary, adapt, mirror,
+                                    method == "sparse" and (frames is None or not temporal))
     if method != "fconv":  # an FConv model says its own (recover_fconv)
         representation = representation_for(representation)
     if mirror and (method == "fconv" or (frames is not None and temporal)):
@@ -492,7 +503,8 @@ class OcclusionRecoverer:
     Parameters
     ----------
     dictionary : Dictionary, str or path, optional
-        As :func:`recover`'s; None means the shipped default.
+        As :func:`recover`'s: None means the shipped default, and
+        ``cmu-coco-k2932`` with ``mirror="auto"`` when ``adapt=False``.
     alpha : float, optional
         Lasso penalty; default the dictionary's recommended ``alpha_recover``.
     representation : {"average", "zero"}, optional
@@ -504,9 +516,10 @@ class OcclusionRecoverer:
     adapt : "auto", False or array_like (n_adapt, N, 2), default "auto"
         As :func:`recover`'s: ``"auto"`` adapts the dictionary on the complete
         poses given to :meth:`transform` when there are enough of them.
-    mirror : {False, True, "auto"}, default False
+    mirror : {False, True, "auto"}, optional
         As :func:`recover`'s: also code each pose's mirror image and average
-        the two answers (``"auto"``: weighed by their lasso objectives).
+        the two answers (``"auto"``: weighed by their lasso objectives; the
+        default with ``adapt=False`` and no `dictionary`, else False).
 
     Examples
     --------
@@ -521,7 +534,7 @@ class OcclusionRecoverer:
     """
 
     def __init__(self, dictionary=None, *, alpha=None, representation=None,
-                 solver="fast", n_jobs=1, adapt="auto", mirror=False):
+                 solver="fast", n_jobs=1, adapt="auto", mirror=None):
         self.dictionary = dictionary
         self.mirror = mirror
         self.alpha = alpha
@@ -543,7 +556,8 @@ class OcclusionRecoverer:
         Returns
         -------
         OcclusionRecoverer
-            This estimator, with ``dictionary_`` set.
+            This estimator, with ``dictionary_`` and ``mirror_`` (the rule
+            :meth:`transform` uses) set.
 
         Raises
         ------
@@ -555,7 +569,7 @@ class OcclusionRecoverer:
             solver=self.solver, n_jobs=self.n_jobs, mirror=self.mirror),
             {k: _PARAMS[k] for k in ("dictionary", "alpha", "representation", "solver",
                                      "n_jobs", "mirror")})
-        d = self.dictionary
+        d, self.mirror_ = cold_prior(self.dictionary, self.adapt, self.mirror)
         self.dictionary_ = d if isinstance(d, Dictionary) else load_dictionary(d)
         return self
 
@@ -582,5 +596,5 @@ class OcclusionRecoverer:
             self.fit()
         self.result_ = recover(X, missing, dictionary=self.dictionary_, alpha=self.alpha,
                                representation=self.representation, solver=self.solver,
-                               n_jobs=self.n_jobs, adapt=self.adapt, mirror=self.mirror)
+                               n_jobs=self.n_jobs, adapt=self.adapt, mirror=self.mirror_)
         return self.result_.poses

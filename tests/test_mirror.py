@@ -42,9 +42,10 @@ def test_a_mirrored_dictionary_codes_a_pose_as_the_original_codes_its_mirror_ima
 
 def test_mirror_averages_the_two_answers_and_keeps_the_observed_joints():
     given, missing = occluded()
-    one = sparseedm.recover(given, adapt=False).poses
-    other = mirror(sparseedm.recover(mirror(given), adapt=False).poses)
-    res = sparseedm.recover(given, adapt=False, mirror=True)
+    d = load_dictionary()
+    one = sparseedm.recover(given, adapt=False, dictionary=d).poses
+    other = mirror(sparseedm.recover(mirror(given), adapt=False, dictionary=d).poses)
+    res = sparseedm.recover(given, adapt=False, dictionary=d, mirror=True)
     assert np.allclose(res.poses, (one + other) / 2, atol=1e-6)
     assert np.array_equal(res.poses[~missing], given[~missing])
     assert (res.status == "recovered").all() and np.isfinite(res.uncertainty[missing]).all()
@@ -129,7 +130,7 @@ def test_mirror_auto_weighs_the_two_answers_by_their_objectives():
     r = other.objective / own.objective - 1
     expected = np.minimum(0.5, 1 / (1 + np.exp(r / MIRROR_TEMPERATURE)))
     assert np.allclose(w[1], expected) and np.allclose(w.sum(axis=0), 1)
-    res = sparseedm.recover(given, adapt=False, mirror="auto")
+    res = sparseedm.recover(given, adapt=False, dictionary=d, mirror="auto")
     assert np.allclose(res.poses, w[0][:, None, None] * own.poses
                        + w[1][:, None, None] * other.poses, atol=1e-6)
     assert np.array_equal(res.poses[~missing], given[~missing])
@@ -148,7 +149,7 @@ def test_mirror_auto_keeps_the_own_answer_on_poses_the_dictionary_learned_from(c
     given = np.where(missing[..., None], np.nan, truth)
 
     def error(**kw):
-        res = sparseedm.recover(given, missing, adapt=False, **kw)
+        res = sparseedm.recover(given, missing, adapt=False, dictionary="default", **kw)
         return np.linalg.norm(res.poses - truth, axis=-1)[missing].mean()
 
     plain, mean, auto = error(), error(mirror=True), error(mirror="auto")
@@ -182,3 +183,44 @@ def test_the_photo_protocol_runs_the_gated_mirror():
     rep = evaluate_photos(poses, conditions=[2], methods=methods)
     means = {r["method"]: r["mean"] for r in rep.rows if r["group"] == "overall"}
     assert set(means) == set(methods) and all(np.isfinite(list(means.values())))
+
+
+def test_adapt_false_without_a_dictionary_codes_over_the_cold_prior_with_the_gate():
+    """No dictionary and adapt=False: cmu-coco-k2932 with mirror="auto" (an
+    explicit mirror or dictionary is kept); adapting, and in time, the default."""
+    given, missing = occluded(12)
+    cold = sparseedm.recover(given, adapt=False)
+    union = sparseedm.recover(given, adapt=False, dictionary="cmu-coco-k2932", mirror="auto")
+    assert np.array_equal(cold.poses, union.poses)
+    assert np.array_equal(sparseedm.recover(given, adapt=None).poses, cold.poses)
+    default = sparseedm.recover(given, adapt=False, dictionary="default")
+    assert not np.allclose(cold.poses[missing], default.poses[missing])
+    plain = sparseedm.recover(given, adapt=False, mirror=False)
+    assert np.array_equal(plain.poses, sparseedm.recover(
+        given, adapt=False, dictionary="cmu-coco-k2932").poses)
+    assert not np.allclose(plain.poses[missing], cold.poses[missing])
+    frames = np.arange(len(given))
+    in_time = sparseedm.recover(given, adapt=False, frames=frames)
+    assert np.array_equal(in_time.poses, sparseedm.recover(
+        given, adapt=False, frames=frames, dictionary="default").poses)
+
+
+def test_the_file_and_the_estimator_take_the_same_cold_prior(tmp_path):
+    from sparseedm.batch import recover_file
+    from sparseedm.keypoints import read_keypoints, write_keypoints
+    from sparseedm.recovery import OcclusionRecoverer
+
+    given, _ = occluded(12)
+    src = tmp_path / "in.npz"
+    write_keypoints(src, given)
+    summary = recover_file(src, tmp_path / "out.npz", adapt=False)
+    assert summary["mirror"] == "auto"
+    cold = sparseedm.recover(given, adapt=False).poses
+    assert np.allclose(read_keypoints(tmp_path / "out.npz").poses, cold, atol=1e-6)
+    assert recover_file(src, tmp_path / "o2.npz", adapt=False, dictionary="default")[
+        "mirror"] is False
+    est = OcclusionRecoverer(adapt=False).fit()
+    assert est.dictionary_.n_components == 2932 and est.mirror_ == "auto"
+    assert np.allclose(est.transform(given), cold, atol=1e-9)
+    est = OcclusionRecoverer().fit()
+    assert est.dictionary_.n_components == 2000 and est.mirror_ is False

@@ -123,7 +123,9 @@ def _add_adaptation_options(p):
     g.add_argument("--no-adapt", action="store_true",
                    help="do not adapt the dictionary to INPUT's complete poses (by default "
                    "it is adapted when INPUT has enough of them, and kept only if better "
-                   "on a held-back slice: sparseedm.adaptation)")
+                   "on a held-back slice: sparseedm.adaptation); without --dictionary, "
+                   "poses are coded one by one over cmu-coco-k2932 with --mirror-auto "
+                   "(--dictionary default: over the default alone)")
     g.add_argument("--adapt-from", default=None, metavar="FILE",
                    help="adapt on the complete poses of FILE (same source, any keypoint "
                    "format; a video's time-completed frames too) instead of INPUT's")
@@ -154,8 +156,7 @@ def _add_adaptation_options(p):
     mirror.add_argument("--mirror-auto", action="store_true",
                         help="as --mirror, the two answers weighed by their lasso objectives "
                         "(the mirror's weight falls from one half as its objective exceeds "
-                        "the pose's own); with --no-adapt and --dictionary cmu-coco-k2932, "
-                        "the setting for photos of real people")
+                        "the pose's own); the default with --no-adapt and no --dictionary")
     p.add_argument("--save-dictionary", default=None, metavar="FILE",
                    help="write the dictionary used (adapted or not; with --ensemble, the "
                    "first member's) to FILE (.npz)")
@@ -202,7 +203,7 @@ def run(args):
         temporal=not args.no_temporal, input_format=args.input_format,
         preset=args.preset,
         outliers=not args.no_outliers, exemplars=False if args.no_exemplars else "auto",
-        mirror="auto" if args.mirror_auto else args.mirror,
+        mirror="auto" if args.mirror_auto else (True if args.mirror else None),
     )
     out = sys.stderr if args.quiet or is_stream(args.output) else sys.stdout  # -o /dev/stdout
     ad = summary.get("adaptation")
