@@ -61,8 +61,9 @@ def conditional_mean(train, query, observed, ridge=GAUSSIAN_RIDGE):
     >>> round(float(out[0, 1]), 6)
     4.0
     """
-    mu = train.mean(axis=0)
-    cov = np.cov(train, rowvar=False)
+    mu = np.ones(len(train)) @ train / len(train)
+    centred = train - mu
+    cov = centred.T @ centred / (len(train) - 1)
     cov = cov + ridge * np.trace(cov) / len(cov) * np.eye(len(cov))
     obs, hid = np.flatnonzero(observed), np.flatnonzero(~observed)
     coef = np.linalg.solve(cov[np.ix_(obs, obs)], cov[np.ix_(obs, hid)])
@@ -71,14 +72,23 @@ def conditional_mean(train, query, observed, ridge=GAUSSIAN_RIDGE):
     return out
 
 
-def _frame(poses, observed):
+def _sums(poses):
+    """The per-joint terms :func:`_frame` weighs: x, y and x² + y² (n, N) each."""
+    x, y = np.ascontiguousarray(poses[..., 0]), np.ascontiguousarray(poses[..., 1])
+    with np.errstate(over="ignore"):
+        return x, y, x * x + y * y
+
+
+def _frame(poses, observed, sums=None):
     """Each pose shifted to the centroid of its `observed` joints and divided by
-    their RMS radius (:func:`~sparseedm.normalize.rms_radius`'s, computed
-    directly: validated coordinates): (normalised poses, centre, radius)."""
-    seen = poses[:, observed]
-    centre = seen.mean(axis=1)
+    their RMS radius (:func:`~sparseedm.normalize.rms_radius`'s, computed as
+    weighted sums of validated coordinates; `sums` :func:`_sums` of `poses`):
+    (normalised poses, centre, radius)."""
+    x, y, squares = _sums(poses) if sums is None else sums
+    weights = observed / observed.sum()
+    centre = np.stack([x @ weights, y @ weights], axis=-1)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        radius = np.sqrt(((seen - centre[:, None]) ** 2).sum(axis=-1).mean(axis=1))
+        radius = np.sqrt(np.maximum(squares @ weights - (centre * centre).sum(axis=-1), 0.0))
         return (poses - centre[:, None]) / radius[:, None, None], centre, radius
 
 
@@ -112,10 +122,12 @@ def gaussian_fill(train, poses, missing, *, ridge=GAUSSIAN_RIDGE):
     >>> bool(np.array_equal(out[0, ~missing[0]], train[0, ~missing[0]]))
     True
     """
+    train = np.asarray(train, dtype=float)
     poses = np.asarray(poses, dtype=float)
     missing = np.asarray(missing, bool)
     out = poses.copy()
     n_joints = missing.shape[1]
+    sums = _sums(train)
     patterns, which = np.unique(missing, axis=0, return_inverse=True)
     which = np.ravel(which)
     for k, pattern in enumerate(patterns):
@@ -125,8 +137,8 @@ def gaussian_fill(train, poses, missing, *, ridge=GAUSSIAN_RIDGE):
         if (~pattern).sum() < 2:  # no frame: left NaN
             out[rows] = np.where(pattern[:, None], np.nan, poses[rows])
             continue
-        z_train, _, _ = _frame(train, ~pattern)
-        z_train = z_train[np.isfinite(z_train).all(axis=(1, 2))]  # a frame of no spread
+        z_train, _, spread = _frame(train, ~pattern, sums)
+        z_train = z_train[spread > 0]  # a frame of no spread: left out
         z, centre, radius = _frame(np.where(pattern[:, None], 0.0, poses[rows]), ~pattern)
         filled = conditional_mean(z_train.reshape(len(z_train), -1), z.reshape(len(rows), -1),
                                   np.repeat(~pattern, 2), ridge)

@@ -83,20 +83,15 @@ def procrustes_frame(poses, observed, reference=None, iters=3):
     return np.einsum("nij,njk->nik", poses, a) + t[:, None], a, t, reference
 
 
-def conditional_mean(Z, z_obs, obs_idx, ridge):
-    """E[hidden | observed] under N(mean, cov + ridge * mean variance * I) of the
-    rows `Z` (n, d); `z_obs` (m, len(obs_idx))."""
-    mu = Z.mean(axis=0)
-    S = np.cov(Z, rowvar=False)
-    S = S + ridge * np.trace(S) / len(S) * np.eye(len(S))
-    hid = np.setdiff1d(np.arange(Z.shape[1]), obs_idx)
-    B = np.linalg.solve(S[np.ix_(obs_idx, obs_idx)], S[np.ix_(obs_idx, hid)])
-    return mu[hid] + (z_obs - mu[obs_idx]) @ B, hid
-
-
 def global_linear(complete, given, missing, frame="radius", ridge=0.01):
     """The filled poses: each missing pattern's poses given the conditional mean of
-    their hidden joints under one Gaussian of `complete` in the pattern's frame."""
+    their hidden joints under one Gaussian of `complete` in the pattern's frame
+    (``"radius"``: :func:`sparseedm.gaussian_fill.gaussian_fill`, as shipped;
+    ``"raw"``: pixel coordinates; ``"procrustes"``: similarity-aligned)."""
+    from sparseedm.gaussian_fill import conditional_mean, gaussian_fill
+
+    if frame == "radius":
+        return gaussian_fill(complete, given, missing, ridge=ridge)
     out = given.copy()
     n, N = missing.shape
     pats, inv = np.unique(missing, axis=0, return_inverse=True)
@@ -105,41 +100,30 @@ def global_linear(complete, given, missing, frame="radius", ridge=0.01):
         if not pat.any():
             continue
         rows = np.flatnonzero(inv == k)
-        observed = ~pat
-        obs_idx = np.flatnonzero(np.repeat(observed, 2))
-        q = given[rows]
+        q = np.where(pat[:, None], 0.0, given[rows])
+        cols = np.repeat(~pat, 2)
         if frame == "raw":
-            zq = np.where(pat[:, None], 0.0, q).reshape(len(rows), -1)
-            zh, hid = conditional_mean(complete.reshape(len(complete), -1), zq[:, obs_idx],
-                                       obs_idx, ridge)
-            zq[:, hid] = zh
-            back = zq.reshape(len(rows), N, 2)
-        elif frame == "radius":
-            Z, _, _ = radius_frame(complete, observed)
-            zq, c, r = radius_frame(np.where(pat[:, None], 0.0, q), observed)
-            zq = zq.reshape(len(rows), -1)
-            zh, hid = conditional_mean(Z.reshape(len(Z), -1), zq[:, obs_idx], obs_idx, ridge)
-            filled = zq.copy()
-            filled[:, hid] = zh
-            back = filled.reshape(len(rows), N, 2) * r[:, None, None] + c[:, None]
+            back = conditional_mean(complete.reshape(len(complete), -1),
+                                    q.reshape(len(rows), -1), cols, ridge).reshape(q.shape)
         else:
-            Z, _, _, ref = procrustes_frame(complete, observed)
-            zq, a, t, _ = procrustes_frame(np.where(pat[:, None], 0.0, q), observed, ref)
-            zq = zq.reshape(len(rows), -1)
-            zh, hid = conditional_mean(Z.reshape(len(Z), -1), zq[:, obs_idx], obs_idx, ridge)
-            filled = zq.copy()
-            filled[:, hid] = zh
-            f = filled.reshape(len(rows), N, 2) - t[:, None]
-            back = np.einsum("nij,njk->nik", f, np.linalg.inv(a))
-        out[rows] = np.where(pat[:, None], back, q)
+            Z, _, _, ref = procrustes_frame(complete, ~pat)
+            zq, a, t, _ = procrustes_frame(q, ~pat, ref)
+            filled = conditional_mean(Z.reshape(len(Z), -1), zq.reshape(len(rows), -1), cols,
+                                      ridge).reshape(q.shape)
+            back = np.einsum("nij,njk->nik", filled - t[:, None], np.linalg.inv(a))
+        out[rows] = np.where(pat[:, None], back, given[rows])
     return out
 
 
-def file_linear(complete, given, missing, frame="radius", ridge=0.001, rounds=3, start=None):
+def file_linear(complete, given, missing, frame="radius", ridge=0.001, rounds=3):
     """global_linear refitted on the whole file: each round, the Gaussian fitted to
-    the complete poses and the occluded ones as last filled (`start`, None: by
-    global_linear over the complete poses), the occluded poses filled again."""
-    filled = global_linear(complete, given, missing, frame, ridge) if start is None else start
+    the complete poses and the occluded ones as last filled, the occluded poses
+    filled again (``"radius"``: :func:`sparseedm.gaussian_fill.file_gaussian`)."""
+    from sparseedm.gaussian_fill import file_gaussian
+
+    if frame == "radius":
+        return file_gaussian(complete, given, missing, rounds=rounds, ridge=ridge)[0]
+    filled = global_linear(complete, given, missing, frame, ridge)
     for _ in range(rounds):
         filled = global_linear(np.concatenate([complete, filled]), given, missing, frame, ridge)
     return filled
@@ -221,6 +205,9 @@ def main(argv=None):
     ap.add_argument("--train", type=int, default=1000)
     ap.add_argument("--occluded", type=int, default=1000)
     ap.add_argument("--daz", default="")
+    ap.add_argument("--mocap", default="",
+                    help="dataset .npz files, each path[:dictionary], comma-separated: "
+                    "these files only (end to end)")
     a = ap.parse_args(argv)
     warnings.simplefilter("ignore")
     if a.table:
@@ -392,7 +379,7 @@ def stack_main(a):
 
 
 
-def without_linear(given, missing):
+def without_linear(given, missing, **kw):
     """recover()'s defaults without the stacked mean with the Gaussian (the path
     before it: :func:`sparseedm.exemplars.linear_stack` answering None)."""
     import sparseedm
@@ -401,12 +388,12 @@ def without_linear(given, missing):
     kept = sparseedm.recovery.linear_stack
     sparseedm.recovery.linear_stack = lambda *a: None
     try:
-        return sparseedm.recover(given, missing, n_jobs=2)
+        return sparseedm.recover(given, missing, n_jobs=2, **kw)
     finally:
         sparseedm.recovery.linear_stack = kept
 
 
-def measure_shipped(name, truth, missing, photo):
+def measure_shipped(name, truth, missing, photo, **kw):
     """One file, end to end: recover()'s defaults before (``before``, cached) and
     with the stacked mean (``stacked``), IterativeImputer (photos, cached)."""
     import sparseedm
@@ -423,13 +410,13 @@ def measure_shipped(name, truth, missing, photo):
             got["before"], secs["before"] = z["poses"], float(z["secs"])
     else:
         t0 = time.perf_counter()
-        res = without_linear(given, missing)
+        res = without_linear(given, missing, **kw)
         secs["before"] = round(time.perf_counter() - t0, 2)
         got["before"] = res.poses[occ]
         path = res.adaptation.summary().get("path") if res.adaptation is not None else None
         np.savez(cache, poses=got["before"], path=str(path), secs=secs["before"])
     t0 = time.perf_counter()
-    res = sparseedm.recover(given, missing, n_jobs=2)
+    res = sparseedm.recover(given, missing, n_jobs=2, **kw)
     secs["stacked"] = round(time.perf_counter() - t0, 2)
     got["stacked"] = res.poses[occ]
     settings = res.adaptation.settings if res.adaptation is not None else {}
@@ -447,6 +434,20 @@ def measure_shipped(name, truth, missing, photo):
     return path, weight, secs, {k: per_pose(v, truth[occ], missing[occ]) for k, v in got.items()}
 
 
+def mocap_files(a):
+    """(name, truth, missing, False, recover() options) of --mocap's dataset files
+    (``path[:dictionary]``), C complete + C Mix poses as mocap_check.py draws them."""
+    from studies.fast.select_default_exemplars import mocap_file
+
+    for item in a.mocap.split(","):
+        path, _, dictionary = item.partition(":")
+        for c in (int(x) for x in a.mocap_sizes.split(",") if x):
+            truth, missing = mocap_file(path, c, c, a.seed)
+            kw = {"dictionary": dictionary} if dictionary else {}
+            yield (f"{Path(path).stem} {c}+{c} {dictionary or 'default'}",
+                   np.asarray(truth, float), missing, False, kw)
+
+
 def shipped_main(a):
     from studies.fast.select_photo_blend import files, paired
 
@@ -456,11 +457,12 @@ def shipped_main(a):
                  "stacked mean", "files": {}}
     for seed in (int(s) for s in a.seeds.split(",")):
         a.seed = seed
-        for name, truth, missing, photo in files(a):
+        for name, truth, missing, photo, kw in (mocap_files(a) if a.mocap else
+                                                ((*f, {}) for f in files(a))):
             name = f"{name} seed {seed}" if "seed" not in name else name
             if name in doc["files"]:
                 continue
-            path, weight, secs, errors = measure_shipped(name, truth, missing, photo)
+            path, weight, secs, errors = measure_shipped(name, truth, missing, photo, **kw)
             doc["files"][name] = {
                 "path": path, "linear_weight": weight, "seconds": secs,
                 "n": int(len(errors["before"])),
