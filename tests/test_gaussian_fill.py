@@ -114,3 +114,58 @@ def test_linear_weight_goes_to_the_exact_candidate():
     w_exact, e_exact = linear_weight(exact, truth, mask, rest, file_poses, mask)
     assert w_off == LINEAR_WEIGHTS[-1] and w_exact == 0.0
     assert e_exact == 0.0 and e_off < 1.0
+
+
+def _stack_file(n_complete=400, n_occluded=60, seed=2):
+    """A linear-family file: complete poses, then poses with 1-3 joints hidden."""
+    from sparseedm.adaptation import guard_masks
+
+    poses = _template_file(n_complete + n_occluded, seed=seed, sd=0.5)
+    missing = np.zeros(poses.shape[:2], bool)
+    missing[n_complete:] = guard_masks(n_occluded, 14, random_state=seed)
+    return np.where(missing[..., None], np.nan, poses), missing, poses
+
+
+def test_recover_stacks_the_gaussian_at_the_checks_weight(small_dictionary, monkeypatch):
+    """On a file the Gaussian nearly fits, the check gives it weight; every occluded
+    pose is then (1 - w) * the path's answer + w * the Gaussian's, which errs less
+    than the path alone; the complete poses as the path gives them."""
+    import sparseedm.recovery
+    from sparseedm import recover
+    from sparseedm.exemplars import linear_stack
+
+    given, missing, truth = _stack_file()
+    res = recover(given, missing, dictionary=small_dictionary)
+    w = res.adaptation.settings["linear_weight"]
+    assert w in LINEAR_WEIGHTS and w > 0
+    stack = linear_stack(small_dictionary, given, missing, res.adaptation)
+    monkeypatch.setattr(sparseedm.recovery, "linear_stack", lambda *a: None)
+    path = recover(given, missing, dictionary=small_dictionary)
+    occ = np.flatnonzero(missing.any(axis=1) & res.ok)
+    fill = gaussian_fill(stack.train, given[occ], missing[occ])
+    np.testing.assert_allclose(res.poses[occ], (1 - w) * path.poses[occ] + w * fill,
+                               rtol=0, atol=1e-6)
+    done = ~missing.any(axis=1)
+    np.testing.assert_array_equal(res.poses[done], path.poses[done])
+
+    def err(p):
+        return np.linalg.norm(p - truth[occ], axis=-1)[missing[occ]].mean()
+
+    assert err(res.poses[occ]) < err(path.poses[occ])
+
+
+def test_recover_file_stacks_as_recover_does(small_dictionary, tmp_path):
+    """recover_file (`sparseedm recover`) gives the same filled poses as recover()
+    on a file it reads whole."""
+    from sparseedm import recover
+    from sparseedm.batch import recover_file
+    from sparseedm.keypoints import KeypointSet, write_keypoints
+
+    given, missing, _ = _stack_file()
+    src = write_keypoints(tmp_path / "in.npz", KeypointSet(given, missing))
+    recover_file(src, tmp_path / "out.npz", dictionary=small_dictionary)
+    with np.load(tmp_path / "out.npz") as out:
+        filed = out["poses"]
+    res = recover(given, missing, dictionary=small_dictionary)
+    assert res.adaptation.settings["linear_weight"] > 0
+    np.testing.assert_allclose(filed[res.ok], res.poses[res.ok], rtol=0, atol=1e-6)
