@@ -21,6 +21,7 @@ this answer against its own by a held-back check
 from __future__ import annotations
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 __all__ = ["GAUSSIAN_RIDGE", "GAUSSIAN_ROUNDS", "conditional_mean", "gaussian_fill",
            "file_gaussian"]
@@ -126,27 +127,31 @@ def gaussian_fill(train, poses, missing, *, ridge=GAUSSIAN_RIDGE):
     poses = np.asarray(poses, dtype=float)
     missing = np.asarray(missing, bool)
     out = poses.copy()
-    n_joints = missing.shape[1]
     sums = _sums(train)
     patterns, which = np.unique(missing, axis=0, return_inverse=True)
     which = np.ravel(which)
-    for k, pattern in enumerate(patterns):
-        if not pattern.any():
-            continue
-        rows = np.flatnonzero(which == k)
-        if (~pattern).sum() < 2:  # no frame: left NaN
-            out[rows] = np.where(pattern[:, None], np.nan, poses[rows])
-            continue
-        z_train, _, spread = _frame(train, ~pattern, sums)
-        z_train = z_train[spread > 0]  # a frame of no spread: left out
-        z, centre, radius = _frame(np.where(pattern[:, None], 0.0, poses[rows]), ~pattern)
-        filled = conditional_mean(z_train.reshape(len(z_train), -1), z.reshape(len(rows), -1),
-                                  np.repeat(~pattern, 2), ridge)
-        back = filled.reshape(len(rows), n_joints, 2) * radius[:, None, None] + centre[:, None]
-        bad = ~(np.isfinite(radius) & (radius > 0))
-        back[bad] = np.nan
-        out[rows] = np.where(pattern[:, None], back, poses[rows])
+    # products of at most (n, 28) by (28, 28): threaded BLAS only waits on a busy machine
+    with threadpool_limits(1, user_api="blas"):
+        for k, pattern in enumerate(patterns):
+            _fill_pattern(train, sums, poses, out, np.flatnonzero(which == k), pattern, ridge)
     return out
+
+
+def _fill_pattern(train, sums, poses, out, rows, pattern, ridge):
+    """gaussian_fill of the `rows` of one missing `pattern`, written into `out`."""
+    if not pattern.any():
+        return
+    if (~pattern).sum() < 2:  # no frame: left NaN
+        out[rows] = np.where(pattern[:, None], np.nan, poses[rows])
+        return
+    z_train, _, spread = _frame(train, ~pattern, sums)
+    z_train = z_train[spread > 0]  # a frame of no spread: left out
+    z, centre, radius = _frame(np.where(pattern[:, None], 0.0, poses[rows]), ~pattern)
+    filled = conditional_mean(z_train.reshape(len(z_train), -1), z.reshape(len(rows), -1),
+                              np.repeat(~pattern, 2), ridge)
+    back = filled.reshape(z.shape) * radius[:, None, None] + centre[:, None]
+    back[~(np.isfinite(radius) & (radius > 0))] = np.nan
+    out[rows] = np.where(pattern[:, None], back, poses[rows])
 
 
 def file_gaussian(complete, poses, missing, *, rounds=GAUSSIAN_ROUNDS, ridge=GAUSSIAN_RIDGE):
