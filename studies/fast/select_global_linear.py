@@ -1,27 +1,36 @@
-"""A global linear candidate (one Gaussian over the file's complete poses) and stacking.
+"""A global linear candidate (one Gaussian over the file's poses) and stacking.
 
 IterativeImputer, the photo protocols' strongest peer, is in effect a global
 linear regression of the hidden coordinates on the observed ones, fitted on
 the file. ``recover()``'s default path codes each occluded pose sparsely over
-the file's complete poses (:mod:`sparseedm.exemplars`). This script measures,
-per validation file:
+the file's complete poses (:mod:`sparseedm.exemplars`). Modes:
 
-* ``shipped``: ``recover()``'s defaults;
-* ``G radius``: the conditional mean of the hidden joints given the observed
-  ones under one Gaussian fitted to the file's complete poses, each pose in
-  the frame of its observed joints (their centroid and RMS radius), the
-  covariance shrunk by a ridge (``--ridge``, relative to its mean variance);
-  closed form per missing pattern;
-* ``G procrustes``: the same, every pose aligned by a similarity transform
-  (rotation, scale, shift) of its observed joints onto their mean shape;
-* ``avg(shipped, G ...)``: the mean of the two answers;
-* ``iterative``: scikit-learn's IterativeImputer on the same file.
+* ``--probe`` (MPII val, Bonn val + 1,000 train; random masks): ``G``, the
+  conditional mean of the hidden joints under one Gaussian of the file's
+  complete poses, the covariance shrunk by a ridge, in pixels (``raw``), in
+  the frame of the observed joints (``radius``: their centroid and RMS
+  radius, :mod:`sparseedm.gaussian_fill`) or similarity-aligned on them
+  (``procrustes``); ``F``, the same refitted 3 times on the complete poses
+  and the occluded ones as last filled; each alone and averaged with the
+  defaults (``shipped``), IterativeImputer beside them;
+* ``--replay``: stacking replayed with the default path's held-back check:
+  convex weights in steps of 0.25 over the path's answer and ``F``
+  (``stack2``), with the local ridge over base + file atoms (``stack3``),
+  or per number of hidden joints (``stack2 per k``);
+* default (end to end): ``recover()``'s defaults before the stacked mean
+  (``before``: :func:`sparseedm.exemplars.linear_stack` answering None) and
+  with it (``stacked``), IterativeImputer on the photo files; ``--mocap``:
+  dataset files ``path[:dictionary]`` instead;
+* ``--rule``: the check's weight under ``LINEAR_MIN_SE`` re-run on the end-to-end
+  runs' files; ``--table`` (with ``--ruled``) pools them; ``--timing``.
 
 Files: ``select_photo_blend.files`` (validation photo files; CMU held-out
 clips and Daz files). Score: per occluded pose the mean error of its hidden
-joints, % of body size; paired difference with ``shipped`` [mean, standard error].
+joints, % of body size; paired differences [mean, standard error]. Commands:
+``studies/fast/README.md``.
 
     python studies/fast/select_global_linear.py --probe --out probe.json
+    python studies/fast/select_global_linear.py --seeds 0 --daz daz_indian.npz --out seed0.json
 """
 
 from __future__ import annotations
@@ -195,6 +204,12 @@ def main(argv=None):
     ap.add_argument("--probe", action="store_true", help="the probe's candidates only")
     ap.add_argument("--replay", action="store_true",
                     help="the study's replay of stacking variants (else end to end)")
+    ap.add_argument("--rule", nargs="+", type=Path,
+                    help="end-to-end JSONs: the check's weight under LINEAR_MIN_SE per file")
+    ap.add_argument("--ruled", nargs="*", type=Path, default=[],
+                    help="with --table: --rule's JSONs, the weights the check now takes")
+    ap.add_argument("--timing", action="store_true",
+                    help="recover()'s seconds with and without the stacked mean")
     ap.add_argument("--table", nargs="+", type=Path,
                     help="print the end-to-end table pooled over these JSONs, stop")
     ap.add_argument("--seeds", default="0")
@@ -211,8 +226,16 @@ def main(argv=None):
     a = ap.parse_args(argv)
     warnings.simplefilter("ignore")
     if a.table:
-        print(shipped_table([json.loads(p.read_text()) for p in a.table]))
+        docs = [json.loads(p.read_text()) for p in a.table]
+        rule = {}
+        for p in a.ruled:
+            rule.update(json.loads(p.read_text()))
+        print(replay_table(docs[0]) if a.replay else shipped_table(docs, rule))
         return None
+    if a.timing:
+        return timing(a.out)
+    if a.rule:
+        return rule_main(a)
     if a.replay:
         return stack_main(a)
     if not a.probe:
@@ -381,16 +404,19 @@ def stack_main(a):
 
 def without_linear(given, missing, **kw):
     """recover()'s defaults without the stacked mean with the Gaussian (the path
-    before it: :func:`sparseedm.exemplars.linear_stack` answering None)."""
+    before it: :func:`sparseedm.exemplars.linear_stack` answering None, and the
+    check's :func:`sparseedm.exemplars.linear_weight` not run)."""
     import sparseedm
+    import sparseedm.exemplars
     import sparseedm.recovery
 
-    kept = sparseedm.recovery.linear_stack
+    kept = sparseedm.recovery.linear_stack, sparseedm.exemplars.linear_weight
     sparseedm.recovery.linear_stack = lambda *a: None
+    sparseedm.exemplars.linear_weight = lambda *a: (0.0, float("nan"))
     try:
         return sparseedm.recover(given, missing, n_jobs=2, **kw)
     finally:
-        sparseedm.recovery.linear_stack = kept
+        sparseedm.recovery.linear_stack, sparseedm.exemplars.linear_weight = kept
 
 
 def measure_shipped(name, truth, missing, photo, **kw):
@@ -475,17 +501,109 @@ def shipped_main(a):
             a.out.write_text(json.dumps(doc, indent=1) + "\n")
 
 
-def shipped_table(docs):
+def timing(out):
+    """recover()'s seconds with and without the stacked mean, alternated twice in
+    one process, on four validation files (the load noted)."""
+    import os
+
+    import sparseedm
+    from studies.fast.select_fast import validation_file
+    from studies.fast.select_photo_atoms import photo_files
+
+    made = [(n, t, m) for src, part in (("mpii", "split"), ("mpii", "train"), ("bonn", "train"))
+            for n, t, m in photo_files(src, "val", part) if "mix" in n][:3]
+    made.append(("cmu 2000 poses", *validation_file(2000, 0)))
+    doc = {"load": [], "files": {}}
+    sparseedm.recover(made[0][1][:60], made[0][2][:60])  # compiled once
+    for name, truth, missing in made:
+        given = np.where(missing[..., None], np.nan, truth)
+        row = {"before": [], "stacked": []}
+        for _ in range(2):
+            for key, run in (("before", without_linear), ("stacked", sparseedm.recover)):
+                t0 = time.perf_counter()
+                run(given, missing, n_jobs=2) if key == "stacked" else run(given, missing)
+                row[key].append(round(time.perf_counter() - t0, 2))
+        doc["load"].append(round(os.getloadavg()[0], 1))
+        doc["files"][name] = row
+        print(name, row, doc["load"][-1], flush=True)
+        out.write_text(json.dumps(doc, indent=1) + "\n")
+
+
+def rule_main(a):
+    """The check's weight under LINEAR_MIN_SE per file of --rule's JSONs (the
+    end-to-end runs: weights without the rule), re-run by choose_exemplars."""
+    import re
+
+    import sparseedm
+    from sparseedm.dictionary import load_dictionary
+    from sparseedm.exemplars import choose_exemplars
+    from studies.fast.select_photo_blend import files
+
+    out = json.loads(a.out.read_text()) if a.out.exists() else {}
+    runs = {n: r for p in a.rule for n, r in json.loads(p.read_text())["files"].items()}
+    for seed in (int(s) for s in a.seeds.split(",")):
+        a.seed = seed
+        made = mocap_files(a) if a.mocap else ((*f, {}) for f in files(a))
+        for name, truth, missing, _, kw in made:
+            name = f"{name} seed {seed}" if "seed" not in name else name
+            if name not in runs or name in out or not np.isfinite(runs[name]["linear_weight"]):
+                continue
+            given = np.where(missing[..., None], np.nan, truth)
+            base = load_dictionary(kw["dictionary"]) if kw else sparseedm.load_dictionary()
+            check = choose_exemplars(base, given, missing)
+            r = runs[name]
+            out[name] = {"weight": r["linear_weight"], "ruled": check.linear_weight,
+                         "stacked - before": r["candidates"]["stacked"]["minus_before"]}
+            print(re.sub(r" \(.*\)", "", name), out[name], flush=True)
+            a.out.write_text(json.dumps(out, indent=1) + "\n")
+
+
+def replay_table(doc):
+    """Markdown of a --replay JSON: per file, shipped's and II's error, each
+    candidate's paired difference, the stacked weights."""
+    cands = ("F", "avg(shipped, F)", "stack2", "stack3", "stack2 per k")
+    lines = ["| file | shipped | II | " + " | ".join(cands) + " | weights (2 / 3) |",
+             "|---|---:|---:|" + "---:|" * len(cands) + "---|"]
+    for name, r in doc["files"].items():
+        c = r["candidates"]
+        ii = f"{c['iterative']['mean']:.2f}" if "iterative" in c else "-"
+        cells = [f"{c[k]['minus_shipped'][0]:+.2f} ± {c[k]['minus_shipped'][1]:.2f}"
+                 for k in cands]
+        w = r["weights"]
+        ws = (f"{'/'.join(f'{x:g}' for x in w['stack2'])} ; "
+              f"{'/'.join(f'{x:g}' for x in w['stack3'])}" if w else "no check")
+        lines.append(f"| {name} | {c['shipped']['mean']:.2f} | {ii} | " + " | ".join(cells)
+                     + f" | {ws} |")
+    return "\n".join(lines)
+
+
+def ruled(doc, rule):
+    """`doc` (an end-to-end JSON) as the check under LINEAR_MIN_SE answers: where
+    `rule` (--rule's JSON) says weight 0, the stacked answer is the one before."""
+    import copy
+
+    doc = copy.deepcopy(doc)
+    for name, r in doc["files"].items():
+        if name in rule and rule[name]["ruled"] == 0 and r["linear_weight"] > 0:
+            r["linear_weight"] = 0.0
+            r["candidates"]["stacked"] = dict(r["candidates"]["before"])
+        elif name in rule:
+            assert rule[name]["ruled"] == r["linear_weight"], name  # else re-run the file
+    return doc
+
+
+def shipped_table(docs, rule=None):
     """Markdown: per file (seeds pooled), before's and II's error, the stacked
-    mean's paired difference, the weights, seconds."""
+    mean's paired difference, the weights (`rule`: as :func:`ruled`). The runs'
+    seconds are in the JSONs; --timing measures the cost."""
     import re
 
     rows = {}
     for doc in docs:
-        for name, r in doc["files"].items():
+        for name, r in (ruled(doc, rule) if rule else doc)["files"].items():
             rows.setdefault(re.sub(r" seed \d+$", "", name), []).append(r)
-    lines = ["| file | seeds | weights | before | II | stacked - before | stacked / II "
-             "| s: before / stacked |", "|---|---:|---|---:|---:|---:|---:|---:|"]
+    lines = ["| file | seeds | weights | before | II | stacked - before | stacked / II |",
+             "|---|---:|---|---:|---:|---:|---:|"]
     for name, rs in rows.items():
         d = np.array([r["candidates"]["stacked"]["minus_before"] for r in rs])
         before = np.mean([r["candidates"]["before"]["mean"] for r in rs])
@@ -495,11 +613,9 @@ def shipped_table(docs):
         ratio = f"{stacked / np.mean(ii):.2f}" if ii else "-"
         w = "/".join("-" if not np.isfinite(r["linear_weight"]) else f"{r['linear_weight']:g}"
                      for r in rs)
-        s = (np.mean([r["seconds"]["before"] for r in rs]),
-             np.mean([r["seconds"]["stacked"] for r in rs]))
         lines.append(f"| {name} | {len(rs)} | {w} | {before:.2f} | {iis} | "
                      f"{d[:, 0].mean():+.2f} ± {np.sqrt((d[:, 1] ** 2).sum()) / len(d):.2f} | "
-                     f"{ratio} | {s[0]:.1f} / {s[1]:.1f} |")
+                     f"{ratio} |")
     return "\n".join(lines)
 
 
