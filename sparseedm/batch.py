@@ -110,7 +110,7 @@ from .dictionary import Dictionary, dictionary_path, check_gram_memory, load_dic
 from ._safeio import resolved
 from .ensemble import adapt_members
 from .exemplars import (EXEMPLAR_OPTIONS, blend_atoms, blend_many_hidden, blends,
-                         ridge_mean_atoms)
+                         linear_stack, ridge_mean_atoms)
 from .exceptions import FileFormatError, OutputPathError, ParameterError, SparseEDMError
 from .fconv.model import load_model
 from .formats import FILLED_SCORE, count_below, default_threshold, threshold_line
@@ -664,8 +664,9 @@ def _adapt(source, dictionary, adapt, chunk_size, threshold, n_jobs, self_traini
     `exemplars` as :func:`~sparseedm.ensemble.adapt_members`' (per pose, "auto" only);
     third, with `blend` (:func:`~sparseedm.exemplars.blends`), the atoms of the
     blend of poses with many hidden joints and of the mean on every occluded pose
-    (:func:`~sparseedm.exemplars.blend_atoms`,
-    :func:`~sparseedm.exemplars.ridge_mean_atoms`; None: no blend)."""
+    and the Gaussian of the stacked mean (:func:`~sparseedm.exemplars.blend_atoms`,
+    :func:`~sparseedm.exemplars.ridge_mean_atoms`,
+    :func:`~sparseedm.exemplars.linear_stack`; None: no blend)."""
     if in_time and preset == "fast":
         raise ParameterError("recover_file: preset 'fast' recovers each pose on its own: "
                              "the file has frames, add --no-temporal (temporal=False)")
@@ -693,7 +694,8 @@ def _adapt(source, dictionary, adapt, chunk_size, threshold, n_jobs, self_traini
     if isinstance(adapt, str) and adapt == "auto":
         members, results = adapt_members(dictionary, poses, missing, "auto", ensemble, **kw)
         blend = ((blend_atoms(dictionary, poses, missing, results[0]),
-                  ridge_mean_atoms(dictionary, poses, missing, results[0]))
+                  ridge_mean_atoms(dictionary, poses, missing, results[0]),
+                  linear_stack(dictionary, poses, missing, results[0]))
                  if blend else None)
         return members, results[0], blend
     if isinstance(adapt, (str, Path)):
@@ -744,11 +746,11 @@ class _Recovery:
     """How every chunk is recovered: the members (one dictionary unless an
     ensemble) and :func:`recover`'s settings; `time_axis` (tracks, frames) sends
     the poses to temporal recovery, whole tracks per chunk (:meth:`bounds`); `blend`
-    the atoms of :func:`~sparseedm.exemplars.blend_many_hidden` (its `atoms` and
-    `mean_atoms`; None: none), as recover() blends; `adaptation` what the run's
-    adaptation did: per pose, each chunk's radii are then rated as recover() rates
-    that path's answers (:func:`~sparseedm.uncertainty.coding_way`), not as the
-    members' own, recovered without it."""
+    the atoms of :func:`~sparseedm.exemplars.blend_many_hidden` (its `atoms`,
+    `mean_atoms` and `linear`; None: none), as recover() blends; `adaptation` what
+    the run's adaptation did: per pose, each chunk's radii are then rated as
+    recover() rates that path's answers (:func:`~sparseedm.uncertainty.coding_way`),
+    not as the members' own, recovered without it."""
 
     members: list
     alpha: object

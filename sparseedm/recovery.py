@@ -43,7 +43,7 @@ from .normalize import REPRESENTATIONS, representation_for
 from .dictionary import Dictionary, check_gram_memory, load_dictionary
 from .ensemble import adapt_members
 from .exemplars import (EXEMPLAR_OPTIONS, blend_atoms, blend_many_hidden, blends,
-                         ridge_mean_atoms)
+                         linear_stack, ridge_mean_atoms)
 from .exceptions import ParameterError, SparseEDMError
 from .keypoints import origin_joints
 from .outliers import check_confidence, mark_outliers, note_outliers
@@ -472,7 +472,7 @@ def _dispatch(poses, missing, tracks, frames, method, model, preset, opts):
             res = blend_many_hidden(
                 res, poses, missing, blend_atoms(dictionary, poses, missing, adaptations[0]),
                 ridge_mean_atoms(dictionary, poses, missing, adaptations[0]),
-                **where, **{k: kernel[k] for k in BLEND_SETTINGS})
+                linear_stack(dictionary, poses, missing, adaptations[0]), **where, **{k: kernel[k] for k in BLEND_SETTINGS})
     return _with_uncertainty(res)
 
 

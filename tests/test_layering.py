@@ -46,7 +46,8 @@ LAYERS = [
      "sparseedm.dataset",
      "sparseedm.solvers", "sparseedm.fconv.network", "sparseedm.fconv.model"),
     # 4 coding: parallel plumbing, dictionary learning, the baselines
-    ("sparseedm._parallel", "sparseedm._coding", "sparseedm.learning", "sparseedm.baselines"),
+    ("sparseedm._parallel", "sparseedm._coding", "sparseedm.learning", "sparseedm.baselines",
+     "sparseedm.gaussian_fill"),
     # 5 what every recovery path shares: statuses, result, screening, placement, combine
     ("sparseedm._recovery_base", "sparseedm.uncertainty"),
     # 6 the sparse recovery kernel

@@ -1,0 +1,194 @@
+"""One Gaussian over a file's poses: the conditional mean of the hidden joints.
+
+A global linear estimate to set beside the sparse codes: the file's poses
+are taken as draws of one Gaussian over the 28 coordinates, each pose in the
+frame of the joints observed in the pose being filled (their centroid and RMS
+radius: :func:`sparseedm.normalize.rms_radius`, rotation-invariant), and the
+hidden joints get their conditional mean given the observed ones,
+
+    mu_h + S_ho (S_oo + r I_o)^-1 (x_o - mu_o),
+
+with the covariance shrunk by a ridge ``r`` (:data:`GAUSSIAN_RIDGE` times its
+mean variance). The closed form is solved once per missing pattern.
+:func:`gaussian_fill` fits the Gaussian to given training poses;
+:func:`file_gaussian` refits it on the whole file, the incomplete poses as
+last filled (:data:`GAUSSIAN_ROUNDS` rounds, as an iterative imputer does),
+so that the file's incomplete poses shape it too. The default path weighs
+this answer against its own by a held-back check
+(:func:`sparseedm.exemplars.linear_weight`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from threadpoolctl import threadpool_limits
+
+__all__ = ["GAUSSIAN_RIDGE", "GAUSSIAN_ROUNDS", "conditional_mean", "gaussian_fill",
+           "file_gaussian"]
+
+#: The covariance's ridge, relative to its mean variance (chosen on validation
+#: photo files: studies/fast/README.md)
+GAUSSIAN_RIDGE = 0.01
+
+#: Refits of :func:`file_gaussian` on the file's poses as last filled
+GAUSSIAN_ROUNDS = 3
+
+
+def conditional_mean(train, query, observed, ridge=GAUSSIAN_RIDGE):
+    """The conditional mean of the unobserved columns under one Gaussian of `train`.
+
+    Parameters
+    ----------
+    train : ndarray (n, d)
+        Rows the Gaussian is fitted to (mean and covariance), n >= 2.
+    query : ndarray (m, d)
+        Rows whose `observed` columns are given (the others are ignored).
+    observed : ndarray of bool (d,)
+    ridge : float, default GAUSSIAN_RIDGE
+        Added to the covariance's diagonal, times its mean variance.
+
+    Returns
+    -------
+    ndarray (m, d)
+        `query` with its unobserved columns replaced by their conditional mean.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> x = np.random.default_rng(0).normal(size=(500, 1))
+    >>> train = np.hstack([x, 2 * x + 1])
+    >>> q = np.array([[1.5, np.nan]])
+    >>> out = conditional_mean(train, q, np.array([True, False]), ridge=0.0)
+    >>> round(float(out[0, 1]), 6)
+    4.0
+    """
+    mu = np.ones(len(train)) @ train / len(train)
+    centred = train - mu
+    cov = centred.T @ centred / (len(train) - 1)
+    cov = cov + ridge * np.trace(cov) / len(cov) * np.eye(len(cov))
+    obs, hid = np.flatnonzero(observed), np.flatnonzero(~observed)
+    coef = np.linalg.solve(cov[np.ix_(obs, obs)], cov[np.ix_(obs, hid)])
+    out = np.array(query, dtype=float)
+    out[:, hid] = mu[hid] + (out[:, obs] - mu[obs]) @ coef
+    return out
+
+
+def _sums(poses):
+    """The per-joint terms :func:`_frame` weighs: x, y and x² + y² (n, N) each."""
+    x, y = np.ascontiguousarray(poses[..., 0]), np.ascontiguousarray(poses[..., 1])
+    with np.errstate(over="ignore"):
+        return x, y, x * x + y * y
+
+
+def _frame(poses, observed, sums=None):
+    """Each pose shifted to the centroid of its `observed` joints and divided by
+    their RMS radius (:func:`~sparseedm.normalize.rms_radius`'s, computed as
+    weighted sums of validated coordinates; `sums` :func:`_sums` of `poses`):
+    (normalised poses, centre, radius)."""
+    x, y, squares = _sums(poses) if sums is None else sums
+    weights = observed / observed.sum()
+    centre = np.stack([x @ weights, y @ weights], axis=-1)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        radius = np.sqrt(np.maximum(squares @ weights - (centre * centre).sum(axis=-1), 0.0))
+        return (poses - centre[:, None]) / radius[:, None, None], centre, radius
+
+
+def gaussian_fill(train, poses, missing, *, ridge=GAUSSIAN_RIDGE):
+    """Each pose's missing joints filled by their conditional mean given its observed
+    ones under one Gaussian of `train`, in the frame of those joints.
+
+    Parameters
+    ----------
+    train : ndarray (n, N, 2)
+        Complete poses (n >= 2), the Gaussian's draws.
+    poses : ndarray (m, N, 2)
+        Poses to fill (values at missing joints ignored).
+    missing : ndarray of bool (m, N)
+    ridge : float, default GAUSSIAN_RIDGE
+        The covariance's ridge, relative to its mean variance.
+
+    Returns
+    -------
+    ndarray (m, N, 2)
+        `poses` with the missing joints filled; NaN where a pose's observed
+        joints have no spread (fewer than two distinct) to set its frame.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(0)
+    >>> train = rng.normal(size=(200, 14, 2))
+    >>> missing = np.zeros((1, 14), bool); missing[0, 3] = True
+    >>> out = gaussian_fill(train, train[:1], missing)
+    >>> bool(np.array_equal(out[0, ~missing[0]], train[0, ~missing[0]]))
+    True
+    """
+    train = np.asarray(train, dtype=float)
+    poses = np.asarray(poses, dtype=float)
+    missing = np.asarray(missing, bool)
+    out = poses.copy()
+    sums = _sums(train)
+    patterns, which = np.unique(missing, axis=0, return_inverse=True)
+    which = np.ravel(which)
+    # products of at most (n, 28) by (28, 28): threaded BLAS only waits on a busy machine
+    with threadpool_limits(1, user_api="blas"):
+        for k, pattern in enumerate(patterns):
+            _fill_pattern(train, sums, poses, out, np.flatnonzero(which == k), pattern, ridge)
+    return out
+
+
+def _fill_pattern(train, sums, poses, out, rows, pattern, ridge):
+    """gaussian_fill of the `rows` of one missing `pattern`, written into `out`."""
+    if not pattern.any():
+        return
+    if (~pattern).sum() < 2:  # no frame: left NaN
+        out[rows] = np.where(pattern[:, None], np.nan, poses[rows])
+        return
+    z_train, _, spread = _frame(train, ~pattern, sums)
+    z_train = z_train[spread > 0]  # a frame of no spread: left out
+    z, centre, radius = _frame(np.where(pattern[:, None], 0.0, poses[rows]), ~pattern)
+    filled = conditional_mean(z_train.reshape(len(z_train), -1), z.reshape(len(rows), -1),
+                              np.repeat(~pattern, 2), ridge)
+    back = filled.reshape(z.shape) * radius[:, None, None] + centre[:, None]
+    back[~(np.isfinite(radius) & (radius > 0))] = np.nan
+    out[rows] = np.where(pattern[:, None], back, poses[rows])
+
+
+def file_gaussian(complete, poses, missing, *, rounds=GAUSSIAN_ROUNDS, ridge=GAUSSIAN_RIDGE):
+    """:func:`gaussian_fill` on a file: the Gaussian of its complete poses, then
+    `rounds` times refitted on them and the incomplete poses as last filled.
+
+    Parameters
+    ----------
+    complete : ndarray (n, N, 2)
+        The file's complete poses (n >= 2).
+    poses : ndarray (m, N, 2)
+        Its incomplete poses (values at missing joints ignored).
+    missing : ndarray of bool (m, N)
+    rounds : int, default GAUSSIAN_ROUNDS
+    ridge : float, default GAUSSIAN_RIDGE
+
+    Returns
+    -------
+    filled : ndarray (m, N, 2)
+        `poses` filled by the last Gaussian.
+    train : ndarray (n + m', N, 2)
+        That Gaussian's draws: `complete` and the filled poses with a frame
+        (:func:`gaussian_fill` fills other poses with it, as a file's chunks are).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(1)
+    >>> complete = rng.normal(size=(100, 14, 2))
+    >>> missing = np.zeros((20, 14), bool); missing[:, 5] = True
+    >>> filled, train = file_gaussian(complete, rng.normal(size=(20, 14, 2)), missing)
+    >>> filled.shape, train.shape
+    ((20, 14, 2), (120, 14, 2))
+    """
+    complete = np.asarray(complete, dtype=float)
+    filled, train = gaussian_fill(complete, poses, missing, ridge=ridge), complete
+    for _ in range(rounds):
+        train = np.concatenate([complete, filled[np.isfinite(filled).all(axis=(1, 2))]])
+        filled = gaussian_fill(train, poses, missing, ridge=ridge)
+    return filled, train

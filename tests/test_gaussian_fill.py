@@ -1,0 +1,171 @@
+"""sparseedm.gaussian_fill: the conditional mean of hidden joints under one Gaussian
+of a file's poses; and the default path's stacked mean of its answer with it
+(sparseedm.exemplars.linear_weight / linear_stack)."""
+
+import numpy as np
+import pytest
+
+from sparseedm.exemplars import LINEAR_WEIGHTS, linear_weight
+from sparseedm.gaussian_fill import conditional_mean, file_gaussian, gaussian_fill
+
+
+def _template_file(n, seed=0, sd=0.0):
+    """n poses: one template, each scaled, shifted and deformed along one fixed
+    direction (a linear family), with `sd` pixels of noise."""
+    rng = np.random.default_rng(seed)
+    template = rng.normal(0, 30, (14, 2))
+    direction = rng.normal(0, 10, (14, 2))
+    a = rng.normal(size=(n, 1, 1))
+    scale = rng.uniform(0.5, 2, (n, 1, 1))
+    shift = rng.uniform(-100, 100, (n, 1, 2))
+    return (template + a * direction) * scale + shift + rng.normal(0, sd, (n, 14, 2)) if sd \
+        else (template + a * direction) * scale + shift
+
+
+def test_conditional_mean_is_the_textbook_formula():
+    """Without a ridge: mu_h - P_hh^-1 P_ho (x_o - mu_o), P the precision matrix (the
+    Schur complement form, computed independently)."""
+    rng = np.random.default_rng(3)
+    train = rng.normal(size=(200, 5)) @ rng.normal(size=(5, 5))
+    query = rng.normal(size=(4, 5))
+    observed = np.array([True, False, True, True, False])
+    got = conditional_mean(train, query, observed, ridge=0.0)
+    mu, prec = train.mean(axis=0), np.linalg.inv(np.cov(train, rowvar=False))
+    h, o = ~observed, observed
+    want = mu[h] - (query[:, o] - mu[o]) @ np.linalg.solve(prec[np.ix_(h, h)],
+                                                           prec[np.ix_(h, o)]).T
+    np.testing.assert_allclose(got[:, h], want, rtol=1e-9, atol=1e-9)
+    np.testing.assert_array_equal(got[:, o], query[:, o])
+
+
+def test_the_ridge_shrinks_towards_the_mean():
+    """A large ridge moves the hidden column to (nearly) its mean."""
+    rng = np.random.default_rng(4)
+    x = rng.normal(size=(300, 1))
+    train = np.hstack([x, 3 * x])
+    q = np.array([[2.0, 0.0]])
+    free = conditional_mean(train, q, np.array([True, False]), ridge=0.0)[0, 1]
+    shrunk = conditional_mean(train, q, np.array([True, False]), ridge=1e6)[0, 1]
+    assert free == pytest.approx(6.0)
+    assert abs(shrunk - train[:, 1].mean()) < 1e-3
+
+
+def test_gaussian_fill_is_exact_on_a_linear_family_in_the_pose_frame():
+    """Poses of one template scaled, shifted and deformed along one direction: in
+    the frame of any observed joints the family is nearly linear, and the hidden
+    joints come back to a small fraction of the pose's size; observed ones as given."""
+    poses = _template_file(401)
+    train, query = poses[:400], poses[400:].repeat(3, axis=0)
+    missing = np.zeros((3, 14), bool)
+    missing[0, 4] = missing[1, [9, 10]] = missing[2, [0, 7, 13]] = True
+    got = gaussian_fill(train, np.where(missing[..., None], np.nan, query), missing, ridge=1e-9)
+    size = np.sqrt(((query - query.mean(axis=1, keepdims=True)) ** 2).sum(-1).mean(-1))
+    err = np.linalg.norm(got - query, axis=-1) / size[:, None]
+    assert err[missing].max() < 0.02
+    np.testing.assert_array_equal(got[~missing], query[~missing])
+
+
+def test_a_pose_without_a_frame_is_left_nan():
+    """One observed joint: no spread to set the frame, so no answer."""
+    poses = _template_file(50)
+    missing = np.ones((1, 14), bool)
+    missing[0, 0] = False
+    got = gaussian_fill(poses, poses[:1], missing)
+    assert np.isnan(got[0, 1:]).all()
+
+
+def test_file_gaussian_refits_on_the_incomplete_poses():
+    """The refitted Gaussian's draws are the complete poses and the filled ones;
+    with no rounds, the complete poses alone."""
+    poses = _template_file(120, sd=1.0)
+    missing = np.zeros((20, 14), bool)
+    missing[:, 3] = True
+    filled, train = file_gaussian(poses[:100], poses[100:], missing)
+    assert len(train) == 120
+    np.testing.assert_array_equal(train[:100], poses[:100])
+    np.testing.assert_array_equal(train[100:, :3], poses[100:, :3])  # observed as given
+    assert np.isfinite(train).all()
+    _, alone = file_gaussian(poses[:100], poses[100:], missing, rounds=0)
+    assert len(alone) == 100
+    np.testing.assert_array_equal(filled[:, :3], poses[100:, :3])
+
+
+def _answer(truth, mask):
+    """A RecoveryResult of `truth` under `mask` (its poses replaced by the caller)."""
+    from sparseedm import recover
+
+    return recover(np.where(mask[..., None], np.nan, truth), mask, adapt=False)
+
+
+def test_linear_weight_goes_to_the_exact_candidate():
+    """Held-back poses of a linear family: an answer off by 20 px at every hidden joint
+    gets weight 1 on the Gaussian (exact there); an exact answer gets weight 0."""
+    from dataclasses import replace
+
+    poses = _template_file(300)
+    truth, rest = poses[:40], poses[40:]
+    mask = np.zeros((40, 14), bool)
+    mask[np.arange(40), np.arange(40) % 14] = True
+    answer = _answer(truth, mask)
+    off = replace(answer, poses=np.where(mask[..., None], truth + 20.0, truth))
+    exact = replace(answer, poses=truth.copy())
+    file_poses = np.where(mask[..., None], np.nan, truth)
+    w_off, e_off = linear_weight(off, truth, mask, rest, file_poses, mask)
+    w_exact, e_exact = linear_weight(exact, truth, mask, rest, file_poses, mask)
+    assert w_off == LINEAR_WEIGHTS[-1] and w_exact == 0.0
+    assert e_exact == 0.0 and e_off < 1.0
+
+
+def _stack_file(n_complete=400, n_occluded=60, seed=2):
+    """A linear-family file: complete poses, then poses with 1-3 joints hidden."""
+    from sparseedm.adaptation import guard_masks
+
+    poses = _template_file(n_complete + n_occluded, seed=seed, sd=0.5)
+    missing = np.zeros(poses.shape[:2], bool)
+    missing[n_complete:] = guard_masks(n_occluded, 14, random_state=seed)
+    return np.where(missing[..., None], np.nan, poses), missing, poses
+
+
+def test_recover_stacks_the_gaussian_at_the_checks_weight(small_dictionary, monkeypatch):
+    """On a file the Gaussian nearly fits, the check gives it weight; every occluded
+    pose is then (1 - w) * the path's answer + w * the Gaussian's, which errs less
+    than the path alone; the complete poses as the path gives them."""
+    import sparseedm.recovery
+    from sparseedm import recover
+    from sparseedm.exemplars import linear_stack
+
+    given, missing, truth = _stack_file()
+    res = recover(given, missing, dictionary=small_dictionary)
+    w = res.adaptation.settings["linear_weight"]
+    assert w in LINEAR_WEIGHTS and w > 0
+    stack = linear_stack(small_dictionary, given, missing, res.adaptation)
+    monkeypatch.setattr(sparseedm.recovery, "linear_stack", lambda *a: None)
+    path = recover(given, missing, dictionary=small_dictionary)
+    occ = np.flatnonzero(missing.any(axis=1) & res.ok)
+    fill = gaussian_fill(stack.train, given[occ], missing[occ])
+    np.testing.assert_allclose(res.poses[occ], (1 - w) * path.poses[occ] + w * fill,
+                               rtol=0, atol=1e-6)
+    done = ~missing.any(axis=1)
+    np.testing.assert_array_equal(res.poses[done], path.poses[done])
+
+    def err(p):
+        return np.linalg.norm(p - truth[occ], axis=-1)[missing[occ]].mean()
+
+    assert err(res.poses[occ]) < err(path.poses[occ])
+
+
+def test_recover_file_stacks_as_recover_does(small_dictionary, tmp_path):
+    """recover_file (`sparseedm recover`) gives the same filled poses as recover()
+    on a file it reads whole."""
+    from sparseedm import recover
+    from sparseedm.batch import recover_file
+    from sparseedm.keypoints import KeypointSet, write_keypoints
+
+    given, missing, _ = _stack_file()
+    src = write_keypoints(tmp_path / "in.npz", KeypointSet(given, missing))
+    recover_file(src, tmp_path / "out.npz", dictionary=small_dictionary)
+    with np.load(tmp_path / "out.npz") as out:
+        filed = out["poses"]
+    res = recover(given, missing, dictionary=small_dictionary)
+    assert res.adaptation.settings["linear_weight"] > 0
+    np.testing.assert_allclose(filed[res.ok], res.poses[res.ok], rtol=0, atol=1e-6)
