@@ -155,7 +155,9 @@ class RecoveryResult:
         local ridge's answer over the file's complete poses,
         :data:`~sparseedm.exemplars.AVERAGED_MANY_HIDDEN`, and over the base
         with them as extra atoms, :data:`~sparseedm.exemplars.AVERAGED_RIDGE_MEAN`,
-        joined by ``"; "``); None: the path averaged nothing so.
+        and one Gaussian's of the file's poses at the check's weight,
+        :data:`~sparseedm.exemplars.AVERAGED_GAUSSIAN`, joined by ``"; "``);
+        None: the path averaged nothing so.
     spread : ndarray (n, N) or None
         With ``averaged``: the distance (the input's units) between the two
         answers averaged at each filled joint (the largest when averaged

@@ -133,7 +133,7 @@ __all__ = ["EXEMPLAR_MIN_POSES", "EXEMPLAR_MARGIN", "EXEMPLAR_OPTIONS", "Exempla
            "hidden_joint_error", "choose_exemplars", "averaged_members", "held_masks",
            "HELD_FRACTION", "MAX_HELD", "FEW_MIN_POSES", "BLEND_MIN_HIDDEN", "BLEND_MIN_POSES",
            "blend_rows", "blend_atoms", "blend_many_hidden", "ridge_mean_atoms", "blends",
-           "AVERAGED_MANY_HIDDEN", "AVERAGED_RIDGE_MEAN", "LINEAR_WEIGHTS", "LINEAR_MIN_SE",
+           "AVERAGED_MANY_HIDDEN", "AVERAGED_RIDGE_MEAN", "AVERAGED_GAUSSIAN", "LINEAR_WEIGHTS", "LINEAR_MIN_SE",
            "MAX_LINEAR_FIT", "LinearStack", "linear_weight", "linear_stack"]
 
 #: From this many usable complete poses the file's own poses are the atoms,
@@ -164,6 +164,9 @@ BLEND_MIN_POSES = 50
 AVERAGED_MANY_HIDDEN = "local ridge over file atoms"
 #: ... and over the base with them as extra atoms (its `mean_atoms`)
 AVERAGED_RIDGE_MEAN = "local ridge over base + file atoms"
+#: ... and with one Gaussian's of the file's poses, at the check's weight
+#: (:func:`linear_stack`)
+AVERAGED_GAUSSIAN = "Gaussian of the file's poses"
 
 #: The weights the check tries for the Gaussian's answer (:func:`linear_weight`)
 #: in its mean with the path's, the path's answer weighted by one minus it
@@ -695,9 +698,10 @@ def blend_many_hidden(res, poses, missing, atoms, mean_atoms=None, linear=None, 
     RecoveryResult
         `res` itself when nothing is blended; else a copy with those poses' rows
         averaged, ``seconds`` including the local ridge's, and the record of
-        what was averaged: ``averaged`` (per pose, :data:`AVERAGED_MANY_HIDDEN`
-        and/or :data:`AVERAGED_RIDGE_MEAN`) and ``spread`` (per filled joint,
-        the distance between the two answers averaged).
+        what was averaged: ``averaged`` (per pose, :data:`AVERAGED_MANY_HIDDEN`,
+        :data:`AVERAGED_RIDGE_MEAN` and/or :data:`AVERAGED_GAUSSIAN`) and
+        ``spread`` (per filled joint, the distance between the two answers
+        averaged).
     """
     out = res
     for rows, dictionary, kind in (
@@ -728,8 +732,9 @@ def _stacked(res, poses, missing, linear):
     with np.errstate(invalid="ignore", divide="ignore"):
         vectors = pose_to_vector(fill) / part.scale[:, None]
     weights = np.repeat([[1 - linear.weight], [linear.weight]], len(rows), axis=1)
-    out = put_rows(res, rows, combine([part, replace(part, poses=fill, vectors=vectors)],
-                                      weights))
+    gaussian = replace(part, poses=fill, vectors=vectors)
+    out = put_rows(res, rows, combine([part, gaussian], weights))
+    out = _averaged_record(out, res, rows, gaussian, AVERAGED_GAUSSIAN)
     out.seconds = res.seconds + time.perf_counter() - t0
     return out
 

@@ -152,6 +152,15 @@ def test_recover_stacks_the_gaussian_at_the_checks_weight(small_dictionary, monk
         return np.linalg.norm(p - truth[occ], axis=-1)[missing[occ]].mean()
 
     assert err(res.poses[occ]) < err(path.poses[occ])
+    # what was done is said: every stacked pose names the Gaussian, the
+    # spread is the two answers' distance at its filled joints
+    from sparseedm.exemplars import AVERAGED_GAUSSIAN
+    assert all(AVERAGED_GAUSSIAN in a for a in res.averaged[occ])
+    gap = np.linalg.norm(path.poses[occ] - fill, axis=-1)
+    np.testing.assert_allclose(res.spread[occ][missing[occ]],
+                               np.maximum(gap, 0)[missing[occ]], rtol=1e-6, atol=1e-6)
+    said = res.summary()["averaged"]["with"]
+    assert sum(v["poses"] for k, v in said.items() if AVERAGED_GAUSSIAN in k) == len(occ)
 
 
 def test_recover_file_stacks_as_recover_does(small_dictionary, tmp_path):
