@@ -259,8 +259,8 @@ def donor_step(res, poses, missing, answer, random_state=0):
     filled[rows] = probe
     est, near = donor_estimates(allp, allm, rows, filled)
     (w, g), e0, e1 = _choose(probe, est, near, poses[rows], joints)
-    record = {"weight": w, "gate": g, "probes": int(len(rows)), "probe_err_default": e0,
-              "probe_err_chosen": e1}
+    record = {"weight": w, "gate": None if np.isinf(g) else g, "probes": int(len(rows)),
+              "probe_err_default": round(e0, 4), "probe_err_chosen": round(e1, 4)}
     if res.adaptation is not None:
         res = replace(res, adaptation=_noted(res.adaptation, record))
     if w == 0:

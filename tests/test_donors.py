@@ -1,5 +1,6 @@
 """The donor step: hidden joints from the file's other rows that show them, when probes say so."""
 
+import json
 from dataclasses import replace
 
 import numpy as np
@@ -47,6 +48,8 @@ def test_twin_rows_give_back_hidden_joints(cmu_poses, monkeypatch):
     donors = res.adaptation.settings["donors"]
     assert donors["weight"] > 0
     assert donors["probe_err_chosen"] < donors["probe_err_default"]
+    assert res.summary()["adaptation"]["donors"] == donors  # JSON-able: no inf gate
+    json.dumps(donors, allow_nan=False)
     monkeypatch.setattr(sparseedm.recovery, "donor_step", lambda res, *a: res)
     alone = sparseedm.recover(given, missing)
     assert "donors" not in alone.adaptation.settings
