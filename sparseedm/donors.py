@@ -201,7 +201,8 @@ def _probes(missing, random_state):
 
 
 def _choose(answer, estimates, nearest, truth, joints):
-    """((weight, gate), probe errors of the default and of the choice)."""
+    """((weight, gate), probe errors of the default and of the choice), on the
+    probes the default answered (the default unless DONOR_MIN_PROBES of them)."""
     pm = np.zeros(truth.shape[:2], bool)
     pm[np.arange(len(truth)), joints] = True
     _, size = rms_radius(truth, pm | np.isnan(truth[..., 0]))
@@ -211,7 +212,10 @@ def _choose(answer, estimates, nearest, truth, joints):
         f = donor_mix(answer, estimates, nearest, pm, *key)
         return np.linalg.norm(f[at] - truth[at], axis=-1) / size * 100
 
-    errs = {(w, g): err((w, g)) for g in DONOR_GATES for w in DONOR_WEIGHTS}
+    ok = np.isfinite(answer[at]).all(-1)  # a refused probe judges nothing
+    if ok.sum() < DONOR_MIN_PROBES:
+        return (0.0, np.inf), float("nan"), float("nan")
+    errs = {(w, g): err((w, g))[ok] for g in DONOR_GATES for w in DONOR_WEIGHTS}
     base = errs[(0.0, np.inf)]
     best = min(errs, key=lambda key: errs[key].mean())
     d = errs[best] - base

@@ -125,3 +125,21 @@ def test_estimates_follow_a_turned_twin(k, cmu_poses):
         assert err.max() < 1e-6 * np.abs(truth).max()
     else:  # the twin weighs most; the others move the mean a little
         assert np.median(err) < 0.1 * body_size(truth[:40]).mean()
+
+
+def test_refused_probes_are_left_out(cmu_poses):
+    """Probes the default path could not answer (NaN) judge nothing; the others
+    still choose the donors on a twin file."""
+    truth, missing = _twins(cmu_poses)
+    given = np.where(missing[..., None], np.nan, truth)
+    res = sparseedm.recover(given, missing)
+
+    def half_refused(p, m):
+        out = sparseedm.recover(p, m, adapt=False)
+        poses = out.poses.copy()
+        poses[::2] = np.nan
+        return replace(out, poses=poses)
+
+    out = donor_step(res, given, missing, half_refused)
+    donors = out.adaptation.settings["donors"]
+    assert np.isfinite(donors["probe_err_default"]) and donors["weight"] > 0
