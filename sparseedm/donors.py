@@ -17,10 +17,10 @@ and with the donors, and moves the hidden joints a weight of
 donor's residual is below a gate of :data:`DONOR_GATES`), the pair with the
 lowest probe error, unless its gain over the default answer is within one
 paired standard error. On validation files of Bonn video frames with 1,000
-complete poses of other videos it lowered the hidden joints' error from 6.5
-to 2.0 % of body size under random masks and from 9.5 to 6.0 under real
-visibility masks (KNNImputer: 3.6 and 5.4); on the MPII, COCO, CMU and Daz
-files it chose small weights or none and moved them by -0.3 to 0.0
+complete poses of other videos it lowered the hidden joints' error from 6.4
+to 2.0 % of body size under random masks and from 9.6 to 5.1 under real
+visibility masks (KNNImputer: 3.6 and 5.5); on the MPII, COCO, CMU and Daz
+files it chose small weights or none and moved them by -0.5 to +0.01
 (``studies/fast/README.md``, "Donors").
 """
 
@@ -41,7 +41,7 @@ __all__ = ["DONOR_K", "DONOR_MIN_SHARED", "DONOR_PROBES", "DONOR_MIN_PROBES",
 #: donors per hidden joint
 DONOR_K = 5
 #: joints a donor and the pose must both observe
-DONOR_MIN_SHARED = 8
+DONOR_MIN_SHARED = 6
 #: probes (occluded rows with one more joint hidden) per file, and the fewest
 #: that decide anything
 DONOR_PROBES, DONOR_MIN_PROBES = 300, 30

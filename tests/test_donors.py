@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import sparseedm
-from sparseedm.donors import DONOR_MIN_PROBES, donor_estimates, donor_step
+from sparseedm.donors import DONOR_MIN_PROBES, DONOR_MIN_SHARED, donor_estimates, donor_step
 from sparseedm.real_protocol import body_size
 
 
@@ -94,17 +94,16 @@ def test_too_few_probes_do_nothing(cmu_poses):
 
 
 def test_donors_need_shared_joints():
-    """A row sharing fewer than 8 observed joints gives no estimate."""
+    """A row sharing fewer than DONOR_MIN_SHARED observed joints gives no estimate."""
     rng = np.random.default_rng(2)
     poses = rng.normal(size=(2, 14, 2))
     missing = np.zeros((2, 14), bool)
     missing[0, 0] = True
-    missing[1, 1:8] = True
+    missing[1, 1:15 - DONOR_MIN_SHARED] = True  # row 1 shares DONOR_MIN_SHARED - 1
     given = np.where(missing[..., None], np.nan, poses)
     est, near = donor_estimates(given, missing, np.array([0]), np.nan_to_num(given))
     assert np.isnan(est[0, 0]).all() and np.isinf(near[0, 0])
-    missing[1, 1:8] = False
-    missing[1, 1] = True
+    missing[1, 1] = False  # one more shared joint
     est, near = donor_estimates(np.where(missing[..., None], np.nan, poses), missing,
                                 np.array([0]), poses)
     assert np.isfinite(est[0, 0]).all()

@@ -37,6 +37,7 @@ of body size; paired difference with ``default`` [mean, standard error].
 
     python studies/fast/select_donors.py --seed 0 --daz daz_indian.npz --out donors0.json
     python studies/fast/select_donors.py --pool donors0.json donors1.json donors2.json
+    python studies/fast/select_donors.py --pool donors?.json --compare other?.json
 """
 
 from __future__ import annotations
@@ -314,6 +315,30 @@ def pooled(docs):
     return "\n".join(lines)
 
 
+def compare(before, after):
+    """Markdown: per file, ``shipped`` minus the default pooled over the seeds of
+    two sets of runs (e.g. two values of ``DONOR_MIN_SHARED``)."""
+    import re
+
+    def rows(docs):
+        out = {}
+        for doc in docs:
+            for name, r in doc["files"].items():
+                out.setdefault(re.sub(r" seed \d+$", "", name), []).append(r)
+        return out
+
+    def cell(rs):
+        d = np.array([r["candidates"]["shipped"]["minus_default"] for r in rs])
+        return f"{d[:, 0].mean():+.2f} ± {np.sqrt((d[:, 1] ** 2).sum()) / len(d):.2f}"
+
+    a, b = rows(before), rows(after)
+    lines = ["| file | default | shipped, before | shipped, after |", "|---|---:|---:|---:|"]
+    for name in (n for n in a if n in b):
+        de = np.mean([r["candidates"]["default"]["mean"] for r in a[name]])
+        lines.append(f"| {name} | {de:.2f} | {cell(a[name])} | {cell(b[name])} |")
+    return "\n".join(lines)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sources", default="bonn,mpii,coco", help="real2d sources (val split)")
@@ -324,7 +349,13 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", type=Path, default=Path("donors.json"))
     ap.add_argument("--pool", nargs="+", type=Path, help="print the pooled table, stop")
+    ap.add_argument("--compare", nargs="+", type=Path,
+                    help="with --pool: these JSONs (another setting's runs) against them")
     a = ap.parse_args(argv)
+    if a.pool and a.compare:
+        print(compare([json.loads(p.read_text()) for p in a.pool],
+                      [json.loads(p.read_text()) for p in a.compare]))
+        return
     if a.pool:
         print(pooled([json.loads(p.read_text()) for p in a.pool]))
         return
