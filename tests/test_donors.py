@@ -142,3 +142,19 @@ def test_refused_probes_are_left_out(cmu_poses):
     out = donor_step(res, given, missing, half_refused)
     donors = out.adaptation.settings["donors"]
     assert np.isfinite(donors["probe_err_default"]) and donors["weight"] > 0
+
+
+def test_recover_file_takes_the_same_donors(cmu_poses, tmp_path):
+    """recover_file (`sparseedm recover`), one chunk: the same answers as recover()."""
+    from sparseedm.batch import recover_file
+    from sparseedm.keypoints import KeypointSet, write_keypoints
+
+    truth, missing = _twins(cmu_poses)
+    given = np.where(missing[..., None], np.nan, truth)
+    src = write_keypoints(tmp_path / "in.npz", KeypointSet(given, missing))
+    recover_file(src, tmp_path / "out.npz")
+    with np.load(tmp_path / "out.npz") as out:
+        filed = out["poses"]
+    res = sparseedm.recover(given, missing)
+    assert res.adaptation.settings["donors"]["weight"] > 0
+    np.testing.assert_allclose(filed[res.ok], res.poses[res.ok], rtol=0, atol=1e-6)
