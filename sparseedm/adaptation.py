@@ -789,7 +789,9 @@ class AdaptationResult:
             (``recover(ensemble=K)``, K > 1), ``ensemble``: the members
             ``asked`` and the dictionaries whose answers were averaged
             (``members``; fewer when the path fits one, or its own:
-            :mod:`sparseedm.ensemble`).
+            :mod:`sparseedm.ensemble`); when the donor step chose
+            (:mod:`sparseedm.donors`), ``donors``: its weight, gate (None: no
+            gate), probes and their errors.
         """
         def num(v):
             return None if not np.isfinite(v) else round(float(v), 4)
@@ -808,6 +810,8 @@ class AdaptationResult:
         }
         if "ensemble" in self.settings:
             out["ensemble"] = dict(self.settings["ensemble"])
+        if "donors" in self.settings:  # sparseedm.donors' choice
+            out["donors"] = dict(self.settings["donors"])
         return out
 
     @property

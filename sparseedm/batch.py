@@ -109,6 +109,7 @@ from .adaptation import MIN_COMPLETE_POSES, sample_stream
 from .dictionary import Dictionary, dictionary_path, check_gram_memory, load_dictionary
 from ._safeio import resolved
 from .ensemble import adapt_members
+from .donors import donor_step
 from .exemplars import (EXEMPLAR_OPTIONS, blend_atoms, blend_many_hidden, blends,
                          linear_stack, ridge_mean_atoms)
 from .exceptions import FileFormatError, OutputPathError, ParameterError, SparseEDMError
@@ -776,7 +777,17 @@ class _Recovery:
                 for b, keep in track_windows(*self.time_axis, n, chunk_size)]
 
     def __call__(self, poses, missing, rows=slice(None)):
-        """One chunk's RecoveryResult (the members' answers combined)."""
+        """One chunk's RecoveryResult (the members' answers combined); with `blend`,
+        then recover()'s donor step over the chunk's rows
+        (:func:`~sparseedm.donors.donor_step`)."""
+        res = self.answer(poses, missing, rows)
+        if self.blend is None:
+            return res
+        return donor_step(res, np.where(res.missing[..., None], np.nan,
+                                        np.asarray(poses, float)), res.missing, self.answer)
+
+    def answer(self, poses, missing, rows=slice(None)):
+        """One chunk's RecoveryResult before the donor step."""
         in_time = {} if self.time_axis is None else dict(  # the chunk's rows
             tracks=None if self.time_axis[0] is None else np.asarray(self.time_axis[0])[rows],
             frames=np.asarray(self.time_axis[1])[rows])

@@ -42,6 +42,7 @@ from ._validation import Options, check_adapt, check_frames, validate_params
 from .normalize import REPRESENTATIONS, representation_for
 from .dictionary import Dictionary, check_gram_memory, load_dictionary
 from .ensemble import adapt_members
+from .donors import donor_step
 from .exemplars import (EXEMPLAR_OPTIONS, blend_atoms, blend_many_hidden, blends,
                          linear_stack, ridge_mean_atoms)
 from .exceptions import ParameterError, SparseEDMError
@@ -469,10 +470,19 @@ def _dispatch(poses, missing, tracks, frames, method, model, preset, opts):
                               check_input=False, **where)
         if adaptations and blends(opts["adapt"], opts["exemplars"], preset, opts["mirror"],
                                   opts["solver"], opts["positive"]):
-            res = blend_many_hidden(
-                res, poses, missing, blend_atoms(dictionary, poses, missing, adaptations[0]),
-                ridge_mean_atoms(dictionary, poses, missing, adaptations[0]),
-                linear_stack(dictionary, poses, missing, adaptations[0]), **where, **{k: kernel[k] for k in BLEND_SETTINGS})
+            atoms = (blend_atoms(dictionary, poses, missing, adaptations[0]),
+                     ridge_mean_atoms(dictionary, poses, missing, adaptations[0]),
+                     linear_stack(dictionary, poses, missing, adaptations[0]))
+            res = blend_many_hidden(res, poses, missing, *atoms, **where,
+                                    **{k: kernel[k] for k in BLEND_SETTINGS})
+
+            def answer(p, m):  # the same path's answer for other rows (donor_step's probes)
+                r = recover_members(p, m, members, adaptations, **kernel,
+                                    check_input=False, **where)
+                return blend_many_hidden(r, p, m, *atoms, **where,
+                                         **{k: kernel[k] for k in BLEND_SETTINGS})
+
+            res = donor_step(res, poses, missing, answer)
     return _with_uncertainty(res)
 
 

@@ -20,6 +20,18 @@ from sparseedm.exemplars import (AVERAGED_MANY_HIDDEN, AVERAGED_RIDGE_MEAN, EXEM
 from sparseedm.solvers.fast import FastSolver
 
 
+@pytest.fixture(autouse=True)
+def _without_donor_step(monkeypatch):
+    """These tests rebuild the default path's answer from its parts: without the
+    donor step after it (its files repeat poses, twins the donors would use;
+    tests/test_donors.py covers the step)."""
+    import sparseedm.batch
+    import sparseedm.recovery
+
+    for module in (sparseedm.recovery, sparseedm.batch):
+        monkeypatch.setattr(module, "donor_step", lambda res, *a: res)
+
+
 def _jittered(poses, n, seed=0, sd=0.5):
     """n poses drawn from `poses` with a little pixel noise (no exact repeats)."""
     rng = np.random.default_rng(seed)

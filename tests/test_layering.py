@@ -53,7 +53,8 @@ LAYERS = [
     # 6 the sparse recovery kernel
     ("sparseedm._recovery_kernel",),
     # 7 methods on top of the kernel: adaptation, FConv, the lifters, the outlier check
-    ("sparseedm.adaptation", "sparseedm.file_atoms", "sparseedm.exemplars", "sparseedm.outliers", "sparseedm.fconv", "sparseedm.lifting.base",
+    ("sparseedm.adaptation", "sparseedm.file_atoms", "sparseedm.exemplars", "sparseedm.donors",
+     "sparseedm.outliers", "sparseedm.fconv", "sparseedm.lifting.base",
      "sparseedm.lifting.dictionary", "sparseedm.lifting.mlp", "sparseedm.lifting.fconv",
      "sparseedm.lifting.adaptation"),
     # 8 ensembles of adapted dictionaries; recovery over tracks and frames

@@ -1,0 +1,160 @@
+"""The donor step: hidden joints from the file's other rows that show them, when probes say so."""
+
+import json
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+import sparseedm
+from sparseedm.donors import DONOR_MIN_PROBES, DONOR_MIN_SHARED, donor_estimates, donor_step
+from sparseedm.real_protocol import body_size
+
+
+def _turned(poses, rng):
+    """Each pose rotated, scaled and moved at random (the same body)."""
+    th = rng.uniform(-0.3, 0.3, len(poses))
+    rot = np.stack([np.stack([np.cos(th), -np.sin(th)], -1),
+                    np.stack([np.sin(th), np.cos(th)], -1)], -2)
+    scale = rng.uniform(0.8, 1.2, len(poses))[:, None, None]
+    return scale * np.einsum("nij,nkj->nki", rot, poses) + rng.normal(0, 50, (len(poses), 1, 2))
+
+
+def _twins(cmu_poses, n_complete=120, n_pairs=80, seed=0):
+    """(truth, missing): complete poses, then pairs of occluded rows of one pose
+    (the second turned), each pair hiding different joints."""
+    rng = np.random.default_rng(seed)
+    order = rng.permutation(len(cmu_poses))
+    complete = cmu_poses[order[:n_complete]]
+    body = cmu_poses[order[n_complete:n_complete + n_pairs]]
+    truth = np.concatenate([complete, body, _turned(body, rng)])
+    missing = np.zeros(truth.shape[:2], bool)
+    for i in range(n_pairs):
+        a, b = rng.choice(14, 2, replace=False)
+        missing[n_complete + i, a] = True
+        missing[n_complete + n_pairs + i, b] = True
+    return truth, missing
+
+
+def _hidden_error(filled, truth, missing):
+    err = np.linalg.norm(filled - truth, axis=-1) / body_size(truth)[:, None] * 100
+    return float(err[missing].mean())
+
+
+def test_twin_rows_give_back_hidden_joints(cmu_poses, monkeypatch):
+    truth, missing = _twins(cmu_poses)
+    given = np.where(missing[..., None], np.nan, truth)
+    res = sparseedm.recover(given, missing)
+    donors = res.adaptation.settings["donors"]
+    assert donors["weight"] > 0
+    assert donors["probe_err_chosen"] < donors["probe_err_default"]
+    assert res.summary()["adaptation"]["donors"] == donors  # JSON-able: no inf gate
+    json.dumps(donors, allow_nan=False)
+    monkeypatch.setattr(sparseedm.recovery, "donor_step", lambda res, *a: res)
+    alone = sparseedm.recover(given, missing)
+    assert "donors" not in alone.adaptation.settings
+    assert _hidden_error(res.poses, truth, missing) < 0.6 * _hidden_error(alone.poses, truth,
+                                                                          missing)
+    # the observed joints stay as given
+    assert np.array_equal(res.poses[~missing], truth[~missing])
+
+
+def test_exact_default_is_kept(cmu_poses):
+    """Where the default answer is exact, no donor can lower the probes' error:
+    the result is the default's, with the choice recorded."""
+    rng = np.random.default_rng(1)
+    poses = cmu_poses[rng.permutation(len(cmu_poses))[:200]]
+    missing = np.zeros(poses.shape[:2], bool)
+    missing[100:] = sparseedm.metrics.occlusion_masks(100, 14, ("mix",), 0)["mix"]
+    given = np.where(missing[..., None], np.nan, poses)
+    res = replace(sparseedm.recover(given, missing), poses=poses.copy())
+
+    def exact(p, m):
+        rows = [int(np.flatnonzero((np.isnan(r) | (poses == r)).all(axis=(1, 2)))[0])
+                for r in p]
+        return replace(res.take(rows), poses=poses[rows])
+
+    out = donor_step(res, given, missing, exact)
+    assert out.adaptation.settings["donors"]["weight"] == 0
+    assert np.array_equal(out.poses, poses)
+
+
+def test_too_few_probes_do_nothing(cmu_poses):
+    poses = cmu_poses[:DONOR_MIN_PROBES + 10]
+    missing = np.zeros(poses.shape[:2], bool)
+    missing[:DONOR_MIN_PROBES - 1, 3] = True
+    given = np.where(missing[..., None], np.nan, poses)
+    res = sparseedm.recover(given, missing)
+    assert res.adaptation is not None
+
+    def never(p, m):
+        raise AssertionError("no probes expected")
+
+    assert donor_step(res, given, missing, never) is res
+
+
+def test_donors_need_shared_joints():
+    """A row sharing fewer than DONOR_MIN_SHARED observed joints gives no estimate."""
+    rng = np.random.default_rng(2)
+    poses = rng.normal(size=(2, 14, 2))
+    missing = np.zeros((2, 14), bool)
+    missing[0, 0] = True
+    missing[1, 1:15 - DONOR_MIN_SHARED] = True  # row 1 shares DONOR_MIN_SHARED - 1
+    given = np.where(missing[..., None], np.nan, poses)
+    est, near = donor_estimates(given, missing, np.array([0]), np.nan_to_num(given))
+    assert np.isnan(est[0, 0]).all() and np.isinf(near[0, 0])
+    missing[1, 1] = False  # one more shared joint
+    est, near = donor_estimates(np.where(missing[..., None], np.nan, poses), missing,
+                                np.array([0]), poses)
+    assert np.isfinite(est[0, 0]).all()
+
+
+@pytest.mark.parametrize("k", [1, 3])
+def test_estimates_follow_a_turned_twin(k, cmu_poses):
+    rng = np.random.default_rng(3)
+    body = cmu_poses[:40]
+    truth = np.concatenate([body, _turned(body, rng)])
+    missing = np.zeros(truth.shape[:2], bool)
+    missing[np.arange(40), rng.integers(0, 14, 40)] = True
+    given = np.where(missing[..., None], np.nan, truth)
+    est, _ = donor_estimates(given, missing, np.arange(40), np.nan_to_num(given), k=k)
+    got = est[missing[:40]]
+    err = np.linalg.norm(got - truth[:40][missing[:40]], axis=-1)
+    if k == 1:
+        assert err.max() < 1e-6 * np.abs(truth).max()
+    else:  # the twin weighs most; the others move the mean a little
+        assert np.median(err) < 0.1 * body_size(truth[:40]).mean()
+
+
+def test_refused_probes_are_left_out(cmu_poses):
+    """Probes the default path could not answer (NaN) judge nothing; the others
+    still choose the donors on a twin file."""
+    truth, missing = _twins(cmu_poses)
+    given = np.where(missing[..., None], np.nan, truth)
+    res = sparseedm.recover(given, missing)
+
+    def half_refused(p, m):
+        out = sparseedm.recover(p, m, adapt=False)
+        poses = out.poses.copy()
+        poses[::2] = np.nan
+        return replace(out, poses=poses)
+
+    out = donor_step(res, given, missing, half_refused)
+    donors = out.adaptation.settings["donors"]
+    assert np.isfinite(donors["probe_err_default"]) and donors["weight"] > 0
+
+
+def test_recover_file_takes_the_same_donors(cmu_poses, tmp_path):
+    """recover_file (`sparseedm recover`), one chunk: the same answers as recover()."""
+    from sparseedm.batch import recover_file
+    from sparseedm.keypoints import KeypointSet, write_keypoints
+
+    truth, missing = _twins(cmu_poses)
+    given = np.where(missing[..., None], np.nan, truth)
+    src = write_keypoints(tmp_path / "in.npz", KeypointSet(given, missing))
+    recover_file(src, tmp_path / "out.npz")
+    with np.load(tmp_path / "out.npz") as out:
+        filed = out["poses"]
+    res = sparseedm.recover(given, missing)
+    assert res.adaptation.settings["donors"]["weight"] > 0
+    np.testing.assert_allclose(filed[res.ok], res.poses[res.ok], rtol=0, atol=1e-6)
