@@ -34,7 +34,7 @@ from ._recovery_base import put_rows
 from .edm import observed_entries, pose_to_vector
 from .normalize import rms_radius
 
-__all__ = ["DONOR_K", "DONOR_MIN_SHARED", "DONOR_PROBES", "DONOR_MIN_PROBES",
+__all__ = ["DONOR_BLOCK", "DONOR_K", "DONOR_MIN_SHARED", "DONOR_PROBES", "DONOR_MIN_PROBES",
            "DONOR_WEIGHTS", "DONOR_GATES", "DONOR_CANDIDATES", "donor_estimates",
            "donor_mix", "donor_step"]
 
@@ -224,9 +224,16 @@ def _choose(answer, estimates, nearest, truth, joints):
     return best, float(base.mean()), float(errs[best].mean())
 
 
-def donor_step(res, poses, missing, answer, random_state=0):
+#: The donors of a row are looked for within its block of this many consecutive
+#: rows (``recover_file``'s default ``chunk_size``; it takes them within each
+#: chunk): the search grows with the square of a block's rows
+DONOR_BLOCK = 50_000
+
+
+def donor_step(res, poses, missing, answer, random_state=0, block=DONOR_BLOCK):
     """`res` with its hidden joints moved toward the donors' estimates when
-    probes on the file's occluded rows say so.
+    probes on the file's occluded rows say so; a file of more than `block`
+    rows block by block of consecutive rows, each with its own probes.
 
     Parameters
     ----------
@@ -240,6 +247,8 @@ def donor_step(res, poses, missing, answer, random_state=0):
         answer for other rows of the same file (the probes).
     random_state : int, default 0
         Seed of the probes.
+    block : int, default :data:`DONOR_BLOCK`
+        Rows per block.
 
     Returns
     -------
@@ -250,6 +259,13 @@ def donor_step(res, poses, missing, answer, random_state=0):
         an ``adaptation``, its ``settings["donors"]`` records the weight, gate,
         probes and their errors.
     """
+    if len(poses) > block:
+        for s in range(0, len(poses), block):
+            rows = np.arange(s, min(s + block, len(poses)))
+            part = donor_step(res.take(rows), poses[rows], missing[rows], answer,
+                              random_state, block)
+            res = replace(put_rows(res, rows, part), adaptation=part.adaptation)
+        return res
     rows, joints = _probes(missing, random_state)
     if len(rows) < DONOR_MIN_PROBES:
         return res

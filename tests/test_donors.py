@@ -158,3 +158,25 @@ def test_recover_file_takes_the_same_donors(cmu_poses, tmp_path):
     res = sparseedm.recover(given, missing)
     assert res.adaptation.settings["donors"]["weight"] > 0
     np.testing.assert_allclose(filed[res.ok], res.poses[res.ok], rtol=0, atol=1e-6)
+
+
+def test_a_file_longer_than_a_block_takes_its_donors_block_by_block(cmu_poses, monkeypatch):
+    """Above `block` rows each block of consecutive rows is its own donor step
+    (its own probes and donors), so the search stays linear in the file's rows."""
+    truth, missing = _twins(cmu_poses)
+    given = np.where(missing[..., None], np.nan, truth)
+    monkeypatch.setattr(sparseedm.recovery, "donor_step", lambda res, *a: res)
+    res = sparseedm.recover(given, missing)
+    order = np.concatenate([np.arange(120), np.stack([np.arange(120, 200),
+                                                      np.arange(200, 280)], 1).ravel()])
+    res, given, missing = res.take(order), given[order], missing[order]
+
+    def answer(p, m):
+        return sparseedm.recover(p, m, adapt=False, dictionary="default")
+
+    half = len(given) // 2
+    whole = donor_step(res, given, missing, answer, block=half)
+    for rows in (np.arange(half), np.arange(half, len(given))):
+        alone = donor_step(res.take(rows), given[rows], missing[rows], answer)
+        np.testing.assert_array_equal(whole.poses[rows], alone.poses)
+    assert not np.array_equal(whole.poses, donor_step(res, given, missing, answer).poses)

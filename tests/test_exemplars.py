@@ -20,16 +20,10 @@ from sparseedm.exemplars import (AVERAGED_MANY_HIDDEN, AVERAGED_RIDGE_MEAN, EXEM
 from sparseedm.solvers.fast import FastSolver
 
 
-@pytest.fixture(autouse=True)
-def _without_donor_step(monkeypatch):
-    """These tests rebuild the default path's answer from its parts: without the
-    donor step after it (its files repeat poses, twins the donors would use;
-    tests/test_donors.py covers the step)."""
-    import sparseedm.batch
-    import sparseedm.recovery
-
-    for module in (sparseedm.recovery, sparseedm.batch):
-        monkeypatch.setattr(module, "donor_step", lambda res, *a: res)
+# These tests rebuild the default path's answer from its parts: without the
+# donor step after it (their files repeat poses, twins the donors would use;
+# tests/test_donors.py covers the step)
+pytestmark = pytest.mark.usefixtures("without_donor_step")
 
 
 def _jittered(poses, n, seed=0, sd=0.5):

@@ -126,6 +126,7 @@ def _stack_file(n_complete=400, n_occluded=60, seed=2):
     return np.where(missing[..., None], np.nan, poses), missing, poses
 
 
+@pytest.mark.usefixtures("without_donor_step")
 def test_recover_stacks_the_gaussian_at_the_checks_weight(small_dictionary, monkeypatch):
     """On a file the Gaussian nearly fits, the check gives it weight; every occluded
     pose is then (1 - w) * the path's answer + w * the Gaussian's, which errs less
@@ -163,6 +164,7 @@ def test_recover_stacks_the_gaussian_at_the_checks_weight(small_dictionary, monk
     assert sum(v["poses"] for k, v in said.items() if AVERAGED_GAUSSIAN in k) == len(occ)
 
 
+@pytest.mark.usefixtures("without_donor_step")
 def test_recover_file_stacks_as_recover_does(small_dictionary, tmp_path):
     """recover_file (`sparseedm recover`) gives the same filled poses as recover()
     on a file it reads whole."""
