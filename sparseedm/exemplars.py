@@ -120,6 +120,7 @@ from ._recovery_kernel import FAST_RIDGE, compiled_solver, recover_members
 from .adaptation import (AVERAGED_PATH, GUARD_POSES_PER_PATTERN, MIN_COMPLETE_POSES,
                          MIRRORED_ATOMS_PATH, AdaptationResult, guard_masks,
                          pose_vectors, repeat_rows)
+from .edm import observed_entries, pose_to_vector
 from .file_atoms import (atoms_adaptation, complete_rows, file_dictionary, mirror_images,
                          with_file_atoms)
 from .gaussian_fill import file_gaussian, gaussian_fill
@@ -729,10 +730,15 @@ def _stacked(res, poses, missing, linear):
     fill = gaussian_fill(linear.train, poses[rows], missing[rows])
     fill = np.where(np.isfinite(fill), fill, part.poses)
     weights = np.repeat([[1 - linear.weight], [linear.weight]], len(rows), axis=1)
-    # the Gaussian places joints, it recovers no distances: the answer keeps the
-    # path's recovered distances, so their disagreement with the placed joints
-    # (an uncertainty feature) grows as the Gaussian moves a joint away from them
-    gaussian = replace(part, poses=fill)
+    # the Gaussian places joints, it recovers no distances: its hidden distances
+    # are the path's moved as its joints move, so the disagreement between the
+    # recovered distances and the placed joints (an uncertainty feature) stays
+    # the path's (as donors.donor_step moves them)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        shift = (pose_to_vector(fill) - pose_to_vector(part.poses)) / part.scale[:, None]
+    hidden = ~observed_entries(missing[rows])
+    gaussian = replace(part, poses=fill, vectors=np.where(
+        hidden & np.isfinite(shift), part.vectors + shift, part.vectors))
     out = put_rows(res, rows, combine([part, gaussian], weights))
     out = _averaged_record(out, res, rows, gaussian, AVERAGED_GAUSSIAN)
     out.seconds = res.seconds + time.perf_counter() - t0
