@@ -331,7 +331,8 @@ def evaluate_photos(poses, pool=None, *, complete=None, n_complete=None, n_occlu
     head_size : array_like (n,), optional
         PCKh's normaliser per pose (MPII's head size); None: no PCKh.
     dictionary : Dictionary, str or path, optional
-        sparseedm's (None: the shipped default).
+        sparseedm's (None: :func:`~sparseedm.recover`'s own: the shipped default,
+        and without adaptation ``cmu-coco-k2932`` with ``mirror="auto"``).
     random_state : int, default 0
         Seeds the split and the masks.
 
@@ -374,8 +375,9 @@ def evaluate_photos(poses, pool=None, *, complete=None, n_complete=None, n_occlu
         raise PoseError(f"evaluate_photos: {len(poses)} complete poses: none left to occlude")
     notes = []
     masks = _photo_conditions(conditions, pool, m, random_state, notes)
-    if not isinstance(dictionary, Dictionary) and any(m.startswith("sparseedm") for m in methods):
-        dictionary = load_dictionary(dictionary)
+    if dictionary is not None and not isinstance(dictionary, Dictionary) and \
+            any(m.startswith("sparseedm") for m in methods):
+        dictionary = load_dictionary(dictionary)  # None stays: recover()'s own default
     truth = poses[occ]
     rows, seconds = [], {}
     for cond, mask in masks.items():
