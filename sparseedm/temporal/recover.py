@@ -123,6 +123,9 @@ class TemporalResult(RecoveryResult):
     outliers : ndarray of bool (n, N) or None
         As :class:`~sparseedm.recovery.RecoveryResult`: low-scored points
         treated as missing (their ``source`` is ``"outlier"``).
+    averaged, spread : ndarray or None
+        As :class:`~sparseedm.recovery.RecoveryResult`: None (the photo path's
+        averages do not run in time).
     source : ndarray of str (n, N)
         Where each joint comes from, one of :data:`SOURCES`.
     prior_weight : ndarray (n, N)
