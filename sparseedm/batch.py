@@ -783,8 +783,11 @@ class _Recovery:
         res = self.answer(poses, missing, rows)
         if self.blend is None:
             return res
-        return donor_step(res, np.where(res.missing[..., None], np.nan,
-                                        np.asarray(poses, float)), res.missing, self.answer)
+        out = donor_step(res, np.where(res.missing[..., None], np.nan,
+                                       np.asarray(poses, float)), res.missing, self.answer)
+        if out is not res and self.adaptation is not None and self.time_axis is None:
+            out.uncertainty = joint_uncertainty(out)  # of the moved joints, as recover()'s
+        return out
 
     def answer(self, poses, missing, rows=slice(None)):
         """One chunk's RecoveryResult before the donor step."""

@@ -154,10 +154,12 @@ def test_recover_file_takes_the_same_donors(cmu_poses, tmp_path):
     src = write_keypoints(tmp_path / "in.npz", KeypointSet(given, missing))
     recover_file(src, tmp_path / "out.npz")
     with np.load(tmp_path / "out.npz") as out:
-        filed = out["poses"]
+        filed, radii = out["poses"], out["uncertainty"]
     res = sparseedm.recover(given, missing)
     assert res.adaptation.settings["donors"]["weight"] > 0
     np.testing.assert_allclose(filed[res.ok], res.poses[res.ok], rtol=0, atol=1e-6)
+    # the radii rated on the moved joints, as recover()'s
+    np.testing.assert_allclose(radii[res.ok], res.uncertainty[res.ok], rtol=1e-6, atol=1e-6)
 
 
 def test_a_file_longer_than_a_block_takes_its_donors_block_by_block(cmu_poses, monkeypatch):
