@@ -110,8 +110,7 @@ from .dictionary import Dictionary, dictionary_path, check_gram_memory, load_dic
 from ._safeio import resolved
 from .ensemble import adapt_members
 from .donors import donor_step
-from .exemplars import (EXEMPLAR_OPTIONS, blend_atoms, blend_many_hidden, blends,
-                         linear_stack, ridge_mean_atoms)
+from .exemplars import EXEMPLAR_OPTIONS, blend_many_hidden, blend_parts, blends
 from .exceptions import FileFormatError, OutputPathError, ParameterError, SparseEDMError
 from .fconv.model import load_model
 from .formats import FILLED_SCORE, count_below, default_threshold, threshold_line
@@ -694,10 +693,7 @@ def _adapt(source, dictionary, adapt, chunk_size, threshold, n_jobs, self_traini
               preset=preset, exemplars=exemplars, **(dist or {}))
     if isinstance(adapt, str) and adapt == "auto":
         members, results = adapt_members(dictionary, poses, missing, "auto", ensemble, **kw)
-        blend = ((blend_atoms(dictionary, poses, missing, results[0]),
-                  ridge_mean_atoms(dictionary, poses, missing, results[0]),
-                  linear_stack(dictionary, poses, missing, results[0]))
-                 if blend else None)
+        blend = blend_parts(dictionary, poses, missing, results[0]) if blend else None
         return members, results[0], blend
     if isinstance(adapt, (str, Path)):
         adapt, kw["min_poses"] = _adaptation_poses(adapt, threshold)

@@ -132,7 +132,7 @@ from .solvers.local_ridge import LocalRidgeSolver
 __all__ = ["EXEMPLAR_MIN_POSES", "EXEMPLAR_MARGIN", "EXEMPLAR_OPTIONS", "ExemplarCheck",
            "hidden_joint_error", "choose_exemplars", "averaged_members", "held_masks",
            "HELD_FRACTION", "MAX_HELD", "FEW_MIN_POSES", "BLEND_MIN_HIDDEN", "BLEND_MIN_POSES",
-           "blend_rows", "blend_atoms", "blend_many_hidden", "ridge_mean_atoms", "blends",
+           "blend_rows", "blend_atoms", "blend_parts", "blend_many_hidden", "ridge_mean_atoms", "blends",
            "AVERAGED_MANY_HIDDEN", "AVERAGED_RIDGE_MEAN", "AVERAGED_GAUSSIAN", "LINEAR_WEIGHTS", "LINEAR_MIN_SE",
            "MAX_LINEAR_FIT", "LinearStack", "linear_weight", "linear_stack"]
 
@@ -653,6 +653,17 @@ def _blend_complete(dictionary, poses, missing, adaptation):
         return None
     complete = complete_rows(poses, missing)
     return complete if complete.sum() >= BLEND_MIN_POSES else None
+
+
+def blend_parts(dictionary, poses, missing, adaptation):
+    """What :func:`blend_many_hidden` averages with, after the default path's
+    `adaptation` of `poses`: ``(atoms, mean_atoms, linear)``
+    (:func:`blend_atoms`, :func:`ridge_mean_atoms`, :func:`linear_stack`; each
+    None where it does not apply), its arguments after ``res, poses, missing``.
+    """
+    return (blend_atoms(dictionary, poses, missing, adaptation),
+            ridge_mean_atoms(dictionary, poses, missing, adaptation),
+            linear_stack(dictionary, poses, missing, adaptation))
 
 
 def blend_many_hidden(res, poses, missing, atoms, mean_atoms=None, linear=None, **kernel):

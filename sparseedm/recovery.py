@@ -43,8 +43,7 @@ from .normalize import REPRESENTATIONS, representation_for
 from .dictionary import Dictionary, check_gram_memory, load_dictionary
 from .ensemble import adapt_members
 from .donors import donor_step
-from .exemplars import (EXEMPLAR_OPTIONS, blend_atoms, blend_many_hidden, blends,
-                         linear_stack, ridge_mean_atoms)
+from .exemplars import EXEMPLAR_OPTIONS, blend_many_hidden, blend_parts, blends
 from .exceptions import ParameterError, SparseEDMError
 from .keypoints import origin_joints
 from .outliers import check_confidence, mark_outliers, note_outliers
@@ -470,9 +469,7 @@ def _dispatch(poses, missing, tracks, frames, method, model, preset, opts):
                               check_input=False, **where)
         if adaptations and blends(opts["adapt"], opts["exemplars"], preset, opts["mirror"],
                                   opts["solver"], opts["positive"]):
-            atoms = (blend_atoms(dictionary, poses, missing, adaptations[0]),
-                     ridge_mean_atoms(dictionary, poses, missing, adaptations[0]),
-                     linear_stack(dictionary, poses, missing, adaptations[0]))
+            atoms = blend_parts(dictionary, poses, missing, adaptations[0])
             res = blend_many_hidden(res, poses, missing, *atoms, **where,
                                     **{k: kernel[k] for k in BLEND_SETTINGS})
 

@@ -48,9 +48,9 @@ def _file(cmu_poses, n_complete, n_occluded=60, seed=0):
 def without_ridge_mean(monkeypatch):
     """recover() without the mean with the local ridge over base + file atoms on
     every occluded pose: the path's own answers."""
-    import sparseedm.recovery
+    import sparseedm.exemplars
 
-    monkeypatch.setattr(sparseedm.recovery, "ridge_mean_atoms", lambda *a: None)
+    monkeypatch.setattr(sparseedm.exemplars, "ridge_mean_atoms", lambda *a: None)
 
 
 @pytest.fixture(scope="module")
@@ -465,7 +465,7 @@ def test_poses_with_four_hidden_joints_are_averaged_with_the_local_ridge(cmu_pos
     """The default path, nothing learned: each pose with at least four hidden joints
     gets the mean of the path's answer and the local ridge's over the file's complete
     poses as the only atoms; every other pose is the path's answer."""
-    import sparseedm.recovery
+    import sparseedm.exemplars
     from sparseedm._recovery_kernel import FAST_RIDGE
     from sparseedm.exemplars import blend_rows
     from sparseedm.file_atoms import complete_rows, file_dictionary
@@ -476,7 +476,7 @@ def test_poses_with_four_hidden_joints_are_averaged_with_the_local_ridge(cmu_pos
     assert len(rows) == 13  # the 12, and the refused pose of 12 hidden joints
     res = recover(poses, missing, dictionary=small_dictionary)
     assert not res.adapted and res.adaptation.file_atoms > 0
-    monkeypatch.setattr(sparseedm.recovery, "blend_atoms", lambda *a: None)
+    monkeypatch.setattr(sparseedm.exemplars, "blend_atoms", lambda *a: None)
     path = recover(poses, missing, dictionary=small_dictionary)
     atoms = file_dictionary(small_dictionary, poses[complete_rows(poses, missing)]).dictionary
     ridge = recover(poses[rows], missing[rows], dictionary=atoms, adapt=False,
@@ -580,7 +580,7 @@ def test_every_occluded_pose_gets_the_mean_with_the_ridge_when_the_check_says_so
     """A file whose held-back poses the mean of the path's answer and the local
     ridge's over the base with the file atoms recovered better: every occluded pose
     is that mean, the complete poses and their statuses as the path gives them."""
-    import sparseedm.recovery
+    import sparseedm.exemplars
     from sparseedm._recovery_base import combine
     from sparseedm._recovery_kernel import FAST_RIDGE
     from sparseedm.file_atoms import complete_rows, with_file_atoms
@@ -591,7 +591,7 @@ def test_every_occluded_pose_gets_the_mean_with_the_ridge_when_the_check_says_so
     assert check.err_ridge_mean < check.err_path
     res = recover(poses, missing, dictionary=small_dictionary)
     assert res.adaptation.settings["held_err_ridge_mean"] == check.err_ridge_mean
-    monkeypatch.setattr(sparseedm.recovery, "ridge_mean_atoms", lambda *a: None)
+    monkeypatch.setattr(sparseedm.exemplars, "ridge_mean_atoms", lambda *a: None)
     path = recover(poses, missing, dictionary=small_dictionary)  # without the mean
     occ = np.flatnonzero(missing.any(axis=1))
     complete = poses[complete_rows(poses, missing)]

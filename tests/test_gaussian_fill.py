@@ -131,7 +131,7 @@ def test_recover_stacks_the_gaussian_at_the_checks_weight(small_dictionary, monk
     """On a file the Gaussian nearly fits, the check gives it weight; every occluded
     pose is then (1 - w) * the path's answer + w * the Gaussian's, which errs less
     than the path alone; the complete poses as the path gives them."""
-    import sparseedm.recovery
+    import sparseedm.exemplars
     from sparseedm import recover
     from sparseedm.exemplars import linear_stack
 
@@ -140,7 +140,7 @@ def test_recover_stacks_the_gaussian_at_the_checks_weight(small_dictionary, monk
     w = res.adaptation.settings["linear_weight"]
     assert w in LINEAR_WEIGHTS and w > 0
     stack = linear_stack(small_dictionary, given, missing, res.adaptation)
-    monkeypatch.setattr(sparseedm.recovery, "linear_stack", lambda *a: None)
+    monkeypatch.setattr(sparseedm.exemplars, "linear_stack", lambda *a: None)
     path = recover(given, missing, dictionary=small_dictionary)
     occ = np.flatnonzero(missing.any(axis=1) & res.ok)
     fill = gaussian_fill(stack.train, given[occ], missing[occ])

@@ -150,10 +150,10 @@ def test_recover_with_the_mean_with_the_ridge_validates_once(track, small_dictio
                                                             counted, monkeypatch):
     """Every occluded pose averaged with the local ridge over the base with the file
     atoms (sparseedm.exemplars.ridge_mean_atoms, here forced on): still one validation."""
-    import sparseedm.recovery
+    import sparseedm.exemplars
     from sparseedm.file_atoms import complete_rows, with_file_atoms
 
-    monkeypatch.setattr(sparseedm.recovery, "ridge_mean_atoms", lambda d, p, m, a: (
+    monkeypatch.setattr(sparseedm.exemplars, "ridge_mean_atoms", lambda d, p, m, a: (
         with_file_atoms(d, p[complete_rows(p, m)]).dictionary))
     poses, mask, _, _ = _clip(track)
     res = sparseedm.recover(poses, mask, dictionary=small_dictionary)
