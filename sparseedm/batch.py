@@ -777,16 +777,15 @@ class _Recovery:
         then recover()'s donor step over the chunk's rows
         (:func:`~sparseedm.donors.donor_step`)."""
         res = self.answer(poses, missing, rows)
-        if self.blend is None:
-            return res
-        out = donor_step(res, np.where(res.missing[..., None], np.nan,
-                                       np.asarray(poses, float)), res.missing, self.answer)
-        if out is not res and self.adaptation is not None and self.time_axis is None:
-            out.uncertainty = joint_uncertainty(out)  # of the moved joints, as recover()'s
-        return out
+        if self.blend is not None:
+            res = donor_step(res, np.where(res.missing[..., None], np.nan,
+                                           np.asarray(poses, float)), res.missing, self.answer)
+        if self.adaptation is not None and self.time_axis is None:
+            res.uncertainty = joint_uncertainty(res)  # of the final joints, as recover()'s
+        return res
 
     def answer(self, poses, missing, rows=slice(None)):
-        """One chunk's RecoveryResult before the donor step."""
+        """One chunk's RecoveryResult before the donor step (and its radii)."""
         in_time = {} if self.time_axis is None else dict(  # the chunk's rows
             tracks=None if self.time_axis[0] is None else np.asarray(self.time_axis[0])[rows],
             frames=np.asarray(self.time_axis[1])[rows])
@@ -805,7 +804,6 @@ class _Recovery:
                 n_jobs=self.n_jobs)
         if self.adaptation is not None and self.time_axis is None:
             res = replace(res, adaptation=self.adaptation)
-            res.uncertainty = joint_uncertainty(res)
         return res
 
 
