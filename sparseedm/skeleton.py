@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Skeleton", "SKELETON_14", "JOINT_NAMES"]
+__all__ = ["Skeleton", "SKELETON_14", "JOINT_NAMES", "skeleton_hops"]
 
 
 @dataclass(frozen=True)
@@ -113,3 +113,33 @@ SKELETON_14 = Skeleton(
     joints_left=(5, 6, 7, 11, 12, 13),
     joints_right=(2, 3, 4, 8, 9, 10),
 )
+
+
+def skeleton_hops(parents):
+    """(N, N) bones between every two joints of the tree `parents`.
+
+    Parameters
+    ----------
+    parents : sequence of int
+        Parent of each joint, -1 at a root.
+
+    Returns
+    -------
+    ndarray of int (N, N)
+        0 on the diagonal; N where two joints are not connected.
+
+    Examples
+    --------
+    >>> skeleton_hops([-1, 0, 1, 0]).tolist()
+    [[0, 1, 2, 1], [1, 0, 1, 2], [2, 1, 0, 3], [1, 2, 3, 0]]
+    """
+    parents = np.asarray(parents)
+    N = len(parents)
+    hops = np.full((N, N), N)
+    np.fill_diagonal(hops, 0)
+    for _ in range(N):
+        for j, p in enumerate(parents):
+            if p >= 0:
+                hops[j] = np.minimum(hops[j], hops[p] + 1)
+                hops[p] = np.minimum(hops[p], hops[j] + 1)
+    return np.minimum(hops, hops.T)

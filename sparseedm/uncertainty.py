@@ -68,7 +68,7 @@ import numpy as np
 from ._validation import frame_numbers
 from .edm import vector_to_edm
 from .normalize import rms_radius
-from .skeleton import SKELETON_14
+from .skeleton import SKELETON_14, skeleton_hops
 
 __all__ = ["joint_uncertainty", "joint_features", "uncertainty_rule", "coding_way",
            "CALIBRATION", "FEATURES", "UNCHECKED_FEATURES", "MIN_RELATIVE", "NOISE_RADIUS",
@@ -129,15 +129,10 @@ def _hops(missing, parents=SKELETON_14.parents):
     """(n, N) hops along the skeleton from each joint to the nearest observed
     one (0 observed; N where nothing is observed)."""
     n, N = missing.shape
-    hops = np.where(missing, N, 0)
-    edges = [(p, j) for j, p in enumerate(parents) if p >= 0]
-    for _ in range(N):
-        before = hops.copy()
-        for a, b in edges:
-            hops[:, a] = np.minimum(hops[:, a], hops[:, b] + 1)
-            hops[:, b] = np.minimum(hops[:, b], hops[:, a] + 1)
-        if (hops == before).all():
-            break
+    bones = skeleton_hops(parents)
+    hops = np.full((n, N), N)
+    for k in range(N):  # observed joint k bounds every joint's hops
+        hops = np.where(missing[:, k:k + 1], hops, np.minimum(hops, bones[:, k]))
     return hops
 
 

@@ -6,8 +6,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from sparseedm.skeleton import SKELETON_14
-from sparseedm.temporal.carried import carried_prior, skeleton_hops
+from sparseedm.skeleton import SKELETON_14, skeleton_hops
+from sparseedm.temporal.carried import carried_prior
 from sparseedm.temporal.model import (DEFAULT_SETTINGS, carries, choose_carry, fill_segment,
                                       probe_errors, probe_mask)
 from sparseedm.temporal.recover import recover_temporal

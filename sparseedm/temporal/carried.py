@@ -20,41 +20,13 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["skeleton_hops", "carried_prior", "CARRY_FRAMES"]
+from ..skeleton import skeleton_hops
+
+__all__ = ["carried_prior", "CARRY_FRAMES"]
 
 #: observed frames on each side of a hidden frame that carry it (the nearest;
 #: with ``tau`` of a few frames the further ones weigh nothing)
 CARRY_FRAMES = 6
-
-
-def skeleton_hops(parents):
-    """(N, N) bones between every two joints of the tree `parents`.
-
-    Parameters
-    ----------
-    parents : sequence of int
-        Parent of each joint, -1 at a root.
-
-    Returns
-    -------
-    ndarray of int (N, N)
-        0 on the diagonal; N where two joints are not connected.
-
-    Examples
-    --------
-    >>> skeleton_hops([-1, 0, 1, 0]).tolist()
-    [[0, 1, 2, 1], [1, 0, 1, 2], [2, 1, 0, 3], [1, 2, 3, 0]]
-    """
-    parents = np.asarray(parents)
-    N = len(parents)
-    hops = np.full((N, N), N)
-    np.fill_diagonal(hops, 0)
-    for _ in range(N):
-        for j, p in enumerate(parents):
-            if p >= 0:
-                hops[j] = np.minimum(hops[j], hops[p] + 1)
-                hops[p] = np.minimum(hops[p], hops[j] + 1)
-    return np.minimum(hops, hops.T)
 
 
 def _nearest_observed(obs_frames, t, k):
@@ -76,7 +48,7 @@ def carried_prior(values, free, parents, tau, frames=None):
     free : ndarray of bool (T, N)
         Its unknown joints.
     parents : sequence of int
-        The skeleton's parents (:func:`skeleton_hops`).
+        The skeleton's parents (:func:`~sparseedm.skeleton.skeleton_hops`).
     tau : float
         Frames over which an observation's weight falls by e.
     frames : ndarray of bool (T,), optional
