@@ -69,7 +69,8 @@ from .learning import OnlineDictionaryLearning, complete_pose_vectors
 from .recovery import recover
 
 __all__ = ["evaluate", "evaluate_adaptation", "sweep_atoms", "occlusion_masks", "torso_size",
-           "EvaluationReport", "METHODS", "OPTIONAL_METHODS", "RESULT_COLUMNS"]
+           "EvaluationReport", "METHODS", "OPTIONAL_METHODS", "RESULT_COLUMNS",
+           "SWEEP_COLUMNS"]
 
 #: every method evaluate knows, in table order
 METHODS = ("sparse",) + tuple(BASELINES)
@@ -85,6 +86,8 @@ RESULT_COLUMNS = (
     "n_extreme", "err_ave_extreme", "err_ave_other", "note",
 )
 
+#: the columns of :meth:`EvaluationReport.sweep_csv`, one row per atom count
+SWEEP_COLUMNS = ("atoms", "err_ave_mix", "ms_per_pose", "fit_seconds", "note")
 
 #: constraints of evaluate()'s and sweep_atoms()'s arguments (see sparseedm._validation)
 _PARAMS = {
@@ -267,6 +270,17 @@ class EvaluationReport:
         return _csv(self.per_action,
                     ("label", "method", "representation", "n_poses", "err_ave_mean"))
 
+    def sweep_csv(self) -> str:
+        """The atom-count sweep (:func:`sweep_atoms`) as CSV text.
+
+        Returns
+        -------
+        str
+            CSV with a header row (atoms, err_ave_mix, ms_per_pose,
+            fit_seconds, note); only the header without a sweep.
+        """
+        return _csv(self.sweep, SWEEP_COLUMNS)
+
     def to_markdown(self, figures=()) -> str:
         """The report as Markdown: protocol, notes, results, failures, per action, sweep.
 
@@ -295,8 +309,7 @@ class EvaluationReport:
             out += self._per_action_lines()
         if self.sweep:
             out += ["## Error and time vs number of atoms (Fig. 5)", ""]
-            out += _md_table(self.sweep, ("atoms", "err_ave_mix", "ms_per_pose", "fit_seconds",
-                                          "note"),
+            out += _md_table(self.sweep, SWEEP_COLUMNS,
                              ("atoms", "Mix Err_ave %", "ms / pose", "fit s", "note")) + [""]
         if figures:
             out += ["## Figures", ""] + [f"![{Path(f).stem}]({Path(f).name})" for f in figures]
@@ -382,7 +395,8 @@ class EvaluationReport:
         return out
 
     def write(self, directory, *, figures=True):
-        """Write report.md, results.csv, per_action.csv (and PNGs) into `directory`.
+        """Write report.md, results.csv, per_action.csv, sweep.csv (with a sweep)
+        and PNGs into `directory`.
 
         Returns the list of files written and a message when figures were not
         made (matplotlib missing).
@@ -411,9 +425,9 @@ class EvaluationReport:
                 message = ("figures skipped: matplotlib is not installed "
                            "(pip install sparseedm[plot])")
                 self.notes.append(message)
-        for name, text in (("results.csv", self.to_csv()),
-                           ("per_action.csv", self.per_action_csv()),
-                           ("report.md", self.to_markdown(figs))):
+        texts = [("results.csv", self.to_csv()), ("per_action.csv", self.per_action_csv())]
+        texts += [("sweep.csv", self.sweep_csv())] if self.sweep else []
+        for name, text in texts + [("report.md", self.to_markdown(figs))]:
             path = directory / name
             with atomic_path(path) as tmp:
                 Path(tmp).write_text(text)
@@ -525,7 +539,7 @@ def evaluate(dictionary, test_poses2d, *, train_poses2d=None, labels=None,
         The baselines are fitted on a seeded sample of at most this many
         training poses (the iterative imputer's fit grows with it: minutes at
         20,000). The Table 2 figures of the documentation's results pages
-        (``docs/results/``) used 20,000 (``examples/reproduce_results.py``
+        (``docs/results/``) used 20,000 (``benchmarks/paper_protocol.py``
         passes it).
     alpha : float, optional
         Lasso penalty, passed to :func:`sparseedm.recover`.

@@ -202,6 +202,10 @@ def test_cli_end_to_end(split, tmp_path, capsys):
     assert {r["method"] for r in rows} == set(METHODS)
     with open(out / "per_action.csv") as f:
         assert {r["label"] for r in csv.DictReader(f)} <= set(TEST_CLIPS)
+    with open(out / "sweep.csv") as f:
+        sweep = list(csv.DictReader(f))
+    assert [r["atoms"] for r in sweep] == ["50", "100", "5000"]
+    assert sweep[2]["note"].startswith("skipped") and float(sweep[0]["err_ave_mix"]) > 0
 
 
 def test_cli_figures(split, tmp_path):

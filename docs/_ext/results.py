@@ -12,6 +12,9 @@ The renderer knows three shapes and falls back to a generic one:
   ``error``): one table per run, a row per method and a column per group;
 * the real-people files' ``results`` (per source, ``rows`` of ``method``,
   ``condition``, ``group``, ``mean``): one table per source and condition;
+* the paper protocol's ``paper_protocol`` (per dictionary, the ``rows`` of
+  ``sparseedm evaluate``'s ``results.csv`` and its ``sweep``): Err_ave by
+  occlusion count per method and representation, and the sweep;
 * anything else: scalars as a two-column table, a mapping of mappings as one
   table (a row per key), a list of mappings as one table (a row per item),
   nested up to three levels under small headings.
@@ -36,7 +39,8 @@ PAGES = {
               "results-default-path.json", "results-dask-default.json",
               "results-temporal.json", "results-video-speed*.json",
               "results-lifting-speed.json", "results-fconv.json"],
-    "accuracy": ["results-real-people*.json", "results-video*.json", "results-lifting*.json"],
+    "accuracy": ["results-real-people*.json", "results-paper-protocol.json",
+                 "results-video*.json", "results-lifting*.json"],
 }
 #: readable titles (a file without one is titled by its name)
 TITLES = {
@@ -72,6 +76,8 @@ TITLES = {
         "Video protocols: the Kalman smoother beside the splines, 1 % keypoint jitter",
     "results-video-kalman-bonn.json":
         "The Kalman smoother's settings on Bonn PoseTrack validation clips",
+    "results-paper-protocol.json":
+        "The paper's protocol: held-out Bandai-Namco styles, 1-3 hidden joints and Mix",
 }
 META_KEYS = {"machine", "versions", "meta", "date", "loadavg_start", "loadavg_end",
              "load_average", "load_average_before", "load_average_after", "load_start",
@@ -228,6 +234,52 @@ def _real_people_tables(obj):
     return out
 
 
+def _is_paper_protocol(obj):
+    runs = obj.get("paper_protocol") if isinstance(obj, dict) else None
+    return isinstance(runs, dict) and runs and all(
+        isinstance(r, dict) and isinstance(r.get("rows"), list) for r in runs.values())
+
+
+#: the paper protocol's occlusion counts, as its rows name them, and their column titles
+PAPER_COUNTS = {"1": "1 joint", "2": "2 joints", "3": "3 joints", "mix": "Mix"}
+
+
+def paper_table(rows, representation):
+    """Err_ave % per occlusion count, and the Mix joint error in pixels, a row
+    per method of `rows` (``sparseedm evaluate``'s results.csv) under `representation`."""
+    methods, cells = [], {}
+    for r in rows:
+        if r["representation"] != representation:
+            continue
+        methods += [r["method"]] if r["method"] not in methods else []
+        cells[r["method"], str(r["count"])] = r
+    body = [[clean(m)] + [fmt(cells[m, c]["err_ave_mean"]) if (m, c) in cells else "–"
+                          for c in PAPER_COUNTS]
+            + [fmt(cells[m, "mix"]["joint_err_px"]) if (m, "mix") in cells else "–"]
+            for m in methods]
+    return table(["method", *PAPER_COUNTS.values(), "Mix joint error, px"], body)
+
+
+def sweep_table(sweep):
+    """The atom-count sweep: Mix Err_ave % and recovery time per pose."""
+    return table(["atoms", "Mix Err_ave %", "recovery ms / pose"],
+                 [[fmt(r["atoms"]), fmt(r["err_ave_mix"]), fmt(r["ms_per_pose"])]
+                  for r in sweep])
+
+
+def _paper_tables(obj):
+    out = []
+    for run in obj["paper_protocol"].values():
+        for representation in dict.fromkeys(r["representation"] for r in run["rows"]):
+            out.append(nodes.rubric(text=f"{run.get('dictionary', '')} · {representation}: "
+                                         "Err_ave %"))
+            out.append(paper_table(run["rows"], representation))
+        if run.get("sweep"):
+            out.append(nodes.rubric(text="Error and time against the number of atoms"))
+            out.append(sweep_table(run["sweep"]))
+    return out
+
+
 def _walk(obj, depth):
     out = []
     if isinstance(obj, list):
@@ -287,7 +339,8 @@ def render(path):
         para += nodes.Text(f" ({line})")
     section += para
     body = (_protocol_tables(obj) if _is_protocol_runs(obj)
-            else _real_people_tables(obj) if _is_real_people(obj) else _walk(obj, 0))
+            else _real_people_tables(obj) if _is_real_people(obj)
+            else _paper_tables(obj) if _is_paper_protocol(obj) else _walk(obj, 0))
     for node in body:
         section += node
     return section
@@ -334,6 +387,99 @@ class RealPeopleSummary(Directive):
         return [table(header, summary_rows())]
 
 
+def missing(name, command):
+    """What a summary shows while its results file has not been written yet."""
+    para = nodes.paragraph(text=f"No benchmarks/{name} yet: ")
+    para += nodes.literal(text=command)
+    para += nodes.Text(" writes it.")
+    return [para]
+
+
+#: the paper protocol's file and the command that writes it
+PAPER_FILE = "results-paper-protocol.json"
+PAPER_COMMAND = ("python -m benchmarks.paper_protocol --sweep-atoms 100,250,500,1000,2000 "
+                 "--write-docs")
+
+
+class PaperProtocolSummary(Directive):
+    """The paper protocol's headline tables (``paper-protocol-summary``): every
+    method on the dictionary learned on the training set, the sparse row of each
+    dictionary evaluated, and the atom sweep."""
+
+    def run(self):
+        path = ROOT / "benchmarks" / PAPER_FILE
+        self.state.document.settings.env.note_dependency(str(path))
+        if not path.is_file():
+            return missing(PAPER_FILE, PAPER_COMMAND)
+        obj = json.loads(path.read_text(encoding="utf-8"))
+        runs = obj["paper_protocol"]
+        first = next(iter(runs.values()))
+        representation = first["rows"][0]["representation"]
+        para = nodes.paragraph(text=f"{first['dictionary']}, every method ({representation} "
+                                    f"representation; {_meta_line(obj)}):")
+        out = [para, paper_table(first["rows"], representation)]
+        sparse = [dict(r, method=run["dictionary"]) for run in runs.values()
+                  for r in run["rows"] if r["method"] == "sparse"]
+        out += [nodes.paragraph(text="sparseedm with each dictionary on the same poses:"),
+                paper_table(sparse, representation)]
+        if first.get("sweep"):
+            out += [nodes.paragraph(text="Error and time against the number of atoms "
+                                         "(dictionaries learned on the same training set):"),
+                    sweep_table(first["sweep"])]
+        return out
+
+
+#: the lifting files the 3D summary reads
+LIFT_FILES = ("results-lifting.json", "results-lifting-fconv.json")
+#: the application table's pipelines the 3D summary shows, and how it names them
+LIFT_PIPELINES = {"complete": "complete input", "as-is average": "occluded input as is",
+                  "applyspar": "recovered by sparseedm, then lifted"}
+
+
+def lift_rows(obj):
+    """The dictionary lifter's rows of the application table at Mix (and on
+    complete input): 3D-EDM Err_ave %, PA-MPJPE and the share of right reflections."""
+    rows = [r for r in obj.get("table", []) + obj.get("applyspar_shipped_2d_dictionary", [])
+            if r["lifter"] == "dictionary" and r["pipeline"] in LIFT_PIPELINES
+            and str(r["count"]) in ("mix", "none")]
+    rows.sort(key=lambda r: list(LIFT_PIPELINES).index(r["pipeline"]))
+    return [[LIFT_PIPELINES[r["pipeline"]], fmt(r["err3d"]), fmt(r["pa_mpjpe"]),
+             f"{100 * r['reflection_ok']:.1f} %"] for r in rows]
+
+
+class LiftSummary(Directive):
+    """The 3D headline (``lift-summary``): the dictionary lifter through its joint
+    lasso against the MLP (results-lifting.json), and the dictionary lifter's
+    pipelines of the application table (results-lifting-fconv.json)."""
+
+    def run(self):
+        env = self.state.document.settings.env
+        out = []
+        for name in LIFT_FILES:
+            env.note_dependency(str(ROOT / "benchmarks" / name))
+        path = ROOT / "benchmarks" / LIFT_FILES[0]
+        if path.is_file():
+            obj = json.loads(path.read_text(encoding="utf-8"))
+            val = obj["cmu_validation"]
+            out.append(nodes.paragraph(text=(
+                f"benchmarks/{LIFT_FILES[0]} ({_meta_line(obj)}): {fmt(val['n_poses'])} "
+                "poses of held-out CMU clips, 3D-EDM Err_ave %, both lifters learned on "
+                f"the same {fmt(obj['n_train'])} training poses; Mix occluded joints go "
+                "through the dictionary lifter's joint lasso as they are:")))
+            out.append(table(["lifter", "complete input", "Mix"],
+                             [[clean(k), fmt(v["complete"]), fmt(v["mix"])]
+                              for k, v in val.items() if isinstance(v, dict)]))
+        path = ROOT / "benchmarks" / LIFT_FILES[1]
+        if path.is_file():
+            obj = json.loads(path.read_text(encoding="utf-8"))
+            out.append(nodes.paragraph(text=(
+                f"benchmarks/{LIFT_FILES[1]} (sparseedm evaluate-lift; {clean(obj['data'])}): "
+                "the dictionary lifter at Mix:")))
+            out.append(table(["input", "3D-EDM Err_ave %", "PA-MPJPE, mm",
+                              "depth reflection right"], lift_rows(obj)))
+        return out or missing(LIFT_FILES[0], "python -m benchmarks.lifting --cmu TRAIN.npz")
+
+
 class BenchmarkResults(Directive):
     """Render the results files assigned to one page."""
 
@@ -351,4 +497,6 @@ class BenchmarkResults(Directive):
 def setup(app):
     app.add_directive("benchmark-results", BenchmarkResults)
     app.add_directive("real-people-summary", RealPeopleSummary)
+    app.add_directive("paper-protocol-summary", PaperProtocolSummary)
+    app.add_directive("lift-summary", LiftSummary)
     return {"parallel_read_safe": True, "parallel_write_safe": True}

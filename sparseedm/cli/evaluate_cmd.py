@@ -27,7 +27,8 @@ def add_parser(sub):
         description="Seeded random occlusion of 1, 2, 3 joints and their Mix on complete "
         "test poses; Err_ave (per cent, on pixel EDMs), 2D joint error in pixels and "
         "torso fractions, speed; per-action table and failure analysis. Writes "
-        "report.md, results.csv, per_action.csv and PNG figures (with matplotlib).",
+        "report.md, results.csv, per_action.csv (sweep.csv with --sweep-atoms) and PNG "
+        "figures (with matplotlib).",
     )
     p.add_argument("--dictionary", default="default",
                    help="dictionary .npz or shipped name (default: the shipped default)")
@@ -109,7 +110,7 @@ def _check_report_dir(args):
     check_paths([("--data", args.data), ("--train", args.train),
                  ("--adapt-from", args.adapt_from)],
                 [("report", out / name) for name in ("report.md", "results.csv",
-                                                     "per_action.csv")])
+                                                     "per_action.csv", "sweep.csv")])
 
 
 def _split_clips(path, poses, labels, k):
