@@ -53,7 +53,7 @@ def test_its_docs_say_what_it_holds(clip):
 
 
 def test_time_fills_it_better_than_a_spline_or_each_frame_alone(clip):
-    """What the README says of its example, with defaults: the shipped dictionary
+    """What examples/README.md says of its example, with defaults: the shipped dictionary
     (it learned from these clips; the small test dictionary of 334 poses fills
     the example worse than Akima: 5.75 against 4.21 px)."""
     kps, truth, missing = clip
@@ -88,16 +88,3 @@ def test_the_example_is_rebuilt_identically(shared_data, tmp_path, monkeypatch):
         for name in ("poses2d", "missing"):
             np.testing.assert_array_equal(new[name], old[name])
 
-
-def test_the_readme_video_snippet_runs_as_written(monkeypatch):
-    """README.md's Python block of the video section, executed from the root."""
-    import re
-
-    root = EXAMPLES.parent
-    blocks = re.findall(r"```python\n(.*?)```", (root / "README.md").read_text(), re.S)
-    block = [b for b in blocks if "examples/video_clip.csv" in b]
-    assert len(block) == 1
-    monkeypatch.chdir(root)
-    scope = {}
-    exec(compile(block[0], "README.md (video)", "exec"), scope)
-    assert scope["res"].summary()["temporal"] and scope["res"].ok.all()
