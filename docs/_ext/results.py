@@ -429,6 +429,47 @@ class PaperProtocolSummary(Directive):
         return out
 
 
+#: the video protocols' file the video summary reads, its gap fillers and its model
+VIDEO_FILE = "results-video-intervals-all.json"
+VIDEO_FILLERS = ("linear", "cubic", "akima", "pca")
+VIDEO_MODEL = "temporal"
+
+
+def video_rows(obj):
+    """Per run of the video protocols: the temporal model's overall error, the best
+    gap filler's, their ratio, and the largest ratio over the run's bins."""
+    out = []
+    for run in obj["runs"]:
+        cells = {(r["method"], r["group"]): r["error"] for r in run["rows"]
+                 if r.get("end", "all") == "all"}
+        groups = list(dict.fromkeys(g for _, g in cells))
+        best = {g: min((cells[m, g], m) for m in VIDEO_FILLERS if (m, g) in cells)
+                for g in groups if any((m, g) in cells for m in VIDEO_FILLERS)}
+        ratio = {g: cells[VIDEO_MODEL, g] / best[g][0] for g in best
+                 if (VIDEO_MODEL, g) in cells}
+        if "overall" not in ratio:
+            continue
+        out.append([f"{run.get('source')} · {run.get('split')} · {run.get('protocol')}",
+                    fmt(cells[VIDEO_MODEL, "overall"]),
+                    f"{best['overall'][1]} {fmt(best['overall'][0])}",
+                    f"{ratio['overall']:.2f}x", f"{max(ratio.values()):.2f}x"])
+    return out
+
+
+class VideoSummary(Directive):
+    """The video protocols' headline (``video-summary``): the temporal model against
+    the best gap filler, per source, split and protocol."""
+
+    def run(self):
+        path = ROOT / "benchmarks" / VIDEO_FILE
+        self.state.document.settings.env.note_dependency(str(path))
+        if not path.is_file():
+            return missing(VIDEO_FILE, "python benchmarks/video_protocols.py")
+        obj = json.loads(path.read_text(encoding="utf-8"))
+        return [table(["source · split · protocol", "temporal model", "best gap filler",
+                       "ratio", "worst bin's ratio"], video_rows(obj))]
+
+
 #: the lifting files the 3D summary reads
 LIFT_FILES = ("results-lifting.json", "results-lifting-fconv.json")
 #: the application table's pipelines the 3D summary shows, and how it names them
@@ -499,4 +540,5 @@ def setup(app):
     app.add_directive("real-people-summary", RealPeopleSummary)
     app.add_directive("paper-protocol-summary", PaperProtocolSummary)
     app.add_directive("lift-summary", LiftSummary)
+    app.add_directive("video-summary", VideoSummary)
     return {"parallel_read_safe": True, "parallel_write_safe": True}
