@@ -47,7 +47,9 @@ path over the file's complete poses:
 ``averaged``, says what each pose's answer was averaged with
 (:attr:`sparseedm.recovery.RecoveryResult.averaged`; empty: nothing), in
 every format as ``outliers`` is below, and ``summary["averaged"]`` counts the
-poses per kind.
+poses per kind. An input that is an earlier run's output keeps its own
+columns, not that run's results (:data:`sparseedm.keypoints.RESULT_FIELDS`):
+each output says what its own run did.
 
 Refused rows are written back as they were read (observed joints kept, the
 missing ones NaN / missing), so row i of the output is always row i of the
@@ -116,7 +118,8 @@ from .fconv.model import load_model
 from .formats import FILLED_SCORE, count_below, default_threshold, threshold_line
 from .formats import FORMATS as FOLDER_OR_TABLE_FORMATS
 from .formats.deeplabcut import H5_SUFFIXES, check_h5_extra, read_joint_map
-from .keypoints import (FLAGS_IN_SIDECAR, N_JOINTS, EXTENSIONS, beside, check_joint_map,
+from .keypoints import (FLAGS_IN_SIDECAR, N_JOINTS, EXTENSIONS, RESULT_FIELDS, beside,
+                        check_joint_map,
                         finish_missing, format_of, load_single_npy, npy_confidence,
                         origin_joints, read_keypoints, status_sidecar, write_keypoints)
 from .keypoints import output_format as keypoint_output_format
@@ -1009,14 +1012,14 @@ def _write_output(tmp, fmt, filled, ids, meta, in_fmt, fields, edm,
                 np.save(f, np.zeros((0, N_JOINTS, 2)))
         return  # already streamed into the memmap
     if fmt == "npz":
-        extra = dict(meta.get("npz_extra") or {}) if in_fmt == "npz" else {}
+        extra = _carried(meta.get("npz_extra")) if in_fmt == "npz" else {}
         extra.update(fields)
         if edm is not None:
             extra.update(edm)
         write_keypoints(tmp, filled, format="npz", ids=ids, meta={"npz_extra": extra},
                         **_time_axis(kps, linked, in_fmt, fmt), **flagged)
     elif fmt == "csv":
-        extra = dict(meta.get("extra_columns") or {}) if in_fmt == "csv" else {}
+        extra = _carried(meta.get("extra_columns")) if in_fmt == "csv" else {}
         extra.update({
             "status": fields["status"],
             "reason": fields["reason"],
@@ -1049,6 +1052,14 @@ def _write_output(tmp, fmt, filled, ids, meta, in_fmt, fields, edm,
                     ann["sparseedm"][key] = str(fields[key][r])
         with open(tmp, "w", encoding="utf-8") as f:
             json.dump(doc, f)
+
+
+def _carried(columns):
+    """The input's own columns an output carries: not the results of an
+    earlier run (:data:`~sparseedm.keypoints.RESULT_FIELDS`), which would say
+    what that run did (this run writes its own, or none: no ``averaged`` when
+    it blends nothing, no EDMs unless asked)."""
+    return {k: v for k, v in (columns or {}).items() if k not in RESULT_FIELDS}
 
 
 def _time_axis(kps, linked, in_fmt, fmt):

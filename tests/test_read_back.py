@@ -55,3 +55,31 @@ def test_a_sidecar_of_another_file_is_ignored_with_a_warning(occluded, tmp_path)
     np.testing.assert_array_equal(kps.missing, was_missing)
     side.unlink()
     assert read_keypoints(out).filled is None
+
+
+@pytest.mark.parametrize("ext", ["csv", "npz"])
+def test_a_rerun_writes_what_it_did_not_an_earlier_runs_results(cmu_poses, small_dictionary,
+                                                                tmp_path, ext):
+    """An input that is an earlier run's output: its result columns (what that
+    run averaged, its outliers, its EDMs) are not carried into this run's
+    output, which blends nothing here; a CSV's own columns are."""
+    poses = cmu_poses[:20].copy()
+    poses[::2, 7] = np.nan
+    stale = {"averaged": np.array(["local ridge over file atoms"] * 20),
+             "outliers": np.array(["l_wrist"] * 20), "note": np.array([f"n{i}" for i in range(20)])}
+    src = tmp_path / f"in.{ext}"
+    if ext == "csv":
+        write_keypoints(src, poses, extra_columns={k: v.tolist() for k, v in stale.items()})
+    else:
+        stale["edm_vectors"] = np.zeros((20, 91))
+        write_keypoints(src, poses, meta={"npz_extra": stale})
+    read = read_keypoints(src).meta
+    assert "averaged" in read.get("extra_columns", read.get("npz_extra"))  # the input has it
+    out = tmp_path / f"out.{ext}"
+    recover_file(src, out, dictionary=small_dictionary, adapt=False, exemplars=False)
+    back = read_keypoints(out).meta
+    carried = back["extra_columns"] if ext == "csv" else back["npz_extra"]
+    assert not {"averaged", "outliers", "edm_vectors"} & set(carried)
+    if ext == "csv":
+        np.testing.assert_array_equal(np.asarray(carried["note"], str), stale["note"])
+    assert (np.asarray(carried["status"], str)[::2] == "recovered").all()
