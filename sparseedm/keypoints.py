@@ -1178,10 +1178,10 @@ def _read_coco(path, threshold):
     doc = load_json(path)
     if isinstance(doc, dict):
         if not isinstance(doc.get("annotations"), list):
-            raise FileFormatError(
+            hint = formats.alphapose.cmu_hint(doc)
+            raise FileFormatError(f"{path}: not COCO keypoints{hint}" if hint else (
                 f"{path}: a COCO JSON object needs an 'annotations' list (its keys: "
-                f"{_some_keys(doc)}); {JSON_KINDS}"
-            )
+                f"{_some_keys(doc)}); {JSON_KINDS}"))
         anns = doc["annotations"]
     elif isinstance(doc, list):
         anns = doc
