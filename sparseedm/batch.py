@@ -132,7 +132,7 @@ from .recovery import STATUSES, check_options_apply, recover
 from .uncertainty import joint_uncertainty
 from .skeleton import JOINT_NAMES
 from .temporal.recover import CLIP_MIN_POSES, adapt_in_time, linked_tracks, offered_poses
-from .temporal.tracks import add_summaries, has_time, track_windows
+from .temporal.tracks import MAX_SKIP, add_summaries, has_time, split_tracks, track_windows
 from .solvers import get_solver
 
 __all__ = ["recover_file", "default_errors_path", "STATUS_FIELDS"]
@@ -398,8 +398,12 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
         (chunks of about `chunk_size` poses; a longer track in windows of about
         `chunk_size` rows with context either side,
         :func:`~sparseedm.temporal.tracks.track_windows`); False: every pose on
-        its own, as for a file without frames.
-        ``summary["temporal"]`` says which was used.
+        its own, as for a file without frames. A file whose poses mostly
+        have no other frame of their track within
+        :data:`~sparseedm.temporal.tracks.MAX_SKIP` frame numbers (photos
+        whose names hold numbers) is recovered pose by pose
+        (:data:`TIME_MIN_SHARE`; ``summary["frames_unused"]``: the poses alone,
+        of ``poses``). ``summary["temporal"]`` says which was used.
     input_format : str, optional
         The input's keypoint format when its name does not tell (a pipe such
         as ``/dev/stdin``): as :func:`~sparseedm.keypoints.read_keypoints`'
@@ -447,8 +451,9 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
         ``adaptation_line``,
         ``confidence_threshold`` (the one used), ``below_threshold`` (scored
         joints below it; None when the file has no scores), ``threshold_line``
-        and ``skipped_files`` ((file, reason) of the bad frame files an
-        OpenPose folder skipped).
+        ``skipped_files`` ((file, reason) of the bad frame files an
+        OpenPose folder skipped) and ``frames_unused`` (see `temporal`; None
+        when the frames were used or there were none).
 
     Raises
     ------
@@ -532,6 +537,8 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
     summary["mirror"] = mirror
     summary["linked_tracks"] = None if source.linked is None else \
         int(len(np.unique(source.linked)))
+    summary["frames_unused"] = None if source.frames_unused is None else dict(
+        zip(("alone", "poses"), source.frames_unused), max_skip=MAX_SKIP)
     summary["adaptation_line"] = adaptation.line() if adaptation is not None else None
     if save_dictionary is not None:
         summary["dictionary"] = str(dictionary.save(save_dictionary))
@@ -599,14 +606,30 @@ def _check_extras(backend, method, input, output):
     check_h5_extra(input, output)
 
 
+#: a file with frames is recovered across time when at least this share of its
+#: poses have another frame of their track within MAX_SKIP frame numbers; else
+#: as photos (names holding numbers, frames far apart: the path across time
+#: would answer every pose on its own, and worse than the photo path does)
+TIME_MIN_SHARE = 0.5
+
+
 def _in_time(source, temporal):
     """Whether `source` is recovered across time (`temporal`, and it has at
-    least two distinct frames: :func:`has_time`); a file without tracks whose
-    frames hold several poses is linked first."""
+    least two distinct frames: :func:`has_time`, and most poses have a
+    neighbouring frame of their track: :data:`TIME_MIN_SHARE`); a file without
+    tracks whose frames hold several poses is linked first. A file whose frames
+    are not used says so in ``source.frames_unused`` (poses alone, poses)."""
+    source.frames_unused = None
     if not temporal or not has_time(source.frames):
         return False
+    tracks = source.tracks
     source.link()
-    return True
+    alone = split_tracks(source.n, source.tracks, source.frames).alone
+    if alone.mean() <= 1 - TIME_MIN_SHARE:
+        return True
+    source.linked, source.tracks = None, tracks  # photos: no tracks made up for them
+    source.frames_unused = (int(alone.sum()), source.n)
+    return False
 
 
 def _check_run_paths(outputs, in_path, dictionary, adapt, model, save_dictionary,

@@ -83,3 +83,34 @@ def test_a_rerun_writes_what_it_did_not_an_earlier_runs_results(cmu_poses, small
     if ext == "csv":
         np.testing.assert_array_equal(np.asarray(carried["note"], str), stale["note"])
     assert (np.asarray(carried["status"], str)[::2] == "recovered").all()
+
+
+def test_photos_whose_names_hold_numbers_are_recovered_as_photos(cmu_poses, tmp_path,
+                                                                  small_dictionary, capsys):
+    """Frames far apart (photo names' numbers, as COCO's 000000397133.jpg): no pose
+    has a neighbouring frame of its track, so the file is recovered as photos,
+    said in the summary and the CLI, its frames written back as read; frames
+    close together stay a video."""
+    from sparseedm.cli import main
+
+    poses = cmu_poses[:40].copy()
+    poses[::2, 7] = np.nan
+    far = [str(397133 + 1000 * i) for i in range(40)]
+    src = tmp_path / "photos.csv"
+    write_keypoints(src, poses, extra_columns={"frame": far})
+    summary = recover_file(src, tmp_path / "out.csv", dictionary=small_dictionary)
+    assert summary["temporal"] is None
+    assert summary["frames_unused"] == {"alone": 40, "poses": 40, "max_skip": 30}
+    back = read_keypoints(tmp_path / "out.csv")
+    np.testing.assert_array_equal(back.frames.astype(int), np.asarray(far, int))
+    assert back.tracks is None  # no tracks linked for photos
+    video = tmp_path / "video.csv"
+    write_keypoints(video, poses, extra_columns={"frame": [str(i) for i in range(40)]})
+    summary = recover_file(video, tmp_path / "v.csv", dictionary=small_dictionary)
+    assert summary["temporal"] is not None and summary["frames_unused"] is None
+    dict_path = small_dictionary.save(tmp_path / "d.npz")
+    assert main(["recover", str(src), "-o", str(tmp_path / "cli.csv"), "--quiet",
+                 "--dictionary", str(dict_path)]) == 0
+    said = capsys.readouterr().err
+    assert "40 of 40 poses have no other frame of their track" in said
+    assert "recovered as photos" in said and "recovered across time" not in said

@@ -215,6 +215,13 @@ def run(args):
         print(f"sparseedm recover: {args.input} has frames, no track ids and several poses in "
               f"a frame: linked them into {summary['linked_tracks']} track(s) by pose distance "
               "(written back as its tracks)", file=sys.stderr)
+    if summary.get("frames_unused"):
+        f = summary["frames_unused"]
+        print(f"sparseedm recover: {args.input} has frame numbers (from its rows, or its "
+              f"file or image names), but {f['alone']} of {f['poses']} poses have no other "
+              f"frame of their track within {f['max_skip']} frame numbers: recovered as "
+              "photos, pose by pose (their frames written back as read; a video's frames "
+              "need frame indices 0, 1, 2..., not timestamps)", file=sys.stderr)
     if summary.get("temporal"):
         t = summary["temporal"]
         print(f"sparseedm recover: {args.input} has frames: recovered across time "
