@@ -535,14 +535,20 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
     summary["adaptation"] = adaptation.summary() if adaptation is not None else None
     _say_averaged(summary, adaptation, summary_members)
     summary["mirror"] = mirror
-    summary["linked_tracks"] = None if source.linked is None else \
-        int(len(np.unique(source.linked)))
-    summary["frames_unused"] = None if source.frames_unused is None else dict(
-        zip(("alone", "poses"), source.frames_unused), max_skip=MAX_SKIP)
+    summary.update(_time_summary(source))
     summary["adaptation_line"] = adaptation.line() if adaptation is not None else None
     if save_dictionary is not None:
         summary["dictionary"] = str(dictionary.save(save_dictionary))
     return summary
+
+
+def _time_summary(source):
+    """What became of `source`'s frames: ``linked_tracks`` (the tracks linked for
+    a file without any, or None) and ``frames_unused`` (see :func:`_in_time`)."""
+    return dict(linked_tracks=None if source.linked is None else
+                int(len(np.unique(source.linked))),
+                frames_unused=None if source.frames_unused is None else dict(
+                    zip(("alone", "poses"), source.frames_unused), max_skip=MAX_SKIP))
 
 
 def _say_averaged(summary, adaptation, n_members):
