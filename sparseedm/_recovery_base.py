@@ -275,6 +275,11 @@ def averaged_summary(averaged, answers=(), rows=True):
     rows : bool, default True
         Name the first :data:`FIRST_ROWS` rows of each kind.
 
+    Returns
+    -------
+    dict
+        ``answers`` and ``with`` as above, each only when there is one.
+
     Examples
     --------
     >>> averaged_summary(np.array(["", "a", "a; b"]))

@@ -96,9 +96,20 @@ def is_alphapose(doc):
 def cmu_hint(doc):
     """What to do with AlphaPose's ``--format cmu`` output (CMU-Pose ``bodies``
     by image name, ``{"0.jpg": {"version": ..., "bodies": [{"joints": [...]}]}}``,
-    or one image's object from its ``sep-json`` folder), which is not read: a
-    message tail naming it, else "".
+    or one image's object from its ``sep-json`` folder), which is not read.
 
+    Parameters
+    ----------
+    doc : object
+        A loaded JSON document.
+
+    Returns
+    -------
+    str
+        A message tail (``"; it looks like ..."``) naming it, else "".
+
+    Examples
+    --------
     >>> cmu_hint({"0.jpg": {"version": "AlphaPose v0.3", "bodies": []}})[:42]
     '; it looks like AlphaPose --format cmu out'
     >>> cmu_hint({"version": "AlphaPose v0.3", "bodies": [{"joints": []}]})[:42]
