@@ -772,7 +772,7 @@ def _averaged_record(out, before, rows, ridge, kind):
         before.averaged.astype(object)
     spread = np.zeros((n, N)) if before.spread is None else before.spread.copy()
     both = out.ok[rows] & before.ok[rows]
-    with np.errstate(invalid="ignore"):
+    with np.errstate(invalid="ignore", over="ignore"):  # a joint at 1e300: no spread
         gap = np.linalg.norm(before.poses[rows] - ridge.poses, axis=-1)
     gap = np.where(out.missing[rows] & both[:, None] & np.isfinite(gap), gap, 0.0)
     spread[rows] = np.maximum(spread[rows], gap)
