@@ -106,7 +106,8 @@ from ._atomic import atomic_path, check_folder, check_paths
 from ._extras import require as require_extra
 from ._parallel import one_client
 from ._validation import (ALPHA, BOOLEAN, CHUNK_SIZE, ENSEMBLE, N_JOBS, PATH, SCORE,
-                          Interval, Options, check_adapt, read_frames, validate_params)
+                          Interval, Options, check_adapt, frame_numbers, read_frames,
+                          validate_params)
 from .adaptation import MIN_COMPLETE_POSES, sample_stream
 from .dictionary import Dictionary, dictionary_path, check_gram_memory, load_dictionary
 from ._safeio import resolved
@@ -452,8 +453,9 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
         ``confidence_threshold`` (the one used), ``below_threshold`` (scored
         joints below it; None when the file has no scores), ``threshold_line``
         ``skipped_files`` ((file, reason) of the bad frame files an
-        OpenPose folder skipped) and ``frames_unused`` (see `temporal`; None
-        when the frames were used or there were none).
+        OpenPose folder skipped), ``frame_range`` (the first and last frame
+        number read, None without) and ``frames_unused`` (see `temporal`;
+        None when the frames were used or there were none).
 
     Raises
     ------
@@ -543,9 +545,15 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
 
 
 def _time_summary(source):
-    """What became of `source`'s frames: ``linked_tracks`` (the tracks linked for
-    a file without any, or None) and ``frames_unused`` (see :func:`_in_time`)."""
-    return dict(linked_tracks=None if source.linked is None else
+    """What became of `source`'s frames: ``frame_range`` (the first and last usable
+    frame number read, or None), ``linked_tracks`` (the tracks linked for a file
+    without any, or None) and ``frames_unused`` (see :func:`_in_time`)."""
+    values, reason = (None, None) if source.frames is None else \
+        frame_numbers(source.frames, source.n)
+    usable = None if values is None else values[reason == ""]
+    return dict(frame_range=None if usable is None or not len(usable) else
+                [int(usable.min()), int(usable.max())],
+                linked_tracks=None if source.linked is None else
                 int(len(np.unique(source.linked))),
                 frames_unused=None if source.frames_unused is None else dict(
                     zip(("alone", "poses"), source.frames_unused), max_skip=MAX_SKIP))

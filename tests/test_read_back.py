@@ -114,3 +114,7 @@ def test_photos_whose_names_hold_numbers_are_recovered_as_photos(cmu_poses, tmp_
     said = capsys.readouterr().err
     assert "40 of 40 poses have no other frame of their track" in said
     assert "recovered as photos" in said and "recovered across time" not in said
+    assert f"has frame numbers {far[0]}-{far[-1]} " in said  # what was inferred
+    assert main(["recover", str(video), "-o", str(tmp_path / "cli_v.csv"), "--quiet",
+                 "--dictionary", str(dict_path)]) == 0
+    assert "has frames 0-39: recovered across time" in capsys.readouterr().err
