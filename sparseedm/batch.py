@@ -948,9 +948,10 @@ def _run(source, outputs, recovery, chunk_size, progress, t0):
         kps = getattr(source, "kps", None)
         if kps is not None and kps.filled is not None:
             flags |= kps.filled & np.isfinite(filled).all(axis=-1)  # flagged in the input
-        _write_output(out_tmp, out_fmt, filled, source.ids, source.meta, outputs.in_fmt,
-                      fields, columns.edm, outputs.filled_score, kps, flags, source.linked,
-                      columns.uncertainty)
+        with _said_as(out_tmp, out_path):
+            _write_output(out_tmp, out_fmt, filled, source.ids, source.meta, outputs.in_fmt,
+                          fields, columns.edm, outputs.filled_score, kps, flags, source.linked,
+                          columns.uncertainty)
         _write_sidecars(side_tmp, dict(fields, filled=flags, uncertainty=columns.uncertainty,
                                        **_table_keys(out_fmt, source, kps)),
                         source.ids, columns.edm)
@@ -968,6 +969,15 @@ def _run(source, outputs, recovery, chunk_size, progress, t0):
                 sidecars=[str(p) for p in sidecars.values()], temporal=temporal_summary,
                 outliers=None if source.outliers is None else int(source.outliers.sum()),
                 averaged=averaged_summary(columns.averaged, rows=False))
+
+
+@contextlib.contextmanager
+def _said_as(tmp, path):
+    """A writer's refusal names the output `path`, not its temporary file `tmp`."""
+    try:
+        yield
+    except SparseEDMError as exc:
+        raise type(exc)(str(exc).replace(str(tmp), str(path))) from None
 
 
 def _recover_chunks_into(filled, columns, source, recovery, chunk_size, progress):
@@ -1071,7 +1081,7 @@ def _write_output(tmp, fmt, filled, ids, meta, in_fmt, fields, edm,
                         **_time_axis(kps, linked, in_fmt, fmt), **flagged)
     else:  # coco: the original document (or a results list), status in "sparseedm"
         write_keypoints(tmp, filled, format="coco", ids=ids,
-                        tracks=_time_axis(kps, linked, in_fmt, fmt)["tracks"],
+                        **_time_axis(kps, linked, in_fmt, fmt),
                         meta=meta if in_fmt == "coco" else None, **flagged)
         with open(tmp, encoding="utf-8") as f:
             doc = json.load(f)

@@ -1,9 +1,12 @@
 """Every format ``recover`` writes reads back with its filled joints present and flagged."""
 
+import re
+
 import numpy as np
 import pytest
 
 from sparseedm.batch import recover_file
+from sparseedm.exceptions import FileFormatError
 from sparseedm.keypoints import read_keypoints, status_sidecar, write_keypoints
 
 OUTPUTS = [  # (output name, --format)
@@ -118,3 +121,32 @@ def test_photos_whose_names_hold_numbers_are_recovered_as_photos(cmu_poses, tmp_
     assert main(["recover", str(video), "-o", str(tmp_path / "cli_v.csv"), "--quiet",
                  "--dictionary", str(dict_path)]) == 0
     assert "has frames 0-39: recovered across time" in capsys.readouterr().err
+
+
+def test_frames_survive_conversion_to_coco_and_npz(cmu_poses, tmp_path, small_dictionary):
+    """A video CSV written as COCO keeps its frames (PoseTrack images; they were
+    dropped and read back as 0, 1, 2...); as .npz its frame text becomes numbers
+    the .npz reader takes (blank: NaN; it wrote text the reader refused), and
+    text that is no frame number is refused naming the output, nothing written."""
+    poses = cmu_poses[:6].copy()
+    poses[::2, 4] = np.nan
+    src = tmp_path / "in.csv"
+    write_keypoints(src, poses, extra_columns={"frame": ["1", "1", "2", "2", "3", "3"],
+                                               "track": list("ababab")})
+    recover_file(src, tmp_path / "out.json", dictionary=small_dictionary, adapt=False,
+                 temporal=False)
+    back = read_keypoints(tmp_path / "out.json")
+    assert back.frames is not None and back.frames.tolist() == [1, 1, 2, 2, 3, 3]
+    write_keypoints(src, poses, extra_columns={"frame": ["1", "2", "3", "4", str(2 ** 62),
+                                                         "6"]})
+    recover_file(src, tmp_path / "out.npz", dictionary=small_dictionary, adapt=False)
+    assert read_keypoints(tmp_path / "out.npz").frames.tolist() == [1, 2, 3, 4, 2 ** 62, 6]
+    write_keypoints(src, poses, extra_columns={"frame": ["1", "2", "", "4", "5", "6"]})
+    recover_file(src, tmp_path / "blank.npz", dictionary=small_dictionary, adapt=False)
+    assert np.isnan(read_keypoints(tmp_path / "blank.npz").frames[2])
+    write_keypoints(src, poses, extra_columns={"frame": ["1", "2", "x", "4", "5", "6"]})
+    out = tmp_path / "text.npz"
+    with pytest.raises(FileFormatError, match=rf"writing {re.escape(str(out))}: pose 2: "
+                                              "frame 'x' is not a whole number"):
+        recover_file(src, out, dictionary=small_dictionary, adapt=False)
+    assert not out.exists()
