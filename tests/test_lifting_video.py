@@ -177,3 +177,223 @@ def test_a_frame_with_every_joint_missing_is_lifted_from_its_fill(cmu_poses):
     assert np.isfinite(res.poses3d).all() and (np.ptp(res.poses3d[[10, 25]], axis=1) > 0).all()
     height = np.ptp(res.poses3d[:, :, 1], axis=1)
     assert np.all(np.abs(height[[10, 25]] / np.median(height) - 1) < 0.3)
+
+
+def test_lift_cli_uses_time_and_writes_track_and_frame(tmp_path, video, lifted, capsys):
+    kps, _ = video
+    out = tmp_path / "poses3d.csv"
+    assert main(["lift", str(EXAMPLES / "video_clip.csv"), "-o", str(out), "-q"]) == 0
+    said = capsys.readouterr()
+    assert "lifted across time: 156 pose(s)" in said.out + said.err
+    with open(out, newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert [r["track"] for r in rows] == kps.tracks.astype(str).tolist()
+    assert [int(r["frame"]) for r in rows] == kps.frames.tolist()
+    got = np.array([[float(r[f"{j}_{a}"]) for j in JOINT_NAMES for a in "xyz"]
+                    for r in rows]).reshape(-1, 14, 3)
+    # the file path adapts once, then fills without adapting: round-off apart
+    np.testing.assert_allclose(got, lifted[3].poses3d, rtol=0, atol=1e-9)
+    assert [r["status"] for r in rows] == lifted[3].status.tolist()
+    # --no-temporal: each row alone, as lift() without frames
+    out2 = tmp_path / "alone.npz"
+    assert main(["lift", str(EXAMPLES / "video_clip.csv"), "-o", str(out2), "-q",
+                 "--no-temporal"]) == 0
+    assert "lifted across time" not in capsys.readouterr().out
+    with np.load(out2) as z:
+        np.testing.assert_array_equal(z["poses3d"], lifted[2].poses3d)
+        np.testing.assert_array_equal(z["frames"], kps.frames)
+
+
+@pytest.mark.parametrize("temporal", [True, False])
+def test_lift_file_works_in_bounded_chunks_of_whole_tracks(tmp_path, monkeypatch, temporal):
+    from sparseedm.lifting import io as lift_io
+
+    kps = read_keypoints(EXAMPLES / "video_clip.csv")
+    whole = lift_io.lift_file(EXAMPLES / "video_clip.csv", tmp_path / "whole.npz",
+                              temporal=temporal)
+    sizes, real = [], lift_io.lift
+    monkeypatch.setattr(lift_io, "lift", lambda poses, *a, **k: (
+        sizes.append(len(poses)), real(poses, *a, **k))[1])
+    parts = lift_io.lift_file(EXAMPLES / "video_clip.csv", tmp_path / "parts.npz",
+                              temporal=temporal, chunk_size=100)
+    n_rows = {t: int((kps.tracks == t).sum()) for t in np.unique(kps.tracks)}
+    # with time whole tracks: 86 rows, then the 150-row track in two windows of
+    # 75 rows of its own, each with 300 frames of context: all 150 rows;
+    # without time, 100 rows at most
+    assert sizes == ([86, 150, 150] if temporal else [100, 100, 36])
+    assert list(n_rows.values()) == [86, 150]
+    assert parts["status"] == whole["status"]
+    with np.load(tmp_path / "whole.npz") as a, np.load(tmp_path / "parts.npz") as b:
+        np.testing.assert_allclose(b["poses3d"], a["poses3d"], rtol=0, atol=1e-6)
+        np.testing.assert_array_equal(b["status"], a["status"])
+    with pytest.raises(SparseEDMError, match="chunk_size"):
+        lift_io.lift_file(EXAMPLES / "video_clip.csv", tmp_path / "x.npz", chunk_size=0)
+
+
+@pytest.mark.parametrize("args", [["openpose"], ["mmpose_predictions.json"],
+                                  ["dlc.csv", "--joint-map", "dlc_joints.json"]])
+def test_lift_cli_reads_the_detector_files_users_have(tmp_path, fixtures_dir, args, capsys):
+    """OpenPose folders, MMPose predictions and DeepLabCut files (with their
+    joint map) are lifted as videos: their frames come through."""
+    fmt = fixtures_dir / "formats"
+    argv = [str(fmt / a) if i != 1 else a for i, a in enumerate(args)]
+    kps = read_keypoints(argv[0], joint_map=argv[2] if len(argv) > 2 else None)
+    out = tmp_path / "poses3d.csv"
+    assert main(["lift", argv[0], *argv[1:], "-o", str(out), "-q"]) == 0
+    said = capsys.readouterr()
+    assert "lifted across time" in said.out + said.err  # -q: the report goes to stderr
+    with open(out, newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert [int(r["frame"]) for r in rows] == np.asarray(kps.frames).tolist()
+    assert all(r["status"].startswith("lifted") for r in rows)
+
+
+def _example_rows():
+    with open(EXAMPLES / "video_clip.csv", newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def _write_rows(path, rows):
+    with open(path, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    return path
+
+
+def test_a_video_trc_follows_the_frames_and_holds_one_person(tmp_path, capsys):
+    from sparseedm.lifting.trc import read_trc
+
+    walk = [r for r in _example_rows() if r["track"] == "02_01"]
+    walk = [walk[i] for i in np.random.default_rng(0).permutation(len(walk))]  # any order
+    del walk[5]  # a frame where the person was not seen
+    one = _write_rows(tmp_path / "walk.csv", walk)
+    assert main(["lift", str(one), "-o", str(tmp_path / "walk.trc"), "-q"]) == 0
+    trc = read_trc(tmp_path / "walk.trc")
+    frames = np.sort([int(r["frame"]) for r in walk])
+    np.testing.assert_array_equal(trc["frames"], frames + 1)
+    np.testing.assert_allclose(trc["times"], frames / 30.0, atol=1e-6)
+    # several people cannot share one .trc: refused before any work, nothing written
+    capsys.readouterr()
+    out = tmp_path / "two.trc"
+    assert main(["lift", str(EXAMPLES / "video_clip.csv"), "-o", str(out), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "a .trc file holds one person's markers" in err
+    assert "2 tracks ('02_01', '02_05')" in err and "--track" in err
+    assert not out.exists()
+
+
+def test_lift_track_writes_one_persons_trc_from_a_file_of_two(tmp_path, capsys):
+    """--track lifts one person's rows: the .trc a file of that person alone gives."""
+    from sparseedm.lifting.trc import read_trc
+
+    rows = _example_rows()
+    run = tmp_path / "run.trc"
+    argv = ["lift", str(EXAMPLES / "video_clip.csv"), "-o", str(run), "--track", "02_05",
+            "--no-adapt", "-q"]
+    assert main(argv) == 0
+    alone = _write_rows(tmp_path / "alone.csv", [r for r in rows if r["track"] == "02_05"])
+    assert main(["lift", str(alone), "-o", str(tmp_path / "alone.trc"), "--no-adapt",
+                 "-q"]) == 0
+    got, want = read_trc(run), read_trc(tmp_path / "alone.trc")
+    frames = sorted(int(r["frame"]) for r in rows if r["track"] == "02_05")
+    np.testing.assert_array_equal(got["frames"], np.asarray(frames) + 1)
+    np.testing.assert_array_equal(got["poses"], want["poses"])
+
+
+@pytest.mark.parametrize("source, track, words", [
+    ("video_clip.csv", "02_09", "has no track '02_09'; its tracks: '02_01', '02_05'"),
+    ("occluded_poses.csv", "1", "has no track ids")])
+def test_lift_track_refuses_a_track_the_input_lacks(tmp_path, capsys, source, track, words):
+    out = tmp_path / "p.trc"
+    assert main(["lift", str(EXAMPLES / source), "-o", str(out), "--track", track, "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "--track" in err and words in err
+    assert not out.exists()
+
+
+def test_lift_track_errors_file_names_the_inputs_rows(tmp_path, capsys):
+    rows = _example_rows()
+    first = [i for i, r in enumerate(rows) if r["track"] == "02_05"]
+    bad = first[3]  # a pose of no joint at all: refused
+    for key in rows[bad]:
+        if key.endswith(("_x", "_y")):
+            rows[bad][key] = ""
+    src = _write_rows(tmp_path / "two.csv", rows)
+    out = tmp_path / "p.csv"
+    assert main(["lift", str(src), "-o", str(out), "--track", "02_05", "--no-temporal",
+                 "-q"]) == 1
+    with open(tmp_path / "p.errors.csv", newline="") as f:
+        errors = list(csv.DictReader(f))
+    assert [int(e["row"]) for e in errors] == [bad]
+    with open(out, newline="") as f:
+        assert {r["track"] for r in csv.DictReader(f)} == {"02_05"}
+
+
+def test_a_video_with_unreadable_frame_numbers_still_writes_a_pickle_free_npz(tmp_path):
+    rows = _example_rows()[:40]
+    rows[3]["frame"], rows[5]["frame"] = "nan", ""  # read as text: an object array
+    src = _write_rows(tmp_path / "v.csv", rows)
+    assert main(["lift", str(src), "-o", str(tmp_path / "out.npz"), "-q"]) == 0
+    with np.load(tmp_path / "out.npz", allow_pickle=False) as z:
+        assert z["frames"].tolist()[:6] == ["0", "1", "2", "nan", "4", ""]
+        assert z["poses3d"].shape == (40, 14, 3)
+
+
+@pytest.mark.parametrize("ext", ["npz", "csv"])
+def test_frame_numbers_past_2_53_lift_frame_by_frame(tmp_path, ext):
+    """uint64 frames past the int64 limit (npz) or of 19 digits (csv) are refused
+    per row as too large, never an internal error."""
+    from sparseedm.keypoints import KeypointSet, write_keypoints
+
+    kps = read_keypoints(EXAMPLES / "video_clip.csv")
+    n = len(kps.poses)
+    frames = np.arange(n, dtype=np.uint64)  # npz: across the int64 limit, in one track
+    frames += np.uint64(2**63 - n // 2) if ext == "npz" else np.uint64(2**62)
+    src = write_keypoints(tmp_path / f"v.{ext}", KeypointSet(
+        kps.poses, kps.missing, ids=kps.ids, tracks=kps.tracks, frames=frames))
+    assert main(["lift", str(src), "-o", str(tmp_path / "out.npz"), "-q"]) == 0
+    back = read_keypoints(src)
+    res = sparseedm.lift(back.poses, back.missing, tracks=back.tracks, frames=back.frames)
+    assert res.ok.all() and all("too large" in r for r in res.reason), res.reason[:3]
+
+
+def test_lift_says_who_is_who_when_it_links_people(track):
+    """Two people per frame without track ids: lift links them (as recover does)
+    and its result says which rows it linked into which track."""
+    n = 60
+    truth = np.concatenate([track[:n], track[n:2 * n] + [250.0, 0.0]])
+    person = np.repeat([0, 1], n)
+    frames = np.concatenate([np.arange(n), np.arange(n)])
+    order = np.lexsort((np.random.default_rng(0).random(2 * n), frames))
+    poses = truth[order].copy()
+    poses[20:30, 4] = np.nan
+    res = sparseedm.lift(poses, frames=frames[order])
+    assert res.linked_tracks is not None and res.linked_tracks.shape == (2 * n,)
+    pairs = set(zip(res.linked_tracks.tolist(), person[order].tolist()))
+    assert len(pairs) == 2  # each linked track is one person
+    assert sparseedm.lift(poses, tracks=person[order], frames=frames[order]).linked_tracks is None
+
+
+def test_lift_file_takes_the_2d_fill_settings_recover_takes(tmp_path):
+    """sparseedm lift --no-adapt / --dictionary / --self-training: the 2D
+    dictionary that fills a video's joints first, as lift(fill_adapt=False)
+    with it; refused where nothing is filled (no time) or contradictory."""
+    from sparseedm.lifting import io as lift_io
+
+    src = EXAMPLES / "video_clip.csv"
+    kps = read_keypoints(src)
+    lift_io.lift_file(src, tmp_path / "a.npz", adapt=False, dictionary="cmu-k2000")
+    api = sparseedm.lift(kps.poses, kps.missing, tracks=kps.tracks, frames=kps.frames,
+                         dictionary="cmu-k2000", fill_adapt=False)
+    with np.load(tmp_path / "a.npz") as z:
+        np.testing.assert_allclose(z["poses3d"], api.poses3d, rtol=0, atol=1e-9)
+    with pytest.raises(SparseEDMError, match="only fills a video"):
+        lift_io.lift_file(src, tmp_path / "b.npz", adapt=False, temporal=False)
+    with pytest.raises(SparseEDMError, match="needs adaptation"):
+        lift_io.lift_file(src, tmp_path / "b.npz", adapt=False, self_training=1)
+    assert not (tmp_path / "b.npz").exists()
+    with pytest.raises(SystemExit) as exc:  # argparse: mutually exclusive
+        main(["lift", str(src), "-o", str(tmp_path / "c.csv"), "--no-adapt",
+              "--self-training", "2"])
+    assert exc.value.code == 2
