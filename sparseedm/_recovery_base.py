@@ -232,7 +232,8 @@ class RecoveryResult:
             each status present), as :func:`recovery_summary` gives them; also
             ``adaptation`` (:meth:`AdaptationResult.summary
             <sparseedm.adaptation.AdaptationResult.summary>`) when adaptation
-            ran; ``averaged`` (:func:`averaged_summary`) when the path averaged
+            ran; ``averaged`` (:func:`averaged_summary`: counts, and the first
+            few rows, :attr:`averaged` says it per pose) when the path averaged
             answers of its own (``answers``) or some poses' answers with
             another's (``with``); and ``ensemble`` (the members) when more
             than one and not the path's own averaged answers.
@@ -251,13 +252,19 @@ class RecoveryResult:
         return out
 
 
+#: rows of each kind :func:`averaged_summary` names (the counts are whole)
+FIRST_ROWS = 5
+
+
 def averaged_summary(averaged, answers=(), rows=True):
     """What a result's answers average, said for a person: ``answers`` (the
     codes the path itself averages for every occluded pose, :attr:`AdaptationResult.averaged_answers
     <sparseedm.adaptation.AdaptationResult.averaged_answers>`) and ``with``
-    (per kind of :attr:`RecoveryResult.averaged`, the ``poses`` whose answer
-    was averaged with it and, with `rows`, their ``rows``); {} when nothing
-    was averaged (an ensemble asked for is ``summary()["ensemble"]``).
+    (per kind of :attr:`RecoveryResult.averaged`, the count of ``poses`` whose
+    answer was averaged with it and, with `rows`, the first few of them,
+    ``first_rows``: :attr:`RecoveryResult.averaged` says it for every pose);
+    {} when nothing was averaged (an ensemble asked for is
+    ``summary()["ensemble"]``).
 
     Parameters
     ----------
@@ -266,12 +273,19 @@ def averaged_summary(averaged, answers=(), rows=True):
     answers : sequence of str, default ()
         The path's own averaged answers.
     rows : bool, default True
-        List the rows of each kind.
+        Name the first :data:`FIRST_ROWS` rows of each kind.
+
+    Returns
+    -------
+    dict
+        ``answers`` and ``with`` as above, each only when there is one.
 
     Examples
     --------
     >>> averaged_summary(np.array(["", "a", "a; b"]))
-    {'with': {'a': {'poses': 2, 'rows': [1, 2]}, 'b': {'poses': 1, 'rows': [2]}}}
+    {'with': {'a': {'poses': 2, 'first_rows': [1, 2]}, 'b': {'poses': 1, 'first_rows': [2]}}}
+    >>> averaged_summary(np.array(["a"] * 1000), rows=False)
+    {'with': {'a': {'poses': 1000}}}
     >>> averaged_summary(None, ("x", "y"))
     {'answers': ['x', 'y']}
     """
@@ -287,7 +301,8 @@ def averaged_summary(averaged, answers=(), rows=True):
         out["with"] = {}
         for kind, parts in kinds.items():
             at = np.sort(np.concatenate(parts))
-            out["with"][kind] = dict(poses=len(at), **({"rows": at.tolist()} if rows else {}))
+            out["with"][kind] = dict(poses=len(at), **(
+                {"first_rows": at[:FIRST_ROWS].tolist()} if rows else {}))
     return out
 
 

@@ -47,7 +47,9 @@ path over the file's complete poses:
 ``averaged``, says what each pose's answer was averaged with
 (:attr:`sparseedm.recovery.RecoveryResult.averaged`; empty: nothing), in
 every format as ``outliers`` is below, and ``summary["averaged"]`` counts the
-poses per kind.
+poses per kind. An input that is an earlier run's output keeps its own
+columns, not that run's results (:data:`sparseedm.keypoints.RESULT_FIELDS`):
+each output says what its own run did.
 
 Refused rows are written back as they were read (observed joints kept, the
 missing ones NaN / missing), so row i of the output is always row i of the
@@ -104,7 +106,8 @@ from ._atomic import atomic_path, check_folder, check_paths
 from ._extras import require as require_extra
 from ._parallel import one_client
 from ._validation import (ALPHA, BOOLEAN, CHUNK_SIZE, ENSEMBLE, N_JOBS, PATH, SCORE,
-                          Interval, Options, check_adapt, read_frames, validate_params)
+                          Interval, Options, check_adapt, frame_numbers, read_frames,
+                          validate_params)
 from .adaptation import MIN_COMPLETE_POSES, sample_stream
 from .dictionary import Dictionary, dictionary_path, check_gram_memory, load_dictionary
 from ._safeio import resolved
@@ -116,7 +119,8 @@ from .fconv.model import load_model
 from .formats import FILLED_SCORE, count_below, default_threshold, threshold_line
 from .formats import FORMATS as FOLDER_OR_TABLE_FORMATS
 from .formats.deeplabcut import H5_SUFFIXES, check_h5_extra, read_joint_map
-from .keypoints import (FLAGS_IN_SIDECAR, N_JOINTS, EXTENSIONS, beside, check_joint_map,
+from .keypoints import (FLAGS_IN_SIDECAR, N_JOINTS, EXTENSIONS, RESULT_FIELDS, beside,
+                        check_joint_map,
                         finish_missing, format_of, load_single_npy, npy_confidence,
                         origin_joints, read_keypoints, status_sidecar, write_keypoints)
 from .keypoints import output_format as keypoint_output_format
@@ -129,7 +133,7 @@ from .recovery import STATUSES, check_options_apply, recover
 from .uncertainty import joint_uncertainty
 from .skeleton import JOINT_NAMES
 from .temporal.recover import CLIP_MIN_POSES, adapt_in_time, linked_tracks, offered_poses
-from .temporal.tracks import add_summaries, has_time, track_windows
+from .temporal.tracks import MAX_SKIP, add_summaries, has_time, split_tracks, track_windows
 from .solvers import get_solver
 
 __all__ = ["recover_file", "default_errors_path", "STATUS_FIELDS"]
@@ -395,8 +399,12 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
         (chunks of about `chunk_size` poses; a longer track in windows of about
         `chunk_size` rows with context either side,
         :func:`~sparseedm.temporal.tracks.track_windows`); False: every pose on
-        its own, as for a file without frames.
-        ``summary["temporal"]`` says which was used.
+        its own, as for a file without frames. A file whose poses mostly
+        have no other frame of their track within
+        :data:`~sparseedm.temporal.tracks.MAX_SKIP` frame numbers (photos
+        whose names hold numbers) is recovered pose by pose
+        (:data:`TIME_MIN_SHARE`; ``summary["frames_unused"]``: the poses alone,
+        of ``poses``). ``summary["temporal"]`` says which was used.
     input_format : str, optional
         The input's keypoint format when its name does not tell (a pipe such
         as ``/dev/stdin``): as :func:`~sparseedm.keypoints.read_keypoints`'
@@ -444,8 +452,10 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
         ``adaptation_line``,
         ``confidence_threshold`` (the one used), ``below_threshold`` (scored
         joints below it; None when the file has no scores), ``threshold_line``
-        and ``skipped_files`` ((file, reason) of the bad frame files an
-        OpenPose folder skipped).
+        ``skipped_files`` ((file, reason) of the bad frame files an
+        OpenPose folder skipped), ``frame_range`` (the first and last frame
+        number read, None without) and ``frames_unused`` (see `temporal`;
+        None when the frames were used or there were none).
 
     Raises
     ------
@@ -527,12 +537,26 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
     summary["adaptation"] = adaptation.summary() if adaptation is not None else None
     _say_averaged(summary, adaptation, summary_members)
     summary["mirror"] = mirror
-    summary["linked_tracks"] = None if source.linked is None else \
-        int(len(np.unique(source.linked)))
+    summary.update(_time_summary(source))
     summary["adaptation_line"] = adaptation.line() if adaptation is not None else None
     if save_dictionary is not None:
         summary["dictionary"] = str(dictionary.save(save_dictionary))
     return summary
+
+
+def _time_summary(source):
+    """What became of `source`'s frames: ``frame_range`` (the first and last usable
+    frame number read, or None), ``linked_tracks`` (the tracks linked for a file
+    without any, or None) and ``frames_unused`` (see :func:`_in_time`)."""
+    values, reason = (None, None) if source.frames is None else \
+        frame_numbers(source.frames, source.n)
+    usable = None if values is None else values[reason == ""]
+    return dict(frame_range=None if usable is None or not len(usable) else
+                [int(usable.min()), int(usable.max())],
+                linked_tracks=None if source.linked is None else
+                int(len(np.unique(source.linked))),
+                frames_unused=None if source.frames_unused is None else dict(
+                    zip(("alone", "poses"), source.frames_unused), max_skip=MAX_SKIP))
 
 
 def _say_averaged(summary, adaptation, n_members):
@@ -596,14 +620,30 @@ def _check_extras(backend, method, input, output):
     check_h5_extra(input, output)
 
 
+#: a file with frames is recovered across time when at least this share of its
+#: poses have another frame of their track within MAX_SKIP frame numbers; else
+#: as photos (names holding numbers, frames far apart: the path across time
+#: would answer every pose on its own, and worse than the photo path does)
+TIME_MIN_SHARE = 0.5
+
+
 def _in_time(source, temporal):
     """Whether `source` is recovered across time (`temporal`, and it has at
-    least two distinct frames: :func:`has_time`); a file without tracks whose
-    frames hold several poses is linked first."""
+    least two distinct frames: :func:`has_time`, and most poses have a
+    neighbouring frame of their track: :data:`TIME_MIN_SHARE`); a file without
+    tracks whose frames hold several poses is linked first. A file whose frames
+    are not used says so in ``source.frames_unused`` (poses alone, poses)."""
+    source.frames_unused = None
     if not temporal or not has_time(source.frames):
         return False
+    tracks = source.tracks
     source.link()
-    return True
+    alone = split_tracks(source.n, source.tracks, source.frames).alone
+    if alone.mean() <= 1 - TIME_MIN_SHARE:
+        return True
+    source.linked, source.tracks = None, tracks  # photos: no tracks made up for them
+    source.frames_unused = (int(alone.sum()), source.n)
+    return False
 
 
 def _check_run_paths(outputs, in_path, dictionary, adapt, model, save_dictionary,
@@ -908,9 +948,10 @@ def _run(source, outputs, recovery, chunk_size, progress, t0):
         kps = getattr(source, "kps", None)
         if kps is not None and kps.filled is not None:
             flags |= kps.filled & np.isfinite(filled).all(axis=-1)  # flagged in the input
-        _write_output(out_tmp, out_fmt, filled, source.ids, source.meta, outputs.in_fmt,
-                      fields, columns.edm, outputs.filled_score, kps, flags, source.linked,
-                      columns.uncertainty)
+        with _said_as(out_tmp, out_path):
+            _write_output(out_tmp, out_fmt, filled, source.ids, source.meta, outputs.in_fmt,
+                          fields, columns.edm, outputs.filled_score, kps, flags, source.linked,
+                          columns.uncertainty)
         _write_sidecars(side_tmp, dict(fields, filled=flags, uncertainty=columns.uncertainty,
                                        **_table_keys(out_fmt, source, kps)),
                         source.ids, columns.edm)
@@ -928,6 +969,15 @@ def _run(source, outputs, recovery, chunk_size, progress, t0):
                 sidecars=[str(p) for p in sidecars.values()], temporal=temporal_summary,
                 outliers=None if source.outliers is None else int(source.outliers.sum()),
                 averaged=averaged_summary(columns.averaged, rows=False))
+
+
+@contextlib.contextmanager
+def _said_as(tmp, path):
+    """A writer's refusal names the output `path`, not its temporary file `tmp`."""
+    try:
+        yield
+    except SparseEDMError as exc:
+        raise type(exc)(str(exc).replace(str(tmp), str(path))) from None
 
 
 def _recover_chunks_into(filled, columns, source, recovery, chunk_size, progress):
@@ -1009,14 +1059,14 @@ def _write_output(tmp, fmt, filled, ids, meta, in_fmt, fields, edm,
                 np.save(f, np.zeros((0, N_JOINTS, 2)))
         return  # already streamed into the memmap
     if fmt == "npz":
-        extra = dict(meta.get("npz_extra") or {}) if in_fmt == "npz" else {}
+        extra = _carried(meta.get("npz_extra")) if in_fmt == "npz" else {}
         extra.update(fields)
         if edm is not None:
             extra.update(edm)
         write_keypoints(tmp, filled, format="npz", ids=ids, meta={"npz_extra": extra},
                         **_time_axis(kps, linked, in_fmt, fmt), **flagged)
     elif fmt == "csv":
-        extra = dict(meta.get("extra_columns") or {}) if in_fmt == "csv" else {}
+        extra = _carried(meta.get("extra_columns")) if in_fmt == "csv" else {}
         extra.update({
             "status": fields["status"],
             "reason": fields["reason"],
@@ -1031,7 +1081,7 @@ def _write_output(tmp, fmt, filled, ids, meta, in_fmt, fields, edm,
                         **_time_axis(kps, linked, in_fmt, fmt), **flagged)
     else:  # coco: the original document (or a results list), status in "sparseedm"
         write_keypoints(tmp, filled, format="coco", ids=ids,
-                        tracks=_time_axis(kps, linked, in_fmt, fmt)["tracks"],
+                        **_time_axis(kps, linked, in_fmt, fmt),
                         meta=meta if in_fmt == "coco" else None, **flagged)
         with open(tmp, encoding="utf-8") as f:
             doc = json.load(f)
@@ -1049,6 +1099,14 @@ def _write_output(tmp, fmt, filled, ids, meta, in_fmt, fields, edm,
                     ann["sparseedm"][key] = str(fields[key][r])
         with open(tmp, "w", encoding="utf-8") as f:
             json.dump(doc, f)
+
+
+def _carried(columns):
+    """The input's own columns an output carries: not the results of an
+    earlier run (:data:`~sparseedm.keypoints.RESULT_FIELDS`), which would say
+    what that run did (this run writes its own, or none: no ``averaged`` when
+    it blends nothing, no EDMs unless asked)."""
+    return {k: v for k, v in (columns or {}).items() if k not in RESULT_FIELDS}
 
 
 def _time_axis(kps, linked, in_fmt, fmt):

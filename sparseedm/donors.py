@@ -139,8 +139,9 @@ def donor_estimates(poses, missing, rows, filled, *, k=DONOR_K, min_shared=DONOR
         return np.stack([est.real, est.imag], -1), nearest
     for s in range(0, len(rows), _CHUNK):
         at = slice(s, s + _CHUNK)
-        est[at], nearest[at] = _from_candidates(z, obs, rows[at], cand[at], size[at], k,
-                                                min_shared)
+        with np.errstate(all="ignore"):  # rows out of range (1e300) align to no donor
+            est[at], nearest[at] = _from_candidates(z, obs, rows[at], cand[at], size[at], k,
+                                                    min_shared)
     return np.stack([est.real, est.imag], -1), nearest
 
 
@@ -157,7 +158,7 @@ def _from_candidates(z, obs, rows, cand, size, k, min_shared):
     good = (W.sum(-1) >= min_shared) & (syy > 1e-12 * np.maximum(sxx, 1e-300))
     syy = np.where(good, syy, 1.0)
     dist = np.sqrt(np.maximum(sxx - np.abs(sxy) ** 2 / syy, 0) / n) / size[:, None] * 100
-    dist = np.where(good, dist, np.inf)
+    dist = np.where(good & np.isfinite(dist), dist, np.inf)
     aligned = cx[..., None] + (sxy / syy)[..., None] * (z[cand] - cy[..., None])  # (r, m, N)
     dj = np.where(obs[cand], dist[..., None], np.inf)          # (r, m, N)
     kk = min(k, dj.shape[1])
@@ -212,10 +213,13 @@ def _choose(answer, estimates, nearest, truth, joints):
         f = donor_mix(answer, estimates, nearest, pm, *key)
         return np.linalg.norm(f[at] - truth[at], axis=-1) / size * 100
 
-    ok = np.isfinite(answer[at]).all(-1)  # a refused probe judges nothing
+    with np.errstate(all="ignore"):  # a row out of range (a joint at 1e300) overflows
+        errs = {(w, g): err((w, g)) for g in DONOR_GATES for w in DONOR_WEIGHTS}
+    # a refused probe judges nothing, nor one whose error is not a number
+    ok = np.isfinite(answer[at]).all(-1) & np.isfinite(list(errs.values())).all(axis=0)
     if ok.sum() < DONOR_MIN_PROBES:
         return (0.0, np.inf), float("nan"), float("nan")
-    errs = {(w, g): err((w, g))[ok] for g in DONOR_GATES for w in DONOR_WEIGHTS}
+    errs = {key: e[ok] for key, e in errs.items()}
     base = errs[(0.0, np.inf)]
     best = min(errs, key=lambda key: errs[key].mean())
     d = errs[best] - base

@@ -413,8 +413,12 @@ def _track_rows(tracks, frames):
     for t in np.unique(tracks):
         rows = np.flatnonzero(tracks == t)
         rows = rows[np.argsort(frames[rows], kind="stable")]
-        if np.any(np.diff(frames[rows]) == 0):
-            raise PoseError(f"evaluate_tracks: track {t}: a frame number repeats")
+        same = np.flatnonzero(np.diff(frames[rows]) == 0)
+        if len(same):
+            twice = rows[same[0]:same[0] + 2]
+            raise PoseError(f"evaluate_tracks: track {t}: frame {frames[twice[0]]} is given "
+                            f"twice (rows {twice[0]} and {twice[1]}): one pose per track "
+                            "and frame")
         out[t] = rows
     return out
 

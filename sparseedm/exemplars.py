@@ -15,9 +15,9 @@ validation files the exemplars won on every file with at least
 below that it depended on the source. So :func:`choose_exemplars` decides:
 
 1. fewer than :data:`~sparseedm.adaptation.MIN_COMPLETE_POSES` usable
-   complete poses (repeats, which make one atom, counted once here and
-   in 2.: exact, or within :data:`~sparseedm.adaptation.REPEAT_TOLERANCE` of
-   the pose's size, a still person): too few to be a dictionary on their own; no adaptation, the
+   complete poses (repeats, which make one atom, counted once: exact, or
+   within :data:`~sparseedm.adaptation.REPEAT_TOLERANCE` of the pose's size,
+   as adaptation counts them): too few to be a dictionary on their own; no adaptation, the
    complete poses join the base's atoms. From :data:`FEW_MIN_POSES` of them
    (14 joints), a check on held-back complete poses (held back and hidden as
    in 3.) compares that with the mean of its answers and of the base with
@@ -26,7 +26,10 @@ below that it depended on the source. So :func:`choose_exemplars` decides:
    is lower. On validation files of 60-240 complete poses it lowered the
    error on real photos (MPII, Bonn: up to 0.7 % of body size) and moved
    mocap files (CMU, Daz) by -0.05 to +0.01 (``studies/fast/README.md``);
-2. at least :data:`EXEMPLAR_MIN_POSES`: the exemplars, no adaptation and no
+2. at least :data:`EXEMPLAR_MIN_POSES` atoms as
+   :func:`~sparseedm.file_atoms.file_dictionary` makes them (near-copies
+   within :data:`~sparseedm.file_atoms.ATOM_SPACING` merged: a still
+   person's noisy frames are one): the exemplars, no adaptation and no
    self-training;
 3. in between, an evidence check on held-back complete poses (a seeded
    20 % of them, at most 300; each hidden as one of the file's own
@@ -482,7 +485,9 @@ def choose_exemplars(dictionary, poses, missing, *, n_jobs=1, random_state=0,
     poses = np.asarray(poses, dtype=float)
     complete = poses[complete_rows(poses, missing)]
     n = len(complete)
-    # repeats make one atom (file_dictionary drops them): the rule counts atoms
+    # repeats count once (adaptation drops them: REPEAT_TOLERANCE); the rule
+    # below counts the atoms file_dictionary makes (near-copies within
+    # ATOM_SPACING merged: a still person's noisy frames are one atom)
     distinct = n - int(repeat_rows(pose_vectors(complete)).sum()) if n else 0
     count = f"{n} complete poses" + (f" ({distinct} distinct)" if distinct < n else "")
     kw = dict(n_jobs=n_jobs, backend=backend, scheduler=scheduler)
@@ -490,8 +495,10 @@ def choose_exemplars(dictionary, poses, missing, *, n_jobs=1, random_state=0,
         if distinct < FEW_MIN_POSES or dictionary.n_joints != SKELETON_14.num_joints:
             return ExemplarCheck(None, n, seconds=time.perf_counter() - t0)
         return _few_poses(dictionary, poses, missing, complete, count, t0, random_state, kw)
-    if distinct >= min_poses:
-        found = file_dictionary(dictionary, complete)
+    found = file_dictionary(dictionary, complete) if distinct >= min_poses else None
+    if found is not None and found.n_atoms < min_poses:
+        count, found = f"{count}, {found.n_atoms} atoms once near-copies are merged", None
+    if found is not None:
         reason = (f"{count}, at least {min_poses}: they are the dictionary's "
                   "atoms, nothing learned")
         return ExemplarCheck(atoms_adaptation(found, len(poses), reason, t0,
@@ -765,7 +772,7 @@ def _averaged_record(out, before, rows, ridge, kind):
         before.averaged.astype(object)
     spread = np.zeros((n, N)) if before.spread is None else before.spread.copy()
     both = out.ok[rows] & before.ok[rows]
-    with np.errstate(invalid="ignore"):
+    with np.errstate(invalid="ignore", over="ignore"):  # a joint at 1e300: no spread
         gap = np.linalg.norm(before.poses[rows] - ridge.poses, axis=-1)
     gap = np.where(out.missing[rows] & both[:, None] & np.isfinite(gap), gap, 0.0)
     spread[rows] = np.maximum(spread[rows], gap)

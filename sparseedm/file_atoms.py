@@ -61,7 +61,10 @@ FAST_ALPHA = 0.0005
 #: every joint: below the closest distinct poses of the validation files
 #: (Bandai-Namco frames 1.5e-2 at the 5th percentile of nearest neighbours, MPII
 #: and COCO photos 4e-2), above a pixel's noise on a 200 px person
-#: (``studies/bigfile/README.md``)
+#: (``studies/bigfile/README.md``). Not REPEAT_TOLERANCE (1e-4: one pose given
+#: twice, which adaptation must not count twice): near-copies a pixel apart are
+#: distinct samples for learning but one atom for the lasso; what counts atoms
+#: (the exemplar rule, resolve_fast) counts them at this spacing
 ATOM_SPACING = 0.005
 
 _PARAMS = {"dictionary": [Dictionary], "max_atoms": [Interval(Integral, 1, None)],

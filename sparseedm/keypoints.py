@@ -1178,10 +1178,10 @@ def _read_coco(path, threshold):
     doc = load_json(path)
     if isinstance(doc, dict):
         if not isinstance(doc.get("annotations"), list):
-            raise FileFormatError(
+            hint = formats.alphapose.cmu_hint(doc)
+            raise FileFormatError(f"{path}: not COCO keypoints{hint}" if hint else (
                 f"{path}: a COCO JSON object needs an 'annotations' list (its keys: "
-                f"{_some_keys(doc)}); {JSON_KINDS}"
-            )
+                f"{_some_keys(doc)}); {JSON_KINDS}"))
         anns = doc["annotations"]
     elif isinstance(doc, list):
         anns = doc
@@ -1413,7 +1413,7 @@ def write_keypoints(
             arrays["confidence"] = confidence
         if ids is not None:
             arrays["ids"] = ids
-        arrays.update(_time_arrays(tracks, frames, meta))
+        arrays.update(_time_arrays(tracks, frames, meta, where))
         if filled.any():
             arrays["filled"] = filled
         if uncertainty is not None:
@@ -1502,15 +1502,43 @@ def _read_filled(meta, n):
     return np.asarray(flags, dtype=bool)
 
 
-def _time_arrays(tracks, frames, meta):
+def _time_arrays(tracks, frames, meta, where):
     """npz arrays of a KeypointSet's tracks and frames (under the names read)."""
     out = {}
     if tracks is not None:
         out[meta.get("track_key", "tracks")] = np.asarray(tracks)
     if frames is not None:
-        frames = np.asarray(frames)
-        out["frames"] = frames if frames.dtype.kind in "fiu" else frames.astype(str)
+        out["frames"] = _npz_frames(np.asarray(frames), where)
     return out
+
+
+def _npz_frames(frames, where):
+    """Frames as the .npz reader takes them (numbers): a CSV's text of whole
+    numbers as int64 (blank cells NaN, the array then float); other text refused.
+
+    >>> _npz_frames(np.array(["3", "-1"]), "x").tolist(), _npz_frames(np.array(["4", ""]), "x")
+    ([3, -1], array([ 4., nan]))
+    """
+    if frames.dtype.kind in "fiu":
+        return frames
+    text = [str(v).strip() for v in frames.tolist()]
+    blank = np.array([t.lower() in ("", "nan") for t in text])
+    values = np.zeros(len(text), dtype=np.int64)
+    for r, t in enumerate(text):
+        if blank[r]:
+            continue
+        try:
+            values[r] = int(t)
+        except (ValueError, OverflowError):
+            raise FileFormatError(f"{where}: pose {r}: frame {t!r} is not a whole number an "
+                                  ".npz holds (int64); write a CSV, or fix the frame "
+                                  "numbers") from None
+    if not blank.any():
+        return values
+    if np.abs(values).max() > 2 ** 53:  # a float would round it
+        raise FileFormatError(f"{where}: frame numbers over 2**53 with blank ones: an .npz "
+                              "holds them as floats, which would round them; write a CSV")
+    return np.where(blank, np.nan, values.astype(float))
 
 
 def _time_columns(tracks, frames, extra_columns):

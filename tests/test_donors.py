@@ -182,3 +182,26 @@ def test_a_file_longer_than_a_block_takes_its_donors_block_by_block(cmu_poses, m
         alone = donor_step(res.take(rows), given[rows], missing[rows], answer)
         np.testing.assert_array_equal(whole.poses[rows], alone.poses)
     assert not np.array_equal(whole.poses, donor_step(res, given, missing, answer).poses)
+
+
+def test_probes_out_of_range_judge_nothing(cmu_poses):
+    """Rows with a joint at 1e300 (a detector's garbage kept by its score) give
+    probes whose errors overflow: they judge nothing, and the choice is the one
+    the file makes without them (an infinite default error let any donor
+    weight win)."""
+    rng = np.random.default_rng(3)
+    truth = cmu_poses[:200] * 200 / np.ptp(cmu_poses[:200, :, 1], axis=1).mean() + 300
+    missing = np.zeros(truth.shape[:2], bool)
+    for i in range(0, 200, 2):
+        missing[i, rng.choice(14, rng.integers(1, 4), replace=False)] = True
+    garbage = truth[:10].copy()
+    garbage[:, 5] = 1e300
+    garbage_missing = np.zeros((10, 14), bool)
+    garbage_missing[:, :2] = True
+    poses = np.concatenate([truth, garbage])
+    missing = np.concatenate([missing, garbage_missing])
+    given = np.where(missing[..., None], np.nan, poses)
+    said = sparseedm.recover(given, missing).summary()["adaptation"]["donors"]
+    clean = sparseedm.recover(given[:200], missing[:200]).summary()["adaptation"]["donors"]
+    assert np.isfinite(said["probe_err_default"]) and np.isfinite(said["probe_err_chosen"])
+    assert (said["weight"], said["gate"]) == (clean["weight"], clean["gate"])

@@ -213,6 +213,17 @@ def test_tracks_with_sparseedm_and_a_clip_sample(small_dictionary):
     assert r["n"] > 0 and np.isfinite(r["mean"]) and r["pckh_n"] == r["scored"]
 
 
+def test_tracks_name_a_frame_given_twice():
+    """A tracker's duplicate (the same track and frame twice) is refused naming
+    the track, the frame and the two rows, so the user can find them."""
+    poses, tracks, frames = _still_tracks()
+    frames = frames.copy()
+    frames[12] = frames[11]
+    with pytest.raises(PoseError, match=rf"track 0: frame {frames[11]} is given twice "
+                                        r"\(rows 11 and 12\)"):
+        evaluate_tracks(poses, tracks, frames, methods=["linear"])
+
+
 def test_tracks_refuse_an_unknown_method():
     from sparseedm.exceptions import ParameterError
 

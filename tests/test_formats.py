@@ -1007,3 +1007,26 @@ def test_alphapose_open_format_results_say_what_to_read(tmp_path):
     path.write_text(json.dumps({"0.jpg": frame, "1.jpg": frame}))
     with pytest.raises(FileFormatError, match="AlphaPose --format open results.*sep-json"):
         read_keypoints(path)
+
+
+@pytest.mark.parametrize("how", ["file", "input_format", "sep_file", "sep_folder"])
+def test_alphapose_cmu_format_output_is_refused_by_name(tmp_path, how):
+    """AlphaPose's --format cmu writes CMU-Pose 'bodies' by image name (one file,
+    or one per image in sep-json): not read, and the refusal names it and says
+    what to run instead, whichever way the file is given, before any output."""
+    body = {"joints": [1.0] * 54}
+    doc = {"0.jpg": {"version": "AlphaPose v0.3", "bodies": [body]},
+           "1.jpg": {"version": "AlphaPose v0.3", "bodies": [body, body]}}
+    folder = tmp_path / "sep-json"
+    folder.mkdir()
+    for name, image in doc.items():
+        (folder / name.replace(".jpg", ".json")).write_text(json.dumps(image))
+    src = tmp_path / "alphapose-results.json"
+    src.write_text(json.dumps(doc))
+    given = {"file": (src, None), "input_format": (src, "alphapose"),
+             "sep_file": (folder / "0.json", None), "sep_folder": (folder, None)}[how]
+    out = tmp_path / "out.csv"
+    with pytest.raises(FileFormatError,
+                       match="AlphaPose --format cmu output.*without --format"):
+        recover_file(given[0], out, input_format=given[1], adapt=False)
+    assert not out.exists()

@@ -164,6 +164,21 @@ def test_rows_time_cannot_use_are_lifted_alone_and_nothing_is_lost(video):
     assert np.isfinite(res.poses3d[res.ok]).all()
 
 
+def test_a_frame_with_every_joint_missing_is_lifted_from_its_fill(cmu_poses):
+    """A detector's empty frame in a track of poses that move a lot between
+    frames (every joint below the threshold): filled across time with wide
+    radii, then lifted from the filled joints alone (their weights say how they
+    compare; all far below 1, the lasso coded no pose and the image alignment
+    met a singular matrix: an internal error)."""
+    poses = cmu_poses[:40].copy()
+    poses[[10, 25]] = np.nan
+    res = sparseedm.lift(poses, frames=np.arange(40))
+    assert res.ok.all() and res.filled[[10, 25]].all()
+    assert np.isfinite(res.poses3d).all() and (np.ptp(res.poses3d[[10, 25]], axis=1) > 0).all()
+    height = np.ptp(res.poses3d[:, :, 1], axis=1)
+    assert np.all(np.abs(height[[10, 25]] / np.median(height) - 1) < 0.3)
+
+
 def test_lift_cli_uses_time_and_writes_track_and_frame(tmp_path, video, lifted, capsys):
     kps, _ = video
     out = tmp_path / "poses3d.csv"

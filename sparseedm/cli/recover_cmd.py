@@ -215,9 +215,18 @@ def run(args):
         print(f"sparseedm recover: {args.input} has frames, no track ids and several poses in "
               f"a frame: linked them into {summary['linked_tracks']} track(s) by pose distance "
               "(written back as its tracks)", file=sys.stderr)
+    if summary.get("frames_unused"):
+        f = summary["frames_unused"]
+        print(f"sparseedm recover: {args.input} has frame numbers{_frame_range(summary)} "
+              f"(from its rows, or its file or image names), but {f['alone']} of "
+              f"{f['poses']} poses have no other "
+              f"frame of their track within {f['max_skip']} frame numbers: recovered as "
+              "photos, pose by pose (their frames written back as read; a video's frames "
+              "need frame indices 0, 1, 2..., not timestamps)", file=sys.stderr)
     if summary.get("temporal"):
         t = summary["temporal"]
-        print(f"sparseedm recover: {args.input} has frames: recovered across time "
+        print(f"sparseedm recover: {args.input} has frames{_frame_range(summary)}: "
+              "recovered across time "
               f"({t['segments']} track segment(s), {t['per_frame_poses']} per-frame answers)"
               f"{_alone_note(t)}; --no-temporal turns it off", file=sys.stderr)
     if summary.get("outliers"):
@@ -226,6 +235,13 @@ def run(args):
               "--no-outliers keeps them", file=sys.stderr)
     print(format_summary(summary), file=out)
     return refusals_said("recover", summary)
+
+
+def _frame_range(summary) -> str:
+    """The first and last frame numbers read, as " LO-HI" ("" without): what was
+    inferred, for a file whose frames come from its image or file names."""
+    span = summary.get("frame_range")
+    return "" if not span else f" {span[0]}-{span[1]}"
 
 
 def _alone_note(temporal) -> str:

@@ -278,7 +278,8 @@ def read(fmt, path, *, joint_map=None):
         doc = load_json(path)
         if not alphapose.is_alphapose(doc):
             raise FileFormatError(f"{path}: not an AlphaPose results file (a list of "
-                                  "results with flat 'keypoints' and 'idx' or 'box')")
+                                  "results with flat 'keypoints' and 'idx' or 'box')"
+                                  + alphapose.cmu_hint(doc))
         return alphapose.read(path, doc)
     if fmt == "dlc":
         return deeplabcut.read(path, joint_map)

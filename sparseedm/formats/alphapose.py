@@ -57,7 +57,7 @@ from ..exceptions import FileFormatError
 from . import _base
 from ._base import BODY_LAYOUTS, COCO_17, EXTRA_KEY, Person
 
-__all__ = ["LAYOUTS", "read", "write", "is_alphapose", "image_frame"]
+__all__ = ["LAYOUTS", "read", "write", "is_alphapose", "image_frame", "cmu_hint"]
 
 #: layouts by their number of keypoints
 LAYOUTS = BODY_LAYOUTS
@@ -91,6 +91,41 @@ def is_alphapose(doc):
     return "idx" in first or "box" in first or (
         len(first["keypoints"]) % 3 == 0 and len(first["keypoints"]) // 3 in
         set(LAYOUTS) - {len(COCO_17)})
+
+
+def cmu_hint(doc):
+    """What to do with AlphaPose's ``--format cmu`` output (CMU-Pose ``bodies``
+    by image name, ``{"0.jpg": {"version": ..., "bodies": [{"joints": [...]}]}}``,
+    or one image's object from its ``sep-json`` folder), which is not read.
+
+    Parameters
+    ----------
+    doc : object
+        A loaded JSON document.
+
+    Returns
+    -------
+    str
+        A message tail (``"; it looks like ..."``) naming it, else "".
+
+    Examples
+    --------
+    >>> cmu_hint({"0.jpg": {"version": "AlphaPose v0.3", "bodies": []}})[:42]
+    '; it looks like AlphaPose --format cmu out'
+    >>> cmu_hint({"version": "AlphaPose v0.3", "bodies": [{"joints": []}]})[:42]
+    '; it looks like AlphaPose --format cmu out'
+    >>> cmu_hint({"annotations": []})
+    ''
+    """
+    if not isinstance(doc, dict) or not doc:
+        return ""
+    first = doc if "bodies" in doc else next(iter(doc.values()))
+    if not (isinstance(first, dict) and isinstance(first.get("bodies"), list)):
+        return ""
+    return ("; it looks like AlphaPose --format cmu output (CMU-Pose 'bodies' by image), "
+            "which sparseedm does not read: run AlphaPose without --format (its results "
+            "list, alphapose-results.json) or with --format open and read its sep-json "
+            "folder (one OpenPose file per image)")
 
 
 def image_frame(image_id):

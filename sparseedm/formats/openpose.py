@@ -62,7 +62,7 @@ import numpy as np
 from .._safeio import load_json
 from .._validation import frame_array
 from ..exceptions import FileFormatError
-from . import _base
+from . import _base, alphapose
 from ._base import COCO17, EXTRA_KEY, Layout, Person
 
 __all__ = ["BODY_25", "COCO_18", "BODY_135", "LAYOUTS", "read", "write", "is_openpose",
@@ -140,7 +140,7 @@ def _frame_file(path, frame):
     doc = load_json(path)
     if not is_openpose(doc):
         raise FileFormatError(f"{path}: not an OpenPose frame (no 'people' list)"
-                              + _by_image_hint(doc))
+                              + (_by_image_hint(doc) or alphapose.cmu_hint(doc)))
     return [_person(person, path, p, frame) for p, person in enumerate(doc["people"])], doc
 
 

@@ -313,9 +313,9 @@ def _lift_rows(lifter, poses, mask, bad, representation, n_jobs, layout, weights
         st = info["status"]
         status[rows[st == "inaccurate"]] = "inaccurate"
         reason[rows[st == "inaccurate"]] = "duality gap above tolerance"
-        failed = (st == "failed") | ~np.isfinite(Y).all(axis=1)
+        failed = (st == "failed") | ~np.isfinite(Y).all(axis=1) | ~(np.abs(Y) > 0).any(axis=1)
         status[rows[failed]] = "solver_failed"
-        reason[rows[failed]] = "the lifter gave no finite answer"
+        reason[rows[failed]] = "the lifter gave no finite answer (or no pose: every distance 0)"
         rows, Y = rows[~failed], Y[~failed]
         if len(rows):
             front, back, score, scale_metric[rows] = _candidates(lifter, Y, poses[rows],

@@ -168,6 +168,9 @@ def filled_weights(poses, missing, filled, radius2d, scale=None):
         ``1 / (1 + (r / (s h))^2)`` for a filled joint (r its 2D radius, h the
         diagonal of the 2D bounding box of the pose's joints not missing), 1
         elsewhere (an observed joint, or one still missing: the lasso ignores it).
+        A row with no observed joint (every one filled) has its weights divided
+        by their largest: only how the joints compare is known, and weights
+        all far below 1 would let the lasso's penalty code no pose at all.
     """
     scale = FILLED_WEIGHT_SCALE if scale is None else float(scale)
     weights = np.ones(filled.shape)
@@ -178,4 +181,6 @@ def filled_weights(poses, missing, filled, radius2d, scale=None):
         ratio = np.nan_to_num(radius2d[rows]) / (scale * np.hypot(*extent.T)[:, None])
         w = 1.0 / (1.0 + ratio ** 2)
     weights[rows] = np.where(filled[rows] & np.isfinite(w), w, 1.0)
+    only_filled = rows[(filled[rows] | missing[rows]).all(axis=1)]
+    weights[only_filled] /= weights[only_filled].max(axis=1, keepdims=True)
     return weights
