@@ -988,7 +988,7 @@ def _recover_chunks_into(filled, columns, source, recovery, chunk_size, progress
     n = source.n
     if not progress:  # else the bar says it
         _progress.say(f"recovering {n:,} poses" + (
-            f" with each of {len(recovery.members)} dictionaries"
+            f", each coded over {len(recovery.members)} dictionaries and the answers averaged"
             if len(recovery.members) > 1 else ""))
     temporal_summary = None
     bar = tqdm(total=n, disable=not progress, unit="pose", desc="recover", dynamic_ncols=True)

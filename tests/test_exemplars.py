@@ -131,7 +131,7 @@ def test_the_summary_says_an_ensemble_only_for_adapted_members():
     assert "adapted dictionaries" not in averaged
     said = format_summary(dict(base, averaged={"with": {"local ridge over file atoms": {
         "poses": 12}}}))
-    assert "averaged with the local ridge over file atoms's answer: 12 pose(s)" in said
+    assert "averaged with the answer of the local ridge over file atoms: 12 pose(s)" in said
     assert "ensemble: the mean of 3 adapted dictionaries' recoveries" in adapted
 
 

@@ -295,7 +295,7 @@ def format_summary(s) -> str:
     if s.get("ensemble", 1) > 1 and (s.get("adaptation") or {}).get("adapted"):
         lines.append(f"ensemble: the mean of {s['ensemble']} adapted dictionaries' recoveries")
     for kind, seen in ((s.get("averaged") or {}).get("with") or {}).items():
-        lines.append(f"averaged with the {kind}'s answer: {seen['poses']} pose(s) "
+        lines.append(f"averaged with the answer of the {kind}: {seen['poses']} pose(s) "
                      "(their field 'averaged' says so)")
     if s.get("mirror") == "auto":
         lines.append("mirror: each pose's answer weighed with its mirror image's by their "
