@@ -123,7 +123,7 @@ from .adaptation import (AVERAGED_PATH, GUARD_POSES_PER_PATTERN, MIN_COMPLETE_PO
 from .edm import observed_entries, pose_to_vector
 from .file_atoms import (atoms_adaptation, complete_rows, file_dictionary, mirror_images,
                          with_file_atoms)
-from .gaussian_fill import file_gaussian, gaussian_fill
+from .gaussian_fill import file_gaussian, local_gaussian_fill
 from .normalize import rms_radius
 from .real_protocol import usable_patterns
 from .skeleton import SKELETON_14
@@ -738,7 +738,7 @@ def _stacked(res, poses, missing, linear):
     if not len(rows):
         return res
     part = res.take(rows)
-    fill = gaussian_fill(linear.train, poses[rows], missing[rows])
+    fill = local_gaussian_fill(linear.train, poses[rows], missing[rows])
     fill = np.where(np.isfinite(fill), fill, part.poses)
     weights = np.repeat([[1 - linear.weight], [linear.weight]], len(rows), axis=1)
     # the Gaussian places joints, it recovers no distances: its hidden distances
@@ -859,9 +859,8 @@ def linear_weight(answer, truth, mask, complete, poses, missing):
     """
     part, part_missing = _incomplete_sample(poses, missing)
     hidden = np.where(mask[..., None], np.nan, truth)
-    filled, _ = file_gaussian(complete, np.concatenate([hidden, part]),
-                              np.concatenate([mask, part_missing]))
-    fill = filled[:len(truth)]
+    fill = local_gaussian_fill(_linear_draws(complete, part, part_missing, hidden, mask),
+                               hidden, mask)
     fill = np.where(np.isfinite(fill), fill, answer.poses)
     per_pose = np.array([_pose_errors(replace(answer, poses=(1 - w) * answer.poses + w * fill),
                                       truth, mask) for w in LINEAR_WEIGHTS])
@@ -876,6 +875,18 @@ def linear_weight(answer, truth, mask, complete, poses, missing):
     return float(LINEAR_WEIGHTS[best]), float(errors[best])
 
 
+def _linear_draws(complete, *given):
+    """The draws of the Gaussians :func:`linear_stack` fills with: `complete` and the
+    poses of `given` (pairs of poses, missing joints) as
+    :func:`~sparseedm.gaussian_fill.file_gaussian` filled them over the poses
+    and their mirror images, all with their mirror images
+    (:func:`~sparseedm.file_atoms.mirror_images`)."""
+    poses = np.concatenate(given[::2])
+    missing = np.concatenate(given[1::2])
+    _, train = file_gaussian(complete, poses, missing, augment=mirror_images)
+    return mirror_images(train)
+
+
 @dataclass
 class LinearStack:
     """The Gaussian's part in the default path's answer (:func:`linear_stack`).
@@ -885,7 +896,9 @@ class LinearStack:
     weight : float
         Its weight in the mean with the path's answer (in (0, 1]).
     train : ndarray (n, N, 2)
-        The Gaussian's draws (:func:`~sparseedm.gaussian_fill.file_gaussian`).
+        The draws of the Gaussians (:func:`~sparseedm.gaussian_fill.local_gaussian_fill`):
+        the file's poses as :func:`~sparseedm.gaussian_fill.file_gaussian` filled
+        them, and their mirror images.
     """
 
     weight: float
@@ -926,5 +939,4 @@ def linear_stack(dictionary, poses, missing, adaptation):
     if not weight > 0:
         return None
     part, part_missing = _incomplete_sample(poses, missing)
-    _, train = file_gaussian(poses[complete], part, part_missing)
-    return LinearStack(float(weight), train)
+    return LinearStack(float(weight), _linear_draws(poses[complete], part, part_missing))
