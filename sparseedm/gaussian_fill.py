@@ -1,6 +1,6 @@
-"""One Gaussian over a file's poses: the conditional mean of the hidden joints.
+"""Gaussians over a file's poses: the conditional mean of the hidden joints.
 
-A global linear estimate to set beside the sparse codes: the file's poses
+A linear estimate to set beside the sparse codes: the file's poses
 are taken as draws of one Gaussian over the 28 coordinates, each pose in the
 frame of the joints observed in the pose being filled (their centroid and RMS
 radius: :func:`sparseedm.normalize.rms_radius`, rotation-invariant), and the
@@ -13,8 +13,13 @@ mean variance). The closed form is solved once per missing pattern.
 :func:`gaussian_fill` fits the Gaussian to given training poses;
 :func:`file_gaussian` refits it on the whole file, the incomplete poses as
 last filled (:data:`GAUSSIAN_ROUNDS` rounds, as an iterative imputer does),
-so that the file's incomplete poses shape it too. The default path weighs
-this answer against its own by a held-back check
+so that the file's incomplete poses shape it too (``augment``: over the
+draws and, say, their mirror images). :func:`local_gaussian_fill` gives
+each pose its own Gaussian: that of the :data:`LOCAL_NEIGHBOURS` draws
+nearest it on its observed joints, shrunk toward the Gaussian of every draw
+(:data:`LOCAL_PRIOR` pseudo-draws), so a file of several kinds of pose is
+not forced into one. The default path weighs the local answer over the
+file's poses and their mirror images against its own by a held-back check
 (:func:`sparseedm.exemplars.linear_weight`).
 """
 
