@@ -215,6 +215,11 @@ def test_recover_stacks_the_gaussian_at_the_checks_weight(small_dictionary, monk
     w = res.adaptation.settings["linear_weight"]
     assert w in LINEAR_WEIGHTS and w > 0
     stack = linear_stack(small_dictionary, given, missing, res.adaptation)
+    # its draws: the file's poses as filled, then their mirror images
+    from sparseedm.file_atoms import mirror_images
+    half = len(stack.train) // 2
+    np.testing.assert_array_equal(stack.train, mirror_images(stack.train[:half]))
+    np.testing.assert_array_equal(stack.train[:400], truth[:400])
     monkeypatch.setattr(sparseedm.exemplars, "linear_stack", lambda *a: None)
     path = recover(given, missing, dictionary=small_dictionary)
     occ = np.flatnonzero(missing.any(axis=1) & res.ok)
