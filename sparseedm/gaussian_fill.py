@@ -1,6 +1,6 @@
-"""One Gaussian over a file's poses: the conditional mean of the hidden joints.
+"""Gaussians over a file's poses: the conditional mean of the hidden joints.
 
-A global linear estimate to set beside the sparse codes: the file's poses
+A linear estimate to set beside the sparse codes: the file's poses
 are taken as draws of one Gaussian over the 28 coordinates, each pose in the
 frame of the joints observed in the pose being filled (their centroid and RMS
 radius: :func:`sparseedm.normalize.rms_radius`, rotation-invariant), and the
@@ -13,8 +13,13 @@ mean variance). The closed form is solved once per missing pattern.
 :func:`gaussian_fill` fits the Gaussian to given training poses;
 :func:`file_gaussian` refits it on the whole file, the incomplete poses as
 last filled (:data:`GAUSSIAN_ROUNDS` rounds, as an iterative imputer does),
-so that the file's incomplete poses shape it too. The default path weighs
-this answer against its own by a held-back check
+so that the file's incomplete poses shape it too (``augment``: over the
+draws and, say, their mirror images). :func:`local_gaussian_fill` gives
+each pose its own Gaussian: that of the :data:`LOCAL_NEIGHBOURS` draws
+nearest it on its observed joints, shrunk toward the Gaussian of every draw
+(:data:`LOCAL_PRIOR` pseudo-draws), so a file of several kinds of pose is
+not forced into one. The default path weighs the local answer over the
+file's poses and their mirror images against its own by a held-back check
 (:func:`sparseedm.exemplars.linear_weight`).
 """
 
@@ -23,8 +28,8 @@ from __future__ import annotations
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-__all__ = ["GAUSSIAN_RIDGE", "GAUSSIAN_ROUNDS", "conditional_mean", "gaussian_fill",
-           "file_gaussian"]
+__all__ = ["GAUSSIAN_RIDGE", "GAUSSIAN_ROUNDS", "LOCAL_NEIGHBOURS", "LOCAL_PRIOR",
+           "conditional_mean", "gaussian_fill", "local_gaussian_fill", "file_gaussian"]
 
 #: The covariance's ridge, relative to its mean variance (chosen on validation
 #: photo files: studies/fast/README.md)
@@ -32,6 +37,14 @@ GAUSSIAN_RIDGE = 0.01
 
 #: Refits of :func:`file_gaussian` on the file's poses as last filled
 GAUSSIAN_ROUNDS = 3
+
+#: :func:`local_gaussian_fill`: the draws nearest a pose on its observed joints
+#: that set its Gaussian, and the weight (in draws) of the Gaussian of every
+#: draw they are shrunk to (chosen on validation photo files: studies/fast/README.md)
+LOCAL_NEIGHBOURS, LOCAL_PRIOR = 100, 50
+
+# query rows per block of local_gaussian_fill (its distances and covariances)
+_LOCAL_BLOCK = 256
 
 
 def conditional_mean(train, query, observed, ridge=GAUSSIAN_RIDGE):
@@ -154,7 +167,113 @@ def _fill_pattern(train, sums, poses, out, rows, pattern, ridge):
     out[rows] = np.where(pattern[:, None], back, poses[rows])
 
 
-def file_gaussian(complete, poses, missing, *, rounds=GAUSSIAN_ROUNDS, ridge=GAUSSIAN_RIDGE):
+def local_gaussian_fill(train, poses, missing, *, neighbours=LOCAL_NEIGHBOURS,
+                        prior=LOCAL_PRIOR, ridge=GAUSSIAN_RIDGE):
+    """:func:`gaussian_fill` with a Gaussian per pose: that of the draws nearest it on
+    its observed joints, shrunk toward the Gaussian of every draw.
+
+    In the frame of the pose's observed joints (as :func:`gaussian_fill`), the
+    `neighbours` draws of `train` nearest the pose on those joints (Euclidean;
+    a draw that matches them exactly, the pose itself when `train` holds it
+    filled, is left out) give a mean ``m_k`` and scatter ``S_k``; the pose's
+    Gaussian is their mean and covariance pooled with the global ones as
+    `prior` pseudo-draws, ``(k m_k + prior mu) / (k + prior)`` and
+    ``(S_k + prior C) / (k + prior)`` (``C`` with its ridge), and the hidden
+    joints get its conditional mean. A file of several kinds of pose (standing,
+    lying, seen from the side) is not one Gaussian: the neighbours' covariance
+    follows the kind of the pose.
+
+    Parameters
+    ----------
+    train : ndarray (n, N, 2)
+        Complete poses (n >= 2), the draws.
+    poses : ndarray (m, N, 2)
+        Poses to fill (values at missing joints ignored).
+    missing : ndarray of bool (m, N)
+    neighbours : int, default LOCAL_NEIGHBOURS
+    prior : float, default LOCAL_PRIOR
+        The global Gaussian's weight, in draws (0: the neighbours' alone).
+    ridge : float, default GAUSSIAN_RIDGE
+        The global covariance's ridge, relative to its mean variance.
+
+    Returns
+    -------
+    ndarray (m, N, 2)
+        `poses` with the missing joints filled; NaN where a pose's observed
+        joints have no spread (fewer than two distinct) to set its frame.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(0)
+    >>> train = rng.normal(size=(300, 14, 2))
+    >>> missing = np.zeros((2, 14), bool); missing[:, 3] = True
+    >>> out = local_gaussian_fill(train, train[:2], missing, neighbours=50)
+    >>> out.shape, bool(np.isfinite(out).all())
+    ((2, 14, 2), True)
+    """
+    train = np.asarray(train, dtype=float)
+    poses = np.asarray(poses, dtype=float)
+    missing = np.asarray(missing, bool)
+    out = poses.copy()
+    sums = _sums(train)
+    patterns, which = np.unique(missing, axis=0, return_inverse=True)
+    which = np.ravel(which)
+    with threadpool_limits(1, user_api="blas"):
+        for k, pattern in enumerate(patterns):
+            rows = np.flatnonzero(which == k)
+            if not pattern.any():
+                continue
+            if (~pattern).sum() < 2:  # no frame: left NaN
+                out[rows] = np.where(pattern[:, None], np.nan, poses[rows])
+                continue
+            z_train, _, spread = _frame(train, ~pattern, sums)
+            z_train = z_train[spread > 0].reshape(int((spread > 0).sum()), -1)
+            z, centre, radius = _frame(np.where(pattern[:, None], 0.0, poses[rows]), ~pattern)
+            filled = _local_means(z_train, z.reshape(len(rows), -1), np.repeat(~pattern, 2),
+                                  neighbours, prior, ridge)
+            back = filled.reshape(z.shape) * radius[:, None, None] + centre[:, None]
+            back[~(np.isfinite(radius) & (radius > 0))] = np.nan
+            out[rows] = np.where(pattern[:, None], back, poses[rows])
+    return out
+
+
+def _local_means(train, query, observed, neighbours, prior, ridge):
+    """local_gaussian_fill of flat `query` rows over flat `train` draws in one
+    frame: `query` with its unobserved columns replaced."""
+    mu = np.ones(len(train)) @ train / len(train)
+    centred = train - mu
+    cov = centred.T @ centred / max(len(train) - 1, 1)
+    cov = cov + ridge * np.trace(cov) / len(cov) * np.eye(len(cov))
+    obs, hid = np.flatnonzero(observed), np.flatnonzero(~observed)
+    k = min(int(neighbours), len(train))
+    out = np.array(query, dtype=float)
+    seen = train[:, obs]
+    squares = (seen * seen).sum(axis=1)
+    for s in range(0, len(out), _LOCAL_BLOCK):
+        q = out[s:s + _LOCAL_BLOCK, obs]
+        with np.errstate(invalid="ignore", over="ignore"):
+            d = squares[None, :] - 2 * q @ seen.T + (q * q).sum(axis=1)[:, None]
+        # the pose itself (filled) among the draws: left out
+        d = np.where(d > 1e-12 * len(obs), d, np.inf)
+        near = np.argpartition(d, k - 1, axis=1)[:, :k]
+        w = np.isfinite(np.take_along_axis(d, near, axis=1))[..., None]   # (b, k, 1)
+        counts = w.sum(axis=1)                                               # (b, 1)
+        draws = train[near]                                                  # (b, k, d)
+        local = (w * draws).sum(axis=1) / np.maximum(counts, 1)
+        dev = w * (draws - local[:, None])
+        scatter = np.matmul(dev.transpose(0, 2, 1), dev)
+        total = (counts + prior)[..., None]
+        mean = (counts * local + prior * mu) / (counts + prior)
+        sigma = (scatter + prior * cov) / total
+        coef = np.linalg.solve(sigma[:, obs][:, :, obs], sigma[:, obs][:, :, hid])
+        out[s:s + _LOCAL_BLOCK, hid] = mean[:, hid] + np.einsum(
+            "bo,boh->bh", q - mean[:, obs], coef)
+    return out
+
+
+def file_gaussian(complete, poses, missing, *, rounds=GAUSSIAN_ROUNDS, ridge=GAUSSIAN_RIDGE,
+                  augment=None):
     """:func:`gaussian_fill` on a file: the Gaussian of its complete poses, then
     `rounds` times refitted on them and the incomplete poses as last filled.
 
@@ -167,14 +286,19 @@ def file_gaussian(complete, poses, missing, *, rounds=GAUSSIAN_ROUNDS, ridge=GAU
     missing : ndarray of bool (m, N)
     rounds : int, default GAUSSIAN_ROUNDS
     ridge : float, default GAUSSIAN_RIDGE
+    augment : callable, optional
+        ``augment(draws)`` -> the Gaussian's draws (e.g. the draws and their
+        mirror images, :func:`sparseedm.file_atoms.mirror_images`); default
+        the draws themselves.
 
     Returns
     -------
     filled : ndarray (m, N, 2)
         `poses` filled by the last Gaussian.
     train : ndarray (n + m', N, 2)
-        That Gaussian's draws: `complete` and the filled poses with a frame
-        (:func:`gaussian_fill` fills other poses with it, as a file's chunks are).
+        That Gaussian's draws before `augment`: `complete` and the filled poses
+        with a frame (:func:`gaussian_fill` fills other poses with them, as a
+        file's chunks are).
 
     Examples
     --------
@@ -187,8 +311,9 @@ def file_gaussian(complete, poses, missing, *, rounds=GAUSSIAN_ROUNDS, ridge=GAU
     ((20, 14, 2), (120, 14, 2))
     """
     complete = np.asarray(complete, dtype=float)
-    filled, train = gaussian_fill(complete, poses, missing, ridge=ridge), complete
+    augment = (lambda draws: draws) if augment is None else augment
+    filled, train = gaussian_fill(augment(complete), poses, missing, ridge=ridge), complete
     for _ in range(rounds):
         train = np.concatenate([complete, filled[np.isfinite(filled).all(axis=(1, 2))]])
-        filled = gaussian_fill(train, poses, missing, ridge=ridge)
+        filled = gaussian_fill(augment(train), poses, missing, ridge=ridge)
     return filled, train

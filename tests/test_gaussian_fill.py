@@ -1,12 +1,13 @@
 """sparseedm.gaussian_fill: the conditional mean of hidden joints under one Gaussian
-of a file's poses; and the default path's stacked mean of its answer with it
-(sparseedm.exemplars.linear_weight / linear_stack)."""
+of a file's poses, or per pose of its nearest draws; and the default path's stacked
+mean of its answer with it (sparseedm.exemplars.linear_weight / linear_stack)."""
 
 import numpy as np
 import pytest
 
 from sparseedm.exemplars import LINEAR_WEIGHTS, linear_weight
-from sparseedm.gaussian_fill import conditional_mean, file_gaussian, gaussian_fill
+from sparseedm.gaussian_fill import (conditional_mean, file_gaussian, gaussian_fill,
+                                     local_gaussian_fill)
 
 
 def _template_file(n, seed=0, sd=0.0):
@@ -90,6 +91,80 @@ def test_file_gaussian_refits_on_the_incomplete_poses():
     np.testing.assert_array_equal(filled[:, :3], poses[100:, :3])
 
 
+def test_local_gaussian_of_every_draw_without_prior_is_the_one_gaussian():
+    """With every draw as the neighbours and no prior, the pose's Gaussian is the
+    file's (its scatter's scale cancels in the regression): gaussian_fill's answer."""
+    poses = _template_file(150, seed=5, sd=2.0)
+    train, query = poses[:120], poses[120:]
+    missing = np.zeros((30, 14), bool)
+    missing[np.arange(30), np.arange(30) % 14] = True
+    missing[np.arange(0, 30, 3), 13 - np.arange(0, 30, 3) % 14] = True
+    given = np.where(missing[..., None], np.nan, query)
+    want = gaussian_fill(train, given, missing, ridge=0.0)
+    got = local_gaussian_fill(train, given, missing, neighbours=len(train), prior=0, ridge=0.0)
+    np.testing.assert_allclose(got, want, rtol=1e-7, atol=1e-7)
+
+
+def test_local_gaussian_follows_a_curved_family():
+    """Poses deformed along a curve: every joint moves with a, the first also with a²
+    (a parabola). Hidden, it is linear in the observed joints only near each pose:
+    one Gaussian of the file fits a straight line, the neighbours' Gaussian the
+    curve there, so the joint comes back closer."""
+    rng = np.random.default_rng(6)
+    template, u = rng.normal(0, 30, (2, 14, 2))
+    v = np.zeros((14, 2))
+    v[0] = [0.0, 20.0]
+    a = rng.uniform(-2, 2, (600, 1, 1))
+    poses = template + a * u + a * a * v + rng.normal(0, 0.2, (600, 14, 2))
+    train, query = poses[:500], poses[500:]
+    missing = np.zeros((len(query), 14), bool)
+    missing[:, 0] = True
+    given = np.where(missing[..., None], np.nan, query)
+
+    def err(filled):
+        return np.linalg.norm(filled - query, axis=-1)[missing].mean()
+
+    one = err(gaussian_fill(train, given, missing))
+    local = err(local_gaussian_fill(train, given, missing, neighbours=50, prior=5))
+    assert local < 0.5 * one
+
+
+def test_local_gaussian_leaves_the_pose_itself_out():
+    """A draw that matches the pose on its observed joints (the pose as filled,
+    among the file's draws) is not its own neighbour: with no prior (the Gaussian of
+    every draw, which holds it), whatever its hidden joint holds, the answer is the
+    same."""
+    poses = _template_file(200, seed=8, sd=1.0)
+    missing = np.zeros((1, 14), bool)
+    missing[0, 6] = True
+    given = np.where(missing[..., None], np.nan, poses[:1])
+    answers = []
+    for value in (0.0, 1e4):
+        itself = poses[:1].copy()
+        itself[0, 6] = value
+        answers.append(local_gaussian_fill(np.concatenate([poses[1:], itself]), given, missing,
+                                           neighbours=60, prior=0))
+    np.testing.assert_array_equal(answers[0], answers[1])
+    assert np.isfinite(answers[0]).all()
+
+
+def test_file_gaussian_fits_the_augmented_draws():
+    """`augment` shapes the Gaussian, not the returned draws: each draw twice is the
+    same Gaussian (same answer); the draws with a shifted copy of each are another."""
+    poses = _template_file(140, seed=9, sd=1.0)
+    missing = np.zeros((40, 14), bool)
+    missing[np.arange(40), np.arange(40) % 14] = True
+    given = np.where(missing[..., None], np.nan, poses[100:])
+    plain, train = file_gaussian(poses[:100], given, missing)
+    twice, train2 = file_gaussian(poses[:100], given, missing,
+                                  augment=lambda d: np.concatenate([d, d]))
+    np.testing.assert_allclose(twice, plain, rtol=1e-6, atol=1e-6)
+    assert train2.shape == train.shape
+    bent, _ = file_gaussian(poses[:100], given, missing,
+                            augment=lambda d: np.concatenate([d, d[:, ::-1]]))
+    assert np.abs(bent - plain)[missing].max() > 1.0
+
+
 def _answer(truth, mask):
     """A RecoveryResult of `truth` under `mask` (its poses replaced by the caller)."""
     from sparseedm import recover
@@ -140,10 +215,15 @@ def test_recover_stacks_the_gaussian_at_the_checks_weight(small_dictionary, monk
     w = res.adaptation.settings["linear_weight"]
     assert w in LINEAR_WEIGHTS and w > 0
     stack = linear_stack(small_dictionary, given, missing, res.adaptation)
+    # its draws: the file's poses as filled, then their mirror images
+    from sparseedm.file_atoms import mirror_images
+    half = len(stack.train) // 2
+    np.testing.assert_array_equal(stack.train, mirror_images(stack.train[:half]))
+    np.testing.assert_array_equal(stack.train[:400], truth[:400])
     monkeypatch.setattr(sparseedm.exemplars, "linear_stack", lambda *a: None)
     path = recover(given, missing, dictionary=small_dictionary)
     occ = np.flatnonzero(missing.any(axis=1) & res.ok)
-    fill = gaussian_fill(stack.train, given[occ], missing[occ])
+    fill = local_gaussian_fill(stack.train, given[occ], missing[occ])
     np.testing.assert_allclose(res.poses[occ], (1 - w) * path.poses[occ] + w * fill,
                                rtol=0, atol=1e-6)
     done = ~missing.any(axis=1)

@@ -410,13 +410,13 @@ def without_linear(given, missing, **kw):
     import sparseedm.exemplars
     import sparseedm.recovery
 
-    kept = sparseedm.recovery.linear_stack, sparseedm.exemplars.linear_weight
-    sparseedm.recovery.linear_stack = lambda *a: None
+    kept = sparseedm.exemplars.linear_stack, sparseedm.exemplars.linear_weight
+    sparseedm.exemplars.linear_stack = lambda *a: None
     sparseedm.exemplars.linear_weight = lambda *a: (0.0, float("nan"))
     try:
         return sparseedm.recover(given, missing, n_jobs=2, **kw)
     finally:
-        sparseedm.recovery.linear_stack, sparseedm.exemplars.linear_weight = kept
+        sparseedm.exemplars.linear_stack, sparseedm.exemplars.linear_weight = kept
 
 
 def measure_shipped(name, truth, missing, photo, **kw):
