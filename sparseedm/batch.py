@@ -510,8 +510,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
             dictionary = members[0]
         else:
             members, adaptation, blend = [dictionary], None, None
-        solver = _solver_after(requested, solver, adaptation, preset,
-                               per_pose=method == "sparse" and not in_time)
+        solver = _solver_after(requested, solver, adaptation, preset, not in_time)
         summary_members = len(members)
         members = _with_mirrors(members, mirror, in_time, method)
         recovery = _Recovery(members, alpha, representation, solver, n_jobs, backend,
@@ -641,7 +640,7 @@ def _check_run_paths(outputs, in_path, dictionary, adapt, model, save_dictionary
 
 def _solver_after(requested, solver, adaptation, preset="default", per_pose=False):
     """The run's solver once it has adapted: the preset's coder
-    (:func:`preset_solver`; `per_pose`: poses coded one by one), or the fast one
+    (:func:`preset_solver`; `per_pose`: not in time), or the fast one
     on its compiled kernel at any chunk size, as recover() does
     (:func:`compiled_solver`), when the solver was asked for by name (an
     instance the user gave is left as it is)."""
