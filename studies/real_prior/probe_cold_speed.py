@@ -5,16 +5,21 @@
 homotopy walks over every atom; ``FastSolver(working_set=True)`` runs each
 row's path over its most correlated atoms, grown until the full problem's
 certificate holds: the same lasso (answers equal to round-off), fewer atoms
-touched. Timed here, the variants alternating ``--repeats`` times per file
-(median poses/s; the machine's load noted), on:
+touched. Variants: ``full`` (the homotopy over every atom: the cold path
+before), ``working_sets`` (one ``FastSolver(working_set=True)`` kept across
+calls), ``shipped`` (``solver="fast"``, what ``recover(adapt=False)`` is
+given: working sets since ``preset_solver(per_pose=True)``), ``old_cold``
+(``cmu-all-k2000`` without the mirror, by the homotopy: the cold path before
+``cmu-coco-k2932``). Timed here, the variants alternating ``--repeats``
+times per file (median poses/s; the machine's load noted), on:
 
 * ``bandai``: the frontier's 6,000-pose Bandai-Namco-1 file (half under Mix;
   a benchmark reading, ``benchmarks/default_path.make_file``);
-* ``bonn``, ``mpii``: ``harness.py``'s validation files (1 hidden joint...
-  ``--protocol``), every pose.
+* ``bonn``, ``mpii``: ``harness.py``'s validation files (``--protocol``:
+  2 random hidden joints by default), every pose.
 
-    python studies/real_prior/probe_cold_speed.py --files bandai,bonn,mpii \\
-        --out studies/real_prior/results_cold_speed.json
+    python studies/real_prior/probe_cold_speed.py --files mpii,bonn,bandai --repeats 2 \\
+        --variants full,shipped,old_cold --out studies/real_prior/results_cold_speed.json
 """
 
 from __future__ import annotations
