@@ -10,7 +10,8 @@ before), ``working_sets`` (one ``FastSolver(working_set=True)`` kept across
 calls), ``shipped`` (``solver="fast"``, what ``recover(adapt=False)`` is
 given: working sets since ``preset_solver(per_pose=True)``), ``old_cold``
 (``cmu-all-k2000`` without the mirror, by the homotopy: the cold path before
-``cmu-coco-k2932``). Timed here, the variants alternating ``--repeats``
+``cmu-coco-k2932``), ``default_dictionary`` (``dictionary="default"``: the
+CMU atoms alone, no mirror, as shipped now). Timed here, the variants alternating ``--repeats``
 times per file (median poses/s; the machine's load noted), on:
 
 * ``bandai``: the frontier's 6,000-pose Bandai-Namco-1 file (half under Mix;
@@ -45,6 +46,7 @@ VARIANTS = {
     "working_sets": dict(solver=FastSolver(working_set=True)),
     "shipped": dict(solver="fast"),             # what solver="fast" does now
     "old_cold": dict(solver=FastSolver(), dictionary="default", mirror=False),
+    "default_dictionary": dict(solver="fast", dictionary="default"),  # now: working sets
 }
 
 
