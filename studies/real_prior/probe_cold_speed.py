@@ -21,6 +21,12 @@ times per file (median poses/s; the machine's load noted), on:
 
     python studies/real_prior/probe_cold_speed.py --files mpii,bonn,bandai --repeats 2 \\
         --variants full,shipped,old_cold --out studies/real_prior/results_cold_speed.json
+
+``--gate``: instead, could the mirror's code be skipped? The weight
+``mirror="auto"`` gives each occluded pose's mirror answer
+(:func:`sparseedm._recovery_base.mirror_weights`), its quantiles and the
+share of poses where it is under 0.05 (a code that could be skipped) or
+over 0.4 (about the mean).
 """
 
 from __future__ import annotations
@@ -82,6 +88,27 @@ def time_file(truth, missing, repeats, variants):
     return out
 
 
+def gate(files, protocol, seed):
+    """{file: quantiles and shares of the mirror weight over the occluded poses}."""
+    from sparseedm._recovery_base import mirror_weights
+    from sparseedm.dictionary import load_dictionary
+
+    d = load_dictionary("cmu-coco-k2932")
+    out = {}
+    for f in files:
+        truth, missing = load_file(f, protocol, seed)
+        P = np.where(missing[..., None], np.nan, truth)
+        own, mirror = (sparseedm.recover(P, missing, adapt=False, dictionary=m, mirror=False)
+                       for m in (d, d.mirrored()))
+        w = mirror_weights([own, mirror])[1][missing.any(axis=1)]
+        out[f] = dict(quantiles_10_25_50_75_90=np.round(
+            np.quantile(w, [0.1, 0.25, 0.5, 0.75, 0.9]), 3).tolist(),
+            share_below_005=round(float((w < 0.05).mean()), 3),
+            share_above_04=round(float((w > 0.4).mean()), 3))
+        print(f, out[f], flush=True)
+    return out
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--files", default="bandai,bonn,mpii")
@@ -89,8 +116,16 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--variants", default=",".join(VARIANTS))
+    ap.add_argument("--gate", action="store_true")
     ap.add_argument("--out", type=Path)
     a = ap.parse_args(argv)
+    if a.gate:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            doc = gate(a.files.split(","), a.protocol, a.seed)
+        if a.out:
+            a.out.write_text(json.dumps(doc, indent=1) + "\n")
+        return
     variants = a.variants.split(",")
     doc = {"load_start": os.getloadavg()[0], "files": {}}
     with warnings.catch_warnings():
