@@ -26,6 +26,15 @@ against the cold prior and IterativeImputer on the same ``bonn`` files.
 
     python studies/real_prior/probe_bonn_gap.py --oracle 1500 --seeds 1 \\
         --protocols 1,3 --out studies/real_prior/results_bonn_oracle.json
+
+``--train-complete C``: the benchmark's ``--complete-from train`` file
+instead (C complete poses of Bonn's train videos + 500 occluded validation
+frames): the cold prior, IterativeImputer on the file, and IterativeImputer
+fitted on the file without the other occluded frames of the pose's own
+video (the train poses kept).
+
+    python studies/real_prior/probe_bonn_gap.py --train-complete 1000 --seeds 1 \\
+        --protocols 1,2,3 --out studies/real_prior/results_bonn_train_complete.json
 """
 
 from __future__ import annotations
@@ -163,16 +172,50 @@ def oracle(n_atoms, seeds, protocols):
     return out
 
 
+def train_complete(n_complete, seeds, protocols):
+    """{protocol: {method: error}} on train complete + val occluded Bonn files."""
+    rs = real2d.load("bonn")
+    part = real2d.split(rs)
+    ok = rs.complete & (real2d.body_size(rs.poses) > 0)
+    out = {}
+    for protocol in protocols:
+        errs = {"cold": [], "ii": [], "ii_without_own_video_occluded": []}
+        for seed in range(seeds):
+            rng = np.random.default_rng([seed, harness.PROTOCOLS.index(protocol)])
+            rows = np.concatenate([rng.permutation(np.flatnonzero(ok & (part == "train")))[
+                :n_complete], rng.permutation(np.flatnonzero(ok & (part == "val")))[:500]])
+            truth, group = rs.poses[rows], rs.group[rows]
+            missing = np.zeros((len(rows), 14), bool)
+            k = int(protocol)
+            for i in range(n_complete, len(rows)):
+                missing[i, rng.choice(14, size=k, replace=False)] = True
+            X = np.where(missing[..., None], np.nan, truth).reshape(len(rows), -1)
+            occ = missing.any(axis=1)
+            own = truth.copy()
+            for g in np.unique(group[occ]):
+                here = group == g
+                own[here] = imputer(X[~(here & occ)]).transform(X[here]).reshape(-1, 14, 2)
+            for m, f in (("cold", harness.sparse(adapt=False)(truth, missing)),
+                         ("ii", imputer(X).transform(X).reshape(truth.shape)),
+                         ("ii_without_own_video_occluded", own)):
+                errs[m].append(harness.score(f, truth, missing))
+        out[protocol] = {m: round(float(np.mean(e)), 2) for m, e in errs.items()}
+        print("train complete", protocol, out[protocol], flush=True)
+    return out
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--files", default="bonn,mpii")
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--protocols", default=",".join(harness.PROTOCOLS))
     ap.add_argument("--oracle", type=int, default=0, metavar="N")
+    ap.add_argument("--train-complete", type=int, default=0, metavar="C")
     ap.add_argument("--out", type=Path)
     a = ap.parse_args(argv)
-    if a.oracle:
-        doc = oracle(a.oracle, a.seeds, a.protocols.split(","))
+    if a.oracle or a.train_complete:
+        doc = (oracle(a.oracle, a.seeds, a.protocols.split(",")) if a.oracle else
+               train_complete(a.train_complete, a.seeds, a.protocols.split(",")))
         if a.out:
             a.out.write_text(json.dumps(doc, indent=1) + "\n")
         return
