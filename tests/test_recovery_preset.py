@@ -278,3 +278,35 @@ def test_adapt_poses_with_nan_rows_are_used_without_them(file_poses, small_dicti
                   adapt=other[25:])
     assert res.adaptation.file_atoms == ref.adaptation.file_atoms == 275
     np.testing.assert_array_equal(res.poses, ref.poses)
+
+
+def test_cold_codes_on_working_sets(file_poses, small_dictionary, monkeypatch):
+    """adapt=False (nothing adapted, poses one by one) codes by the lasso on
+    working sets of atoms (preset_solver's per_pose rule): the same joints as
+    the homotopy over every atom; recover_file too; in time it keeps the solver asked for."""
+    import sparseedm.solvers.fast as fast
+    from sparseedm._recovery_kernel import preset_solver
+    from sparseedm.solvers.fast import FastSolver
+
+    calls = []
+    real = fast.lars_lasso_working_set
+
+    def spy(*args, **kwargs):
+        calls.append(len(args[1]))
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(fast, "lars_lasso_working_set", spy)
+    poses, missing = file_poses
+    missing = missing.copy()
+    rng = np.random.default_rng(2)
+    for i in range(300):  # every pose occluded: batches the size working sets run at
+        missing[i, rng.choice(14, rng.integers(1, 4), replace=False)] = True
+    P = np.where(missing[..., None], np.nan, poses)
+    sets = recover(P, missing, dictionary=small_dictionary, adapt=False)
+    assert sum(calls) >= 300
+    calls.clear()
+    full = recover(P, missing, dictionary=small_dictionary, adapt=False, solver=FastSolver())
+    assert not calls
+    np.testing.assert_array_equal(sets.status, full.status)
+    np.testing.assert_allclose(sets.poses, full.poses, atol=1e-6)
+    assert preset_solver("fast", per_pose=False) == "fast"
