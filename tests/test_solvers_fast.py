@@ -288,3 +288,29 @@ def test_auto_working_sets_from_many_atoms(monkeypatch):
         assert res.status.tolist() == full.status.tolist()
         np.testing.assert_allclose(res.objective, full.objective, rtol=1e-9)
         np.testing.assert_allclose(res.coef, full.coef, atol=1e-7 * np.abs(full.coef).max())
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_rows_solved_again_as_lars_lasso_rows_solves_them(threads):
+    """The rows a working set cannot finish are solved again in one compiled batch:
+    each the very answer of lars_lasso_rows on its own observed sub-dictionary
+    (the per-row form), bit for bit, whether threads share them or not."""
+    import numba
+
+    from sparseedm.solvers.fast import lars_lasso_rows, lars_lasso_working_set
+
+    D, X, obs, alpha = _masked_problems(5, n=24)
+    X[3] = 0.0  # a row with nothing to code
+    before = numba.get_num_threads()
+    numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+    try:
+        _, stopped = lars_lasso_working_set(D, X, obs, alpha, n_init=4, add=3, max_ws=10,
+                                            resolve=False)
+        coef, steps = lars_lasso_working_set(D, X, obs, alpha, n_init=4, add=3, max_ws=10)
+    finally:
+        numba.set_num_threads(before)
+    assert (stopped < 0).sum() > 20
+    for i in np.flatnonzero(stopped < 0):
+        ref, st = lars_lasso_rows(D[obs[i]], X[i:i + 1, obs[i]], alpha[i])
+        np.testing.assert_array_equal(coef[i], ref[0])
+        assert steps[i] == st[0]

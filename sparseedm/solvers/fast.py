@@ -790,6 +790,37 @@ def _ws_batch_serial(Dt, X0, obsf, init, alpha, positive, max_steps, max_ws, add
                            add, coef[i])
 
 
+@numba.njit(cache=True, nogil=True)
+def _resolve_row(Dt, X, obsf, alpha, positive, max_steps, coef, steps, i):
+    """Row i's lasso over all atoms on its observed entries (as
+    :func:`lars_lasso_rows` solves it on ``D[observed[i]]``: Gram rows from the
+    atoms as they enter)."""
+    k = Dt.shape[0]
+    obs = np.flatnonzero(obsf[i] > 0)
+    mo = obs.shape[0]
+    Do = np.empty((k, mo))
+    for j in range(k):
+        for p in range(mo):
+            Do[j, p] = Dt[j, obs[p]]
+    xo = np.empty(mo)
+    for p in range(mo):
+        xo[p] = X[i, obs[p]]
+    dtx = np.dot(Do, xo)
+    steps[i] = _lars_core(np.empty((0, 0)), Do, 1, np.empty(0, np.int64), dtx, alpha[i],
+                          positive, max_steps, mo, coef[i])
+
+
+@numba.njit(cache=True, parallel=True, nogil=True)
+def _resolve_batch(Dt, X, obsf, alpha, positive, max_steps, coef, steps, rows):
+    for t in numba.prange(rows.shape[0]):
+        _resolve_row(Dt, X, obsf, alpha, positive, max_steps, coef, steps, rows[t])
+
+
+@numba.njit(cache=True, nogil=True)
+def _resolve_batch_serial(Dt, X, obsf, alpha, positive, max_steps, coef, steps, rows):
+    for t in range(rows.shape[0]):
+        _resolve_row(Dt, X, obsf, alpha, positive, max_steps, coef, steps, rows[t])
+
 
 def lars_lasso_working_set(D, X, observed, alpha, *, positive=False, max_steps=500,
                            n_init=WS_INIT, add=WS_ADD, max_ws=WS_MAX, resolve=True):
@@ -862,11 +893,14 @@ def lars_lasso_working_set(D, X, observed, alpha, *, positive=False, max_steps=5
         _progress.jit(_ws_batch, "recovery")
         with numba.parallel_chunksize(4):
             _ws_batch(*args)
-    for i in np.flatnonzero(steps < 0) if resolve else ():
-        obs = np.asarray(observed[i], dtype=bool)
-        c, st = lars_lasso_rows(Dt.T[obs], X[i:i + 1, obs], alpha[i], positive=positive,
-                                max_steps=max_steps)
-        coef[i], steps[i] = c[0], st[0]
+    again = np.flatnonzero(steps < 0) if resolve else ()
+    if len(again):
+        # each as lars_lasso_rows solves it, in one compiled batch (threads share them)
+        serial = numba.get_num_threads() == 1 or len(again) < 2
+        kernel = _resolve_batch_serial if serial else _resolve_batch
+        _progress.jit(kernel, "recovery")
+        kernel(Dt, X, obsf, alpha, bool(positive), int(max_steps), coef, steps,
+               again.astype(np.int64))
     return coef, steps
 
 
