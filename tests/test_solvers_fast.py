@@ -265,3 +265,52 @@ def test_working_set_too_small_is_solved_again():
     assert (res.status == "optimal").all() and not res.fallback.any()
     assert (res.gap <= 1e-6 * res.objective).all()
     np.testing.assert_allclose(res.objective, ref.objective, rtol=1e-8)
+
+
+def test_auto_working_sets_from_many_atoms(monkeypatch):
+    """FastSolver()'s default ("auto") codes masked batches on working sets from
+    WS_MIN_ATOMS atoms (here lowered to the test dictionary's size) and by the
+    full homotopy below: the same codes, objectives and statuses either way."""
+    from sparseedm.solvers import fast
+
+    D, X, obs, alpha = _masked_problems(3)
+    used = []
+    real = fast.lars_lasso_working_set
+    monkeypatch.setattr(fast, "lars_lasso_working_set",
+                        lambda *a, **k: used.append(1) or real(*a, **k))
+    full = FastSolver(working_set=False, numpy_max=0).solve_masked(D, X, obs, alpha)
+    below = FastSolver(numpy_max=0).solve_masked(D, X, obs, alpha)
+    assert not used
+    monkeypatch.setattr(fast, "WS_MIN_ATOMS", D.shape[1])
+    auto = FastSolver(numpy_max=0).solve_masked(D, X, obs, alpha)
+    assert used
+    for res in (below, auto):
+        assert res.status.tolist() == full.status.tolist()
+        np.testing.assert_allclose(res.objective, full.objective, rtol=1e-9)
+        np.testing.assert_allclose(res.coef, full.coef, atol=1e-7 * np.abs(full.coef).max())
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_rows_solved_again_as_lars_lasso_rows_solves_them(threads):
+    """The rows a working set cannot finish are solved again in one compiled batch:
+    each the very answer of lars_lasso_rows on its own observed sub-dictionary
+    (the per-row form), bit for bit, whether threads share them or not."""
+    import numba
+
+    from sparseedm.solvers.fast import lars_lasso_rows, lars_lasso_working_set
+
+    D, X, obs, alpha = _masked_problems(5, n=24)
+    X[3] = 0.0  # a row with nothing to code
+    before = numba.get_num_threads()
+    numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+    try:
+        _, stopped = lars_lasso_working_set(D, X, obs, alpha, n_init=4, add=3, max_ws=10,
+                                            resolve=False)
+        coef, steps = lars_lasso_working_set(D, X, obs, alpha, n_init=4, add=3, max_ws=10)
+    finally:
+        numba.set_num_threads(before)
+    assert (stopped < 0).sum() > 20
+    for i in np.flatnonzero(stopped < 0):
+        ref, st = lars_lasso_rows(D[obs[i]], X[i:i + 1, obs[i]], alpha[i])
+        np.testing.assert_array_equal(coef[i], ref[0])
+        assert steps[i] == st[0]
