@@ -177,8 +177,7 @@ def compiled_solver(solver="fast", adaptations=None):
     return solver
 
 
-def preset_solver(solver="fast", preset="default", adaptation=None, positive=None,
-                  per_pose=False):
+def preset_solver(solver="fast", preset="default", adaptation=None, positive=None):
     """The backend `preset` codes with: ``"fast"`` codes each pose by a local ridge
     over its most correlated atoms (:class:`~sparseedm.solvers.local_ridge.LocalRidgeSolver`
     with :data:`FAST_RIDGE`: not the lasso) when the file's own complete poses are
@@ -202,18 +201,14 @@ def preset_solver(solver="fast", preset="default", adaptation=None, positive=Non
     positive : bool, optional
         Non-negative codes asked for; None: the adapted dictionary's
         ``positive_code``.
-    per_pose : bool, default False
-        The call codes poses one by one (not in time).
 
     With the default preset and the file's own poses as the only atoms (the
     default path's exemplar rule, :mod:`sparseedm.exemplars`), the lasso runs
     on working sets of atoms checked on all of them
     (``FastSolver(working_set=True)``): the same lasso and certificate,
-    fewer atoms touched per pose. So does a call that adapted nothing and
-    codes poses one by one (`per_pose` and no `adaptation`: ``adapt=False``,
-    whose prior codes each pose and its mirror image over 2,932 atoms; the
-    same answers to round-off, more poses per second:
-    ``studies/real_prior/probe_cold_speed.py``).
+    fewer atoms touched per pose. (``FastSolver()`` itself codes on working
+    sets from :data:`~sparseedm.solvers.fast.WS_MIN_ATOMS` atoms, as
+    ``adapt=False``'s prior of 2,932 atoms and its mirror image.)
 
     Returns
     -------
@@ -229,8 +224,6 @@ def preset_solver(solver="fast", preset="default", adaptation=None, positive=Non
     >>> fast = preset_solver("fast", "fast", own)
     >>> fast.name, fast.n_atoms == FAST_RIDGE["n_atoms"], preset_solver("fast")
     ('local-ridge', True, 'fast')
-    >>> preset_solver("fast", per_pose=True).working_set  # adapt=False
-    True
     >>> _, few = resolve_fast(load_dictionary(), poses[:40], None, "auto")
     >>> preset_solver("fast", "fast", few), preset_solver("clarabel")
     ('fast', 'clarabel')
@@ -241,9 +234,7 @@ def preset_solver(solver="fast", preset="default", adaptation=None, positive=Non
     """
     if not (isinstance(solver, str) and solver == "fast"):
         return solver
-    if adaptation is None:  # nothing adapted: the prior's lasso on working sets
-        return FastSolver(working_set=True) if per_pose else solver
-    if not (adaptation.file_atoms > 0
+    if adaptation is None or not (adaptation.file_atoms > 0
             and adaptation.file_atoms == adaptation.dictionary.n_components):
         return solver
     if positive is None:

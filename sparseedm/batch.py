@@ -520,7 +520,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
             dictionary = members[0]
         else:
             members, adaptation, blend = [dictionary], None, None
-        solver = _solver_after(requested, solver, adaptation, preset, not in_time)
+        solver = _solver_after(requested, solver, adaptation, preset)
         summary_members = len(members)
         members = _with_mirrors(members, mirror, in_time, method)
         recovery = _Recovery(members, alpha, representation, solver, n_jobs, backend,
@@ -678,13 +678,12 @@ def _check_run_paths(outputs, in_path, dictionary, adapt, model, save_dictionary
         check_paths(inputs, written)
 
 
-def _solver_after(requested, solver, adaptation, preset="default", per_pose=False):
+def _solver_after(requested, solver, adaptation, preset="default"):
     """The run's solver once it has adapted: the preset's coder
-    (:func:`preset_solver`; `per_pose`: not in time), or the fast one
-    on its compiled kernel at any chunk size, as recover() does
-    (:func:`compiled_solver`), when the solver was asked for by name (an
-    instance the user gave is left as it is)."""
-    chosen = preset_solver(requested, preset, adaptation, per_pose=per_pose)
+    (:func:`preset_solver`), or the fast one on its compiled kernel at any chunk
+    size, as recover() does (:func:`compiled_solver`), when the solver was asked
+    for by name (an instance the user gave is left as it is)."""
+    chosen = preset_solver(requested, preset, adaptation)
     if chosen is not requested:
         return get_solver(chosen)
     if isinstance(requested, str) and adaptation is not None:

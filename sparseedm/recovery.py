@@ -460,7 +460,7 @@ def _dispatch(poses, missing, tracks, frames, method, model, preset, opts):
                 exemplars=opts["exemplars"], **dist)
         kernel["solver"] = preset_solver(kernel["solver"], preset,
                                          adaptations[0] if adaptations else None,
-                                         kernel["positive"], per_pose=True)
+                                         kernel["positive"])
         if opts["mirror"]:
             members = [*members, *(m.mirrored() for m in members)]
         where = dist or dict(backend=opts["backend"], scheduler=opts["scheduler"])

@@ -281,11 +281,11 @@ def test_adapt_poses_with_nan_rows_are_used_without_them(file_poses, small_dicti
 
 
 def test_cold_codes_on_working_sets(file_poses, small_dictionary, monkeypatch):
-    """adapt=False (nothing adapted, poses one by one) codes by the lasso on
-    working sets of atoms (preset_solver's per_pose rule): the same joints as
-    the homotopy over every atom; recover_file too; in time it keeps the solver asked for."""
+    """adapt=False over a dictionary of WS_MIN_ATOMS atoms or more (the cold
+    prior's 2,932; here lowered to the test dictionary's size) codes by the
+    lasso on working sets of atoms (FastSolver's "auto"): the same joints as
+    the homotopy over every atom."""
     import sparseedm.solvers.fast as fast
-    from sparseedm._recovery_kernel import preset_solver
     from sparseedm.solvers.fast import FastSolver
 
     calls = []
@@ -296,6 +296,7 @@ def test_cold_codes_on_working_sets(file_poses, small_dictionary, monkeypatch):
         return real(*args, **kwargs)
 
     monkeypatch.setattr(fast, "lars_lasso_working_set", spy)
+    monkeypatch.setattr(fast, "WS_MIN_ATOMS", small_dictionary.n_components)
     poses, missing = file_poses
     missing = missing.copy()
     rng = np.random.default_rng(2)
@@ -305,8 +306,8 @@ def test_cold_codes_on_working_sets(file_poses, small_dictionary, monkeypatch):
     sets = recover(P, missing, dictionary=small_dictionary, adapt=False)
     assert sum(calls) >= 300
     calls.clear()
-    full = recover(P, missing, dictionary=small_dictionary, adapt=False, solver=FastSolver())
+    full = recover(P, missing, dictionary=small_dictionary, adapt=False,
+                   solver=FastSolver(working_set=False))
     assert not calls
     np.testing.assert_array_equal(sets.status, full.status)
     np.testing.assert_allclose(sets.poses, full.poses, atol=1e-6)
-    assert preset_solver("fast", per_pose=False) == "fast"
