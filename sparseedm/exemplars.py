@@ -527,7 +527,7 @@ def choose_exemplars(dictionary, poses, missing, *, n_jobs=1, random_state=0,
                 "as the only atoms they ")
         reason = (f"{count}: {what}recovered {want} held-back poses' hidden "
                   f"joints as well as the base dictionary with them or better "
-                  f"({own:.2f} vs {out.err_base:.2f} % of pose size), nothing learned")
+                  f"({own:.2f} vs {out.err_base:.2f} % of the poses' RMS radius), nothing learned")
         out.result = atoms_adaptation(
             file_dictionary(dictionary, complete), len(poses), reason, t0,
             {"path": AVERAGED_PATH if both else "file atoms", **out.errors()})
@@ -574,7 +574,7 @@ def _few_poses(dictionary, poses, missing, complete, count, t0, random_state, kw
                   "atoms, averaged with the base with them and their mirror images as "
                   f"extra atoms, recovered {int(held.sum())} held-back poses' hidden joints "
                   f"better than without the mirror images ({out.err_both:.2f} vs "
-                  f"{out.err_base:.2f} % of pose size), nothing learned")
+                  f"{out.err_base:.2f} % of the poses' RMS radius), nothing learned")
         out.result = atoms_adaptation(found, len(poses), reason, t0,
                                       {"path": MIRRORED_ATOMS_PATH, **out.errors()})
         out.partners = [mirror.dictionary]
