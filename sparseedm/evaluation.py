@@ -831,7 +831,9 @@ def sweep_atoms(train_poses2d, test_poses2d, atoms=(100, 250, 500, 1000, 2000), 
 
     Each dictionary is learned with :class:`sparseedm.learning.OnlineDictionaryLearning`
     (the same alpha for all) on the training poses' complete normalised EDM
-    vectors; the Mix masks are those of :func:`evaluate` with the same seed.
+    vectors; each test pose is coded over it alone (``adapt=False``, as
+    :func:`evaluate`'s ``sparse`` row); the Mix masks are those of
+    :func:`evaluate` with the same seed.
     A size larger than the number of training poses is skipped (noted).
 
     Parameters
@@ -899,7 +901,7 @@ def sweep_atoms(train_poses2d, test_poses2d, atoms=(100, 250, 500, 1000, 2000), 
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             res = recover(inputs, mask, dictionary=d, representation=representation,
-                          n_jobs=n_jobs, solver=solver)
+                          n_jobs=n_jobs, solver=solver, adapt=False)
         e = np.where(res.ok, err_ave(res.vectors * res.scale[:, None], gt_vec), np.nan)
         out.append({"atoms": k, "err_ave_mix": _stat(e, np.mean),
                     "ms_per_pose": 1000 * res.seconds / len(test), "fit_seconds": fit_s,

@@ -10,7 +10,7 @@ from sparseedm.cli import main
 from sparseedm.dictionary import Dictionary
 from sparseedm.edm import pose_to_vector
 from sparseedm.evaluation import (METHODS, evaluate, extreme_occluded, occlusion_masks,
-                                  torso_size)
+                                  sweep_atoms, torso_size)
 from sparseedm.exceptions import DictionaryError, SparseEDMError
 from sparseedm.learning import OnlineDictionaryLearning, complete_pose_vectors
 from sparseedm.metrics import err_ave
@@ -262,3 +262,21 @@ def test_evaluate_refuses_adaptation_options_without_adaptation(kwargs):
     poses = np.random.default_rng(0).normal(size=(5, 14, 2))
     with pytest.raises(ParameterError, match="need"):
         evaluate("default", poses, methods=("sparse",), counts=(1,), **kwargs)
+
+
+def test_sweep_codes_as_the_sparse_row(split):
+    """The atom sweep (Fig. 5) codes each test pose by the lasso over the
+    learned dictionary alone, as evaluate()'s "sparse" row does (nothing taken
+    from the test file's other poses): at the same dictionary, seed and masks
+    its Mix Err_ave is that row's."""
+    kw = dict(alpha=0.05, alpha_recover=0.01, n_passes=2, batch_size=64, random_state=3)
+    test = split["test"][:60]
+    row, = sweep_atoms(split["train"], test, atoms=(100,), **kw)
+    X, _ = complete_pose_vectors(split["train"])
+    odl = OnlineDictionaryLearning(100, alpha=0.05, batch_size=64, n_passes=2,
+                                   random_state=3).fit(X)
+    d = Dictionary(odl.components_ / np.linalg.norm(odl.components_, axis=1, keepdims=True),
+                   alpha_recover=0.01, alpha_train=0.05)
+    rep = evaluate(d, test, methods=("sparse",), counts=("mix",), representations=("average",),
+                   random_state=3)
+    assert row["err_ave_mix"] == pytest.approx(rep.rows[0]["err_ave_mean"], rel=1e-9)
