@@ -1009,7 +1009,8 @@ def probe_stack(res, poses, missing, answer, blend, random_state=0):
     -------
     res : RecoveryResult
         `res` itself where this does not apply (a weight from the check, an
-        adapted dictionary, :data:`FEW_MIN_POSES` complete poses or more); else
+        adapted dictionary, :data:`FEW_MIN_POSES` file atoms or more, fewer than
+        two complete poses in `poses`); else
         with ``settings["linear_weight"]`` and ``["linear_probes"]`` noted and,
         for a weight above 0, the occluded poses' answers so averaged.
     blend : tuple or None
@@ -1017,11 +1018,12 @@ def probe_stack(res, poses, missing, answer, blend, random_state=0):
     """
     adaptation = res.adaptation
     if (blend is None or blend[2] is not None or adaptation is None or adaptation.adapted
-            or adaptation.file_atoms == 0 or "linear_weight" in adaptation.settings
+            or not 0 < adaptation.file_atoms < FEW_MIN_POSES
+            or "linear_weight" in adaptation.settings
             or missing.shape[1] != SKELETON_14.num_joints):
         return res, blend
-    complete = complete_rows(poses, missing)
-    if complete.sum() >= FEW_MIN_POSES:
+    complete = complete_rows(poses, missing)  # (recover_file: the chunk's)
+    if complete.sum() < 2:
         return res, blend
     weight, count = _probe_weight(poses, missing, complete, answer, random_state)
     res = replace(res, adaptation=replace(adaptation, settings=dict(
