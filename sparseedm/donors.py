@@ -36,7 +36,7 @@ from .normalize import rms_radius
 
 __all__ = ["DONOR_BLOCK", "DONOR_K", "DONOR_MIN_SHARED", "DONOR_PROBES", "DONOR_MIN_PROBES",
            "DONOR_WEIGHTS", "DONOR_GATES", "DONOR_CANDIDATES", "donor_estimates",
-           "donor_mix", "donor_step"]
+           "donor_mix", "donor_step", "probes"]
 
 #: donors per hidden joint
 DONOR_K = 5
@@ -191,9 +191,31 @@ def donor_mix(answer, estimates, nearest, missing, weight, gate):
                     answer)
 
 
-def _probes(missing, random_state):
+def probes(missing, random_state):
     """(rows, joints): a seeded subset of the occluded rows with more than
-    DONOR_MIN_SHARED observed joints, one observed joint of each."""
+    :data:`DONOR_MIN_SHARED` observed joints (:data:`DONOR_PROBES` at most), one
+    observed joint of each: the rows to answer again with that joint hidden too
+    (:func:`donor_step`, :func:`sparseedm.exemplars.probe_stack`).
+
+    Parameters
+    ----------
+    missing : ndarray of bool (n, N)
+    random_state : int
+        Seed of the rows and joints.
+
+    Returns
+    -------
+    rows, joints : ndarray of int
+        The probes' rows (ascending) and each one's joint to hide.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> missing = np.zeros((3, 14), bool); missing[1:, 0] = True
+    >>> rows, joints = probes(missing, 0)
+    >>> rows.tolist(), bool(missing[rows, joints].any())
+    ([1, 2], False)
+    """
     rng = np.random.default_rng([random_state, 91])
     cand = np.flatnonzero(missing.any(1) & ((~missing).sum(1) > DONOR_MIN_SHARED))
     rows = np.sort(rng.permutation(cand)[:DONOR_PROBES])
@@ -270,7 +292,7 @@ def donor_step(res, poses, missing, answer, random_state=0, block=DONOR_BLOCK):
                               random_state, block)
             res = replace(put_rows(res, rows, part), adaptation=part.adaptation)
         return res
-    rows, joints = _probes(missing, random_state)
+    rows, joints = probes(missing, random_state)
     if len(rows) < DONOR_MIN_PROBES:
         return res
     pmiss = missing[rows].copy()

@@ -107,7 +107,12 @@ train poses (0.85x, was 0.90x), 0.17 ± 0.12 on COCO + 233; under real
 visibility masks by 0.63 ± 0.08 (0.77x, was 0.81x), 0.64 ± 0.06 and
 0.26 ± 0.23. Bonn is unchanged, the Daz mocap files within
 +0.01 ± 0.01 and the CMU subjects a dictionary learned on others did not
-see 0.04-0.15 lower (``studies/fast/README.md``).
+see 0.04-0.15 lower (``studies/fast/README.md``). Below :data:`FEW_MIN_POSES`
+complete poses (no check) the weight is chosen on probes of the occluded rows
+instead (:func:`probe_stack`, the donor step's probes): over three draws the
+COCO val file (28 complete poses) fell from 0.92x to 0.80x IterativeImputer's
+error under random masks, MPII and Bonn val files of 28-40 complete poses by
+0.3-1.7 % of body size, the mocap files by 0.08-0.63.
 
 ``res.adaptation.summary()["path"]`` says which ran (``"file atoms"``,
 :data:`~sparseedm.adaptation.AVERAGED_PATH`, ``"adapted"``, ``"base + file
@@ -130,6 +135,7 @@ from ._recovery_kernel import FAST_RIDGE, compiled_solver, recover_members
 from .adaptation import (AVERAGED_PATH, GUARD_POSES_PER_PATTERN, MIN_COMPLETE_POSES,
                          MIRRORED_ATOMS_PATH, AdaptationResult, guard_masks,
                          pose_vectors, repeat_rows)
+from .donors import DONOR_MIN_PROBES, DONOR_PROBES, probes
 from .edm import observed_entries, pose_to_vector
 from .file_atoms import (atoms_adaptation, complete_rows, file_dictionary, mirror_images,
                          with_file_atoms)
@@ -144,7 +150,8 @@ __all__ = ["EXEMPLAR_MIN_POSES", "EXEMPLAR_MARGIN", "EXEMPLAR_OPTIONS", "Exempla
            "HELD_FRACTION", "MAX_HELD", "FEW_MIN_POSES", "BLEND_MIN_HIDDEN", "BLEND_MIN_POSES",
            "blend_rows", "blend_atoms", "blend_parts", "blend_many_hidden", "ridge_mean_atoms", "blends",
            "AVERAGED_MANY_HIDDEN", "AVERAGED_RIDGE_MEAN", "AVERAGED_GAUSSIAN", "LINEAR_WEIGHTS", "LINEAR_MIN_SE",
-           "MAX_LINEAR_FIT", "LinearStack", "linear_weight", "linear_stack"]
+           "MAX_LINEAR_FIT", "LINEAR_PROBE_ROUNDS", "LinearStack", "linear_weight", "linear_stack",
+           "probe_stack"]
 
 #: From this many usable complete poses the file's own poses are the atoms,
 #: no check, no adaptation (chosen on validation files: studies/fast/README.md)
@@ -190,6 +197,12 @@ LINEAR_MIN_SE = 1.0
 #: the file's complete poses and at most this many of its incomplete ones (a
 #: seeded sample)
 MAX_LINEAR_FIT = 2000
+
+#: Below FEW_MIN_POSES complete poses (no check) the weight is chosen on probes
+#: of the occluded rows (:func:`probe_stack`): rounds of the donor step's probes
+#: (:func:`~sparseedm.donors.probes`, another joint each) until
+#: :data:`~sparseedm.donors.DONOR_PROBES` of them, at most this many rounds
+LINEAR_PROBE_ROUNDS = 4
 
 #: recover()'s ``exemplars`` values: "auto" applies the rule, False never
 #: takes the exemplars instead of adapting
@@ -880,8 +893,15 @@ def linear_weight(answer, truth, mask, complete, poses, missing):
     fill = np.where(np.isfinite(fill), fill, answer.poses)
     per_pose = np.array([_pose_errors(replace(answer, poses=(1 - w) * answer.poses + w * fill),
                                       truth, mask) for w in LINEAR_WEIGHTS])
+    return _best_weight(per_pose, 2)
+
+
+def _best_weight(per_pose, fewest):
+    """(weight, error): the weight of LINEAR_WEIGHTS whose scored poses' (columns of
+    `per_pose`, one row per weight) mean error is lowest, when its gain over weight
+    0 exceeds LINEAR_MIN_SE standard errors; 0 then, and with fewer than `fewest`."""
     per_pose = per_pose[:, np.isfinite(per_pose).all(axis=0)]
-    if per_pose.shape[1] < 2:
+    if per_pose.shape[1] < max(fewest, 2):
         return 0.0, float("nan")
     errors = per_pose.mean(axis=1)
     best = int(np.argmin(errors))
@@ -956,3 +976,87 @@ def linear_stack(dictionary, poses, missing, adaptation):
         return None
     part, part_missing = _incomplete_sample(poses, missing)
     return LinearStack(float(weight), _linear_draws(poses[complete], part, part_missing))
+
+
+def probe_stack(res, poses, missing, answer, blend, random_state=0):
+    """Below :data:`FEW_MIN_POSES` complete poses (no check, so no weight): `res`
+    averaged with the Gaussian's answer (:func:`linear_stack`'s) at the weight
+    chosen on probes of the file's occluded rows.
+
+    The probes are rounds of :func:`~sparseedm.donors.probes` (one more observed
+    joint hidden, :data:`LINEAR_PROBE_ROUNDS` at most), answered by `answer` and
+    by the local Gaussians over the complete poses and the incomplete ones so
+    hidden; the weight of :data:`LINEAR_WEIGHTS` is chosen on the probed joints'
+    errors as :func:`linear_weight` chooses it, from
+    :data:`~sparseedm.donors.DONOR_MIN_PROBES` probes.
+
+    Parameters
+    ----------
+    res : RecoveryResult
+        The default path's recovery of `poses` (with its ``adaptation``).
+    poses : ndarray (n, N, 2)
+        The poses (validated), NaN at missing joints.
+    missing : ndarray of bool (n, N)
+    answer : callable
+        ``answer(poses, missing)`` -> RecoveryResult: the default path's answer
+        for other rows of the same file (the probes).
+    blend : tuple or None
+        :func:`blend_parts`' ``(atoms, mean_atoms, linear)``.
+    random_state : int, default 0
+        Seed of the probes.
+
+    Returns
+    -------
+    res : RecoveryResult
+        `res` itself where this does not apply (a weight from the check, an
+        adapted dictionary, :data:`FEW_MIN_POSES` file atoms or more, fewer than
+        two complete poses in `poses`); else
+        with ``settings["linear_weight"]`` and ``["linear_probes"]`` noted and,
+        for a weight above 0, the occluded poses' answers so averaged.
+    blend : tuple or None
+        `blend` with that :class:`LinearStack` as its ``linear``.
+    """
+    adaptation = res.adaptation
+    if (blend is None or blend[2] is not None or adaptation is None or adaptation.adapted
+            or not 0 < adaptation.file_atoms < FEW_MIN_POSES
+            or "linear_weight" in adaptation.settings
+            or missing.shape[1] != SKELETON_14.num_joints):
+        return res, blend
+    complete = complete_rows(poses, missing)  # (recover_file: the chunk's)
+    if complete.sum() < 2:
+        return res, blend
+    weight, count = _probe_weight(poses, missing, complete, answer, random_state)
+    res = replace(res, adaptation=replace(adaptation, settings=dict(
+        adaptation.settings, linear_weight=weight, linear_probes=count)))
+    if not weight > 0:
+        return res, blend
+    part, part_missing = _incomplete_sample(poses, missing)
+    linear = LinearStack(weight, _linear_draws(poses[complete], part, part_missing))
+    return _stacked(res, poses, missing, linear), (*blend[:2], linear)
+
+
+def _probe_weight(poses, missing, complete, answer, random_state):
+    """(weight, probes) of probe_stack: LINEAR_WEIGHTS' choice on the probes."""
+    drawn = []
+    for r in range(LINEAR_PROBE_ROUNDS):
+        drawn.append(probes(missing, random_state + r))
+        if sum(len(d[0]) for d in drawn) >= DONOR_PROBES:
+            break
+    rows, joints = (np.concatenate(d) for d in zip(*drawn))
+    if len(rows) < DONOR_MIN_PROBES:
+        return 0.0, int(len(rows))
+    pmiss = missing[rows].copy()
+    pmiss[np.arange(len(rows)), joints] = True
+    pposes = np.where(pmiss[..., None], np.nan, poses[rows])
+    path = answer(pposes, pmiss).poses
+    hidden = missing.copy()
+    hidden[rows, joints] = True  # the Gaussians see no probed joint
+    part, part_missing = _incomplete_sample(np.where(hidden[..., None], np.nan, poses), hidden)
+    fill = local_gaussian_fill(_linear_draws(poses[complete], part, part_missing), pposes, pmiss)
+    fill = np.where(np.isfinite(fill), fill, path)
+    at = np.arange(len(rows)), joints
+    _, size = rms_radius(poses[rows], pmiss)
+    with np.errstate(all="ignore"):  # a refused probe (NaN) judges nothing
+        per_pose = np.array([np.linalg.norm(((1 - w) * path + w * fill)[at] - poses[rows][at],
+                                            axis=-1) / size * 100 for w in LINEAR_WEIGHTS])
+    return _best_weight(per_pose, DONOR_MIN_PROBES)[0], int(len(rows))

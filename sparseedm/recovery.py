@@ -43,7 +43,7 @@ from .normalize import REPRESENTATIONS, representation_for
 from .dictionary import Dictionary, check_gram_memory, load_dictionary
 from .ensemble import adapt_members
 from .donors import donor_step
-from .exemplars import EXEMPLAR_OPTIONS, blend_many_hidden, blend_parts, blends
+from .exemplars import EXEMPLAR_OPTIONS, blend_many_hidden, blend_parts, blends, probe_stack
 from .exceptions import ParameterError, SparseEDMError
 from .keypoints import origin_joints
 from .outliers import check_confidence, mark_outliers, note_outliers
@@ -479,6 +479,9 @@ def _dispatch(poses, missing, tracks, frames, method, model, preset, opts):
                 return blend_many_hidden(r, p, m, *atoms, **where,
                                          **{k: kernel[k] for k in BLEND_SETTINGS})
 
+            # too few complete poses for the check: the stacked mean's weight from
+            # probes (then in the donors' probes' answers too)
+            res, atoms = probe_stack(res, poses, missing, answer, atoms)
             res = donor_step(res, poses, missing, answer)
     return _with_uncertainty(res)
 

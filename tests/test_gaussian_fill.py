@@ -260,3 +260,42 @@ def test_recover_file_stacks_as_recover_does(small_dictionary, tmp_path):
     res = recover(given, missing, dictionary=small_dictionary)
     assert res.adaptation.settings["linear_weight"] > 0
     np.testing.assert_allclose(filed[res.ok], res.poses[res.ok], rtol=0, atol=1e-6)
+
+
+@pytest.mark.usefixtures("without_donor_step")
+def test_too_few_complete_poses_take_the_weight_from_probes(small_dictionary, tmp_path,
+                                                            monkeypatch):
+    """Below FEW_MIN_POSES complete poses no check runs; probes of the occluded rows
+    give the Gaussian (nearly exact on this file) weight, and the occluded poses'
+    answers, so stacked, err less than the path's alone; recover_file stacks as
+    recover() does; the complete poses as the path gives them."""
+    import sparseedm.batch
+    import sparseedm.recovery
+    from sparseedm import recover
+    from sparseedm.batch import recover_file
+    from sparseedm.exemplars import AVERAGED_GAUSSIAN, FEW_MIN_POSES
+    from sparseedm.keypoints import KeypointSet, write_keypoints
+
+    given, missing, truth = _stack_file(n_complete=FEW_MIN_POSES - 20, n_occluded=200)
+    res = recover(given, missing, dictionary=small_dictionary)
+    settings = res.adaptation.settings
+    assert settings["linear_weight"] in LINEAR_WEIGHTS and settings["linear_weight"] > 0
+    assert settings["linear_probes"] >= 30
+    src = write_keypoints(tmp_path / "in.npz", KeypointSet(given, missing))
+    recover_file(src, tmp_path / "out.npz", dictionary=small_dictionary)
+    with np.load(tmp_path / "out.npz") as out:
+        filed = out["poses"]
+    np.testing.assert_allclose(filed[res.ok], res.poses[res.ok], rtol=0, atol=1e-6)
+    for module in (sparseedm.recovery, sparseedm.batch):
+        monkeypatch.setattr(module, "probe_stack", lambda res, p, m, a, blend: (res, blend))
+    path = recover(given, missing, dictionary=small_dictionary)
+    assert "linear_weight" not in path.adaptation.settings
+    occ = np.flatnonzero(missing.any(axis=1) & res.ok)
+    assert all(AVERAGED_GAUSSIAN in a for a in res.averaged[occ])
+
+    def err(p):
+        return np.linalg.norm(p - truth[occ], axis=-1)[missing[occ]].mean()
+
+    assert err(res.poses[occ]) < err(path.poses[occ])
+    done = ~missing.any(axis=1)
+    np.testing.assert_array_equal(res.poses[done], path.poses[done])
