@@ -23,7 +23,7 @@ Steps (all through the public CLI/API):
 Nothing here is tuned on the test styles. The reports go to the work folder;
 ``--write-docs`` also collects their tables into
 ``benchmarks/results-paper-protocol.json``, which the documentation's results
-page renders, and copies the learned dictionary's figures to ``docs/``. About an hour on two cores (the dictionary, the imputers on
+page renders, and copies the learned dictionary's figures to ``docs/``. About half an hour on two cores (the dictionary, the imputers on
 20,000 training poses; the sweep adds its dictionaries).
 """
 
