@@ -25,6 +25,8 @@ file's poses and their mirror images against its own by a held-back check
 
 from __future__ import annotations
 
+from functools import partial
+
 import numpy as np
 from threadpoolctl import threadpool_limits
 
@@ -136,6 +138,14 @@ def gaussian_fill(train, poses, missing, *, ridge=GAUSSIAN_RIDGE):
     >>> bool(np.array_equal(out[0, ~missing[0]], train[0, ~missing[0]]))
     True
     """
+    return _fill_by_pattern(train, poses, missing, partial(conditional_mean, ridge=ridge))
+
+
+def _fill_by_pattern(train, poses, missing, conditional):
+    """`poses` with each missing pattern's joints filled in the frame of its
+    observed ones: ``conditional(draws, query, observed)`` on the flat frames
+    of `train` (the draws) and of the pattern's rows gives the rows filled
+    (:func:`gaussian_fill`, :func:`local_gaussian_fill`)."""
     train = np.asarray(train, dtype=float)
     poses = np.asarray(poses, dtype=float)
     missing = np.asarray(missing, bool)
@@ -146,12 +156,13 @@ def gaussian_fill(train, poses, missing, *, ridge=GAUSSIAN_RIDGE):
     # products of at most (n, 28) by (28, 28): threaded BLAS only waits on a busy machine
     with threadpool_limits(1, user_api="blas"):
         for k, pattern in enumerate(patterns):
-            _fill_pattern(train, sums, poses, out, np.flatnonzero(which == k), pattern, ridge)
+            _fill_pattern(train, sums, poses, out, np.flatnonzero(which == k), pattern,
+                          conditional)
     return out
 
 
-def _fill_pattern(train, sums, poses, out, rows, pattern, ridge):
-    """gaussian_fill of the `rows` of one missing `pattern`, written into `out`."""
+def _fill_pattern(train, sums, poses, out, rows, pattern, conditional):
+    """_fill_by_pattern of the `rows` of one missing `pattern`, written into `out`."""
     if not pattern.any():
         return
     if (~pattern).sum() < 2:  # no frame: left NaN
@@ -160,8 +171,8 @@ def _fill_pattern(train, sums, poses, out, rows, pattern, ridge):
     z_train, _, spread = _frame(train, ~pattern, sums)
     z_train = z_train[spread > 0]  # a frame of no spread: left out
     z, centre, radius = _frame(np.where(pattern[:, None], 0.0, poses[rows]), ~pattern)
-    filled = conditional_mean(z_train.reshape(len(z_train), -1), z.reshape(len(rows), -1),
-                              np.repeat(~pattern, 2), ridge)
+    filled = conditional(z_train.reshape(len(z_train), -1), z.reshape(len(rows), -1),
+                         np.repeat(~pattern, 2))
     back = filled.reshape(z.shape) * radius[:, None, None] + centre[:, None]
     back[~(np.isfinite(radius) & (radius > 0))] = np.nan
     out[rows] = np.where(pattern[:, None], back, poses[rows])
@@ -212,30 +223,8 @@ def local_gaussian_fill(train, poses, missing, *, neighbours=LOCAL_NEIGHBOURS,
     >>> out.shape, bool(np.isfinite(out).all())
     ((2, 14, 2), True)
     """
-    train = np.asarray(train, dtype=float)
-    poses = np.asarray(poses, dtype=float)
-    missing = np.asarray(missing, bool)
-    out = poses.copy()
-    sums = _sums(train)
-    patterns, which = np.unique(missing, axis=0, return_inverse=True)
-    which = np.ravel(which)
-    with threadpool_limits(1, user_api="blas"):
-        for k, pattern in enumerate(patterns):
-            rows = np.flatnonzero(which == k)
-            if not pattern.any():
-                continue
-            if (~pattern).sum() < 2:  # no frame: left NaN
-                out[rows] = np.where(pattern[:, None], np.nan, poses[rows])
-                continue
-            z_train, _, spread = _frame(train, ~pattern, sums)
-            z_train = z_train[spread > 0].reshape(int((spread > 0).sum()), -1)
-            z, centre, radius = _frame(np.where(pattern[:, None], 0.0, poses[rows]), ~pattern)
-            filled = _local_means(z_train, z.reshape(len(rows), -1), np.repeat(~pattern, 2),
-                                  neighbours, prior, ridge)
-            back = filled.reshape(z.shape) * radius[:, None, None] + centre[:, None]
-            back[~(np.isfinite(radius) & (radius > 0))] = np.nan
-            out[rows] = np.where(pattern[:, None], back, poses[rows])
-    return out
+    return _fill_by_pattern(train, poses, missing, partial(
+        _local_means, neighbours=neighbours, prior=prior, ridge=ridge))
 
 
 def _local_means(train, query, observed, neighbours, prior, ridge):
