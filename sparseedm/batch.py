@@ -506,11 +506,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
         raise FileFormatError(f"{out_path}: a folder of OpenPose frames is written as a "
                               "folder; give an output path without .json")
     try:
-        kps = getattr(source, "kps", None)
-        if kps is not None:  # what the output cannot hold is refused before recovering
-            check_output_fits(out_path, outputs.out_fmt, source.n, ids=source.ids,
-                              meta=source.meta,
-                              **_output_time(outputs.out_fmt, kps, None, in_fmt))
+        _check_output_fits(source, outputs)
         in_time = _in_time(source, temporal and method == "sparse")
         cold, mirror = cold_prior(given, adapt, mirror, method == "sparse" and not in_time)
         dictionary = dictionary if cold is given else _loaded(cold)
@@ -1113,6 +1109,16 @@ def _carried(columns):
     what that run did (this run writes its own, or none: no ``averaged`` when
     it blends nothing, no EDMs unless asked)."""
     return {k: v for k, v in (columns or {}).items() if k not in RESULT_FIELDS}
+
+
+def _check_output_fits(source, outputs):
+    """Refuse, before anything is recovered, the tracks and frames of `source`
+    that the output's writer would refuse (:func:`check_output_fits`)."""
+    kps = getattr(source, "kps", None)
+    if kps is not None:  # a .npy holds no tracks or frames
+        check_output_fits(outputs.out_path, outputs.out_fmt, source.n, ids=source.ids,
+                          meta=source.meta,
+                          **_output_time(outputs.out_fmt, kps, None, outputs.in_fmt))
 
 
 def _output_time(fmt, kps, linked, in_fmt):
