@@ -28,7 +28,7 @@ from ._validation import check_mask, check_pose_shape, check_poses, unmask
 from .dictionary import Dictionary
 from .edm import observed_entries, vector_to_edm
 from .exceptions import PoseError
-from .normalize import MIN_OBSERVED_JOINTS, represent
+from .normalize import MIN_OBSERVED_JOINTS, far_joint, represent
 from .placement import WEIGHT_POWER, place_missing_joints
 
 __all__ = ["STATUSES", "OK_STATUSES", "RecoveryResult", "Screened", "Screening",
@@ -48,7 +48,9 @@ STATUSES = {
     "too_few_observed": f"fewer than {MIN_OBSERVED_JOINTS} observed joints",
     "invalid_coordinates": "an observed coordinate is infinite, or NaN where the mask says observed",
     "degenerate": "all observed joints coincide: the pose cannot be normalised",
-    "out_of_range": "the observed joints' extent overflows float64 or is subnormal: rescale them",
+    "out_of_range": ("the observed joints' extent overflows float64 or is subnormal (rescale "
+                     "them), or one joint lies so far from the others that, beside it, their "
+                     "distances vanish in float64 rounding (not a body)"),
     "empty_code": "the lasso chose no atom (alpha too large for this pose): nothing recovered",
 }
 #: statuses of the poses that came back usable
@@ -463,7 +465,15 @@ def screen_poses(poses, mask, bad_coord):
     status[tiny] = "out_of_range"
     reason[tiny] = [f"the observed joints span only {w:.3g} (a subnormal extent); rescale "
                     "the coordinates" for w in widest[tiny]]
+    far = np.flatnonzero(status == "")
+    joint, ratio = far_joint(poses[far], mask[far])
+    far, joint, ratio = far[joint >= 0], joint[joint >= 0], ratio[joint >= 0]
+    status[far] = "out_of_range"
+    reason[far] = [f"joint {j} lies {q:.3g} times the other joints' extent away from them: "
+                   "beside it their distances vanish in float64 rounding, not a body; check "
+                   "its coordinates" for j, q in zip(joint, ratio)]
     return Screening(status, reason, n_obs, clean)
+
 
 
 def screen(poses, mask, bad_coord, representation, rule="box"):

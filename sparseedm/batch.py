@@ -120,7 +120,7 @@ from .formats import FILLED_SCORE, count_below, default_threshold, threshold_lin
 from .formats import FORMATS as FOLDER_OR_TABLE_FORMATS
 from .formats.deeplabcut import H5_SUFFIXES, check_h5_extra, read_joint_map
 from .keypoints import (FLAGS_IN_SIDECAR, N_JOINTS, EXTENSIONS, RESULT_FIELDS, beside,
-                        check_joint_map,
+                        check_joint_map, check_output_fits,
                         finish_missing, format_of, load_single_npy, npy_confidence,
                         origin_joints, read_keypoints, status_sidecar, write_keypoints)
 from .keypoints import output_format as keypoint_output_format
@@ -506,6 +506,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
         raise FileFormatError(f"{out_path}: a folder of OpenPose frames is written as a "
                               "folder; give an output path without .json")
     try:
+        _check_output_fits(source, outputs)
         in_time = _in_time(source, temporal and method == "sparse")
         cold, mirror = cold_prior(given, adapt, mirror, method == "sparse" and not in_time)
         dictionary = dictionary if cold is given else _loaded(cold)
@@ -1052,9 +1053,7 @@ def _write_output(tmp, fmt, filled, ids, meta, in_fmt, fields, edm,
         flagged["uncertainty"] = uncertainty
     if fmt in FOLDER_OR_TABLE_FORMATS:  # status in each person's "sparseedm" object
         write_keypoints(tmp, filled, format=fmt, ids=ids, meta=meta, row_fields=fields,
-                        **flagged,
-                        tracks=linked if linked is not None or kps is None else kps.tracks,
-                        frames=None if kps is None else kps.frames)
+                        **flagged, **_output_time(fmt, kps, linked, in_fmt))
         return
     if fmt == "npy":
         if len(filled) == 0:
@@ -1067,7 +1066,7 @@ def _write_output(tmp, fmt, filled, ids, meta, in_fmt, fields, edm,
         if edm is not None:
             extra.update(edm)
         write_keypoints(tmp, filled, format="npz", ids=ids, meta={"npz_extra": extra},
-                        **_time_axis(kps, linked, in_fmt, fmt), **flagged)
+                        **_output_time(fmt, kps, linked, in_fmt), **flagged)
     elif fmt == "csv":
         extra = _carried(meta.get("extra_columns")) if in_fmt == "csv" else {}
         extra.update({
@@ -1081,10 +1080,10 @@ def _write_output(tmp, fmt, filled, ids, meta, in_fmt, fields, edm,
             if key in fields:
                 extra[key] = fields[key]
         write_keypoints(tmp, filled, format="csv", ids=ids, extra_columns=extra,
-                        **_time_axis(kps, linked, in_fmt, fmt), **flagged)
+                        **_output_time(fmt, kps, linked, in_fmt), **flagged)
     else:  # coco: the original document (or a results list), status in "sparseedm"
         write_keypoints(tmp, filled, format="coco", ids=ids,
-                        **_time_axis(kps, linked, in_fmt, fmt),
+                        **_output_time(fmt, kps, linked, in_fmt),
                         meta=meta if in_fmt == "coco" else None, **flagged)
         with open(tmp, encoding="utf-8") as f:
             doc = json.load(f)
@@ -1112,11 +1111,23 @@ def _carried(columns):
     return {k: v for k, v in (columns or {}).items() if k not in RESULT_FIELDS}
 
 
-def _time_axis(kps, linked, in_fmt, fmt):
-    """The tracks and frames an output carries: the linked tracks if any; an
-    output in another format than the input's also the input's own tracks and
-    frames (in its own format they come back with the rest of its columns)."""
-    if kps is None or in_fmt == fmt:
+def _check_output_fits(source, outputs):
+    """Refuse, before anything is recovered, the tracks and frames of `source`
+    that the output's writer would refuse (:func:`check_output_fits`)."""
+    kps = getattr(source, "kps", None)
+    if kps is not None:  # a .npy holds no tracks or frames
+        check_output_fits(outputs.out_path, outputs.out_fmt, source.n, ids=source.ids,
+                          meta=source.meta,
+                          **_output_time(outputs.out_fmt, kps, None, outputs.in_fmt))
+
+
+def _output_time(fmt, kps, linked, in_fmt):
+    """The tracks and frames an output in `fmt` is written with: the linked
+    tracks if any; a folder or table format (or an output in another format
+    than the input's) also the input's own tracks and frames (a CSV, ``.npz``
+    or COCO input in its own format gets them back with the rest of its
+    columns)."""
+    if kps is None or (in_fmt == fmt and fmt not in FOLDER_OR_TABLE_FORMATS):
         return dict(tracks=linked)
     return dict(tracks=kps.tracks if linked is None else linked, frames=kps.frames)
 

@@ -61,7 +61,7 @@ from .edm import pose_to_vector
 from .exceptions import DictionaryError, ParameterError, PoseError, SparseEDMError
 from .fconv.model import load_model
 from .metrics import check_counts, err_ave, joint_error, occlusion_masks
-from .normalize import REPRESENTATIONS, usable_rows
+from .normalize import REPRESENTATIONS, rms_radius, usable_rows
 from ._recovery_kernel import recover_members
 from .adaptation import SELF_TRAINING_ROUNDS, run_adaptation
 from .ensemble import adapt_members
@@ -590,8 +590,9 @@ def evaluate(dictionary, test_poses2d, *, train_poses2d=None, labels=None,
 
     n = len(gt)
     masks = occlusion_masks(n, N, counts, random_state)
-    gt_vec = pose_to_vector(gt)
-    torso = torso_size(gt, dictionary.joint_names)
+    size = _pose_sizes(gt)  # the errors' unit, then pixels again
+    gt_vec = pose_to_vector(gt / size[:, None, None])
+    torso = torso_size(gt / size[:, None, None], dictionary.joint_names)
     if not np.isfinite(torso).any():
         notes.append("joint names lack neck/hips: joint/torso column is empty")
     runner.warm_up(methods, gt[:1], masks[counts[0]][:1])
@@ -611,7 +612,7 @@ def evaluate(dictionary, test_poses2d, *, train_poses2d=None, labels=None,
                 notes += more
                 if m == "sparse":
                     sparse_vectors[(c, rep)] = res.vectors
-                scores, e = _scores(res, gt, gt_vec, mask, torso, extreme)
+                scores, e = _scores(res, gt, gt_vec, mask, torso, extreme, size)
                 per_pose[(m, rep, c)] = e
                 rows.append({"method": m, "representation": rep, "count": c, "n_poses": n,
                              **scores, "note": note})
@@ -771,30 +772,45 @@ class _Runner:
         return res, "", notes
 
 
-def _scores(res, gt, gt_vec, mask, torso, extreme):
+def _pose_sizes(gt):
+    """Each ground-truth pose's RMS radius (1 where it is not a positive finite
+    number): the errors are computed in units of it, before their norms, whose
+    squares overflow from about 1e154 pixels, then turned back into pixels."""
+    _, size = rms_radius(gt, np.zeros(gt.shape[:-1], dtype=bool))
+    return np.where(np.isfinite(size) & (size > 0), size, 1.0)
+
+
+def _edm_errors(res, gt_vec, size):
+    """Per-pose Err_ave of `res`'s completed EDMs (NaN where the pose failed)
+    against `gt_vec`, the truth's EDM vectors in units of `size`."""
+    with np.errstate(invalid="ignore"):
+        e = err_ave(res.vectors * (res.scale / size)[:, None], gt_vec)
+    return np.where(res.ok, e, np.nan)
+
+
+def _scores(res, gt, gt_vec, mask, torso, extreme, size):
     """A result row's numbers (:data:`RESULT_COLUMNS` from ``n_failed`` to
-    ``err_ave_other``) and the per-pose Err_ave (NaN where the pose failed)."""
+    ``err_ave_other``) and the per-pose Err_ave (NaN where the pose failed);
+    `gt_vec` and `torso` in units of each pose's `size` (:func:`_pose_sizes`)."""
     good = res.ok
     n = len(gt)
-    with np.errstate(invalid="ignore"):
-        e = err_ave(res.vectors * res.scale[:, None], gt_vec)
-    e = np.where(good, e, np.nan)
+    e = _edm_errors(res, gt_vec, size)
     # the same metric on the EDM of the filled poses (the joints a
     # user gets: the occluded ones placed from the completed EDM)
+    filled = res.poses / size[:, None, None]
     with np.errstate(invalid="ignore", divide="ignore"):
-        e_filled = np.where(good, err_ave(pose_to_vector(res.poses), gt_vec), np.nan)
-    je = joint_error(res.poses, gt, mask)
+        e_filled = np.where(good, err_ave(pose_to_vector(filled), gt_vec), np.nan)
+    je = joint_error(filled, gt / size[:, None, None], mask)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
-        je_pose = np.nanmean(je, axis=1)
-    je_pose = np.where(good, je_pose, np.nan)
+        je_pose = np.where(good, np.nanmean(je, axis=1), np.nan)
     return {
         "n_failed": int((~good).sum()),
         "err_ave_mean": _stat(e, np.mean),
         "err_ave_var": _stat(e, np.var),
         "err_ave_p95": _stat(e, lambda x: np.percentile(x, 95)),
         "err_ave_filled": _stat(e_filled, np.mean),
-        "joint_err_px": _stat(je_pose, np.mean),
+        "joint_err_px": _stat(je_pose * size, np.mean),
         "joint_err_torso": _stat(je_pose / torso, np.mean),
         "poses_per_s": n / res.seconds if res.seconds > 0 else float("nan"),
         "n_extreme": int(extreme.sum()),
@@ -881,7 +897,8 @@ def sweep_atoms(train_poses2d, test_poses2d, atoms=(100, 250, 500, 1000, 2000), 
         test = test[np.sort(rng.choice(len(test), int(max_poses), replace=False))]
     N = test.shape[1]
     mask = occlusion_masks(len(test), N, ("mix",), random_state)["mix"]
-    gt_vec = pose_to_vector(test)
+    size = _pose_sizes(test)
+    gt_vec = pose_to_vector(test / size[:, None, None])
     inputs = np.where(mask[..., None], np.nan, test)
     out = []
     for k in atoms:
@@ -902,7 +919,7 @@ def sweep_atoms(train_poses2d, test_poses2d, atoms=(100, 250, 500, 1000, 2000), 
             warnings.simplefilter("ignore")
             res = recover(inputs, mask, dictionary=d, representation=representation,
                           n_jobs=n_jobs, solver=solver, adapt=False)
-        e = np.where(res.ok, err_ave(res.vectors * res.scale[:, None], gt_vec), np.nan)
+        e = _edm_errors(res, gt_vec, size)
         out.append({"atoms": k, "err_ave_mix": _stat(e, np.mean),
                     "ms_per_pose": 1000 * res.seconds / len(test), "fit_seconds": fit_s,
                     "note": ""})

@@ -219,6 +219,7 @@ __all__ = [
     "KeypointSet",
     "read_keypoints",
     "write_keypoints",
+    "check_output_fits",
     "origin_joints",
     "FORMATS",
     "output_format",
@@ -1439,6 +1440,53 @@ def write_keypoints(
     return path
 
 
+def check_output_fits(path, fmt, n, *, tracks=None, frames=None, ids=None, meta=None):
+    """Refuse tracks and frames that :func:`write_keypoints` would refuse to write
+    in `fmt`, by the writers' own checks, so a run can refuse them before it
+    recovers anything: frame numbers that are not whole numbers up to 2**53
+    (or negative where they go into file names: OpenPose, AlphaPose, MMPose
+    folders), a fresh PoseTrack image given two frames, text an ``.npz``
+    cannot hold as frames, tracks that are not OpenPose ``person_id`` values.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The output, named in the message.
+    fmt : str
+        The output format (:func:`output_format`).
+    n : int
+        The number of poses.
+    tracks, frames, ids : array_like (n,), optional
+        What the output will be written with.
+    meta : dict, optional
+        The read's ``KeypointSet.meta`` (a document written back keeps its own
+        tracks and frames).
+
+    Raises
+    ------
+    FileFormatError
+        Naming the first pose whose track or frame the format cannot hold.
+
+    Examples
+    --------
+    >>> check_output_fits("out.json", "coco", 2, frames=[0, 1])
+    >>> check_output_fits("out", "openpose", 1, frames=[-1])
+    Traceback (most recent call last):
+    ...
+    sparseedm.exceptions.FileFormatError: writing out: pose 0: frame number -1 is negative; frame file names hold numbers >= 0
+    """
+    path, meta = Path(path), meta or {}
+    where = f"writing {path}"
+    ids = None if ids is None else np.asarray(ids).astype(str)
+    frames = _fresh_frames(fmt, frames, n, where, meta, path)
+    if fmt == "openpose" and meta.get("format") != fmt:
+        formats.openpose.check_tracks(tracks, path)
+    elif fmt == "npz" and frames is not None:
+        _npz_frames(np.asarray(frames), where)
+    elif fmt == "coco" and frames is not None and meta.get("coco_document") is None:
+        _posetrack_images([{"image_id": _image_id(ids, r)} for r in range(n)], frames, where)
+
+
 def _fresh_frames(fmt, frames, n, where, meta, path):
     """The frames of a fresh OpenPose / MMPose file or DeepLabCut table as the
     readers take them (:func:`_frame_numbers`); else `frames` (a read's documents
@@ -1620,6 +1668,13 @@ def _coco_radii_of(anns, missing, path):
     return np.stack([np.full(N_JOINTS, np.nan) if r is None else r for r in radii])
 
 
+def _image_id(ids, r):
+    """A fresh COCO annotation's ``image_id``: pose r's id (an int when it is
+    one), else r as text."""
+    image_id = ids[r] if ids is not None else str(r)
+    return int(image_id) if image_id.lstrip("-").isdigit() else image_id
+
+
 def _write_coco(path, poses, mask, ids, meta, where, filled, filled_score, tracks=None,
                 uncertainty=None, frames=None):
     n = len(poses)
@@ -1639,9 +1694,8 @@ def _write_coco(path, poses, mask, ids, meta, where, filled, filled_score, track
     else:
         anns = []
         for r in range(n):
-            image_id = ids[r] if ids is not None else str(r)
             anns.append({
-                "image_id": int(image_id) if image_id.lstrip("-").isdigit() else image_id,
+                "image_id": _image_id(ids, r),
                 "category_id": 1,
                 "keypoints": [0.0] * 51,
             })

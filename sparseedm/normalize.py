@@ -62,6 +62,8 @@ __all__ = [
     "MIN_OBSERVED_JOINTS",
     "missing_mask",
     "usable_rows",
+    "far_joint",
+    "FAR_JOINT_RATIO",
     "normalize",
     "rms_radius",
     "denormalize",
@@ -158,7 +160,65 @@ def usable_rows(poses):
     with np.errstate(over="ignore", invalid="ignore"):  # the extents recover() refuses
         span = np.ptp(finite, axis=-2).max(axis=-1)
         total = np.abs(finite).sum(axis=-2).max(axis=-1)
-    return ok & np.isfinite(span) & np.isfinite(total) & (span / 2 >= np.finfo(float).tiny)
+    ok &= np.isfinite(span) & np.isfinite(total) & (span / 2 >= np.finfo(float).tiny)
+    ok[ok] = far_joint(poses[ok], np.zeros(poses[ok].shape[:-1], dtype=bool))[0] < 0
+    return ok
+
+
+#: a joint whose removal shrinks the observed extent by more than this factor
+#: (float64's 1 / epsilon) leaves the other joints' distances below the rounding
+#: of the normalised pose: every recovery would read them as one point
+FAR_JOINT_RATIO = 1 / np.finfo(float).eps
+
+
+def far_joint(poses, missing):
+    """Each pose's observed joint so far from the others that the pose is no body.
+
+    A joint without which the observed joints' extent shrinks by more than
+    :data:`FAR_JOINT_RATIO`: beside it, the other joints' distances vanish in
+    the rounding of the normalised pose (a joint at 1e300 next to a body of
+    100 pixels). The other joints all coinciding is not such a case (a
+    two-point pose loses nothing to rounding).
+
+    Parameters
+    ----------
+    poses : ndarray (n, N, 2)
+        Poses whose observed joints are finite with a finite, non-zero extent.
+    missing : ndarray of bool (n, N)
+        Joints left out.
+
+    Returns
+    -------
+    joint : ndarray of int (n,)
+        The far joint's index; -1 where there is none.
+    ratio : ndarray (n,)
+        The extent with the joint over the extent without it; NaN where none.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> p = np.array([[[0.0, 0.0], [3.0, 4.0], [1.0, 2.0]]] * 2)
+    >>> p[1, 1] = [1e300, 0.0]
+    >>> joint, ratio = far_joint(p, np.zeros((2, 3), bool))
+    >>> joint.tolist(), float(ratio[1])
+    ([-1, 1], 5e+299)
+    """
+    lo = np.where(missing[..., None], np.inf, poses)
+    hi = np.where(missing[..., None], -np.inf, poses)
+    if poses.shape[1] < 2:
+        return np.full(len(poses), -1), np.full(len(poses), np.nan)
+    lo2 = np.partition(lo, 1, axis=1)[:, :2]  # the two lowest per axis
+    hi2 = -np.partition(-hi, 1, axis=1)[:, :2]
+    with np.errstate(invalid="ignore", over="ignore"):
+        widest = (hi2[:, 0] - lo2[:, 0]).max(axis=-1)
+        # each joint's extent without it: the second extreme where it is the extreme
+        lo_wo = np.where(poses == lo2[:, :1], lo2[:, 1:], lo2[:, :1])
+        hi_wo = np.where(poses == hi2[:, :1], hi2[:, 1:], hi2[:, :1])
+        rest = (hi_wo - lo_wo).max(axis=-1)
+        ratio = widest[:, None] / np.where(rest > 0, rest, np.nan)
+    far = ~missing & (rest > 0) & (ratio > FAR_JOINT_RATIO)
+    joint = np.where(far.any(axis=1), np.where(far, ratio, -np.inf).argmax(axis=1), -1)
+    return joint, np.where(joint >= 0, np.where(far, ratio, 0.0).max(axis=1), np.nan)
 
 
 def missing_mask(poses, missing=None, *, confidence=None, threshold=0.0):

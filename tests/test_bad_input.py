@@ -38,6 +38,7 @@ from sparseedm.cli import main
 from sparseedm.dataset import build_dataset
 from sparseedm.evaluation import evaluate, sweep_atoms
 from sparseedm.dictionary import Dictionary
+from sparseedm.normalize import usable_rows
 from sparseedm.exceptions import (DictionaryError, FileFormatError, OutputPathError,
                                   ParameterError, SparseEDMError)
 from sparseedm.keypoints import read_keypoints, write_keypoints
@@ -382,6 +383,22 @@ def test_one_extreme_row_gets_a_status_and_the_rest_recover(name, small_dictiona
     else:
         assert res.reason[5] and "observed joint 4" not in res.reason[5]
         assert np.isnan(res.poses[5]).all()
+
+
+def test_a_complete_pose_with_a_joint_far_beyond_the_body_is_refused(small_dictionary):
+    # a joint at 1e300 beside a body of ~100 px: no body, whatever else it is
+    rows = _rows()
+    whole = np.load(FIXTURES / "cmu_poses.npz")["poses2d"][12:14].astype(float)
+    bad = whole[0].copy()
+    bad[7] = [1e300, 5.0]
+    res = recover(np.concatenate([rows, bad[None], whole[1:]]), dictionary=small_dictionary)
+    assert res.status[12] == "out_of_range" and res.reason[12].startswith("joint 7 lies")
+    assert np.isnan(res.poses[12]).all()
+    alone = recover(np.concatenate([rows, whole[1:]]), dictionary=small_dictionary)
+    keep = np.r_[0:12, 13]
+    assert res.status[keep].tolist() == alone.status.tolist()
+    np.testing.assert_array_equal(res.poses[keep], alone.poses)  # the file's rows unchanged
+    assert usable_rows(whole).all() and not usable_rows(bad[None]).any()
 
 
 def test_recovered_rows_are_finite_and_certified(small_dictionary):

@@ -280,3 +280,14 @@ def test_sweep_codes_as_the_sparse_row(split):
     rep = evaluate(d, test, methods=("sparse",), counts=("mix",), representations=("average",),
                    random_state=3)
     assert row["err_ave_mix"] == pytest.approx(rep.rows[0]["err_ave_mean"], rel=1e-9)
+
+
+def test_errors_of_poses_far_beyond_pixel_sizes_are_the_scaled_errors(split):
+    # norms of 1e200-pixel differences overflow unless the errors are scaled first
+    kw = dict(methods=("sparse", "mean-fill"), counts=(1,), representations=("average",))
+    small = evaluate(split["dictionary"], split["test"][:12], **kw)
+    huge = evaluate(split["dictionary"], split["test"][:12] * 1e200, **kw)
+    for a, b in zip(small.rows, huge.rows):
+        for key in ("err_ave_mean", "err_ave_filled", "joint_err_torso"):
+            assert np.isfinite(b[key]) and b[key] == pytest.approx(a[key], rel=1e-6), key
+        assert b["joint_err_px"] == pytest.approx(a["joint_err_px"] * 1e200, rel=1e-6)

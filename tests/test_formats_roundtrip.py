@@ -476,3 +476,29 @@ def test_deeplabcut_fresh_refuses_what_it_cannot_hold(tmp_path, tracks, frames, 
         write_keypoints(tmp_path / "t.csv", np.ones((2, N, 2)), format="dlc",
                         tracks=tracks, frames=frames)
     assert not (tmp_path / "t.csv").exists()
+
+
+@pytest.mark.parametrize("name,fmt,tracks,frames,match", [
+    ("frames", "openpose", None, [-1, 0, 1], "frame number -1 is negative"),
+    ("out.json", "coco", None, [2**60, 0, 1], "frame number '1152921504606846976' is too large"),
+    ("out.csv", "dlc", None, [2**60, 0, 1], "too large"),
+    ("frames", "openpose", ["a", "a", "b"], [0, 1, 0], "track 'a' cannot be an OpenPose"),
+])
+def test_a_run_refuses_what_its_output_cannot_hold_before_recovering(
+        tmp_path, monkeypatch, name, fmt, tracks, frames, match):
+    import sparseedm.batch
+
+    def no_recovery(*args, **kwargs):
+        raise AssertionError("recovered before refusing")
+
+    poses = np.arange(3 * N * 2, dtype=float).reshape(3, N, 2) % 97
+    missing = np.zeros((3, N), dtype=bool)
+    missing[:, 3] = True
+    src = write_keypoints(tmp_path / "in.csv", poses, missing=missing, tracks=tracks,
+                          frames=np.array(frames, dtype=object))
+    monkeypatch.setattr(sparseedm.batch, "recover", no_recovery)
+    out = tmp_path / "out" / name
+    out.parent.mkdir()
+    with pytest.raises(SparseEDMError, match=match):
+        recover_file(src, out, output_format=fmt, progress=False)
+    assert list(out.parent.iterdir()) == []  # nothing written, no errors file

@@ -66,7 +66,7 @@ from . import _base, alphapose
 from ._base import COCO17, EXTRA_KEY, Layout, Person
 
 __all__ = ["BODY_25", "COCO_18", "BODY_135", "LAYOUTS", "read", "write", "is_openpose",
-           "body_key"]
+           "body_key", "check_tracks"]
 
 _SIDES = ("shoulder", "elbow", "wrist")
 _LEGS = ("hip", "knee", "ankle")
@@ -262,6 +262,36 @@ def _fresh(rows, path):
                            EXTRA_KEY: extra})
         docs.append((f"{path.stem}_{frame:012d}{_SUFFIX}", {"version": 1.3, "people": people}))
     return docs, path.suffix.lower() != ".json"
+
+
+def check_tracks(tracks, path):
+    """Refuse `tracks` a fresh OpenPose output cannot hold as ``person_id``
+    (the writer's own rule, :func:`_person_id`, on every pose), so a run can
+    refuse them before it recovers anything.
+
+    Parameters
+    ----------
+    tracks : array_like (n,) or None
+        Each pose's track.
+    path : str or path-like
+        The output, named in the message.
+
+    Raises
+    ------
+    FileFormatError
+        Naming the first pose whose track is not an integer from 0 to 2**63 - 1.
+
+    Examples
+    --------
+    >>> check_tracks([0, 3], "out")
+    >>> check_tracks(["a"], "out")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    sparseedm.exceptions.FileFormatError: writing out: pose 0: track 'a' cannot be ...
+    """
+    if tracks is not None:
+        for r, track in enumerate(np.asarray(tracks).tolist()):
+            _person_id(track, r, path)
 
 
 def _person_id(track, r, path):
