@@ -194,7 +194,9 @@ def test_a_wild_coordinate_stays_on_its_own_row(track, small_dictionary, wild):
         res = recover_temporal(bad, mask_bad, frames=frames, **fixed)
     others = np.arange(len(track)) != 100
     np.testing.assert_array_equal(res.status[others], ref.status[others])
-    assert "jumps" in res.reason[100]  # answered alone (refused per frame at 1e308)
+    # answered alone; at 1e308 refused before any linking: beside that neck
+    # the other joints' distances vanish in rounding (normalize.far_joint)
+    assert ("jumps" if wild < 1e300 else "not a body") in res.reason[100]
     height = np.ptp(track[..., 1], axis=1).mean()
     assert np.abs(res.poses[others] - ref.poses[others]).max() < 0.05 * height
 
