@@ -143,3 +143,21 @@ def test_radius_beyond_float64_falls_back_to_the_box():
     assert np.isfinite(scale) and scale == box_scale and np.array_equal(center, box_center)
     # a moderate pose keeps its radius
     assert normalize(pose * 1e-300, rule="radius")[2] != normalize(pose * 1e-300)[2]
+
+
+def test_the_gaussians_draws_and_fill_rotate_with_the_file(cmu_poses):
+    """The stacked mean's Gaussian fills from the file's poses and their mirror
+    images, each reflected across its own body axis: a file rotated in the
+    image gets the same filled joints rotated (a mirror across the image's
+    vertical would turn the other way)."""
+    from sparseedm.file_atoms import mirror_images
+    from sparseedm.gaussian_fill import local_gaussian_fill
+
+    poses = pixel_poses(cmu_poses, 260)
+    train, query = poses[:200], poses[200:260]
+    missing = random_occlusion(len(query), 14, 2, random_state=4)
+    for angle in (0.7, np.pi):
+        turned = local_gaussian_fill(mirror_images(rotate(train, angle)),
+                                     rotate(query, angle), missing)
+        plain = local_gaussian_fill(mirror_images(train), query, missing)
+        np.testing.assert_allclose(rotate(turned, -angle), plain, atol=1e-6)
