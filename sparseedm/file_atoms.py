@@ -374,16 +374,19 @@ def resolve_fast(dictionary, poses, missing, adapt, *, min_poses=MIN_COMPLETE_PO
 
 
 def mirror_images(poses, skeleton=SKELETON_14):
-    """`poses` followed by their mirror images: each pose reflected across its
-    own body axis, each left joint swapped with its right one.
+    """`poses` followed by their mirror images: each pose reflected across the
+    poses' mean body axis, each left joint swapped with its right one.
 
     A mirror image's distances are the pose's own with the left and right
     labels swapped: another plausible pose of the same people, for free (as
     extra atoms of :func:`file_dictionary`, and draws of the Gaussians of
-    :mod:`sparseedm.gaussian_fill`). The axis is the line through the pose's
-    centre (its joints' mean) from its hips' midpoint to its neck (the
-    image's vertical where a skeleton names no such joints or they meet), so
-    a pose rotated in the image has its mirror image rotated with it.
+    :mod:`sparseedm.gaussian_fill`). Each pose is reflected across the line
+    through its centre (its joints' mean) along the mean over `poses` of the
+    direction from the hips' midpoint to the neck: in a file of people upright
+    in the image that is the image's vertical (a pose leaning one way gets a
+    mirror image leaning the other), and a file rotated in the image has its
+    mirror images rotated with it. (The image's vertical where a skeleton
+    names no such joints or the directions cancel.)
 
     Parameters
     ----------
@@ -404,33 +407,35 @@ def mirror_images(poses, skeleton=SKELETON_14):
     >>> both = mirror_images(pose)
     >>> both.shape, np.round(both[1, 7], 6).tolist()             # now the left wrist
     ((2, 14, 2), [-1.2, 0.0])
-    >>> turned = pose @ np.array([[0.0, 1.0], [-1.0, 0.0]])      # a quarter turn
-    >>> bool(np.allclose(mirror_images(turned)[1], both[1] @ np.array([[0.0, 1.0], [-1.0, 0.0]])))
+    >>> turn = np.array([[0.0, 1.0], [-1.0, 0.0]])                # a quarter turn
+    >>> bool(np.allclose(mirror_images(pose @ turn)[1], both[1] @ turn))
     True
     """
     poses = np.asarray(poses, dtype=float)
     with np.errstate(invalid="ignore"), warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # a row of NaN: its mirror NaN
         centre = np.nanmean(poses, axis=1, keepdims=True)
-    axis = _body_axis(poses, skeleton)[:, None, :]
+    axis = _body_axis(poses, skeleton)
     d = poses - centre
-    reflected = centre + 2 * (d * axis).sum(-1, keepdims=True) * axis - d
+    reflected = centre + 2 * (d @ axis)[..., None] * axis - d
     return np.concatenate([poses, reflected[:, skeleton.flip_permutation()]])
 
 
 def _body_axis(poses, skeleton):
-    """(n, 2) unit vectors from each pose's hips' midpoint to its neck; the
-    image's vertical where there is none."""
+    """The unit mean over `poses` of their directions from the hips' midpoint to
+    the neck; the image's vertical where there is none."""
     names = skeleton.joint_names
-    up = np.zeros((len(poses), 2))
-    if {"neck", "right_hip", "left_hip"} <= set(names):
-        hips = (poses[:, names.index("right_hip")] + poses[:, names.index("left_hip")]) / 2
-        up = poses[:, names.index("neck")] - hips
-    with np.errstate(invalid="ignore", over="ignore"):
-        length = np.hypot(up[:, 0], up[:, 1])
-        good = np.isfinite(length) & (length > 1e-12 * np.nanmax(np.abs(poses), axis=(1, 2),
-                                                                initial=0.0))
-        return np.where(good[:, None], up / np.where(good, length, 1.0)[:, None], [0.0, 1.0])
+    if not {"neck", "right_hip", "left_hip"} <= set(names) or not len(poses):
+        return np.array([0.0, 1.0])
+    hips = (poses[:, names.index("right_hip")] + poses[:, names.index("left_hip")]) / 2
+    up = poses[:, names.index("neck")] - hips
+    with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+        up = up / np.hypot(up[:, 0], up[:, 1])[:, None]
+        mean = np.nansum(np.where(np.isfinite(up), up, np.nan), axis=0)
+        length = np.hypot(*mean)
+    if not (np.isfinite(length) and length > 1e-9 * len(poses)):
+        return np.array([0.0, 1.0])
+    return mean / length
 
 
 def complete_rows(poses, missing=None):
