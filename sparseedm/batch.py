@@ -112,8 +112,7 @@ from .adaptation import MIN_COMPLETE_POSES, sample_stream
 from .dictionary import Dictionary, dictionary_path, check_gram_memory, load_dictionary
 from ._safeio import resolved
 from .ensemble import adapt_members
-from .donors import donor_step
-from .exemplars import EXEMPLAR_OPTIONS, blend_many_hidden, blend_parts, blends, probe_stack
+from .exemplars import EXEMPLAR_OPTIONS, blend_many_hidden, blend_parts, blends, finish_blend
 from .exceptions import FileFormatError, OutputPathError, ParameterError, SparseEDMError
 from .fconv.model import load_model
 from .formats import FILLED_SCORE, count_below, default_threshold, threshold_line
@@ -820,10 +819,8 @@ class _Recovery:
         res = self.answer(poses, missing, rows)
         if self.blend is not None:
             given = np.where(res.missing[..., None], np.nan, np.asarray(poses, float))
-            # as recover(): below the check's complete poses, the stacked mean's
-            # weight from the chunk's probes (and its Gaussian in the donors' probes)
-            res, blend = probe_stack(res, given, res.missing, self.answer, self.blend)
-            res = donor_step(res, given, res.missing, replace(self, blend=blend).answer)
+            res = finish_blend(res, given, res.missing,
+                               lambda blend: replace(self, blend=blend).answer, self.blend)
         if self.adaptation is not None and self.time_axis is None:
             res.uncertainty = joint_uncertainty(res)  # of the final joints, as recover()'s
         return res

@@ -135,7 +135,7 @@ from ._recovery_kernel import FAST_RIDGE, compiled_solver, recover_members
 from .adaptation import (AVERAGED_PATH, GUARD_POSES_PER_PATTERN, MIN_COMPLETE_POSES,
                          MIRRORED_ATOMS_PATH, AdaptationResult, guard_masks,
                          pose_vectors, repeat_rows)
-from .donors import DONOR_MIN_PROBES, DONOR_PROBES, probes
+from .donors import DONOR_MIN_PROBES, DONOR_PROBES, donor_step, probes
 from .edm import observed_entries, pose_to_vector
 from .file_atoms import (atoms_adaptation, complete_rows, file_dictionary, mirror_images,
                          with_file_atoms)
@@ -151,7 +151,7 @@ __all__ = ["EXEMPLAR_MIN_POSES", "EXEMPLAR_MARGIN", "EXEMPLAR_OPTIONS", "Exempla
            "blend_rows", "blend_atoms", "blend_parts", "blend_many_hidden", "ridge_mean_atoms", "blends",
            "AVERAGED_MANY_HIDDEN", "AVERAGED_RIDGE_MEAN", "AVERAGED_GAUSSIAN", "LINEAR_WEIGHTS", "LINEAR_MIN_SE",
            "MAX_LINEAR_FIT", "LINEAR_PROBE_ROUNDS", "LinearStack", "linear_weight", "linear_stack",
-           "probe_stack"]
+           "probe_stack", "finish_blend"]
 
 #: From this many usable complete poses the file's own poses are the atoms,
 #: no check, no adaptation (chosen on validation files: studies/fast/README.md)
@@ -1033,6 +1033,34 @@ def probe_stack(res, poses, missing, answer, blend, random_state=0):
     part, part_missing = _incomplete_sample(poses, missing)
     linear = LinearStack(weight, _linear_draws(poses[complete], part, part_missing))
     return _stacked(res, poses, missing, linear), (*blend[:2], linear)
+
+
+def finish_blend(res, poses, missing, answer_for, blend):
+    """The default path's last steps on a file whose answers are blended
+    (recover() and recover_file()'s chunks alike): :func:`probe_stack`, then
+    :func:`~sparseedm.donors.donor_step`, each answering its probes with
+    ``answer_for(blend)`` for the blend as it then is (so the donors' probes see
+    the Gaussian the first step stacked).
+
+    Parameters
+    ----------
+    res : RecoveryResult
+        The default path's recovery of `poses`, blended (:func:`blend_many_hidden`).
+    poses : ndarray (n, N, 2)
+        The poses (validated), NaN at missing joints.
+    missing : ndarray of bool (n, N)
+    answer_for : callable
+        ``answer_for(blend)`` -> ``answer(poses, missing)`` -> RecoveryResult:
+        the path's answer for other rows of the file with that blend.
+    blend : tuple
+        :func:`blend_parts`' ``(atoms, mean_atoms, linear)``.
+
+    Returns
+    -------
+    RecoveryResult
+    """
+    res, blend = probe_stack(res, poses, missing, answer_for(blend), blend)
+    return donor_step(res, poses, missing, answer_for(blend))
 
 
 def _probe_weight(poses, missing, complete, answer, random_state):

@@ -42,8 +42,7 @@ from ._validation import Options, check_adapt, check_frames, validate_params
 from .normalize import REPRESENTATIONS, representation_for
 from .dictionary import Dictionary, check_gram_memory, load_dictionary
 from .ensemble import adapt_members
-from .donors import donor_step
-from .exemplars import EXEMPLAR_OPTIONS, blend_many_hidden, blend_parts, blends, probe_stack
+from .exemplars import EXEMPLAR_OPTIONS, blend_many_hidden, blend_parts, blends, finish_blend
 from .exceptions import ParameterError, SparseEDMError
 from .keypoints import origin_joints
 from .outliers import check_confidence, mark_outliers, note_outliers
@@ -473,16 +472,15 @@ def _dispatch(poses, missing, tracks, frames, method, model, preset, opts):
             res = blend_many_hidden(res, poses, missing, *atoms, **where,
                                     **{k: kernel[k] for k in BLEND_SETTINGS})
 
-            def answer(p, m):  # the same path's answer for other rows (donor_step's probes)
-                r = recover_members(p, m, members, adaptations, **kernel,
-                                    check_input=False, **where)
-                return blend_many_hidden(r, p, m, *atoms, **where,
-                                         **{k: kernel[k] for k in BLEND_SETTINGS})
+            def answer_for(parts):  # the same path's answer for other rows (the probes)
+                def answer(p, m):
+                    r = recover_members(p, m, members, adaptations, **kernel,
+                                        check_input=False, **where)
+                    return blend_many_hidden(r, p, m, *parts, **where,
+                                             **{k: kernel[k] for k in BLEND_SETTINGS})
+                return answer
 
-            # too few complete poses for the check: the stacked mean's weight from
-            # probes (then in the donors' probes' answers too)
-            res, atoms = probe_stack(res, poses, missing, answer, atoms)
-            res = donor_step(res, poses, missing, answer)
+            res = finish_blend(res, poses, missing, answer_for, atoms)
     return _with_uncertainty(res)
 
 

@@ -50,7 +50,7 @@ def test_twin_rows_give_back_hidden_joints(cmu_poses, monkeypatch):
     assert donors["probe_err_chosen"] < donors["probe_err_default"]
     assert res.summary()["adaptation"]["donors"] == donors  # JSON-able: no inf gate
     json.dumps(donors, allow_nan=False)
-    monkeypatch.setattr(sparseedm.recovery, "donor_step", lambda res, *a: res)
+    monkeypatch.setattr(sparseedm.exemplars, "donor_step", lambda res, *a: res)
     alone = sparseedm.recover(given, missing)
     assert "donors" not in alone.adaptation.settings
     assert _hidden_error(res.poses, truth, missing) < 0.6 * _hidden_error(alone.poses, truth,
@@ -167,7 +167,7 @@ def test_a_file_longer_than_a_block_takes_its_donors_block_by_block(cmu_poses, m
     (its own probes and donors), so the search stays linear in the file's rows."""
     truth, missing = _twins(cmu_poses)
     given = np.where(missing[..., None], np.nan, truth)
-    monkeypatch.setattr(sparseedm.recovery, "donor_step", lambda res, *a: res)
+    monkeypatch.setattr(sparseedm.exemplars, "donor_step", lambda res, *a: res)
     res = sparseedm.recover(given, missing)
     order = np.concatenate([np.arange(120), np.stack([np.arange(120, 200),
                                                       np.arange(200, 280)], 1).ravel()])

@@ -286,8 +286,8 @@ def test_too_few_complete_poses_take_the_weight_from_probes(small_dictionary, tm
     with np.load(tmp_path / "out.npz") as out:
         filed = out["poses"]
     np.testing.assert_allclose(filed[res.ok], res.poses[res.ok], rtol=0, atol=1e-6)
-    for module in (sparseedm.recovery, sparseedm.batch):
-        monkeypatch.setattr(module, "probe_stack", lambda res, p, m, a, blend: (res, blend))
+    monkeypatch.setattr(sparseedm.exemplars, "probe_stack",
+                        lambda res, p, m, a, blend: (res, blend))
     path = recover(given, missing, dictionary=small_dictionary)
     assert "linear_weight" not in path.adaptation.settings
     occ = np.flatnonzero(missing.any(axis=1) & res.ok)
