@@ -65,7 +65,7 @@ from .real_protocol import (body_size, error_summary, group_summaries, hidden_er
                             transplant_masks, transplant_track_mask, usable_patterns)
 from .recovery import recover
 from .temporal import fillers
-from .temporal.evaluation import resolve_methods
+from .temporal.evaluation import edge_jumps, resolve_methods
 from .temporal.protocols import GAP_LENGTHS, RUN_BINS, gap_mask, run_bin, run_lengths
 
 __all__ = ["evaluate_photos", "evaluate_tracks", "track_clips", "clip_cases", "ClipCase",
@@ -79,6 +79,7 @@ PHOTO_CONDITIONS = ("mix", "transplanted")
 #: a clip of evaluate_tracks has at least this many consecutive complete frames
 MIN_CLIP_FRAMES = 30
 _STAT_KEYS = ("n", "scored", "mean", "median", "pckh", "pckh_n", "unfilled", "mean_own")
+_EDGE_KEYS = ("edges", "edge_jump")
 
 
 def video_methods():
@@ -112,7 +113,12 @@ class RealReport:
         or a run-length bin, and ``"overall"``), ``n`` (hidden joints),
         ``scored``, ``mean``, ``median`` (% of body size), ``pckh``
         (PCKh@0.5, NaN without head sizes), ``pckh_n``, ``unfilled``,
-        ``mean_own`` (see :func:`sparseedm.real_protocol.error_summary`).
+        ``mean_own`` (see :func:`sparseedm.real_protocol.error_summary`); for
+        video also ``edges`` and ``edge_jump``: the gap edges in the group
+        (a hidden joint-frame next to an observed one) that every method
+        filled, and the fill's mean excess jump there over the truth's own
+        motion (:func:`sparseedm.temporal.evaluation.edge_jumps`, % of body
+        size; NaN where there is none).
     seconds : dict
         ``{condition: {method: seconds}}``.
     settings : dict
@@ -144,21 +150,27 @@ class RealReport:
 
         Cells are ``mean (median)`` in % of body size, then PCKh@0.5 where
         known; a method that filled joints others left unfilled also shows
-        its mean over all the hidden joints (``[all n: mean]``).
+        its mean over all the hidden joints (``[all n: mean]``). Video
+        tables add the mean excess jump at the gap edges (``edge jump``, %
+        of body size, all groups).
         """
         rows = [r for r in self.rows if r["condition"] == condition]
         groups = list(dict.fromkeys(r["group"] for r in rows))
-        lines = ["| method | " + " | ".join(groups) + " | seconds |",
-                 "|---|" + "---|" * (len(groups) + 1)]
+        jumps = self.protocol == "video"
+        extra = ["edge jump"] if jumps else []
+        lines = ["| method | " + " | ".join(groups + extra) + " | seconds |",
+                 "|---|" + "---|" * (len(groups) + len(extra) + 1)]
         for m in self.methods:
             cells = [_cell(self.row(m, condition, g)) for g in groups]
+            if jumps:
+                cells.append(f"{self.row(m, condition)['edge_jump']:.2f}")
             lines.append(f"| {m} | " + " | ".join(cells)
                          + f" | {self.seconds.get(condition, {}).get(m, float('nan')):.1f} |")
         first = [self.row(self.methods[0], condition, g) for g in groups]
         lines.append("| hidden (scored) joints | " + " | ".join(
             f"{r['n']}" + (f" ({r['scored']})" if r["scored"] < r["n"] else "")
             + (f", PCKh on {r['pckh_n']}" if 0 < r["pckh_n"] < r["scored"] else "")
-            for r in first) + " | |")
+            for r in first) + (f" | {first[-1]['edges']} edges" if jumps else "") + " | |")
         return "\n".join(lines)
 
     def to_json(self):
@@ -168,7 +180,8 @@ class RealReport:
 
     def to_csv(self):
         buf = io.StringIO()
-        writer = csv.DictWriter(buf, fieldnames=("method", "condition", "group") + _STAT_KEYS,
+        keys = _STAT_KEYS + (_EDGE_KEYS if self.protocol == "video" else ())
+        writer = csv.DictWriter(buf, fieldnames=("method", "condition", "group") + keys,
                                 lineterminator="\n")
         writer.writeheader()
         writer.writerows(self.rows)
@@ -611,40 +624,65 @@ def evaluate_tracks(poses, tracks, frames, *, occluded=None, gap_lengths=GAP_LEN
         hidden |= check_mask(occluded, "evaluate_tracks", "occluded")
     fills = _video_fillers(video_methods() if methods is None else tuple(methods), dictionary)
     notes, n_clips, n_frames = [], 0, 0
-    errors, labels, seconds = {}, {}, {}
+    scores = {}
     for _, rows, masks in _progress.steps(clip_cases(
             poses, tracks, frames, hidden, gap_lengths=gap_lengths, transplanted=transplanted,
             min_frames=min_frames, max_clips=max_clips, random_state=random_state,
             notes=notes), f"evaluating {', '.join(fills)} clip by clip", unit="clip"):
         n_clips, n_frames = n_clips + 1, n_frames + len(rows)
-        truth, fr = poses[rows], frames[rows]
-        size = np.full(len(rows), np.nanmedian(body_size(truth)))
+        heads = None if head_size is None else np.asarray(head_size, float)[rows]
         for label, mask in masks.items():
-            cond = "transplanted" if label == "transplanted" else "gaps"
-            group = run_bin(run_lengths(mask)[0])[mask] if cond == "transplanted" \
-                else np.full(int(mask.sum()), label)
-            labels.setdefault(cond, []).append(group)
-            given = np.where(mask[..., None], np.nan, truth)
-            for name, fill in fills.items():
-                start = time.perf_counter()
-                filled = fill(given, mask, fr)
-                spent = seconds.setdefault(cond, {})
-                spent[name] = spent.get(name, 0.0) + time.perf_counter() - start
-                errors.setdefault(cond, {}).setdefault(name, []).append(hidden_errors(
-                    filled, truth, mask, size, None if head_size is None
-                    else np.asarray(head_size, float)[rows]))
+            _score_case(scores, fills, poses[rows], frames[rows], heads, label, mask)
     rows_out = []
-    for cond, per_method in errors.items():
+    for cond, sc in scores.items():
         order = [f"gap {L}" for L in gap_lengths] if cond == "gaps" else \
             [label for _, _, label in RUN_BINS]
-        joined = {m: _concat(parts) for m, parts in per_method.items()}
-        rows_out += _rows(cond, joined, np.concatenate(labels[cond]), order)
+        joined = {m: _concat(parts) for m, parts in sc["errors"].items()}
+        cond_rows = _rows(cond, joined, np.concatenate(sc["labels"]), order)
+        _edge_rows(cond_rows, {m: np.concatenate(j) for m, j in sc["jumps"].items()},
+                   np.concatenate(sc["edge_labels"]))
+        rows_out += cond_rows
+    seconds = {cond: sc["seconds"] for cond, sc in scores.items()}
     settings = {"clips": n_clips, "frames": int(n_frames),
                 "tracks": int(len(np.unique(tracks))), "min_frames": int(min_frames),
                 "gap_lengths": [int(L) for L in gap_lengths], "transplanted": transplanted,
                 "random_state": int(random_state), "pckh": head_size is not None,
                 "notes": notes}
     return RealReport("video", rows_out, seconds, settings)
+
+
+def _score_case(scores, fills, truth, frames, heads, label, mask):
+    """Hide `mask` on one clip, fill it with each of `fills`, and add the hidden
+    joints' errors, their edges' excess jumps and the seconds to `scores`."""
+    cond = "transplanted" if label == "transplanted" else "gaps"
+    sc = scores.setdefault(cond, {"errors": {}, "jumps": {}, "seconds": {}, "labels": [],
+                                  "edge_labels": []})
+    size = np.full(len(truth), np.nanmedian(body_size(truth)))
+    bins = run_bin(run_lengths(mask)[0]) if cond == "transplanted" \
+        else np.full(mask.shape, label)
+    edges = np.isfinite(edge_jumps(truth, truth, mask, frames))    # (T, 14, 2)
+    sc["labels"].append(bins[mask])
+    sc["edge_labels"].append(np.broadcast_to(bins[..., None], edges.shape)[edges])
+    given = np.where(mask[..., None], np.nan, truth)
+    for name, fill in fills.items():
+        start = time.perf_counter()
+        filled = fill(given, mask, frames)
+        sc["seconds"][name] = sc["seconds"].get(name, 0.0) + time.perf_counter() - start
+        sc["errors"].setdefault(name, []).append(hidden_errors(filled, truth, mask, size, heads))
+        jump = edge_jumps(truth, filled, mask, frames) / size[:, None, None] * 100.0
+        sc["jumps"].setdefault(name, []).append(jump[edges])
+
+
+def _edge_rows(rows, jumps, labels):
+    """Add ``edges`` and ``edge_jump`` to each of one condition's `rows`: the mean
+    excess jump over the group's edges (all of them for ``"overall"``) that
+    every method filled."""
+    common = np.logical_and.reduce([np.isfinite(j) for j in jumps.values()])
+    for r in rows:
+        sel = common & ((labels == r["group"]) if r["group"] != "overall" else True)
+        j = jumps[r["method"]][sel]
+        r["edges"] = int(j.size)
+        r["edge_jump"] = float(j.mean()) if j.size else float("nan")
 
 
 def _concat(parts):

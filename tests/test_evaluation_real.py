@@ -203,6 +203,34 @@ def test_tracks_still_people_are_exact_for_interpolation():
     assert rep.settings["clips"] == 2
 
 
+def test_tracks_score_the_jump_at_gap_edges(monkeypatch):
+    """A fill that is 3 px off where the truth is still jumps 3 px at every edge
+    of every gap (in % of the clip's body size); interpolation does not jump."""
+    from sparseedm.real_protocol import body_size
+    from sparseedm.temporal import fillers
+
+    def shifted(poses, missing, frames):
+        out = fillers.fill_linear(poses, missing, frames)
+        out[missing] += [3.0, 0.0]
+        return out
+
+    monkeypatch.setitem(fillers.FILLERS, "shifted", shifted)
+    poses, tracks, frames = _still_tracks()
+    rep = evaluate_tracks(poses, tracks, frames, gap_lengths=(3, 10),
+                          methods=["linear", "shifted"])
+    size = float(body_size(poses[:1])[0])
+    for cond in rep.conditions:
+        lin, off = rep.row("linear", cond), rep.row("shifted", cond)
+        assert lin["edges"] == off["edges"] > 0
+        assert lin["edge_jump"] == 0.0
+        assert off["edge_jump"] == pytest.approx(3.0 / size * 100.0)
+    # at most two edges per gap of 3 frames (fewer where gaps touch or meet a clip end)
+    gap3 = rep.row("linear", "gaps", "gap 3")
+    assert 0 < gap3["edges"] <= 2 * gap3["n"] / 3
+    assert "| edge jump |" in rep.table("gaps").splitlines()[0]
+    assert "edge_jump" in rep.to_csv().splitlines()[0]
+
+
 def test_tracks_with_sparseedm_and_a_clip_sample(small_dictionary):
     poses, tracks, frames = _still_tracks()
     rep = evaluate_tracks(poses, tracks, frames, gap_lengths=(10,), max_clips=1,

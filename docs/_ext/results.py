@@ -212,18 +212,22 @@ def _real_people_tables(obj):
                 conditions.append(r["condition"])
         for condition in conditions:
             rows = [r for r in result["rows"] if r["condition"] == condition]
-            groups, methods, cells, own = [], [], {}, {}
+            groups, methods, cells, own, jump = [], [], {}, {}, {}
             for r in rows:
                 groups += [r["group"]] if r["group"] not in groups else []
                 methods += [r["method"]] if r["method"] not in methods else []
                 cells[r["method"], r["group"]] = r["mean"]
                 if r["group"] == "overall":
                     own[r["method"]] = r.get("mean_own", r["mean"])
+                    if "edge_jump" in r:
+                        jump[r["method"]] = r["edge_jump"]
             seconds = result.get("seconds", {}).get(condition, {})
             extra = any(own[m] != cells[m, "overall"] for m in own)
-            header = ["method"] + groups + (["overall, every hidden joint"] if extra else [])
+            header = ["method"] + groups + (["overall, every hidden joint"] if extra else []) \
+                + (["excess jump at gap edges"] if jump else [])
             body = [[clean(m)] + [fmt(cells.get((m, g))) for g in groups]
-                    + ([fmt(own.get(m))] if extra else []) + [fmt(seconds.get(m))]
+                    + ([fmt(own.get(m))] if extra else [])
+                    + ([fmt(jump.get(m))] if jump else []) + [fmt(seconds.get(m))]
                     for m in methods]
             out.append(nodes.rubric(text=f"{source} · {condition}: mean error of the hidden "
                                          "joints, % of body size"))
