@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import sys
 
-from ._common import (SELECTION_HELP, add_input_format, add_joint_map, add_quiet, refusals_said,
-                      show_progress)
+from ._common import (INPUT_HELP, SELECTION_HELP, add_input_format, add_joint_map, add_quiet,
+                      refusals_said, show_progress)
 
 
 def add_parser(sub):
@@ -31,10 +31,7 @@ def add_parser(sub):
         "errors file. --plot draws a few lifted poses. "
         "Exit code 0: all rows lifted; 1: some refused; 2: bad input.",
     )
-    p.add_argument("input", help="keypoints: .csv, .npz, .npy, COCO-style .json, OpenPose "
-                   ".json or a folder of them, MMPose predictions .json or a folder of "
-                   "per-image files, AlphaPose results .json, DeepLabCut .csv/.h5 (see "
-                   "sparseedm.formats)")
+    p.add_argument("input", help=INPUT_HELP)
     p.add_argument("-o", "--output", required=True,
                    help="3D output: .csv, .npz, .json or .trc (OpenSim)")
     p.add_argument("--lifter", default=None, metavar="NAME|PATH",
