@@ -187,3 +187,17 @@ def test_info_names_every_shipped_file(capsys):
     said = " ".join(capsys.readouterr().out.split()).replace("- ", "-")
     for name in [*available_dictionaries(), *available_lifters()]:
         assert name in said, name
+
+
+def test_self_training_help_states_the_video_rule():
+    """--self-training's default with frames: the rounds run from SELF_TRAINING_MIN_FRAMES
+    poses on (sparseedm.temporal.recover.adapts), as recover's and lift's help say."""
+    from sparseedm.adaptation import SELF_TRAINING_ROUNDS
+    from sparseedm.temporal.recover import SELF_TRAINING_MIN_FRAMES
+
+    sub = next(a for a in build_parser()._actions if a.dest == "command")
+    for command in ("recover", "lift"):
+        text = " ".join(next(a.help for a in sub.choices[command]._actions
+                             if a.dest == "self_training").split())
+        assert f"default {SELF_TRAINING_ROUNDS}" in text, command
+        assert f"from {SELF_TRAINING_MIN_FRAMES} poses on" in text, command

@@ -77,8 +77,8 @@ def add_parser(sub):
                    help="with frames: do not adapt that 2D dictionary to INPUT (faster; by "
                    "default it is adapted and guarded as recover adapts)")
     g.add_argument("--self-training", type=int, default=None, metavar="ROUNDS",
-                   help="with frames: rounds of self-training after adapting (default 3; "
-                   "0 turns it off, the fast preset)")
+                   help="with frames: rounds of self-training after adapting (default 3 "
+                   "from 1000 poses on, none below; 0 turns it off: faster)")
     p.add_argument("--chunk-size", type=int, default=50_000, metavar="N",
                    help="poses lifted at a time (whole tracks at a time with frames, a "
                    "longer track in windows); "

@@ -131,7 +131,8 @@ def _add_adaptation_options(p):
                    "format; a video's time-completed frames too) instead of INPUT's")
     add_adaptation_rounds(
         p, "after adapting, rounds of self-training on INPUT's incomplete poses (recover a "
-        "sample, adapt again with them; the last round guarded); default 3, 0 turns it off",
+        "sample, adapt again with them; the last round guarded); default 3 (with frames: "
+        "from 1000 poses on, none below), 0 turns it off",
         "adapt K times (seeds 0..K-1) and average the K recoveries: lower error, K times "
         "the work (default 1; sparseedm.ensemble); one dictionary, with a warning, when "
         "the adaptation is not adopted or INPUT's own poses are the atoms")
