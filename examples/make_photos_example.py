@@ -6,7 +6,8 @@ The people of the COCO 2017 validation images that the project's real-people
 split (``benchmarks/real2d.py``: ``split(...) == "val"``, by image) puts in
 ``val``: every non-crowd person with at least one keypoint, as the COCO
 keypoint annotations give them (x, y, v per keypoint; v = 0 where the joint is
-not annotated, hidden or out of the image), and their images' ids and sizes.
+not annotated, hidden or out of the image), and their images' ids and sizes
+(each image once).
 Nothing else is kept (no segmentation, no image). None of these people is in
 a shipped dictionary (``cmu-coco-k2466`` and ``cmu-coco-k2932`` hold the
 ``train`` images' people).
@@ -52,11 +53,15 @@ def example(data_dir):
         "licenses": [{"id": 1, "name": "Attribution 4.0 International (CC BY 4.0)",
                       "url": "https://creativecommons.org/licenses/by/4.0/"}],
         "images": [{k: im[k] for k in ("id", "file_name", "width", "height")}
-                   for im in sorted(doc["images"], key=lambda im: im["id"])
-                   if im["id"] in images],
+                   for im in _unique(doc["images"]) if im["id"] in images],
         "annotations": [{k: a[k] for k in KEEP if k in a} for a in anns],
         "categories": [c for c in doc["categories"] if c.get("name") == "person"],
     }
+
+
+def _unique(images):
+    """`images` sorted by id, each id once (the source lists an image once per person)."""
+    return sorted({im["id"]: im for im in images}.values(), key=lambda im: im["id"])
 
 
 def main(argv=None):

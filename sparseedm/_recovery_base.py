@@ -164,6 +164,23 @@ class RecoveryResult:
         With ``averaged``: the distance (the input's units) between the two
         answers averaged at each filled joint (the largest when averaged
         twice), 0 where nothing was averaged.
+
+    Examples
+    --------
+    >>> import numpy as np, sparseedm
+    >>> pose = np.array([[50, 10], [50, 30], [35, 32], [30, 55], [28, 78],
+    ...                  [65, 32], [70, 55], [72, 78], [40, 80], [40, 115],
+    ...                  [40, 150], [60, 80], [60, 115], [60, 150]], float)
+    >>> poses = np.stack([pose, pose, np.full_like(pose, np.nan)])
+    >>> poses[0, 4] = np.nan                        # a hidden right wrist
+    >>> res = sparseedm.recover(poses)
+    >>> res.status.tolist()
+    ['recovered', 'complete', 'too_few_observed']
+    >>> res.summary()["status"], res.ok.tolist()
+    ({'recovered': 1, 'complete': 1, 'too_few_observed': 1}, [True, True, False])
+    >>> filled = res.missing & res.ok[:, None]       # the joints filled
+    >>> bool((res.uncertainty[filled] > 0).all()), res.take([0]).poses.shape
+    (True, (1, 14, 2))
     """
 
     poses: np.ndarray

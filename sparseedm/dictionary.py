@@ -60,14 +60,18 @@ class Dictionary:
     Parameters
     ----------
     components : ndarray, shape (n_components, n_features)
-        Unit-norm atoms as rows.
+        Unit-norm atoms as rows; n_features = N(N-1)/2 distances for N joints.
     joint_names : tuple of str
+        The N joints, in the order of the poses the atoms code (default the
+        14-joint layout, :data:`sparseedm.skeleton.JOINT_NAMES`).
     alpha_recover : float
         Recommended lasso penalty for recovery (before `alpha_scaling`).
     alpha_train : float
+        The lasso penalty the atoms were learned with.
     alpha_scaling : {"entries", "none"}
         How recovery scales alpha with the number of observed entries.
     positive_code : bool
+        Codes are non-negative (learned so, and recovered so by default).
     representation, normalization : str
         How the training vectors were made.
     recovery_scale : {"radius", "box"}
@@ -77,7 +81,10 @@ class Dictionary:
         (the bounding box, which a rotation changes; files that predate the
         field, whose alpha was chosen with it, keep it).
     provenance : dict
+        What the atoms were learned from and with which settings (files,
+        pose count, the training poses' sha256, seeds): JSON-able.
     library_version : str
+        The sparseedm version that wrote the dictionary.
 
     Examples
     --------
@@ -120,18 +127,28 @@ class Dictionary:
 
     @property
     def n_components(self) -> int:
+        """The number of atoms, k."""
         return self.components.shape[0]
 
     @property
     def n_features(self) -> int:
+        """The length of an atom: N(N-1)/2 distances."""
         return self.components.shape[1]
 
     @property
     def n_joints(self) -> int:
+        """The number of joints N."""
         return len(self.joint_names)
 
     def meta(self) -> dict:
-        """The JSON-able metadata stored beside the arrays."""
+        """The JSON-able metadata stored beside the arrays.
+
+        Returns
+        -------
+        dict
+            The format version, the alphas and their scaling, the code sign,
+            the normalisations, `provenance` and the library version.
+        """
         return {
             "format_version": FORMAT_VERSION,
             "alpha_recover": float(self.alpha_recover),
@@ -177,7 +194,32 @@ class Dictionary:
         return replace(self, components=self.components[:, _mirror_entries(self.n_joints)])
 
     def save(self, path):
-        """Write the dictionary atomically to `path` (.npz)."""
+        """Write the dictionary atomically to `path` (.npz).
+
+        Parameters
+        ----------
+        path : str or path-like
+            The file to write; it must end in ``.npz``.
+
+        Returns
+        -------
+        Path
+            `path`, written.
+
+        Raises
+        ------
+        DictionaryError
+            `path` does not end in ``.npz``.
+
+        Examples
+        --------
+        >>> import tempfile, pathlib
+        >>> d = load_dictionary()
+        >>> with tempfile.TemporaryDirectory() as tmp:
+        ...     path = d.save(pathlib.Path(tmp) / "mine.npz")
+        ...     load_dictionary(path).n_components
+        2000
+        """
         path = Path(path)
         if path.suffix != ".npz":
             raise DictionaryError(f"{path}: a dictionary file must end in .npz")
@@ -188,7 +230,15 @@ class Dictionary:
         ), compressed=True)
 
     def describe(self) -> str:
-        """A few lines a person reads (what ``sparseedm info`` prints)."""
+        """A few lines a person reads (what ``sparseedm info`` prints).
+
+        Returns
+        -------
+        str
+            Atoms and joints, alphas, normalisations, what the atoms were
+            learned from, the settings and the version that wrote them, one
+            per line.
+        """
         p = self.provenance or {}
         lines = [
             f"{self.n_components} atoms over {self.n_features} distances "
@@ -417,6 +467,15 @@ def load_dictionary(name_or_path=None, *, n_joints=None) -> Dictionary:
     DictionaryError
         Missing, truncated, pickled or malformed file; non-finite or
         non-unit atoms; wrong joint count.
+
+    Examples
+    --------
+    >>> import sparseedm
+    >>> d = sparseedm.load_dictionary()            # the shipped default
+    >>> d.n_components, d.n_joints
+    (2000, 14)
+    >>> sparseedm.load_dictionary("cmu-coco-k2932").n_components
+    2932
     """
     validate_params("load_dictionary", dict(name_or_path=name_or_path, n_joints=n_joints),
                     {"name_or_path": ["path", None],

@@ -269,6 +269,15 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         frontier of the results pages). Per pose only: with `frames` it needs
         ``temporal=False``; `ensemble`, `self_training` and ``exemplars=False``
         are refused with it.
+    confidence : array_like (n, N), optional
+        The detector's score of each joint in [0, 1] (NaN: none). Turns on the
+        outlier check: an observed joint scored below 0.3 that the pose model
+        and its track (with `frames`) both contradict is treated as missing
+        and filled (:mod:`sparseedm.outliers`). Scores do not make joints
+        missing here: drop those under your cut-off first (the file readers
+        do, :func:`sparseedm.keypoints.read_keypoints`).
+    outliers : bool, default True
+        False turns the outlier check off (the scores are then unused).
     exemplars : {"auto", False}, default "auto"
         (with ``adapt="auto"``, per pose; the video path, with `frames`, does
         not use it) ``"auto"``: the file's own complete poses are the only
@@ -297,19 +306,14 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         held-back poses were recovered better so, every occluded pose gets the
         mean of that answer and the local ridge's over the base with the
         complete poses as extra atoms
-        (:func:`~sparseedm.exemplars.ridge_mean_atoms`). ``False``:
+        (:func:`~sparseedm.exemplars.ridge_mean_atoms`); then with a Gaussian's
+        answer over the file's poses at a weight the check chooses
+        (:func:`~sparseedm.gaussian_fill.local_gaussian_fill`), and last a
+        hidden joint that the file's other rows show is moved toward them
+        where probes say so (:func:`~sparseedm.donors.donor_step`). ``False``:
         adapt as described under `adapt` (below MIN_COMPLETE_POSES: the base
         with the complete poses as extra atoms), no blend.
         ``res.adaptation.summary()["path"]`` says which ran.
-    confidence : array_like (n, N), optional
-        The detector's score of each joint in [0, 1] (NaN: none). Turns on the
-        outlier check: an observed joint scored below 0.3 that the pose model
-        and its track (with `frames`) both contradict is treated as missing
-        and filled (:mod:`sparseedm.outliers`). Scores do not make joints
-        missing here: drop those under your cut-off first (the file readers
-        do, :func:`sparseedm.keypoints.read_keypoints`).
-    outliers : bool, default True
-        False turns the outlier check off (the scores are then unused).
     mirror : {False, True, "auto"}, optional
         Default ``"auto"`` with ``adapt=False`` and no `dictionary` (poses
         coded one by one), else False.

@@ -153,3 +153,51 @@ def test_recover_presets_are_the_apis(capsys):
         assert args.preset == preset
     with pytest.raises(SystemExit):
         build_parser().parse_args(["recover", "in", "-o", "o.csv", "--preset", "fastest"])
+
+
+def test_fit_lifter_states_the_defaults_it_uses():
+    """fit-lifter leaves unset options to lifting.defaults.DEFAULTS: its help states them."""
+    from sparseedm.cli import build_parser
+    from sparseedm.lifting.defaults import DEFAULTS
+
+    sub = next(a for a in build_parser()._actions if a.dest == "command").choices["fit-lifter"]
+    said = {a.dest: " ".join(a.help.split()) for a in sub._actions if a.help}
+    d, mlp, fconv = DEFAULTS["dictionary"], DEFAULTS["mlp"], DEFAULTS["fconv"]
+    stated = {"atoms": f"(default {d['n_components']})", "alpha_lift": f"(default {d['alpha_lift']})",
+              "weight": f"(default {d['weight']:g})", "passes": f"(default {d['n_passes']:g})",
+              "decoder_ridge": f"(default {d['decoder_ridge']}",
+              "hidden": "(default " + ",".join(map(str, mlp["hidden_layer_sizes"])) + ")",
+              "max_iter": f"(default {mlp['max_iter']})",
+              "channels": "(default " + ",".join(map(str, fconv["channels"])) + ")",
+              "epochs": f"(default {fconv['max_epochs']})",
+              "representation": f"(default {fconv['representation']})",
+              "normalization": f"(default {d['normalization']})"}
+    for dest, text in stated.items():
+        assert text in said[dest], (dest, said[dest])
+    assert f"(default {d['alpha']})" in said["alpha"] and f"(default {mlp['alpha']:g})" in said["alpha"]
+
+
+def test_info_names_every_shipped_file(capsys):
+    """`sparseedm info --help` names every shipped dictionary and lifter."""
+    from sparseedm.dictionary import available_dictionaries
+    from sparseedm.lifting.base import available_lifters
+
+    with pytest.raises(SystemExit):
+        main(["info", "--help"])
+    said = " ".join(capsys.readouterr().out.split()).replace("- ", "-")
+    for name in [*available_dictionaries(), *available_lifters()]:
+        assert name in said, name
+
+
+def test_self_training_help_states_the_video_rule():
+    """--self-training's default with frames: the rounds run from SELF_TRAINING_MIN_FRAMES
+    poses on (sparseedm.temporal.recover.adapts), as recover's and lift's help say."""
+    from sparseedm.adaptation import SELF_TRAINING_ROUNDS
+    from sparseedm.temporal.recover import SELF_TRAINING_MIN_FRAMES
+
+    sub = next(a for a in build_parser()._actions if a.dest == "command")
+    for command in ("recover", "lift"):
+        text = " ".join(next(a.help for a in sub.choices[command]._actions
+                             if a.dest == "self_training").split())
+        assert f"default {SELF_TRAINING_ROUNDS}" in text, command
+        assert f"from {SELF_TRAINING_MIN_FRAMES} poses on" in text, command

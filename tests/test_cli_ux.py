@@ -129,7 +129,7 @@ def test_api_warnings_are_one_line_in_the_cli_and_warnings_in_the_api(capsys):
 def test_help_names_every_format_recover_reads_and_writes(capsys):
     sub = next(a for a in build_parser()._actions if a.dest == "command")
     summary = next(c.help for c in sub._choices_actions if c.dest == "recover")
-    for fmt in ("OpenPose", "MMPose", "DeepLabCut .csv/.h5", "COCO"):
+    for fmt in ("OpenPose", "MMPose", "AlphaPose", "PoseTrack", "DeepLabCut .csv/.h5", "COCO"):
         assert fmt in summary
     out = next(a for a in sub.choices["recover"]._actions if a.dest == "output").help
     for what in (".h5", "folder", "MMPose .json", ".npy"):

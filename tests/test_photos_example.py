@@ -15,7 +15,8 @@ EXAMPLE = ROOT / "examples" / "coco_photos.json"
 
 def test_it_holds_what_its_docs_say():
     doc = json.loads(EXAMPLE.read_text(encoding="utf-8"))
-    n_people, n_images = len(doc["annotations"]), len(doc["images"])
+    n_people, n_images = len(doc["annotations"]), len({im["id"] for im in doc["images"]})
+    assert len(doc["images"]) == n_images  # each image once
     said = f"{n_people} people of {n_images} COCO photos"
     assert said in " ".join((ROOT / "README.md").read_text(encoding="utf-8").split())
     tutorial = (ROOT / "docs" / "tutorials" / "00_photos.py").read_text(encoding="utf-8")

@@ -4,7 +4,7 @@ Photos of people: a COCO file, filled and lifted
 
 A keypoint detector or an annotator run on photos leaves joints out: an arm
 behind the body, legs outside the picture, a face turned away. This tutorial
-takes ``examples/coco_photos.json``, 243 people in 334 COCO photos as COCO
+takes ``examples/coco_photos.json``, 243 people in 87 COCO photos as COCO
 annotates them (17 keypoints, ``v = 0`` where a keypoint is not there), fills
 in their hidden joints, says what was done to each person, checks the answer on
 joints whose truth is known, and lifts the people to 3D.

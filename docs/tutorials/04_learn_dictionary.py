@@ -105,5 +105,5 @@ sh("sparseedm dataset build mocap -o train2.npz --seed 0", work, expect=1)
 # ``sparseedm info default`` says and :doc:`/explanation/settings` explains).
 # ``fit`` shows a progress bar with the time left; Ctrl-C leaves a checkpoint
 # and ``--resume`` continues from it. To start from the shipped dictionary
-# instead of from scratch, ``sparseedm fit mine.npz -o tuned.npz --init default``
+# instead of from scratch, ``sparseedm fit train.npz -o tuned.npz --init default``
 # fine-tunes it on your poses.

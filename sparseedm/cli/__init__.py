@@ -34,9 +34,10 @@ COMMANDS = ("dataset", "fit", "info", "recover", "plot", "evaluate", "fit_cnn", 
 EXIT_OK, EXIT_REFUSED_ROWS, EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
 #: the package's folder: warnings raised from inside it are shown as one line
 _PACKAGE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-_EPILOG = ("exit codes: 0 every row done; 1 some rows refused (outputs written, the errors "
-           "file lists them); 2 bad input or arguments (nothing written); 3 internal error "
-           "(a bug: rerun with --debug for the traceback); 130 interrupted")
+_EPILOG = ("exit codes: 0 every row done; 1 some rows refused or input files unreadable "
+           "(outputs written, the errors file lists them); 2 bad input or arguments "
+           "(nothing written); 3 internal error (a bug: rerun with --debug for the "
+           "traceback); 130 interrupted")
 
 
 class _Parser(argparse.ArgumentParser):

@@ -6,6 +6,11 @@ import sys
 from pathlib import Path
 
 
+#: INPUT of recover and lift: the keypoint files read_keypoints reads
+INPUT_HELP = ("keypoints: .csv, .npz, .npy, COCO-style or PoseTrack .json, OpenPose .json or "
+              "a folder of them, MMPose predictions .json or a folder of per-image files, "
+              "AlphaPose results .json, DeepLabCut .csv/.h5 (see sparseedm.formats)")
+
 #: how --frames / --rows are read (sparseedm.plotting.select_values)
 SELECTION_HELP = ("a range LO:HI (HI excluded; an end may be left out), single numbers, or "
                   "several joined by commas, e.g. 10:40 or 3,10:20")

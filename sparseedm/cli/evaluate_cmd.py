@@ -47,7 +47,8 @@ def add_parser(sub):
                    help="occlusion representations (default average,zero)")
     p.add_argument("--seed", type=int, default=0, help="occlusion seed (default 0)")
     p.add_argument("--max-poses", type=int, default=None,
-                   help="evaluate a seeded subsample of this many test poses")
+                   help="evaluate a seeded subsample of this many test poses "
+                   "(default: every test pose)")
     p.add_argument("--max-train", type=int, default=5000,
                    help="the knn, iterative and nearest baselines are fitted on a seeded "
                    "sample of at most this many --train poses (default 5000, which keeps "
@@ -61,7 +62,7 @@ def add_parser(sub):
     p.add_argument("--sweep-alpha", type=float, default=None,
                    help="training alpha of the sweep dictionaries (default: the "
                    "evaluated dictionary's; their recovery alpha is --alpha or its)")
-    p.add_argument("--jobs", type=int, default=1, help="joblib workers for the recovery")
+    p.add_argument("--jobs", type=int, default=1, help="joblib workers for the recovery (default 1)")
     p.add_argument("--fconv-model", action="append", default=[], metavar="PATH",
                    help="FConv model from `sparseedm fit-cnn` (repeat: one per representation); "
                    "adds the fconv method (needs the torch extra)")

@@ -28,7 +28,7 @@ def add_parser(sub):
     )
     p.add_argument("--data", required=True,
                    help="test .npz with poses2d, poses3d, cameras (sparseedm dataset build)")
-    p.add_argument("--lifter", default="default", help="dictionary lifter (name or .npz)")
+    p.add_argument("--lifter", default="default", help="dictionary lifter (name or .npz; default: the shipped default)")
     p.add_argument("--mlp", default=None, help="an mlp (FConn) lifter .npz to compare")
     p.add_argument("--fconv", default=None, help="an fconv lifter .npz to compare (torch extra)")
     p.add_argument("--fconv-zero", default=None, metavar="MODEL",
@@ -48,10 +48,11 @@ def add_parser(sub):
                    "applyspar, knn, iterative, nearest, joint, applyzero, applyave, "
                    "zero+basl, ave+basl (default all; FConv rows need their models)")
     p.add_argument("--counts", default="1,2,3,mix", help="occlusion counts (default 1,2,3,mix)")
-    p.add_argument("--max-poses", type=int, default=None, help="seeded subsample of test poses")
-    p.add_argument("--max-train", type=int, default=20000, help="imputer training poses")
+    p.add_argument("--max-poses", type=int, default=None, help="seeded subsample of test poses (default: every test pose)")
+    p.add_argument("--max-train", type=int, default=20000, help="imputer training poses: a seeded sample of at most "
+                   "this many --train poses (default 20000)")
     p.add_argument("--seed", type=int, default=0, help="occlusion seed (default 0)")
-    p.add_argument("--jobs", type=int, default=1, help="threads for the lasso")
+    p.add_argument("--jobs", type=int, default=1, help="threads for the lasso (default 1)")
     p.add_argument("-o", "--output", required=True, help="report directory")
     add_quiet(p)
     p.set_defaults(func=run)

@@ -44,9 +44,10 @@ def add_parser(sub):
                    "chosen on validation: docs/explanation/settings.md)")
     p.add_argument("--positive-code", action="store_true", help="non-negative codes")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    p.add_argument("--jobs", type=int, default=None, help="threads for the coding step")
+    p.add_argument("--jobs", type=int, default=None, help="threads for the coding step (default: numba's thread count, normally all cores)")
     p.add_argument("--checkpoint", default=None,
-                   help="checkpoint file (default OUTPUT with .ckpt.npz)")
+                   help="checkpoint file, written every 20 mini-batches (default "
+                   "OUTPUT with .ckpt.npz)")
     p.add_argument("--resume", action="store_true",
                    help="continue from the checkpoint of an interrupted run")
     add_quiet(p)

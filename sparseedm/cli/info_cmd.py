@@ -12,10 +12,16 @@ def add_parser(sub):
         The ``sparseedm`` parser's sub-commands.
     """
     p = sub.add_parser("info", help="describe a dictionary, lifter or FConv model file (or a "
-                       "shipped one by name)")
-    p.add_argument("dictionary", nargs="?", default="default",
-                   help="path to a dictionary or lifter .npz, or a shipped name "
-                   "(default: default)")
+                       "shipped one by name)",
+                       description="Print what a dictionary, lifter or FConv model file "
+                       "holds: its size, alphas, normalisation, what it was learned from "
+                       "and with which settings. Shipped dictionaries: default "
+                       "(cmu-all-k2000, the base recover starts from), cmu-k2000, "
+                       "cmu-coco-k2466, cmu-coco-k2932 (the prior of recover --no-adapt); "
+                       "shipped lifter: cmu-lift (lift's default).")
+    p.add_argument("dictionary", nargs="?", default="default", metavar="NAME|PATH",
+                   help="a dictionary, lifter or FConv model .npz, or a shipped name "
+                   "(default: default, the default dictionary)")
     p.set_defaults(func=run)
 
 

@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import sys
 
-from ._common import (SELECTION_HELP, add_input_format, add_joint_map, add_quiet, refusals_said,
-                      show_progress)
+from ._common import (INPUT_HELP, SELECTION_HELP, add_input_format, add_joint_map, add_quiet,
+                      refusals_said, show_progress)
 
 
 def add_parser(sub):
@@ -31,10 +31,7 @@ def add_parser(sub):
         "errors file. --plot draws a few lifted poses. "
         "Exit code 0: all rows lifted; 1: some refused; 2: bad input.",
     )
-    p.add_argument("input", help="keypoints: .csv, .npz, .npy, COCO-style .json, OpenPose "
-                   ".json or a folder of them, MMPose predictions .json or a folder of "
-                   "per-image files, AlphaPose results .json, DeepLabCut .csv/.h5 (see "
-                   "sparseedm.formats)")
+    p.add_argument("input", help=INPUT_HELP)
     p.add_argument("-o", "--output", required=True,
                    help="3D output: .csv, .npz, .json or .trc (OpenSim)")
     p.add_argument("--lifter", default=None, metavar="NAME|PATH",
@@ -80,8 +77,8 @@ def add_parser(sub):
                    help="with frames: do not adapt that 2D dictionary to INPUT (faster; by "
                    "default it is adapted and guarded as recover adapts)")
     g.add_argument("--self-training", type=int, default=None, metavar="ROUNDS",
-                   help="with frames: rounds of self-training after adapting (default 3; "
-                   "0 turns it off, the fast preset)")
+                   help="with frames: rounds of self-training after adapting (default 3 "
+                   "from 1000 poses on, none below; 0 turns it off: faster)")
     p.add_argument("--chunk-size", type=int, default=50_000, metavar="N",
                    help="poses lifted at a time (whole tracks at a time with frames, a "
                    "longer track in windows); "

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import sys
 
-from ._common import (add_adaptation_rounds, add_input_format, add_joint_map, add_quiet,
-                      refusals_said, show_progress)
+from ._common import (INPUT_HELP, add_adaptation_rounds, add_input_format, add_joint_map,
+                      add_quiet, refusals_said, show_progress)
 
 
 def add_parser(sub):
@@ -23,17 +23,15 @@ def add_parser(sub):
     """
     p = sub.add_parser(
         "recover",
-        help="recover occluded joints in a keypoint file (.csv, .npz, .npy, COCO or "
-        "MMPose .json, an OpenPose folder or .json, DeepLabCut .csv/.h5)",
+        help="recover occluded joints in a keypoint file (.csv, .npz, .npy, COCO, "
+        "PoseTrack, MMPose or AlphaPose .json, an OpenPose folder or .json, DeepLabCut "
+        ".csv/.h5)",
         description="Fill in the missing joints of every pose in INPUT by sparse coding "
         "of its distance matrix and write them to OUTPUT, with a status per row. "
         "Rows that cannot be recovered are written back unchanged and listed in an "
         "errors file. Exit code 0: all rows usable; 1: some rows refused; 2: bad input.",
     )
-    p.add_argument("input", help="keypoints: .csv, .npz, .npy, COCO-style .json, OpenPose "
-                   ".json or a folder of them, MMPose predictions .json or a folder of "
-                   "per-image files, AlphaPose results .json, DeepLabCut .csv/.h5 (see "
-                   "sparseedm.formats)")
+    p.add_argument("input", help=INPUT_HELP)
     p.add_argument("-o", "--output", required=True,
                    help="file (or OpenPose/MMPose folder) to write, at exactly this path, in "
                    "--format, else INPUT's own format when the extension suits it "
@@ -95,11 +93,12 @@ def _add_format_options(p):
 
 def _add_run_options(p):
     """Chunks, the parallel backend, the method and model, time, EDMs."""
-    p.add_argument("--chunk-size", type=int, default=50_000,
+    p.add_argument("--chunk-size", type=int, default=50_000, metavar="N",
                    help="poses per chunk; bounds memory (default 50000)")
     p.add_argument("--backend", choices=("loky", "threading", "dask"), default=None,
-                   help="joblib backend for --jobs; 'dask' runs on a Dask cluster "
-                   "(pip install 'sparseedm[dask]')")
+                   help="joblib backend for --jobs (default: threads with the fast "
+                   "solver, loky processes with clarabel); 'dask' runs on a Dask cluster "
+                   "(pip install 'sparseedm[dask]'; --scheduler)")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="Dask scheduler address with --backend dask, e.g. tcp://host:8786")
     p.add_argument("--method", choices=("sparse", "fconv"), default="sparse",
@@ -121,17 +120,19 @@ def _add_adaptation_options(p):
     """Adaptation, its rounds and ensembles, the dictionary saved."""
     g = p.add_mutually_exclusive_group()
     g.add_argument("--no-adapt", action="store_true",
-                   help="do not adapt the dictionary to INPUT's complete poses (by default "
-                   "it is adapted when INPUT has enough of them, and kept only if better "
-                   "on a held-back slice: sparseedm.adaptation); without --dictionary, "
-                   "poses are coded one by one over cmu-coco-k2932 with --mirror-auto "
-                   "(--dictionary default: over the default alone)")
+                   help="learn nothing from INPUT (by default "
+                   "INPUT's complete poses are extra atoms, the only atoms or the poses "
+                   "the dictionary adapts on, whichever a check on held-back poses "
+                   "prefers: sparseedm.exemplars, sparseedm.adaptation); without "
+                   "--dictionary over cmu-coco-k2932 with --mirror-auto, with "
+                   "--dictionary default over the default dictionary alone")
     g.add_argument("--adapt-from", default=None, metavar="FILE",
                    help="adapt on the complete poses of FILE (same source, any keypoint "
                    "format; a video's time-completed frames too) instead of INPUT's")
     add_adaptation_rounds(
         p, "after adapting, rounds of self-training on INPUT's incomplete poses (recover a "
-        "sample, adapt again with them; the last round guarded); default 3, 0 turns it off",
+        "sample, adapt again with them; the last round guarded); default 3 (with frames: "
+        "from 1000 poses on, none below), 0 turns it off",
         "adapt K times (seeds 0..K-1) and average the K recoveries: lower error, K times "
         "the work (default 1; sparseedm.ensemble); one dictionary, with a warning, when "
         "the adaptation is not adopted or INPUT's own poses are the atoms")

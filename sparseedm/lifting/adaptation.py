@@ -178,6 +178,8 @@ def adapt_lifter(lifter, complete_poses2d, *, method=DEFAULT_LIFT_ADAPT["method"
     Parameters
     ----------
     lifter : DictionaryLifter, shipped name or path
+        The coupled-dictionary lifter to start from (``"default"``: the
+        shipped one); it is not changed.
     complete_poses2d : array_like (n, N, 2)
         Pixels; rows with NaN, zero extent or exact repeats are ignored.
     method : {"reweight", "2d-half", "both"}
@@ -187,12 +189,17 @@ def adapt_lifter(lifter, complete_poses2d, *, method=DEFAULT_LIFT_ADAPT["method"
         lifter's, but most of its gain does not depend on the poses, and on
         poses from the lifter's own source it costs ~8 % (``"2d-half"``: ~1 %);
         see lifters/README.md.
-    passes, memory, alpha, batch_size : see :func:`adapt_vectors_2d`
-    gamma : see :func:`reweight_atoms` (``alpha`` is its coding penalty then,
-        default ``REWEIGHT_ALPHA``)
-    max_poses : int
+    gamma : float
+        See :func:`reweight_atoms` (``alpha`` is its coding penalty then,
+        default ``REWEIGHT_ALPHA``).
+    passes, memory, alpha, batch_size : float, int, float or None, int
+        See :func:`adapt_vectors_2d`.
+    max_poses : int, default 3000
         At most this many poses (a seeded sample) are used.
-    random_state, n_jobs
+    random_state : int, default 0
+        Seed of that sample and of the 2D half's learning.
+    n_jobs : int, default 1
+        Threads of the 2D half's coding step.
 
     Returns
     -------
@@ -206,6 +213,19 @@ def adapt_lifter(lifter, complete_poses2d, *, method=DEFAULT_LIFT_ADAPT["method"
         A lifter that is not a coupled dictionary.
     PoseError
         Poses of another joint count, or no usable pose.
+
+    Examples
+    --------
+    >>> import numpy as np, sparseedm
+    >>> pose = np.array([[50, 10], [50, 30], [35, 32], [30, 55], [28, 78],
+    ...                  [65, 32], [70, 55], [72, 78], [40, 80], [40, 115],
+    ...                  [40, 150], [60, 80], [60, 115], [60, 150]], float)
+    >>> poses = pose + np.random.default_rng(0).normal(0, 2, (200, 14, 2))
+    >>> lifter = sparseedm.adapt_lifter("default", poses)
+    >>> lifter.provenance_["adaptation"]["poses"]
+    200
+    >>> sparseedm.lift(poses[:3], lifter=lifter).status.tolist()
+    ['lifted', 'lifted', 'lifted']
     """
     if method not in METHODS:
         raise LifterError(f"method must be one of {METHODS}, got {method!r}")

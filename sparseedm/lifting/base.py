@@ -343,6 +343,13 @@ def load_lifter(name_or_path=None, *, n_joints=None):
     LifterError
         Missing, truncated, pickled or malformed file; an unknown method; a
         lifter for another joint count than `n_joints`.
+
+    Examples
+    --------
+    >>> import sparseedm
+    >>> lifter = sparseedm.load_lifter()             # the shipped default, cmu-lift
+    >>> lifter.method
+    'dictionary'
     """
     if isinstance(name_or_path, Lifter):
         lifter = name_or_path

@@ -43,7 +43,7 @@ __all__ = ["lift", "LiftResult", "STATUSES", "poses_from_vectors", "lift_reflect
 
 #: Per-pose statuses and what they mean: lifting's own, then the refusals it shares
 #: with recovery (:data:`sparseedm.recovery.STATUSES`), every screening refusal
-#: included: derived, so a new one is counted here too (out_of_range was lost).
+#: included: derived, so a new one is counted here too.
 STATUSES = {
     "lifted": "lifted from a complete 2D pose",
     "lifted_occluded": "lifted from the observed joints of an occluded 2D pose",
@@ -61,37 +61,59 @@ class LiftResult:
 
     Parameters
     ----------
-    poses3d : (n, N, 3) metres, pelvis at the origin, camera axes (x right,
-        y down, z away from the camera); NaN for refused poses
-    vectors3d : (n, M) 3D EDM vectors in the lifter's normalisation (its
-        prediction per frame: a video's smoothing moves only poses3d)
-    scale_metric : (n,) metres per normalised unit used for poses3d
-    missing : (n, N) bool
-    status, reason : (n,) str (see :data:`STATUSES`)
-    chirality_margin : (n,) how clearly the chirality prior decided the depth
-        reflection (< 1 counts as ambiguous; with frames the reflections of a
-        person's frames are chosen together)
+    poses3d : ndarray (n, N, 3)
+        Metres, pelvis at the origin, camera axes (x right, y down, z away
+        from the camera); NaN for refused poses.
+    vectors3d : ndarray (n, M)
+        3D EDM vectors in the lifter's normalisation (its prediction per
+        frame: a video's smoothing moves only `poses3d`).
+    scale_metric : ndarray (n,)
+        Metres per normalised unit used for `poses3d`.
+    missing : ndarray of bool (n, N)
+        True where a 2D joint was missing in the input.
+    status, reason : ndarray of str (n,)
+        One of :data:`STATUSES` per pose, and why a pose was refused.
+    chirality_margin : ndarray (n,)
+        How clearly the chirality prior decided the depth reflection (< 1
+        counts as ambiguous; with frames the reflections of a person's
+        frames are chosen together).
     seconds : float
-    poses2d : (n, N, 2) the 2D poses lifted: the input with the joints time
-        filled (NaN where a joint was still missing)
-    filled : (n, N) bool, joints filled across time before lifting (all False
-        without frames)
-    linked_tracks : (n,) int or None, the track ids the rows were linked into
-        when frames came without tracks and some frame holds several poses
-        (as ``linked_tracks`` of :func:`sparseedm.recover` with frames); None
-        otherwise
-    uncertainty2d : (n, N) pixels, how sure each 2D joint lifted is: 0 for an
-        observed joint, the 90 % radius (:attr:`RecoveryResult.uncertainty`) of
-        a joint filled across time, NaN for a joint still missing (the lifter
-        places it from the others)
-    uncertainty3d : (n, N) metres or None, with ``lift(..., uncertainty3d=True)``:
-        the radius of a sphere centred on each joint of poses3d meant to hold
-        the true joint 9 times in 10 (:mod:`sparseedm.lifting.uncertainty3d`):
-        the lifter's own per-joint validation error (depth ambiguity and
-        size included, so never 0, larger for a joint missing in 2D) and, for
-        rows with joints filled across time, their 2D radius carried through
-        the lift by seeded re-lifts; NaN for refused poses. Not covered: the
-        smoothing of a video's trajectories, a wrong depth reflection
+        Wall time of the call.
+    poses2d : ndarray (n, N, 2)
+        The 2D poses lifted: the input with the joints filled across time
+        (NaN where a joint was still missing).
+    filled : ndarray of bool (n, N)
+        Joints filled across time before lifting (all False without frames).
+    linked_tracks : ndarray of int (n,) or None
+        The track ids the rows were linked into when frames came without
+        tracks and some frame holds several poses (as ``linked_tracks`` of
+        :func:`sparseedm.recover` with frames); None otherwise.
+    uncertainty2d : ndarray (n, N)
+        Pixels, how sure each 2D joint lifted is: 0 for an observed joint,
+        the 90 % radius (:attr:`RecoveryResult.uncertainty`) of a joint filled
+        across time, NaN for a joint still missing (the lifter places it from
+        the others).
+    uncertainty3d : ndarray (n, N) or None
+        Metres, with ``lift(..., uncertainty3d=True)``: the radius of a
+        sphere centred on each joint of `poses3d` meant to hold the true
+        joint 9 times in 10 (:mod:`sparseedm.lifting.uncertainty3d`): the
+        lifter's own per-joint validation error (depth ambiguity and size
+        included, so never 0, larger for a joint missing in 2D) and, for rows
+        with joints filled across time, their 2D radius carried through the
+        lift by seeded re-lifts; NaN for refused poses. Not covered: the
+        smoothing of a video's trajectories, a wrong depth reflection.
+
+    Examples
+    --------
+    >>> import numpy as np, sparseedm
+    >>> pose = np.array([[50, 10], [50, 30], [35, 32], [30, 55], [28, 78],
+    ...                  [65, 32], [70, 55], [72, 78], [40, 80], [40, 115],
+    ...                  [40, 150], [60, 80], [60, 115], [60, 150]], float)
+    >>> res = sparseedm.lift(np.stack([pose, np.full_like(pose, np.nan)]))
+    >>> res.ok.tolist(), res.summary()["status"]
+    ([True, False], {'lifted': 1, 'too_few_observed': 1})
+    >>> res.take(res.ok).poses3d.shape
+    (1, 14, 3)
     """
 
     poses3d: np.ndarray
@@ -115,14 +137,36 @@ class LiftResult:
 
     @property
     def ok(self):
+        """True for poses that came back lifted (refused ones are NaN)."""
         return np.isin(self.status, _OK)
 
     def take(self, rows):
-        """The result of the poses `rows` only (an index array, a slice or a
-        bool mask; :func:`~sparseedm._recovery_base.take_rows`)."""
+        """The result of the poses `rows` only (:func:`~sparseedm._recovery_base.take_rows`).
+
+        Parameters
+        ----------
+        rows : array_like of int, slice or array_like of bool (n,)
+            The poses to keep: indices, a slice or a mask.
+
+        Returns
+        -------
+        LiftResult
+            Every per-pose array indexed by `rows`; ``seconds`` as it is.
+        """
         return take_rows(self, rows)
 
     def summary(self):
+        """Counts a person reads at the end of a batch (as ``sparseedm lift`` prints).
+
+        Returns
+        -------
+        dict
+            ``poses``, ``refused``, ``ambiguous_reflection`` (lifted poses
+            whose depth reflection was a close call), ``filled_across_time``
+            (poses with 2D joints filled from their track's other frames),
+            ``seconds``, ``poses_per_second`` and ``status`` (the count of
+            each status present).
+        """
         return {
             "poses": int(len(self.status)),
             "refused": int((~self.ok).sum()),
@@ -188,6 +232,8 @@ def lift(poses, missing=None, *, tracks=None, frames=None, lifter=None, n_jobs=1
     Returns
     -------
     LiftResult
+        The 3D poses in metres, a status per pose and, on request, each
+        joint's 3D radius.
 
     Examples
     --------
