@@ -1517,8 +1517,10 @@ def sample_complete(chunks, max_poses=DEFAULT_MAX_POSES, random_state=0):
 
 def fine_tune_file(train_path, output, init="default", *, passes=DEFAULT_PASSES, alpha=None,
                    alpha_recover=None, stats=DEFAULT_STATS, replay=DEFAULT_REPLAY,
-                   batch_size=DEFAULT_BATCH_SIZE, random_state=0, n_jobs=None):
-    """Fine-tune an existing dictionary on the complete poses of a training .npz; save it.
+                   batch_size=DEFAULT_BATCH_SIZE, random_state=0, n_jobs=None,
+                   input_format=None, joint_map=None):
+    """Fine-tune an existing dictionary on the complete poses of a training .npz or keypoint
+    file; save it.
 
     What ``sparseedm fit TRAIN.npz --init default|PATH`` runs: the learning
     of :func:`adapt_vectors` over every complete pose of TRAIN (no sample, no
@@ -1527,7 +1529,8 @@ def fine_tune_file(train_path, output, init="default", *, passes=DEFAULT_PASSES,
     Parameters
     ----------
     train_path : str or path
-        A training ``.npz`` (``poses2d``, as ``sparseedm fit`` reads it).
+        A training ``.npz`` (``poses2d``) or a keypoint file, as ``sparseedm
+        fit`` reads it (:func:`sparseedm.learning.load_training_poses`).
     output : str or path
         Where the fine-tuned dictionary is saved (``.npz``).
     init : Dictionary, str or path, default "default"
@@ -1549,6 +1552,8 @@ def fine_tune_file(train_path, output, init="default", *, passes=DEFAULT_PASSES,
         Seed of the mini-batches.
     n_jobs : int, optional
         Threads of the coding step; None: numba's.
+    input_format, joint_map : str, optional
+        How a keypoint file is read (:func:`sparseedm.keypoints.read_keypoints`).
 
     Returns
     -------
@@ -1559,14 +1564,15 @@ def fine_tune_file(train_path, output, init="default", *, passes=DEFAULT_PASSES,
     Raises
     ------
     FileFormatError
-        TRAIN is not a training file (no ``poses2d`` array of shape (n, N, 2)).
+        TRAIN is neither a training file (a ``poses2d`` array of shape (n, N, 2))
+        nor a readable keypoint file.
     SparseEDMError
         TRAIN holds no complete pose.
     PoseError
         TRAIN's poses have another number of joints than the dictionary.
     """
     base = init if isinstance(init, Dictionary) else load_dictionary(init)
-    poses = load_training_poses(train_path)
+    poses = load_training_poses(train_path, input_format, joint_map)
     X, ok = complete_pose_vectors(poses)
     if len(X) == 0:
         raise SparseEDMError(f"{train_path}: no complete poses to fine-tune on")

@@ -48,6 +48,7 @@ from .dictionary import Dictionary
 from .exceptions import (DictionaryError, FileFormatError, OutputPathError, ParameterError,
                          SparseEDMError)
 from .edm import pose_to_vector
+from .keypoints import read_keypoints
 from .normalize import normalize, usable_rows
 from .skeleton import JOINT_NAMES
 from .solvers.fast import lars_lasso_gram
@@ -455,19 +456,55 @@ def poses_sha256(poses):
     return hashlib.sha256(np.ascontiguousarray(poses, dtype=np.float64).tobytes()).hexdigest()
 
 
-def load_training_poses(path):
-    arrays, names = load_npz(path, ("poses2d",), what=f"{path}: cannot read training file:")
-    if "poses2d" not in arrays:
-        raise FileFormatError(
-            f"{path}: no 'poses2d' array (has: {', '.join(names)}); "
-            "build one with `sparseedm dataset build`"
-        )
-    poses = arrays["poses2d"]
-    if poses.dtype.kind not in "fiu":
-        raise FileFormatError(f"{path}: poses2d must hold real numbers, got {poses.dtype}")
-    if poses.ndim != 3 or poses.shape[-1] != 2:
-        raise FileFormatError(f"{path}: poses2d must be (n, N, 2), got {poses.shape}")
-    return poses
+def load_training_poses(path, input_format=None, joint_map=None):
+    """The 2D poses a dictionary learns from, NaN where a joint was not seen.
+
+    A training ``.npz`` holding ``poses2d`` (``sparseedm dataset build``), or
+    any keypoint file or folder :func:`sparseedm.keypoints.read_keypoints`
+    reads (COCO JSON, OpenPose, MMPose, AlphaPose, DeepLabCut, PoseTrack,
+    CSV...): its missing joints, and any a previous recovery filled, are NaN,
+    so only the complete poses are learned from.
+
+    Parameters
+    ----------
+    path : str or path
+    input_format : str, optional
+        The keypoint format (``read_keypoints``' `format`); given, `path` is
+        read as keypoints even when it is an ``.npz``.
+    joint_map : str or path, optional
+        DeepLabCut only: the joints map file.
+
+    Returns
+    -------
+    ndarray (n, N, 2)
+
+    Raises
+    ------
+    FileFormatError
+        An ``.npz`` that is neither a training set nor a keypoint file, or an
+        unreadable keypoint file (the reader's message).
+    """
+    if input_format is None and Path(path).suffix.lower() == ".npz":
+        arrays, names = load_npz(path, ("poses2d",), what=f"{path}: cannot read training file:")
+        if "poses2d" in arrays:
+            poses = arrays["poses2d"]
+            if poses.dtype.kind not in "fiu":
+                raise FileFormatError(f"{path}: poses2d must hold real numbers, got "
+                                      f"{poses.dtype}")
+            if poses.ndim != 3 or poses.shape[-1] != 2:
+                raise FileFormatError(f"{path}: poses2d must be (n, N, 2), got {poses.shape}")
+            return poses
+        try:
+            kps = read_keypoints(path, joint_map=joint_map)
+        except FileFormatError as err:
+            raise FileFormatError(
+                f"{path}: neither a training set (no 'poses2d' array; has: "
+                f"{', '.join(names)}; build one with `sparseedm dataset build`) nor a "
+                f"keypoint file ({err})") from None
+    else:
+        kps = read_keypoints(path, format=input_format, joint_map=joint_map)
+    unseen = kps.missing if kps.filled is None else kps.missing | kps.filled
+    return np.where(unseen[..., None], np.nan, np.asarray(kps.poses, float))
 
 
 def fit_dictionary_file(train_path, output, *, n_components=2000, alpha=1.6,
@@ -475,8 +512,12 @@ def fit_dictionary_file(train_path, output, *, n_components=2000, alpha=1.6,
                         random_state=0, n_jobs=None, alpha_recover=0.002,
                         alpha_scaling="entries", checkpoint=None,
                         checkpoint_every=20, resume=False, progress=True,
-                        joint_names=None):
-    """Learn a dictionary from the complete poses of a training .npz; save it.
+                        joint_names=None, input_format=None, joint_map=None):
+    """Learn a dictionary from the complete poses of a training .npz or keypoint file; save it.
+
+    `train_path` is read by :func:`load_training_poses` (with `input_format`
+    and `joint_map`): a training set's ``poses2d``, or the complete poses of
+    a keypoint file of real people (a detector's output, an annotated set).
 
     Only one mini-batch of EDM vectors exists at a time beyond the input
     array itself. Every `checkpoint_every` batches the learner's whole state
@@ -505,7 +546,7 @@ def fit_dictionary_file(train_path, output, *, n_components=2000, alpha=1.6,
         raise OutputPathError(f"checkpoint {checkpoint}: a checkpoint file must end in .npz")
     check_paths([("training file", train_path)],
                 [("output", output), ("checkpoint", checkpoint)])
-    poses = load_training_poses(train_path)
+    poses = load_training_poses(train_path, input_format, joint_map)
     ok = usable_rows(poses)
     if (~ok).any():
         warnings.warn(

@@ -539,8 +539,11 @@ def test_lift_n_jobs_past_the_machine(occluded):
 
 
 def test_model_and_training_file_folders_are_named(tmp_path, capsys):
+    """A folder is a keypoint input (OpenPose frames, MMPose files): an empty one is
+    named with what it lacks."""
     assert main(["fit", str(tmp_path), "-o", str(tmp_path / "d.npz")]) == 2
-    assert "is a directory" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert str(tmp_path) in err and "no readable OpenPose frame files" in err
 
 
 def test_debug_after_a_nested_command(tmp_path, monkeypatch, capsys):

@@ -9,7 +9,7 @@ import pytest
 
 from sparseedm.cli import main
 from sparseedm.dictionary import Dictionary, load_dictionary
-from sparseedm.exceptions import DictionaryError, SparseEDMError
+from sparseedm.exceptions import DictionaryError, FileFormatError, SparseEDMError
 from sparseedm.learning import (
     OnlineDictionaryLearning,
     complete_pose_vectors,
@@ -254,3 +254,34 @@ def test_complete_pose_vectors_keeps_what_recover_accepts():
     X, ok = complete_pose_vectors(poses)
     assert ok.tolist() == [True, False, False, False, True]
     assert X.shape == (2, 91) and np.isfinite(X).all()
+
+
+def test_fit_reads_a_keypoint_file_and_learns_only_what_was_seen(train_file, tmp_path):
+    """`sparseedm fit KEYPOINTS.csv` learns from the keypoint file's complete poses: the
+    same dictionary as from a training set of those poses; a joint a previous
+    recovery filled counts as unseen, so that pose is skipped too."""
+    from sparseedm.keypoints import write_keypoints
+
+    with np.load(train_file, allow_pickle=False) as npz:
+        poses = npz["poses2d"].copy()
+    missing = ~np.isfinite(poses).all(axis=-1)
+    filled = np.zeros_like(missing)
+    filled[7, 2] = True                      # filled by a recovery: not an observation
+    csv_path = tmp_path / "people.csv"
+    write_keypoints(csv_path, np.where(missing[..., None], 0.0, poses), missing,
+                    filled=filled)
+    seen = poses.copy()
+    seen[7, 2] = np.nan
+    np.savez(tmp_path / "seen.npz", poses2d=seen)
+    kw = dict(n_components=20, alpha=0.05, batch_size=32, random_state=0, progress=False)
+    with pytest.warns(UserWarning, match="skipped 2 of 334"):
+        from_csv = fit_dictionary_file(csv_path, tmp_path / "a.npz", **kw)
+    with pytest.warns(UserWarning, match="skipped 2 of 334"):
+        from_npz = fit_dictionary_file(tmp_path / "seen.npz", tmp_path / "b.npz", **kw)
+    np.testing.assert_allclose(from_csv.components, from_npz.components, atol=1e-9)
+    assert main(["fit", str(csv_path), "-o", str(tmp_path / "c.npz"), "--atoms", "20",
+                 "-q"]) == 0
+    # an .npz that is neither a training set nor keypoints names both
+    np.savez(tmp_path / "other.npz", weights=np.zeros(3))
+    with pytest.raises(FileFormatError, match="neither a training set.*nor a keypoint"):
+        fit_dictionary_file(tmp_path / "other.npz", tmp_path / "d.npz", **kw)

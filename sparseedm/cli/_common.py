@@ -47,20 +47,22 @@ INPUT_FORMATS = ("csv", "npz", "npy", "coco", "json", "posetrack", "openpose", "
                  "alphapose", "dlc", "deeplabcut")
 
 
-def add_input_format(parser):
-    """``--input-format FORMAT``, as recover and lift take it: INPUT's format when its
-    name does not tell (``/dev/stdin``, a pipe, an odd extension).
+def add_input_format(parser, what="INPUT"):
+    """``--input-format FORMAT``, as recover, lift and fit take it: the keypoint file's
+    format when its name does not tell (``/dev/stdin``, a pipe, an odd extension).
 
     Parameters
     ----------
     parser : argparse.ArgumentParser
         The command's parser.
+    what : str, default "INPUT"
+        The argument the option is about, as its help names it.
     """
     parser.add_argument("--input-format", choices=INPUT_FORMATS, default=None,
                         metavar="FORMAT",
-                        help="INPUT's keypoint format when its name does not tell (e.g. "
-                        "/dev/stdin): " + ", ".join(INPUT_FORMATS) + " (default: told from "
-                        "INPUT's content and extension)")
+                        help=f"{what}'s keypoint format when its name does not tell (e.g. "
+                        "/dev/stdin): " + ", ".join(INPUT_FORMATS) + f" (default: told from "
+                        f"{what}'s content and extension)")
 
 
 def add_adaptation_rounds(parser, self_training_help, ensemble_help):

@@ -1,11 +1,15 @@
-"""``sparseedm fit TRAIN.npz -o DICT.npz``: learn a dictionary from complete poses."""
+"""``sparseedm fit TRAIN -o DICT.npz``: learn a dictionary from complete poses.
+
+TRAIN is a training set (``sparseedm dataset build``) or a keypoint file of
+real people, read as ``sparseedm recover`` reads its input.
+"""
 
 from __future__ import annotations
 
 import sys
 import time
 
-from ._common import add_quiet, show_progress
+from ._common import add_input_format, add_joint_map, add_quiet, show_progress
 
 
 def add_parser(sub):
@@ -18,11 +22,16 @@ def add_parser(sub):
     """
     p = sub.add_parser(
         "fit",
-        help="learn a dictionary from a training .npz (see `sparseedm dataset build`)",
+        help="learn a dictionary from a training set or a keypoint file's complete poses",
         description="Online dictionary learning (Mairal et al. 2009) over the normalised "
-        "EDM vectors of the complete 2D poses in TRAIN (key poses2d).",
+        "EDM vectors of the complete 2D poses in TRAIN: a training .npz (key poses2d, "
+        "`sparseedm dataset build`), or a keypoint file or folder of real people as "
+        "`sparseedm recover` reads it (COCO JSON, OpenPose, MMPose, AlphaPose, "
+        "DeepLabCut, PoseTrack, CSV); poses with a joint missing (or filled by a "
+        "previous recovery) are skipped.",
     )
-    p.add_argument("train", help="training .npz with poses2d (n, N, 2)")
+    p.add_argument("train", help="training .npz with poses2d (n, N, 2), or a keypoint file "
+                   "or folder")
     p.add_argument("-o", "--output", required=True, help="dictionary file to write (.npz)")
     p.add_argument("--atoms", type=int, default=2000, help="number of atoms k (default 2000)")
     p.add_argument("--alpha", type=float, default=None,
@@ -50,6 +59,8 @@ def add_parser(sub):
                    "OUTPUT with .ckpt.npz)")
     p.add_argument("--resume", action="store_true",
                    help="continue from the checkpoint of an interrupted run")
+    add_input_format(p, "TRAIN")
+    add_joint_map(p)
     add_quiet(p)
     p.set_defaults(func=run)
 
@@ -73,6 +84,7 @@ def run(args):
     # options left unset take the API's defaults (which differ between learning
     # from scratch and fine-tuning)
     given = {} if args.batch_size is None else {"batch_size": args.batch_size}
+    given.update(input_format=args.input_format, joint_map=args.joint_map)
     if args.init is not None:
         from ..adaptation import fine_tune_file
 
