@@ -288,7 +288,9 @@ def format_summary(s) -> str:
     for name, reason in s.get("skipped_files", []):
         lines.append(f"skipped {reason}")
     if s.get("fallbacks"):
-        lines.append(f"solver fallbacks to Clarabel: {s['fallbacks']}")
+        lines.append(f"poses re-solved by Clarabel: {s['fallbacks']} (the fast solver's "
+                     "answer missed its duality-gap certificate; the interior-point answer "
+                     "is kept)")
     if s.get("sidecars"):
         lines.append("also wrote: " + ", ".join(s["sidecars"]))
     if s.get("adaptation_line"):
