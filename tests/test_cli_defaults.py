@@ -101,9 +101,8 @@ def test_input_formats_are_the_ones_read_keypoints_reads():
 
     assert set(FORMATS) <= set(INPUT_FORMATS)
     assert {format_of(Path("in"), f) for f in INPUT_FORMATS} == set(FORMATS)
-    for command in ("recover", "lift"):
-        args = build_parser().parse_args([command, "in", "-o", "o.csv", "--input-format",
-                                          "csv"])
+    for argv in (["recover", "in"], ["lift", "in"], ["plot", "in", "out"], ["fit", "in"]):
+        args = build_parser().parse_args(argv + ["-o", "o.csv", "--input-format", "csv"])
         assert args.input_format == "csv"
 
 

@@ -115,6 +115,10 @@ def test_the_command_writes_a_png(clip, tmp_path, capsys):
     svg = tmp_path / "check.svg"
     assert main(["plot", str(src), str(out), "-o", str(svg)]) == 0
     assert b"<svg" in svg.read_bytes()[:500]
+    # an INPUT whose name does not tell its format, read as recover reads it
+    odd = tmp_path / "in.keypoints"
+    odd.write_bytes(src.read_bytes())
+    assert main(["plot", str(odd), str(out), "-o", str(svg), "--input-format", "csv"]) == 0
 
 
 @pytest.mark.parametrize("option,message", [

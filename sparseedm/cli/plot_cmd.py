@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._common import SELECTION_HELP, add_joint_map, add_quiet, split_list
+from ._common import SELECTION_HELP, add_input_format, add_joint_map, add_quiet, split_list
 
 
 def add_parser(sub):
@@ -55,6 +55,7 @@ def add_parser(sub):
                    help="read INPUT as recover read it: joints scored below T are "
                    "missing (default: the input format's)")
     add_joint_map(p)
+    add_input_format(p)
     add_quiet(p)
     p.set_defaults(func=run)
 
@@ -93,7 +94,8 @@ def run(args):
     check_paths([("input", args.input), ("recovered file", args.recovered)],
                 [("output", args.output)])
     _progress.say(f"reading {args.input} and {args.recovered}")
-    seen = read_keypoints(args.input, confidence_threshold=args.confidence_threshold,
+    seen = read_keypoints(args.input, format=args.input_format,
+                          confidence_threshold=args.confidence_threshold,
                           joint_map=args.joint_map)
     same_map = format_of(Path(args.recovered), None) == "dlc"  # a DeepLabCut output: its map
     done = read_keypoints(args.recovered, joint_map=args.joint_map if same_map else None)
