@@ -509,11 +509,11 @@ def check_fresh(path, n, tracks=None, frames=None, ids=None):
     Examples
     --------
     >>> check_fresh("t.csv", 2, tracks=["a", "b"], frames=[0, 0])
-    >>> check_fresh("t.csv", 2, frames=[3, 3])
-    Traceback (most recent call last):
-    ...
-    sparseedm.exceptions.FileFormatError: t.csv: pose 1: frame 3 is already pose 0's; a \
-DeepLabCut table holds one pose per frame and individual
+    >>> try:
+    ...     check_fresh("t.csv", 2, frames=[3, 3])
+    ... except FileFormatError as e:
+    ...     print(str(e).split(";")[0])
+    t.csv: pose 1: frame 3 is already pose 0's
     """
     _cells(n, tracks, frames, ids, _individuals(tracks, path), path)
 
