@@ -12,29 +12,54 @@ from joblib import effective_n_jobs
 from .exceptions import ParameterError, SparseEDMError
 from .solvers.fast import NUMPY_MAX
 
-__all__ = ["chunk_tasks", "min_tasks", "dask_client", "one_client", "numba_threads"]
+__all__ = ["chunk_tasks", "min_tasks", "TASK_MIN_ROWS", "dask_client", "one_client",
+           "numba_threads"]
 
 
-def chunk_tasks(rows, chunk_size, n_jobs, backend=None):
+def chunk_tasks(rows, chunk_size, n_jobs, backend=None, shared=False):
     """`rows` cut into consecutive tasks: at most `chunk_size` each, and enough
-    of them to keep every worker busy (:func:`min_tasks`); none when `rows` is
-    empty. Shared by recover() and the dictionary lifter."""
+    of them to keep every worker busy (:func:`min_tasks`, `shared` as there); none
+    when `rows` is empty. Shared by recover() and the dictionary lifter."""
     n, chunk_size = len(rows), int(chunk_size)  # np.uint64(7): -n // it overflows
-    n_tasks = max(-(-n // chunk_size), min_tasks(n_jobs, backend, n))
+    n_tasks = max(-(-n // chunk_size), min_tasks(n_jobs, backend, n, shared))
     return [t for t in np.array_split(rows, max(1, min(n_tasks, n))) if len(t)]
 
 
-def min_tasks(n_jobs, backend, n_rows):
+#: With `shared` (:func:`min_tasks`), the fewest rows a task gets: a worker takes at
+#: least two such tasks (so joblib evens out their costs: rows sorted by missing
+#: pattern differ in cost from one chunk to the next) or the work stays one task in
+#: this process, where the fast solver's compiled kernel already shares the rows
+#: among numba's threads as they free up. Cutting 199 poses into three tasks for
+#: two workers had left one worker a third of the rows alone (``recover(n_jobs=2)``
+#: slower than ``n_jobs=1`` on a 400-pose file).
+TASK_MIN_ROWS = 128
+
+
+def min_tasks(n_jobs, backend, n_rows, shared=False):
     """Tasks enough to keep every worker busy (1 when the work runs in-process).
 
     Never so many that a task falls under the fast solver's compiled-kernel
     size (:data:`sparseedm.solvers.fast.NUMPY_MAX` rows): smaller batches take
     its numpy path, which is meant for a handful of poses and ran 2 jobs on
-    300 poses at 42 poses/s against 600 for one job.
+    300 poses at 42 poses/s against 600 for one job. With `shared` (one task in
+    this process would already run on every core: the fast solver's kernels on
+    numba's threads) each worker gets at least two tasks of at least
+    :data:`TASK_MIN_ROWS` rows, at most four, or the rows stay one task.
+
+    Examples
+    --------
+    >>> min_tasks(2, None, 400), min_tasks(2, None, 400, shared=True)
+    (6, 1)
+    >>> min_tasks(2, None, 6000, shared=True), min_tasks(1, None, 6000)
+    (8, 1)
     """
     if n_jobs in (None, 1) and backend is None:
         return 1
-    return max(min(4 * max(effective_n_jobs(n_jobs), 1), n_rows // NUMPY_MAX), 1)
+    workers = max(effective_n_jobs(n_jobs), 1)
+    if not shared:
+        return max(min(4 * workers, n_rows // NUMPY_MAX), 1)
+    fit = n_rows // max(TASK_MIN_ROWS, NUMPY_MAX)
+    return min(4 * workers, fit) if fit >= 2 * workers else 1
 
 
 #: the comms a scheduler in another process listens on (distributed's ``inproc://`` is

@@ -373,7 +373,10 @@ def recover_sparse(poses, missing=None, *, dictionary=None, alpha=None,
     m_obs = observed.sum(axis=1)
     alpha_eff = alpha * (m_obs / m if dictionary.alpha_scaling == "entries"
                          else np.ones(len(m_obs)))
-    tasks = chunk_tasks(np.arange(len(todo)), chunk_size, n_jobs, backend)
+    # the fast solver's kernels run on numba's threads in-process: tasks only
+    # when each worker gets a few large ones (the rows are the same either way)
+    tasks = chunk_tasks(np.arange(len(todo)), chunk_size, n_jobs, backend,
+                        shared=backend is None and isinstance(solver, FastSolver))
     results = _run_tasks(solver, components, vectors[todo], observed, alpha_eff, tasks,
                          positive, dict_key, n_jobs, progress, backend, scheduler)
     for t, (merged, obj, g, st, act, fb) in zip(tasks, results):

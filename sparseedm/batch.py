@@ -505,8 +505,8 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
         raise FileFormatError(f"{out_path}: a folder of OpenPose frames is written as a "
                               "folder; give an output path without .json")
     try:
+        in_time = _in_time(source, temporal and method == "sparse")  # links, if it will
         _check_output_fits(source, outputs)
-        in_time = _in_time(source, temporal and method == "sparse")
         cold, mirror = cold_prior(given, adapt, mirror, method == "sparse" and not in_time)
         dictionary = dictionary if cold is given else _loaded(cold)
         if outliers:  # scored points its track and the pose model contradict: missing
@@ -1110,12 +1110,13 @@ def _carried(columns):
 
 def _check_output_fits(source, outputs):
     """Refuse, before anything is recovered, the tracks and frames of `source`
-    that the output's writer would refuse (:func:`check_output_fits`)."""
+    (the tracks linked for it, if any) that the output's writer would refuse
+    (:func:`check_output_fits`)."""
     kps = getattr(source, "kps", None)
     if kps is not None:  # a .npy holds no tracks or frames
         check_output_fits(outputs.out_path, outputs.out_fmt, source.n, ids=source.ids,
-                          meta=source.meta,
-                          **_output_time(outputs.out_fmt, kps, None, outputs.in_fmt))
+                          meta=source.meta, **_output_time(outputs.out_fmt, kps,
+                                                           source.linked, outputs.in_fmt))
 
 
 def _output_time(fmt, kps, linked, in_fmt):

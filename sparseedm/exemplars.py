@@ -151,7 +151,7 @@ __all__ = ["EXEMPLAR_MIN_POSES", "EXEMPLAR_MARGIN", "EXEMPLAR_OPTIONS", "Exempla
            "blend_rows", "blend_atoms", "blend_parts", "blend_many_hidden", "ridge_mean_atoms", "blends",
            "AVERAGED_MANY_HIDDEN", "AVERAGED_RIDGE_MEAN", "AVERAGED_GAUSSIAN", "LINEAR_WEIGHTS", "LINEAR_MIN_SE",
            "MAX_LINEAR_FIT", "LINEAR_PROBE_ROUNDS", "LinearStack", "linear_weight", "linear_stack",
-           "probe_stack", "finish_blend"]
+           "probe_stack", "finish_blend", "paired_gain"]
 
 #: From this many usable complete poses the file's own poses are the atoms,
 #: no check, no adaptation (chosen on validation files: studies/fast/README.md)
@@ -190,7 +190,8 @@ AVERAGED_GAUSSIAN = "Gaussian of the file's poses"
 LINEAR_WEIGHTS = (0.0, 0.25, 0.5, 0.75, 1.0)
 
 #: A weight is taken only when its held-back gain over the path's answer alone
-#: exceeds this many of its standard errors (paired over the held-back poses)
+#: exceeds this many of its standard errors (paired over the held-back poses; over
+#: the probed rows for :func:`probe_stack`, a row's probes averaged first)
 LINEAR_MIN_SE = 1.0
 
 #: The Gaussian (:func:`~sparseedm.gaussian_fill.file_gaussian`) is refitted on
@@ -896,19 +897,57 @@ def linear_weight(answer, truth, mask, complete, poses, missing):
     return _best_weight(per_pose, 2)
 
 
-def _best_weight(per_pose, fewest):
+def _best_weight(per_pose, fewest, clusters=None):
     """(weight, error): the weight of LINEAR_WEIGHTS whose scored poses' (columns of
     `per_pose`, one row per weight) mean error is lowest, when its gain over weight
-    0 exceeds LINEAR_MIN_SE standard errors; 0 then, and with fewer than `fewest`."""
-    per_pose = per_pose[:, np.isfinite(per_pose).all(axis=0)]
+    0 exceeds LINEAR_MIN_SE standard errors (:func:`paired_gain`, by `clusters`: the
+    pose each column probes); 0 then, and with fewer than `fewest`."""
+    ok = np.isfinite(per_pose).all(axis=0)
+    per_pose = per_pose[:, ok]
     if per_pose.shape[1] < max(fewest, 2):
         return 0.0, float("nan")
     errors = per_pose.mean(axis=1)
     best = int(np.argmin(errors))
-    gain = per_pose[0] - per_pose[best]
-    if gain.mean() <= LINEAR_MIN_SE * gain.std(ddof=1) / np.sqrt(len(gain)):
+    mean, se = paired_gain(per_pose[0] - per_pose[best],
+                           None if clusters is None else np.asarray(clusters)[ok])
+    if not mean > LINEAR_MIN_SE * se:
         best = 0
     return float(LINEAR_WEIGHTS[best]), float(errors[best])
+
+
+def paired_gain(gain, clusters=None):
+    """(mean, standard error) of a paired gain; with `clusters`, the gains of one
+    cluster (several probes of one pose: not independent) averaged first, the mean
+    and its standard error then over the clusters.
+
+    Parameters
+    ----------
+    gain : ndarray (n,)
+        One paired difference per probe (or pose).
+    clusters : array_like (n,), optional
+        Each probe's cluster (its pose's row); None: every probe its own.
+
+    Returns
+    -------
+    mean, se : float
+        NaN standard error with fewer than two clusters.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> gain = np.array([1.0, 1.0, 1.0, 3.0, 3.0, 3.0])
+    >>> [round(v, 3) for v in paired_gain(gain)]
+    [2.0, 0.447]
+    >>> [round(v, 3) for v in paired_gain(gain, clusters=[0, 0, 0, 1, 1, 1])]
+    [2.0, 1.0]
+    """
+    gain = np.asarray(gain, dtype=float)
+    if clusters is not None:
+        _, which = np.unique(np.asarray(clusters), return_inverse=True)
+        gain = np.bincount(which, weights=gain) / np.bincount(which)
+    if len(gain) < 2:
+        return float(gain.mean()) if len(gain) else float("nan"), float("nan")
+    return float(gain.mean()), float(gain.std(ddof=1) / np.sqrt(len(gain)))
 
 
 def _linear_draws(complete, *given):
@@ -1087,4 +1126,5 @@ def _probe_weight(poses, missing, complete, answer, random_state):
     with np.errstate(all="ignore"):  # a refused probe (NaN) judges nothing
         per_pose = np.array([np.linalg.norm(((1 - w) * path + w * fill)[at] - poses[rows][at],
                                             axis=-1) / size * 100 for w in LINEAR_WEIGHTS])
-    return _best_weight(per_pose, DONOR_MIN_PROBES)[0], int(len(rows))
+    # a row probed in several rounds is one cluster of the gain's standard error
+    return _best_weight(per_pose, DONOR_MIN_PROBES, clusters=rows)[0], int(len(rows))

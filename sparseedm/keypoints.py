@@ -1446,7 +1446,9 @@ def check_output_fits(path, fmt, n, *, tracks=None, frames=None, ids=None, meta=
     recovers anything: frame numbers that are not whole numbers up to 2**53
     (or negative where they go into file names: OpenPose, AlphaPose, MMPose
     folders), a fresh PoseTrack image given two frames, text an ``.npz``
-    cannot hold as frames, tracks that are not OpenPose ``person_id`` values.
+    cannot hold as frames, tracks that are not OpenPose ``person_id`` values, a
+    frame twice in one track or a track name with a line break in a fresh
+    DeepLabCut table.
 
     Parameters
     ----------
@@ -1485,6 +1487,8 @@ def check_output_fits(path, fmt, n, *, tracks=None, frames=None, ids=None, meta=
         _npz_frames(np.asarray(frames), where)
     elif fmt == "coco" and frames is not None and meta.get("coco_document") is None:
         _posetrack_images([{"image_id": _image_id(ids, r)} for r in range(n)], frames, where)
+    elif fmt == "dlc" and meta.get("dlc_columns") is None:  # a fresh table
+        formats.deeplabcut.check_fresh(path, n, tracks=tracks, frames=frames, ids=ids)
 
 
 def _fresh_frames(fmt, frames, n, where, meta, path):

@@ -171,7 +171,10 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         its path leaves uncertified by feature-sign search and hands what that
         cannot certify to Clarabel; "clarabel" is cvxpy + Clarabel throughout.
     n_jobs : int, default 1
-        joblib workers over chunks of poses; -1 for all cores.
+        joblib workers over chunks of poses; -1 for all cores. The "fast"
+        solver's kernels already run on numba's threads (all cores) in this
+        process: its poses are cut into chunks only when each worker gets two
+        or more chunks of at least 128 poses.
     chunk_size : int, default 2048
         Poses per task.
     positive : bool, optional

@@ -663,3 +663,26 @@ def test_a_still_persons_near_copies_count_as_the_one_atom_they_make(cmu_poses,
     assert np.isfinite(check.err_base)  # checked, not taken unchecked
     if check.result is not None:
         assert f"{atoms} atoms once near-copies are merged" in check.result.reason
+
+
+def test_the_probes_gain_is_judged_by_pose_not_by_probe():
+    """Several probes of one pose are not independent: paired_gain averages each
+    pose's first, the mean and standard error then over the poses. Three poses
+    with per-pose gains 2, -1.5 and 0.4, each probed ten times alike: over the 30
+    probes the mean 0.3 exceeds its standard error (0.27), over the three poses
+    it does not (1.01), and a weight is then not taken (LINEAR_MIN_SE)."""
+    from sparseedm.exemplars import LINEAR_MIN_SE, paired_gain
+
+    per_pose = np.array([2.0, -1.5, 0.4])
+    gain = np.repeat(per_pose, 10)
+    rows = np.repeat([4, 9, 17], 10)
+    naive_mean, naive_se = paired_gain(gain)
+    mean, se = paired_gain(gain, clusters=rows)
+    assert mean == pytest.approx(0.3) and naive_mean == pytest.approx(0.3)
+    assert se == pytest.approx(np.sqrt(6.14 / 2 / 3))  # sd of (2, -1.5, 0.4) / sqrt(3)
+    assert naive_se == pytest.approx(np.sqrt(10 * 6.14 / 29 / 30))
+    assert naive_mean > LINEAR_MIN_SE * naive_se and not mean > LINEAR_MIN_SE * se
+    # poses probed unequally count once each: the mean of their means
+    mean, se = paired_gain([2.0, 2.0, 2.0, 0.0, 1.0], clusters=[5, 5, 5, 7, 9])
+    assert mean == pytest.approx(1.0) and se == pytest.approx(1 / np.sqrt(3))
+    assert np.isnan(paired_gain([1.0, 2.0], clusters=[3, 3])[1])  # one pose: no error

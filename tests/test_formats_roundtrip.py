@@ -483,6 +483,9 @@ def test_deeplabcut_fresh_refuses_what_it_cannot_hold(tmp_path, tracks, frames, 
     ("out.json", "coco", None, [2**60, 0, 1], "frame number '1152921504606846976' is too large"),
     ("out.csv", "dlc", None, [2**60, 0, 1], "too large"),
     ("frames", "openpose", ["a", "a", "b"], [0, 1, 0], "track 'a' cannot be an OpenPose"),
+    ("out.csv", "dlc", None, [4, 4, 5], "pose 1: frame 4 is already pose 0's"),
+    ("out.csv", "dlc", ["a", "b", "a"], [7, 7, 7], "pose 2: frame 7 of track 'a' is already"),
+    ("out.csv", "dlc", ["a\nb", "c", "c"], [0, 0, 1], "track 'a.+b' holds a line break"),
 ])
 def test_a_run_refuses_what_its_output_cannot_hold_before_recovering(
         tmp_path, monkeypatch, name, fmt, tracks, frames, match):

@@ -299,3 +299,29 @@ def test_too_few_complete_poses_take_the_weight_from_probes(small_dictionary, tm
     assert err(res.poses[occ]) < err(path.poses[occ])
     done = ~missing.any(axis=1)
     np.testing.assert_array_equal(res.poses[done], path.poses[done])
+
+
+@pytest.mark.usefixtures("without_donor_step")
+def test_probe_weight_clusters_the_gain_by_probed_pose(small_dictionary, monkeypatch):
+    """probe_stack's rounds probe a pose again (another joint): its gain's standard
+    error is taken with each probe's row as its cluster."""
+    import sparseedm.exemplars
+    from sparseedm import recover
+    from sparseedm.exemplars import FEW_MIN_POSES
+
+    seen = []
+    real = sparseedm.exemplars.paired_gain
+
+    def spy(gain, clusters=None):
+        seen.append((len(gain), clusters))
+        return real(gain, clusters)
+
+    monkeypatch.setattr(sparseedm.exemplars, "paired_gain", spy)
+    given, missing, _ = _stack_file(n_complete=FEW_MIN_POSES - 20, n_occluded=200)
+    res = recover(given, missing, dictionary=small_dictionary)
+    n_probes = res.adaptation.settings["linear_probes"]
+    assert len(seen) == 1
+    n, clusters = seen[0]
+    assert clusters is not None and n == len(clusters) == n_probes  # every probe scored
+    assert len(np.unique(clusters)) < n  # a pose probed in two rounds: one cluster
+    assert missing[np.asarray(clusters)].any(axis=1).all()  # the clusters are occluded rows

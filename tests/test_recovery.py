@@ -171,6 +171,38 @@ def test_parallel_chunks_stay_on_the_compiled_kernel(mix, small_dictionary, monk
     assert len(calls) == 20  # a small batch still answers without compiling
 
 
+def test_a_small_file_is_one_task_in_process(mix, small_dictionary, monkeypatch):
+    """n_jobs=2 cuts the fast solver's rows into tasks only when each worker gets
+    two or more of TASK_MIN_ROWS rows (three tasks for two workers had left one
+    worker a third of the rows alone): fewer stay one task in this process, on
+    numba's threads."""
+    from sparseedm import _recovery_kernel
+    from sparseedm._parallel import TASK_MIN_ROWS, chunk_tasks
+    from sparseedm.solvers.fast import NUMPY_MAX
+
+    calls = []
+    solve = _recovery_kernel.solve_chunk
+
+    def spy(solver, components, X, *args):
+        calls.append((len(X), args[-1]))
+        return solve(solver, components, X, *args)
+
+    monkeypatch.setattr(_recovery_kernel, "solve_chunk", spy)
+    poses, missing = mix
+    small = 4 * TASK_MIN_ROWS - 1  # poses (the occluded ones fewer): under two tasks a worker
+    res = sparseedm.recover(poses[:small], missing[:small], dictionary=small_dictionary,
+                            adapt=False, n_jobs=2)
+    solved = int((res.status != "complete").sum())
+    assert solved > 4 * NUMPY_MAX  # what the rule before cut into tasks
+    assert calls == [(solved, None)]  # one task, numba's threads unchanged
+    assert [len(t) for t in chunk_tasks(np.arange(199), 2048, 2, shared=True)] == [199]
+    big = [len(t) for t in chunk_tasks(np.arange(4 * TASK_MIN_ROWS), 2048, 2, shared=True)]
+    assert len(big) == 4 and min(big) >= TASK_MIN_ROWS  # two a worker
+    assert len(chunk_tasks(np.arange(6000), 2048, 2, shared=True)) == 8  # at most four
+    # a solver whose one task would run on one core (Clarabel) is still cut
+    assert len(chunk_tasks(np.arange(199), 2048, 2)) == 3
+
+
 # ---------------------------------------------------------------- statuses
 
 

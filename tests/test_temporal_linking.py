@@ -217,3 +217,20 @@ def test_a_single_image_is_not_a_video(tmp_path, track, small_dictionary_path):
     assert summary["temporal"] is None and summary.get("linked_tracks") is None
     out = read_keypoints(tmp_path / "out.csv")
     assert out.tracks is None and np.isfinite(out.poses).all()
+
+
+def test_a_deeplabcut_table_takes_the_linked_tracks(tmp_path, track, small_dictionary):
+    # two poses a frame, no tracks: refused as a single-animal table's duplicate
+    # frames only if the run's check came before linking; linked, one track each
+    from sparseedm.batch import recover_file
+    from sparseedm.keypoints import KeypointSet, read_keypoints, write_keypoints
+
+    poses, mask, frames, person, _ = _two_people(track)
+    inp = write_keypoints(tmp_path / "v.csv", KeypointSet(poses, mask, frames=frames))
+    out = tmp_path / "o.csv"
+    recover_file(inp, out, dictionary=small_dictionary, adapt=False, output_format="dlc",
+                 progress=False)
+    back = read_keypoints(out, format="dlc")  # rows frame-major per individual
+    assert sorted(back.frames.tolist()) == sorted(frames.tolist())
+    assert len(set(back.tracks.tolist())) == 2
+    assert len(set(zip(back.tracks.tolist(), back.frames.tolist()))) == len(poses)

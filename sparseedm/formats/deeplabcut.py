@@ -89,8 +89,8 @@ from ..skeleton import JOINT_NAMES
 from . import _base
 from ._base import N_JOINTS, NECK
 
-__all__ = ["read", "write", "read_joint_map", "check_h5_extra", "H5_KEY", "H5_SUFFIXES",
-           "EXTRA", "H5_WORK"]
+__all__ = ["read", "write", "check_fresh", "read_joint_map", "check_h5_extra", "H5_KEY",
+           "H5_SUFFIXES", "EXTRA", "H5_WORK"]
 
 #: the key DeepLabCut stores its table under in ``.h5`` files
 H5_KEY = "df_with_missing"
@@ -456,7 +456,8 @@ def _fresh(rows, path):
     none; rows the frames (sorted; the index their numbers), else the poses in
     order (the index their ids)."""
     individuals = _individuals(rows.tracks, path)
-    cells, index = _cells(rows, individuals, path)
+    cells, index = _cells(len(rows.poses), rows.tracks, rows.frames, rows.ids, individuals,
+                          path)
     width = 3 * N_JOINTS
     values = np.full((len(index), width * len(individuals or [""])), np.nan)
     for r, (k, i) in enumerate(cells):
@@ -485,21 +486,52 @@ def _individuals(tracks, path):
     return names
 
 
-def _cells(rows, individuals, path):
+def check_fresh(path, n, tracks=None, frames=None, ids=None):
+    """Refuse the tracks and frames a new table of `n` poses cannot hold, as
+    :func:`write` refuses them (a track name with a line break; tracks without
+    frames; a frame twice in one track), so a run can refuse them before it
+    recovers anything.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The table, named in the message.
+    n : int
+        The number of poses.
+    tracks, frames, ids : array_like (n,), optional
+        What the table will be written with (frames as whole numbers).
+
+    Raises
+    ------
+    FileFormatError
+        Naming the track, or the pose and the earlier pose of its frame.
+
+    Examples
+    --------
+    >>> check_fresh("t.csv", 2, tracks=["a", "b"], frames=[0, 0])
+    >>> try:
+    ...     check_fresh("t.csv", 2, frames=[3, 3])
+    ... except FileFormatError as e:
+    ...     print(str(e).split(";")[0])
+    t.csv: pose 1: frame 3 is already pose 0's
+    """
+    _cells(n, tracks, frames, ids, _individuals(tracks, path), path)
+
+
+def _cells(n, tracks, frames, ids, individuals, path):
     """Each pose's (table row, individual) and the table's index: one row per
     frame (sorted), or per pose without frames; a frame twice in one track is
     refused, naming the poses."""
-    n = len(rows.poses)
     ind = [0] * n if individuals is None else \
-        [individuals.index(str(t)) for t in np.asarray(rows.tracks).tolist()]
-    if rows.frames is None:
+        [individuals.index(str(t)) for t in np.asarray(tracks).tolist()]
+    if frames is None:
         if individuals is not None:
             raise FileFormatError(
                 f"{path}: poses with tracks need frame numbers (frames=) to be written as "
                 "a multi-animal DeepLabCut table, whose rows are frames")
-        ids = rows.ids if rows.ids is not None else range(n)
+        ids = ids if ids is not None else range(n)
         return [(r, 0) for r in range(n)], [str(i) for i in ids]
-    frames = [int(f) for f in np.asarray(rows.frames).tolist()]
+    frames = [int(f) for f in np.asarray(frames).tolist()]
     row_of = {f: k for k, f in enumerate(sorted(set(frames)))}
     seen = {}
     for r, (f, i) in enumerate(zip(frames, ind)):
