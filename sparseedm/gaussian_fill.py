@@ -271,12 +271,12 @@ def _local_means(train, query, observed, neighbours, prior, ridge, reselect):
     return out
 
 
-def _local_fit(train, q, d, obs, hid, file_gaussian_, neighbours, prior):
+def _local_fit(train, q, d, obs, hid, whole, neighbours, prior):
     """The hidden columns' conditional mean for each row of `q` (its observed
     columns) under the Gaussian of its `neighbours` draws nearest by `d` (rows:
     distances to every draw; inf: left out), pooled with the file's
     ``(mu, cov)`` as `prior` pseudo-draws."""
-    mu, cov = file_gaussian_
+    mu, cov = whole
     k = min(int(neighbours), len(train))
     near = np.argpartition(d, k - 1, axis=1)[:, :k]
     w = np.isfinite(np.take_along_axis(d, near, axis=1))[..., None]   # (b, k, 1)
