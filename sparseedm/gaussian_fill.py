@@ -18,7 +18,9 @@ draws and, say, their mirror images). :func:`local_gaussian_fill` gives
 each pose its own Gaussian: that of the :data:`LOCAL_NEIGHBOURS` draws
 nearest it on its observed joints, shrunk toward the Gaussian of every draw
 (:data:`LOCAL_PRIOR` pseudo-draws), so a file of several kinds of pose is
-not forced into one. The default path weighs the local answer over the
+not forced into one; the neighbours are then chosen again on the whole pose
+as filled (its hidden joints weighted :data:`LOCAL_RESELECT`) and the
+Gaussian refitted. The default path weighs the local answer over the
 file's poses and their mirror images against its own by a held-back check
 (:func:`sparseedm.exemplars.linear_weight`).
 """
@@ -30,7 +32,7 @@ from functools import partial
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-__all__ = ["GAUSSIAN_RIDGE", "GAUSSIAN_ROUNDS", "LOCAL_NEIGHBOURS", "LOCAL_PRIOR",
+__all__ = ["GAUSSIAN_RIDGE", "GAUSSIAN_ROUNDS", "LOCAL_NEIGHBOURS", "LOCAL_PRIOR", "LOCAL_RESELECT",
            "conditional_mean", "gaussian_fill", "local_gaussian_fill", "file_gaussian"]
 
 #: The covariance's ridge, relative to its mean variance (chosen on validation
@@ -44,6 +46,11 @@ GAUSSIAN_ROUNDS = 3
 #: that set its Gaussian, and the weight (in draws) of the Gaussian of every
 #: draw they are shrunk to (chosen on validation photo files: studies/fast/README.md)
 LOCAL_NEIGHBOURS, LOCAL_PRIOR = 100, 50
+
+#: :func:`local_gaussian_fill`: the hidden joints' weight in the distance by which
+#: the neighbours are chosen again on the pose as first filled (chosen on
+#: validation photo files: studies/fast/README.md)
+LOCAL_RESELECT = 0.5
 
 # query rows per block of local_gaussian_fill (its distances and covariances)
 _LOCAL_BLOCK = 256
@@ -179,7 +186,7 @@ def _fill_pattern(train, sums, poses, out, rows, pattern, conditional):
 
 
 def local_gaussian_fill(train, poses, missing, *, neighbours=LOCAL_NEIGHBOURS,
-                        prior=LOCAL_PRIOR, ridge=GAUSSIAN_RIDGE):
+                        prior=LOCAL_PRIOR, ridge=GAUSSIAN_RIDGE, reselect=LOCAL_RESELECT):
     """:func:`gaussian_fill` with a Gaussian per pose: that of the draws nearest it on
     its observed joints, shrunk toward the Gaussian of every draw.
 
@@ -192,7 +199,10 @@ def local_gaussian_fill(train, poses, missing, *, neighbours=LOCAL_NEIGHBOURS,
     ``(S_k + prior C) / (k + prior)`` (``C`` with its ridge), and the hidden
     joints get its conditional mean. A file of several kinds of pose (standing,
     lying, seen from the side) is not one Gaussian: the neighbours' covariance
-    follows the kind of the pose.
+    follows the kind of the pose. Then (`reselect` > 0) the neighbours are
+    chosen again by their distance to the whole pose as filled, the hidden
+    joints' squared distances weighted `reselect`, and the Gaussian refitted:
+    the first fill's hidden joints tell which kind of pose it is too.
 
     Parameters
     ----------
@@ -206,6 +216,9 @@ def local_gaussian_fill(train, poses, missing, *, neighbours=LOCAL_NEIGHBOURS,
         The global Gaussian's weight, in draws (0: the neighbours' alone).
     ridge : float, default GAUSSIAN_RIDGE
         The global covariance's ridge, relative to its mean variance.
+    reselect : float, default LOCAL_RESELECT
+        The hidden joints' weight when the neighbours are chosen again on the
+        filled pose (0: chosen once, on the observed joints).
 
     Returns
     -------
@@ -224,10 +237,10 @@ def local_gaussian_fill(train, poses, missing, *, neighbours=LOCAL_NEIGHBOURS,
     ((2, 14, 2), True)
     """
     return _fill_by_pattern(train, poses, missing, partial(
-        _local_means, neighbours=neighbours, prior=prior, ridge=ridge))
+        _local_means, neighbours=neighbours, prior=prior, ridge=ridge, reselect=reselect))
 
 
-def _local_means(train, query, observed, neighbours, prior, ridge):
+def _local_means(train, query, observed, neighbours, prior, ridge, reselect):
     """local_gaussian_fill of flat `query` rows over flat `train` draws in one
     frame: `query` with its unobserved columns replaced."""
     mu = np.ones(len(train)) @ train / len(train)
@@ -235,30 +248,47 @@ def _local_means(train, query, observed, neighbours, prior, ridge):
     cov = centred.T @ centred / max(len(train) - 1, 1)
     cov = cov + ridge * np.trace(cov) / len(cov) * np.eye(len(cov))
     obs, hid = np.flatnonzero(observed), np.flatnonzero(~observed)
-    k = min(int(neighbours), len(train))
     out = np.array(query, dtype=float)
     seen = train[:, obs]
     squares = (seen * seen).sum(axis=1)
+    weights = np.where(observed, 1.0, reselect)
     for s in range(0, len(out), _LOCAL_BLOCK):
         q = out[s:s + _LOCAL_BLOCK, obs]
         with np.errstate(invalid="ignore", over="ignore"):
             d = squares[None, :] - 2 * q @ seen.T + (q * q).sum(axis=1)[:, None]
         # the pose itself (filled) among the draws: left out
         d = np.where(d > 1e-12 * len(obs), d, np.inf)
-        near = np.argpartition(d, k - 1, axis=1)[:, :k]
-        w = np.isfinite(np.take_along_axis(d, near, axis=1))[..., None]   # (b, k, 1)
-        counts = w.sum(axis=1)                                               # (b, 1)
-        draws = train[near]                                                  # (b, k, d)
-        local = (w * draws).sum(axis=1) / np.maximum(counts, 1)
-        dev = w * (draws - local[:, None])
-        scatter = np.matmul(dev.transpose(0, 2, 1), dev)
-        total = (counts + prior)[..., None]
-        mean = (counts * local + prior * mu) / (counts + prior)
-        sigma = (scatter + prior * cov) / total
-        coef = np.linalg.solve(sigma[:, obs][:, :, obs], sigma[:, obs][:, :, hid])
-        out[s:s + _LOCAL_BLOCK, hid] = mean[:, hid] + np.einsum(
-            "bo,boh->bh", q - mean[:, obs], coef)
+        out[s:s + _LOCAL_BLOCK, hid] = _local_fit(train, q, d, obs, hid, (mu, cov),
+                                                  neighbours, prior)
+        if reselect > 0:  # chosen again on the whole pose as filled, hidden joints weighted
+            full = out[s:s + _LOCAL_BLOCK] * weights
+            with np.errstate(invalid="ignore", over="ignore"):
+                again = ((train * train) @ weights)[None, :] - 2 * full @ train.T + (
+                    full * out[s:s + _LOCAL_BLOCK]).sum(axis=1)[:, None]
+            out[s:s + _LOCAL_BLOCK, hid] = _local_fit(
+                train, q, np.where(np.isfinite(d), again, np.inf), obs, hid, (mu, cov),
+                neighbours, prior)
     return out
+
+
+def _local_fit(train, q, d, obs, hid, whole, neighbours, prior):
+    """The hidden columns' conditional mean for each row of `q` (its observed
+    columns) under the Gaussian of its `neighbours` draws nearest by `d` (rows:
+    distances to every draw; inf: left out), pooled with the file's
+    ``(mu, cov)`` as `prior` pseudo-draws."""
+    mu, cov = whole
+    k = min(int(neighbours), len(train))
+    near = np.argpartition(d, k - 1, axis=1)[:, :k]
+    w = np.isfinite(np.take_along_axis(d, near, axis=1))[..., None]   # (b, k, 1)
+    counts = w.sum(axis=1)                                               # (b, 1)
+    draws = train[near]                                                  # (b, k, d)
+    local = (w * draws).sum(axis=1) / np.maximum(counts, 1)
+    dev = w * (draws - local[:, None])
+    scatter = np.matmul(dev.transpose(0, 2, 1), dev)
+    mean = (counts * local + prior * mu) / (counts + prior)
+    sigma = (scatter + prior * cov) / (counts + prior)[..., None]
+    coef = np.linalg.solve(sigma[:, obs][:, :, obs], sigma[:, obs][:, :, hid])
+    return mean[:, hid] + np.einsum("bo,boh->bh", q - mean[:, obs], coef)
 
 
 def file_gaussian(complete, poses, missing, *, rounds=GAUSSIAN_ROUNDS, ridge=GAUSSIAN_RIDGE,

@@ -148,6 +148,60 @@ def test_local_gaussian_leaves_the_pose_itself_out():
     assert np.isfinite(answers[0]).all()
 
 
+def _frame_of(poses, observed):
+    """poses shifted to their observed joints' centroid and divided by their RMS radius."""
+    centre = poses[:, observed].mean(axis=1, keepdims=True)
+    radius = np.sqrt(((poses[:, observed] - centre) ** 2).sum(axis=-1).mean(axis=1))
+    return (poses - centre) / radius[:, None, None], centre, radius
+
+
+def test_local_gaussian_chooses_its_neighbours_again_on_the_filled_pose():
+    """By hand, one pose: the 60 draws nearest on the observed joints (in their
+    frame) fill it; the 60 nearest on the whole filled pose, the hidden joints'
+    squared distances weighted 0.5, fill it again: the default's answer, which is
+    not the first fill."""
+    rng = np.random.default_rng(9)
+    template, u = rng.normal(0, 30, (2, 14, 2))
+    v = rng.normal(0, 15, (14, 2))
+    a = rng.uniform(-2, 2, (400, 1, 1))
+    train = template + a * u + np.sin(2 * a) * v + rng.normal(0, 3, (400, 14, 2))
+    pose = template + 0.7 * u + np.sin(1.4) * v
+    observed = np.ones(14, bool)
+    observed[[2, 9]] = False
+    z, _, _ = _frame_of(train, observed)
+    zq, centre, radius = _frame_of(pose[None], observed)
+    flat, q, cols = z.reshape(400, -1), zq.reshape(1, -1), np.repeat(observed, 2)
+
+    def fill(distance):
+        near = np.argsort(distance)[:60]
+        return conditional_mean(flat[near], q, cols, ridge=0.0)
+
+    first = fill(((flat - q)[:, cols] ** 2).sum(axis=1))
+    weights = np.where(cols, 1.0, 0.5)
+    again = fill((weights * (flat - first) ** 2).sum(axis=1))
+    missing = ~observed[None]
+    got = local_gaussian_fill(train, pose[None], missing, neighbours=60, prior=0)
+    once = local_gaussian_fill(train, pose[None], missing, neighbours=60, prior=0, reselect=0)
+    np.testing.assert_allclose(got, again.reshape(1, 14, 2) * radius + centre, atol=1e-6)
+    np.testing.assert_allclose(once, first.reshape(1, 14, 2) * radius + centre, atol=1e-6)
+    assert np.abs(got - once).max() > 1e-3
+
+
+def test_local_gaussian_of_a_rotated_file_is_rotated():
+    """Draws and poses turned in the image together: the fills turn with them (the
+    frame and both choices of neighbours are by distances, which turning keeps)."""
+    poses = _template_file(300, seed=10, sd=4.0)
+    missing = np.zeros((40, 14), bool)
+    missing[np.arange(40), np.arange(40) % 14] = True
+    missing[np.arange(0, 40, 2), (np.arange(0, 40, 2) + 5) % 14] = True
+    given = np.where(missing[..., None], np.nan, poses[260:])
+    angle = 0.9
+    turn = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+    plain = local_gaussian_fill(poses[:260], given, missing, neighbours=50)
+    turned = local_gaussian_fill(poses[:260] @ turn.T, given @ turn.T, missing, neighbours=50)
+    np.testing.assert_allclose(turned, plain @ turn.T, atol=1e-6)
+
+
 def test_file_gaussian_fits_the_augmented_draws():
     """`augment` shapes the Gaussian, not the returned draws: each draw twice is the
     same Gaussian (same answer); the draws with a shifted copy of each are another."""
