@@ -77,12 +77,13 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from . import _progress
+from ._atomic import check_paths
 from ._parallel import numba_threads
 from ._recovery_kernel import RECOVER_PARAMS, compiled_solver, recover_members, recover_sparse
 from ._validation import check_mask, check_pose_shape, check_poses, unmask, validate_params
 from .dictionary import Dictionary, load_dictionary
 from .edm import pose_to_vector
-from .exceptions import PoseError, SparseEDMError
+from .exceptions import DictionaryError, PoseError, SparseEDMError
 from .learning import (OnlineDictionaryLearning, complete_pose_vectors, iter_batches,
                        load_training_poses, poses_sha256, sparse_code)
 from .metrics import err_ave, occlusion_masks
@@ -1571,6 +1572,12 @@ def fine_tune_file(train_path, output, init="default", *, passes=DEFAULT_PASSES,
     PoseError
         TRAIN's poses have another number of joints than the dictionary.
     """
+    if Path(output).suffix != ".npz":
+        raise DictionaryError(f"{output}: a dictionary file must end in .npz")
+    # before any work: the output is neither the training file nor the base's file
+    check_paths([("training file", train_path),
+                 ("initial dictionary", None if isinstance(init, Dictionary) else init)],
+                [("output", output)])
     base = init if isinstance(init, Dictionary) else load_dictionary(init)
     poses = load_training_poses(train_path, input_format, joint_map)
     X, ok = complete_pose_vectors(poses)

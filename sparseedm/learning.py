@@ -551,15 +551,13 @@ def fit_dictionary_file(train_path, output, *, n_components=2000, alpha=1.6,
     if (~ok).any():
         warnings.warn(
             f"{train_path}: skipped {int((~ok).sum())} of {len(poses)} poses that are "
-            "incomplete (NaN/inf) or degenerate; fitting needs complete poses",
+            "incomplete (a joint missing, NaN/inf or filled by a recovery) or degenerate; "
+            "fitting needs complete poses",
             stacklevel=2,
         )
     index = np.flatnonzero(ok)
     if len(index) < n_components:
-        raise SparseEDMError(
-            f"{train_path}: {len(index)} complete poses are too few for "
-            f"{n_components} atoms (need at least as many poses as atoms)"
-        )
+        raise SparseEDMError(_too_few(train_path, len(index), n_components))
     params = dict(n_components=n_components, alpha=alpha, batch_size=batch_size,
                   n_passes=n_passes, positive_code=positive_code,
                   random_state=random_state, n_samples=len(index),
@@ -600,6 +598,19 @@ def fit_dictionary_file(train_path, output, *, n_components=2000, alpha=1.6,
     if checkpoint.is_file():
         checkpoint.unlink()
     return dictionary
+
+
+def _too_few(train_path, n_complete, n_components):
+    """What :func:`fit_dictionary_file` says when `train_path` has fewer complete poses
+    than atoms: what is missing, and what to do instead."""
+    if n_complete == 0:
+        return (f"{train_path}: no complete pose to learn from (every pose has a joint "
+                "missing, out of range or filled by a recovery); a dictionary is learned "
+                "only from poses with all their joints seen")
+    return (f"{train_path}: {n_complete} complete poses are too few for {n_components} "
+            f"atoms (one pose per atom at least): learn {n_complete} atoms or fewer "
+            f"(n_components= / --atoms {n_complete}), or fine-tune an existing dictionary "
+            "on them (fine_tune_file / --init default)")
 
 
 def _fit_batches_inplace(est, poses, index, start, checkpoint, checkpoint_every, params, progress):

@@ -9,7 +9,8 @@ import pytest
 
 from sparseedm.cli import main
 from sparseedm.dictionary import Dictionary, load_dictionary
-from sparseedm.exceptions import DictionaryError, FileFormatError, SparseEDMError
+from sparseedm.exceptions import (DictionaryError, FileFormatError, OutputPathError,
+                                  SparseEDMError)
 from sparseedm.learning import (
     OnlineDictionaryLearning,
     complete_pose_vectors,
@@ -285,3 +286,50 @@ def test_fit_reads_a_keypoint_file_and_learns_only_what_was_seen(train_file, tmp
     np.savez(tmp_path / "other.npz", weights=np.zeros(3))
     with pytest.raises(FileFormatError, match="neither a training set.*nor a keypoint"):
         fit_dictionary_file(tmp_path / "other.npz", tmp_path / "d.npz", **kw)
+
+
+def test_too_few_complete_poses_says_what_to_do(train_file, tmp_path):
+    """A keypoint file with fewer complete poses than atoms: the refusal gives the atom
+    count that would fit and the fine-tuning alternative; with none, it says so."""
+    from sparseedm.keypoints import write_keypoints
+
+    with np.load(train_file, allow_pickle=False) as npz:
+        poses = npz["poses2d"].copy()
+    missing = ~np.isfinite(poses).all(axis=-1)
+    missing[12:, 3] = True                        # 12 complete poses, one incomplete among them
+    csv_path = tmp_path / "few.csv"
+    write_keypoints(csv_path, np.where(missing[..., None], 0.0, poses), missing)
+    out = tmp_path / "d.npz"
+    with pytest.warns(UserWarning, match="skipped 323 of 334"), \
+            pytest.raises(SparseEDMError, match="11 complete poses are too few for 20 atoms.*"
+                          "--atoms 11.*--init default"):
+        fit_dictionary_file(csv_path, out, n_components=20, progress=False)
+    missing[:, 3] = True
+    write_keypoints(csv_path, np.where(missing[..., None], 0.0, poses), missing)
+    with pytest.warns(UserWarning), pytest.raises(SparseEDMError,
+                                                  match="no complete pose to learn from"):
+        fit_dictionary_file(csv_path, out, n_components=20, progress=False)
+    assert not out.exists()
+
+
+def test_fine_tune_refuses_its_own_inputs_as_output_before_any_work(train_file, tmp_path,
+                                                                     monkeypatch):
+    """`fit TRAIN -o TRAIN --init default` used to fine-tune, then overwrite the training
+    file with the dictionary; the base's file and a non-.npz output are refused up front."""
+    import sparseedm.adaptation as adaptation
+
+    def no_work(*args, **kwargs):
+        raise AssertionError("fine-tuned before checking the output")
+
+    monkeypatch.setattr(adaptation, "adapt_vectors", no_work)
+    before = train_file.read_bytes()
+    assert main(["fit", str(train_file), "-o", str(train_file), "--init", "default",
+                 "-q"]) == 2
+    assert train_file.read_bytes() == before
+    base = tmp_path / "base.npz"
+    load_dictionary("default").save(base)
+    with pytest.raises(OutputPathError, match="initial dictionary"):
+        adaptation.fine_tune_file(train_file, base, base)
+    with pytest.raises(DictionaryError, match="must end in .npz"):
+        adaptation.fine_tune_file(train_file, tmp_path / "d.csv")
+    assert not (tmp_path / "d.csv").exists()
