@@ -162,8 +162,9 @@ class RealReport:
                  "|---|" + "---|" * (len(groups) + len(extra) + 1)]
         for m in self.methods:
             cells = [_cell(self.row(m, condition, g)) for g in groups]
-            if jumps:
-                cells.append(f"{self.row(m, condition)['edge_jump']:.2f}")
+            if jumps:  # blank without an edge, as an error cell without a joint
+                r = self.row(m, condition)
+                cells.append(f"{r['edge_jump']:.2f}" if r["edges"] else "")
             lines.append(f"| {m} | " + " | ".join(cells)
                          + f" | {self.seconds.get(condition, {}).get(m, float('nan')):.1f} |")
         first = [self.row(self.methods[0], condition, g) for g in groups]
@@ -561,6 +562,9 @@ def clip_cases(poses, tracks, frames, hidden, *, gap_lengths=GAP_LENGTHS, transp
             len(clips), max_clips, replace=False))
         notes.append(f"a seeded sample of {max_clips} of {len(clips)} clips")
         clips = [clips[i] for i in pick]
+    longest = max((len(rows) for _, rows in clips), default=0)
+    notes += [f"gap {L}: no clip longer than {L} frames (the longest has {longest}), so no "
+              f"gap of {L} frames" for L in gap_lengths if clips and L >= longest]
     by_track = _track_rows(tracks, frames)
     for track, rows in clips:
         donors = [hidden[r] for t, r in by_track.items() if t != track and hidden[r].any()]

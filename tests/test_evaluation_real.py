@@ -231,6 +231,50 @@ def test_tracks_score_the_jump_at_gap_edges(monkeypatch):
     assert "edge_jump" in rep.to_csv().splitlines()[0]
 
 
+def test_tracks_edges_only_where_every_method_filled(monkeypatch):
+    """A method that leaves joint 7 unfilled: the edges are counted where every method
+    filled, so fewer than linear's alone; where none is left (the transplanted runs are
+    all joint 7) the table's edge-jump cell is blank, as an error cell without a joint,
+    not 'nan', and the CSV and JSON say NaN with 0 edges."""
+    from sparseedm.temporal import fillers
+
+    def holey(poses, missing, frames):
+        out = fillers.fill_linear(poses, missing, frames)
+        out[missing[:, 7], 7] = np.nan
+        return out
+
+    monkeypatch.setitem(fillers.FILLERS, "holey", holey)
+    poses, tracks, frames = _still_tracks()
+    alone = evaluate_tracks(poses, tracks, frames, gap_lengths=(3,), methods=["linear"])
+    rep = evaluate_tracks(poses, tracks, frames, gap_lengths=(3,), methods=["linear", "holey"])
+    both = rep.row("linear", "gaps")["edges"]
+    assert rep.row("holey", "gaps")["edges"] == both
+    assert 0 < both < alone.row("linear", "gaps")["edges"]
+    assert alone.row("linear", "transplanted")["edges"] > 0
+    assert rep.row("holey", "transplanted")["edges"] == 0
+    holey_line = [line for line in rep.table("transplanted").splitlines()
+                  if line.startswith("| holey |")][0]
+    assert "nan" not in holey_line and holey_line.endswith("|  | 0.0 |")
+    assert "| 0 edges |" in rep.table("transplanted")
+    csv_rows = [line for line in rep.to_csv().splitlines() if line.startswith("holey,trans")]
+    assert csv_rows[-1].endswith(",0,nan")
+    doc = json.loads(rep.to_json())
+    last = [r for r in doc["rows"] if r["method"] == "holey"][-1]
+    assert last["edges"] == 0 and np.isnan(last["edge_jump"])
+
+
+def test_tracks_note_a_gap_longer_than_every_clip():
+    """Gaps of a length no clip can hold leave nothing to score: a note says so
+    (before, the report came back empty without a word)."""
+    poses, tracks, frames = _still_tracks()
+    rep = evaluate_tracks(poses, tracks, frames, gap_lengths=(3, 40), transplanted=False,
+                          methods=["linear"])
+    assert rep.row("linear", "gaps", "gap 3")["n"] > 0
+    assert rep.row("linear", "gaps", "gap 40")["n"] == 0
+    assert rep.settings["notes"] == ["gap 40: no clip longer than 40 frames (the longest has "
+                                     "40), so no gap of 40 frames"]
+
+
 def test_tracks_with_sparseedm_and_a_clip_sample(small_dictionary):
     poses, tracks, frames = _still_tracks()
     rep = evaluate_tracks(poses, tracks, frames, gap_lengths=(10,), max_clips=1,
@@ -298,7 +342,7 @@ def test_cli_video_real(tmp_path, capsys):
     assert main(["evaluate", "--protocol", "video-real", "--data", str(data), "-o", str(out),
                  "--methods", "linear", "--gap-lengths", "3"]) == 0
     text = capsys.readouterr().out
-    assert "2 clips" in text and "| linear |" in text
+    assert "2 clips" in text and "| linear |" in text and "| edge jump |" in text
     doc = json.loads((out / "video-real.json").read_text())
     assert doc["settings"]["clips"] == 2
     assert {r["condition"] for r in doc["rows"]} == {"gaps", "transplanted"}
