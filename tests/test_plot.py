@@ -121,6 +121,29 @@ def test_the_command_writes_a_png(clip, tmp_path, capsys):
     assert main(["plot", str(odd), str(out), "-o", str(svg), "--input-format", "csv"]) == 0
 
 
+def test_the_command_reads_a_recovered_file_in_the_format_recover_wrote(tmp_path, capsys,
+                                                                       fixtures_dir):
+    """recover writes INPUT's format where OUTPUT's name does not tell (``out.keypoints``):
+    plot reads RECOVERED so too, DeepLabCut with INPUT's joint map (it used to refuse
+    RECOVERED, sending the user to --input-format, which is INPUT's)."""
+    pytest.importorskip("matplotlib", reason="needs the [plot] extra")
+    formats = fixtures_dir / "formats"
+    joint_map = str(formats / "dlc_joints.json")
+    src = tmp_path / "walk.keypoints"
+    src.write_bytes((formats / "dlc.csv").read_bytes())
+    out = tmp_path / "walk_out.keypoints"
+    assert main(["recover", str(src), "--input-format", "dlc", "-o", str(out),
+                 "--joint-map", joint_map, "-q"]) == 0
+    assert "(dlc)" in capsys.readouterr().err
+    fig = tmp_path / "walk.png"
+    assert main(["plot", str(src), str(out), "-o", str(fig), "--input-format", "dlc",
+                 "--joint-map", joint_map, "-q"]) == 0
+    assert fig.read_bytes()[:8] == PNG
+    # without the map, the refusal names it
+    assert main(["plot", str(src), str(out), "-o", str(fig), "--input-format", "dlc"]) == 2
+    assert "joints map" in capsys.readouterr().err
+
+
 @pytest.mark.parametrize("option,message", [
     (["--joints", "elbow"], "unknown joint 'elbow'"),
     (["--tracks", "z"], "track 'z' is not in the file"),

@@ -83,7 +83,7 @@ def run(args):
     from .._atomic import check_paths
     from .._extras import require
     from ..exceptions import SparseEDMError
-    from ..keypoints import format_of, read_keypoints
+    from ..keypoints import read_keypoints
     from ..plotting import FIGURE_FORMATS, plot_recovery
 
     require("plot", "sparseedm plot")  # before any file is read
@@ -97,8 +97,9 @@ def run(args):
     seen = read_keypoints(args.input, format=args.input_format,
                           confidence_threshold=args.confidence_threshold,
                           joint_map=args.joint_map)
-    same_map = format_of(Path(args.recovered), None) == "dlc"  # a DeepLabCut output: its map
-    done = read_keypoints(args.recovered, joint_map=args.joint_map if same_map else None)
+    done_format = _recovered_format(args)
+    done = read_keypoints(args.recovered, format=done_format,  # a DeepLabCut output: its map
+                          joint_map=args.joint_map if done_format == "dlc" else None)
     if len(done.poses) != len(seen.poses):
         raise SparseEDMError(f"{args.recovered} has {len(done.poses)} poses, {args.input} "
                              f"{len(seen.poses)}: is it the file recover wrote from it?")
@@ -115,6 +116,19 @@ def run(args):
                   n_poses=args.poses, path=args.output)
     print(f"wrote {args.output}", file=sys.stderr if args.quiet else sys.stdout)
     return 0
+
+
+def _recovered_format(args):
+    """RECOVERED's format as recover chose it: told by its content or name, else INPUT's
+    (recover writes INPUT's format where OUTPUT's name does not tell: ``out.keypoints``,
+    a pipe), which ``--input-format`` gives when INPUT's name does not tell either."""
+    from ..exceptions import FileFormatError
+    from ..keypoints import format_of
+
+    try:
+        return format_of(Path(args.recovered), None)
+    except FileFormatError:
+        return format_of(Path(args.input), args.input_format)
 
 
 def _aligned(frames_in, frames_out, n):
