@@ -172,6 +172,45 @@ def test_occluded_poses_lift_from_observed_entries(data, split, dict_lifter):
     assert err_occ < 2 * err_full
 
 
+def test_lift_workers_run_numba_on_one_thread_each(data, dict_lifter, monkeypatch):
+    """predict(n_jobs=2) codes its chunks in joblib threads, each kernel on one numba
+    thread (as recover()'s workers), not numba's count in each worker (they left 2
+    workers x 2 threads on 2 cores); in-process (n_jobs=1) numba's threads are kept,
+    and the caller's count is unchanged after either."""
+    import numba
+
+    from sparseedm.edm import pose_to_vector
+    from sparseedm.normalize import normalize
+    from sparseedm.solvers import get_solver
+
+    if numba.config.NUMBA_NUM_THREADS < 2:
+        pytest.skip("numba has one thread here: nothing to oversubscribe")
+    solver = type(get_solver(dict_lifter.solver))
+    seen = []
+    solve = solver.solve_masked
+
+    def spy(self, *args, **kwargs):
+        seen.append(numba.get_num_threads())
+        return solve(self, *args, **kwargs)
+
+    monkeypatch.setattr(solver, "solve_masked", spy)
+    X2 = pose_to_vector(normalize(data["poses2d"][:300])[0])
+    missing = np.zeros((300, 14), bool)
+    missing[::3, 4] = True
+    before = numba.get_num_threads()
+    numba.set_num_threads(2)
+    try:
+        ref, _ = dict_lifter.predict(X2, missing, n_jobs=1)
+        assert seen == [2]
+        seen.clear()
+        Y, _ = dict_lifter.predict(X2, missing, n_jobs=2)
+        assert len(seen) > 1 and set(seen) == {1}
+        assert numba.get_num_threads() == 2
+    finally:
+        numba.set_num_threads(before)
+    np.testing.assert_allclose(Y, ref, rtol=1e-9, atol=1e-12)
+
+
 def test_bad_rows_are_flagged_and_good_rows_lifted(data, dict_lifter):
     poses = data["poses2d"][:5].copy()
     poses[1, 2:] = np.nan                  # 2 observed joints

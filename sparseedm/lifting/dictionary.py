@@ -43,7 +43,7 @@ from threadpoolctl import threadpool_limits
 
 from .. import _progress
 from .._coding import atoms_key, pattern_order
-from .._parallel import chunk_tasks
+from .._parallel import chunk_tasks, numba_threads
 from .._validation import usable_jobs
 from ..edm import num_joints_from_dim, observed_entries, triu_indices
 from ..learning import OnlineDictionaryLearning
@@ -203,9 +203,13 @@ class DictionaryLifter(Lifter):
         tasks = chunk_tasks(pattern_order(mask), chunk_size, n_jobs)
         D2 = C[:, :m].T
 
-        def run(rows):
-            return fn(rows, solver.solve_masked(D2, X2[rows], observed[rows], alpha[rows],
-                                                key=key))
+        def run(rows, threads=None):
+            # a joblib worker's kernels on one numba thread, as recover()'s
+            # (_recovery_kernel.solve_chunk): workers x numba's threads would
+            # oversubscribe the cores; in-process, numba's threads are left as set
+            with numba_threads(threads):
+                return fn(rows, solver.solve_masked(D2, X2[rows], observed[rows], alpha[rows],
+                                                    key=key))
 
         bar = dict(total=len(tasks), disable=not progress, unit="chunk", desc="lift")
         with threadpool_limits(1, user_api="blas"):
@@ -213,7 +217,7 @@ class DictionaryLifter(Lifter):
             if n_jobs == 1:
                 return [run(t) for t in tqdm(tasks, **bar)]
             return list(tqdm(Parallel(n_jobs=n_jobs, backend="threading", return_as="generator")(
-                delayed(run)(t) for t in tasks), **bar))
+                delayed(run)(t, 1) for t in tasks), **bar))
 
     def _weighted_rows(self, X2, missing, weights):
         """The lasso of each row on its observed entries scaled by ``sqrt(w_i w_j)``
