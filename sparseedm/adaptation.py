@@ -85,7 +85,7 @@ from .dictionary import Dictionary, load_dictionary
 from .edm import pose_to_vector
 from .exceptions import DictionaryError, PoseError, SparseEDMError
 from .learning import (OnlineDictionaryLearning, complete_pose_vectors, iter_batches,
-                       load_training_poses, poses_sha256, sparse_code)
+                       load_training_poses, poses_sha256, sparse_code, unread_files)
 from .metrics import err_ave, occlusion_masks
 from .normalize import normalize, usable_rows
 from .skeleton import SKELETON_14
@@ -1579,7 +1579,8 @@ def fine_tune_file(train_path, output, init="default", *, passes=DEFAULT_PASSES,
                  ("initial dictionary", None if isinstance(init, Dictionary) else init)],
                 [("output", output)])
     base = init if isinstance(init, Dictionary) else load_dictionary(init)
-    poses = load_training_poses(train_path, input_format, joint_map)
+    skipped = []
+    poses = load_training_poses(train_path, input_format, joint_map, skipped)
     X, ok = complete_pose_vectors(poses)
     if len(X) == 0:
         raise SparseEDMError(f"{train_path}: no complete poses to fine-tune on")
@@ -1596,7 +1597,7 @@ def fine_tune_file(train_path, output, init="default", *, passes=DEFAULT_PASSES,
         "files": [Path(train_path).name], "n_poses": int(len(X)), "sha256": poses_sha256(poses),
         "sha256_of": "poses2d float64 values", "seed": random_state, "passes": passes,
         "batch_size": batch_size, "fine_tuned_from": dict(base.provenance or {}),
-        "stats": stats,
+        "stats": stats, **unread_files(skipped),
     }
     d = Dictionary(components=comps, joint_names=base.joint_names,
                    alpha_recover=base.alpha_recover if alpha_recover is None else alpha_recover,

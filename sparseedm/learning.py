@@ -456,7 +456,7 @@ def poses_sha256(poses):
     return hashlib.sha256(np.ascontiguousarray(poses, dtype=np.float64).tobytes()).hexdigest()
 
 
-def load_training_poses(path, input_format=None, joint_map=None):
+def load_training_poses(path, input_format=None, joint_map=None, skipped=None):
     """The 2D poses a dictionary learns from, NaN where a joint was not seen.
 
     A training ``.npz`` holding ``poses2d`` (``sparseedm dataset build``), or
@@ -473,6 +473,9 @@ def load_training_poses(path, input_format=None, joint_map=None):
         read as keypoints even when it is an ``.npz``.
     joint_map : str or path, optional
         DeepLabCut only: the joints map file.
+    skipped : list, optional
+        Receives ``(file, reason)`` for each file of a folder of frames
+        (OpenPose, MMPose) that could not be read: skipped with a warning.
 
     Returns
     -------
@@ -503,8 +506,21 @@ def load_training_poses(path, input_format=None, joint_map=None):
                 f"keypoint file ({err})") from None
     else:
         kps = read_keypoints(path, format=input_format, joint_map=joint_map)
+    if skipped is not None:
+        skipped += list((kps.meta or {}).get("skipped") or [])
     unseen = kps.missing if kps.filled is None else kps.missing | kps.filled
     return np.where(unseen[..., None], np.nan, np.asarray(kps.poses, float))
+
+
+def unread_files(skipped):
+    """A dictionary's provenance entry for the frame files its training folder had
+    that could not be read (:func:`load_training_poses`' `skipped`): none, or
+    ``{"skipped_files": [file, ...]}``.
+
+    >>> unread_files([("f9.json", "invalid JSON")])
+    {'skipped_files': ['f9.json']}
+    """
+    return {"skipped_files": [str(name) for name, _ in skipped]} if skipped else {}
 
 
 def fit_dictionary_file(train_path, output, *, n_components=2000, alpha=1.6,
@@ -546,12 +562,14 @@ def fit_dictionary_file(train_path, output, *, n_components=2000, alpha=1.6,
         raise OutputPathError(f"checkpoint {checkpoint}: a checkpoint file must end in .npz")
     check_paths([("training file", train_path)],
                 [("output", output), ("checkpoint", checkpoint)])
-    poses = load_training_poses(train_path, input_format, joint_map)
+    skipped = []
+    poses = load_training_poses(train_path, input_format, joint_map, skipped)
     ok = usable_rows(poses)
     if (~ok).any():
         warnings.warn(
             f"{train_path}: skipped {int((~ok).sum())} of {len(poses)} poses that are "
-            "incomplete (a joint missing, NaN/inf or filled by a recovery) or degenerate; "
+            "incomplete (a joint missing, NaN/inf or filled by a recovery) or degenerate "
+            "(no extent, or too large to measure); "
             "fitting needs complete poses",
             stacklevel=2,
         )
@@ -584,6 +602,7 @@ def fit_dictionary_file(train_path, output, *, n_components=2000, alpha=1.6,
         "passes": n_passes,
         "batch_size": batch_size,
         "n_steps": est.n_steps_,
+        **unread_files(skipped),
     }
     dictionary = Dictionary(
         components=est.components_,

@@ -333,3 +333,27 @@ def test_fine_tune_refuses_its_own_inputs_as_output_before_any_work(train_file, 
     with pytest.raises(DictionaryError, match="must end in .npz"):
         adaptation.fine_tune_file(train_file, tmp_path / "d.csv")
     assert not (tmp_path / "d.csv").exists()
+
+
+def test_fit_from_a_frame_folder_with_an_unreadable_file_exits_1(fixtures_dir, tmp_path,
+                                                                 capsys):
+    """As recover and lift: a frame file that cannot be read is skipped with a warning,
+    the dictionary written from the rest and named in its provenance, exit 1 (was 0)."""
+    import shutil
+
+    folder = tmp_path / "frames"
+    shutil.copytree(fixtures_dir / "formats" / "openpose", folder)
+    (folder / "video_000000000009_keypoints.json").write_text("{bad")
+    out = tmp_path / "d.npz"
+    assert main(["fit", str(folder), "-o", str(out), "--atoms", "2", "-q"]) == 1
+    err = capsys.readouterr().err
+    assert "1 input file(s) unreadable, not learned from: video_000000000009" in err
+    assert load_dictionary(out).provenance["skipped_files"] == [
+        "video_000000000009_keypoints.json"]
+    tuned = tmp_path / "t.npz"
+    assert main(["fit", str(folder), "-o", str(tuned), "--init", "default", "-q"]) == 1
+    assert load_dictionary(tuned).provenance["skipped_files"] == [
+        "video_000000000009_keypoints.json"]
+    (folder / "video_000000000009_keypoints.json").unlink()
+    assert main(["fit", str(folder), "-o", str(out), "--atoms", "2", "-q"]) == 0
+    assert "skipped_files" not in load_dictionary(out).provenance

@@ -76,7 +76,8 @@ def run(args):
     Returns
     -------
     int
-        The exit code: 0 when done.
+        The exit code: 0 when done, 1 when files of a folder of frames could not be
+        read (skipped, named on stderr; the dictionary written without them).
     """
     from ..learning import fit_dictionary_file
 
@@ -106,4 +107,9 @@ def run(args):
     print(f"wrote {args.output}: {d.n_components} atoms {how} from "
           f"{d.provenance['n_poses']} poses in {time.perf_counter() - t0:.1f} s",
           file=sys.stderr if args.quiet else sys.stdout)
+    unread = d.provenance.get("skipped_files") or []
+    if unread:  # as recover and lift: an input file not read is exit 1
+        print(f"sparseedm fit: {len(unread)} input file(s) unreadable, not learned from: "
+              f"{', '.join(unread[:3])}{' ...' if len(unread) > 3 else ''}", file=sys.stderr)
+        return 1
     return 0
