@@ -470,7 +470,8 @@ def load_training_poses(path, input_format=None, joint_map=None, skipped=None):
     path : str or path
     input_format : str, optional
         The keypoint format (``read_keypoints``' `format`); given, `path` is
-        read as keypoints even when it is an ``.npz``.
+        read as keypoints even when it is an ``.npz``, except ``"npz"``: a
+        training set or a keypoint ``.npz``, whatever the name.
     joint_map : str or path, optional
         DeepLabCut only: the joints map file.
     skipped : list, optional
@@ -487,7 +488,7 @@ def load_training_poses(path, input_format=None, joint_map=None, skipped=None):
         An ``.npz`` that is neither a training set nor a keypoint file, or an
         unreadable keypoint file (the reader's message).
     """
-    if input_format is None and Path(path).suffix.lower() == ".npz":
+    if input_format == "npz" or (input_format is None and Path(path).suffix.lower() == ".npz"):
         arrays, names = load_npz(path, ("poses2d",), what=f"{path}: cannot read training file:")
         if "poses2d" in arrays:
             poses = arrays["poses2d"]
@@ -498,7 +499,7 @@ def load_training_poses(path, input_format=None, joint_map=None, skipped=None):
                 raise FileFormatError(f"{path}: poses2d must be (n, N, 2), got {poses.shape}")
             return poses
         try:
-            kps = read_keypoints(path, joint_map=joint_map)
+            kps = read_keypoints(path, format=input_format, joint_map=joint_map)
         except FileFormatError as err:
             raise FileFormatError(
                 f"{path}: neither a training set (no 'poses2d' array; has: "

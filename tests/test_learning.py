@@ -282,6 +282,13 @@ def test_fit_reads_a_keypoint_file_and_learns_only_what_was_seen(train_file, tmp
     np.testing.assert_allclose(from_csv.components, from_npz.components, atol=1e-9)
     assert main(["fit", str(csv_path), "-o", str(tmp_path / "c.npz"), "--atoms", "20",
                  "-q"]) == 0
+    # --input-format npz names a training set too (it was read as keypoints only:
+    # "no 'poses' array")
+    odd = tmp_path / "seen.data"
+    odd.write_bytes((tmp_path / "seen.npz").read_bytes())
+    with pytest.warns(UserWarning, match="skipped 2 of 334"):
+        told = fit_dictionary_file(odd, tmp_path / "e.npz", input_format="npz", **kw)
+    np.testing.assert_array_equal(told.components, from_npz.components)
     # an .npz that is neither a training set nor keypoints names both
     np.savez(tmp_path / "other.npz", weights=np.zeros(3))
     with pytest.raises(FileFormatError, match="neither a training set.*nor a keypoint"):
