@@ -343,6 +343,7 @@ def test_cli_video_real(tmp_path, capsys):
                  "--methods", "linear", "--gap-lengths", "3"]) == 0
     text = capsys.readouterr().out
     assert "2 clips" in text and "| linear |" in text and "| edge jump |" in text
+    assert "edge jump: how much more the filled joints move" in text
     doc = json.loads((out / "video-real.json").read_text())
     assert doc["settings"]["clips"] == 2
     assert {r["condition"] for r in doc["rows"]} == {"gaps", "transplanted"}
