@@ -478,8 +478,10 @@ def _video_fillers(methods, dictionary):
     own = ("sparseedm", "per-frame", "kalman")
     unknown = [m for m in methods if m not in own and m not in fillers.FILLERS and ":" not in m]
     if unknown or not methods:
-        raise ParameterError(f"evaluate_tracks: unknown method(s) {unknown}; known: "
-                             f"{', '.join(own + tuple(fillers.FILLERS))}, module:function")
+        known = ", ".join(dict.fromkeys(own + tuple(fillers.FILLERS)))
+        raise ParameterError(f"evaluate_tracks: unknown method(s) {unknown}; known: {known}, "
+                             "module:function" if unknown else
+                             f"evaluate_tracks: no method given; give one or more of {known}")
     if {"sparseedm", "per-frame", "sparse"} & set(methods) and \
             not isinstance(dictionary, Dictionary):
         dictionary = load_dictionary(dictionary)

@@ -300,8 +300,12 @@ def test_tracks_refuse_an_unknown_method():
     from sparseedm.exceptions import ParameterError
 
     poses, tracks, frames = _still_tracks()
-    with pytest.raises(ParameterError, match="'spline'.*per-frame"):
+    with pytest.raises(ParameterError, match="'spline'.*per-frame") as err:
         evaluate_tracks(poses, tracks, frames, methods=["linear", "spline"])
+    assert str(err.value).count("kalman") == 1  # named once, not as its own and a filler
+    with pytest.raises(ParameterError, match="no method given; give one or more of "
+                                             "sparseedm, per-frame"):
+        evaluate_tracks(poses, tracks, frames, methods=[])
 
 
 def test_video_methods_include_kalman_when_the_fillers_have_it(monkeypatch):
