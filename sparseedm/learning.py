@@ -535,6 +535,8 @@ def fit_dictionary_file(train_path, output, *, n_components=2000, alpha=1.6,
     `train_path` is read by :func:`load_training_poses` (with `input_format`
     and `joint_map`): a training set's ``poses2d``, or the complete poses of
     a keypoint file of real people (a detector's output, an annotated set).
+    Files of a folder of frames that cannot be read are skipped with a
+    warning and named in the dictionary's provenance (``skipped_files``).
 
     Only one mini-batch of EDM vectors exists at a time beyond the input
     array itself. Every `checkpoint_every` batches the learner's whole state
