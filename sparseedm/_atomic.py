@@ -18,7 +18,7 @@ device or a named pipe (``/dev/null``, ``/dev/stdout``, a FIFO a reader waits
 on), or a symlink to one, is written *through*: the finished temporary (made
 in the system's temporary folder) is streamed into it, and the device or pipe
 stays what it was. A symlink to a regular file is kept: its target is
-replaced atomically. A block device or a socket is refused with an
+replaced atomically (a symlink to nothing yet: its target is made). A block device or a socket is refused with an
 :class:`~sparseedm.exceptions.OutputPathError`, and :func:`check_paths`
 refuses any output inside the files shipped with the package.
 """
@@ -272,7 +272,8 @@ def _target(path: Path):
     try:
         mode = os.stat(path).st_mode  # follows symlinks
     except (FileNotFoundError, NotADirectoryError):
-        return "replace", path
+        # a dangling symlink is kept: the file is made where it points
+        return "replace", Path(os.path.realpath(path)) if os.path.islink(path) else path
     except OSError as exc:
         raise OutputPathError(f"{path}: cannot write it ({exc.strerror})") from None
     if stat.S_ISREG(mode):

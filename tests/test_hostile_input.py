@@ -131,6 +131,18 @@ def test_symlink_to_a_regular_file_keeps_the_link(tmp_path):
     assert link.is_symlink() and target.read_text() == "new"
 
 
+def test_dangling_symlink_keeps_the_link_and_makes_its_target(tmp_path):
+    """Only regular files are replaced: a link to a file not written yet stays a link,
+    and the output is made where it points."""
+    (tmp_path / "data").mkdir()
+    target = tmp_path / "data" / "out.csv"
+    link = tmp_path / "out.csv"
+    link.symlink_to(target)
+    with atomic_path(link) as tmp:
+        Path(tmp).write_text("new")
+    assert link.is_symlink() and target.read_text() == "new"
+
+
 def test_socket_and_block_device_refused(tmp_path):
     import socket
 
