@@ -27,10 +27,8 @@ same files. Files, seeds, scores, tables: ``select_local_align.py``'s.
 
     python studies/fast/select_local_average.py --screen --seeds 0,1,2 \\
         --out selection_local_average_screen.json
-    python studies/fast/select_local_average.py --seeds 0,1,2 --variant "k=50,100,200,400" \\
+    python studies/fast/select_local_average.py --seeds 0,1,2 --variant "k=50,100,200" \\
         --out selection_local_average.json
-    python studies/fast/select_local_average.py --seeds 0,1,2 --sources "" --variant ... \\
-        --mocap cmu_other_subjects.npz:cmu-k2000,daz_indian.npz --out selection_local_average_mocap.json
     python studies/fast/select_local_average.py --screen --table selection_local_average_screen.json
 """
 
