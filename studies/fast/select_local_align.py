@@ -179,8 +179,10 @@ def _key(name):
     return re.sub(r"[^A-Za-z0-9+,.-]+", "_", name)
 
 
-def screen(name, truth, missing, variants):
-    """The Gaussian's own fill per variant: mean error, paired against shipped."""
+def screen(name, truth, missing, variants, fill=None):
+    """The Gaussian's own fill per variant (``fill(draws, poses, missing,
+    variant)``, default :func:`variant_fill` of :func:`parse`'s options): mean
+    error, paired against shipped."""
     from sparseedm.exemplars import _linear_draws
     from studies.fast.select_photo_blend import paired, per_pose
 
@@ -191,7 +193,9 @@ def screen(name, truth, missing, variants):
     errs, secs = {}, {}
     for v in variants:
         t0 = time.perf_counter()
-        errs[v] = per_pose(variant_fill(draws, g, m, **parse(v)), t, m)
+        filled = (variant_fill(draws, g, m, **parse(v)) if fill is None else
+                  fill(draws, g, m, v))
+        errs[v] = per_pose(filled, t, m)
         secs[v] = round(time.perf_counter() - t0, 2)
     return {v: {"mean": round(float(np.nanmean(e)), 4), "minus_shipped":
                 paired(e, errs["shipped"]), "seconds": secs[v]} for v, e in errs.items()}
@@ -306,11 +310,9 @@ def table(docs):
     return "\n".join(lines)
 
 
-def main(argv=None):
-    from studies.fast.select_local_gaussian import files
-    from studies.fast.select_photo_blend import paired
-
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def options(ap, variants, variant):
+    """The arguments of this study's command line (shared with its siblings):
+    `variants` --screen's default, `variant` the end-to-end one."""
     ap.add_argument("--seeds", default="0")
     ap.add_argument("--sources", default="mpii,coco,bonn")
     ap.add_argument("--parts", default="split,train")
@@ -318,21 +320,27 @@ def main(argv=None):
     ap.add_argument("--mocap", default="", help="dataset files path[:dictionary], comma-separated")
     ap.add_argument("--mocap-sizes", default="200,1000")
     ap.add_argument("--screen", action="store_true", help="the Gaussian's own fill per variant")
-    ap.add_argument("--variants", default=",".join(VARIANTS), help="--screen's, comma-separated")
-    ap.add_argument("--variant", default="align fit cap 45", help="end to end")
+    ap.add_argument("--variants", default=variants, help="--screen's")
+    ap.add_argument("--variant", default=variant, help="end to end")
     ap.add_argument("--columns", default="", help="--screen --table: these variants alone")
-    ap.add_argument("--timing", action="store_true", help="seconds on MPII val, --variants")
     ap.add_argument("--table", nargs="+", type=Path, help="print the pooled table, stop")
-    ap.add_argument("--out", type=Path, default=Path("local_align.json"))
-    a = ap.parse_args(argv)
+    return ap
+
+
+def run(a, screen_file, measure_file, sep=","):
+    """The study's files (``a``: :func:`options`' arguments) screened
+    (``screen_file(name, truth, missing, variants)``) or measured end to end
+    (``measure_file(name, truth, missing, photo, kw, variant)``), written to
+    ``a.out`` file by file (files already there skipped); --table: the table."""
+    from studies.fast.select_local_gaussian import files
+    from studies.fast.select_photo_blend import paired
+
     if a.table:
         docs = [json.loads(p.read_text()) for p in a.table]
-        print(screen_table(docs, a.columns and a.columns.split(",")) if a.screen else
+        print(screen_table(docs, a.columns and a.columns.split(sep)) if a.screen else
               table(docs))
         return
     warnings.simplefilter("ignore")
-    if a.timing:
-        return timing(a.out, a.variants.split(","))
     doc = json.loads(a.out.read_text()) if a.out.exists() else {
         "score": "per occluded pose: % body size of its hidden joints; minus_*: "
                  "[mean, standard error] paired", "variant": None if a.screen else a.variant,
@@ -346,11 +354,11 @@ def main(argv=None):
                     f" {c} " in name for c in conditions):
                 continue
             if a.screen:
-                doc["files"][name] = screen(name, truth, missing, a.variants.split(","))
+                doc["files"][name] = screen_file(name, truth, missing, a.variants.split(sep))
                 print(name, {v: r["minus_shipped"] for v, r in doc["files"][name].items()},
                       flush=True)
             else:
-                secs, weights, errors = measure(name, truth, missing, photo, kw, a.variant)
+                secs, weights, errors = measure_file(name, truth, missing, photo, kw, a.variant)
                 doc["files"][name] = {
                     "seconds": secs, "weights": weights, "n": int(len(errors["variant"])),
                     "candidates": {k: {"mean": round(float(np.nanmean(e)), 4),
@@ -360,6 +368,18 @@ def main(argv=None):
                                             doc["files"][name]["candidates"].items()},
                       doc["files"][name]["candidates"]["variant"]["minus_shipped"], flush=True)
             a.out.write_text(json.dumps(doc, indent=1) + "\n")
+
+
+def main(argv=None):
+    ap = options(argparse.ArgumentParser(description=__doc__.splitlines()[0]),
+                 ",".join(VARIANTS), "align fit cap 45")
+    ap.add_argument("--timing", action="store_true", help="seconds on MPII val, --variants")
+    ap.add_argument("--out", type=Path, default=Path("local_align.json"))
+    a = ap.parse_args(argv)
+    if a.timing and not a.table:
+        warnings.simplefilter("ignore")
+        return timing(a.out, a.variants.split(","))
+    run(a, screen, measure)
 
 
 if __name__ == "__main__":
