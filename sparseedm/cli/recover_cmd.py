@@ -125,7 +125,8 @@ def _add_adaptation_options(p):
                    "it is adapted when INPUT has enough of them, and kept only if better "
                    "on a held-back slice: sparseedm.adaptation); without --dictionary, "
                    "poses are coded one by one over cmu-coco-k2932 with --mirror-auto "
-                   "(--dictionary default: over the default alone)")
+                   "and averaged with the shipped pose bank's local Gaussian "
+                   "(--dictionary default: over the default alone, no bank)")
     g.add_argument("--adapt-from", default=None, metavar="FILE",
                    help="adapt on the complete poses of FILE (same source, any keypoint "
                    "format; a video's time-completed frames too) instead of INPUT's")
