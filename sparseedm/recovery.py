@@ -504,7 +504,7 @@ def _recover_in_time(poses, missing, tracks, frames, method, kwargs):
         raise SparseEDMError("temporal recovery uses the sparse method: pass "
                              "method='sparse', or temporal=False")
     kwargs = {k: v for k, v in kwargs.items()
-              if k not in ("exemplars", "mirror")}  # per pose only
+              if k not in ("exemplars", "mirror", "cold_bank")}  # per pose only
     return recover_temporal(poses, missing, tracks=tracks, frames=frames, check_input=False,
                             **kwargs)
 
