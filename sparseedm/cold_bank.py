@@ -11,9 +11,10 @@ pose's hidden joints come from the bank poses nearest it on its observed
 joints. A pose nearer the photographed people than the motion capture (its
 :data:`COLD_BANK_GATE_NEIGHBOURS` nearest of each, mean distance, their
 ratio below :data:`COLD_BANK_GATE`) takes its Gaussian from the photographed
-people alone, any other from the whole bank. The two answers are averaged with the bank's weighted by
-:data:`COLD_BANK_WEIGHTS` for the pose's count of hidden joints (chosen on
-validation photos, ``studies/real_prior/select_cold_bank.py``), and
+people alone, any other from the whole bank. The two answers are averaged,
+the bank's weighted by :data:`COLD_BANK_WEIGHTS` for the pose's count of
+hidden joints (chosen on validation photos with motion capture held out from
+both answers as the check, ``studies/real_prior/select_cold_bank.py``), and
 ``RecoveryResult.averaged`` says :data:`AVERAGED_BANK` on those poses.
 """
 

@@ -2,24 +2,29 @@
 
 The cold prior codes each pose over ``cmu-coco-k2932`` (``mirror="auto"``)
 and cannot learn from the file. This study sets beside it a linear answer
-from a fixed bank of complete 2D poses: the per-pose local Gaussian of
-:func:`sparseedm.gaussian_fill.local_gaussian_fill` (the bank poses nearest
-the pose on its observed joints, shrunk toward the Gaussian of the whole
-bank; the bank turned to the file's mean body axis,
-:func:`sparseedm.cold_bank.bank_fill`), and stacks the two, ``(1 - w) cold + w bank``, at a weight ``w`` set
-by the pose's count of hidden joints.
+from a fixed bank of complete 2D poses, :func:`sparseedm.cold_bank.bank_fill`
+(the per-pose local Gaussian of
+:func:`sparseedm.gaussian_fill.local_gaussian_fill` over the bank turned to
+the file's mean body axis; with a gate, a pose whose mean distance to its 20
+nearest COCO poses is below the gate times that to its 20 nearest CMU poses
+takes COCO's poses alone, any other the whole bank), and stacks the two,
+``(1 - w) cold + w bank``, at a weight ``w`` per count of hidden joints
+(:data:`GROUPS`), chosen on the photo files: per group the least error
+(each file relative to its cold error) among the weights that leave no
+source worse than the cold answer by more than one standard error.
 
 Banks (only poses free to ship):
 
-* ``coco``: COCO's complete poses of real2d's train split, both neck
-  conventions, mirrored (the 932 poses ``cmu-coco-k2932`` appends as atoms:
+* COCO's complete poses of real2d's train split, both neck conventions,
+  mirrored (the 932 poses ``cmu-coco-k2932`` appends as atoms:
   ``coco_prior.coco_train_poses(mirror=True, necks=(0, 0.2))``);
 * ``coco+cmuN``: those plus N CMU poses (``benchmarks.load_cmu``: the CMU
   clips projected by ``sparseedm dataset build`` cameras), N/2 drawn (seed 0)
-  and their mirror images. On the photos the CMU draw is from every subject;
-  on mocap (the control) from subjects 01-03 only, and the cold answer is
-  then ``cmu-k2000+coco`` (as ``select_cold_default.py``'s control pair), so
-  the other CMU subjects and the Daz clips are held out from both answers.
+  and their mirror images (gate inf: COCO's alone, 0: the whole bank). On
+  the photos the CMU draw is from every subject; on mocap (the control) from
+  subjects 01-03 only, and the cold answer is then ``cmu-k2000+coco`` (as
+  ``select_cold_default.py``'s control pair), so the other CMU subjects and
+  the Daz clips are held out from both answers.
 
 Files: ``harness.py``'s validation photo files (``mpii``, ``coco-val``,
 ``bonn`` val frames; 1 / 2 / 3 random hidden joints and transplanted real
@@ -34,10 +39,14 @@ over its hidden joints, pooled weighing each pose by its hidden count; the
 ratio to IterativeImputer; paired differences to the cold answer per occluded
 pose (photos) or per clip, clustered by subject (mocap).
 
-    python studies/real_prior/select_cold_bank.py --part photos --seeds 3 \\
-        --out studies/real_prior/selection_cold_bank.json --cache /tmp/coldbank
-    python studies/real_prior/select_cold_bank.py --part cmu-others,daz --daz /tmp/daz.npz \\
-        --out studies/real_prior/selection_cold_bank.json --cache /tmp/coldbank
+    python studies/real_prior/select_cold_bank.py --part photos --seeds 2 \
+        --banks coco+cmu2000,coco+cmu6000 --neighbours 100 --cache CACHE --out A.json
+    python studies/real_prior/select_cold_bank.py --part cmu-others,daz --daz daz.npz \
+        --banks coco+cmu2000,coco+cmu6000 --neighbours 100 --cache CACHE --out B.json
+    # B's "mocap_rows" copied into A, then the mocap summary with A's weights:
+    python studies/real_prior/select_cold_bank.py --part none --out A.json
+    # the shipped bank:
+    python studies/real_prior/select_cold_bank.py --ship OUT.npz --bank coco+cmu6000
 """
 
 from __future__ import annotations
