@@ -42,7 +42,7 @@ COLD_BANK = "cold-bank"
 
 #: the bank's weight in the average by the pose's count of hidden joints
 #: (index: the count; 0 unused)
-COLD_BANK_WEIGHTS = (0.0, 0.5, 0.6, 0.5, 0.9, 0.9, 0.8, 0.8, 0.8, 0.8, 0.8, 0.8, 0.8,
+COLD_BANK_WEIGHTS = (0.0, 0.25, 0.5, 0.25, 0.9, 0.9, 0.8, 0.8, 0.8, 0.8, 0.8, 0.8, 0.8,
                      0.8, 0.8)
 
 #: the bank poses nearest a pose that set its Gaussian
