@@ -158,7 +158,9 @@ class RecoveryResult:
         :data:`~sparseedm.exemplars.AVERAGED_MANY_HIDDEN`, and over the base
         with them as extra atoms, :data:`~sparseedm.exemplars.AVERAGED_RIDGE_MEAN`,
         and one Gaussian's of the file's poses at the check's weight,
-        :data:`~sparseedm.exemplars.AVERAGED_GAUSSIAN`, joined by ``"; "``);
+        :data:`~sparseedm.exemplars.AVERAGED_GAUSSIAN`, joined by ``"; "``;
+        ``adapt=False`` without a dictionary: the shipped pose bank's local
+        Gaussian, :data:`~sparseedm.cold_bank.AVERAGED_BANK`);
         None: the path averaged nothing so.
     spread : ndarray (n, N) or None
         With ``averaged``: the distance (the input's units) between the two

@@ -123,6 +123,7 @@ from .keypoints import (FLAGS_IN_SIDECAR, N_JOINTS, EXTENSIONS, RESULT_FIELDS, b
                         finish_missing, format_of, load_single_npy, npy_confidence,
                         origin_joints, read_keypoints, status_sidecar, write_keypoints)
 from .keypoints import output_format as keypoint_output_format
+from .cold_bank import cold_bank_stack
 from ._recovery_base import (OK_STATUSES, averaged_summary, cold_prior, combine,
                              mirror_weights, recovery_summary)
 from ._recovery_kernel import PRESETS, compiled_solver, preset_solver
@@ -508,7 +509,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
         in_time = _in_time(source, temporal and method == "sparse")  # links, if it will
         _check_output_fits(source, outputs)
         cold, mirror = cold_prior(given, adapt, mirror, method == "sparse" and not in_time)
-        dictionary = dictionary if cold is given else _loaded(cold)
+        dictionary, bank = (dictionary, False) if cold is given else (_loaded(cold), True)
         if outliers:  # scored points its track and the pose model contradict: missing
             source.mark_outliers(dictionary, in_time, alpha, representation, solver, n_jobs)
         if method == "sparse":
@@ -525,7 +526,7 @@ def recover_file(input, output, *, dictionary=None, alpha=None, representation=N
         members = _with_mirrors(members, mirror, in_time, method)
         recovery = _Recovery(members, alpha, representation, solver, n_jobs, backend,
                              scheduler, method, model, (source.tracks, source.frames)
-                             if in_time else None, mirror == "auto", blend, adaptation)
+                             if in_time else None, mirror == "auto", blend, adaptation, bank)
         summary = _run(source, outputs, recovery, chunk_size, progress, t0)
     finally:
         source.close()
@@ -802,6 +803,7 @@ class _Recovery:
     mirror_gate: bool = False
     blend: object = None
     adaptation: object = None
+    cold_bank: bool = False
 
     def bounds(self, n, chunk_size):
         """(rows, keep) of each chunk: `chunk_size` rows (a slice), or in time
@@ -836,6 +838,8 @@ class _Recovery:
                            method=self.method, model=self.model, adapt=False, **in_time)
                    for d in self.members]
         res = combine(results, mirror_weights(results) if self.mirror_gate else None)
+        if self.cold_bank:  # the cold prior's codes with the shipped pose bank's answer
+            res = cold_bank_stack(res, poses, res.missing)
         if self.blend is not None:
             # the poses as recover() read them: its mask (validated) says what is missing;
             # the few blended rows are coded here, without a cluster's client

@@ -434,7 +434,9 @@ def available_dictionaries() -> list[str]:
     list of str
         Names :func:`load_dictionary` accepts.
     """
-    return shipped_names("sparseedm.dictionaries", DEFAULT_DICTIONARY)
+    # a pose bank (sparseedm.cold_bank, "*-bank") ships beside them: no dictionary
+    return [n for n in shipped_names("sparseedm.dictionaries", DEFAULT_DICTIONARY)
+            if not n.endswith("-bank")]
 
 
 def dictionary_path(name_or_path):

@@ -151,7 +151,7 @@ __all__ = ["EXEMPLAR_MIN_POSES", "EXEMPLAR_MARGIN", "EXEMPLAR_OPTIONS", "Exempla
            "blend_rows", "blend_atoms", "blend_parts", "blend_many_hidden", "ridge_mean_atoms", "blends",
            "AVERAGED_MANY_HIDDEN", "AVERAGED_RIDGE_MEAN", "AVERAGED_GAUSSIAN", "LINEAR_WEIGHTS", "LINEAR_MIN_SE",
            "MAX_LINEAR_FIT", "LINEAR_PROBE_ROUNDS", "LinearStack", "linear_weight", "linear_stack",
-           "probe_stack", "finish_blend", "paired_gain"]
+           "probe_stack", "finish_blend", "paired_gain", "stack_fill"]
 
 #: From this many usable complete poses the file's own poses are the atoms,
 #: no check, no adaptation (chosen on validation files: studies/fast/README.md)
@@ -765,23 +765,33 @@ def _stacked(res, poses, missing, linear):
     rows = np.flatnonzero(np.asarray(missing, bool).any(axis=1))
     if not len(rows):
         return res
-    part = res.take(rows)
     fill = local_gaussian_fill(linear.train, poses[rows], missing[rows])
-    fill = np.where(np.isfinite(fill), fill, part.poses)
-    weights = np.repeat([[1 - linear.weight], [linear.weight]], len(rows), axis=1)
-    # the Gaussian places joints, it recovers no distances: its hidden distances
-    # are the path's moved as its joints move, so the disagreement between the
-    # recovered distances and the placed joints (an uncertainty feature) stays
-    # the path's (as donors.donor_step moves them)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        shift = (pose_to_vector(fill) - pose_to_vector(part.poses)) / part.scale[:, None]
-    hidden = ~observed_entries(missing[rows])
-    gaussian = replace(part, poses=fill, vectors=np.where(
-        hidden & np.isfinite(shift), part.vectors + shift, part.vectors))
-    out = put_rows(res, rows, combine([part, gaussian], weights))
-    out = _averaged_record(out, res, rows, gaussian, AVERAGED_GAUSSIAN)
+    out = stack_fill(res, rows, fill, linear.weight, AVERAGED_GAUSSIAN)
     out.seconds = res.seconds + time.perf_counter() - t0
     return out
+
+
+def stack_fill(res, rows, fill, weight, kind):
+    """`res` with the answers of `rows` averaged with the joints `fill` (one per
+    row; NaN rows keep the answer) placed by a linear estimate, `fill` weighted by
+    `weight` (a number or one per row), and ``averaged`` saying `kind` there.
+
+    The estimate places joints, it recovers no distances: its hidden distances
+    are the answer's moved as its joints move, so the disagreement between the
+    recovered distances and the placed joints (an uncertainty feature) stays
+    the answer's (as :func:`~sparseedm.donors.donor_step` moves them).
+    """
+    part = res.take(rows)
+    fill = np.where(np.isfinite(fill), fill, part.poses)
+    weight = np.broadcast_to(np.asarray(weight, float), (len(rows),))
+    weights = np.stack([1 - weight, weight])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        shift = (pose_to_vector(fill) - pose_to_vector(part.poses)) / part.scale[:, None]
+    hidden = ~observed_entries(part.missing)
+    linear = replace(part, poses=fill, vectors=np.where(
+        hidden & np.isfinite(shift), part.vectors + shift, part.vectors))
+    out = put_rows(res, rows, combine([part, linear], weights))
+    return _averaged_record(out, res, rows, linear, kind)
 
 
 def _averaged_record(out, before, rows, ridge, kind):

@@ -40,7 +40,7 @@ from .skeleton import SKELETON_14
 
 __all__ = ["MAX_FILE_ATOMS", "MAX_FAST_ATOMS", "FAST_ALPHA", "ATOM_SPACING", "FileAtoms",
            "with_file_atoms", "file_dictionary", "resolve_fast", "complete_rows",
-           "spaced_rows", "atoms_adaptation", "mirror_images"]
+           "spaced_rows", "atoms_adaptation", "mirror_images", "body_axis"]
 
 #: at most this many of a file's complete poses become atoms (a seeded sample)
 MAX_FILE_ATOMS = 1000
@@ -415,18 +415,38 @@ def mirror_images(poses, skeleton=SKELETON_14):
     with np.errstate(invalid="ignore"), warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # a row of NaN: its mirror NaN
         centre = np.nanmean(poses, axis=1, keepdims=True)
-    axis = _body_axis(poses, skeleton)
+    axis = body_axis(poses, skeleton)
+    axis = np.array([0.0, 1.0]) if axis is None else axis
     d = poses - centre
     reflected = centre + 2 * (d @ axis)[..., None] * axis - d
     return np.concatenate([poses, reflected[:, skeleton.flip_permutation()]])
 
 
-def _body_axis(poses, skeleton):
+def body_axis(poses, skeleton=SKELETON_14):
     """The unit mean over `poses` of their directions from the hips' midpoint to
-    the neck; the image's vertical where there is none."""
+    the neck (poses missing one of those joints, NaN, left out).
+
+    Parameters
+    ----------
+    poses : ndarray (n, N, 2)
+    skeleton : Skeleton, default SKELETON_14
+
+    Returns
+    -------
+    ndarray (2,) or None
+        None where `skeleton` names no such joints, no pose has them or the
+        directions cancel.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> pose = np.zeros((1, 14, 2)); pose[0, 1] = [0.0, -3.0]   # neck above the hips
+    >>> body_axis(pose).tolist()
+    [0.0, -1.0]
+    """
     names = skeleton.joint_names
     if not {"neck", "right_hip", "left_hip"} <= set(names) or not len(poses):
-        return np.array([0.0, 1.0])
+        return None
     hips = (poses[:, names.index("right_hip")] + poses[:, names.index("left_hip")]) / 2
     up = poses[:, names.index("neck")] - hips
     with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
@@ -434,7 +454,7 @@ def _body_axis(poses, skeleton):
         mean = np.nansum(np.where(np.isfinite(up), up, np.nan), axis=0)
         length = np.hypot(*mean)
     if not (np.isfinite(length) and length > 1e-9 * len(poses)):
-        return np.array([0.0, 1.0])
+        return None
     return mean / length
 
 

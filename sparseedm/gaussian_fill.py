@@ -33,7 +33,8 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 __all__ = ["GAUSSIAN_RIDGE", "GAUSSIAN_ROUNDS", "LOCAL_NEIGHBOURS", "LOCAL_PRIOR", "LOCAL_RESELECT",
-           "conditional_mean", "gaussian_fill", "local_gaussian_fill", "file_gaussian"]
+           "conditional_mean", "gaussian_fill", "local_gaussian_fill", "file_gaussian",
+           "nearest_distances"]
 
 #: The covariance's ridge, relative to its mean variance (chosen on validation
 #: photo files: studies/fast/README.md)
@@ -289,6 +290,67 @@ def _local_fit(train, q, d, obs, hid, whole, neighbours, prior):
     sigma = (scatter + prior * cov) / (counts + prior)[..., None]
     coef = np.linalg.solve(sigma[:, obs][:, :, obs], sigma[:, obs][:, :, hid])
     return mean[:, hid] + np.einsum("bo,boh->bh", q - mean[:, obs], coef)
+
+
+def nearest_distances(train, poses, missing, neighbours, parts=None):
+    """Each pose's mean distance to its `neighbours` nearest draws on its observed joints.
+
+    In the frame of the pose's observed joints (their centroid and RMS radius,
+    as :func:`local_gaussian_fill` compares them), the Euclidean distance over
+    those joints' coordinates to each draw of `train`; the mean of the
+    `neighbours` smallest (among the draws of each part with `parts`).
+
+    Parameters
+    ----------
+    train : ndarray (n, N, 2)
+        Complete poses, the draws.
+    poses : ndarray (m, N, 2)
+        Values at missing joints ignored.
+    missing : ndarray of bool (m, N)
+    neighbours : int
+    parts : ndarray of bool (n,), optional
+        Two parts of the draws (True, False), each with at least one draw.
+
+    Returns
+    -------
+    ndarray (m,), or (m, 2) with `parts`: the True part's, then the False part's
+        NaN where a pose's observed joints have no spread.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> train = np.random.default_rng(0).normal(size=(50, 14, 2))
+    >>> missing = np.zeros((2, 14), bool); missing[:, 3] = True
+    >>> d = nearest_distances(train, train[:2] * 2 + 5, missing, 1)    # scaled, moved
+    >>> bool(d[0] < 1e-6 and d[1] < 1e-6)
+    True
+    """
+    train = np.asarray(train, dtype=float)
+    poses = np.asarray(poses, dtype=float)
+    missing = np.asarray(missing, bool)
+    split = [np.ones(len(train), bool)] if parts is None else [parts, ~np.asarray(parts)]
+    out = np.full((len(poses), len(split)), np.nan)
+    sums = _sums(train)
+    patterns, which = np.unique(missing, axis=0, return_inverse=True)
+    which = np.ravel(which)
+    for k, pattern in enumerate(patterns):
+        rows = np.flatnonzero(which == k)
+        if (~pattern).sum() < 2:
+            continue
+        z_train, _, spread = _frame(train, ~pattern, sums)
+        seen = np.where((spread > 0)[:, None], z_train[:, ~pattern].reshape(len(train), -1),
+                        0.0)
+        z, _, radius = _frame(np.where(pattern[:, None], 0.0, poses[rows]), ~pattern)
+        q = z[:, ~pattern].reshape(len(rows), -1)
+        with np.errstate(invalid="ignore", over="ignore"):
+            d = (seen * seen).sum(axis=1)[None] - 2 * q @ seen.T + (q * q).sum(axis=1)[:, None]
+        d[:, ~(spread > 0)] = np.inf  # a draw of no spread: never near
+        for j, part in enumerate(split):
+            dj = d[:, part]
+            n = min(int(neighbours), dj.shape[1])
+            near = np.sqrt(np.maximum(np.partition(dj, n - 1, axis=1)[:, :n], 0.0)).mean(axis=1)
+            out[rows, j] = np.where(np.isfinite(radius) & (radius > 0), near, np.nan)
+    return out[:, 0] if parts is None else out
 
 
 def file_gaussian(complete, poses, missing, *, rounds=GAUSSIAN_ROUNDS, ridge=GAUSSIAN_RIDGE,

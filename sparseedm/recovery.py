@@ -40,6 +40,7 @@ from ._recovery_kernel import (RECOVER_PARAMS, preset_solver, recover_members, r
                                 solve_chunk)
 from ._validation import Options, check_adapt, check_frames, validate_params
 from .normalize import REPRESENTATIONS, representation_for
+from .cold_bank import cold_bank_stack
 from .dictionary import Dictionary, check_gram_memory, load_dictionary
 from .ensemble import adapt_members
 from .exemplars import EXEMPLAR_OPTIONS, blend_many_hidden, blend_parts, blends, finish_blend
@@ -156,10 +157,13 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         None means the shipped default, ``cmu-all-k2000``: the base adaptation
         starts from. With ``adapt=False`` and poses coded one by one (no
         `frames`), None means ``cmu-coco-k2932`` (its CMU atoms plus COCO's
-        people) with ``mirror="auto"``: the cold prior that does best on
+        people) with ``mirror="auto"``, the answers then averaged with a
+        local Gaussian's over the shipped pose bank
+        (:mod:`sparseedm.cold_bank`): the cold prior that does best on
         photos of real people and on motion capture it did not learn from
         (``docs/explanation/settings.md``, "Without adaptation");
-        ``dictionary="default"`` codes over the default alone.
+        ``dictionary="default"`` codes over the default alone (and any
+        dictionary given: its codes, no bank).
     alpha : float, optional
         Lasso penalty; default the dictionary's recommended ``alpha_recover``.
         Scaled per pose by the dictionary's ``alpha_scaling`` rule.
@@ -382,8 +386,10 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
     check_options_apply("recover", method=method, model=model, backend=backend,
                         scheduler=scheduler, adapt=adapt, ensemble=ensemble, preset=preset,
                         self_training=self_training, exemplars=exemplars)
-    dictionary, mirror = cold_prior(dictionary, adapt, mirror,
-                                    method == "sparse" and (frames is None or not temporal))
+    cold, mirror = cold_prior(dictionary, adapt, mirror,
+                              method == "sparse" and (frames is None or not temporal))
+    # the cold prior's codes are stacked with the shipped pose bank's answer
+    bank, dictionary = cold is not dictionary, cold
     if method != "fconv":  # an FConv model says its own (recover_fconv)
         representation = representation_for(representation)
     if mirror and (method == "fconv" or (frames is not None and temporal)):
@@ -399,7 +405,7 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
                 solver=solver, n_jobs=n_jobs, chunk_size=chunk_size, positive=positive,
                 progress=progress, backend=backend, scheduler=scheduler, adapt=adapt,
                 self_training=self_training, ensemble=ensemble, exemplars=exemplars,
-                mirror=mirror)
+                mirror=mirror, cold_bank=bank)
     check_outliers = confidence is not None and outliers
     if method == "sparse" or check_outliers:  # validated once here; the paths below trust them
         if not isinstance(dictionary, Dictionary):
@@ -473,6 +479,8 @@ def _dispatch(poses, missing, tracks, frames, method, model, preset, opts):
         res = recover_members(poses, missing, members, adaptations,
                               mirror_gate=opts["mirror"] == "auto", **kernel,
                               check_input=False, **where)
+        if opts["cold_bank"]:
+            res = cold_bank_stack(res, poses, missing)
         if adaptations and blends(opts["adapt"], opts["exemplars"], preset, opts["mirror"],
                                   opts["solver"], opts["positive"]):
             atoms = blend_parts(dictionary, poses, missing, adaptations[0])
@@ -503,7 +511,7 @@ def _recover_in_time(poses, missing, tracks, frames, method, kwargs):
         raise SparseEDMError("temporal recovery uses the sparse method: pass "
                              "method='sparse', or temporal=False")
     kwargs = {k: v for k, v in kwargs.items()
-              if k not in ("exemplars", "mirror")}  # per pose only
+              if k not in ("exemplars", "mirror", "cold_bank")}  # per pose only
     return recover_temporal(poses, missing, tracks=tracks, frames=frames, check_input=False,
                             **kwargs)
 
@@ -609,7 +617,9 @@ class OcclusionRecoverer:
         """
         if not hasattr(self, "dictionary_"):
             self.fit()
-        self.result_ = recover(X, missing, dictionary=self.dictionary_, alpha=self.alpha,
+        # no dictionary given: recover()'s own (with adapt=False, the cold prior and its bank)
+        given = self.dictionary_ if self.dictionary is not None else None
+        self.result_ = recover(X, missing, dictionary=given, alpha=self.alpha,
                                representation=self.representation, solver=self.solver,
                                n_jobs=self.n_jobs, adapt=self.adapt, mirror=self.mirror_)
         return self.result_.poses

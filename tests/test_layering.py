@@ -54,6 +54,7 @@ LAYERS = [
     ("sparseedm._recovery_kernel",),
     # 7 methods on top of the kernel: adaptation, FConv, the lifters, the outlier check
     ("sparseedm.adaptation", "sparseedm.file_atoms", "sparseedm.exemplars", "sparseedm.donors",
+     "sparseedm.cold_bank",
      "sparseedm.outliers", "sparseedm.fconv", "sparseedm.lifting.base",
      "sparseedm.lifting.dictionary", "sparseedm.lifting.mlp", "sparseedm.lifting.fconv",
      "sparseedm.lifting.adaptation"),

@@ -341,4 +341,6 @@ def test_recover_warns_of_joints_at_the_origin_of_pixel_poses(cmu_poses):
         warnings.simplefilter("error")
         again = sparseedm.recover(nan, adapt=False)
     assert again.status.tolist() == ["recovered"] * 6
-    np.testing.assert_array_equal(again.poses[1:], res.poses[1:])
+    # to rounding: the pose bank's Gaussian (adapt=False) solves the rows of a
+    # missing pattern together, and pose 0's extra NaN moves it to its own pattern
+    np.testing.assert_allclose(again.poses[1:], res.poses[1:], rtol=0, atol=1e-9)

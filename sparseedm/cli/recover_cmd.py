@@ -124,8 +124,9 @@ def _add_adaptation_options(p):
                    "INPUT's complete poses are extra atoms, the only atoms or the poses "
                    "the dictionary adapts on, whichever a check on held-back poses "
                    "prefers: sparseedm.exemplars, sparseedm.adaptation); without "
-                   "--dictionary over cmu-coco-k2932 with --mirror-auto, with "
-                   "--dictionary default over the default dictionary alone")
+                   "--dictionary, poses are coded one by one over cmu-coco-k2932 with "
+                   "--mirror-auto and averaged with the shipped pose bank's local Gaussian "
+                   "(--dictionary default: over the default dictionary alone, no bank)")
     g.add_argument("--adapt-from", default=None, metavar="FILE",
                    help="adapt on the complete poses of FILE (same source, any keypoint "
                    "format; a video's time-completed frames too) instead of INPUT's")

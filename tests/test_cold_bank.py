@@ -1,0 +1,122 @@
+"""recover(adapt=False) without a dictionary: its codes stacked with the shipped pose bank's
+local Gaussian (sparseedm.cold_bank)."""
+
+import numpy as np
+import pytest
+
+import sparseedm
+from sparseedm.cold_bank import (AVERAGED_BANK, COLD_BANK_WEIGHTS, bank_fill, cold_bank_stack,
+                                 load_pose_bank)
+from sparseedm.dictionary import available_dictionaries
+from sparseedm.exceptions import DictionaryError
+from sparseedm.metrics import occlusion_masks
+
+
+def pixel_file(cmu_poses, n, seed=0):
+    """n fixture poses about 200 px tall, 1-3 joints hidden (NaN), and the mask."""
+    p = cmu_poses[:n]
+    lo, hi = p.min(axis=1, keepdims=True), p.max(axis=1, keepdims=True)
+    poses = (p - lo) / (hi - lo).max(axis=2, keepdims=True) * 200 + [220.0, 140.0]
+    missing = occlusion_masks(n, 14, ("mix",), seed)["mix"]
+    return poses, missing
+
+
+def test_the_shipped_bank_is_finite_poses_and_no_dictionary():
+    bank = load_pose_bank()
+    assert bank.poses.shape[1:] == (14, 2) and np.isfinite(bank.poses).all()
+    assert 500 <= bank.photographed.sum() < len(bank.poses)  # COCO's people, then CMU's
+    assert "cold-bank" not in available_dictionaries()
+    with pytest.raises(ValueError):
+        bank.poses[0, 0, 0] = 1.0  # shared by every call: read-only
+
+
+def test_cold_recovery_is_the_codes_stacked_with_the_bank(cmu_poses):
+    truth, missing = pixel_file(cmu_poses, 16)
+    given = np.where(missing[..., None], np.nan, truth)
+    cold = sparseedm.recover(given, missing, adapt=False)
+    codes = sparseedm.recover(given, missing, adapt=False, dictionary="cmu-coco-k2932",
+                              mirror="auto")
+    w = np.asarray(COLD_BANK_WEIGHTS)[missing.sum(axis=1)][:, None, None]
+    expected = (1 - w) * codes.poses + w * bank_fill(load_pose_bank(), given, missing)
+    assert np.allclose(cold.poses, expected, atol=1e-9)
+    assert np.array_equal(cold.poses[~missing], truth[~missing])
+    assert not np.allclose(cold.poses[missing], codes.poses[missing], atol=1e-3)
+    assert (cold.averaged == AVERAGED_BANK).all() and codes.averaged is None
+    assert (cold.spread[missing] > 0).any() and np.isfinite(cold.uncertainty[missing]).all()
+    # a dictionary given (even the cold prior's own): its codes alone
+    assert sparseedm.recover(given, missing, adapt=False, dictionary="default").averaged is None
+
+
+def test_a_file_turned_in_the_image_gets_the_banks_joints_turned(cmu_poses):
+    truth, missing = pixel_file(cmu_poses, 30, seed=2)
+    given = np.where(missing[..., None], np.nan, truth)
+    c, s = np.cos(2.0), np.sin(2.0)
+    turn = np.array([[c, -s], [s, c]])
+    bank = load_pose_bank()
+    plain, turned = bank_fill(bank, given, missing), bank_fill(bank, given @ turn.T, missing)
+    assert np.allclose(turned, plain @ turn.T, atol=1e-6)
+    # the bank left upright would fill the turned file with upright people's joints
+    from sparseedm.gaussian_fill import local_gaussian_fill
+
+    upright = local_gaussian_fill(bank.poses, given @ turn.T, missing)
+    assert np.abs(upright - turned)[missing].max() > 1.0
+
+
+def test_a_bank_file_that_is_not_one_is_refused(tmp_path):
+    bad = tmp_path / "no-poses.npz"
+    np.savez(bad, joint_names=np.array(["a"] * 14))
+    with pytest.raises(DictionaryError, match="no 'poses'"):
+        load_pose_bank(str(bad))
+    nan = tmp_path / "nan.npz"
+    poses = np.zeros((3, 14, 2))
+    poses[1, 2, 0] = np.nan
+    np.savez(nan, poses=poses, photographed=np.ones(3, bool), joint_names=np.array(["a"] * 14))
+    with pytest.raises(DictionaryError, match="finite"):
+        load_pose_bank(str(nan))
+    flags = tmp_path / "flags.npz"
+    np.savez(flags, poses=np.ones((3, 14, 2)), photographed=np.ones(2, bool),
+             joint_names=np.array(["a"] * 14))
+    with pytest.raises(DictionaryError, match="one per pose"):
+        load_pose_bank(str(flags))
+
+
+def test_the_gate_takes_the_photographed_people_for_a_pose_near_them(cmu_poses):
+    """A photographed pose filled alone: its Gaussian from the photographed
+    poses (gate inf) and from the whole bank (gate 0) differ; the default
+    gate takes the first for it, and the whole bank for a motion-capture pose."""
+    bank = load_pose_bank()
+    photo = bank.poses[np.flatnonzero(bank.photographed)[5]][None] * 100 + 300
+    mocap = pixel_file(cmu_poses, 1)[0]
+    missing = np.zeros((1, 14), bool)
+    missing[0, [4, 12]] = True
+    for pose, alone in ((photo, np.inf), (mocap, 0.0)):
+        ends = [bank_fill(bank, pose, missing, gate=g) for g in (0.0, np.inf)]
+        assert not np.allclose(ends[0], ends[1])
+        assert np.allclose(bank_fill(bank, pose, missing), bank_fill(
+            bank, pose, missing, gate=alone))
+
+
+def test_the_bank_lowers_the_cold_error_on_coco_validation_people(shared_data):
+    """COCO's validation poses are in neither the bank nor the cold dictionary."""
+    from benchmarks import real2d
+
+    if not real2d.available(shared_data / "real2d"):
+        pytest.skip(f"no {shared_data / 'real2d'}")
+    rs = real2d.load("coco", shared_data / "real2d")
+    rows = np.flatnonzero(rs.complete & (real2d.split(rs) == "val")
+                          & (real2d.body_size(rs.poses) > 0))
+    truth = rs.poses[rows]
+    rng = np.random.default_rng(0)
+    missing = np.zeros((len(truth), 14), bool)
+    for row in missing:
+        row[rng.choice(14, 2, replace=False)] = True
+    given = np.where(missing[..., None], np.nan, truth)
+    size = real2d.body_size(truth)[:, None]
+
+    def error(filled):
+        return (np.linalg.norm(filled - truth, axis=-1) / size)[missing].mean()
+
+    codes = sparseedm.recover(given, missing, adapt=False, dictionary="cmu-coco-k2932",
+                              mirror="auto")
+    cold = cold_bank_stack(codes, given, missing)
+    assert error(cold.poses) < 0.95 * error(codes.poses)
