@@ -221,8 +221,9 @@ def _cells(pair, method, group, end, key):
     for split in ("validation", "test"):
         x = next(x for x in pair[split]["rows"]
                  if (x["method"], x["group"], x["end"]) == (method, group, end))
-        value = x.get(key, float("nan"))  # results written before the edge jump have none
-        vals.append("–" if x["scored"] == 0 or not np.isfinite(value) else f"{value:.2f}")
+        value = x.get(key)  # results written before the edge jump have none
+        known = value is not None and np.isfinite(value)  # null or NaN: no value
+        vals.append("–" if x["scored"] == 0 or not known else f"{value:.2f}")
     return " / ".join(vals)
 
 

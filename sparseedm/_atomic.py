@@ -28,6 +28,7 @@ from __future__ import annotations
 import contextlib
 import ctypes
 import json
+import math
 import os
 import re
 import shutil
@@ -40,7 +41,8 @@ from pathlib import Path
 from .exceptions import OutputPathError
 
 __all__ = ["atomic_path", "atomic_folder", "check_paths", "check_folder", "is_stream",
-           "save_npz", "save_npy", "remove_leftovers", "fit_name", "TEMP_MARK", "FOLDER_MARK"]
+           "save_npz", "save_npy", "save_json", "json_text", "strict_json", "remove_leftovers",
+           "fit_name", "TEMP_MARK", "FOLDER_MARK"]
 
 #: every temporary file's name holds this (see the module docstring)
 TEMP_MARK = ".sparseedm-tmp-"
@@ -641,6 +643,49 @@ def save_npz(path, arrays, *, compressed=False):
     with atomic_path(path) as tmp:
         with open(tmp, "wb") as f:
             (np.savez_compressed if compressed else np.savez)(f, **arrays)
+    return Path(path)
+
+
+def strict_json(obj, default=None):
+    """`obj` as strict JSON holds it: NaN and infinities as None (``null``).
+
+    Bare ``NaN`` / ``Infinity`` are not JSON: strict readers (JavaScript's
+    ``JSON.parse``, ``jq``) refuse them. Numpy scalars and arrays become
+    Python numbers and lists, tuples lists; `default` (as ``json.dumps``'s)
+    turns any other object into something JSON holds, itself made strict.
+
+    >>> strict_json({"a": float("nan"), "b": [1.5, float("-inf")], "c": (2, None)})
+    {'a': None, 'b': [1.5, None], 'c': [2, None]}
+    """
+    if isinstance(obj, float):
+        return float(obj) if math.isfinite(obj) else None
+    if obj is None or isinstance(obj, (str, int)):
+        return obj
+    if isinstance(obj, dict):
+        return {k: strict_json(v, default) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [strict_json(v, default) for v in obj]
+    if callable(getattr(obj, "tolist", None)):  # numpy scalars and arrays
+        return strict_json(obj.tolist(), default)
+    return obj if default is None else strict_json(default(obj), default)
+
+
+def json_text(obj, *, default=None, **kwargs):
+    """`obj` as strict JSON text (:func:`strict_json`; ``allow_nan=False``
+    refuses whatever would still not be JSON); `kwargs` go to ``json.dumps``.
+
+    >>> json_text({"edge_jump": float("nan"), "n": 3})
+    '{"edge_jump": null, "n": 3}'
+    """
+    return json.dumps(strict_json(obj, default), allow_nan=False, **kwargs)
+
+
+def save_json(path, obj, **kwargs):
+    """Write `obj` as strict JSON (:func:`json_text`) at exactly `path`, atomically."""
+    text = json_text(obj, **kwargs)
+    with atomic_path(path) as tmp:
+        with open(tmp, "w", encoding="utf-8") as f:
+            f.write(text)
     return Path(path)
 
 

@@ -102,7 +102,7 @@ import numpy as np
 from numbers import Integral, Real
 
 from . import _progress
-from ._atomic import atomic_path, check_folder, check_paths
+from ._atomic import atomic_path, check_folder, check_paths, json_text
 from ._extras import require as require_extra
 from ._parallel import one_client
 from ._validation import (ALPHA, BOOLEAN, CHUNK_SIZE, ENSEMBLE, N_JOBS, PATH, SCORE,
@@ -1101,7 +1101,7 @@ def _write_output(tmp, fmt, filled, ids, meta, in_fmt, fields, edm,
                 if key in fields:
                     ann["sparseedm"][key] = str(fields[key][r])
         with open(tmp, "w", encoding="utf-8") as f:
-            json.dump(doc, f)
+            f.write(json_text(doc))
 
 
 def _carried(columns):

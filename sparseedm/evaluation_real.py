@@ -43,7 +43,6 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 import time
 import warnings
 import zlib
@@ -55,7 +54,7 @@ from pathlib import Path
 import numpy as np
 
 from . import _progress
-from ._atomic import atomic_path
+from ._atomic import atomic_path, json_text
 from ._validation import Interval, check_mask, check_pose_shape, check_poses, validate_params
 from .baselines import NearestNeighbourBaseline, mean_fill
 from .dictionary import Dictionary, load_dictionary
@@ -175,9 +174,10 @@ class RealReport:
         return "\n".join(lines)
 
     def to_json(self):
-        return json.dumps({"protocol": self.protocol, "settings": self.settings,
-                           "seconds": self.seconds, "rows": self.rows}, indent=1,
-                          allow_nan=True)
+        """The report as strict JSON text: protocol, settings, seconds and rows,
+        a value that is not a number (NaN: no head sizes, no edge) as ``null``."""
+        return json_text({"protocol": self.protocol, "settings": self.settings,
+                          "seconds": self.seconds, "rows": self.rows}, indent=1)
 
     def to_csv(self):
         buf = io.StringIO()

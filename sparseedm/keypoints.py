@@ -204,7 +204,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._atomic import atomic_path, fit_name, is_stream, save_npy, save_npz
+from ._atomic import atomic_path, fit_name, is_stream, save_json, save_npy, save_npz
 from ._safeio import MAX_LINE_BYTES, load_json, load_npy, load_npz, text_lines
 from . import formats
 from ._validation import (NUMBER_TEXT, SCORE, Interval, check_poses, frame_value,
@@ -1728,6 +1728,4 @@ def _write_coco(path, poses, mask, ids, meta, where, filled, filled_score, track
             ann["sparseedm"]["uncertainty"] = radii_object(uncertainty[r])
         if tracks is not None and not fresh and ann.get("track_id") is None:
             ann["track_id"] = track_value(np.asarray(tracks)[r])  # linked, as read had none
-    with atomic_path(path) as tmp:
-        with open(tmp, "w", encoding="utf-8") as f:
-            json.dump(doc, f)
+    save_json(path, doc)

@@ -105,3 +105,15 @@ def without_donor_step(monkeypatch):
     import sparseedm.exemplars
 
     monkeypatch.setattr(sparseedm.exemplars, "donor_step", lambda res, *a, **k: res)
+
+
+@pytest.fixture
+def strict_json():
+    """``loads(text)``: JSON as strict readers (JavaScript's ``JSON.parse``) take it,
+    bare NaN / Infinity refused with a ValueError naming the constant."""
+    import json
+
+    def refuse(constant):
+        raise ValueError(f"not strict JSON: a bare {constant}")
+
+    return lambda text: json.loads(text, parse_constant=refuse)

@@ -73,7 +73,6 @@ CASES = [  # (command line, option dest, API function, its parameter)
         ("seed", build_dataset, "random_state"),
         ("camera_per", build_dataset, "camera")]),
     (["fit", "t.npz", "-o", "d.npz"], [
-        ("atoms", fit_dictionary_file, "n_components"),
         ("seed", fit_dictionary_file, "random_state")]),
 ]
 
@@ -137,10 +136,50 @@ def test_fit_leaves_unset_options_to_the_api(tmp_path, monkeypatch, init):
     assert "batch_size" not in seen
     if not init:
         assert "alpha" not in seen and "alpha_recover" not in seen
+        assert "n_components" not in seen  # --atoms unset: the API's 2000
     seen.clear()
     with pytest.raises(Stop):
         main(argv + (["--init", init] if init else []) + ["--batch-size", "64"])
     assert seen["batch_size"] == 64
+    if not init:
+        seen.clear()
+        with pytest.raises(Stop):
+            main(argv + ["--atoms", "50"])
+        assert seen["n_components"] == 50
+
+
+def test_fit_atoms_help_states_the_apis_default():
+    """--atoms is None unless given (so --init can refuse it); its help states the
+    API's default, which applies when it is left out."""
+    sub = next(a for a in build_parser()._actions if a.dest == "command").choices["fit"]
+    atoms = next(a for a in sub._actions if a.dest == "atoms")
+    assert atoms.default is None
+    assert f"(default {api(fit_dictionary_file, 'n_components')};" in atoms.help
+
+
+@pytest.mark.parametrize("extra,named", [
+    (["--atoms", "2000"], "--atoms does not"),      # the default's value, given: refused
+    (["--checkpoint", "c.npz"], "--checkpoint does not"),
+    (["--resume"], "--resume does not"),
+    (["--positive-code"], "--positive-code does not"),
+    (["--atoms", "0", "--checkpoint", "c.npz", "--resume"],
+     "--atoms, --checkpoint and --resume do not")])
+def test_fit_init_refuses_the_options_of_learning_from_scratch(tmp_path, monkeypatch, capsys,
+                                                                extra, named):
+    """`fit --init` used to ignore --atoms, --checkpoint, --resume (and --positive-code)
+    without a word: refused before any work (exit 2), naming them."""
+    import sparseedm.adaptation
+
+    def no_work(*args, **kwargs):
+        raise AssertionError("fine-tuned with an option it ignores")
+
+    monkeypatch.setattr(sparseedm.adaptation, "fine_tune_file", no_work)
+    out = tmp_path / "d.npz"
+    assert main(["fit", str(tmp_path / "t.npz"), "-o", str(out), "--init", "default",
+                 *extra]) == 2
+    err = " ".join(capsys.readouterr().err.split())
+    assert f"{named} apply to fine-tuning (--init default)" in err
+    assert "drop --init to learn a dictionary from scratch" in err and not out.exists()
 
 
 def test_recover_presets_are_the_apis(capsys):

@@ -99,21 +99,29 @@ def test_round_trip_each_format(tmp_path, occluded, small_dictionary_path, ext, 
     assert not [p for p in os.listdir(tmp_path) if p.startswith(".")]  # no temp files
 
 
-def test_coco_document_kept(tmp_path, occluded, small_dictionary_path):
-    """A COCO ground-truth document comes back with its other fields untouched."""
+def test_coco_document_kept(tmp_path, occluded, small_dictionary_path, strict_json):
+    """A COCO ground-truth document comes back with its other fields untouched, as
+    strict JSON: a NaN it held (Python's json reads and writes them) comes back null."""
     poses, _ = occluded
     fresh = tmp_path / "fresh.json"
     write_keypoints(fresh, poses, ids=[str(i) for i in range(N)])
-    doc = {"info": {"year": 2024}, "annotations": json.loads(fresh.read_text())}
+    doc = {"info": {"year": 2024, "threshold": float("nan")},
+           "annotations": json.loads(fresh.read_text())}
     for i, ann in enumerate(doc["annotations"]):
         ann["id"] = 100 + i
+        ann["score"] = float("nan") if i % 2 else 0.5
         del ann["sparseedm"]
     inp = tmp_path / "gt.json"
     inp.write_text(json.dumps(doc))
     out = tmp_path / "gt_out.json"
     main(["recover", str(inp), "-o", str(out), "--dictionary", str(small_dictionary_path), "-q"])
-    back = json.loads(out.read_text())
-    assert back["info"] == {"year": 2024}
+    back = strict_json(out.read_text())
+    assert back["info"] == {"year": 2024, "threshold": None}
+    assert [a["score"] for a in back["annotations"][:2]] == [0.5, None]
+    refused = back["annotations"][BAD_ROW]["sparseedm"]
+    assert refused["status"] == "too_few_observed" and refused["objective"] is None
+    assert np.array_equal(read_keypoints(out).missing, read_keypoints(inp).missing
+                          & (np.arange(N) == BAD_ROW)[:, None])  # read back: filled but row 4
     assert [a["id"] for a in back["annotations"]] == list(range(100, 100 + N))
     filled = [a for a in back["annotations"] if a["sparseedm"]["filled"]]
     assert filled and all(a["sparseedm"]["status"] == "recovered" for a in filled)

@@ -7,6 +7,7 @@ check the cells they make.
 """
 
 import csv
+import json
 import sys
 from pathlib import Path
 
@@ -80,3 +81,35 @@ def test_lift_summary_rows_are_the_dictionary_lifters_at_mix():
         ["complete input", "3", "40", "99.5 %"],
         ["occluded input as is", "20", "40", "99.5 %"],
         ["recovered by sparseedm, then lifted", "4", "40", "99.5 %"]]
+
+
+def test_summaries_read_null_where_there_is_no_value(tmp_path, monkeypatch):
+    """sparseedm's reports write null where a value is missing (older files: NaN): the
+    summaries show a dash there and take the best of the values they have."""
+    from sparseedm.evaluation_real import RealReport
+
+    nan = float("nan")
+    rows = [dict(method=m, condition="mix", group="overall", mean=v) for m, v in (
+        ("sparseedm", 2.0), ("sparseedm-no-adapt", nan), ("iterative", 4.0), ("knn", nan),
+        ("nearest", 3.0))]
+    report = RealReport("photos", rows, {"mix": {}}, {})
+    assert '"mean": null' in report.to_json()
+    folder = tmp_path / "benchmarks"
+    folder.mkdir()
+    (folder / "results-real-people-val.json").write_text(
+        '{"results": {"coco photos": ' + report.to_json() + "}}")
+    monkeypatch.setattr(results, "ROOT", tmp_path)
+    assert results.summary_rows() == [["coco photos · mix", "2", "–", "4", "nearest 3"]]
+    doc = json.loads((folder / "results-real-people-val.json").read_text())
+    assert cells(results._real_people_tables(doc)[1])[1:3] == [
+        ["sparseedm", "2", "–"], ["sparseedm-no-adapt", "–", "–"]]  # seconds: none
+
+    video = [dict(method=m, group=g, error=e) for m, g, e in (
+        ("linear", "gap 3", None), ("cubic", "gap 3", 2.0), ("temporal", "gap 3", None),
+        ("linear", "overall", 8.0), ("pca", "overall", None), ("temporal", "overall", 2.0))]
+    assert results.video_rows({"runs": [dict(source="cmu", split="test", protocol="gaps",
+                                             rows=video)]}) == [
+        ["cmu · test · gaps", "2", "linear 8", "0.25x", "0.25x"]]
+    lift = dict(lifter="dictionary", pipeline="complete", count="none", err3d=3.0,
+                pa_mpjpe=None, reflection_ok=None)
+    assert results.lift_rows({"table": [lift]}) == [["complete input", "3", "–", "–"]]

@@ -118,7 +118,7 @@ def photos(cmu_poses):
     return cmu_poses[:120], pool
 
 
-def test_photos_hide_the_pool_patterns_and_report_sizes(photos):
+def test_photos_hide_the_pool_patterns_and_report_sizes(photos, strict_json):
     poses, pool = photos
     rep = evaluate_photos(poses, pool, n_complete=100, n_occluded=100,
                           methods=["mean-fill", "nearest", "knn"])
@@ -134,6 +134,10 @@ def test_photos_hide_the_pool_patterns_and_report_sizes(photos):
     again = evaluate_photos(poses, pool, n_complete=100, n_occluded=100,
                             methods=["mean-fill", "nearest", "knn"])
     assert json.dumps(again.rows) == json.dumps(rep.rows)   # NaN PCKh compared as text
+    # its JSON is strict: the NaN PCKh (no head sizes) is null, JSON.parse reads it
+    doc = strict_json(rep.to_json())
+    assert doc["rows"] == json.loads(json.dumps(rep.rows).replace("NaN", "null"))
+    assert [r["pckh"] for r in doc["rows"]] == [None] * len(rep.rows)
 
 
 def test_photos_every_method_with_head_sizes(photos, small_dictionary):
@@ -231,11 +235,11 @@ def test_tracks_score_the_jump_at_gap_edges(monkeypatch):
     assert "edge_jump" in rep.to_csv().splitlines()[0]
 
 
-def test_tracks_edges_only_where_every_method_filled(monkeypatch):
+def test_tracks_edges_only_where_every_method_filled(monkeypatch, strict_json):
     """A method that leaves joint 7 unfilled: the edges are counted where every method
     filled, so fewer than linear's alone; where none is left (the transplanted runs are
     all joint 7) the table's edge-jump cell is blank, as an error cell without a joint,
-    not 'nan', and the CSV and JSON say NaN with 0 edges."""
+    not 'nan', and the CSV says NaN, the JSON null (strict JSON), with 0 edges."""
     from sparseedm.temporal import fillers
 
     def holey(poses, missing, frames):
@@ -258,9 +262,9 @@ def test_tracks_edges_only_where_every_method_filled(monkeypatch):
     assert "| 0 edges |" in rep.table("transplanted")
     csv_rows = [line for line in rep.to_csv().splitlines() if line.startswith("holey,trans")]
     assert csv_rows[-1].endswith(",0,nan")
-    doc = json.loads(rep.to_json())
+    doc = strict_json(rep.to_json())
     last = [r for r in doc["rows"] if r["method"] == "holey"][-1]
-    assert last["edges"] == 0 and np.isnan(last["edge_jump"])
+    assert last["edges"] == 0 and last["edge_jump"] is None
 
 
 def test_tracks_note_a_gap_longer_than_every_clip():
@@ -320,7 +324,7 @@ def test_video_methods_include_kalman_when_the_fillers_have_it(monkeypatch):
 # ---------------------------------------------------------------- CLI
 
 
-def test_cli_photos(tmp_path, cmu_poses, capsys):
+def test_cli_photos(tmp_path, cmu_poses, capsys, strict_json):
     poses = cmu_poses[:150].copy()
     poses[120:, 9] = np.nan                # 30 incomplete poses: the transplanted pattern
     data = tmp_path / "people.csv"
@@ -331,14 +335,14 @@ def test_cli_photos(tmp_path, cmu_poses, capsys):
     assert code == 0
     text = capsys.readouterr().out
     assert "50 complete + 40 occluded" in text and "| nearest |" in text
-    doc = json.loads((out / "photos.json").read_text())
+    doc = strict_json((out / "photos.json").read_text())  # no head sizes: PCKh null
     knees = [r for r in doc["rows"] if r["condition"] == "transplanted"
              and r["group"] == "knees" and r["method"] == "nearest"]
     assert knees[0]["n"] == 40
     assert (out / "photos.csv").read_text().startswith("method,condition,group,n,")
 
 
-def test_cli_video_real(tmp_path, capsys):
+def test_cli_video_real(tmp_path, capsys, strict_json):
     poses, tracks, frames = _still_tracks()
     data = tmp_path / "clip.csv"
     write_keypoints(data, poses, tracks=tracks.astype(str), frames=frames)
@@ -348,7 +352,7 @@ def test_cli_video_real(tmp_path, capsys):
     text = capsys.readouterr().out
     assert "2 clips" in text and "| linear |" in text and "| edge jump |" in text
     assert "edge jump: how much more the filled joints move" in text
-    doc = json.loads((out / "video-real.json").read_text())
+    doc = strict_json((out / "video-real.json").read_text())
     assert doc["settings"]["clips"] == 2
     assert {r["condition"] for r in doc["rows"]} == {"gaps", "transplanted"}
     still = tmp_path / "photo.csv"

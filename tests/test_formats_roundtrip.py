@@ -505,3 +505,43 @@ def test_a_run_refuses_what_its_output_cannot_hold_before_recovering(
     with pytest.raises(SparseEDMError, match=match):
         recover_file(src, out, output_format=fmt, progress=False)
     assert list(out.parent.iterdir()) == []  # nothing written, no errors file
+
+
+def _with_nan(doc):
+    """`doc` with a NaN field beside each person (or at its top): a field the readers
+    do not use, as Python's json writes and reads it."""
+    if isinstance(doc, dict):
+        return doc | {"detector_note": float("nan")}
+    return [_with_nan(x) if isinstance(x, dict) else x for x in doc]
+
+
+def _notes(doc):
+    """The values of every ``detector_note`` in a JSON document."""
+    if isinstance(doc, dict):
+        own = [doc["detector_note"]] if "detector_note" in doc else []
+        return own + [v for x in doc.values() for v in _notes(x)]
+    return [v for x in doc for v in _notes(x)] if isinstance(doc, list) else []
+
+
+@pytest.mark.parametrize("name,fmt", [("out.json", "coco"), ("out.json", "mmpose"),
+                                      ("frames", "mmpose"), ("out.json", "alphapose"),
+                                      ("frames", "openpose")])
+def test_a_read_documents_nan_is_written_back_as_null(tmp_path, strict_json, name, fmt):
+    """The documents a reader keeps are written back as strict JSON (JavaScript's
+    JSON.parse reads them): a NaN they held is null, and the file reads back the same."""
+    poses = np.arange(2 * N * 2, dtype=float).reshape(2, N, 2) % 37 + 1
+    poses[1, 3] = np.nan
+    src = write_keypoints(tmp_path / name, poses, format=fmt, frames=np.array([0, 1]))
+    files = sorted(p for p in src.iterdir() if p.suffix == ".json") if src.is_dir() else [src]
+    for f in files:
+        f.write_text(json.dumps(_with_nan(json.loads(f.read_text()))))
+    kps = read_keypoints(src, format=fmt)
+    out = write_keypoints(tmp_path / f"2{name}", kps, format=fmt)
+    written = sorted(p for p in out.iterdir() if p.suffix == ".json") if out.is_dir() else [out]
+    assert len(written) == len(files)
+    for f in written:
+        notes = _notes(strict_json(f.read_text()))
+        assert notes and all(v is None for v in notes), f
+    back = read_keypoints(out, format=fmt)
+    assert np.array_equal(back.missing, kps.missing)
+    assert np.allclose(back.poses, kps.poses, equal_nan=True)

@@ -441,6 +441,24 @@ def test_application_table_survives_rows_recovery_could_not_fill(monkeypatch, da
     # they would not be counted)
 
 
+def test_lift_report_json_is_strict(tmp_path, strict_json):
+    """lift_results.json writes a value that is not a number (no pose lifted, no
+    reflection to judge) as null, not as a bare NaN that JSON.parse refuses."""
+    from sparseedm.lifting.evaluation import COLUMNS, LiftReport
+
+    nan = float("nan")
+    row = dict(zip(COLUMNS, ("dictionary", "joint", "mix", 4, 4, nan, nan, nan, nan, nan,
+                             np.float64(nan), np.float32(12.5))))
+    rep = LiftReport([row], [dict(label="walk", lifter="dictionary", pipeline="joint",
+                                  n_poses=0, err3d=np.float64(nan))], {},
+                     dict(n_poses=4, data="test", seed=0, lifters={"dictionary": "d.npz"}))
+    rep.write(tmp_path, figures=False)
+    doc = strict_json((tmp_path / "lift_results.json").read_text())
+    assert doc["rows"] == [dict(row, err3d=None, pa_mpjpe=None, n_mpjpe=None, mpjpe=None,
+                                reflection_ok=None, ambiguous=None, poses_per_s=12.5)]
+    assert doc["per_action"][0]["err3d"] is None
+
+
 def test_shipped_default_lifter_loads_by_name():
     from sparseedm.lifting import available_lifters
 

@@ -121,6 +121,65 @@ def test_the_report_has_the_mean_excess_jump_per_method():
     assert "edge_jump" in report.to_csv().splitlines()[0]
 
 
+def ends_unfilled(poses, missing, frames):
+    """offset's fill, but a run's first and last hidden frames left NaN: scored
+    joint-frames inside the runs, no gap edge filled."""
+    out = offset(poses, missing, frames)
+    edge = missing & ~(np.roll(missing, 1, axis=0) & np.roll(missing, -1, axis=0))
+    out[edge] = np.nan
+    return out
+
+
+def test_report_json_is_strict_and_reads_back(tmp_path, strict_json):
+    """NaN (no edge, no scored joint-frame) is written as null, never as a bare NaN
+    that JavaScript's JSON.parse refuses; the rows read back serve ratio_interval."""
+    report = evaluate_video([walker()], {"ends": ends_unfilled, "linear": fill_linear},
+                            hand_protocol)
+    assert np.isnan(report.row("linear", "overall")["edge_jump"])  # a NaN to write
+    report.write(tmp_path / "r.json")
+    for doc in (strict_json(report.to_json()), strict_json((tmp_path / "r.json").read_text())):
+        rows = {(r["method"], r["group"], r["end"]): r for r in doc["rows"]}
+        assert rows["linear", "overall", "all"]["edge_jump"] is None
+        assert rows["linear", "1-5", "all"]["error"] is None
+        assert rows["linear", "overall", "all"]["error"] == report.row("linear", "overall")[
+            "error"]
+        assert ratio_interval(doc["rows"], "ends", ["linear"], "6-15") == \
+            report.ratio_interval("ends", ["linear"], "6-15")
+
+
+def test_the_table_leaves_a_cell_without_an_edge_or_a_joint_blank():
+    """The edge jump without an edge (and an error without a scored joint-frame) is a
+    blank cell, as in evaluation_real's table, not 'nan'."""
+    report = evaluate_video([walker()], {"ends": ends_unfilled, "linear": fill_linear},
+                            hand_protocol)
+    assert report.row("linear", "overall")["edges"] == 0
+    assert report.row("linear", "overall")["scored"] > 0 == report.row("linear", "1-5")[
+        "scored"]
+    table = report.table()
+    for m in ("ends", "linear"):
+        cells = [c.strip() for c in next(line for line in table.splitlines()
+                                         if line.startswith(f"| {m} |")).split("|")[1:-1]]
+        assert "nan" not in " ".join(cells)
+        assert cells[-2] == ""                                  # edge jump: no edge
+        assert cells[5] == f"{report.row(m, 'overall')['error']:.2f}" + (
+            " (55% unfilled)" if m == "ends" else " [28.18 on all 11]")
+    assert "| ends | (100% unfilled) |" in table and "| linear | [7.50 on all 4] |" in table
+
+
+def test_the_benchmark_summary_reads_a_written_report(strict_json):
+    """benchmarks/video_protocols.py's tables read the reports' JSON, null included."""
+    video_protocols = pytest.importorskip("benchmarks.video_protocols")
+    report = evaluate_video([walker()], {"ends": ends_unfilled, "linear": fill_linear},
+                            hand_protocol)
+    rows = strict_json(report.to_json())["rows"]
+    runs = [dict(source="walker", split=s, protocol="gaps", rows=rows)
+            for s in ("validation", "test")]
+    text = video_protocols.summary({"runs": runs})
+    line = next(line for line in text.splitlines() if line.startswith("| linear |"))
+    assert line.endswith("| – / – |")                 # the edge jump: none in either split
+    assert f"{report.row('linear', '6-15')['error']:.2f} / " in line
+
+
 def shifted(name, dx):
     """A sequence like walker() moved by dx in x, under another clip id."""
     w = walker()
@@ -294,12 +353,12 @@ def test_a_filler_named_by_module_and_function():
     assert json.dumps([r["error"] for r in a.rows]) == json.dumps([r["error"] for r in b.rows])
 
 
-def test_report_files_and_figure(tmp_path):
+def test_report_files_and_figure(tmp_path, strict_json):
     pytest.importorskip("matplotlib", reason="needs the [plot] extra")
     report = evaluate_video([walker()], {"offset": offset}, hand_protocol)
     report.write(tmp_path / "r.json", tmp_path / "r.csv")
-    saved = json.loads((tmp_path / "r.json").read_text())
-    assert saved["rows"] == json.loads(json.dumps(report.rows))
+    saved = strict_json((tmp_path / "r.json").read_text())
+    assert saved["rows"] == json.loads(json.dumps(report.rows).replace("NaN", "null"))
     assert (tmp_path / "r.csv").read_text().splitlines()[0].startswith("method,group,end,n")
     fig = plot_fill(walker(), {"offset": offset, "linear": fill_linear}, hand_protocol,
                     "left_wrist", path=tmp_path / "f.png")
@@ -333,7 +392,7 @@ def sequence_file(tmp_path, fixtures_dir):
     return path
 
 
-def test_cli_video_protocol(sequence_file, tmp_path, capsys):
+def test_cli_video_protocol(sequence_file, tmp_path, capsys, strict_json):
     from sparseedm.cli import main
 
     out = tmp_path / "rep"
@@ -343,16 +402,16 @@ def test_cli_video_protocol(sequence_file, tmp_path, capsys):
     printed = capsys.readouterr().out
     assert "| linear |" in printed and "gap 10" in printed and "gap 30" not in printed
     assert "| kalman |" in printed and "edge jump" in printed
-    saved = json.loads((out / "video.json").read_text())
+    saved = strict_json((out / "video.json").read_text())
     ref = evaluate_video(str(sequence_file), ["linear", "akima", "kalman"], "gaps",
                          gap_lengths=(3, 10))
-    assert json.dumps(saved["rows"]) == json.dumps(ref.rows)
+    assert saved["rows"] == strict_json(ref.to_json())["rows"]
     assert (out / "video.csv").is_file()
     assert main(argv + ["--noise", "0.01"]) == 0
     assert "jittered by 0.01 x body height" in capsys.readouterr().out
-    saved = json.loads((out / "video.json").read_text())
+    saved = strict_json((out / "video.json").read_text())
     assert saved["settings"]["noise"] == 0.01
-    assert json.dumps(saved["rows"]) != json.dumps(ref.rows)
+    assert saved["rows"] != strict_json(ref.to_json())["rows"]
 
 
 def test_cli_video_bad_options(sequence_file, tmp_path, capsys):

@@ -104,7 +104,15 @@ def files_for(page):
     return sorted(found, key=lambda p: (place(p.name)[1], p.name))
 
 
+def known(value):
+    """Whether `value` is a number: not ``null`` (what sparseedm's reports write
+    where there is none) nor NaN (what older files hold there)."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and value == value
+
+
 def fmt(value):
+    if isinstance(value, float) and value != value:
+        return "–"  # NaN, as older files hold where there is no value: as null
     if isinstance(value, bool):
         return "yes" if value else "no"
     if value is None:
@@ -372,11 +380,12 @@ def summary_rows():
                     overall.setdefault(r["condition"], {})[r["method"]] = r["mean"]
             for condition, means in overall.items():
                 peers = {m: v for m, v in means.items()
-                         if m not in SUMMARY_OURS and m != "per-frame"}
-                best = min(peers, key=peers.get)
+                         if m not in SUMMARY_OURS and m != "per-frame" and known(v)}
+                best = min(peers, key=peers.get) if peers else None
                 out.append([f"{source}{suffix} · {condition}"]
                            + [fmt(means.get(m)) for m in SUMMARY_OURS]
-                           + [fmt(means.get("iterative")), f"{best} {fmt(peers[best])}"])
+                           + [fmt(means.get("iterative")),
+                              f"{best} {fmt(peers[best])}" if peers else fmt(None)])
     return out
 
 
@@ -445,7 +454,7 @@ def video_rows(obj):
     out = []
     for run in obj["runs"]:
         cells = {(r["method"], r["group"]): r["error"] for r in run["rows"]
-                 if r.get("end", "all") == "all"}
+                 if r.get("end", "all") == "all" and known(r["error"])}
         groups = list(dict.fromkeys(g for _, g in cells))
         best = {g: min((cells[m, g], m) for m in VIDEO_FILLERS if (m, g) in cells)
                 for g in groups if any((m, g) in cells for m in VIDEO_FILLERS)}
@@ -489,7 +498,8 @@ def lift_rows(obj):
             and str(r["count"]) in ("mix", "none")]
     rows.sort(key=lambda r: list(LIFT_PIPELINES).index(r["pipeline"]))
     return [[LIFT_PIPELINES[r["pipeline"]], fmt(r["err3d"]), fmt(r["pa_mpjpe"]),
-             f"{100 * r['reflection_ok']:.1f} %"] for r in rows]
+             f"{100 * r['reflection_ok']:.1f} %" if known(r["reflection_ok"]) else fmt(None)]
+            for r in rows]
 
 
 class LiftSummary(Directive):

@@ -146,11 +146,9 @@ def run_inspect(args) -> int:
     int
         The exit code: 0, or 1 if the file looks implausible.
     """
-    import json
-
     from pathlib import Path
 
-    from .._atomic import atomic_path, check_paths
+    from .._atomic import check_paths, save_json
     from ..exceptions import OutputPathError
     from ..mocap import load_mocap, plausibility
     from ..mocap.rigs import joint_map_to_json
@@ -183,7 +181,6 @@ def run_inspect(args) -> int:
             print("--write-map: joint maps are written for BVH files only")
             return 2
         units = info["units"] if info["units"] in ("m", "cm", "mm", "inch", "cmu") else None
-        with atomic_path(args.write_map) as tmp, open(tmp, "w", encoding="utf-8") as fh:
-            json.dump(joint_map_to_json(info["joint_map"], units=units), fh, indent=1)
+        save_json(args.write_map, joint_map_to_json(info["joint_map"], units=units), indent=1)
         print(f"wrote the joint map to {args.write_map}")
     return 1 if problems else 0

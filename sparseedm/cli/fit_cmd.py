@@ -9,7 +9,13 @@ from __future__ import annotations
 import sys
 import time
 
+from ..exceptions import ParameterError
 from ._common import add_input_format, add_joint_map, add_quiet, show_progress
+
+#: options of learning from scratch that fine-tuning (--init) has no use for: (dest,
+#: option); their defaults (None, False) say they were not given
+SCRATCH_ONLY = (("atoms", "--atoms"), ("checkpoint", "--checkpoint"), ("resume", "--resume"),
+                ("positive_code", "--positive-code"))
 
 
 def add_parser(sub):
@@ -33,7 +39,8 @@ def add_parser(sub):
     p.add_argument("train", help="training .npz with poses2d (n, N, 2), or a keypoint file "
                    "or folder")
     p.add_argument("-o", "--output", required=True, help="dictionary file to write (.npz)")
-    p.add_argument("--atoms", type=int, default=2000, help="number of atoms k (default 2000)")
+    p.add_argument("--atoms", type=int, default=None,
+                   help="number of atoms k (default 2000; not with --init)")
     p.add_argument("--alpha", type=float, default=None,
                    help="lasso penalty while learning (default 1.6, chosen on a "
                    "validation split: docs/explanation/settings.md; with --init, the initial "
@@ -44,7 +51,8 @@ def add_parser(sub):
     p.add_argument("--init", default=None, metavar="default|PATH",
                    help="fine-tune this dictionary (shipped name or .npz) on TRAIN instead "
                    "of learning from scratch: online learning continued from its atoms "
-                   "(sparseedm.adaptation; --atoms, --checkpoint and --resume do not apply)")
+                   "(sparseedm.adaptation; its atoms kept: --atoms, --checkpoint, --resume "
+                   "and --positive-code do not apply and are refused)")
     p.add_argument("--passes", type=float, default=2.0,
                    help="passes over the data (default 2: better held-out error than "
                    "one, still faster than SPAMS trainDL's one; benchmarks/README.md)")
@@ -89,16 +97,18 @@ def run(args):
     if args.init is not None:
         from ..adaptation import fine_tune_file
 
+        refuse_scratch_options(args)
         d = fine_tune_file(args.train, args.output, args.init, passes=args.passes,
                            alpha=args.alpha, alpha_recover=args.alpha_recover,
                            random_state=args.seed, n_jobs=args.jobs, **given)
         how = f"fine-tuned from {args.init}"
     else:
-        for name in ("alpha", "alpha_recover"):
+        for name, key in (("alpha", "alpha"), ("alpha_recover", "alpha_recover"),
+                          ("atoms", "n_components")):
             if getattr(args, name) is not None:
-                given[name] = getattr(args, name)
+                given[key] = getattr(args, name)
         d = fit_dictionary_file(
-            args.train, args.output, n_components=args.atoms, n_passes=args.passes,
+            args.train, args.output, n_passes=args.passes,
             positive_code=args.positive_code, random_state=args.seed, n_jobs=args.jobs,
             checkpoint=args.checkpoint, resume=args.resume, progress=show_progress(args),
             **given,
@@ -113,3 +123,29 @@ def run(args):
               f"{', '.join(unread[:3])}{' ...' if len(unread) > 3 else ''}", file=sys.stderr)
         return 1
     return 0
+
+
+def refuse_scratch_options(args):
+    """Refuse, before any work, the options of learning from scratch given with
+    ``--init`` (:data:`SCRATCH_ONLY`): fine-tuning would run without them.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line, with ``init`` set.
+
+    Raises
+    ------
+    ParameterError
+        Naming the options given (exit code 2).
+    """
+    given = [option for dest, option in SCRATCH_ONLY
+             if getattr(args, dest) is not None and getattr(args, dest) is not False]
+    if given:
+        many = len(given) > 1
+        names = " and ".join([", ".join(given[:-1]), given[-1]] if many else given)
+        raise ParameterError(
+            f"{names} {'do' if many else 'does'} not apply to fine-tuning (--init "
+            f"{args.init}): it continues the initial dictionary's learning (its atoms, its "
+            f"settings) and writes no checkpoint; leave {'them' if many else 'it'} out, or "
+            "drop --init to learn a dictionary from scratch")

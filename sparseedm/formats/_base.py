@@ -22,7 +22,6 @@ The rules of :func:`to_14` (the same as COCO-17's in :mod:`sparseedm.keypoints`)
 
 from __future__ import annotations
 
-import json
 import math
 import os
 import re
@@ -33,7 +32,7 @@ from numbers import Real
 
 import numpy as np
 
-from .._atomic import atomic_folder, atomic_path
+from .._atomic import atomic_folder, json_text, save_json
 from ..exceptions import FileFormatError
 from ..skeleton import JOINT_NAMES, SKELETON_14
 
@@ -674,10 +673,8 @@ def row_status(row_fields, r):
 
 
 def write_json(path, doc):
-    """One JSON document, atomically."""
-    with atomic_path(path) as tmp:
-        with open(tmp, "w", encoding="utf-8") as f:
-            json.dump(doc, f)
+    """One JSON document, atomically, strict (NaN and infinities as ``null``)."""
+    save_json(path, doc)
 
 
 def write_json_folder(path, docs):
@@ -689,5 +686,4 @@ def write_json_folder(path, docs):
     """
     with atomic_folder(path) as tmp:
         for name, doc in docs:
-            with open(tmp / name, "w", encoding="utf-8") as f:
-                json.dump(doc, f)
+            (tmp / name).write_text(json_text(doc), encoding="utf-8")

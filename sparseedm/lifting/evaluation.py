@@ -39,7 +39,6 @@ it was ambiguous, and poses per second for the whole pipeline.
 from __future__ import annotations
 
 import importlib.util
-import json
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -47,7 +46,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import _progress
-from .._atomic import atomic_path
+from .._atomic import atomic_path, json_text
 from ..baselines import fit_baseline
 from ..exceptions import SparseEDMError
 from ..fconv.model import load_model
@@ -138,7 +137,7 @@ class LiftReport:
         directory.mkdir(parents=True, exist_ok=True)
         written = []
         for name, text in (("lift_report.md", self.to_markdown()),
-                           ("lift_results.json", json.dumps(
+                           ("lift_results.json", json_text(
                                {"settings": self.settings, "rows": self.rows,
                                 "per_action": self.per_action, "notes": self.notes},
                                indent=1, default=_jsonable))):

@@ -52,7 +52,6 @@ file ``<output stem>.errors.csv`` (``row,id,status,reason``), as
 from __future__ import annotations
 
 import csv
-import json
 import os
 from numbers import Integral
 from pathlib import Path
@@ -60,7 +59,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import _progress
-from .._atomic import atomic_path, check_paths, save_npz
+from .._atomic import atomic_path, check_paths, save_json, save_npz
 from .._extras import require as require_extra
 from .._validation import (BOOLEAN, CHUNK_SIZE, N_JOBS, Interval, read_frames,
                            validate_params)
@@ -283,8 +282,7 @@ def write_poses3d(path, result, ids=None, output_format=None, rate=30.0, *, trac
                 doc[-1]["uncertainty3d"] = {j: (float(v) if np.isfinite(v) else None)
                                             for j, v in zip(JOINT_NAMES,
                                                             result.uncertainty3d[r])}
-        with atomic_path(path) as tmp, open(tmp, "w", encoding="utf-8") as f:
-            json.dump(doc, f)
+        save_json(path, doc)
     return path
 
 

@@ -52,7 +52,6 @@ from __future__ import annotations
 import csv
 import importlib
 import io
-import json
 import time
 import zlib
 from dataclasses import dataclass, field
@@ -61,7 +60,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import _progress
-from .._atomic import atomic_path
+from .._atomic import atomic_path, json_text
 from ..dictionary import Dictionary, load_dictionary
 from ..exceptions import ParameterError
 from ..skeleton import SKELETON_14
@@ -322,7 +321,9 @@ class VideoReport:
         Returns
         -------
         str
-            The Markdown table, with a last row of hidden (scored) joint-frames.
+            The Markdown table, with a last row of hidden (scored) joint-frames;
+            a cell without a scored joint-frame (or an edge jump without an
+            edge) is blank.
         """
         groups = self.groups
         lines = ["| method | " + " | ".join(groups) + " | edge jump | frames/s |",
@@ -336,15 +337,17 @@ class VideoReport:
                 except KeyError:
                     cells.append("")
                     continue
-                cell = "" if r["n"] == 0 else f"{r['error']:.2f}"
+                # blank without a scored joint-frame, as evaluation_real's cells
+                cell = "" if r["scored"] == 0 else f"{r['error']:.2f}"
                 if r["unfilled"]:
                     cell += f" ({r['unfilled'] / r['n']:.0%} unfilled)"
                 elif r["scored"] < r["n"]:
                     cell += f" [{r['error_own']:.2f} on all {r['n']}]"
-                cells.append(cell)
+                cells.append(cell.strip())
             speed = frames / self.seconds[m] if self.seconds.get(m) else float("nan")
-            jump = self.row(m, "overall", end).get("edge_jump", float("nan"))
-            lines.append(f"| {m} | " + " | ".join(cells) + f" | {jump:.2f} | {speed:,.0f} |")
+            overall = self.row(m, "overall", end)
+            jump = f"{overall['edge_jump']:.2f}" if overall.get("edges") else ""  # none: blank
+            lines.append(f"| {m} | " + " | ".join(cells) + f" | {jump} | {speed:,.0f} |")
         counts = [self.row(self.methods[0], g, end) for g in groups] if self.methods else []
         edges = counts[-1].get("edges", 0) if counts else 0
         lines.append("| hidden (scored) joint-frames; edges | " + " | ".join(
@@ -358,11 +361,11 @@ class VideoReport:
         Returns
         -------
         str
-            Indented JSON (NaN written as ``NaN``).
+            Indented strict JSON: a value that is not a number (NaN, where
+            there is no edge or no scored joint) is ``null``.
         """
-        return json.dumps({"protocol": self.protocol, "settings": self.settings,
-                           "seconds": self.seconds, "rows": self.rows}, indent=1,
-                          allow_nan=True)
+        return json_text({"protocol": self.protocol, "settings": self.settings,
+                          "seconds": self.seconds, "rows": self.rows}, indent=1)
 
     def to_csv(self):
         """The report's rows as CSV text, one line per (method, group, end).
