@@ -115,9 +115,11 @@ class RealReport:
         ``mean_own`` (see :func:`sparseedm.real_protocol.error_summary`); for
         video also ``edges`` and ``edge_jump``: the gap edges in the group
         (a hidden joint-frame next to an observed one) that every method
-        filled, and the fill's mean excess jump there over the truth's own
-        motion (:func:`sparseedm.temporal.evaluation.edge_jumps`, % of body
-        size; NaN where there is none).
+        filled, and the fill's mean excess jump there: how much farther the
+        filled joint moves than the truth did, 0 where it moves less (the
+        positive part of :func:`sparseedm.temporal.evaluation.edge_jumps`, so
+        a fill that lags at one edge cannot make up for a jump at another; %
+        of body size; NaN where there is none).
     seconds : dict
         ``{condition: {method: seconds}}``.
     settings : dict
@@ -676,7 +678,8 @@ def _score_case(scores, fills, truth, frames, heads, label, mask):
         sc["seconds"][name] = sc["seconds"].get(name, 0.0) + time.perf_counter() - start
         sc["errors"].setdefault(name, []).append(hidden_errors(filled, truth, mask, size, heads))
         jump = edge_jumps(truth, filled, mask, frames) / size[:, None, None] * 100.0
-        sc["jumps"].setdefault(name, []).append(jump[edges])
+        with np.errstate(invalid="ignore"):   # NaN (unfilled) stays NaN
+            sc["jumps"].setdefault(name, []).append(np.where(jump > 0, jump, 0.0 * jump)[edges])
 
 
 def _edge_rows(rows, jumps, labels):

@@ -279,6 +279,41 @@ def test_tracks_note_a_gap_longer_than_every_clip():
                                      "40), so no gap of 40 frames"]
 
 
+def test_tracks_edge_jump_counts_only_moving_farther(monkeypatch):
+    """On a joint moving steadily, a fill spread out from each gap's centre steps
+    less than the truth at both edges of a short gap: its excess jump is 0 there,
+    not negative (a lag at one edge cannot offset a jump at another)."""
+    from sparseedm.temporal import fillers
+    from sparseedm.temporal.evaluation import edge_jumps
+
+    def spread(poses, missing, frames):
+        lin = fillers.fill_linear(poses, missing, frames)
+        out = lin.copy()
+        for j in range(missing.shape[1]):
+            starts = np.flatnonzero(np.diff(np.r_[0, missing[:, j].astype(int)]) == 1)
+            ends = np.flatnonzero(np.diff(np.r_[missing[:, j].astype(int), 0]) == -1)
+            for a, e in zip(starts, ends):
+                if a > 0 and e + 1 < len(poses):
+                    centre = (lin[a - 1, j] + lin[e + 1, j]) / 2
+                    out[a:e + 1, j] = centre + 1.5 * (lin[a:e + 1, j] - centre)
+        return out
+
+    monkeypatch.setitem(fillers.FILLERS, "spread", spread)
+    poses, tracks, frames = _still_tracks()
+    poses = poses + (frames * 2.0)[:, None, None] * [1.0, 0.0]   # 2 px a frame in x
+    rep = evaluate_tracks(poses, tracks, frames, gap_lengths=(3,), transplanted=False,
+                          methods=["linear", "spread"])
+    assert rep.row("spread", "gaps")["edges"] > 0
+    assert rep.row("spread", "gaps")["edge_jump"] == 0.0
+    assert rep.row("spread", "gaps")["mean"] > 0.0
+    # the signed excess at those edges is negative: it moved less than the truth
+    clip = poses[:40]
+    mask = np.zeros((40, 14), bool); mask[10:13, 4] = True
+    given = np.where(mask[..., None], np.nan, clip)
+    signed = edge_jumps(clip, spread(given, mask, frames[:40]), mask, frames[:40])
+    assert np.nanmax(signed) < 0
+
+
 def test_tracks_with_sparseedm_and_a_clip_sample(small_dictionary):
     poses, tracks, frames = _still_tracks()
     rep = evaluate_tracks(poses, tracks, frames, gap_lengths=(10,), max_clips=1,
@@ -351,7 +386,7 @@ def test_cli_video_real(tmp_path, capsys, strict_json):
                  "--methods", "linear", "--gap-lengths", "3"]) == 0
     text = capsys.readouterr().out
     assert "2 clips" in text and "| linear |" in text and "| edge jump |" in text
-    assert "edge jump: how much more the filled joints move" in text
+    assert "edge jump: how much farther the filled joints move" in text
     doc = strict_json((out / "video-real.json").read_text())
     assert doc["settings"]["clips"] == 2
     assert {r["condition"] for r in doc["rows"]} == {"gaps", "transplanted"}

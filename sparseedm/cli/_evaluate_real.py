@@ -164,9 +164,9 @@ def run(args, methods):
     print("error of the hidden joints in % of body size: mean (median); no head sizes, "
           "so no PCKh")
     if name != "photos":
-        print("edge jump: how much more the filled joints move than the truth did at the "
-              "gap edges (a hidden frame next to a seen one), mean in % of body size, over "
-              "the edges every method filled")
+        print("edge jump: how much farther the filled joints move than the truth did at "
+              "the gap edges (a hidden frame next to a seen one; 0 where they move less), "
+              "mean in % of body size, over the edges every method filled")
     for condition in report.conditions:
         print(f"\n{condition}:")
         print(report.table(condition))
