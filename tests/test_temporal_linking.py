@@ -169,6 +169,30 @@ def test_a_cut_in_the_video_splits_the_track(track, small_dictionary):
     assert err.max() < 0.25  # across the cut it would be pulled a body height off
 
 
+def test_a_fast_move_seen_on_a_few_joints_does_not_cut_the_track(track):
+    """A person moving fast (a fifth of the body's extent a frame) while only an arm
+    is seen for a few frames: judged against the arm's own small extent the steps
+    read as jumps and cut the track, leaving the hidden legs to run on from the
+    last frame before the cut; in the body's extent they are ordinary motion."""
+    from sparseedm.temporal.linking import (MAX_LINK_DISTANCE, body_extent, split_at_jumps,
+                                            step_distances)
+    from sparseedm.temporal.tracks import split_tracks
+
+    poses = track.copy()
+    frames = np.arange(len(poses))
+    body = body_extent(poses)
+    poses += (0.2 * body * np.clip(frames - 90, 0, 20))[:, None, None] * [0.0, 1.0]
+    mask = np.zeros(poses.shape[:2], bool)
+    mask[95:100] = True
+    mask[95:100, [3, 4, 7]] = False            # an elbow and both wrists seen
+    given = np.where(mask[..., None], np.nan, poses)
+    assert np.nanmax(step_distances(given, frames)) > MAX_LINK_DISTANCE   # the arm's unit
+    steps = step_distances(given, frames, body)
+    assert np.nanmax(steps) < MAX_LINK_DISTANCE
+    layout = split_at_jumps(split_tracks(len(poses), None, frames), given, mask)
+    assert [len(s) for s in layout.segments] == [len(poses)]
+
+
 @pytest.mark.parametrize("wild", [1e6, 1e308])
 def test_a_wild_coordinate_stays_on_its_own_row(track, small_dictionary, wild):
     """A detector's wild coordinate in one complete row of a track: that row is

@@ -36,7 +36,7 @@ from scipy.optimize import linear_sum_assignment
 
 from .tracks import MAX_SKIP, frame_numbers
 
-__all__ = ["link_tracks", "needs_linking", "split_at_jumps", "step_distances",
+__all__ = ["link_tracks", "needs_linking", "split_at_jumps", "step_distances", "body_extent",
            "MAX_LINK_DISTANCE", "MIN_COMMON_JOINTS", "MAX_MEDIAN_STEP", "JUMP_REASON"]
 
 #: a pose joins a track only when the mean distance of their common joints is
@@ -221,7 +221,7 @@ def _left_to_right(poses, rows):
     return rows[np.lexsort((centre[:, 1], centre[:, 0]))]
 
 
-def step_distances(poses, frames):
+def step_distances(poses, frames, body=None):
     """How far a track's pose moves from each row to the next, in linking's units.
 
     Parameters
@@ -230,6 +230,11 @@ def step_distances(poses, frames):
         One track's rows in frame order; NaN where a joint is not observed.
     frames : ndarray of int (T,)
         Their frame numbers, increasing.
+    body : float, optional
+        The track's body extent (:func:`body_extent`): the unit is at least
+        this, so that a step judged on a few close joints (two wrists and an
+        elbow) is not read against their own small extent, where a person's
+        ordinary fast motion looks like a jump.
 
     Returns
     -------
@@ -260,10 +265,27 @@ def step_distances(poses, frames):
         d = np.where(seen, np.linalg.norm(a - b, axis=-1), 0.0)
         scale = np.fmin(_extents(np.where(seen[..., None], a, np.nan)),
                         _extents(np.where(seen[..., None], b, np.nan)))
+        if body is not None and np.isfinite(body):
+            scale = np.fmax(scale, body)
         out = d.sum(axis=-1) / np.maximum(common, 1) / scale / np.sqrt(
             np.diff(frames).astype(float))
     # inf: a distance beyond floating point (a wild coordinate) is a jump too
     return np.where((common >= MIN_COMMON_JOINTS) & (scale > 0) & ~np.isnan(out), out, np.nan)
+
+
+def body_extent(poses):
+    """The median extent (:func:`step_distances`' unit) of a track's rows with every
+    joint observed; NaN when it has none.
+
+    Examples
+    --------
+    >>> a = np.zeros((14, 2)); a[:, 1] = np.arange(14.0)
+    >>> b = a.copy(); b[3] = np.nan
+    >>> float(body_extent(np.stack([a, b]))), bool(np.isnan(body_extent(b[None])))
+    (13.0, True)
+    """
+    full = np.isfinite(poses).all(axis=(-2, -1))
+    return float(np.median(_extents(poses[full]))) if full.any() else float("nan")
 
 
 def split_at_jumps(layout, poses, missing, max_distance=MAX_LINK_DISTANCE):
@@ -279,7 +301,8 @@ def split_at_jumps(layout, poses, missing, max_distance=MAX_LINK_DISTANCE):
     max_distance : float
         :data:`MAX_LINK_DISTANCE`: a step further than linking would join
         (:func:`step_distances`) cuts the segment (the video protocols'
-        sequences step at most 0.15). A segment whose median step is above
+        sequences step at most 0.15; the unit is at least the segment's body
+        extent, :func:`body_extent`). A segment whose median step is above
         :data:`MAX_MEDIAN_STEP` is cut at every row.
 
     Returns
@@ -292,7 +315,7 @@ def split_at_jumps(layout, poses, missing, max_distance=MAX_LINK_DISTANCE):
     segments, offsets = [], []
     alone, reason = layout.alone.copy(), layout.reason.astype(object)
     for rows, off in zip(layout.segments, layout.offsets):
-        steps = step_distances(posed[rows], off)
+        steps = step_distances(posed[rows], off, body_extent(posed[rows]))
         judged = steps[np.isfinite(steps)]
         if len(judged) and np.median(judged) > MAX_MEDIAN_STEP:
             steps[:] = np.inf  # not a video: every row on its own
