@@ -24,7 +24,9 @@ cuts a track's stretch of frames where its pose jumps further between two
 rows than linking would ever join (a cut in the video, an identity switch of
 the tracker, or files that are not a video at all, such as a folder of
 photos numbered IMG_4501, IMG_4502...): time must not carry a joint from
-one person or shot to another.
+one person or shot to another. Its unit is at least the track's body extent
+(:func:`body_extent`), so that frames showing only a few close joints (an arm)
+do not read a fast move as a jump.
 """
 
 from __future__ import annotations
