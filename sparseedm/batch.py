@@ -1093,8 +1093,8 @@ def _write_output(tmp, fmt, filled, ids, meta, in_fmt, fields, edm,
             ann.setdefault("sparseedm", {}).update({
                 "status": str(fields["status"][r]),
                 "reason": str(fields["reason"][r]),
-                "objective": _json_num(fields["objective"][r]),
-                "gap": _json_num(fields["gap"][r]),
+                "objective": float(fields["objective"][r]),   # NaN: null (json_text)
+                "gap": float(fields["gap"][r]),
                 "n_active": int(fields["n_active"][r]),
             })
             for key in ("outliers", "averaged"):
@@ -1136,10 +1136,6 @@ def _output_time(fmt, kps, linked, in_fmt):
 
 def _num(v):
     return "" if math.isnan(v) else repr(float(v))
-
-
-def _json_num(v):
-    return None if math.isnan(v) else float(v)
 
 
 def write_errors(path, refused, ids, status, reason, skipped=(), rows=None):

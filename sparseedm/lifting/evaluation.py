@@ -140,7 +140,7 @@ class LiftReport:
                            ("lift_results.json", json_text(
                                {"settings": self.settings, "rows": self.rows,
                                 "per_action": self.per_action, "notes": self.notes},
-                               indent=1, default=_jsonable))):
+                               indent=1, default=str))):
             with atomic_path(directory / name) as tmp:
                 Path(tmp).write_text(text)
             written.append(directory / name)
@@ -154,14 +154,6 @@ class LiftReport:
                 written.append(plot_poses3d(ex["truth"], ex["lifted"], directory / "lift_poses.png",
                                             titles=ex["titles"], missing=ex["missing"]))
         return written
-
-
-def _jsonable(v):
-    if isinstance(v, (np.integer,)):
-        return int(v)
-    if isinstance(v, (np.floating,)):
-        return float(v)
-    return str(v)
 
 
 def _lift_rows(lifter, X2, poses2d, predict_missing, geometry_missing, n_jobs):

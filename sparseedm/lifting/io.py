@@ -279,9 +279,7 @@ def write_poses3d(path, result, ids=None, output_format=None, rate=30.0, *, trac
                         "joints": {j: ([float(v) for v in P[r, i]] if ok else None)
                                    for i, j in enumerate(JOINT_NAMES)}})
             if result.uncertainty3d is not None:
-                doc[-1]["uncertainty3d"] = {j: (float(v) if np.isfinite(v) else None)
-                                            for j, v in zip(JOINT_NAMES,
-                                                            result.uncertainty3d[r])}
+                doc[-1]["uncertainty3d"] = dict(zip(JOINT_NAMES, result.uncertainty3d[r]))
         save_json(path, doc)
     return path
 
