@@ -149,6 +149,21 @@ def gaussian_fill(train, poses, missing, *, ridge=GAUSSIAN_RIDGE):
     return _fill_by_pattern(train, poses, missing, partial(conditional_mean, ridge=ridge))
 
 
+def _patterns(missing):
+    """(pattern, its rows) for each distinct row of `missing`."""
+    patterns, which = np.unique(missing, axis=0, return_inverse=True)
+    which = np.ravel(which)
+    return [(pattern, np.flatnonzero(which == k)) for k, pattern in enumerate(patterns)]
+
+
+def _square_distances(seen, q, squares=None):
+    """Squared distances (m, n) of the rows of `q` to the rows of `seen`
+    (`squares`: the rows of `seen`'s squared norms, when already at hand)."""
+    squares = (seen * seen).sum(axis=1) if squares is None else squares
+    with np.errstate(invalid="ignore", over="ignore"):
+        return squares[None, :] - 2 * q @ seen.T + (q * q).sum(axis=1)[:, None]
+
+
 def _fill_by_pattern(train, poses, missing, conditional):
     """`poses` with each missing pattern's joints filled in the frame of its
     observed ones: ``conditional(draws, query, observed)`` on the flat frames
@@ -159,13 +174,10 @@ def _fill_by_pattern(train, poses, missing, conditional):
     missing = np.asarray(missing, bool)
     out = poses.copy()
     sums = _sums(train)
-    patterns, which = np.unique(missing, axis=0, return_inverse=True)
-    which = np.ravel(which)
     # products of at most (n, 28) by (28, 28): threaded BLAS only waits on a busy machine
     with threadpool_limits(1, user_api="blas"):
-        for k, pattern in enumerate(patterns):
-            _fill_pattern(train, sums, poses, out, np.flatnonzero(which == k), pattern,
-                          conditional)
+        for pattern, rows in _patterns(missing):
+            _fill_pattern(train, sums, poses, out, rows, pattern, conditional)
     return out
 
 
@@ -253,10 +265,10 @@ def _local_means(train, query, observed, neighbours, prior, ridge, reselect):
     seen = train[:, obs]
     squares = (seen * seen).sum(axis=1)
     weights = np.where(observed, 1.0, reselect)
+    weighted = (train * train) @ weights if reselect > 0 else None
     for s in range(0, len(out), _LOCAL_BLOCK):
         q = out[s:s + _LOCAL_BLOCK, obs]
-        with np.errstate(invalid="ignore", over="ignore"):
-            d = squares[None, :] - 2 * q @ seen.T + (q * q).sum(axis=1)[:, None]
+        d = _square_distances(seen, q, squares)
         # the pose itself (filled) among the draws: left out
         d = np.where(d > 1e-12 * len(obs), d, np.inf)
         out[s:s + _LOCAL_BLOCK, hid] = _local_fit(train, q, d, obs, hid, (mu, cov),
@@ -264,7 +276,7 @@ def _local_means(train, query, observed, neighbours, prior, ridge, reselect):
         if reselect > 0:  # chosen again on the whole pose as filled, hidden joints weighted
             full = out[s:s + _LOCAL_BLOCK] * weights
             with np.errstate(invalid="ignore", over="ignore"):
-                again = ((train * train) @ weights)[None, :] - 2 * full @ train.T + (
+                again = weighted[None, :] - 2 * full @ train.T + (
                     full * out[s:s + _LOCAL_BLOCK]).sum(axis=1)[:, None]
             out[s:s + _LOCAL_BLOCK, hid] = _local_fit(
                 train, q, np.where(np.isfinite(d), again, np.inf), obs, hid, (mu, cov),
@@ -331,10 +343,7 @@ def nearest_distances(train, poses, missing, neighbours, parts=None):
     split = [np.ones(len(train), bool)] if parts is None else [parts, ~np.asarray(parts)]
     out = np.full((len(poses), len(split)), np.nan)
     sums = _sums(train)
-    patterns, which = np.unique(missing, axis=0, return_inverse=True)
-    which = np.ravel(which)
-    for k, pattern in enumerate(patterns):
-        rows = np.flatnonzero(which == k)
+    for pattern, rows in _patterns(missing):
         if (~pattern).sum() < 2:
             continue
         z_train, _, spread = _frame(train, ~pattern, sums)
@@ -342,8 +351,7 @@ def nearest_distances(train, poses, missing, neighbours, parts=None):
                         0.0)
         z, _, radius = _frame(np.where(pattern[:, None], 0.0, poses[rows]), ~pattern)
         q = z[:, ~pattern].reshape(len(rows), -1)
-        with np.errstate(invalid="ignore", over="ignore"):
-            d = (seen * seen).sum(axis=1)[None] - 2 * q @ seen.T + (q * q).sum(axis=1)[:, None]
+        d = _square_distances(seen, q)
         d[:, ~(spread > 0)] = np.inf  # a draw of no spread: never near
         for j, part in enumerate(split):
             dj = d[:, part]
