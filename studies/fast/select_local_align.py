@@ -290,24 +290,9 @@ def screen_table(docs, columns=None):
 def table(docs):
     """Markdown: per file (seeds pooled), shipped's, the variant's and II's error,
     the paired difference, the weights."""
-    rows = {}
-    for doc in docs:
-        for name, r in doc["files"].items():
-            rows.setdefault(re.sub(r" seed \d+$", "", name), []).append(r)
-    lines = ["| file | seeds | weights (shipped / variant) | shipped | variant | variant - shipped "
-             "| II | shipped / II | variant / II |", "|---|---:|---|---:|---:|---:|---:|---:|---:|"]
-    for name, rs in rows.items():
-        d = np.array([r["candidates"]["variant"]["minus_shipped"] for r in rs])
-        ship = np.mean([r["candidates"]["shipped"]["mean"] for r in rs])
-        var = np.mean([r["candidates"]["variant"]["mean"] for r in rs])
-        ii = [r["candidates"]["iterative"]["mean"] for r in rs if "iterative" in r["candidates"]]
-        w = " ".join(f"{r['weights']['shipped']:g}/{r['weights']['variant']:g}" for r in rs)
-        cells = (f"{np.mean(ii):.2f} | {ship / np.mean(ii):.3f} | {var / np.mean(ii):.3f}"
-                 if ii else "- | - | -")
-        lines.append(f"| {name} | {len(rs)} | {w} | {ship:.2f} | {var:.2f} | "
-                     f"{d[:, 0].mean():+.2f} ± {np.sqrt((d[:, 1] ** 2).sum()) / len(d):.2f} | "
-                     f"{cells} |")
-    return "\n".join(lines)
+    from studies.fast.select_local_gaussian import paired_table
+
+    return paired_table(docs, "shipped", "variant")
 
 
 def options(ap, variants, variant):

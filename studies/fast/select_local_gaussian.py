@@ -354,18 +354,24 @@ def timing(out, seed=0):
 def table(docs):
     """Markdown: per file (seeds pooled), previous's, local's and II's error, the
     paired difference, the weights."""
+    return paired_table(docs, "previous", "local")
+
+
+def paired_table(docs, base, arm):
+    """Markdown: per file (seeds pooled), the `base` and `arm` candidates' and II's
+    error, `arm` minus `base` (paired standard errors pooled over seeds), the weights."""
     rows = {}
     for doc in docs:
         for name, r in doc["files"].items():
             rows.setdefault(re.sub(r" seed \d+$", "", name), []).append(r)
-    lines = ["| file | seeds | weights (previous / local) | previous | local | local - previous "
-             "| II | previous / II | local / II |", "|---|---:|---|---:|---:|---:|---:|---:|---:|"]
+    lines = [f"| file | seeds | weights ({base} / {arm}) | {base} | {arm} | {arm} - {base} "
+             f"| II | {base} / II | {arm} / II |", "|---|---:|---|---:|---:|---:|---:|---:|---:|"]
     for name, rs in rows.items():
-        d = np.array([r["candidates"]["local"]["minus_previous"] for r in rs])
-        prev = np.mean([r["candidates"]["previous"]["mean"] for r in rs])
-        loc = np.mean([r["candidates"]["local"]["mean"] for r in rs])
+        d = np.array([r["candidates"][arm][f"minus_{base}"] for r in rs])
+        prev = np.mean([r["candidates"][base]["mean"] for r in rs])
+        loc = np.mean([r["candidates"][arm]["mean"] for r in rs])
         ii = [r["candidates"]["iterative"]["mean"] for r in rs if "iterative" in r["candidates"]]
-        w = " ".join(f"{r['weights']['previous']:g}/{r['weights']['local']:g}" for r in rs)
+        w = " ".join(f"{r['weights'][base]:g}/{r['weights'][arm]:g}" for r in rs)
         cells = (f"{np.mean(ii):.2f} | {prev / np.mean(ii):.3f} | {loc / np.mean(ii):.3f}"
                  if ii else "- | - | -")
         lines.append(f"| {name} | {len(rs)} | {w} | {prev:.2f} | {loc:.2f} | "
