@@ -73,7 +73,8 @@ CASES = [  # (command line, option dest, API function, its parameter)
         ("seed", build_dataset, "random_state"),
         ("camera_per", build_dataset, "camera")]),
     (["fit", "t.npz", "-o", "d.npz"], [
-        ("seed", fit_dictionary_file, "random_state")]),
+        ("seed", fit_dictionary_file, "random_state"),
+        ("errors", fit_dictionary_file, "errors_path")]),
 ]
 
 
