@@ -18,7 +18,7 @@ from joblib import Parallel, delayed, parallel_config
 from threadpoolctl import threadpool_limits
 
 from ._coding import atoms_key, pattern_order
-from ._parallel import chunk_tasks, dask_client
+from ._parallel import chunk_tasks, dask_client, worker_threads
 from ._recovery_base import (RecoveryResult, bad_coordinates, combine, mirror_weights,
                              place_occluded_inplace, screen, screen_poses, validate_poses)
 from ._validation import (ALPHA, BOOLEAN, CHUNK_SIZE, ENSEMBLE, N_JOBS, Interval, Options,
@@ -431,7 +431,12 @@ def _run_tasks(solver, components, X, observed, alpha_eff, tasks, positive, key,
     distributed = backend == "dask"
     if not distributed and n_jobs is not None:
         n_jobs = usable_jobs(n_jobs, len(tasks))  # --jobs 100000 runs what can run
-    threads = None if (n_jobs in (None, 1) and not distributed) else 1
+    if backend is None and isinstance(solver, (FastSolver, LocalRidgeSolver)):
+        # its kernels release the GIL: threads share one Gram cache and skip
+        # process start-up (measured 1.2x the throughput of loky processes)
+        backend = "threading"
+    threads = (None if (n_jobs in (None, 1) and not distributed) else
+               worker_threads(usable_jobs(n_jobs), "dask" if distributed else backend or "loky"))
     calls = (
         delayed(solve_chunk)(solver, components, X[t], observed[t], alpha_eff[t], positive,
                               key, threads)
@@ -442,11 +447,7 @@ def _run_tasks(solver, components, X, observed, alpha_eff, tasks, positive, key,
         with dask_client(scheduler):
             with parallel_config(backend="dask"):
                 return list(tqdm(Parallel(n_jobs=-1, return_as="generator")(calls), **bar))
-    if n_jobs in (None, 1) and backend is None:
+    if n_jobs in (None, 1) and backend in (None, "threading"):
         return [f(*args, **kw) for f, args, kw in tqdm(calls, **bar)]
-    if backend is None and isinstance(solver, (FastSolver, LocalRidgeSolver)):
-        # its kernels release the GIL: threads share one Gram cache and skip
-        # process start-up (measured 1.2x the throughput of loky processes)
-        backend = "threading"
     parallel = Parallel(n_jobs=n_jobs, return_as="generator", backend=backend)
     return list(tqdm(parallel(calls), **bar))
