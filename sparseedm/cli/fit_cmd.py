@@ -43,15 +43,15 @@ def add_parser(sub):
                    "or folder")
     p.add_argument("-o", "--output", required=True, help="dictionary file to write (.npz)")
     p.add_argument("--errors", default=None, metavar="FILE",
-                   help="errors file listing refused rows and unreadable frame files "
+                   help="errors file listing refused rows and unreadable input files "
                    "(default OUTPUT stem + .errors.csv)")
-    p.add_argument("--atoms", type=int, default=None,
+    p.add_argument("--atoms", metavar="K", type=int, default=None,
                    help="number of atoms k (default 2000; not with --init)")
     p.add_argument("--alpha", type=float, default=None,
                    help="lasso penalty while learning (default 1.6, chosen on a "
                    "validation split: docs/explanation/settings.md; with --init, the initial "
                    "dictionary's)")
-    p.add_argument("--alpha-recover", type=float, default=None,
+    p.add_argument("--alpha-recover", metavar="ALPHA", type=float, default=None,
                    help="recommended recovery alpha to store (default 0.002, chosen "
                    "likewise; with --init, the initial dictionary's)")
     p.add_argument("--init", default=None, metavar="default|PATH",
@@ -59,16 +59,16 @@ def add_parser(sub):
                    "of learning from scratch: online learning continued from its atoms "
                    "(sparseedm.adaptation; its atoms kept: --atoms, --checkpoint, --resume "
                    "and --positive-code do not apply and are refused)")
-    p.add_argument("--passes", type=float, default=2.0,
+    p.add_argument("--passes", metavar="P", type=float, default=2.0,
                    help="passes over the data (default 2: better held-out error than "
                    "one, still faster than SPAMS trainDL's one; benchmarks/README.md)")
-    p.add_argument("--batch-size", type=int, default=None,
+    p.add_argument("--batch-size", metavar="N", type=int, default=None,
                    help="mini-batch size (default 512; with --init, the adaptation's 256, "
                    "chosen on validation: docs/explanation/settings.md)")
     p.add_argument("--positive-code", action="store_true", help="non-negative codes")
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    p.add_argument("--jobs", type=int, default=None, help="threads for the coding step (default: numba's thread count, normally all cores)")
-    p.add_argument("--checkpoint", default=None,
+    p.add_argument("--seed", metavar="N", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--jobs", metavar="N", type=int, default=None, help="threads for the coding step (default: numba's thread count, normally all cores)")
+    p.add_argument("--checkpoint", metavar="FILE", default=None,
                    help="checkpoint file, written every 20 mini-batches (default "
                    "OUTPUT with .ckpt.npz)")
     p.add_argument("--resume", action="store_true",
