@@ -50,6 +50,6 @@ def test_every_tracked_json_is_strict():
         except ValueError as err:
             bad.append(f"{path.relative_to(ROOT)}: {err}")
     assert not bad, (
-        "not strict JSON; rewrite them with `python -m studies.results --rewrite FILE...` "
+        "not strict JSON; rewrite them with `python -m studies.results_json --rewrite FILE...` "
         "(NaN and infinities as null, nothing else changed) and write them through "
         "sparseedm._atomic.save_json / json_text:\n" + "\n".join(bad))

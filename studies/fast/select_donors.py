@@ -354,7 +354,7 @@ def main(argv=None):
     ap.add_argument("--compare", nargs="+", type=Path,
                     help="with --pool: these JSONs (another setting's runs) against them")
     a = ap.parse_args(argv)
-    from studies.results import load_results  # null (NaN in strict JSON) read as NaN
+    from studies.results_json import load_results  # null (NaN in strict JSON) read as NaN
 
     if a.pool and a.compare:
         print(compare([load_results(p) for p in a.pool], [load_results(p) for p in a.compare]))

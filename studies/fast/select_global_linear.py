@@ -226,7 +226,7 @@ def main(argv=None):
     a = ap.parse_args(argv)
     warnings.simplefilter("ignore")
     if a.table:
-        from studies.results import load_results  # null (NaN in strict JSON) read as NaN
+        from studies.results_json import load_results  # null (NaN in strict JSON) read as NaN
 
         docs = [load_results(p) for p in a.table]
         rule = {}

@@ -2,8 +2,8 @@
 
 They are written as strict JSON (:func:`sparseedm._atomic.json_text`: NaN and
 infinities as ``null``); a table reads a ``null`` back as NaN, as it reads a
-number it has no value for (``python -m studies.results FILE`` prints one so).
-``python -m studies.results --rewrite FILE...`` rewrites files that hold bare
+number it has no value for (``python -m studies.results_json FILE`` prints one so).
+``python -m studies.results_json --rewrite FILE...`` rewrites files that hold bare
 ``NaN`` / ``Infinity`` as strict JSON in their own layout (indent 1 or compact),
 every other value as it was (tests/test_tracked_json.py asks for it).
 """
