@@ -29,6 +29,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from sparseedm._atomic import save_json
 
 ROOT = Path(__file__).resolve().parent.parent
 CMU_RAW = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "cmu-mocap"
@@ -104,8 +105,8 @@ def bench_main(argv, *, prog, doc, quick_help, run, render, tag, heading, result
     print(text)
     if args.write_docs and not args.quick:
         write_block(tag, heading, text)
-        (Path(__file__).resolve().parent / results).write_text(
-            json.dumps(dict(meta=meta, **res), indent=1, default=str))
+        save_json(Path(__file__).resolve().parent / results, dict(meta=meta, **res),
+                  indent=1, default=str)
 
 
 def split_clips(clips):

@@ -14,9 +14,10 @@ The CMU training set it builds is cached in the user's cache directory
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from pathlib import Path
+
+from sparseedm._atomic import save_json
 
 from . import (adaptation, alphas, lifting, loadavg, log, machine, recovery, versions,
                write_block)
@@ -154,10 +155,8 @@ def main(argv=None):
         write_block("QUICK" if args.quick else "RESULTS",
                     "Quick smoke test" if args.quick else "Results", text, README)
         raw = HERE / ("results-quick.json" if args.quick else "results.json")
-        raw.write_text(json.dumps(dict(meta=meta, fit=fit_res, recovery=rec_res,
-                                       adaptation=adapt_res, lifting_speed=lift_res), indent=1,
-                                  default=lambda o: o.tolist() if isinstance(o, np.ndarray)
-                                  else str(o)))
+        save_json(raw, dict(meta=meta, fit=fit_res, recovery=rec_res, adaptation=adapt_res,
+                            lifting_speed=lift_res), indent=1, default=str)
         log(f"benchmarks: wrote {README} and {raw.name}")
 
 

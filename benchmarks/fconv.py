@@ -27,13 +27,13 @@ benchmarks/README.md; raw numbers to benchmarks/results-fconv.json.
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from pathlib import Path
 
 import numpy as np
 
 from . import held_out_sample, loadavg, log, machine, split_clips, table, write_block
+from sparseedm._atomic import save_json
 
 HERE = Path(__file__).resolve().parent
 FULL = dict(epochs=20, max_train=None, lift_max_train=10000, n=4096, n_single=300, n_sparse=2000, n_sparse_single=100,
@@ -230,8 +230,8 @@ def main(argv=None):
     print(text)
     if args.write_docs:
         write_block("FCONV", "FConv (torch extra)", text)
-        (HERE / ("results-fconv-quick.json" if args.quick else "results-fconv.json")).write_text(
-            json.dumps(res, indent=1, default=str))
+        save_json(HERE / ("results-fconv-quick.json" if args.quick else "results-fconv.json"),
+                  res, indent=1, default=str)
 
 
 if __name__ == "__main__":

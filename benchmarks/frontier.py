@@ -48,6 +48,7 @@ from pathlib import Path
 import numpy as np
 
 from . import CMU_RAW, log, loadavg, machine, versions
+from sparseedm._atomic import save_json
 
 HERE = Path(__file__).resolve().parent
 RESULTS = HERE / "results-frontier.json"
@@ -274,7 +275,7 @@ def main(argv=None):
         else:
             meta.pop("partial", None)
         if write:
-            RESULTS.write_text(json.dumps(dict(meta=meta, files=files), indent=1, default=str))
+            save_json(RESULTS, dict(meta=meta, files=files), indent=1, default=str)
 
     files = run(args.quick, args.repeats, done, args.only)
     done(files, final=True)

@@ -34,6 +34,7 @@ from sparseedm.metrics import random_occlusion
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 from studies.lifting.select_lifter import arrays, split  # noqa: E402
+from sparseedm._atomic import save_json  # noqa: E402
 
 
 def _load(path):
@@ -163,7 +164,7 @@ def main(argv=None):
                "complete": speed(lifters, poses), "mix": speed(lifters, poses, mask=mask),
                "loadavg_end": loadavg()}
         out = Path(args.output).with_name("results-lifting-speed.json")
-        out.write_text(json.dumps(res, indent=1))
+        save_json(out, res, indent=1)
         print(json.dumps(res, indent=1))
         return
     tr, val = split(cmu)
@@ -197,7 +198,7 @@ def main(argv=None):
     log("speed")
     res["poses_per_s"] = speed(lifters, cmu["poses2d"][val])
     res["loadavg_end"] = loadavg()
-    Path(args.output).write_text(json.dumps(res, indent=1))
+    save_json(args.output, res, indent=1)
     print(json.dumps(res, indent=1))
 
 

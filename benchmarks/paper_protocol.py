@@ -42,6 +42,7 @@ import numpy as np
 from benchmarks import loadavg, machine, versions
 from sparseedm.cli import main as cli
 from sparseedm.dataset import load_dataset, save_dataset
+from sparseedm._atomic import save_json
 
 #: CMU subjects in training (those of the shipped cmu-k2000; 25,926 poses)
 CMU_SUBJECTS = ("01", "02", "03")
@@ -148,7 +149,7 @@ def main(argv=None):
     meta["loadavg_end"] = loadavg()
     if args.write_docs:
         doc = collect(work, meta, sizes, bool(args.sweep_atoms))
-        RESULTS.write_text(json.dumps(doc, indent=1) + "\n")
+        save_json(RESULTS, doc, indent=1)
         print(f"wrote {RESULTS}")
         for figure in FIGURES:  # the figures of the documentation's results page
             made = work / "report-cmu-bandai" / figure

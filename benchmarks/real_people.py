@@ -51,6 +51,7 @@ import numpy as np
 
 from benchmarks import loadavg, machine, real2d, versions
 from sparseedm.evaluation_real import evaluate_photos, evaluate_tracks
+from sparseedm._atomic import save_json
 
 PHOTO_SOURCES = ("mpii", "coco", "bonn")
 GAP_LENGTHS = (3, 10, 30)
@@ -179,7 +180,7 @@ def main(argv=None):
                 f"results-real-people-{args.split}{tail}.json")
     doc = {"meta": meta, "results": {k: json.loads(v["report"].to_json())
                                      for k, v in results.items()}}
-    path.write_text(json.dumps(doc, indent=1, allow_nan=True) + "\n")
+    save_json(path, doc, indent=1)
     print(f"\nwrote {path}", file=sys.stderr)
 
 

@@ -49,6 +49,7 @@ from sparseedm.dataset import find_mocap_files
 from sparseedm.keypoints import KeypointSet, write_keypoints
 from sparseedm.mocap import load_mocap
 from sparseedm.temporal.fillers import fill_cubic, fill_kalman
+from sparseedm._atomic import save_json
 
 
 def build_video(data_dir, n_frames, seed=0, folder="cmu-mocap", return_truth=False):
@@ -198,7 +199,7 @@ def main(argv=None):
     out["one_clip"] = dict(clip, load_average_before=load)
     print(json.dumps(out, indent=1))
     if args.out:
-        Path(args.out).write_text(json.dumps(out, indent=1) + "\n")
+        save_json(args.out, out, indent=1)
 
 
 if __name__ == "__main__":

@@ -25,18 +25,17 @@ from __future__ import annotations
 
 import argparse
 import functools
-import json
 import os
 import platform
 import time
 import zlib
-from pathlib import Path
 
 import numpy as np
 
 from sparseedm.temporal.evaluation import edge_jumps
 from sparseedm.temporal.fillers import fill_akima, fill_cubic, fill_kalman, fill_linear
 from sparseedm.temporal.protocols import gap_mask, run_lengths
+from sparseedm._atomic import save_json
 
 try:
     from . import real2d
@@ -139,7 +138,7 @@ def main(argv=None):
                    machine=f"{platform.platform()}, {os.cpu_count()} cores",
                    load_average=[round(x, 2) for x in os.getloadavg()],
                    seconds=seconds, rows=rows)
-        Path(args.out).write_text(json.dumps(doc, indent=1) + "\n")
+        save_json(args.out, doc, indent=1)
 
 
 if __name__ == "__main__":

@@ -47,6 +47,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+from sparseedm._atomic import save_json
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT.parent / "shared" / "data"
@@ -89,7 +90,7 @@ def validation_probe(rows_of, summarise, out, sources=("bandai", "cmu"), split="
             print(json.dumps(row), flush=True)
             rows.append(row)
     doc = dict(split=split, rows=rows, summary=summarise(rows))
-    Path(out).write_text(json.dumps(doc, indent=1) + "\n")
+    save_json(out, doc, indent=1)
     for line in doc["summary"]:
         print(json.dumps(line))
 
@@ -166,7 +167,7 @@ def run(args):
     print("\n" + summary(results))
     print("\n" + intervals(results))
     if args.output:
-        Path(args.output).write_text(json.dumps(results, indent=1) + "\n")
+        save_json(args.output, results, indent=1)
         print(f"wrote {args.output}")
 
 

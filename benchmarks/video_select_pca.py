@@ -14,13 +14,13 @@ from __future__ import annotations
 
 import argparse
 import functools
-import json
 import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks.video_protocols import sequences  # noqa: E402
+from sparseedm._atomic import save_json  # noqa: E402
 
 GRID = (0.99, 0.999, 0.9999, 0.99999)
 
@@ -47,8 +47,8 @@ def main(argv=None):
     chosen = min(score, key=score.get)
     print("mean overall error:", {k: round(v, 2) for k, v in score.items()}, "->", chosen)
     if args.output:
-        Path(args.output).write_text(json.dumps({"grid": GRID, "score": score, "chosen": chosen,
-                                                 "runs": runs}, indent=1) + "\n")
+        save_json(args.output, {"grid": GRID, "score": score, "chosen": chosen, "runs": runs},
+                  indent=1)
 
 
 if __name__ == "__main__":

@@ -46,6 +46,7 @@ from sparseedm.batch import recover_file
 from sparseedm.keypoints import KeypointSet, write_keypoints
 from sparseedm.temporal.model import DEFAULT_SETTINGS
 from sparseedm.temporal.recover import recover_temporal
+from sparseedm._atomic import json_text, save_json
 
 try:
     from .temporal import build_video
@@ -164,9 +165,9 @@ def main(argv=None):
     ap.add_argument("--out", default="benchmarks/results-video-speed.json",
                     help="the JSON written (default: the tracked one)")
     args = ap.parse_args(argv)
-    text = json.dumps(run(args.data_dir, args.frames), indent=1)
+    text = json_text(run(args.data_dir, args.frames), indent=1)
     print(text)
-    Path(args.out).write_text(text + "\n")
+    save_json(args.out, json.loads(text), indent=1)
 
 
 if __name__ == "__main__":

@@ -13,15 +13,16 @@ from .exceptions import ParameterError, SparseEDMError
 from .solvers.fast import NUMPY_MAX
 
 __all__ = ["chunk_tasks", "min_tasks", "TASK_MIN_ROWS", "dask_client", "one_client",
-           "numba_threads"]
+           "numba_threads", "worker_threads", "leaves_cores_idle", "PROCESS_BACKENDS"]
 
 
-def chunk_tasks(rows, chunk_size, n_jobs, backend=None, shared=False):
+def chunk_tasks(rows, chunk_size, n_jobs, backend=None, shared=False, threads=None):
     """`rows` cut into consecutive tasks: at most `chunk_size` each, and enough
-    of them to keep every worker busy (:func:`min_tasks`, `shared` as there); none
-    when `rows` is empty. Shared by recover() and the dictionary lifter."""
+    of them to keep every worker busy (:func:`min_tasks`, `shared` and `threads`
+    as there); none when `rows` is empty. Shared by recover() and the dictionary
+    lifter."""
     n, chunk_size = len(rows), int(chunk_size)  # np.uint64(7): -n // it overflows
-    n_tasks = max(-(-n // chunk_size), min_tasks(n_jobs, backend, n, shared))
+    n_tasks = max(-(-n // chunk_size), min_tasks(n_jobs, backend, n, shared, threads))
     return [t for t in np.array_split(rows, max(1, min(n_tasks, n))) if len(t)]
 
 
@@ -35,7 +36,7 @@ def chunk_tasks(rows, chunk_size, n_jobs, backend=None, shared=False):
 TASK_MIN_ROWS = 128
 
 
-def min_tasks(n_jobs, backend, n_rows, shared=False):
+def min_tasks(n_jobs, backend, n_rows, shared=False, threads=None):
     """Tasks enough to keep every worker busy (1 when the work runs in-process).
 
     Never so many that a task falls under the fast solver's compiled-kernel
@@ -44,14 +45,19 @@ def min_tasks(n_jobs, backend, n_rows, shared=False):
     300 poses at 42 poses/s against 600 for one job. With `shared` (one task in
     this process would already run on every core: the fast solver's kernels on
     numba's threads) each worker gets at least two tasks of at least
-    :data:`TASK_MIN_ROWS` rows, at most four, or the rows stay one task.
+    :data:`TASK_MIN_ROWS` rows, at most four, or the rows stay one task; and
+    they stay one task too when the workers, one numba thread each
+    (:func:`worker_threads`), are fewer than numba's `threads` (default
+    ``numba.get_num_threads()``): in-process they run on every core.
 
     Examples
     --------
-    >>> min_tasks(2, None, 400), min_tasks(2, None, 400, shared=True)
+    >>> min_tasks(2, None, 400), min_tasks(2, None, 400, shared=True, threads=2)
     (6, 1)
-    >>> min_tasks(2, None, 6000, shared=True), min_tasks(1, None, 6000)
+    >>> min_tasks(2, None, 6000, shared=True, threads=2), min_tasks(1, None, 6000)
     (8, 1)
+    >>> min_tasks(2, None, 6000, shared=True, threads=4)  # 2 cores of 4 left idle
+    1
     """
     if n_jobs in (None, 1) and backend is None:
         return 1
@@ -59,7 +65,49 @@ def min_tasks(n_jobs, backend, n_rows, shared=False):
     if not shared:
         return max(min(4 * workers, n_rows // NUMPY_MAX), 1)
     fit = n_rows // max(TASK_MIN_ROWS, NUMPY_MAX)
-    return min(4 * workers, fit) if fit >= 2 * workers else 1
+    if fit < 2 * workers or leaves_cores_idle(workers, threads):
+        return 1
+    return min(4 * workers, fit)
+
+
+def leaves_cores_idle(n_workers, threads=None):
+    """Whether `n_workers` thread workers of one numba thread each (:func:`worker_threads`)
+    are fewer than numba's `threads` (default ``numba.get_num_threads()``, normally
+    every core): the work then runs faster in this process on all of them.
+
+    >>> leaves_cores_idle(2, 4), leaves_cores_idle(2, 2), leaves_cores_idle(4, 2)
+    (True, False, False)
+    """
+    threads = numba.get_num_threads() if threads is None else int(threads)
+    return int(n_workers) < threads
+
+
+#: joblib backends whose workers are processes (each with its own numba threads)
+PROCESS_BACKENDS = ("loky", "multiprocessing")
+
+
+def worker_threads(n_workers, backend, threads=None):
+    """numba threads for each of `n_workers` joblib workers on `backend`.
+
+    Process workers share out numba's `threads` (default
+    ``numba.get_num_threads()``, normally every core): ``cores // n_workers``
+    each, at least one, so that two workers on four cores leave none idle.
+    Thread workers (``"threading"``) and Dask's get one: numba's parallel
+    regions launched from several threads of one process serialise (the
+    OpenMP layer; its workqueue layer is not thread-safe), and a Dask worker
+    is another machine's.
+
+    Examples
+    --------
+    >>> [worker_threads(2, "loky", 4), worker_threads(3, "loky", 4), worker_threads(8, "loky", 4)]
+    [2, 1, 1]
+    >>> worker_threads(2, "threading", 4), worker_threads(2, "dask", 4)
+    (1, 1)
+    """
+    if backend not in PROCESS_BACKENDS:
+        return 1
+    threads = numba.get_num_threads() if threads is None else int(threads)
+    return max(1, threads // max(int(n_workers), 1))
 
 
 #: the comms a scheduler in another process listens on (distributed's ``inproc://`` is

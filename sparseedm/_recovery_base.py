@@ -410,6 +410,10 @@ class Screening(NamedTuple):
     n_obs: np.ndarray
     clean: np.ndarray
 
+    def take(self, rows):
+        """The screening of the poses `rows` only (each pose is screened alone)."""
+        return Screening(*(a[rows] for a in self))
+
 
 class Screened(NamedTuple):
     """What :func:`screen` returns (a tuple, so it unpacks as before): the
@@ -495,15 +499,20 @@ def screen_poses(poses, mask, bad_coord):
 
 
 
-def screen(poses, mask, bad_coord, representation, rule="box"):
+def screen(poses, mask, bad_coord, representation, rule="box", screening=None):
     """Statuses of every pose, and the usable ones' vectors under `representation`,
     normalised by `rule` (:func:`sparseedm.normalize.normalize`).
 
     Shared by the sparse path (its dictionary's ``recovery_scale``) and the
     FConv path (:mod:`sparseedm.fconv`, the box its models were trained on).
+    `screening`: :func:`screen_poses` of these poses when the caller has it
+    (trusted; `bad_coord` then unused), so that no pose is screened twice.
     """
     n, N = mask.shape
-    status, reason, n_obs, clean = screen_poses(poses, mask, bad_coord)
+    if screening is None:
+        screening = screen_poses(poses, mask, bad_coord)
+    status, reason, n_obs, clean = screening
+    status, reason = status.copy(), reason.copy()  # written below; the caller's kept
     status[status == ""] = "recovered"
     complete = (status == "recovered") & (n_obs == N)
     status[complete] = "complete"

@@ -18,9 +18,9 @@ from joblib import Parallel, delayed, parallel_config
 from threadpoolctl import threadpool_limits
 
 from ._coding import atoms_key, pattern_order
-from ._parallel import chunk_tasks, dask_client
+from ._parallel import chunk_tasks, dask_client, worker_threads
 from ._recovery_base import (RecoveryResult, bad_coordinates, combine, mirror_weights,
-                             place_occluded_inplace, screen, validate_poses)
+                             place_occluded_inplace, screen, screen_poses, validate_poses)
 from ._validation import (ALPHA, BOOLEAN, CHUNK_SIZE, ENSEMBLE, N_JOBS, Interval, Options,
                           usable_jobs)
 from .dictionary import Dictionary, check_layout, load_dictionary
@@ -247,7 +247,8 @@ def preset_solver(solver="fast", preset="default", adaptation=None, positive=Non
     return FastSolver(working_set=True, numpy_max=0)
 
 
-def recover_members(poses, missing, members, adaptations, mirror_gate=False, **kwargs):
+def recover_members(poses, missing, members, adaptations, mirror_gate=False, screening=None,
+                    **kwargs):
     """The poses recovered with each of `members` (dictionaries), combined
     (:func:`~sparseedm._recovery_base.combine`: one member's result as it is), with
     what `adaptations` (:func:`sparseedm.ensemble.adapt_members`'s, or empty)
@@ -269,6 +270,10 @@ def recover_members(poses, missing, members, adaptations, mirror_gate=False, **k
         `members` are K dictionaries followed by their mirrored ones: weigh
         each pose's answers by :func:`~sparseedm._recovery_base.mirror_weights`
         (``recover(mirror="auto")``) instead of the plain mean.
+    screening : Screening, optional
+        With ``check_input=False``: the poses' screening, when the caller has
+        it (:func:`recover_sparse`'s); else, trusted poses are screened here
+        once for every member.
     **kwargs
         The recovery settings of :func:`recover_sparse` (alpha, solver, n_jobs...).
 
@@ -279,10 +284,13 @@ def recover_members(poses, missing, members, adaptations, mirror_gate=False, **k
         time.
     """
     kwargs["solver"] = compiled_solver(kwargs.get("solver", "fast"), adaptations)
+    if not kwargs.get("check_input", True) and screening is None:
+        screening = screen_poses(poses, missing, bad_coordinates(poses, missing))
     # the work is many small BLAS calls beside numba's threads: BLAS threads
     # would only spin against them (measured 2x slower), so BLAS gets one.
     with threadpool_limits(1, user_api="blas"):
-        results = [recover_sparse(poses, missing, dictionary=d, **kwargs) for d in members]
+        results = [recover_sparse(poses, missing, dictionary=d, screening=screening, **kwargs)
+                   for d in members]
         res = combine(results, mirror_weights(results) if mirror_gate else None)
     if adaptations:
         res.adaptation = adaptations[0]
@@ -292,7 +300,8 @@ def recover_members(poses, missing, members, adaptations, mirror_gate=False, **k
 
 def recover_sparse(poses, missing=None, *, dictionary=None, alpha=None,
              representation="average", solver="fast", n_jobs=1, chunk_size=2048,
-             positive=None, progress=False, backend=None, scheduler=None, check_input=True):
+             positive=None, progress=False, backend=None, scheduler=None, check_input=True,
+             screening=None):
     """One dictionary's sparse recovery of a batch of poses.
 
     The kernel of :func:`sparseedm.recover`, its arguments already validated.
@@ -334,6 +343,10 @@ def recover_sparse(poses, missing=None, *, dictionary=None, alpha=None,
         Validate `poses` and `missing` (:func:`validate_poses`). False: the
         caller did (poses a float array (n, N, 2), `missing` a bool array
         (n, N)), as scikit-learn's ``check_input=False``.
+    screening : Screening, optional
+        With ``check_input=False``: the poses'
+        :func:`~sparseedm._recovery_base.screen_poses`, when the caller has it
+        (trusted: the poses are not screened again).
 
     Returns
     -------
@@ -351,12 +364,15 @@ def recover_sparse(poses, missing=None, *, dictionary=None, alpha=None,
     N = dictionary.n_joints
     if check_input:
         poses, mask, bad_coord = validate_poses(poses, missing, N)
-    else:
-        poses, mask, bad_coord = poses, missing, bad_coordinates(poses, missing)
+        screening = None
+    else:  # trusted: screened by the caller, or here
+        mask = missing
+        bad_coord = bad_coordinates(poses, missing) if screening is None else None
     n = len(poses)
     m = dictionary.n_features
     components = dictionary.components
-    screened = screen(poses, mask, bad_coord, representation, dictionary.recovery_scale)
+    screened = screen(poses, mask, bad_coord, representation, dictionary.recovery_scale,
+                      screening)
     status, reason, n_obs, clean, vectors, center, scale, filled = screened
     objective = np.full(n, np.nan)
     gap = np.full(n, np.nan)
@@ -415,7 +431,12 @@ def _run_tasks(solver, components, X, observed, alpha_eff, tasks, positive, key,
     distributed = backend == "dask"
     if not distributed and n_jobs is not None:
         n_jobs = usable_jobs(n_jobs, len(tasks))  # --jobs 100000 runs what can run
-    threads = None if (n_jobs in (None, 1) and not distributed) else 1
+    if backend is None and isinstance(solver, (FastSolver, LocalRidgeSolver)):
+        # its kernels release the GIL: threads share one Gram cache and skip
+        # process start-up (measured 1.2x the throughput of loky processes)
+        backend = "threading"
+    threads = (None if (n_jobs in (None, 1) and not distributed) else
+               worker_threads(usable_jobs(n_jobs), "dask" if distributed else backend or "loky"))
     calls = (
         delayed(solve_chunk)(solver, components, X[t], observed[t], alpha_eff[t], positive,
                               key, threads)
@@ -426,11 +447,7 @@ def _run_tasks(solver, components, X, observed, alpha_eff, tasks, positive, key,
         with dask_client(scheduler):
             with parallel_config(backend="dask"):
                 return list(tqdm(Parallel(n_jobs=-1, return_as="generator")(calls), **bar))
-    if n_jobs in (None, 1) and backend is None:
+    if n_jobs in (None, 1) and backend in (None, "threading"):
         return [f(*args, **kw) for f, args, kw in tqdm(calls, **bar)]
-    if backend is None and isinstance(solver, (FastSolver, LocalRidgeSolver)):
-        # its kernels release the GIL: threads share one Gram cache and skip
-        # process start-up (measured 1.2x the throughput of loky processes)
-        backend = "threading"
     parallel = Parallel(n_jobs=n_jobs, return_as="generator", backend=backend)
     return list(tqdm(parallel(calls), **bar))

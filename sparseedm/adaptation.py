@@ -83,9 +83,10 @@ from ._recovery_kernel import RECOVER_PARAMS, compiled_solver, recover_members, 
 from ._validation import check_mask, check_pose_shape, check_poses, unmask, validate_params
 from .dictionary import Dictionary, load_dictionary
 from .edm import pose_to_vector
+from .keypoints import default_errors_path
 from .exceptions import DictionaryError, PoseError, SparseEDMError
 from .learning import (OnlineDictionaryLearning, complete_pose_vectors, iter_batches,
-                       load_training_poses, poses_sha256, sparse_code, unread_files)
+                       load_training_poses, poses_sha256, sparse_code, training_errors)
 from .metrics import err_ave, occlusion_masks
 from .normalize import normalize, usable_rows
 from .skeleton import SKELETON_14
@@ -1519,7 +1520,7 @@ def sample_complete(chunks, max_poses=DEFAULT_MAX_POSES, random_state=0):
 def fine_tune_file(train_path, output, init="default", *, passes=DEFAULT_PASSES, alpha=None,
                    alpha_recover=None, stats=DEFAULT_STATS, replay=DEFAULT_REPLAY,
                    batch_size=DEFAULT_BATCH_SIZE, random_state=0, n_jobs=None,
-                   input_format=None, joint_map=None):
+                   input_format=None, joint_map=None, errors_path=None):
     """Fine-tune an existing dictionary on the complete poses of a training .npz or keypoint
     file; save it.
 
@@ -1555,12 +1556,18 @@ def fine_tune_file(train_path, output, init="default", *, passes=DEFAULT_PASSES,
         Threads of the coding step; None: numba's.
     input_format, joint_map : str, optional
         How a keypoint file is read (:func:`sparseedm.keypoints.read_keypoints`).
+    errors_path : str or path, optional
+        The errors file of TRAIN's refused rows and unreadable frame files
+        (:func:`sparseedm.learning.training_errors`, as ``sparseedm recover``'s);
+        default ``<output stem>.errors.csv``, written only when there is
+        something to list.
 
     Returns
     -------
     Dictionary
         The fine-tuned dictionary (also saved to `output`), its provenance
-        naming the training file and the base's.
+        naming the training file and the base's (and counting TRAIN's refused
+        rows and unreadable files).
 
     Raises
     ------
@@ -1575,12 +1582,13 @@ def fine_tune_file(train_path, output, init="default", *, passes=DEFAULT_PASSES,
     if Path(output).suffix != ".npz":
         raise DictionaryError(f"{output}: a dictionary file must end in .npz")
     # before any work: the output is neither the training file nor the base's file
+    errors_path = default_errors_path(output) if errors_path is None else Path(errors_path)
     check_paths([("training file", train_path),
                  ("initial dictionary", None if isinstance(init, Dictionary) else init)],
-                [("output", output)])
+                [("output", output), ("errors file", errors_path)])
     base = init if isinstance(init, Dictionary) else load_dictionary(init)
-    skipped = []
-    poses = load_training_poses(train_path, input_format, joint_map, skipped)
+    train = load_training_poses(train_path, input_format, joint_map)
+    poses = train.poses
     X, ok = complete_pose_vectors(poses)
     if len(X) == 0:
         raise SparseEDMError(f"{train_path}: no complete poses to fine-tune on")
@@ -1597,7 +1605,7 @@ def fine_tune_file(train_path, output, init="default", *, passes=DEFAULT_PASSES,
         "files": [Path(train_path).name], "n_poses": int(len(X)), "sha256": poses_sha256(poses),
         "sha256_of": "poses2d float64 values", "seed": random_state, "passes": passes,
         "batch_size": batch_size, "fine_tuned_from": dict(base.provenance or {}),
-        "stats": stats, **unread_files(skipped),
+        "stats": stats, **training_errors(train, errors_path),
     }
     d = Dictionary(components=comps, joint_names=base.joint_names,
                    alpha_recover=base.alpha_recover if alpha_recover is None else alpha_recover,

@@ -90,7 +90,6 @@ from __future__ import annotations
 
 import contextlib
 import os
-import csv
 import json
 import math
 import time
@@ -119,6 +118,7 @@ from .formats import FILLED_SCORE, count_below, default_threshold, threshold_lin
 from .formats import FORMATS as FOLDER_OR_TABLE_FORMATS
 from .formats.deeplabcut import H5_SUFFIXES, check_h5_extra, read_joint_map
 from .keypoints import (FLAGS_IN_SIDECAR, N_JOINTS, EXTENSIONS, RESULT_FIELDS, beside,
+                        default_errors_path, write_errors,
                         check_joint_map, check_output_fits,
                         finish_missing, format_of, load_single_npy, npy_confidence,
                         origin_joints, read_keypoints, status_sidecar, write_keypoints)
@@ -140,28 +140,7 @@ __all__ = ["recover_file", "default_errors_path", "STATUS_FIELDS"]
 
 #: Per-row fields every output carries (see the module docstring).
 STATUS_FIELDS = ("status", "reason", "objective", "gap", "n_active")
-_ERRORS_HEADER = ["row", "id", "status", "reason"]
 _SUFFIX = {"npz": ".npz", "npy": ".npy", "csv": ".csv", "coco": ".json"}
-
-
-def default_errors_path(output) -> Path:
-    """``<output stem>.errors.csv`` beside `output` (in the current folder when
-    `output` is a device or a pipe, such as ``/dev/null``); when that name would
-    pass 255 bytes, the stem's first 120 bytes and a hash of the whole stem
-    (:func:`sparseedm.keypoints.beside`), so that any output name file systems
-    take has an errors file name they take too.
-
-    Parameters
-    ----------
-    output : str or path-like
-        The output file.
-
-    Returns
-    -------
-    Path
-        Where the refused rows are listed.
-    """
-    return beside(output, ".errors.csv")
 
 
 def _sidecar(output, what) -> Path:
@@ -1136,36 +1115,3 @@ def _output_time(fmt, kps, linked, in_fmt):
 
 def _num(v):
     return "" if math.isnan(v) else repr(float(v))
-
-
-def write_errors(path, refused, ids, status, reason, skipped=(), rows=None):
-    """The errors file: a row per refused pose (row, id, status, reason), then a
-    row per input file that could not be read at all (`skipped`: (file, why)
-    pairs, e.g. an OpenPose frame file: no row, the file as id, status
-    ``unreadable_file``); removed if an earlier run left one and there is
-    nothing to list. `rows`: each pose's row in the input (default its
-    position), for poses that are some of the input's rows."""
-    if not refused.any() and not len(skipped):
-        _remove_stale_errors(path)
-        return
-    with atomic_path(path) as tmp:
-        with open(tmp, "w", newline="", encoding="utf-8") as f:
-            w = csv.writer(f)
-            w.writerow(_ERRORS_HEADER)
-            for r in np.flatnonzero(refused):
-                w.writerow([int(r if rows is None else rows[r]), "" if ids is None else ids[r],
-                            status[r], reason[r]])
-            for name, why in skipped:
-                w.writerow(["", name, "unreadable_file", why])
-
-
-def _remove_stale_errors(path):
-    """Remove an errors file an earlier run left at `path` (only if it is one)."""
-    path = Path(path)
-    if not path.is_file():
-        return
-    with contextlib.suppress(OSError, UnicodeDecodeError):
-        with open(path, encoding="utf-8") as f:
-            first = f.readline().strip()
-        if first == ",".join(_ERRORS_HEADER):
-            path.unlink()

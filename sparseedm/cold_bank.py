@@ -31,7 +31,7 @@ from ._shipped import resolve_shipped
 from .exceptions import DictionaryError
 from .exemplars import stack_fill
 from .file_atoms import body_axis
-from .gaussian_fill import LOCAL_NEIGHBOURS, local_gaussian_fill, nearest_distances
+from .gaussian_fill import LOCAL_NEIGHBOURS, gated_local_fill
 
 __all__ = ["COLD_BANK", "COLD_BANK_WEIGHTS", "COLD_BANK_NEIGHBOURS", "COLD_BANK_GATE",
            "COLD_BANK_GATE_NEIGHBOURS", "AVERAGED_BANK", "PoseBank", "load_pose_bank",
@@ -118,8 +118,9 @@ def bank_fill(bank, poses, missing, neighbours=COLD_BANK_NEIGHBOURS, gate=COLD_B
     poses is below `gate` times that to the nearest motion-capture ones
     (:func:`~sparseedm.gaussian_fill.nearest_distances`) is filled by
     :func:`~sparseedm.gaussian_fill.local_gaussian_fill` over the photographed
-    ones, any other over the whole bank: a file turned in the image gets its
-    joints turned with it.
+    ones, any other over the whole bank
+    (:func:`~sparseedm.gaussian_fill.gated_local_fill`: the distances computed
+    once for both): a file turned in the image gets its joints turned with it.
 
     Parameters
     ----------
@@ -155,18 +156,12 @@ def bank_fill(bank, poses, missing, neighbours=COLD_BANK_NEIGHBOURS, gate=COLD_B
     if own is not None and theirs is not None:
         c, s = own @ theirs, own[0] * theirs[1] - own[1] * theirs[0]
         draws = draws @ np.array([[c, -s], [s, c]]).T
-    near = np.zeros(len(given), bool)
-    if gate > 0 and photo.sum() >= 2 and (~photo).any():
-        dist = nearest_distances(draws, given, missing, COLD_BANK_GATE_NEIGHBOURS, photo)
-        with np.errstate(invalid="ignore"):
-            near = dist[:, 0] < gate * dist[:, 1]
-    out = np.array(given)
-    for rows, pool in ((near, draws[photo]), (~near, draws)):
-        if rows.any():  # nothing missing in a row: itself
-            # neighbours chosen once (the bank's weights were chosen so)
-            out[rows] = local_gaussian_fill(pool, given[rows], missing[rows],
-                                            neighbours=neighbours, reselect=0.0)
-    return out
+    if photo.sum() < 2 or not (~photo).any():
+        gate = 0.0  # no two parts to choose between: the whole bank
+    # neighbours chosen once (the bank's weights were chosen so); each missing
+    # pattern's distances to the bank computed once, for the gate and the fill
+    return gated_local_fill(draws, given, missing, photo, gate, COLD_BANK_GATE_NEIGHBOURS,
+                            neighbours=neighbours)
 
 
 def cold_bank_stack(res, poses, missing, bank=None):

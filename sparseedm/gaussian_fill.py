@@ -28,13 +28,14 @@ file's poses and their mirror images against its own by a held-back check
 from __future__ import annotations
 
 from functools import partial
+from typing import NamedTuple
 
 import numpy as np
 from threadpoolctl import threadpool_limits
 
 __all__ = ["GAUSSIAN_RIDGE", "GAUSSIAN_ROUNDS", "LOCAL_NEIGHBOURS", "LOCAL_PRIOR", "LOCAL_RESELECT",
            "conditional_mean", "gaussian_fill", "local_gaussian_fill", "file_gaussian",
-           "nearest_distances"]
+           "nearest_distances", "gated_local_fill"]
 
 #: The covariance's ridge, relative to its mean variance (chosen on validation
 #: photo files: studies/fast/README.md)
@@ -193,6 +194,14 @@ def _fill_pattern(train, sums, poses, out, rows, pattern, conditional):
     z, centre, radius = _frame(np.where(pattern[:, None], 0.0, poses[rows]), ~pattern)
     filled = conditional(z_train.reshape(len(z_train), -1), z.reshape(len(rows), -1),
                          np.repeat(~pattern, 2))
+    _put_back_into(out, rows, pattern, filled, (z, centre, radius), poses)
+
+
+def _put_back_into(out, rows, pattern, filled, frame, poses):
+    """The flat `filled` rows, in the frame ``(z, centre, radius)`` of their
+    pattern's observed joints, back in the image: their hidden joints written
+    into ``out[rows]`` (NaN where the frame has no spread)."""
+    z, centre, radius = frame
     back = filled.reshape(z.shape) * radius[:, None, None] + centre[:, None]
     back[~(np.isfinite(radius) & (radius > 0))] = np.nan
     out[rows] = np.where(pattern[:, None], back, poses[rows])
@@ -253,9 +262,10 @@ def local_gaussian_fill(train, poses, missing, *, neighbours=LOCAL_NEIGHBOURS,
         _local_means, neighbours=neighbours, prior=prior, ridge=ridge, reselect=reselect))
 
 
-def _local_means(train, query, observed, neighbours, prior, ridge, reselect):
+def _local_means(train, query, observed, neighbours, prior, ridge, reselect, distances=None):
     """local_gaussian_fill of flat `query` rows over flat `train` draws in one
-    frame: `query` with its unobserved columns replaced."""
+    frame: `query` with its unobserved columns replaced (`distances`: the rows'
+    squared distances to the draws on the observed columns, when at hand)."""
     mu = np.ones(len(train)) @ train / len(train)
     centred = train - mu
     cov = centred.T @ centred / max(len(train) - 1, 1)
@@ -268,7 +278,8 @@ def _local_means(train, query, observed, neighbours, prior, ridge, reselect):
     weighted = (train * train) @ weights if reselect > 0 else None
     for s in range(0, len(out), _LOCAL_BLOCK):
         q = out[s:s + _LOCAL_BLOCK, obs]
-        d = _square_distances(seen, q, squares)
+        d = (_square_distances(seen, q, squares) if distances is None
+             else distances[s:s + _LOCAL_BLOCK])
         # the pose itself (filled) among the draws: left out
         d = np.where(d > 1e-12 * len(obs), d, np.inf)
         out[s:s + _LOCAL_BLOCK, hid] = _local_fit(train, q, d, obs, hid, (mu, cov),
@@ -346,19 +357,119 @@ def nearest_distances(train, poses, missing, neighbours, parts=None):
     for pattern, rows in _patterns(missing):
         if (~pattern).sum() < 2:
             continue
+        near = _PatternDistances.of(train, sums, poses[rows], pattern)
+        out[rows] = near.part_means(split, neighbours)
+    return out[:, 0] if parts is None else out
+
+
+class _PatternDistances(NamedTuple):
+    """One missing pattern's rows and the draws in the frame of its observed
+    joints (:func:`_frame`), and the rows' squared distances to the draws on
+    those joints (inf to a draw of no spread: never near)."""
+
+    train: np.ndarray      # (n, 2N) the draws, flat
+    spread: np.ndarray     # (n,) the draws' radius on the observed joints
+    frame: tuple           # the rows' (z, centre, radius)
+    distances: np.ndarray  # (m, n)
+
+    @classmethod
+    def of(cls, train, sums, poses, pattern):
+        """Of `poses` (all of `pattern`, with two observed joints or more)."""
         z_train, _, spread = _frame(train, ~pattern, sums)
         seen = np.where((spread > 0)[:, None], z_train[:, ~pattern].reshape(len(train), -1),
                         0.0)
-        z, _, radius = _frame(np.where(pattern[:, None], 0.0, poses[rows]), ~pattern)
-        q = z[:, ~pattern].reshape(len(rows), -1)
-        d = _square_distances(seen, q)
-        d[:, ~(spread > 0)] = np.inf  # a draw of no spread: never near
-        for j, part in enumerate(split):
-            dj = d[:, part]
+        frame = _frame(np.where(pattern[:, None], 0.0, poses), ~pattern)
+        d = _square_distances(seen, frame[0][:, ~pattern].reshape(len(poses), -1))
+        d[:, ~(spread > 0)] = np.inf
+        return cls(z_train.reshape(len(train), -1), spread, frame, d)
+
+    def part_means(self, parts, neighbours):
+        """(m, len(parts)): each row's mean distance to its `neighbours` nearest
+        draws of each part; NaN where the row's observed joints have no spread."""
+        radius = self.frame[2]
+        out = np.full((len(radius), len(parts)), np.nan)
+        for j, part in enumerate(parts):
+            dj = self.distances[:, part]
             n = min(int(neighbours), dj.shape[1])
             near = np.sqrt(np.maximum(np.partition(dj, n - 1, axis=1)[:, :n], 0.0)).mean(axis=1)
-            out[rows, j] = np.where(np.isfinite(radius) & (radius > 0), near, np.nan)
-    return out[:, 0] if parts is None else out
+            out[:, j] = np.where(np.isfinite(radius) & (radius > 0), near, np.nan)
+        return out
+
+
+def gated_local_fill(train, poses, missing, parts, gate, gate_neighbours, *,
+                     neighbours=LOCAL_NEIGHBOURS, prior=LOCAL_PRIOR, ridge=GAUSSIAN_RIDGE):
+    """:func:`local_gaussian_fill` (neighbours chosen once) over one part of the
+    draws for the poses near it, over every draw for the others.
+
+    A pose whose mean distance to its `gate_neighbours` nearest draws of the
+    True part (:func:`nearest_distances`) is below `gate` times that to the
+    False part's takes its Gaussian from the True part alone. Each missing
+    pattern's frames and distances are computed once, for the gate and the fill.
+
+    Parameters
+    ----------
+    train : ndarray (n, N, 2)
+        Complete poses, the draws.
+    poses : ndarray (m, N, 2)
+        Poses to fill (values at missing joints ignored).
+    missing : ndarray of bool (m, N)
+    parts : ndarray of bool (n,)
+        The two parts, each with at least two draws.
+    gate : float
+        0: every draw for every pose; inf: the True part for every pose with a frame.
+    gate_neighbours : int
+    neighbours, prior, ridge
+        As :func:`local_gaussian_fill`'s.
+
+    Returns
+    -------
+    ndarray (m, N, 2)
+        `poses` with the missing joints filled; NaN where a pose's observed
+        joints have no spread.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(0)
+    >>> train = rng.normal(size=(300, 14, 2)); parts = np.arange(300) < 100
+    >>> missing = np.zeros((2, 14), bool); missing[:, 3] = True
+    >>> out = gated_local_fill(train, train[:2], missing, parts, np.inf, 20, neighbours=50)
+    >>> ref = local_gaussian_fill(train[parts], train[:2], missing, neighbours=50, reselect=0)
+    >>> bool(np.array_equal(out, ref))
+    True
+    """
+    train = np.asarray(train, dtype=float)
+    poses = np.asarray(poses, dtype=float)
+    missing = np.asarray(missing, bool)
+    parts = np.asarray(parts, bool)
+    out = poses.copy()
+    sums = _sums(train)
+    local = partial(_local_means, neighbours=neighbours, prior=prior, ridge=ridge, reselect=0.0)
+    with threadpool_limits(1, user_api="blas"):  # as _fill_by_pattern
+        for pattern, rows in _patterns(missing):
+            if not pattern.any():
+                continue
+            if (~pattern).sum() < 2:  # no frame: left NaN
+                out[rows] = np.where(pattern[:, None], np.nan, poses[rows])
+                continue
+            near = _PatternDistances.of(train, sums, poses[rows], pattern)
+            inside = np.zeros(len(rows), bool)
+            if gate > 0:
+                with np.errstate(invalid="ignore"):
+                    means = near.part_means([parts, ~parts], gate_neighbours)
+                    inside = means[:, 0] < gate * means[:, 1]
+            for which, pool in ((inside, parts), (~inside, np.ones(len(train), bool))):
+                pool = pool & (near.spread > 0)  # a frame of no spread: left out
+                if which.any():
+                    # the rows framed apart, as local_gaussian_fill frames them: BLAS's
+                    # products over fewer rows may round otherwise
+                    frame = _frame(np.where(pattern[:, None], 0.0, poses[rows[which]]),
+                                   ~pattern)
+                    filled = local(near.train[pool], frame[0].reshape(which.sum(), -1),
+                                   np.repeat(~pattern, 2),
+                                   distances=near.distances[which][:, pool])
+                    _put_back_into(out, rows[which], pattern, filled, frame, poses)
+    return out
 
 
 def file_gaussian(complete, poses, missing, *, rounds=GAUSSIAN_ROUNDS, ridge=GAUSSIAN_RIDGE,

@@ -192,6 +192,7 @@ Examples
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import csv
 import json
@@ -229,6 +230,9 @@ __all__ = [
     "FLAGS_IN_SIDECAR",
     "status_sidecar",
     "beside",
+    "default_errors_path",
+    "write_errors",
+    "ERRORS_HEADER",
 ]
 
 #: Formats, by the name ``format=`` accepts (the last three: :mod:`sparseedm.formats`).
@@ -236,6 +240,8 @@ FORMATS = ("npz", "npy", "csv", "coco") + formats.FORMATS
 #: Per-row result arrays of :func:`sparseedm.batch.recover_file` an ``.npz`` keeps.
 RESULT_FIELDS = ("status", "reason", "objective", "gap", "n_active", "edm_vectors",
                  "center", "scale", "outliers", "averaged")
+#: The errors file's columns (:func:`write_errors`).
+ERRORS_HEADER = ["row", "id", "status", "reason"]
 EXTENSIONS = {".npz": "npz", ".npy": "npy", ".csv": "csv", ".json": "coco"}
 #: formats whose files have no room for the filled flags: ``sparseedm recover``
 #: writes them to the file's status sidecar (:func:`status_sidecar`), and
@@ -843,6 +849,86 @@ def beside(path, ending) -> Path:
     path = Path(path)
     name = fit_name(path.stem, ending)  # within 255 bytes, by the temporaries' rule
     return Path(name) if is_stream(path) else path.with_name(name)
+
+
+def default_errors_path(output) -> Path:
+    """``<output stem>.errors.csv`` beside `output` (in the current folder when
+    `output` is a device or a pipe, such as ``/dev/null``); when that name would
+    pass 255 bytes, the stem's first 120 bytes and a hash of the whole stem
+    (:func:`beside`), so that any output name file systems
+    take has an errors file name they take too.
+
+    Parameters
+    ----------
+    output : str or path-like
+        The output file.
+
+    Returns
+    -------
+    Path
+        Where the refused rows are listed.
+    """
+    return beside(output, ".errors.csv")
+
+
+def write_errors(path, refused, ids, status, reason, skipped=(), rows=None):
+    """Write the errors file of ``recover``, ``lift`` and ``fit``: CSV with the
+    columns :data:`ERRORS_HEADER`, a row per refused pose (row, id, status,
+    reason), then a row per input file that could not be read at all (no row,
+    the file as id, status ``unreadable_file``); an errors file an earlier run
+    left at `path` is removed when there is nothing to list.
+
+    Parameters
+    ----------
+    path : str or path-like
+        Where to write (atomically).
+    refused : ndarray of bool (n,)
+        The poses to list.
+    ids : array_like of str (n,) or None
+        Each pose's id (image or frame), or None: the column left empty.
+    status, reason : array_like of str (n,)
+        Each pose's status and why.
+    skipped : sequence of (str, str), optional
+        ``(file, why)`` for each file of a folder of frames not read.
+    rows : array_like of int (n,), optional
+        Each pose's row in the input, for poses that are some of its rows
+        (default their positions).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "out.errors.csv"
+    >>> write_errors(path, np.array([False, True]), None, ["complete", "degenerate"],
+    ...              ["", "all joints coincide"], [("f9.json", "invalid JSON")])
+    >>> print(path.read_text().strip())
+    row,id,status,reason
+    1,,degenerate,all joints coincide
+    ,f9.json,unreadable_file,invalid JSON
+    """
+    if not refused.any() and not len(skipped):
+        _remove_stale_errors(path)
+        return
+    with atomic_path(path) as tmp:
+        with open(tmp, "w", newline="", encoding="utf-8") as f:
+            w = csv.writer(f)
+            w.writerow(ERRORS_HEADER)
+            for r in np.flatnonzero(refused):
+                w.writerow([int(r if rows is None else rows[r]), "" if ids is None else ids[r],
+                            status[r], reason[r]])
+            for name, why in skipped:
+                w.writerow(["", name, "unreadable_file", why])
+
+
+def _remove_stale_errors(path):
+    """Remove an errors file an earlier run left at `path` (only if it is one)."""
+    path = Path(path)
+    if not path.is_file():
+        return
+    with contextlib.suppress(OSError, UnicodeDecodeError):
+        with open(path, encoding="utf-8") as f:
+            first = f.readline().strip()
+        if first == ",".join(ERRORS_HEADER):
+            path.unlink()
 
 
 def status_sidecar(path) -> Path:

@@ -34,6 +34,7 @@ import json
 import numbers
 import warnings
 from pathlib import Path
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -48,7 +49,7 @@ from .dictionary import Dictionary
 from .exceptions import (DictionaryError, FileFormatError, OutputPathError, ParameterError,
                          SparseEDMError)
 from .edm import pose_to_vector
-from .keypoints import read_keypoints
+from .keypoints import default_errors_path, read_keypoints, write_errors
 from .normalize import normalize, usable_rows
 from .skeleton import JOINT_NAMES
 from .solvers.fast import lars_lasso_gram
@@ -456,7 +457,18 @@ def poses_sha256(poses):
     return hashlib.sha256(np.ascontiguousarray(poses, dtype=np.float64).tobytes()).hexdigest()
 
 
-def load_training_poses(path, input_format=None, joint_map=None, skipped=None):
+class TrainingPoses(NamedTuple):
+    """What :func:`load_training_poses` reads."""
+
+    #: (n, N, 2) poses, NaN where a joint was not seen
+    poses: np.ndarray
+    #: (n,) each pose's id (image or frame) in a keypoint file; None for a training set
+    ids: np.ndarray | None
+    #: ``(file, reason)`` of each file of a folder of frames that could not be read
+    skipped: list
+
+
+def load_training_poses(path, input_format=None, joint_map=None):
     """The 2D poses a dictionary learns from, NaN where a joint was not seen.
 
     A training ``.npz`` holding ``poses2d`` (``sparseedm dataset build``), or
@@ -474,13 +486,12 @@ def load_training_poses(path, input_format=None, joint_map=None, skipped=None):
         training set or a keypoint ``.npz``, whatever the name.
     joint_map : str or path, optional
         DeepLabCut only: the joints map file.
-    skipped : list, optional
-        Receives ``(file, reason)`` for each file of a folder of frames
-        (OpenPose, MMPose) that could not be read: skipped with a warning.
 
     Returns
     -------
-    ndarray (n, N, 2)
+    TrainingPoses
+        The poses, their ids and the files of a folder of frames (OpenPose,
+        MMPose) that could not be read (skipped with a warning).
 
     Raises
     ------
@@ -497,7 +508,7 @@ def load_training_poses(path, input_format=None, joint_map=None, skipped=None):
                                       f"{poses.dtype}")
             if poses.ndim != 3 or poses.shape[-1] != 2:
                 raise FileFormatError(f"{path}: poses2d must be (n, N, 2), got {poses.shape}")
-            return poses
+            return TrainingPoses(poses, None, [])
         try:
             kps = read_keypoints(path, format=input_format, joint_map=joint_map)
         except FileFormatError as err:
@@ -507,21 +518,83 @@ def load_training_poses(path, input_format=None, joint_map=None, skipped=None):
                 f"keypoint file ({err})") from None
     else:
         kps = read_keypoints(path, format=input_format, joint_map=joint_map)
-    if skipped is not None:
-        skipped += list((kps.meta or {}).get("skipped") or [])
     unseen = kps.missing if kps.filled is None else kps.missing | kps.filled
-    return np.where(unseen[..., None], np.nan, np.asarray(kps.poses, float))
+    return TrainingPoses(np.where(unseen[..., None], np.nan, np.asarray(kps.poses, float)),
+                         kps.ids, list((kps.meta or {}).get("skipped") or []))
 
 
-def unread_files(skipped):
-    """A dictionary's provenance entry for the frame files its training folder had
-    that could not be read (:func:`load_training_poses`' `skipped`): none, or
-    ``{"skipped_files": [file, ...]}``.
+def refused_training_rows(poses):
+    """Each pose's refusal as training input (:data:`sparseedm.recovery.STATUSES`'
+    names): ``invalid_coordinates`` (a seen joint with an infinite coordinate),
+    ``degenerate`` or ``out_of_range`` (a complete pose that
+    :func:`sparseedm.normalize.usable_rows` refuses); ``""`` for the other
+    poses, incomplete ones included (not learned from, not refused).
 
-    >>> unread_files([("f9.json", "invalid JSON")])
-    {'skipped_files': ['f9.json']}
+    Parameters
+    ----------
+    poses : ndarray (n, N, 2)
+        Poses as :func:`load_training_poses` gives them (NaN: not seen).
+
+    Returns
+    -------
+    status, reason : ndarray of str (n,)
+
+    Examples
+    --------
+    >>> p = np.random.default_rng(0).random((4, 14, 2))
+    >>> p[1, 2, 0] = np.inf; p[2] = 0.5; p[3, 4] = np.nan
+    >>> refused_training_rows(p)[0].tolist()
+    ['', 'invalid_coordinates', 'degenerate', '']
     """
-    return {"skipped_files": [str(name) for name, _ in skipped]} if skipped else {}
+    n = len(poses)
+    status, reason = np.full(n, "", dtype=object), np.full(n, "", dtype=object)
+    bad = np.isinf(poses).any(axis=(1, 2))
+    status[bad] = "invalid_coordinates"
+    reason[bad] = "a seen joint has an infinite coordinate"
+    whole = np.flatnonzero(~bad & ~np.isnan(poses).any(axis=(1, 2)))
+    unusable = whole[~usable_rows(poses[whole])]
+    flat = np.ptp(poses[unusable], axis=1).max(axis=-1) == 0
+    status[unusable[flat]] = "degenerate"
+    reason[unusable[flat]] = "all joints coincide"
+    status[unusable[~flat]] = "out_of_range"
+    reason[unusable[~flat]] = ("the joints' extent overflows float64 or is subnormal (rescale "
+                               "them), or one joint lies so far from the others that their "
+                               "distances vanish in float64 rounding (not a body)")
+    return status.astype(str), reason.astype(str)
+
+
+def training_errors(train, errors_path):
+    """Write the errors file of a training file read by :func:`load_training_poses`
+    (:func:`sparseedm.keypoints.write_errors`, as ``sparseedm recover``'s): its
+    refused rows (:func:`refused_training_rows`) and unreadable frame files; and
+    say them in a dictionary's provenance.
+
+    Parameters
+    ----------
+    train : TrainingPoses
+    errors_path : path
+        Where the errors file goes (a stale one there is removed when there is
+        nothing to list).
+
+    Returns
+    -------
+    dict
+        The provenance entries: ``skipped_files`` (the unreadable files' names)
+        and ``refused_rows`` (how many rows were refused), each when there are any.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "d.errors.csv"
+    >>> training_errors(TrainingPoses(np.ones((1, 14, 2)), None, [("f9.json", "bad")]), path)
+    {'skipped_files': ['f9.json'], 'refused_rows': 1}
+    """
+    status, reason = refused_training_rows(train.poses)
+    refused = status != ""
+    write_errors(errors_path, refused, train.ids, status, reason, train.skipped)
+    said = {"skipped_files": [str(name) for name, _ in train.skipped],
+            "refused_rows": int(refused.sum())}
+    return {key: value for key, value in said.items() if value}
 
 
 def fit_dictionary_file(train_path, output, *, n_components=2000, alpha=1.6,
@@ -529,14 +602,20 @@ def fit_dictionary_file(train_path, output, *, n_components=2000, alpha=1.6,
                         random_state=0, n_jobs=None, alpha_recover=0.002,
                         alpha_scaling="entries", checkpoint=None,
                         checkpoint_every=20, resume=False, progress=True,
-                        joint_names=None, input_format=None, joint_map=None):
+                        joint_names=None, input_format=None, joint_map=None,
+                        errors_path=None):
     """Learn a dictionary from the complete poses of a training .npz or keypoint file; save it.
 
     `train_path` is read by :func:`load_training_poses` (with `input_format`
     and `joint_map`): a training set's ``poses2d``, or the complete poses of
     a keypoint file of real people (a detector's output, an annotated set).
     Files of a folder of frames that cannot be read are skipped with a
-    warning and named in the dictionary's provenance (``skipped_files``).
+    warning; they and the rows refused as bad input
+    (:func:`refused_training_rows`: an infinite coordinate, a degenerate or
+    out-of-range pose) are listed in an errors file, as ``sparseedm
+    recover``'s (`errors_path`, default ``<output stem>.errors.csv``, written
+    with the dictionary, only when there is something to list), and counted in
+    the dictionary's provenance (``skipped_files``, ``refused_rows``).
 
     Only one mini-batch of EDM vectors exists at a time beyond the input
     array itself. Every `checkpoint_every` batches the learner's whole state
@@ -554,19 +633,22 @@ def fit_dictionary_file(train_path, output, *, n_components=2000, alpha=1.6,
                  random_state=random_state, n_jobs=n_jobs)
     validate_params("fit_dictionary_file", dict(train_path=train_path, output=output,
                                                 checkpoint=checkpoint,
-                                                alpha_recover=alpha_recover),
+                                                alpha_recover=alpha_recover,
+                                                errors_path=errors_path),
                     {"train_path": ["path"], "output": ["path"],
-                     "checkpoint": ["path", None], "alpha_recover": ALPHA})
+                     "checkpoint": ["path", None], "alpha_recover": ALPHA,
+                     "errors_path": ["path", None]})
     output = Path(output)
     if output.suffix != ".npz":
         raise DictionaryError(f"{output}: a dictionary file must end in .npz")
     checkpoint = Path(checkpoint) if checkpoint else output.with_suffix(".ckpt.npz")
     if checkpoint.suffix != ".npz":
         raise OutputPathError(f"checkpoint {checkpoint}: a checkpoint file must end in .npz")
+    errors_path = default_errors_path(output) if errors_path is None else Path(errors_path)
     check_paths([("training file", train_path)],
-                [("output", output), ("checkpoint", checkpoint)])
-    skipped = []
-    poses = load_training_poses(train_path, input_format, joint_map, skipped)
+                [("output", output), ("checkpoint", checkpoint), ("errors file", errors_path)])
+    train = load_training_poses(train_path, input_format, joint_map)
+    poses = train.poses
     ok = usable_rows(poses)
     if (~ok).any():
         warnings.warn(
@@ -605,7 +687,7 @@ def fit_dictionary_file(train_path, output, *, n_components=2000, alpha=1.6,
         "passes": n_passes,
         "batch_size": batch_size,
         "n_steps": est.n_steps_,
-        **unread_files(skipped),
+        **training_errors(train, errors_path),  # the errors file, written with the dictionary
     }
     dictionary = Dictionary(
         components=est.components_,

@@ -40,7 +40,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ._recovery_kernel import recover_members
-from ._validation import check_poses, frame_numbers
+from ._validation import check_pose_shape, check_poses, frame_numbers
 from .exceptions import ParameterError
 from .real_protocol import body_size
 
@@ -180,6 +180,8 @@ def mark_outliers(poses, missing, confidence, dictionary, *, tracks=None, frames
     outlier : ndarray of bool (n, N)
     """
     mask, conf = np.asarray(missing, dtype=bool), np.asarray(confidence, dtype=float)
+    poses = np.asarray(poses, dtype=float)
+    check_pose_shape(poses, n_joints=dictionary.n_joints)  # the pose model's joints
     usable = np.isfinite(poses).all(axis=-1) | mask
     time_axis = None if frames is None else _whole_frames(frames, len(mask))
     outlier = find_outliers(np.where(usable[..., None], poses, np.nan), mask | ~usable,
@@ -269,6 +271,7 @@ def _pose_predictions(poses, missing, suspect, members, kwargs):
     that leaves too few joints so (refused) once per suspect point, that point
     alone hidden. NaN where the pose model gave no answer."""
     hidden = missing | suspect
+    kwargs = dict(kwargs, check_input=False)  # find_outliers' inputs are trusted
     res = recover_members(np.where(hidden[..., None], np.nan, poses), hidden, members, [],
                           **kwargs)
     predicted = res.poses

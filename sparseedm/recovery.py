@@ -178,7 +178,10 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         joblib workers over chunks of poses; -1 for all cores. The "fast"
         solver's kernels already run on numba's threads (all cores) in this
         process: its poses are cut into chunks only when each worker gets two
-        or more chunks of at least 128 poses.
+        or more chunks of at least 128 poses and the workers, one numba thread
+        each, are as many as numba's threads (fewer would leave cores idle).
+        Process workers (``backend="loky"``) share out numba's threads, cores
+        // n_jobs each.
     chunk_size : int, default 2048
         Poses per task.
     positive : bool, optional

@@ -73,7 +73,8 @@ CASES = [  # (command line, option dest, API function, its parameter)
         ("seed", build_dataset, "random_state"),
         ("camera_per", build_dataset, "camera")]),
     (["fit", "t.npz", "-o", "d.npz"], [
-        ("seed", fit_dictionary_file, "random_state")]),
+        ("seed", fit_dictionary_file, "random_state"),
+        ("errors", fit_dictionary_file, "errors_path")]),
 ]
 
 
@@ -239,3 +240,36 @@ def test_self_training_help_states_the_video_rule():
                              if a.dest == "self_training").split())
         assert f"default {SELF_TRAINING_ROUNDS}" in text, command
         assert f"from {SELF_TRAINING_MIN_FRAMES} poses on" in text, command
+
+
+#: options two commands spell alike for different things: (option, why)
+DIFFERENT_MEANINGS = {
+    "--joint-map": "a mocap rig's joint map (dataset) or DeepLabCut's body parts (the rest)",
+    "--poses": "skeleton panels (plot) or complete,occluded counts (evaluate --protocol photos)",
+}
+
+
+def test_an_option_shared_by_commands_takes_one_metavar():
+    """--jobs N, --seed N, --dictionary NAME|PATH...: an option several commands take
+    reads the same in each one's help (argparse's default, the option's name in
+    capitals, had left fit's --jobs JOBS beside recover's --jobs N)."""
+    import argparse
+    import collections
+
+    seen = collections.defaultdict(dict)
+
+    def walk(parser, name):
+        for action in parser._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                for sub, subparser in action.choices.items():
+                    walk(subparser, f"{name} {sub}".strip())
+            elif action.option_strings and action.nargs != 0 and action.choices is None:
+                for option in action.option_strings:
+                    if option.startswith("--"):
+                        seen[option][name] = action.metavar or action.dest.upper()
+
+    walk(build_parser(), "")
+    assert len(seen) > 40 and len(seen["--jobs"]) >= 5
+    spelled = {option: by for option, by in seen.items()
+               if len(set(by.values())) > 1 and option not in DIFFERENT_MEANINGS}
+    assert not spelled, spelled

@@ -96,6 +96,48 @@ def test_the_gate_takes_the_photographed_people_for_a_pose_near_them(cmu_poses):
             bank, pose, missing, gate=alone))
 
 
+def test_gated_fill_is_the_gate_then_the_local_fill_with_distances_computed_once(
+        cmu_poses, monkeypatch):
+    """gated_local_fill gives what the gate (nearest_distances) followed by
+    local_gaussian_fill over each row's part gives, the distances to the draws
+    computed once per missing pattern (the two steps computed them apart)."""
+    import sparseedm.gaussian_fill as gf
+
+    rng = np.random.default_rng(0)
+    draws = cmu_poses
+    parts = rng.random(len(draws)) < 0.4
+    poses, missing = pixel_file(cmu_poses[::-1], 60, seed=1)
+    missing[:2] = False                      # complete: as given
+    missing[2, 2:] = True                    # two observed joints: a frame still
+    missing[3, 1:] = True                    # one observed joint: no frame, NaN
+    given = np.where(missing[..., None], np.nan, poses)
+    patterns = {tuple(m) for m in missing if m.any() and (~m).sum() >= 2}
+    calls = {"n": 0}
+    counted = gf._square_distances
+
+    def counting(*args, **kwargs):
+        calls["n"] += 1
+        return counted(*args, **kwargs)
+
+    monkeypatch.setattr(gf, "_square_distances", counting)
+    split = []
+    for gate in (0.0, 1.2, np.inf):
+        calls["n"] = 0
+        got = gf.gated_local_fill(draws, given, missing, parts, gate, 20, neighbours=30)
+        assert calls["n"] == len(patterns)
+        with np.errstate(invalid="ignore"):
+            dist = gf.nearest_distances(draws, given, missing, 20, parts)
+            inside = dist[:, 0] < gate * dist[:, 1]
+        want = np.array(given)
+        for rows, pool in ((inside, draws[parts]), (~inside, draws)):
+            want[rows] = gf.local_gaussian_fill(pool, given[rows], missing[rows],
+                                                neighbours=30, reselect=0.0)
+        np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-9)
+        assert np.isnan(got[3, 1:]).all() and np.array_equal(got[:2], poses[:2])
+        split.append(int(inside.sum()))
+    assert split[0] == 0 and 0 < split[1] < split[2]  # gate 1.2: rows on both sides
+
+
 def test_the_bank_lowers_the_cold_error_on_coco_validation_people(shared_data):
     """COCO's validation poses are in neither the bank nor the cold dictionary."""
     from benchmarks import real2d

@@ -354,9 +354,11 @@ def test_fit_from_a_frame_folder_with_an_unreadable_file_exits_1(fixtures_dir, t
     out = tmp_path / "d.npz"
     assert main(["fit", str(folder), "-o", str(out), "--atoms", "2", "-q"]) == 1
     err = capsys.readouterr().err
-    assert "1 input file(s) unreadable, not learned from: video_000000000009" in err
+    assert f"1 input file(s) unreadable; see {tmp_path / 'd.errors.csv'}" in err
     assert load_dictionary(out).provenance["skipped_files"] == [
         "video_000000000009_keypoints.json"]
+    lines = (tmp_path / "d.errors.csv").read_text().splitlines()
+    assert lines[1].startswith(",video_000000000009_keypoints.json,unreadable_file,")
     tuned = tmp_path / "t.npz"
     assert main(["fit", str(folder), "-o", str(tuned), "--init", "default", "-q"]) == 1
     assert load_dictionary(tuned).provenance["skipped_files"] == [
@@ -364,3 +366,41 @@ def test_fit_from_a_frame_folder_with_an_unreadable_file_exits_1(fixtures_dir, t
     (folder / "video_000000000009_keypoints.json").unlink()
     assert main(["fit", str(folder), "-o", str(out), "--atoms", "2", "-q"]) == 0
     assert "skipped_files" not in load_dictionary(out).provenance
+    assert not (tmp_path / "d.errors.csv").exists()  # the stale errors file removed
+
+
+def test_fit_lists_refused_rows_in_an_errors_file_as_recover_does(train_file, tmp_path,
+                                                                   capsys):
+    """A keypoint file with an infinite coordinate, a pose at one point and one far off:
+    fit (and fit --init) learns from the rest, lists those rows (row, id, status,
+    reason) in an errors file written by recover's writer, and exits 1; recover
+    refuses the same rows with the same statuses."""
+    import csv
+
+    with np.load(train_file, allow_pickle=False) as npz:
+        poses = npz["poses2d"][:60].copy()
+    missing = ~np.isfinite(poses).all(axis=-1)
+    poses[3, 4, 1] = np.inf                  # invalid_coordinates
+    poses[8] = 2.0                           # degenerate
+    poses[11, 6] = [1e300, 0.0]              # out_of_range: one joint far off
+    ids = [f"img{i}" for i in range(len(poses))]
+    kps_path = tmp_path / "people.npz"  # write_keypoints would write inf as missing
+    np.savez(kps_path, poses=np.where(missing[..., None], 0.0, poses), missing=missing,
+             ids=np.array(ids))
+    expected = [["3", "img3", "invalid_coordinates"], ["8", "img8", "degenerate"],
+                ["11", "img11", "out_of_range"]]
+    for extra, out in ((["--atoms", "20"], "d.npz"), (["--init", "default"], "t.npz")):
+        errors = tmp_path / f"{out}.errors.csv"
+        argv = ["fit", str(kps_path), "-o", str(tmp_path / out), "--errors", str(errors),
+                "-q"]
+        assert main(argv + extra) == 1
+        assert f"3 row(s) refused; see {errors}" in capsys.readouterr().err
+        with open(errors, newline="") as f:
+            rows = list(csv.reader(f))
+        assert rows[0] == ["row", "id", "status", "reason"]
+        assert [r[:3] for r in rows[1:]] == expected and all(r[3] for r in rows[1:])
+        assert load_dictionary(tmp_path / out).provenance["refused_rows"] == 3
+    recovered = tmp_path / "r.npz"
+    assert main(["recover", str(kps_path), "-o", str(recovered), "-q"]) == 1
+    with open(tmp_path / "r.errors.csv", newline="") as f:
+        assert [r[:3] for r in list(csv.reader(f))[1:]] == expected

@@ -171,6 +171,51 @@ def test_parallel_chunks_stay_on_the_compiled_kernel(mix, small_dictionary, monk
     assert len(calls) == 20  # a small batch still answers without compiling
 
 
+def test_workers_share_out_numba_threads_and_leave_no_core_idle():
+    """The arithmetic of n_jobs against numba's threads (say four cores): process
+    workers get cores // workers threads each; thread workers one each (numba's
+    parallel regions from several threads serialise), so the fast solver's rows
+    stay one task in-process (every core) while the workers are fewer than the cores."""
+    from sparseedm._parallel import leaves_cores_idle, min_tasks, worker_threads
+
+    assert [worker_threads(n, "loky", 4) for n in (1, 2, 3, 4, 8)] == [4, 2, 1, 1, 1]
+    assert worker_threads(2, "multiprocessing", 6) == 3
+    assert worker_threads(2, "threading", 4) == worker_threads(2, "dask", 4) == 1
+    assert leaves_cores_idle(2, 4) and not leaves_cores_idle(4, 4)
+    assert min_tasks(2, None, 6000, shared=True, threads=4) == 1  # in-process, 4 cores
+    assert min_tasks(4, None, 6000, shared=True, threads=4) == 16  # 4 workers, 4 cores
+    assert min_tasks(2, None, 6000, shared=True, threads=2) == 8
+    assert min_tasks(2, None, 6000, threads=4) == 8  # one core a task anyway: cut
+
+
+def test_process_workers_get_their_share_of_numba_threads(mix, small_dictionary,
+                                                          monkeypatch):
+    """recover(n_jobs=2, backend="loky") on four cores: each task set to two numba
+    threads (it was one: two cores idle). joblib is replaced by a loop here."""
+    import numba
+
+    from sparseedm import _recovery_kernel
+
+    seen = []
+
+    class Inline:  # joblib.Parallel's interface, the calls run here in turn
+        def __init__(self, n_jobs=None, return_as=None, backend=None):
+            assert n_jobs == 2 and backend == "loky"
+
+        def __call__(self, calls):
+            for f, args, kwargs in calls:
+                seen.append(args[-1])
+                yield f(*args[:-1], None, **kwargs)  # numba's threads left as they are
+
+    monkeypatch.setattr(_recovery_kernel, "Parallel", Inline)
+    monkeypatch.setattr(_recovery_kernel, "usable_jobs", lambda n_jobs, n_tasks=None: 2)
+    monkeypatch.setattr(numba, "get_num_threads", lambda: 4)  # four cores
+    poses, missing = mix
+    sparseedm.recover(poses, missing, dictionary=small_dictionary, adapt=False, n_jobs=2,
+                      backend="loky")
+    assert len(seen) > 1 and set(seen) == {2}
+
+
 def test_a_small_file_is_one_task_in_process(mix, small_dictionary, monkeypatch):
     """n_jobs=2 cuts the fast solver's rows into tasks only when each worker gets
     two or more of TASK_MIN_ROWS rows (three tasks for two workers had left one
@@ -195,10 +240,11 @@ def test_a_small_file_is_one_task_in_process(mix, small_dictionary, monkeypatch)
     solved = int((res.status != "complete").sum())
     assert solved > 4 * NUMPY_MAX  # what the rule before cut into tasks
     assert calls == [(solved, None)]  # one task, numba's threads unchanged
-    assert [len(t) for t in chunk_tasks(np.arange(199), 2048, 2, shared=True)] == [199]
-    big = [len(t) for t in chunk_tasks(np.arange(4 * TASK_MIN_ROWS), 2048, 2, shared=True)]
+    two = dict(shared=True, threads=2)  # two cores: two workers leave none idle
+    assert [len(t) for t in chunk_tasks(np.arange(199), 2048, 2, **two)] == [199]
+    big = [len(t) for t in chunk_tasks(np.arange(4 * TASK_MIN_ROWS), 2048, 2, **two)]
     assert len(big) == 4 and min(big) >= TASK_MIN_ROWS  # two a worker
-    assert len(chunk_tasks(np.arange(6000), 2048, 2, shared=True)) == 8  # at most four
+    assert len(chunk_tasks(np.arange(6000), 2048, 2, **two)) == 8  # at most four
     # a solver whose one task would run on one core (Clarabel) is still cut
     assert len(chunk_tasks(np.arange(199), 2048, 2)) == 3
 

@@ -160,3 +160,67 @@ def test_recover_with_the_mean_with_the_ridge_validates_once(track, small_dictio
     assert res.adaptation.file_atoms > 0 and not res.adapted  # the blend's path
     assert "held_err_ridge_mean" in res.adaptation.settings  # the check scored the mean
     _once(counted, ["validate_poses", "unmask", "check_poses", "check_mask"])
+
+
+def _row_key(pose, mask):
+    return np.where(mask[:, None], 0.0, pose).tobytes(), mask.tobytes()
+
+
+@pytest.fixture
+def screened(monkeypatch):
+    """How often each (pose, mask) row was screened (screen_poses), from wherever
+    it is imported: a row screened again further in counts twice."""
+    rows = collections.Counter()
+    original = _recovery_base.screen_poses
+
+    def screening(poses, mask, bad_coord):
+        rows.update(_row_key(p, m) for p, m in zip(poses, mask))
+        return original(poses, mask, bad_coord)
+
+    for module in list(sys.modules.values()):
+        if (getattr(module, "__name__", "").startswith("sparseedm")
+                and getattr(module, "screen_poses", None) is original):
+            monkeypatch.setattr(module, "screen_poses", screening)
+    return rows
+
+
+def _scored_clip(cmu_poses):
+    """Two tracks of 120 frames, random and long gaps, three low-scored wrong wrists."""
+    poses = cmu_poses[:240] * 200 + 300
+    rng = np.random.default_rng(0)
+    missing = rng.random(poses.shape[:2]) < 0.15
+    missing[40:90, 3:6] = True
+    missing[150:200, 8:12] = True
+    confidence = np.where(missing, 0.0, rng.uniform(0.3, 1.0, missing.shape))
+    poses[200:203, WRIST] += 80
+    missing[200:203, WRIST] = False
+    confidence[200:203, WRIST] = 0.1
+    return (np.where(missing[..., None], np.nan, poses), missing, confidence,
+            np.repeat([0, 1], 120), np.tile(np.arange(120), 2))
+
+
+@pytest.mark.parametrize("scores", [False, True], ids=["no scores", "scores"])
+def test_recover_on_a_clip_screens_each_row_once(cmu_poses, counted, screened, scores):
+    """The temporal model screens the clip; its per-frame rows are not screened again
+    (nor, with scores, validated again by the outlier check's pose model)."""
+    clip, missing, confidence, tracks, frames = _scored_clip(cmu_poses)
+    res = sparseedm.recover(clip, tracks=tracks, frames=frames,
+                            confidence=confidence if scores else None)
+    assert counted["validate_poses"] == 1
+    assert np.isfinite(res.objective).any()  # the per-frame path ran (its lasso)
+    assert not scores or res.outliers[200:203, WRIST].any()  # and the outlier check
+    assert max(screened[_row_key(p, m)] for p, m in zip(clip, missing)) == 1
+
+
+@pytest.mark.parametrize("kwargs", [dict(adapt=False), dict(mirror=True)],
+                         ids=["adapt=False", "mirror"])
+def test_the_members_of_a_recovery_share_one_screening(cmu_poses, counted, screened, kwargs):
+    """Several dictionaries recover the same poses (mirror images; the cold prior's
+    mirror gate): the poses are screened once for all of them."""
+    poses = cmu_poses[:80] * 200 + 300
+    missing = np.zeros(poses.shape[:2], bool)
+    missing[::2, WRIST] = True
+    missing[1::4, 9:11] = True
+    sparseedm.recover(np.where(missing[..., None], np.nan, poses), **kwargs)
+    assert counted["validate_poses"] == 1
+    assert max(screened[_row_key(p, m)] for p, m in zip(poses, missing)) == 1

@@ -30,39 +30,39 @@ def add_parser(sub):
         "report.md, results.csv, per_action.csv (sweep.csv with --sweep-atoms) and PNG "
         "figures (with matplotlib).",
     )
-    p.add_argument("--dictionary", default="default",
+    p.add_argument("--dictionary", metavar="NAME|PATH", default="default",
                    help="dictionary .npz or shipped name (default: the shipped default)")
-    p.add_argument("--data", required=True, help="test .npz with poses2d (n, N, 2) in pixels; "
+    p.add_argument("--data", metavar="FILE", required=True, help="test .npz with poses2d (n, N, 2) in pixels; "
                    "labels (n,) optional")
-    p.add_argument("--train", default=None,
+    p.add_argument("--train", metavar="FILE", default=None,
                    help="training .npz (poses2d) for the knn, iterative and nearest baselines "
                    "and for --sweep-atoms")
-    p.add_argument("--methods", default=None,
+    p.add_argument("--methods", metavar="LIST", default=None,
                    help="comma-separated methods (default all: sparse,mean-fill,knn,iterative,"
                    "nearest; with --protocol gaps or self-occlusion: linear,cubic,akima,pca,kalman,"
                    "sparse; a gap filler of your own as module:function; photos, video-real: see "
                    "real-people protocols)")
-    p.add_argument("--counts", default="1,2,3,mix", help="occlusion counts (default 1,2,3,mix)")
-    p.add_argument("--representations", default="average,zero",
+    p.add_argument("--counts", metavar="LIST", default="1,2,3,mix", help="occlusion counts (default 1,2,3,mix)")
+    p.add_argument("--representations", metavar="LIST", default="average,zero",
                    help="occlusion representations (default average,zero)")
-    p.add_argument("--seed", type=int, default=0, help="occlusion seed (default 0)")
-    p.add_argument("--max-poses", type=int, default=None,
+    p.add_argument("--seed", metavar="N", type=int, default=0, help="occlusion seed (default 0)")
+    p.add_argument("--max-poses", metavar="N", type=int, default=None,
                    help="evaluate a seeded subsample of this many test poses "
                    "(default: every test pose)")
-    p.add_argument("--max-train", type=int, default=5000,
+    p.add_argument("--max-train", metavar="N", type=int, default=5000,
                    help="the knn, iterative and nearest baselines are fitted on a seeded "
                    "sample of at most this many --train poses (default 5000, which keeps "
                    "the iterative imputer's fit to a minute or two; the Table 2 of "
                    "docs/results/ used 20000)")
     p.add_argument("--alpha", type=float, default=None,
                    help="recovery alpha (default: the dictionary's recommendation)")
-    p.add_argument("--sweep-atoms", default=None,
+    p.add_argument("--sweep-atoms", metavar="LIST", default=None,
                    help="comma-separated atom counts: learn a dictionary of each size on "
                    "--train and plot Mix Err_ave and time per pose (Fig. 5)")
-    p.add_argument("--sweep-alpha", type=float, default=None,
+    p.add_argument("--sweep-alpha", metavar="ALPHA", type=float, default=None,
                    help="training alpha of the sweep dictionaries (default: the "
                    "evaluated dictionary's; their recovery alpha is --alpha or its)")
-    p.add_argument("--jobs", type=int, default=1, help="joblib workers for the recovery (default 1)")
+    p.add_argument("--jobs", metavar="N", type=int, default=1, help="joblib workers for the recovery, as recover's --jobs (default 1)")
     p.add_argument("--fconv-model", action="append", default=[], metavar="PATH",
                    help="FConv model from `sparseedm fit-cnn` (repeat: one per representation); "
                    "adds the fconv method (needs the torch extra)")

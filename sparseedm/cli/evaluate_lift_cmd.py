@@ -26,11 +26,11 @@ def add_parser(sub):
         "3D-EDM Err_ave, PA-MPJPE, N-MPJPE, MPJPE, reflection accuracy, speed, per action, "
         "and 3D skeleton figures. Writes lift_report.md, lift_results.json, lift_poses.png.",
     )
-    p.add_argument("--data", required=True,
+    p.add_argument("--data", metavar="FILE", required=True,
                    help="test .npz with poses2d, poses3d, cameras (sparseedm dataset build)")
-    p.add_argument("--lifter", default="default", help="dictionary lifter (name or .npz; default: the shipped default)")
-    p.add_argument("--mlp", default=None, help="an mlp (FConn) lifter .npz to compare")
-    p.add_argument("--fconv", default=None, help="an fconv lifter .npz to compare (torch extra)")
+    p.add_argument("--lifter", metavar="NAME|PATH", default="default", help="dictionary lifter (name or .npz; default: the shipped default)")
+    p.add_argument("--mlp", metavar="FILE", default=None, help="an mlp (FConn) lifter .npz to compare")
+    p.add_argument("--fconv", metavar="FILE", default=None, help="an fconv lifter .npz to compare (torch extra)")
     p.add_argument("--fconv-zero", default=None, metavar="MODEL",
                    help="FConv 'zero' recovery model (sparseedm fit-cnn) for applyzero")
     p.add_argument("--fconv-average", default=None, metavar="MODEL",
@@ -40,19 +40,19 @@ def add_parser(sub):
                    "--representation zero) for zero+basl")
     p.add_argument("--basl-average", default=None, metavar="LIFTER",
                    help="lifter retrained on occluded 'average' input, for ave+basl")
-    p.add_argument("--dictionary", default="default",
+    p.add_argument("--dictionary", metavar="NAME|PATH", default="default",
                    help="2D dictionary for applyspar (default: the shipped one)")
-    p.add_argument("--train", default=None, help="training .npz (poses2d) for the imputers")
-    p.add_argument("--pipelines", default=None,
+    p.add_argument("--train", metavar="FILE", default=None, help="training .npz (poses2d) for the imputers")
+    p.add_argument("--pipelines", metavar="LIST", default=None,
                    help="comma-separated subset of: complete, as-is average, as-is zero, "
                    "applyspar, knn, iterative, nearest, joint, applyzero, applyave, "
                    "zero+basl, ave+basl (default all; FConv rows need their models)")
-    p.add_argument("--counts", default="1,2,3,mix", help="occlusion counts (default 1,2,3,mix)")
-    p.add_argument("--max-poses", type=int, default=None, help="seeded subsample of test poses (default: every test pose)")
-    p.add_argument("--max-train", type=int, default=20000, help="imputer training poses: a seeded sample of at most "
+    p.add_argument("--counts", metavar="LIST", default="1,2,3,mix", help="occlusion counts (default 1,2,3,mix)")
+    p.add_argument("--max-poses", metavar="N", type=int, default=None, help="seeded subsample of test poses (default: every test pose)")
+    p.add_argument("--max-train", metavar="N", type=int, default=20000, help="imputer training poses: a seeded sample of at most "
                    "this many --train poses (default 20000)")
-    p.add_argument("--seed", type=int, default=0, help="occlusion seed (default 0)")
-    p.add_argument("--jobs", type=int, default=1, help="threads for the lasso (default 1)")
+    p.add_argument("--seed", metavar="N", type=int, default=0, help="occlusion seed (default 0)")
+    p.add_argument("--jobs", metavar="N", type=int, default=1, help="worker threads for the lasso (default 1: none, its kernels still run on every core)")
     p.add_argument("-o", "--output", required=True, help="report directory")
     add_quiet(p)
     p.set_defaults(func=run)

@@ -10,7 +10,7 @@ import sys
 import time
 
 from ..exceptions import ParameterError
-from ._common import add_input_format, add_joint_map, add_quiet, show_progress
+from ._common import add_input_format, add_joint_map, add_quiet, refusals_said, show_progress
 
 #: options of learning from scratch that fine-tuning (--init) has no use for: (dest,
 #: option); their defaults (None, False) say they were not given
@@ -34,18 +34,24 @@ def add_parser(sub):
         "`sparseedm dataset build`), or a keypoint file or folder of real people as "
         "`sparseedm recover` reads it (COCO JSON, OpenPose, MMPose, AlphaPose, "
         "DeepLabCut, PoseTrack, CSV); poses with a joint missing (or filled by a "
-        "previous recovery) are skipped.",
+        "previous recovery) are skipped. Rows refused as bad input (an infinite "
+        "coordinate, all joints at one point, an extent out of range) and frame files "
+        "that cannot be read are listed in the errors file, as recover's. Exit code "
+        "0: done; 1: the dictionary written without some rows or files; 2: bad input.",
     )
     p.add_argument("train", help="training .npz with poses2d (n, N, 2), or a keypoint file "
                    "or folder")
     p.add_argument("-o", "--output", required=True, help="dictionary file to write (.npz)")
-    p.add_argument("--atoms", type=int, default=None,
+    p.add_argument("--errors", default=None, metavar="FILE",
+                   help="errors file listing refused rows and unreadable input files "
+                   "(default OUTPUT stem + .errors.csv)")
+    p.add_argument("--atoms", metavar="K", type=int, default=None,
                    help="number of atoms k (default 2000; not with --init)")
     p.add_argument("--alpha", type=float, default=None,
                    help="lasso penalty while learning (default 1.6, chosen on a "
                    "validation split: docs/explanation/settings.md; with --init, the initial "
                    "dictionary's)")
-    p.add_argument("--alpha-recover", type=float, default=None,
+    p.add_argument("--alpha-recover", metavar="ALPHA", type=float, default=None,
                    help="recommended recovery alpha to store (default 0.002, chosen "
                    "likewise; with --init, the initial dictionary's)")
     p.add_argument("--init", default=None, metavar="default|PATH",
@@ -53,16 +59,16 @@ def add_parser(sub):
                    "of learning from scratch: online learning continued from its atoms "
                    "(sparseedm.adaptation; its atoms kept: --atoms, --checkpoint, --resume "
                    "and --positive-code do not apply and are refused)")
-    p.add_argument("--passes", type=float, default=2.0,
+    p.add_argument("--passes", metavar="P", type=float, default=2.0,
                    help="passes over the data (default 2: better held-out error than "
                    "one, still faster than SPAMS trainDL's one; benchmarks/README.md)")
-    p.add_argument("--batch-size", type=int, default=None,
+    p.add_argument("--batch-size", metavar="N", type=int, default=None,
                    help="mini-batch size (default 512; with --init, the adaptation's 256, "
                    "chosen on validation: docs/explanation/settings.md)")
     p.add_argument("--positive-code", action="store_true", help="non-negative codes")
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    p.add_argument("--jobs", type=int, default=None, help="threads for the coding step (default: numba's thread count, normally all cores)")
-    p.add_argument("--checkpoint", default=None,
+    p.add_argument("--seed", metavar="N", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--jobs", metavar="N", type=int, default=None, help="threads for the coding step (default: numba's thread count, normally all cores)")
+    p.add_argument("--checkpoint", metavar="FILE", default=None,
                    help="checkpoint file, written every 20 mini-batches (default "
                    "OUTPUT with .ckpt.npz)")
     p.add_argument("--resume", action="store_true",
@@ -84,16 +90,19 @@ def run(args):
     Returns
     -------
     int
-        The exit code: 0 when done, 1 when files of a folder of frames could not be
-        read (skipped, named on stderr; the dictionary written without them).
+        The exit code: 0 when done, 1 when rows were refused or files of a folder of
+        frames could not be read (the dictionary written without them, the errors
+        file listing them).
     """
+    from ..keypoints import default_errors_path
     from ..learning import fit_dictionary_file
 
     t0 = time.perf_counter()
     # options left unset take the API's defaults (which differ between learning
     # from scratch and fine-tuning)
     given = {} if args.batch_size is None else {"batch_size": args.batch_size}
-    given.update(input_format=args.input_format, joint_map=args.joint_map)
+    given.update(input_format=args.input_format, joint_map=args.joint_map,
+                 errors_path=args.errors)
     if args.init is not None:
         from ..adaptation import fine_tune_file
 
@@ -117,12 +126,10 @@ def run(args):
     print(f"wrote {args.output}: {d.n_components} atoms {how} from "
           f"{d.provenance['n_poses']} poses in {time.perf_counter() - t0:.1f} s",
           file=sys.stderr if args.quiet else sys.stdout)
-    unread = d.provenance.get("skipped_files") or []
-    if unread:  # as recover and lift: an input file not read is exit 1
-        print(f"sparseedm fit: {len(unread)} input file(s) unreadable, not learned from: "
-              f"{', '.join(unread[:3])}{' ...' if len(unread) > 3 else ''}", file=sys.stderr)
-        return 1
-    return 0
+    errors = args.errors or default_errors_path(args.output)
+    return refusals_said("fit", {"refused": d.provenance.get("refused_rows", 0),
+                                 "skipped_files": d.provenance.get("skipped_files"),
+                                 "errors": errors})
 
 
 def refuse_scratch_options(args):

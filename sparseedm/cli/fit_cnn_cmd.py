@@ -36,20 +36,20 @@ def add_parser(sub):
     p.add_argument("--occluded", default=None, metavar="LO-HI",
                    help="occluded joints per pose, drawn uniformly (default 1-3 for recover, "
                    "0-0 for lift)")
-    p.add_argument("--channels", default="32,64", help="encoder channels C1,C2 (default 32,64)")
-    p.add_argument("--kernel", type=int, default=3, help="filter size (default 3)")
+    p.add_argument("--channels", metavar="C1,C2", default="32,64", help="encoder channels C1,C2 (default 32,64)")
+    p.add_argument("--kernel", metavar="K", type=int, default=3, help="filter size (default 3)")
     p.add_argument("--symmetrize", action="store_true",
                    help="add DMR's symmetrisation layer (Y + Y^T) / 2")
-    p.add_argument("--batch-size", type=int, default=256, help="mini-batch size (default 256)")
-    p.add_argument("--epochs", type=int, default=30, help="most epochs (default 30)")
-    p.add_argument("--patience", type=int, default=4,
+    p.add_argument("--batch-size", metavar="N", type=int, default=256, help="mini-batch size (default 256)")
+    p.add_argument("--epochs", metavar="N", type=int, default=30, help="most epochs (default 30)")
+    p.add_argument("--patience", metavar="N", type=int, default=4,
                    help="stop after this many epochs without validation improvement (default 4)")
     p.add_argument("--lr", type=float, default=1e-3, help="Adam learning rate (default 1e-3)")
-    p.add_argument("--max-train", type=int, default=None,
-                   help="train on a seeded subsample of this many poses")
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--max-train", metavar="N", type=int, default=None,
+                   help="train on a seeded subsample of this many poses (default: every pose)")
+    p.add_argument("--seed", metavar="N", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--device", default="cpu", help="torch device (default cpu; e.g. cuda)")
-    p.add_argument("--threads", type=int, default=None,
+    p.add_argument("--threads", metavar="N", type=int, default=None,
                    help="torch CPU threads (default: torch's choice)")
     add_quiet(p)
     p.set_defaults(func=run)

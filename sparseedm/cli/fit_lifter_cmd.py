@@ -31,32 +31,32 @@ def add_parser(sub):
     p.add_argument("-o", "--output", required=True, help="lifter file to write (.npz)")
     p.add_argument("--method", default="dictionary",
                    help="dictionary (default), mlp or fconv (torch extra)")
-    p.add_argument("--atoms", type=int, default=None, help="dictionary: atoms k (default 2000)")
+    p.add_argument("--atoms", metavar="K", type=int, default=None, help="dictionary: atoms k (default 2000)")
     p.add_argument("--alpha", type=float, default=None,
                    help="dictionary: training lasso alpha (default 1.6); mlp: L2 penalty "
                    "(default 0.0001)")
-    p.add_argument("--alpha-lift", type=float, default=None, help="dictionary: lifting alpha (default 0.002)")
-    p.add_argument("--weight", type=float, default=None, help="dictionary: 3D weight w (default 1)")
-    p.add_argument("--passes", type=float, default=None, help="dictionary: passes (default 2)")
+    p.add_argument("--alpha-lift", metavar="ALPHA", type=float, default=None, help="dictionary: lifting alpha (default 0.002)")
+    p.add_argument("--weight", metavar="W", type=float, default=None, help="dictionary: 3D weight w (default 1)")
+    p.add_argument("--passes", metavar="P", type=float, default=None, help="dictionary: passes (default 2)")
     p.add_argument("--decoder-ridge", type=_ridge, default=None, metavar="RHO|none",
                    help="dictionary: ridge penalty per pose of the 3D-half re-fit "
                    "(default 0.01; 'none' keeps the learned 3D halves)")
-    p.add_argument("--hidden", default=None, help="mlp: hidden layer sizes (default 400,400,400)")
-    p.add_argument("--max-iter", type=int, default=None, help="mlp: epochs at most (default 200)")
+    p.add_argument("--hidden", metavar="SIZES", default=None, help="mlp: hidden layer sizes (default 400,400,400)")
+    p.add_argument("--max-iter", metavar="N", type=int, default=None, help="mlp: epochs at most (default 200)")
     p.add_argument("--representation", choices=("average", "zero"), default=None,
                    help="fconv: occlusion representation of the input (default average)")
     p.add_argument("--occluded", default=None, metavar="LO-HI",
                    help="fconv: occluded joints per training pose, e.g. 1-3 to retrain end "
                    "to end on occluded input (default 0-0, complete)")
-    p.add_argument("--channels", default=None, help="fconv: encoder channels C1,C2 (default 32,64)")
-    p.add_argument("--epochs", type=int, default=None, help="fconv: most epochs (default 30)")
-    p.add_argument("--batch-size", type=int, default=None, help="fconv: mini-batch size (default 256)")
+    p.add_argument("--channels", metavar="C1,C2", default=None, help="fconv: encoder channels C1,C2 (default 32,64)")
+    p.add_argument("--epochs", metavar="N", type=int, default=None, help="fconv: most epochs (default 30)")
+    p.add_argument("--batch-size", metavar="N", type=int, default=None, help="fconv: mini-batch size (default 256)")
     p.add_argument("--normalization", choices=("tied", "unit"), default=None,
                    help="3D EDM normalisation (default tied)")
-    p.add_argument("--max-train", type=int, default=None,
+    p.add_argument("--max-train", metavar="N", type=int, default=None,
                    help="use a seeded subsample of this many training poses (default: "
                    "every training pose)")
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--seed", metavar="N", type=int, default=0, help="random seed (default 0)")
     add_quiet(p)
     p.set_defaults(func=run)
 

@@ -36,11 +36,14 @@ def add_parser(sub):
                    help="3D output: .csv, .npz, .json or .trc (OpenSim)")
     p.add_argument("--lifter", default=None, metavar="NAME|PATH",
                    help="shipped lifter name or lifter .npz (default: the shipped default)")
-    p.add_argument("--jobs", type=int, default=1, metavar="N", help="threads (default 1)")
+    p.add_argument("--jobs", type=int, default=1, metavar="N",
+                   help="worker threads over chunks of poses (-1: all cores; default 1: none, "
+                   "the lasso's kernels still run on every core)")
     p.add_argument("--format", choices=("csv", "npz", "json", "trc"), default=None,
                    help="output format (default: from OUTPUT's extension)")
     p.add_argument("--errors", default=None, metavar="FILE",
-                   help="errors file (default OUTPUT stem + .errors.csv)")
+                   help="errors file listing refused rows and unreadable input files "
+                   "(default OUTPUT stem + .errors.csv)")
     p.add_argument("--representation", choices=("average", "zero"), default=None,
                    help="how an MLP or FConv lifter sees occluded joints (default: the one "
                    "an FConv lifter was trained on, else average)")

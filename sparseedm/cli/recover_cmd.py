@@ -57,9 +57,10 @@ def _add_recovery_options(p):
     p.add_argument("--alpha", type=float, default=None,
                    help="lasso penalty (default: the dictionary's recommended alpha)")
     p.add_argument("--jobs", type=int, default=1, metavar="N",
-                   help="parallel workers (-1: all cores; default 1): threads with the "
-                   "default fast solver (its kernels release the GIL), processes with "
-                   "--solver clarabel, or --backend's")
+                   help="parallel workers (-1: all cores; default 1: none, the fast "
+                   "solver's kernels still run on every core): threads with the default "
+                   "fast solver (its kernels release the GIL), processes with --solver "
+                   "clarabel, or --backend's")
     p.add_argument("--representation", choices=("average", "zero"), default=None,
                    help="occlusion representation (default: the one a --model was trained "
                    "on, else average)")
@@ -73,7 +74,8 @@ def _add_format_options(p):
                                         "mmpose", "alphapose", "dlc"), default=None,
                    help="output format (default: from OUTPUT's extension, else INPUT's)")
     p.add_argument("--errors", default=None, metavar="FILE",
-                   help="errors file listing refused rows (default OUTPUT stem + .errors.csv)")
+                   help="errors file listing refused rows and unreadable input files "
+                   "(default OUTPUT stem + .errors.csv)")
     p.add_argument("--confidence-threshold", type=float, default=None, metavar="T",
                    help="joints with a confidence below T count as missing and are "
                    "recovered (default: the input format's: DeepLabCut 0.6 (its pcutoff), "

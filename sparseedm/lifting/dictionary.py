@@ -43,7 +43,7 @@ from threadpoolctl import threadpool_limits
 
 from .. import _progress
 from .._coding import atoms_key, pattern_order
-from .._parallel import chunk_tasks, numba_threads
+from .._parallel import chunk_tasks, leaves_cores_idle, numba_threads
 from .._validation import usable_jobs
 from ..edm import num_joints_from_dim, observed_entries, triu_indices
 from ..learning import OnlineDictionaryLearning
@@ -214,7 +214,7 @@ class DictionaryLifter(Lifter):
         bar = dict(total=len(tasks), disable=not progress, unit="chunk", desc="lift")
         with threadpool_limits(1, user_api="blas"):
             n_jobs = usable_jobs(n_jobs, len(tasks))
-            if n_jobs == 1:
+            if n_jobs == 1 or leaves_cores_idle(n_jobs):  # in-process: every core
                 return [run(t) for t in tqdm(tasks, **bar)]
             return list(tqdm(Parallel(n_jobs=n_jobs, backend="threading", return_as="generator")(
                 delayed(run)(t, 1) for t in tasks), **bar))

@@ -63,7 +63,7 @@ from .._atomic import atomic_path, check_paths, save_json, save_npz
 from .._extras import require as require_extra
 from .._validation import (BOOLEAN, CHUNK_SIZE, N_JOBS, Interval, read_frames,
                            validate_params)
-from ..batch import write_errors, default_errors_path
+from ..keypoints import write_errors, default_errors_path
 from ..dictionary import load_dictionary
 from ..exceptions import FileFormatError, ParameterError, SparseEDMError
 from ..formats.deeplabcut import check_h5_extra

@@ -296,14 +296,15 @@ def _adapt(dictionary, poses, mask, layout, usable, adapt, ensemble, settings, k
 
 
 def _screened(poses, missing, n_joints, check_input=True):
-    """Validated poses, mask, screening and the rows time can use (`check_input`
-    False: `poses` and the mask `missing` were validated by the caller)."""
+    """Validated poses, mask, screening (:func:`screen_poses`) and the rows time
+    can use (`check_input` False: `poses` and the mask `missing` were validated
+    by the caller)."""
     poses, mask, bad_coord = (validate_poses(poses, missing, n_joints) if check_input
                               else (poses, missing, bad_coordinates(poses, missing)))
-    refusal, why, _, _ = screen_poses(poses, mask, bad_coord)
+    screening = screen_poses(poses, mask, bad_coord)
     # rows whose observed coordinates cannot be used are absent from time too
-    usable = ~np.isin(refusal, ("invalid_coordinates", "out_of_range"))
-    return poses, mask, refusal, why, usable
+    usable = ~np.isin(screening.status, ("invalid_coordinates", "out_of_range"))
+    return poses, mask, screening, usable
 
 
 def _linked(poses, mask, usable, tracks, frames):
@@ -340,7 +341,7 @@ def linked_tracks(poses, missing, tracks, frames, n_joints=SKELETON_14.num_joint
     """
     if not needs_linking(tracks, frames):
         return None
-    poses, mask, _, _, usable = _screened(poses, missing, n_joints)
+    poses, mask, _, usable = _screened(poses, missing, n_joints)
     return _linked(poses, mask, usable, tracks, frames)
 
 
@@ -348,13 +349,13 @@ def _in_time(poses, missing, tracks, frames, n_joints, check_input=True):
     """Validated poses, mask, screening, usable rows and the track layout (tracks
     linked by :func:`~sparseedm.temporal.linking.link_tracks` when none are
     given and a frame holds several poses)."""
-    poses, mask, refusal, why, usable = _screened(poses, missing, n_joints, check_input)
+    poses, mask, screening, usable = _screened(poses, missing, n_joints, check_input)
     linked = _linked(poses, mask, usable, tracks, frames)
     layout = split_at_jumps(split_tracks(len(poses), tracks if linked is None else linked,
                                          frames),
                             np.where(usable[:, None, None], poses, np.nan), mask)
     layout.linked = linked
-    return poses, mask, refusal, why, usable, layout
+    return poses, mask, screening, usable, layout
 
 
 def time_layout(poses, missing=None, *, tracks=None, frames,
@@ -416,8 +417,8 @@ def offered_poses(poses, missing=None, *, tracks=None, frames, settings=None):
         when none).
     """
     settings = DEFAULT_SETTINGS if settings is None else settings
-    poses, mask, _, _, usable, layout = _in_time(poses, missing, tracks, frames,
-                                                 SKELETON_14.num_joints)
+    poses, mask, _, usable, layout = _in_time(poses, missing, tracks, frames,
+                                              SKELETON_14.num_joints)
     return _offered(layout, poses, mask, usable, settings)
 
 
@@ -444,8 +445,8 @@ def adapt_in_time(dictionary, poses, missing=None, *, tracks=None, frames, ensem
         Empty when :func:`adapts` says the call does not adapt.
     """
     settings = DEFAULT_SETTINGS if settings is None else settings
-    poses, mask, _, _, usable, layout = _in_time(poses, missing, tracks, frames,
-                                                 dictionary.n_joints, check_input)
+    poses, mask, _, usable, layout = _in_time(poses, missing, tracks, frames,
+                                              dictionary.n_joints, check_input)
     asks = _plan(layout, poses, mask, usable, settings).any() or _probes(
         layout, poses, mask, usable, settings)[2].any()
     return _adapt(dictionary, poses, mask, layout, usable, "auto", ensemble, settings,
@@ -583,9 +584,10 @@ def _mirror_never(poses, mask, rows, res, never, members, kwargs):
     return out
 
 
-def _per_frame(poses, mask, need, members, settings, kwargs, never=None):
+def _per_frame(poses, mask, need, members, settings, kwargs, never=None, screening=None):
     """The per-frame model on the `need` rows only (`never`: the joints whose
-    answers take their mirror image's in, ``settings.never_mirror``)."""
+    answers take their mirror image's in, ``settings.never_mirror``;
+    `screening`: the poses' and mask's, when at hand: not screened again)."""
     n, N = mask.shape
     m = N * (N - 1) // 2
     fields = dict(vectors=np.full((n, m), np.nan), center=np.full((n, 2), np.nan),
@@ -598,7 +600,9 @@ def _per_frame(poses, mask, need, members, settings, kwargs, never=None):
     rows = np.flatnonzero(need)
     alpha = kwargs.get("alpha")
     if len(rows):
-        res = recover_members(poses[rows], mask[rows], members, [], **kwargs)
+        res = recover_members(poses[rows], mask[rows], members, [],
+                              screening=None if screening is None else screening.take(rows),
+                              **kwargs)
         for key in _PER_FRAME_KEYS:
             fields[key][rows] = getattr(res, key)
         full[rows] = (res.poses if never is None or not settings.never_mirror
@@ -670,8 +674,8 @@ def recover_temporal(poses, missing=None, *, tracks=None, frames, dictionary=Non
         check_frames(frames, "recover_temporal")
     if not isinstance(dictionary, Dictionary):
         dictionary = load_dictionary(dictionary)
-    poses, mask, refusal, why, usable, layout = _in_time(poses, missing, tracks, frames,
-                                                         dictionary.n_joints, check_input)
+    poses, mask, screening, usable, layout = _in_time(poses, missing, tracks, frames,
+                                                      dictionary.n_joints, check_input)
     need = _plan(layout, poses, mask, usable, settings)
     planned = _probes(layout, poses, mask, usable, settings)
     members, adaptations = _adapt(dictionary, poses, mask, layout, usable, adapt, ensemble,
@@ -687,13 +691,13 @@ def recover_temporal(poses, missing=None, *, tracks=None, frames, dictionary=Non
     # mirror images need the 14-joint layout's left and right (Dictionary.mirrored)
     never = (_never_seen(layout, mask, track_of) if dictionary.joint_names == JOINT_NAMES
              else None)
-    per = _per_frame(poses, mask, need, members, settings, kwargs, never)
+    per = _per_frame(poses, mask, need, members, settings, kwargs, never, screening)
     trusts, probe_poses = _trusts(layout, poses, mask, usable, per, settings, members, kwargs,
                                   track_of, planned, never)
     filled, weight, residual = _fill_segments(layout, poses, mask, usable, per, settings,
                                               trusts)
-    res = _assemble(poses, mask, refusal, why, layout, per, filled, weight, residual,
-                    len(members))
+    res = _assemble(poses, mask, screening.status, screening.reason, layout, per, filled,
+                    weight, residual, len(members))
     res.probe_poses, res.frames = probe_poses, layout.frames
     res.prior_trust = np.full(len(poses), np.nan)
     for rows, (trust, _, _) in zip(layout.segments, trusts):

@@ -307,7 +307,9 @@ def pooled(docs):
             d = np.array([r["candidates"][c]["minus_default"] for r in rs])
             cells.append(f"{d[:, 0].mean():+.2f} ± {np.sqrt((d[:, 1] ** 2).sum()) / len(d):.2f}")
         de = np.mean([r["candidates"]["default"]["mean"] for r in rs])
-        ch = ", ".join(f"{w:g}@{g:g}" for w, g in (r["chosen"] for r in rs))
+        # no gate is inf, which strict JSON writes as null (read back as NaN)
+        ch = ", ".join(f"{w:g}@{np.inf if np.isnan(g) else g:g}"
+                       for w, g in (r["chosen"] for r in rs))
         s = rs[0]["seconds"]
         lines.append(f"| {name} | {len(rs)} | {de:.2f} | " + " | ".join(cells)
                      + f" | {ch} | {s['default']} / {s['donor']} / "
@@ -352,12 +354,13 @@ def main(argv=None):
     ap.add_argument("--compare", nargs="+", type=Path,
                     help="with --pool: these JSONs (another setting's runs) against them")
     a = ap.parse_args(argv)
+    from studies.results_json import load_results  # null (NaN in strict JSON) read as NaN
+
     if a.pool and a.compare:
-        print(compare([json.loads(p.read_text()) for p in a.pool],
-                      [json.loads(p.read_text()) for p in a.compare]))
+        print(compare([load_results(p) for p in a.pool], [load_results(p) for p in a.compare]))
         return
     if a.pool:
-        print(pooled([json.loads(p.read_text()) for p in a.pool]))
+        print(pooled([load_results(p) for p in a.pool]))
         return
     import sparseedm
 

@@ -226,7 +226,9 @@ def main(argv=None):
     a = ap.parse_args(argv)
     warnings.simplefilter("ignore")
     if a.table:
-        docs = [json.loads(p.read_text()) for p in a.table]
+        from studies.results_json import load_results  # null (NaN in strict JSON) read as NaN
+
+        docs = [load_results(p) for p in a.table]
         rule = {}
         for p in a.ruled:
             rule.update(json.loads(p.read_text()))

@@ -399,7 +399,9 @@ def main(argv=None):
     ap.add_argument("--out", type=Path, default=Path("local_gaussian.json"))
     a = ap.parse_args(argv)
     if a.table:
-        docs = [json.loads(p.read_text()) for p in a.table]
+        from studies.results_json import load_results  # null (NaN in strict JSON) read as NaN
+
+        docs = [load_results(p) for p in a.table]
         print(oracle_table(docs[0]) if a.oracle else table(docs))
         return
     warnings.simplefilter("ignore")

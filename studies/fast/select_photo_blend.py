@@ -268,7 +268,9 @@ def main(argv=None):
     ap.add_argument("--columns", default="", help="with --table: candidates, separated by semicolons")
     a = ap.parse_args(argv)
     if a.table:
-        print(table(json.loads(a.table.read_text()),
+        from studies.results_json import load_results  # null (NaN in strict JSON) read as NaN
+
+        print(table(load_results(a.table),
                     [c for c in a.columns.split(";") if c] or None))
         return
     import sparseedm
