@@ -40,7 +40,7 @@ from ._recovery_kernel import (RECOVER_PARAMS, preset_solver, recover_members, r
                                 solve_chunk)
 from ._validation import Options, check_adapt, check_frames, validate_params
 from .normalize import REPRESENTATIONS, representation_for
-from .cold_bank import cold_bank_stack
+from .cold_bank import bank_step, cold_bank_stack
 from .dictionary import Dictionary, check_gram_memory, load_dictionary
 from .ensemble import adapt_members
 from .exemplars import EXEMPLAR_OPTIONS, blend_many_hidden, blend_parts, blends, finish_blend
@@ -495,7 +495,7 @@ def _dispatch(poses, missing, tracks, frames, method, model, preset, opts):
                                              **{k: kernel[k] for k in BLEND_SETTINGS})
                 return answer
 
-            res = finish_blend(res, poses, missing, answer_for, atoms)
+            res = finish_blend(res, poses, missing, answer_for, atoms, bank=bank_step)
     return _with_uncertainty(res)
 
 

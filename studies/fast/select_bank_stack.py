@@ -1,0 +1,113 @@
+"""The shipped pose bank as its own candidate of the default path, weighted per file by probes.
+
+The default path (``recover()``'s defaults on a file whose answers are
+blended) now ends with a bank step (:func:`sparseedm.cold_bank.bank_step`,
+between ``exemplars.probe_stack`` and ``donors.donor_step``): the shipped
+pose bank's local Gaussian answer (:func:`sparseedm.cold_bank.bank_fill`,
+what ``recover(adapt=False)`` stacks) is averaged into every occluded pose's
+answer at the weight of ``exemplars.LINEAR_WEIGHTS`` chosen on probes of the
+file's occluded rows (one more observed joint hidden;
+``exemplars.probe_weight``, paired standard errors clustered by row), 0 unless
+the gain exceeds one standard error. Variants, end to end through
+``recover()`` against ``shipped`` (the step off, cached per file):
+
+* ``bank step``: as shipped (skipped from
+  ``cold_bank.BANK_STEP_MAX_COMPLETE`` = 200 complete poses);
+* ``bank step all``: the step on every file whatever its complete poses.
+
+Files: ``select_bank_default.py``'s (validation photo files of
+``benchmarks/real_people.py``: MPII val 200 + 199, COCO val 28 + 27, Bonn val
+frames 580 complete, each also with 1,000 (COCO 233) train complete poses;
+mix = 1-3 random hidden joints, transplanted = real masks; ``--few C+M``:
+``select_few_stack.py``'s C complete + M occluded of the val split), and
+mocap dataset files (``--mocap path[:dictionary]``, C complete + C Mix
+poses). Score: per occluded pose the mean error of its hidden joints, % of
+body size; paired differences [mean, standard error].
+
+    python studies/fast/select_bank_stack.py --seeds 0,1,2 --variant "bank step all" \\
+        --out selection_bank_stack_all.json
+    python studies/fast/select_bank_stack.py --seeds 0,1,2 --variant "bank step" \\
+        --few 28+200,40+200 --out selection_bank_stack_few.json
+    python studies/fast/select_bank_stack.py --seeds 0,1,2 --sources "" --mocap-sizes 28,200 \\
+        --mocap cmu_other_subjects.npz:cmu-k2000,daz_indian.npz --out selection_bank_stack_mocap.json
+    python studies/fast/select_bank_stack.py --table selection_bank_stack_all.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT))
+
+#: the shipped answers (step off); seeded from select_bank_default.py's cache
+#: (/tmp/photos_bankdef/cache: the same files and defaults before the step)
+CACHE = Path("/tmp/bankstack/cache")
+
+VARIANTS = {"shipped": 0, "bank step": None, "bank step all": 10 ** 9}
+
+
+@contextlib.contextmanager
+def patched(variant):
+    """recover()'s defaults with the bank step's cap of the variant (0: off)."""
+    import sparseedm.cold_bank as cb
+
+    kept = cb.BANK_STEP_MAX_COMPLETE
+    cap = VARIANTS[variant]
+    cb.BANK_STEP_MAX_COMPLETE = kept if cap is None else cap
+    try:
+        yield
+    finally:
+        cb.BANK_STEP_MAX_COMPLETE = kept
+
+
+def _bank_weight(res):
+    settings = res.adaptation.settings if res.adaptation is not None else {}
+    return float(settings.get("bank", {}).get("weight", np.nan))
+
+
+def measure(name, truth, missing, photo, kw, variant):
+    """One file end to end: per-pose errors of the shipped defaults (step off,
+    cached), II (photos) and the variant; the Gaussian's and the bank's
+    weights; seconds."""
+    import sparseedm
+    import studies.fast.select_local_average as avg
+    from studies.fast.select_photo_blend import per_pose
+
+    avg.CACHE, avg.ALIGN_CACHE = CACHE, Path("/tmp/photos_align/cache")
+    occ = missing.any(axis=1)
+    given = np.where(missing[..., None], np.nan, truth)
+    with patched("shipped"):
+        got, secs, w = avg._shipped(name, given, missing, photo, kw)
+    t0 = time.perf_counter()
+    with patched(variant):
+        res = sparseedm.recover(given, missing, n_jobs=1, **kw)
+    secs["variant"] = round(time.perf_counter() - t0, 2)
+    got["variant"] = res.poses[occ]
+    weights = {"shipped": w, "variant": _bank_weight(res)}
+    return secs, weights, {k: per_pose(v, truth[occ], missing[occ]) for k, v in got.items()}
+
+
+def main(argv=None):
+    import studies.fast.select_local_gaussian as gaussian
+    from studies.fast.select_bank_default import few_files
+    from studies.fast.select_local_align import options, run
+
+    ap = options(argparse.ArgumentParser(description=__doc__.splitlines()[0]),
+                 "", "bank step")
+    ap.add_argument("--few", default="", help="C+M,...: select_few_stack.py's files instead")
+    ap.add_argument("--out", type=Path, default=Path("bank_stack.json"))
+    a = ap.parse_args(argv)
+    if a.few:  # run() reads its files from select_local_gaussian
+        gaussian.files = few_files(a.few)
+    run(a, None, measure)
+
+
+if __name__ == "__main__":
+    main()
