@@ -16,6 +16,22 @@ the bank's weighted by :data:`COLD_BANK_WEIGHTS` for the pose's count of
 hidden joints (chosen on validation photos with motion capture held out from
 both answers as the check, ``studies/real_prior/select_cold_bank.py``), and
 ``RecoveryResult.averaged`` says :data:`AVERAGED_BANK` on those poses.
+
+The default path (``recover()``'s defaults on a file whose answers are
+blended, :func:`sparseedm.exemplars.finish_blend`) takes the bank as a
+candidate of its own: :func:`bank_step` averages every occluded pose's answer
+with :func:`bank_fill`'s at a weight chosen per file on probes of the
+file's occluded rows (:func:`sparseedm.exemplars.probe_weight`: one more
+observed joint hidden, the weight taken only when its gain beats one paired
+standard error), 0 unless the bank pays. A file whose own poses say more
+than the bank (from :data:`BANK_STEP_MAX_COMPLETE` complete poses) skips the
+step. Over three draws of the validation photo files it lowered the hidden
+joints' error on the COCO file of 28 complete poses by 0.75 / 0.56 % of body
+size (1-3 random hidden joints / real masks; 0.80x -> 0.71x
+IterativeImputer's under random masks) and on MPII files of 28-100 by 0 to
+0.27, and left the Bonn video frames (whose neighbouring frames the path
+finds) unchanged (weight 0); the CMU and Daz mocap files moved by -0.06 to 0.
+It adds 1.5-4.5 s to such a file (``studies/fast/README.md``).
 """
 
 from __future__ import annotations

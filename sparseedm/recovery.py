@@ -315,7 +315,11 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         complete poses as extra atoms
         (:func:`~sparseedm.exemplars.ridge_mean_atoms`); then with a Gaussian's
         answer over the file's poses at a weight the check chooses
-        (:func:`~sparseedm.gaussian_fill.local_gaussian_fill`), and last a
+        (:func:`~sparseedm.gaussian_fill.local_gaussian_fill`); then, on a
+        file of fewer than :data:`~sparseedm.cold_bank.BANK_STEP_MAX_COMPLETE`
+        complete poses, with the shipped pose bank's answer at a weight probes
+        of the occluded rows choose (0 unless it pays:
+        :func:`~sparseedm.cold_bank.bank_step`); and last a
         hidden joint that the file's other rows show is moved toward them
         where probes say so (:func:`~sparseedm.donors.donor_step`). ``False``:
         adapt as described under `adapt` (below MIN_COMPLETE_POSES: the base

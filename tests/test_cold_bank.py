@@ -217,6 +217,7 @@ def test_the_bank_step_weights_the_bank_where_the_file_is_its_people(small_dicti
     record = res.adaptation.settings["bank"]
     assert record["weight"] in LINEAR_WEIGHTS and record["weight"] > 0
     assert record["probes"] >= 30 and record["probe_err_chosen"] < record["probe_err_default"]
+    assert res.summary()["adaptation"]["bank"] == record
     occ = np.flatnonzero(missing.any(axis=1) & res.ok)
     assert all(AVERAGED_BANK in a for a in res.averaged[occ])
     src = write_keypoints(tmp_path / "in.npz", KeypointSet(given, missing))

@@ -30,7 +30,11 @@ body size; paired differences [mean, standard error].
         --few 28+200,40+200 --out selection_bank_stack_few.json
     python studies/fast/select_bank_stack.py --seeds 0,1,2 --sources "" --mocap-sizes 28,200 \\
         --mocap cmu_other_subjects.npz:cmu-k2000,daz_indian.npz --out selection_bank_stack_mocap.json
+    python studies/fast/select_bank_stack.py --timing --out selection_bank_stack_timing.json
     python studies/fast/select_bank_stack.py --table selection_bank_stack_all.json
+
+``--timing``: seconds of ``recover()`` on three files of 28 and 100 complete
+poses with the step off and on, back to back, twice (machine and load noted).
 """
 
 from __future__ import annotations
@@ -94,6 +98,37 @@ def measure(name, truth, missing, photo, kw, variant):
     return secs, weights, {k: per_pose(v, truth[occ], missing[occ]) for k, v in got.items()}
 
 
+def timing(out):
+    """--timing: recover()'s seconds with the step off and on, back to back."""
+    import json
+    import os
+    import platform
+    import warnings
+
+    import sparseedm
+    from studies.fast.select_bank_default import few_files
+    from studies.fast.select_local_gaussian import files
+
+    warnings.simplefilter("ignore")
+    picked = [next(iter(files("coco", ["split"], "", [], 0)))]
+    picked += [next(iter(few_files(f)("mpii", None, None, None, 0))) for f in ("28+200", "100+200")]
+    doc = {"machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores",
+           "load_before": list(os.getloadavg()), "files": {}}
+    for name, truth, missing, _, kw in picked:
+        given = np.where(missing[..., None], np.nan, truth)
+        secs = {"shipped": [], "bank step": []}
+        for _ in range(2):
+            for variant in secs:
+                with patched(variant):
+                    t0 = time.perf_counter()
+                    sparseedm.recover(given, missing, n_jobs=1, **kw)
+                secs[variant].append(round(time.perf_counter() - t0, 2))
+        doc["files"][name] = secs
+        print(name, secs, flush=True)
+    doc["load_after"] = list(os.getloadavg())
+    out.write_text(json.dumps(doc, indent=1) + "\n")
+
+
 def main(argv=None):
     import studies.fast.select_local_gaussian as gaussian
     from studies.fast.select_bank_default import few_files
@@ -103,7 +138,11 @@ def main(argv=None):
                  "", "bank step")
     ap.add_argument("--few", default="", help="C+M,...: select_few_stack.py's files instead")
     ap.add_argument("--out", type=Path, default=Path("bank_stack.json"))
+    ap.add_argument("--timing", action="store_true", help="seconds with the step off and on")
     a = ap.parse_args(argv)
+    if a.timing:
+        timing(a.out)
+        return
     if a.few:  # run() reads its files from select_local_gaussian
         gaussian.files = few_files(a.few)
     run(a, None, measure)
