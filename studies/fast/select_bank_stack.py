@@ -31,7 +31,15 @@ body size; paired differences [mean, standard error].
     python studies/fast/select_bank_stack.py --seeds 0,1,2 --sources "" --mocap-sizes 28,200 \\
         --mocap cmu_other_subjects.npz:cmu-k2000,daz_indian.npz --out selection_bank_stack_mocap.json
     python studies/fast/select_bank_stack.py --timing --out selection_bank_stack_timing.json
+    python studies/fast/select_bank_stack.py --oracle --seeds 0,1,2 --out selection_bank_stack_oracle.json
     python studies/fast/select_bank_stack.py --table selection_bank_stack_all.json
+
+``--oracle``: on the same files (the shipped answers cached), the error of
+``(1 - w) * shipped + w * bank`` at fixed weights w for every occluded pose,
+and for the poses the cold gate's idea picks alone (the mean distance to the
+20 nearest of the file's complete poses and their mirror images, on the
+observed joints, above ``--gate`` times that to the 20 nearest bank poses):
+whether a per-pose rule could replace the per-file choice.
 
 ``--timing``: seconds of ``recover()`` on three files of 28 and 100 complete
 poses with the step off and on, back to back, twice (machine and load noted).
@@ -98,6 +106,59 @@ def measure(name, truth, missing, photo, kw, variant):
     return secs, weights, {k: per_pose(v, truth[occ], missing[occ]) for k, v in got.items()}
 
 
+ORACLE_WEIGHTS = (0.25, 0.5)
+
+
+def oracle(name, truth, missing, photo, kw, gate):
+    """--oracle on one file: {rule: paired [mean, se] against shipped}, the
+    rules ``w`` (every occluded pose) and ``gate w`` (the gated poses alone)."""
+    import studies.fast.select_local_average as avg
+    from sparseedm.cold_bank import bank_fill, load_pose_bank
+    from sparseedm.file_atoms import mirror_images
+    from sparseedm.gaussian_fill import nearest_distances
+    from studies.fast.select_photo_blend import paired, per_pose
+
+    avg.CACHE, avg.ALIGN_CACHE = CACHE, Path("/tmp/photos_align/cache")
+    occ = missing.any(axis=1)
+    given = np.where(missing[..., None], np.nan, truth)
+    with patched("shipped"):
+        shipped = avg._shipped(name, given, missing, photo, kw)[0]["shipped"]
+    bank = load_pose_bank()
+    fill = bank_fill(bank, given, missing)[occ]
+    fill = np.where(np.isfinite(fill), fill, shipped)
+    own = mirror_images(truth[~occ])
+    dist = nearest_distances(np.concatenate([own, bank.poses]), given[occ], missing[occ], 20,
+                             np.r_[np.ones(len(own), bool), np.zeros(len(bank.poses), bool)])
+    gated = (dist[:, 0] > gate * dist[:, 1])[:, None, None]
+    base = per_pose(shipped, truth[occ], missing[occ])
+    out = {"gated_share": round(float(gated.mean()), 3)}
+    for w in ORACLE_WEIGHTS:
+        for rule, weight in ((f"{w}", w), (f"gate {w}", np.where(gated, w, 0.0))):
+            out[rule] = paired(per_pose((1 - weight) * shipped + weight * fill, truth[occ],
+                                        missing[occ]), base)
+    return out
+
+
+def run_oracle(a):
+    """--oracle over --seeds (the main files and --few's), pooled per file."""
+    import json
+    import warnings
+
+    import studies.fast.select_local_gaussian as gaussian
+    from studies.fast.select_bank_default import few_files
+
+    warnings.simplefilter("ignore")
+    doc = {"score": "paired [mean, se] against shipped, % body size", "gate": a.gate, "files": {}}
+    for seed in (int(s) for s in a.seeds.split(",")):
+        items = list(gaussian.files(a.sources, a.parts.split(","), "", [], seed))
+        if a.few:
+            items += list(few_files(a.few)(a.sources, None, None, None, seed))
+        for name, truth, missing, photo, kw in items:
+            doc["files"][name] = oracle(name, truth, missing, photo, kw, a.gate)
+            print(name, doc["files"][name], flush=True)
+    a.out.write_text(json.dumps(doc, indent=1) + "\n")
+
+
 def timing(out):
     """--timing: recover()'s seconds with the step off and on, back to back."""
     import json
@@ -139,7 +200,12 @@ def main(argv=None):
     ap.add_argument("--few", default="", help="C+M,...: select_few_stack.py's files instead")
     ap.add_argument("--out", type=Path, default=Path("bank_stack.json"))
     ap.add_argument("--timing", action="store_true", help="seconds with the step off and on")
+    ap.add_argument("--oracle", action="store_true", help="fixed and gated weights, per file")
+    ap.add_argument("--gate", type=float, default=1.5, help="--oracle's gate")
     a = ap.parse_args(argv)
+    if a.oracle:
+        run_oracle(a)
+        return
     if a.timing:
         timing(a.out)
         return
