@@ -31,7 +31,7 @@ size (1-3 random hidden joints / real masks; 0.80x -> 0.71x
 IterativeImputer's under random masks) and on MPII files of 28-100 by 0 to
 0.27, and left the Bonn video frames (whose neighbouring frames the path
 finds) unchanged (weight 0); the CMU and Daz mocap files moved by -0.06 to 0.
-It adds 1.5-4.5 s to such a file (``studies/fast/README.md``).
+It adds 0.2-2.6 s to such a file (``studies/fast/README.md``).
 """
 
 from __future__ import annotations
@@ -46,7 +46,7 @@ import numpy as np
 from ._safeio import load_npz_file
 from ._shipped import resolve_shipped
 from .exceptions import DictionaryError
-from .exemplars import probe_weight, stack_fill
+from .exemplars import probe_weight, remembered, stack_fill
 from .file_atoms import body_axis, complete_rows
 from .gaussian_fill import LOCAL_NEIGHBOURS, local_gaussian_fill, nearest_distances
 
@@ -286,8 +286,8 @@ def bank_step(res, poses, missing, answer, random_state=0, bank=None):
                if missing.shape[1] == draws.poses.shape[1] else "not the bank's joints")
         return _bank_noted(res, {"weight": 0.0, "probes": 0, "skipped": why}), answer
     axis = body_axis(poses)  # the file's: each pose's bank answer its own alone
-    answer = _remembered(answer, lambda res, k: res.take(np.arange(k)))
-    fill = _remembered(lambda p, m: bank_fill(draws, p, m, axis=axis), lambda f, k: f[:k])
+    answer = remembered(answer)
+    fill = remembered(lambda p, m: bank_fill(draws, p, m, axis=axis), lambda f, k: f[:k])
     choice = probe_weight(poses, missing, answer, lambda rows, joints, p, m: fill(p, m),
                           random_state)
     res = _bank_noted(res, {"weight": choice.weight, "probes": choice.probes,
@@ -319,20 +319,3 @@ def _bank_noted(res, record):
         return res
     return replace(res, adaptation=replace(res.adaptation, settings=dict(
         res.adaptation.settings, bank=record)))
-
-
-def _remembered(compute, head):
-    """`compute(poses, missing)` remembering its last question: asked it again, or
-    its first k rows (the bank step's probes begin with the donor step's), the
-    answer comes from the last (``head(answer, k)``) without computing."""
-    last = []
-
-    def remembered(poses, missing):
-        k = len(poses)
-        if last and k <= len(last[0]) and np.array_equal(
-                last[0][:k], poses, equal_nan=True) and np.array_equal(last[1][:k], missing):
-            return last[2] if k == len(last[0]) else head(last[2], k)
-        out = compute(poses, missing)
-        last[:] = [np.array(poses), np.array(missing), out]
-        return out
-    return remembered

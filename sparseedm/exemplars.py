@@ -153,7 +153,7 @@ __all__ = ["EXEMPLAR_MIN_POSES", "EXEMPLAR_MARGIN", "EXEMPLAR_OPTIONS", "Exempla
            "AVERAGED_MANY_HIDDEN", "AVERAGED_RIDGE_MEAN", "AVERAGED_GAUSSIAN", "LINEAR_WEIGHTS", "LINEAR_MIN_SE",
            "MAX_LINEAR_FIT", "LINEAR_PROBE_ROUNDS", "LinearStack", "linear_weight", "linear_stack",
            "probe_stack", "finish_blend", "paired_gain", "stack_fill", "ProbeChoice",
-           "probe_weight"]
+           "probe_weight", "remembered"]
 
 #: From this many usable complete poses the file's own poses are the atoms,
 #: no check, no adaptation (chosen on validation files: studies/fast/README.md)
@@ -1094,7 +1094,8 @@ def finish_blend(res, poses, missing, answer_for, blend, bank=None):
     :func:`~sparseedm.donors.donor_step`, each answering its probes with
     ``answer_for(blend)`` for the blend as it then is (so the later steps'
     probes see the Gaussian the first step stacked, and the bank as `bank`
-    stacked it).
+    stacked it). The steps' probes begin with the same rows: their answers
+    are computed once (:func:`remembered`).
 
     Parameters
     ----------
@@ -1117,11 +1118,60 @@ def finish_blend(res, poses, missing, answer_for, blend, bank=None):
     -------
     RecoveryResult
     """
-    res, blend = probe_stack(res, poses, missing, answer_for(blend), blend)
-    answer = answer_for(blend)
+    first = remembered(answer_for(blend))
+    res, stacked = probe_stack(res, poses, missing, first, blend)
+    # the later probes are probe_stack's: its answers reused, with the Gaussian it stacked
+    answer = first if stacked is blend else \
+        (lambda p, m: _stacked(first(p, m), p, m, stacked[2]))
     if bank is not None:
         res, answer = bank(res, poses, missing, answer)
     return donor_step(res, poses, missing, answer)
+
+
+def remembered(compute, head=None):
+    """`compute(poses, missing)` remembering its last question: asked it again,
+    or its first k rows, it answers from the last answer without computing.
+
+    The default path's probes repeat: :func:`probe_stack`'s,
+    :func:`sparseedm.cold_bank.bank_step`'s and
+    :func:`~sparseedm.donors.donor_step`'s begin with the same rows, each
+    answered row by row.
+
+    Parameters
+    ----------
+    compute : callable
+        ``compute(poses, missing)``, row by row.
+    head : callable, optional
+        ``head(answer, k)``: the answer's first k rows; default
+        ``answer.take(range(k))`` (a RecoveryResult).
+
+    Returns
+    -------
+    callable
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> calls = []
+    >>> double = remembered(lambda p, m: calls.append(len(p)) or 2 * p, lambda a, k: a[:k])
+    >>> p, m = np.ones((3, 14, 2)), np.zeros((3, 14), bool)
+    >>> double(p, m)[:2].sum(), double(p[:2], m[:2]).sum(), calls
+    (np.float64(112.0), np.float64(112.0), [3])
+    """
+    if head is None:
+        def head(answer, k):
+            return answer.take(np.arange(k))
+    last = []
+
+    def again(poses, missing):
+        k = len(poses)
+        if last and k <= len(last[0]) and np.array_equal(
+                last[0][:k], poses, equal_nan=True) and np.array_equal(last[1][:k], missing):
+            return last[2] if k == len(last[0]) else head(last[2], k)
+        out = compute(poses, missing)
+        last[:] = [np.array(poses), np.array(missing), out]
+        return out
+    return again
 
 
 class ProbeChoice(NamedTuple):
