@@ -793,7 +793,9 @@ class AdaptationResult:
             (``members``; fewer when the path fits one, or its own:
             :mod:`sparseedm.ensemble`); when the donor step chose
             (:mod:`sparseedm.donors`), ``donors``: its weight, gate (None: no
-            gate), probes and their errors.
+            gate), probes and their errors; when the bank step ran
+            (:func:`sparseedm.cold_bank.bank_step`), ``bank``: its weight,
+            probes and their errors, or why it was skipped.
         """
         def num(v):
             return None if not np.isfinite(v) else round(float(v), 4)
@@ -812,8 +814,9 @@ class AdaptationResult:
         }
         if "ensemble" in self.settings:
             out["ensemble"] = dict(self.settings["ensemble"])
-        if "donors" in self.settings:  # sparseedm.donors' choice
-            out["donors"] = dict(self.settings["donors"])
+        for step in ("bank", "donors"):  # cold_bank.bank_step's and sparseedm.donors' choices
+            if step in self.settings:
+                out[step] = dict(self.settings[step])
         return out
 
     @property

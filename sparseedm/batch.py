@@ -123,7 +123,7 @@ from .keypoints import (FLAGS_IN_SIDECAR, N_JOINTS, EXTENSIONS, RESULT_FIELDS, b
                         finish_missing, format_of, load_single_npy, npy_confidence,
                         origin_joints, read_keypoints, status_sidecar, write_keypoints)
 from .keypoints import output_format as keypoint_output_format
-from .cold_bank import cold_bank_stack
+from .cold_bank import bank_step, cold_bank_stack
 from ._recovery_base import (OK_STATUSES, averaged_summary, cold_prior, combine,
                              mirror_weights, recovery_summary)
 from ._recovery_kernel import PRESETS, compiled_solver, preset_solver
@@ -801,7 +801,8 @@ class _Recovery:
         if self.blend is not None:
             given = np.where(res.missing[..., None], np.nan, np.asarray(poses, float))
             res = finish_blend(res, given, res.missing,
-                               lambda blend: replace(self, blend=blend).answer, self.blend)
+                               lambda blend: replace(self, blend=blend).answer, self.blend,
+                               bank=bank_step)
         if self.adaptation is not None and self.time_axis is None:
             res.uncertainty = joint_uncertainty(res)  # of the final joints, as recover()'s
         return res

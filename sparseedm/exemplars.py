@@ -127,6 +127,7 @@ from __future__ import annotations
 import time
 import warnings
 from dataclasses import dataclass, field, replace
+from typing import NamedTuple
 
 import numpy as np
 
@@ -151,7 +152,8 @@ __all__ = ["EXEMPLAR_MIN_POSES", "EXEMPLAR_MARGIN", "EXEMPLAR_OPTIONS", "Exempla
            "blend_rows", "blend_atoms", "blend_parts", "blend_many_hidden", "ridge_mean_atoms", "blends",
            "AVERAGED_MANY_HIDDEN", "AVERAGED_RIDGE_MEAN", "AVERAGED_GAUSSIAN", "LINEAR_WEIGHTS", "LINEAR_MIN_SE",
            "MAX_LINEAR_FIT", "LINEAR_PROBE_ROUNDS", "LinearStack", "linear_weight", "linear_stack",
-           "probe_stack", "finish_blend", "paired_gain", "stack_fill"]
+           "probe_stack", "finish_blend", "paired_gain", "stack_fill", "ProbeChoice",
+           "probe_weight", "remembered"]
 
 #: From this many usable complete poses the file's own poses are the atoms,
 #: no check, no adaptation (chosen on validation files: studies/fast/README.md)
@@ -1074,7 +1076,8 @@ def probe_stack(res, poses, missing, answer, blend, random_state=0):
     complete = complete_rows(poses, missing)  # (recover_file: the chunk's)
     if complete.sum() < 2:
         return res, blend
-    weight, count = _probe_weight(poses, missing, complete, answer, random_state)
+    weight, count, *_ = probe_weight(poses, missing, answer,
+                                     _gaussian_probe_fill(poses, missing, complete), random_state)
     res = replace(res, adaptation=replace(adaptation, settings=dict(
         adaptation.settings, linear_weight=weight, linear_probes=count)))
     if not weight > 0:
@@ -1084,12 +1087,15 @@ def probe_stack(res, poses, missing, answer, blend, random_state=0):
     return _stacked(res, poses, missing, linear), (*blend[:2], linear)
 
 
-def finish_blend(res, poses, missing, answer_for, blend):
+def finish_blend(res, poses, missing, answer_for, blend, bank=None):
     """The default path's last steps on a file whose answers are blended
     (recover() and recover_file()'s chunks alike): :func:`probe_stack`, then
+    `bank` (the shipped pose bank's candidate), then
     :func:`~sparseedm.donors.donor_step`, each answering its probes with
-    ``answer_for(blend)`` for the blend as it then is (so the donors' probes see
-    the Gaussian the first step stacked).
+    ``answer_for(blend)`` for the blend as it then is (so the later steps'
+    probes see the Gaussian the first step stacked, and the bank as `bank`
+    stacked it). The steps' probes begin with the same rows: their answers
+    are computed once (:func:`remembered`).
 
     Parameters
     ----------
@@ -1103,17 +1109,114 @@ def finish_blend(res, poses, missing, answer_for, blend):
         the path's answer for other rows of the file with that blend.
     blend : tuple
         :func:`blend_parts`' ``(atoms, mean_atoms, linear)``.
+    bank : callable, optional
+        ``bank(res, poses, missing, answer)`` -> ``(res, answer)``:
+        :func:`sparseedm.cold_bank.bank_step` (passed by the dispatchers, which
+        sit above both modules); None: no such step.
 
     Returns
     -------
     RecoveryResult
     """
-    res, blend = probe_stack(res, poses, missing, answer_for(blend), blend)
-    return donor_step(res, poses, missing, answer_for(blend))
+    first = remembered(answer_for(blend))
+    res, stacked = probe_stack(res, poses, missing, first, blend)
+    # the later probes are probe_stack's: its answers reused, with the Gaussian it stacked
+    answer = first if stacked is blend else \
+        (lambda p, m: _stacked(first(p, m), p, m, stacked[2]))
+    if bank is not None:
+        res, answer = bank(res, poses, missing, answer)
+    return donor_step(res, poses, missing, answer)
 
 
-def _probe_weight(poses, missing, complete, answer, random_state):
-    """(weight, probes) of probe_stack: LINEAR_WEIGHTS' choice on the probes."""
+def remembered(compute, head=None):
+    """`compute(poses, missing)` remembering its last question: asked it again,
+    or its first k rows, it answers from the last answer without computing.
+
+    The default path's probes repeat: :func:`probe_stack`'s,
+    :func:`sparseedm.cold_bank.bank_step`'s and
+    :func:`~sparseedm.donors.donor_step`'s begin with the same rows, each
+    answered row by row.
+
+    Parameters
+    ----------
+    compute : callable
+        ``compute(poses, missing)``, row by row.
+    head : callable, optional
+        ``head(answer, k)``: the answer's first k rows; default
+        ``answer.take(range(k))`` (a RecoveryResult).
+
+    Returns
+    -------
+    callable
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> calls = []
+    >>> double = remembered(lambda p, m: calls.append(len(p)) or 2 * p, lambda a, k: a[:k])
+    >>> p, m = np.ones((3, 14, 2)), np.zeros((3, 14), bool)
+    >>> double(p, m)[:2].sum(), double(p[:2], m[:2]).sum(), calls
+    (np.float64(112.0), np.float64(112.0), [3])
+    """
+    if head is None:
+        def head(answer, k):
+            return answer.take(np.arange(k))
+    last = []
+
+    def again(poses, missing):
+        k = len(poses)
+        if last and k <= len(last[0]) and np.array_equal(
+                last[0][:k], poses, equal_nan=True) and np.array_equal(last[1][:k], missing):
+            return last[2] if k == len(last[0]) else head(last[2], k)
+        out = compute(poses, missing)
+        last[:] = [np.array(poses), np.array(missing), out]
+        return out
+    return again
+
+
+class ProbeChoice(NamedTuple):
+    """What :func:`probe_weight` chose: the weight, the probes it judged on, and
+    their mean error (% of pose size) at weight 0 and at the weight chosen (NaN:
+    too few probes)."""
+
+    weight: float
+    probes: int
+    err_default: float
+    err_chosen: float
+
+
+def probe_weight(poses, missing, answer, fill, random_state=0):
+    """The weight of a candidate's answer in its mean with the path's, chosen on
+    probes of the file's occluded rows.
+
+    The probes are rounds of :func:`~sparseedm.donors.probes` (one more observed
+    joint hidden, :data:`LINEAR_PROBE_ROUNDS` at most, until
+    :data:`~sparseedm.donors.DONOR_PROBES`), answered by `answer` and by `fill`;
+    of :data:`LINEAR_WEIGHTS` the mean ``(1 - w) * path + w * candidate`` with
+    the lowest probe error wins when its gain over the path's answer alone
+    exceeds :data:`LINEAR_MIN_SE` of its standard errors (paired, a row probed
+    in several rounds one cluster: :func:`paired_gain`); else 0, and 0 with
+    fewer than :data:`~sparseedm.donors.DONOR_MIN_PROBES` probes.
+
+    Parameters
+    ----------
+    poses : ndarray (n, N, 2)
+        The poses (validated), NaN at missing joints.
+    missing : ndarray of bool (n, N)
+    answer : callable
+        ``answer(poses, missing)`` -> RecoveryResult: the path's answer for
+        other rows of the file (the probes).
+    fill : callable
+        ``fill(rows, joints, probe_poses, probe_missing)`` -> ndarray (p, N, 2):
+        the candidate's answer to the probes (the row of `poses` each probes and
+        its joint hidden; NaN: no answer, the path's then).
+    random_state : int, default 0
+        Seed of the probes.
+
+    Returns
+    -------
+    ProbeChoice
+    """
     drawn = []
     for r in range(LINEAR_PROBE_ROUNDS):
         drawn.append(probes(missing, random_state + r))
@@ -1121,20 +1224,32 @@ def _probe_weight(poses, missing, complete, answer, random_state):
             break
     rows, joints = (np.concatenate(d) for d in zip(*drawn))
     if len(rows) < DONOR_MIN_PROBES:
-        return 0.0, int(len(rows))
+        return ProbeChoice(0.0, int(len(rows)), float("nan"), float("nan"))
     pmiss = missing[rows].copy()
     pmiss[np.arange(len(rows)), joints] = True
     pposes = np.where(pmiss[..., None], np.nan, poses[rows])
     path = answer(pposes, pmiss).poses
-    hidden = missing.copy()
-    hidden[rows, joints] = True  # the Gaussians see no probed joint
-    part, part_missing = _incomplete_sample(np.where(hidden[..., None], np.nan, poses), hidden)
-    fill = local_gaussian_fill(_linear_draws(poses[complete], part, part_missing), pposes, pmiss)
-    fill = np.where(np.isfinite(fill), fill, path)
+    other = fill(rows, joints, pposes, pmiss)
+    other = np.where(np.isfinite(other), other, path)
     at = np.arange(len(rows)), joints
     _, size = rms_radius(poses[rows], pmiss)
     with np.errstate(all="ignore"):  # a refused probe (NaN) judges nothing
-        per_pose = np.array([np.linalg.norm(((1 - w) * path + w * fill)[at] - poses[rows][at],
+        per_pose = np.array([np.linalg.norm(((1 - w) * path + w * other)[at] - poses[rows][at],
                                             axis=-1) / size * 100 for w in LINEAR_WEIGHTS])
-    # a row probed in several rounds is one cluster of the gain's standard error
-    return _best_weight(per_pose, DONOR_MIN_PROBES, clusters=rows)[0], int(len(rows))
+    weight, error = _best_weight(per_pose, DONOR_MIN_PROBES, clusters=rows)
+    ok = np.isfinite(per_pose).all(axis=0)
+    base = float(per_pose[0, ok].mean()) if ok.any() else float("nan")
+    return ProbeChoice(weight, int(len(rows)), base, error if weight > 0 else base)
+
+
+def _gaussian_probe_fill(poses, missing, complete):
+    """probe_weight's `fill` for probe_stack: the local Gaussians over the complete
+    poses and the incomplete ones with the probed joints hidden too."""
+    def fill(rows, joints, pposes, pmiss):
+        hidden = missing.copy()
+        hidden[rows, joints] = True  # the Gaussians see no probed joint
+        part, part_missing = _incomplete_sample(np.where(hidden[..., None], np.nan, poses),
+                                                hidden)
+        return local_gaussian_fill(_linear_draws(poses[complete], part, part_missing),
+                                   pposes, pmiss)
+    return fill

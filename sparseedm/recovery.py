@@ -40,7 +40,7 @@ from ._recovery_kernel import (RECOVER_PARAMS, preset_solver, recover_members, r
                                 solve_chunk)
 from ._validation import Options, check_adapt, check_frames, validate_params
 from .normalize import REPRESENTATIONS, representation_for
-from .cold_bank import cold_bank_stack
+from .cold_bank import bank_step, cold_bank_stack
 from .dictionary import Dictionary, check_gram_memory, load_dictionary
 from .ensemble import adapt_members
 from .exemplars import EXEMPLAR_OPTIONS, blend_many_hidden, blend_parts, blends, finish_blend
@@ -318,7 +318,11 @@ def recover(poses, missing=None, *, dictionary=None, alpha=None,
         complete poses as extra atoms
         (:func:`~sparseedm.exemplars.ridge_mean_atoms`); then with a Gaussian's
         answer over the file's poses at a weight the check chooses
-        (:func:`~sparseedm.gaussian_fill.local_gaussian_fill`), and last a
+        (:func:`~sparseedm.gaussian_fill.local_gaussian_fill`); then, on a
+        file of fewer than :data:`~sparseedm.cold_bank.BANK_STEP_MAX_COMPLETE`
+        complete poses, with the shipped pose bank's answer at a weight probes
+        of the occluded rows choose (0 unless it pays:
+        :func:`~sparseedm.cold_bank.bank_step`); and last a
         hidden joint that the file's other rows show is moved toward them
         where probes say so (:func:`~sparseedm.donors.donor_step`). ``False``:
         adapt as described under `adapt` (below MIN_COMPLETE_POSES: the base
@@ -498,7 +502,7 @@ def _dispatch(poses, missing, tracks, frames, method, model, preset, opts):
                                              **{k: kernel[k] for k in BLEND_SETTINGS})
                 return answer
 
-            res = finish_blend(res, poses, missing, answer_for, atoms)
+            res = finish_blend(res, poses, missing, answer_for, atoms, bank=bank_step)
     return _with_uncertainty(res)
 
 

@@ -99,12 +99,17 @@ def track():
 
 @pytest.fixture
 def without_donor_step(monkeypatch):
-    """recover() and recover_file() without the donor step after the default
-    path's answer (:func:`sparseedm.donors.donor_step`), for tests that rebuild
-    that answer from its parts."""
+    """recover() and recover_file() without the bank step and the donor step after
+    the default path's answer (:func:`sparseedm.cold_bank.bank_step`,
+    :func:`sparseedm.donors.donor_step`), for tests that rebuild that answer from
+    its parts."""
+    import sparseedm.batch
     import sparseedm.exemplars
+    import sparseedm.recovery
 
     monkeypatch.setattr(sparseedm.exemplars, "donor_step", lambda res, *a, **k: res)
+    for module in (sparseedm.recovery, sparseedm.batch):
+        monkeypatch.setattr(module, "bank_step", lambda res, p, m, answer: (res, answer))
 
 
 @pytest.fixture

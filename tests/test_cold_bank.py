@@ -162,3 +162,146 @@ def test_the_bank_lowers_the_cold_error_on_coco_validation_people(shared_data):
                               mirror="auto")
     cold = cold_bank_stack(codes, given, missing)
     assert error(cold.poses) < 0.95 * error(codes.poses)
+
+
+def _bank_people(n_complete, n_occluded, seed=0):
+    """A file of the bank's photographed people (1 % of their size of noise,
+    about 200 px tall), the first n_complete whole, the others with 1-3 joints
+    hidden: (given, missing, truth)."""
+    from sparseedm.adaptation import guard_masks
+
+    bank = load_pose_bank()
+    rng = np.random.default_rng(seed)
+    rows = rng.choice(np.flatnonzero(bank.photographed), n_complete + n_occluded, replace=False)
+    truth = bank.poses[rows] * 100 + [300.0, 200.0]
+    truth = truth + rng.normal(0, 1.0, truth.shape)
+    missing = np.zeros(truth.shape[:2], bool)
+    missing[n_complete:] = guard_masks(n_occluded, 14, random_state=seed)
+    return np.where(missing[..., None], np.nan, truth), missing, truth
+
+
+def _template_people(n_complete, n_occluded, seed=0):
+    """A file of one non-human template of 14 points, each scaled, shifted and
+    deformed along one fixed direction: no people of the bank."""
+    from sparseedm.adaptation import guard_masks
+
+    rng = np.random.default_rng(seed)
+    n = n_complete + n_occluded
+    template, direction = rng.normal(0, 30, (14, 2)), rng.normal(0, 10, (14, 2))
+    truth = ((template + rng.normal(size=(n, 1, 1)) * direction)
+             * rng.uniform(0.5, 2, (n, 1, 1)) + rng.uniform(-100, 100, (n, 1, 2)))
+    missing = np.zeros(truth.shape[:2], bool)
+    missing[n_complete:] = guard_masks(n_occluded, 14, random_state=seed)
+    return np.where(missing[..., None], np.nan, truth), missing, truth
+
+
+def _without_bank_step(monkeypatch):
+    import sparseedm.batch
+    import sparseedm.recovery
+
+    for module in (sparseedm.recovery, sparseedm.batch):
+        monkeypatch.setattr(module, "bank_step", lambda res, p, m, answer: (res, answer))
+
+
+def test_probe_weight_goes_to_a_right_candidate_and_not_to_a_wrong_one():
+    """exemplars.probe_weight (the bank step's choice): a candidate that answers the
+    probes exactly gets the largest weight, one that answers them far off none."""
+    from types import SimpleNamespace
+
+    from sparseedm.exemplars import LINEAR_WEIGHTS, probe_weight
+
+    _, missing, truth = _template_people(0, 200, seed=3)
+    rng = np.random.default_rng(0)
+    given = np.where(missing[..., None], np.nan, truth)
+
+    def answer(p, m):  # the path: the truth off by a few pixels
+        return SimpleNamespace(poses=np.where(m[..., None], truth[rows] + rng.normal(
+            0, 5, p.shape), p))
+
+    def exact(r, j, p, m):
+        return truth[r]
+
+    def wrong(r, j, p, m):
+        return truth[r] + rng.normal(0, 50, p.shape)
+
+    seen = []
+
+    def spy(r, j, p, m):
+        seen.append(r)
+        return exact(r, j, p, m)
+
+    from sparseedm.donors import DONOR_PROBES, probes
+
+    drawn = [probes(missing, 0)[0]]  # rounds until DONOR_PROBES probes
+    while sum(map(len, drawn)) < DONOR_PROBES:
+        drawn.append(probes(missing, len(drawn))[0])
+    rows = np.concatenate(drawn)
+    right = probe_weight(given, missing, answer, exact)
+    assert right.weight == LINEAR_WEIGHTS[-1] and right.probes == len(rows)
+    assert right.err_chosen < right.err_default
+    assert probe_weight(given, missing, answer, wrong).weight == 0
+    probe_weight(given, missing, answer, spy)
+    assert np.array_equal(seen[0], rows)  # the candidate answers the probed rows
+
+
+def test_the_bank_step_weights_the_bank_where_the_file_is_its_people(small_dictionary,
+                                                                     monkeypatch, tmp_path):
+    """Few complete poses of the bank's own people: the probes give the bank weight,
+    recorded in the settings like the donor step's; the occluded poses' answers err
+    less than without the step and say AVERAGED_BANK; recover_file's chunks take
+    it as recover() does."""
+    from sparseedm.batch import recover_file
+    from sparseedm.exemplars import LINEAR_WEIGHTS
+    from sparseedm.keypoints import KeypointSet, write_keypoints
+
+    given, missing, truth = _bank_people(20, 150)
+    res = sparseedm.recover(given, missing, dictionary=small_dictionary)
+    record = res.adaptation.settings["bank"]
+    assert record["weight"] in LINEAR_WEIGHTS and record["weight"] > 0
+    assert record["probes"] >= 30 and record["probe_err_chosen"] < record["probe_err_default"]
+    assert res.summary()["adaptation"]["bank"] == record
+    occ = np.flatnonzero(missing.any(axis=1) & res.ok)
+    assert all(AVERAGED_BANK in a for a in res.averaged[occ])
+    src = write_keypoints(tmp_path / "in.npz", KeypointSet(given, missing))
+    recover_file(src, tmp_path / "out.npz", dictionary=small_dictionary)
+    with np.load(tmp_path / "out.npz") as out:
+        np.testing.assert_allclose(out["poses"][res.ok], res.poses[res.ok], rtol=0, atol=1e-6)
+    _without_bank_step(monkeypatch)
+    path = sparseedm.recover(given, missing, dictionary=small_dictionary)
+    assert "bank" not in path.adaptation.settings
+
+    def err(p):
+        return np.linalg.norm(p - truth[occ], axis=-1)[missing[occ]].mean()
+
+    assert err(res.poses[occ]) < err(path.poses[occ])
+
+
+def test_the_bank_step_gives_no_weight_where_the_bank_is_wrong(small_dictionary,
+                                                               monkeypatch):
+    """A file of one non-human shape: the bank's people answer its probes worse
+    than the path, so the weight is 0 and the answers are the path's."""
+    given, missing, _ = _template_people(30, 200)
+    res = sparseedm.recover(given, missing, dictionary=small_dictionary)
+    record = res.adaptation.settings["bank"]
+    assert record["weight"] == 0 and record["probes"] >= 30
+    assert not any(AVERAGED_BANK in a for a in res.averaged)
+    _without_bank_step(monkeypatch)
+    path = sparseedm.recover(given, missing, dictionary=small_dictionary)
+    np.testing.assert_array_equal(res.poses, path.poses)
+
+
+def test_the_bank_step_is_skipped_on_files_of_many_complete_poses(small_dictionary,
+                                                                  monkeypatch):
+    """From BANK_STEP_MAX_COMPLETE complete poses the step runs no probe: it says
+    why, and the answers are the path's."""
+    import sparseedm.cold_bank as cold_bank
+
+    given, missing, _ = _bank_people(20, 150)
+    monkeypatch.setattr(cold_bank, "BANK_STEP_MAX_COMPLETE", 20)
+    res = sparseedm.recover(given, missing, dictionary=small_dictionary)
+    record = res.adaptation.settings["bank"]
+    assert record["weight"] == 0 and record["probes"] == 0
+    assert record["skipped"] == "20 complete poses, at least 20"
+    _without_bank_step(monkeypatch)
+    path = sparseedm.recover(given, missing, dictionary=small_dictionary)
+    np.testing.assert_array_equal(res.poses, path.poses)

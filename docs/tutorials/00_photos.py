@@ -71,14 +71,16 @@ print("other fields:", sorted(set(person) - {"filled", "uncertainty"}))
 # :func:`sparseedm.recover` returns a :class:`~sparseedm.recovery.RecoveryResult`.
 # This file has 55 complete people: too few to learn from (adaptation needs 250),
 # enough to join the shipped dictionary's atoms. ``summary()["adaptation"]``
-# says which path ran and why, and the donor step's weight (0: the file's
-# other people did not help the probes).
+# says which path ran and why, the shipped pose bank's weight (0: on probes of
+# the occluded people it did not beat the file's own poses) and the donor
+# step's (0: the file's other people did not help the probes).
 import sparseedm  # noqa: E402
 
 res = sparseedm.recover(kps.poses, kps.missing)
 print(res.summary()["status"])
 info = res.summary()["adaptation"]
 print("path:", info["path"])
+print("pose bank's weight:", info["bank"]["weight"])
 print("donors' weight:", info["donors"]["weight"])
 
 # %%
