@@ -55,6 +55,8 @@ from pathlib import Path
 
 import numpy as np
 
+from sparseedm._atomic import json_text
+
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
@@ -141,7 +143,6 @@ def oracle(name, truth, missing, photo, kw, gate):
 
 def run_oracle(a):
     """--oracle over --seeds (the main files and --few's), pooled per file."""
-    import json
     import warnings
 
     import studies.fast.select_local_gaussian as gaussian
@@ -156,12 +157,11 @@ def run_oracle(a):
         for name, truth, missing, photo, kw in items:
             doc["files"][name] = oracle(name, truth, missing, photo, kw, a.gate)
             print(name, doc["files"][name], flush=True)
-    a.out.write_text(json.dumps(doc, indent=1) + "\n")
+    a.out.write_text(json_text(doc, indent=1) + "\n")
 
 
 def timing(out):
     """--timing: recover()'s seconds with the step off and on, back to back."""
-    import json
     import os
     import platform
     import warnings
@@ -187,7 +187,7 @@ def timing(out):
         doc["files"][name] = secs
         print(name, secs, flush=True)
     doc["load_after"] = list(os.getloadavg())
-    out.write_text(json.dumps(doc, indent=1) + "\n")
+    out.write_text(json_text(doc, indent=1) + "\n")
 
 
 def main(argv=None):

@@ -48,6 +48,8 @@ from pathlib import Path
 
 import numpy as np
 
+from sparseedm._atomic import json_text
+
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
@@ -348,7 +350,7 @@ def timing(out, seed=0):
         doc["load"].append(round(os.getloadavg()[0], 1))
         doc["files"][name] = row
         print(name, row, doc["load"][-1], flush=True)
-        out.write_text(json.dumps(doc, indent=1) + "\n")
+        out.write_text(json_text(doc, indent=1) + "\n")
 
 
 def table(docs):
@@ -435,7 +437,7 @@ def main(argv=None):
                 print(name, secs, weights, {k: v["mean"] for k, v in
                                             doc["files"][name]["candidates"].items()},
                       doc["files"][name]["candidates"]["local"]["minus_previous"], flush=True)
-            a.out.write_text(json.dumps(doc, indent=1) + "\n")
+            a.out.write_text(json_text(doc, indent=1) + "\n")
 
 
 if __name__ == "__main__":
