@@ -25,6 +25,11 @@ file; its gain over the base is [mean, paired standard error over poses].
 Score: per occluded pose the mean error of its hidden joints, % of body size.
 
     python studies/real_prior/probe_shape3d.py --seeds 0,1,2 --out results_shape3d.json
+    python studies/real_prior/probe_shape3d.py --table results_shape3d.json
+
+``--table`` prints, per file and protocol, the means over seeds and the
+cross-fitted gains pooled over seeds (mean of the seeds' gains, its standard
+error from theirs).
 """
 
 from __future__ import annotations
@@ -77,8 +82,37 @@ def stacked(base, fill, truth, missing, seed):
             "cross_w": chosen, "cross_gain": gain_se(errs[0] - cross)}
 
 
+def table(paths):
+    """Markdown rows: file, protocol, II / defaults / cold / shape3d alone (means
+    over seeds) and the pooled cross-fitted gains of the stacks."""
+    files = {}
+    for path in paths:
+        for name, protos in json.loads(Path(path).read_text())["files"].items():
+            for proto, seeds in protos.items():
+                files.setdefault((name, proto), {}).update(seeds)
+    stacks = ("defaults+raw", "defaults+calibrated", "defaults+coco", "cold+raw", "cold+coco",
+              "cold+calibrated")
+    lines = ["| file | masks | II | defaults | cold | shape3d raw / calibrated / coco | "
+             + " | ".join(stacks) + " |", "|" + "---|" * (6 + len(stacks))]
+    for (name, proto), seeds in files.items():
+        rows = list(seeds.values())
+
+        def mean(key):
+            return f"{np.mean([r[key] for r in rows]):.2f}"
+
+        cells = [name, proto, mean("iterative"), mean("defaults"), mean("cold"),
+                 " / ".join(mean(f"shape3d_{k}") for k in ("raw", "calibrated", "coco"))]
+        for st in stacks:
+            g = np.array([r[st]["cross_gain"] for r in rows])
+            se = np.sqrt((g[:, 1] ** 2).sum()) / len(g)
+            cells.append(f"{g[:, 0].mean():+.2f} ± {se:.2f}")
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--table", nargs="+", type=Path, help="print the table of these JSONs")
     ap.add_argument("--files", default="mpii,coco,bonn,mpii-large")
     ap.add_argument("--protocols", default=",".join(harness.PROTOCOLS))
     ap.add_argument("--seeds", default="0")
@@ -87,6 +121,9 @@ def main(argv=None):
     ap.add_argument("--temperature", type=float, default=0.1)
     ap.add_argument("--out", type=Path)
     a = ap.parse_args(argv)
+    if a.table:
+        print(table(a.table))
+        return
     if POSES.exists():
         poses3d = np.load(POSES)
     else:

@@ -1,5 +1,7 @@
 """A view-aware 3D shape-model fill of hidden 2D joints (study code).
 
+    python studies/real_prior/shape3d_model.py --k 16
+
 A 3D shape model of the 14 joints (:data:`sparseedm.skeleton.SKELETON_14`) is
 learned from CMU motion capture: every pose root-centred (the hips' midpoint),
 turned about the vertical so that its hip line lies along x, scaled to unit
@@ -238,3 +240,22 @@ def local_fill(model, bank3d, poses, missing, *, noise=0.02, proj=None, chunk=64
             out[row] = local_gaussian_fill(draws, poses[row][None], missing[row][None],
                                            **local)[0]
     return out
+
+
+def main(argv=None):
+    """Build the model and print its components' share of the variance."""
+    import argparse
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--k", type=int, default=16)
+    ap.add_argument("--step", type=int, default=8, help="every step-th mocap frame")
+    ap.add_argument("--subjects", help="CMU subjects, comma-separated (default: all)")
+    a = ap.parse_args(argv)
+    poses = cmu_poses(None if a.subjects is None else a.subjects.split(","), a.step)
+    model = build_model(poses, a.k)
+    total = build_model(poses, 42).variances.sum()
+    print(f"{len(poses)} poses; the {a.k} components explain "
+          f"{model.variances.sum() / total:.3f} of the variance")
+
+
+if __name__ == "__main__":
+    main()
