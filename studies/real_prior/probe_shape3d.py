@@ -26,6 +26,8 @@ Score: per occluded pose the mean error of its hidden joints, % of body size.
 
     python studies/real_prior/probe_shape3d.py --seeds 0,1,2 --out results_shape3d.json
     python studies/real_prior/probe_shape3d.py --table results_shape3d.json
+    python studies/real_prior/probe_shape3d.py --files mpii,bonn --protocols 1,real --local \
+        --out results_shape3d_local.json
 
 ``--table`` prints, per file and protocol, the means over seeds and the
 cross-fitted gains pooled over seeds (mean of the seeds' gains, its standard
@@ -49,7 +51,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from benchmarks import real2d  # noqa: E402
 import harness  # noqa: E402
 from shape3d_answers import answers  # noqa: E402
-from shape3d_model import build_model, calibrate, cmu_poses, shape_fill  # noqa: E402
+from shape3d_model import (build_model, calibrate, canonical, cmu_poses, local_fill,  # noqa: E402
+                           mirrored, shape_fill)
 
 WEIGHTS = np.round(np.arange(0, 1.01, 0.1), 2)
 POSES = Path("/tmp/shape3d/cmu_all_step8.npy")
@@ -119,6 +122,9 @@ def main(argv=None):
     ap.add_argument("--k", type=int, default=16)
     ap.add_argument("--noise", type=float, default=0.02)
     ap.add_argument("--temperature", type=float, default=0.1)
+    ap.add_argument("--local", action="store_true",
+                    help="also the local 3D model (shape3d_model.local_fill: 3,000 CMU poses"
+                         " and their mirror images seen through each pose's fitted camera)")
     ap.add_argument("--out", type=Path)
     a = ap.parse_args(argv)
     if a.table:
@@ -136,6 +142,8 @@ def main(argv=None):
                             & (real2d.body_size(coco.poses) > 0)]
     coco_model = calibrate(model, coco_train, noise=a.noise)
     kw = dict(noise=a.noise, temperature=a.temperature)
+    bank = canonical(poses3d[np.random.default_rng(0).choice(len(poses3d), 3000, replace=False)])
+    bank = np.concatenate([bank, mirrored(bank)])
     out = {"settings": {"k": a.k, "noise": a.noise, "temperature": a.temperature,
                         "weights": WEIGHTS.tolist()}, "files": {}, "seconds_per_1000": {}}
     secs = {"raw": [0.0, 0], "calibrated": [0.0, 0], "calibration": [0.0, 0]}
@@ -155,6 +163,9 @@ def main(argv=None):
                 fills["calibrated"] = shape_fill(cal, given, missing, **kw)
                 t3 = time.perf_counter()
                 fills["coco"] = shape_fill(coco_model, given, missing, **kw)
+                if a.local:
+                    f = local_fill(model, bank, given, missing, noise=a.noise)
+                    fills["local"] = np.where(np.isfinite(f), f, got["cold"])
                 for key, dt, n in (("calibration", t1 - t0, len(complete)),
                                    ("raw", t2 - t1, n_occ), ("calibrated", t3 - t2, n_occ)):
                     secs[key][0] += dt

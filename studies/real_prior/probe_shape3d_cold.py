@@ -11,6 +11,10 @@ paired standard error], positive: lower error.
 
     python studies/real_prior/probe_shape3d_cold.py --files mpii,bonn --seeds 0,1,2 \\
         --out results_shape3d_cold.json
+    python studies/real_prior/probe_shape3d_cold.py --table results_shape3d_cold.json
+
+``--table``: per file and masks, the cold error (mean over seeds), the weights
+chosen and the gains pooled over seeds (mean, standard error from the seeds').
 """
 
 from __future__ import annotations
@@ -47,8 +51,27 @@ def probe_weight(cold, fill, truth, pmiss, rows, joints):
     return float(WEIGHTS[best]) if mean > LINEAR_MIN_SE * se else 0.0
 
 
+def table(path):
+    """Markdown rows of the JSON at `path` (see the module docstring)."""
+    lines = ["| file | masks | cold | cold+raw: w / gain | cold+coco: w / gain |",
+             "|---|---|---|---|---|"]
+    for name, protos in json.loads(Path(path).read_text())["files"].items():
+        for proto, seeds in protos.items():
+            rows = list(seeds.values())
+            cells = [name, proto, f"{np.mean([r['cold'] for r in rows]):.2f}"]
+            for k in ("cold+raw", "cold+coco"):
+                g = np.array([r[k]["gain"] for r in rows])
+                se = np.sqrt((g[:, 1] ** 2).sum()) / len(g)
+                ws = ", ".join(f"{r[k]['w']:.1f}" for r in rows)
+                cells.append(f"{ws} / {g[:, 0].mean():+.2f} ± {se:.2f} "
+                             f"(worst seed {g[:, 0].min():+.2f})")
+            lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--table", type=Path, help="print the table of this JSON")
     ap.add_argument("--files", default="mpii,bonn")
     ap.add_argument("--protocols", default=",".join(harness.PROTOCOLS))
     ap.add_argument("--seeds", default="0")
@@ -57,6 +80,9 @@ def main(argv=None):
     ap.add_argument("--temperature", type=float, default=0.1)
     ap.add_argument("--out", type=Path)
     a = ap.parse_args(argv)
+    if a.table:
+        print(table(a.table))
+        return
     model = build_model(np.load(POSES), a.k)
     coco = real2d.load("coco")
     models = {"raw": model, "coco": calibrate(model, coco.poses[
