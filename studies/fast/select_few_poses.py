@@ -42,6 +42,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))  # `python studies/fast/select_few_poses.py` finds benchmarks/
+from sparseedm._atomic import json_text  # noqa: E402
 
 CANDIDATES = ("base+atoms", "avg mirrored dict", "avg mirrored atoms", "avg mirrored base")
 
@@ -171,7 +172,7 @@ def main(argv=None):
     for name, truth, missing in files(a):
         doc["files"][name] = measure(base, truth, missing, a.min_complete)
         print(name, json.dumps(doc["files"][name]), flush=True)
-        a.out.write_text(json.dumps(doc, indent=1) + "\n")
+        a.out.write_text(json_text(doc, indent=1) + "\n")
 
 
 if __name__ == "__main__":

@@ -37,6 +37,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
+from sparseedm._atomic import json_text  # noqa: E402
 
 
 @contextlib.contextmanager
@@ -165,7 +166,7 @@ def main(argv=None):
             print(name, seconds, weight, count, {k: v["mean"] for k, v in
                                                  doc["files"][name]["candidates"].items()},
                   doc["files"][name]["candidates"]["probe"]["minus_previous"], flush=True)
-            a.out.write_text(json.dumps(doc, indent=1) + "\n")
+            a.out.write_text(json_text(doc, indent=1) + "\n")
 
 
 if __name__ == "__main__":

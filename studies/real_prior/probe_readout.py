@@ -53,6 +53,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
+from sparseedm._atomic import json_text  # noqa: E402
 
 
 # ----------------------------------------------------------------- capture
@@ -417,7 +418,7 @@ def main(argv=None):
         print(name, r["path"], r["members"], f"drift {r['current_vs_recover_px']:.2g}",
               r["diagnosis_first_member"],
               json.dumps(r["paired"]), flush=True)
-        a.out.write_text(json.dumps(doc, indent=1) + "\n")
+        a.out.write_text(json_text(doc, indent=1) + "\n")
 
 
 if __name__ == "__main__":

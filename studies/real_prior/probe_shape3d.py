@@ -47,6 +47,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from sparseedm._atomic import json_text  # noqa: E402
 
 from benchmarks import real2d  # noqa: E402
 import harness  # noqa: E402
@@ -181,7 +182,7 @@ def main(argv=None):
     out["seconds_per_1000"] = {k: round(1000 * v[0] / max(v[1], 1), 2) for k, v in secs.items()}
     print(json.dumps(out["seconds_per_1000"]))
     if a.out:
-        a.out.write_text(json.dumps(out, indent=1) + "\n")
+        a.out.write_text(json_text(out, indent=1) + "\n")
 
 
 if __name__ == "__main__":

@@ -30,6 +30,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+from sparseedm._atomic import json_text  # noqa: E402
 import sparseedm  # noqa: E402
 from benchmarks import real2d  # noqa: E402
 import harness  # noqa: E402
@@ -119,7 +120,7 @@ def main(argv=None):
                 out["files"].setdefault(name, {}).setdefault(protocol, {})[str(seed)] = row
                 print(name, protocol, seed, json.dumps(row), flush=True)
     if a.out:
-        a.out.write_text(json.dumps(out, indent=1) + "\n")
+        a.out.write_text(json_text(out, indent=1) + "\n")
 
 
 if __name__ == "__main__":

@@ -66,6 +66,7 @@ import harness  # noqa: E402
 import select_cold_default as scd  # noqa: E402
 
 from benchmarks import load_cmu, real2d  # noqa: E402
+from sparseedm._atomic import json_text  # noqa: E402
 from sparseedm.cold_bank import PoseBank, bank_fill  # noqa: E402
 from sparseedm.skeleton import SKELETON_14  # noqa: E402
 
@@ -388,7 +389,7 @@ def main(argv=None):
                         for part, rows in doc["mocap_rows"].items() if part != "per_clip"}
         print(json.dumps(doc["mocap"], indent=1))
     if a.out:
-        a.out.write_text(json.dumps(doc, indent=1) + "\n")
+        a.out.write_text(json_text(doc, indent=1) + "\n")
     print(table(doc))
 
 

@@ -82,6 +82,7 @@ import coco_prior  # noqa: E402
 import harness  # noqa: E402
 
 from benchmarks import load_cmu, real2d  # noqa: E402
+from sparseedm._atomic import json_text  # noqa: E402
 from sparseedm._recovery_base import mirror_weights  # noqa: E402
 from sparseedm.dictionary import load_dictionary  # noqa: E402
 from sparseedm.metrics import occlusion_masks  # noqa: E402
@@ -396,7 +397,7 @@ def main(argv=None):
             entry["photos"] = run_photos(dics, a.seeds, a.cache)
         entry.setdefault("seconds", {})[a.part] = round(time.perf_counter() - t0, 1)
         if a.out:
-            a.out.write_text(json.dumps(doc, indent=1) + "\n")
+            a.out.write_text(json_text(doc, indent=1) + "\n")
     print(table(doc), photo_table(doc), sep="\n")
 
 
