@@ -251,9 +251,11 @@ def main(argv=None):
     thresholds = [int(t) for t in a.thresholds.split(",")]
     margins = [float(m) for m in a.margins.split(",")]
     if a.replay:
+        from studies.results_json import load_results  # null (NaN in strict JSON) read as NaN
+
         doc = {"files": {}}
         for path in a.replay:  # merged per file: a later file's fields win
-            for name, row in json.loads(path.read_text())["files"].items():
+            for name, row in load_results(path)["files"].items():
                 doc["files"].setdefault(name, {}).update(
                     {k: v for k, v in row.items() if not k.startswith("rule")})
         if a.pre_only:

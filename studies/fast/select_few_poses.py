@@ -161,7 +161,9 @@ def main(argv=None):
     ap.add_argument("--table", type=Path, help="print the Markdown table of this JSON, stop")
     a = ap.parse_args(argv)
     if a.table:
-        print(table(json.loads(a.table.read_text())))
+        from studies.results_json import load_results  # null (NaN in strict JSON) read as NaN
+
+        print(table(load_results(a.table)))
         return
     import sparseedm
 

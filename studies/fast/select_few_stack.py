@@ -143,7 +143,9 @@ def main(argv=None):
     ap.add_argument("--out", type=Path, default=Path("few_stack.json"))
     a = ap.parse_args(argv)
     if a.table:
-        print(table([json.loads(p.read_text()) for p in a.table]))
+        from studies.results_json import load_results  # null (NaN in strict JSON) read as NaN
+
+        print(table([load_results(p) for p in a.table]))
         return
     warnings.simplefilter("ignore")
     doc = json.loads(a.out.read_text()) if a.out.exists() else {

@@ -232,7 +232,7 @@ def main(argv=None):
         docs = [load_results(p) for p in a.table]
         rule = {}
         for p in a.ruled:
-            rule.update(json.loads(p.read_text()))
+            rule.update(load_results(p))
         print(replay_table(docs[0]) if a.replay else shipped_table(docs, rule))
         return None
     if a.timing:
@@ -541,9 +541,10 @@ def rule_main(a):
     from sparseedm.dictionary import load_dictionary
     from sparseedm.exemplars import choose_exemplars
     from studies.fast.select_photo_blend import files
+    from studies.results_json import load_results  # null (NaN in strict JSON) read as NaN
 
     out = json.loads(a.out.read_text()) if a.out.exists() else {}
-    runs = {n: r for p in a.rule for n, r in json.loads(p.read_text())["files"].items()}
+    runs = {n: r for p in a.rule for n, r in load_results(p)["files"].items()}
     for seed in (int(s) for s in a.seeds.split(",")):
         a.seed = seed
         made = mocap_files(a) if a.mocap else ((*f, {}) for f in files(a))

@@ -322,7 +322,9 @@ def run(a, screen_file, measure_file, sep=","):
     from studies.fast.select_photo_blend import paired
 
     if a.table:
-        docs = [json.loads(p.read_text()) for p in a.table]
+        from studies.results_json import load_results  # null (NaN in strict JSON) read as NaN
+
+        docs = [load_results(p) for p in a.table]
         print(screen_table(docs, a.columns and a.columns.split(sep)) if a.screen else
               table(docs))
         return

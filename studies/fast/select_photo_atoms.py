@@ -375,9 +375,11 @@ def main(argv=None):
                     default=Path(__file__).with_name("selection_photo_atoms.json"))
     a = ap.parse_args(argv)
     if a.replay:
+        from studies.results_json import load_results  # null (NaN in strict JSON) read as NaN
+
         doc = {"files": {}}
         for path in a.replay:
-            doc["files"].update(json.loads(path.read_text())["files"])
+            doc["files"].update(load_results(path)["files"])
         if a.file_masks:
             file_mask_checks(doc, a)
         print(summary(doc), compare(doc, a.table), sep="\n\n")

@@ -403,8 +403,10 @@ def main(argv=None):
     ap.add_argument("--table", type=Path, nargs="+", help="print the Markdown of these JSONs, stop")
     a = ap.parse_args(argv)
     if a.table:
+        from studies.results_json import load_results  # null (NaN in strict JSON) read as NaN
+
         print(table({"files": {k: v for p in a.table
-                               for k, v in json.loads(p.read_text())["files"].items()}}))
+                               for k, v in load_results(p)["files"].items()}}))
         return
     warnings.simplefilter("ignore")
     doc = {"score": "per occluded pose: mean % body size of its hidden joints; paired: "

@@ -89,9 +89,11 @@ def stacked(base, fill, truth, missing, seed):
 def table(paths):
     """Markdown rows: file, protocol, II / defaults / cold / shape3d alone (means
     over seeds) and the pooled cross-fitted gains of the stacks."""
+    from studies.results_json import load_results  # null (NaN in strict JSON) read as NaN
+
     files = {}
     for path in paths:
-        for name, protos in json.loads(Path(path).read_text())["files"].items():
+        for name, protos in load_results(path)["files"].items():
             for proto, seeds in protos.items():
                 files.setdefault((name, proto), {}).update(seeds)
     stacks = ("defaults+raw", "defaults+calibrated", "defaults+coco", "cold+raw", "cold+coco",

@@ -54,9 +54,10 @@ def probe_weight(cold, fill, truth, pmiss, rows, joints):
 
 def table(path):
     """Markdown rows of the JSON at `path` (see the module docstring)."""
+    from studies.results_json import load_results  # null (NaN in strict JSON) read as NaN
     lines = ["| file | masks | cold | cold+raw: w / gain | cold+coco: w / gain |",
              "|---|---|---|---|---|"]
-    for name, protos in json.loads(Path(path).read_text())["files"].items():
+    for name, protos in load_results(path)["files"].items():
         for proto, seeds in protos.items():
             rows = list(seeds.values())
             cells = [name, proto, f"{np.mean([r['cold'] for r in rows]):.2f}"]

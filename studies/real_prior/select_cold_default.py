@@ -333,7 +333,7 @@ def table(doc):
                 ref = next(iter(r["error"]))
                 cells = [f"{r['error'][ref]:.2f}"] + [
                     f"{p['mean']:+.3f} ± {p['se_files']:.3f}"
-                    + (f" ({p['se_groups']:.3f})" if p["se_groups"] is not None else "")
+                    + (f" ({p['se_groups']:.3f})" if p["se_groups"] is not None and np.isfinite(p["se_groups"]) else "")
                     for m, p in r["paired"].items() if " - " not in m]
                 lines.append(f"| {protocol} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
@@ -373,7 +373,9 @@ def main(argv=None):
     ap.add_argument("--table", type=Path, help="print the tables of this JSON and stop")
     a = ap.parse_args(argv)
     if a.table:
-        doc = json.loads(a.table.read_text())
+        from studies.results_json import load_results  # null (NaN in strict JSON) read as NaN
+
+        doc = load_results(a.table)
         print(table(doc), photo_table(doc), sep="\n")
         return
     doc = json.loads(a.out.read_text()) if a.out and a.out.exists() else {}
