@@ -82,6 +82,7 @@ import coco_prior  # noqa: E402
 import harness  # noqa: E402
 
 from benchmarks import load_cmu, real2d  # noqa: E402
+from studies.results_json import load_results  # noqa: E402
 from sparseedm._atomic import json_text  # noqa: E402
 from sparseedm._recovery_base import mirror_weights  # noqa: E402
 from sparseedm.dictionary import load_dictionary  # noqa: E402
@@ -373,12 +374,10 @@ def main(argv=None):
     ap.add_argument("--table", type=Path, help="print the tables of this JSON and stop")
     a = ap.parse_args(argv)
     if a.table:
-        from studies.results_json import load_results  # null (NaN in strict JSON) read as NaN
-
         doc = load_results(a.table)
         print(table(doc), photo_table(doc), sep="\n")
         return
-    doc = json.loads(a.out.read_text()) if a.out and a.out.exists() else {}
+    doc = load_results(a.out) if a.out and a.out.exists() else {}  # null as NaN: tabled below
     parts = a.part.split(",")
     all_pairs = pairs()
     sets = mocap_sets([p for p in parts if p not in ("defaults", "coverage")], a.daz)
