@@ -24,6 +24,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository root
 from studies.adaptation.select_adaptation import build, split  # noqa: E402
+from sparseedm._atomic import json_text
 from sparseedm import load_dictionary, recover
 from sparseedm.dictionary import Dictionary
 from sparseedm.edm import pose_to_vector
@@ -138,4 +139,4 @@ if __name__ == "__main__":
                    load=open("/proc/loadavg").read().split()[0])
         print(json.dumps(out), flush=True)
         with open(Path(WORK) / "results.jsonl", "a") as f:
-            f.write(json.dumps(out) + "\n")
+            f.write(json_text(out) + "\n")

@@ -63,6 +63,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sparseedm._atomic import json_text
 from sparseedm.adaptation import adapt_vectors, masked_error, pose_vectors as _vectors, run_adaptation
 from sparseedm.dictionary import Dictionary, load_dictionary
 
@@ -233,7 +234,7 @@ def main(argv=None):
             if args.self_training is not None:
                 key += f"_self_training{args.self_training}"
             rec[key] = test_table(base, src, dst, args, poses, clips)
-        Path(args.out).write_text(json.dumps(out, indent=1, default=float))
+        Path(args.out).write_text(json_text(out, indent=1, default=float))
     return 0
 
 

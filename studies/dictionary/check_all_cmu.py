@@ -24,6 +24,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository root
 from studies.dictionary.select_all_cmu import data_parser, load_split, sample  # noqa: E402
 
+from sparseedm._atomic import json_text  # noqa: E402
 from sparseedm.dictionary import Dictionary, load_dictionary  # noqa: E402
 from sparseedm.edm import pose_to_vector  # noqa: E402
 from sparseedm.learning import OnlineDictionaryLearning, complete_pose_vectors  # noqa: E402
@@ -76,7 +77,7 @@ def main(argv=None):
         "paired_new@0.0002_minus_new@0.0005": paired("new@0.0002", "new@0.0005"),
     }
     with open(args.out, "w") as f:
-        json.dump(result, f, indent=1)
+        f.write(json_text(result, indent=1))
     print(json.dumps(result, indent=1))
 
 

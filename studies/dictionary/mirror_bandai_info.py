@@ -23,6 +23,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository r
 from studies.dictionary.check_all_cmu import per_pose  # noqa: E402
 from studies.dictionary.select_all_cmu import data_parser, load_split, mirrored, sample  # noqa: E402
 
+from sparseedm._atomic import json_text  # noqa: E402
 from sparseedm.dictionary import Dictionary  # noqa: E402
 from sparseedm.learning import OnlineDictionaryLearning, complete_pose_vectors  # noqa: E402
 
@@ -52,7 +53,7 @@ def main(argv=None):
               "paired_mirrored_minus_plain": {"mean": float(diff.mean()),
                                               "se": float(diff.std(ddof=1) / np.sqrt(len(diff)))}}
     with open(args.out, "w") as f:
-        json.dump(result, f, indent=1)
+        f.write(json_text(result, indent=1))
     print(json.dumps(result))
 
 

@@ -42,6 +42,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository root
 from studies.dictionary.select_alpha import choose  # noqa: E402
 
+from sparseedm._atomic import json_text  # noqa: E402
 from sparseedm.dictionary import Dictionary, load_dictionary  # noqa: E402
 from sparseedm.edm import pose_to_vector  # noqa: E402
 from sparseedm.learning import OnlineDictionaryLearning, complete_pose_vectors  # noqa: E402
@@ -217,7 +218,7 @@ def main(argv=None):
         result["shipped"] = {"path": str(args.ship), "n_poses": int(len(X_all)), "fit_s": fit_s}
         print(f"wrote {args.ship}", flush=True)
     with open(args.out, "w") as f:
-        json.dump(result, f, indent=1)
+        f.write(json_text(result, indent=1))
     print("best:", json.dumps(best), "| cmu-k2000:", baseline["mix_err_ave"])
 
 

@@ -24,6 +24,7 @@ import time
 
 import numpy as np
 
+from sparseedm._atomic import json_text
 from sparseedm.dictionary import Dictionary
 from sparseedm.edm import pose_to_vector
 from sparseedm.learning import OnlineDictionaryLearning, complete_pose_vectors
@@ -99,7 +100,7 @@ def main(argv=None):
               "n_val": int(len(val)), "rows": rows, "lowest": min(rows, key=_err),
               "best": best}
     with open(args.out, "w") as f:
-        json.dump(result, f, indent=1)
+        f.write(json_text(result, indent=1))
     print("best:", json.dumps(best))
 
 

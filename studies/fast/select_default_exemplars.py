@@ -39,6 +39,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))  # `python studies/fast/select_default_exemplars.py` finds benchmarks/
+from sparseedm._atomic import json_text  # noqa: E402
 
 METHODS = {"fast": {"preset": "fast"}, "defaults": {"ensemble": 1}}
 
@@ -143,7 +144,7 @@ def main(argv=None):
         truth, missing = load()
         doc["files"][name] = compare(np.asarray(truth, float), missing)
         print(name, json.dumps(doc["files"][name]), flush=True)
-        a.out.write_text(json.dumps(doc, indent=1) + "\n")
+        a.out.write_text(json_text(doc, indent=1) + "\n")
 
 
 if __name__ == "__main__":

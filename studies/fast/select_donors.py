@@ -53,6 +53,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
+from sparseedm._atomic import json_text  # noqa: E402
 
 #: donors need at least this many joints observed in both poses
 MIN_SHARED = 8
@@ -379,7 +380,7 @@ def main(argv=None):
         doc["files"][key] = r = measure(truth, missing, a.seed, d)
         print(key, r["chosen"], r["oracle"], r["seconds"],
               {k: v["minus_default"] for k, v in r["candidates"].items()}, flush=True)
-        a.out.write_text(json.dumps(doc, indent=1) + "\n")
+        a.out.write_text(json_text(doc, indent=1) + "\n")
 
 
 if __name__ == "__main__":

@@ -48,6 +48,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))  # `python studies/fast/select_exemplar_rule.py` finds benchmarks/
+from sparseedm._atomic import json_text  # noqa: E402
 
 from studies.fast.select_default_exemplars import files, paired, per_pose  # noqa: E402
 
@@ -250,9 +251,11 @@ def main(argv=None):
     thresholds = [int(t) for t in a.thresholds.split(",")]
     margins = [float(m) for m in a.margins.split(",")]
     if a.replay:
+        from studies.results_json import load_results  # null (NaN in strict JSON) read as NaN
+
         doc = {"files": {}}
         for path in a.replay:  # merged per file: a later file's fields win
-            for name, row in json.loads(path.read_text())["files"].items():
+            for name, row in load_results(path)["files"].items():
                 doc["files"].setdefault(name, {}).update(
                     {k: v for k, v in row.items() if not k.startswith("rule")})
         if a.pre_only:
@@ -262,7 +265,7 @@ def main(argv=None):
                 doc["files"].setdefault(name, {})["pre_by_holdout"] = pre_checks(
                     np.asarray(truth, float), missing)
                 print(name, doc["files"][name]["pre_by_holdout"], flush=True)
-                a.out.write_text(json.dumps(doc, indent=1) + "\n")
+                a.out.write_text(json_text(doc, indent=1) + "\n")
         for row in doc["files"].values():  # the shipped check: single rows held back
             if "rows" in row.get("pre_by_holdout", {}):
                 row["pre"] = row["pre_by_holdout"]["rows"]
@@ -270,7 +273,7 @@ def main(argv=None):
                        "preset='fast'; pre = the check (rows held back), pre_by_holdout: "
                        "rows and blocks; post: the dropped check after adapting")
         doc["replay"] = replays(doc, thresholds, margins)
-        a.out.write_text(json.dumps(doc, indent=1) + "\n")
+        a.out.write_text(json_text(doc, indent=1) + "\n")
         if a.table:
             t, m = a.table.split(",")
             print(table(doc, int(t), float(m)))
@@ -288,9 +291,9 @@ def main(argv=None):
         truth, missing = load()
         doc["files"][name] = measure(np.asarray(truth, float), missing)
         print(name, json.dumps(doc["files"][name]), flush=True)
-        a.out.write_text(json.dumps(doc, indent=1) + "\n")
+        a.out.write_text(json_text(doc, indent=1) + "\n")
     doc["replay"] = replays(doc, thresholds, margins)
-    a.out.write_text(json.dumps(doc, indent=1) + "\n")
+    a.out.write_text(json_text(doc, indent=1) + "\n")
     print(json.dumps(doc["replay"], indent=1))
 
 

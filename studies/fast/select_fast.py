@@ -72,7 +72,6 @@ from __future__ import annotations
 
 import argparse
 import itertools
-import json
 import os
 import sys
 import time
@@ -83,6 +82,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))  # `python studies/fast/select_fast.py` finds benchmarks/
+from sparseedm._atomic import json_text  # noqa: E402
 
 GRID_ATOMS = (1000, 2000, 3000, 4000)
 GRID_ALPHA = (0.0002, 0.0005, 0.001)
@@ -408,11 +408,11 @@ def main(argv=None):
     args = ap.parse_args(argv)
     if args.real:
         out = Path(__file__).with_name("selection_fast_real.json")
-        out.write_text(json.dumps({"rows": real_people()}, indent=1))
+        out.write_text(json_text({"rows": real_people()}, indent=1))
         return
     if args.gaps:
         out = Path(__file__).with_name("selection_fast_gaps.json")
-        out.write_text(json.dumps({"rows": gaps()}, indent=1))
+        out.write_text(json_text({"rows": gaps()}, indent=1))
         return
     import sparseedm
     from sklearn.experimental import enable_iterative_imputer  # noqa: F401
@@ -434,8 +434,8 @@ def main(argv=None):
             rows = scale(base, [PREVIOUS_RIDGE, FAST_RIDGE, dict(FAST_RIDGE, first_atoms=32),
                                 dict(PREVIOUS_RIDGE, first_atoms=32)])
         out = Path(__file__).with_name("selection_fast_scale.json")
-        out.write_text(json.dumps({"blas_threads": 1, "loadavg": os.getloadavg(),
-                                   "rows": rows}, indent=1))
+        out.write_text(json_text({"blas_threads": 1, "loadavg": os.getloadavg(),
+                                  "rows": rows}, indent=1))
         return
     if args.local:
         with threadpool_limits(1, user_api="blas"):
@@ -443,20 +443,20 @@ def main(argv=None):
                     + local_grid(base, "every held-out CMU pose, a quarter under Mix",
                                  *validation_file(n=10 ** 6, occluded=0.25)))
         out = Path(__file__).with_name("selection_fast_local.json")
-        out.write_text(json.dumps({"blas_threads": 1, "loadavg": os.getloadavg(),
-                                   "choice": choose_local(rows), "rows": rows}, indent=1))
+        out.write_text(json_text({"blas_threads": 1, "loadavg": os.getloadavg(),
+                                  "choice": choose_local(rows), "rows": rows}, indent=1))
         print(choose_local(rows))
         print(local_table(rows))
         return
     if args.caps:
         out = Path(__file__).with_name("selection_fast_caps.json")
-        out.write_text(json.dumps({"file": "every held-out CMU pose, a quarter under Mix",
-                                   "rows": caps(base)}, indent=1))
+        out.write_text(json_text({"file": "every held-out CMU pose, a quarter under Mix",
+                                  "rows": caps(base)}, indent=1))
         return
     if args.solvers:
         out = Path(__file__).with_name("selection_fast_solvers.json")
-        out.write_text(json.dumps({"file": "6,000 CMU held-out-clip poses, half under Mix",
-                                   "rows": solvers(X, P, mask, args.repeats)}, indent=1))
+        out.write_text(json_text({"file": "6,000 CMU held-out-clip poses, half under Mix",
+                                  "rows": solvers(X, P, mask, args.repeats)}, indent=1))
         return
     t0 = time.perf_counter()
     imp = IterativeImputer(max_iter=10, tol=0).fit_transform(X.reshape(len(X), -1))
@@ -476,8 +476,8 @@ def main(argv=None):
                                       zip(*np.unique(res.status, return_counts=True))}})
             print(rows[-1], flush=True)
     out = Path(__file__).with_name("selection_fast.json")
-    out.write_text(json.dumps({"file": "6,000 CMU held-out-clip poses, half under Mix",
-                               "rows": rows}, indent=1))
+    out.write_text(json_text({"file": "6,000 CMU held-out-clip poses, half under Mix",
+                              "rows": rows}, indent=1))
 
 
 if __name__ == "__main__":

@@ -42,6 +42,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))  # `python studies/fast/select_few_poses.py` finds benchmarks/
+from sparseedm._atomic import json_text  # noqa: E402
 
 CANDIDATES = ("base+atoms", "avg mirrored dict", "avg mirrored atoms", "avg mirrored base")
 
@@ -160,7 +161,9 @@ def main(argv=None):
     ap.add_argument("--table", type=Path, help="print the Markdown table of this JSON, stop")
     a = ap.parse_args(argv)
     if a.table:
-        print(table(json.loads(a.table.read_text())))
+        from studies.results_json import load_results  # null (NaN in strict JSON) read as NaN
+
+        print(table(load_results(a.table)))
         return
     import sparseedm
 
@@ -171,7 +174,7 @@ def main(argv=None):
     for name, truth, missing in files(a):
         doc["files"][name] = measure(base, truth, missing, a.min_complete)
         print(name, json.dumps(doc["files"][name]), flush=True)
-        a.out.write_text(json.dumps(doc, indent=1) + "\n")
+        a.out.write_text(json_text(doc, indent=1) + "\n")
 
 
 if __name__ == "__main__":

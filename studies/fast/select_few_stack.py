@@ -37,6 +37,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
+from sparseedm._atomic import json_text  # noqa: E402
 
 
 @contextlib.contextmanager
@@ -142,7 +143,9 @@ def main(argv=None):
     ap.add_argument("--out", type=Path, default=Path("few_stack.json"))
     a = ap.parse_args(argv)
     if a.table:
-        print(table([json.loads(p.read_text()) for p in a.table]))
+        from studies.results_json import load_results  # null (NaN in strict JSON) read as NaN
+
+        print(table([load_results(p) for p in a.table]))
         return
     warnings.simplefilter("ignore")
     doc = json.loads(a.out.read_text()) if a.out.exists() else {
@@ -165,7 +168,7 @@ def main(argv=None):
             print(name, seconds, weight, count, {k: v["mean"] for k, v in
                                                  doc["files"][name]["candidates"].items()},
                   doc["files"][name]["candidates"]["probe"]["minus_previous"], flush=True)
-            a.out.write_text(json.dumps(doc, indent=1) + "\n")
+            a.out.write_text(json_text(doc, indent=1) + "\n")
 
 
 if __name__ == "__main__":

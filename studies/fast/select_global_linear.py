@@ -46,6 +46,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
+from sparseedm._atomic import json_text  # noqa: E402
 
 RIDGES = (0.001, 0.01)
 FRAMES = ("raw", "radius", "procrustes")
@@ -231,7 +232,7 @@ def main(argv=None):
         docs = [load_results(p) for p in a.table]
         rule = {}
         for p in a.ruled:
-            rule.update(json.loads(p.read_text()))
+            rule.update(load_results(p))
         print(replay_table(docs[0]) if a.replay else shipped_table(docs, rule))
         return None
     if a.timing:
@@ -254,7 +255,7 @@ def main(argv=None):
             print(name, path, secs, flush=True)
             for k, v in row["candidates"].items():
                 print(f"   {k:40s} {v['mean']:.3f}  {v['minus_shipped']}", flush=True)
-            a.out.write_text(json.dumps(doc, indent=1) + "\n")
+            a.out.write_text(json_text(doc, indent=1) + "\n")
 
 
 
@@ -400,7 +401,7 @@ def stack_main(a):
             print(name, path, secs, weights, flush=True)
             for k, v in row["candidates"].items():
                 print(f"   {k:24s} {v['mean']:.3f}  {v['minus_shipped']}", flush=True)
-            a.out.write_text(json.dumps(doc, indent=1) + "\n")
+            a.out.write_text(json_text(doc, indent=1) + "\n")
 
 
 
@@ -500,7 +501,7 @@ def shipped_main(a):
             print(name, path, weight, secs, {k: v["minus_before"] for k, v in
                                              doc["files"][name]["candidates"].items()},
                   flush=True)
-            a.out.write_text(json.dumps(doc, indent=1) + "\n")
+            a.out.write_text(json_text(doc, indent=1) + "\n")
 
 
 def timing(out):
@@ -528,7 +529,7 @@ def timing(out):
         doc["load"].append(round(os.getloadavg()[0], 1))
         doc["files"][name] = row
         print(name, row, doc["load"][-1], flush=True)
-        out.write_text(json.dumps(doc, indent=1) + "\n")
+        out.write_text(json_text(doc, indent=1) + "\n")
 
 
 def rule_main(a):
@@ -540,9 +541,10 @@ def rule_main(a):
     from sparseedm.dictionary import load_dictionary
     from sparseedm.exemplars import choose_exemplars
     from studies.fast.select_photo_blend import files
+    from studies.results_json import load_results  # null (NaN in strict JSON) read as NaN
 
     out = json.loads(a.out.read_text()) if a.out.exists() else {}
-    runs = {n: r for p in a.rule for n, r in json.loads(p.read_text())["files"].items()}
+    runs = {n: r for p in a.rule for n, r in load_results(p)["files"].items()}
     for seed in (int(s) for s in a.seeds.split(",")):
         a.seed = seed
         made = mocap_files(a) if a.mocap else ((*f, {}) for f in files(a))
@@ -557,7 +559,7 @@ def rule_main(a):
             out[name] = {"weight": r["linear_weight"], "ruled": check.linear_weight,
                          "stacked - before": r["candidates"]["stacked"]["minus_before"]}
             print(re.sub(r" \(.*\)", "", name), out[name], flush=True)
-            a.out.write_text(json.dumps(out, indent=1) + "\n")
+            a.out.write_text(json_text(out, indent=1) + "\n")
 
 
 def replay_table(doc):

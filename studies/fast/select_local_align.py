@@ -55,6 +55,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
+from sparseedm._atomic import json_text  # noqa: E402
 
 CACHE = Path("/tmp/photos_align/cache")
 
@@ -260,7 +261,7 @@ def timing(out, variants, seed=0):
                 sparseedm.recover(given, missing, n_jobs=1)
             doc["seconds"][v].append(round(time.perf_counter() - t0, 2))
         doc["load"].append(round(os.getloadavg()[0], 1))
-    out.write_text(json.dumps(doc, indent=1) + "\n")
+    out.write_text(json_text(doc, indent=1) + "\n")
     print(doc)
 
 
@@ -321,7 +322,9 @@ def run(a, screen_file, measure_file, sep=","):
     from studies.fast.select_photo_blend import paired
 
     if a.table:
-        docs = [json.loads(p.read_text()) for p in a.table]
+        from studies.results_json import load_results  # null (NaN in strict JSON) read as NaN
+
+        docs = [load_results(p) for p in a.table]
         print(screen_table(docs, a.columns and a.columns.split(sep)) if a.screen else
               table(docs))
         return
@@ -352,7 +355,7 @@ def run(a, screen_file, measure_file, sep=","):
                 print(name, secs, weights, {k: v["mean"] for k, v in
                                             doc["files"][name]["candidates"].items()},
                       doc["files"][name]["candidates"]["variant"]["minus_shipped"], flush=True)
-            a.out.write_text(json.dumps(doc, indent=1) + "\n")
+            a.out.write_text(json_text(doc, indent=1) + "\n")
 
 
 def main(argv=None):

@@ -49,6 +49,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))  # `python studies/fast/select_photo_atoms.py` finds benchmarks/
+from sparseedm._atomic import json_text  # noqa: E402
 
 ALPHAS = (0.00025, 0.001)
 #: the rule adopted (sparseedm.exemplars): the mean of three codes, checked with the
@@ -239,7 +240,7 @@ def file_mask_checks(doc, a):
             continue
         row["check_file"] = check(base, truth[~occ], more=a.more, pool=missing[occ])
         print(name, row["check_file"], flush=True)
-        a.out.write_text(json.dumps(doc, indent=1) + "\n")
+        a.out.write_text(json_text(doc, indent=1) + "\n")
 
 
 def rule_files(a):
@@ -374,9 +375,11 @@ def main(argv=None):
                     default=Path(__file__).with_name("selection_photo_atoms.json"))
     a = ap.parse_args(argv)
     if a.replay:
+        from studies.results_json import load_results  # null (NaN in strict JSON) read as NaN
+
         doc = {"files": {}}
         for path in a.replay:
-            doc["files"].update(json.loads(path.read_text())["files"])
+            doc["files"].update(load_results(path)["files"])
         if a.file_masks:
             file_mask_checks(doc, a)
         print(summary(doc), compare(doc, a.table), sep="\n\n")
@@ -396,7 +399,7 @@ def main(argv=None):
     for name, truth, missing, extra in todo:
         doc["files"][name] = measure(base, truth, missing, extra, a.more)
         print(name, json.dumps(doc["files"][name]), flush=True)
-        a.out.write_text(json.dumps(doc, indent=1) + "\n")
+        a.out.write_text(json_text(doc, indent=1) + "\n")
     print(summary(doc), compare(doc, a.table), sep="\n\n")
 
 

@@ -41,7 +41,6 @@ candidate minus ``cur`` paired over the occluded poses [mean, standard error].
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 import warnings
@@ -51,6 +50,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))  # `python studies/fast/select_photo_blend.py` finds benchmarks/
+from sparseedm._atomic import json_text  # noqa: E402
 
 #: elastic-net l2 weights (relative to the mean squared atom norm)
 EN_WEIGHTS = (0.03, 0.3)
@@ -286,7 +286,7 @@ def main(argv=None):
         doc["files"][name] = row
         print(name, path, {k: v["minus_cur"] for k, v in row["candidates"].items()},
               flush=True)
-        a.out.write_text(json.dumps(doc, indent=1) + "\n")
+        a.out.write_text(json_text(doc, indent=1) + "\n")
 
 
 if __name__ == "__main__":

@@ -47,6 +47,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))  # `python studies/fast/select_ridge_check.py` finds benchmarks/
+from sparseedm._atomic import json_text  # noqa: E402
 
 
 def path_members(base, rest, path):
@@ -259,7 +260,7 @@ def main(argv=None):
         print(name, path, check, chosen, secs,
               {k: v["minus_shipped"] for k, v in doc["files"][name]["candidates"].items()},
               flush=True)
-        a.out.write_text(json.dumps(doc, indent=1) + "\n")
+        a.out.write_text(json_text(doc, indent=1) + "\n")
 
 
 if __name__ == "__main__":

@@ -27,6 +27,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository root
 from studies.lifting.select_lifter import arrays, split  # noqa: E402
+from sparseedm._atomic import json_text  # noqa: E402
 from sparseedm.lifting import fit_lifter, lift, training_pairs  # noqa: E402
 from sparseedm.lifting.metrics import err_ave_3d  # noqa: E402
 from sparseedm.metrics import random_occlusion  # noqa: E402
@@ -93,7 +94,7 @@ def main(argv=None):
                      "least-squares scale per pose)",
         "results": results, "chosen": chosen,
     }
-    Path(args.output).write_text(json.dumps(doc, indent=1))
+    Path(args.output).write_text(json_text(doc, indent=1))
     print("chosen:", json.dumps(chosen))
 
 

@@ -27,6 +27,7 @@ import time
 
 import numpy as np
 
+from sparseedm._atomic import json_text
 from sparseedm.dataset import load_dataset
 from sparseedm.lifting import load_lifter
 from sparseedm.lifting.adaptation import adapt_lifter, masked_error_2d
@@ -149,7 +150,7 @@ def main(argv=None):
         result["control_scored"] = score(lf, scored, a.seed)
         print("scored control", result["control_scored"], flush=True)
     with open(a.output, "w") as f:
-        json.dump(result, f, indent=1)
+        f.write(json_text(result, indent=1))
 
 
 def in_source(a, data, part):
@@ -172,7 +173,7 @@ def in_source(a, data, part):
         result[f"{name}/own"] = score(lf, scored, a.seed)
         print(f"{name}/own", json.dumps(result[f"{name}/own"]), flush=True)
     with open(a.output, "w") as f:
-        json.dump(result, f, indent=1)
+        f.write(json_text(result, indent=1))
 
 
 FINAL = {"reweight": {"method": "reweight"},  # the defaults of adapt_lifter
@@ -207,7 +208,7 @@ def final(a, data, ia, isc, iv):
             result[f"{name}/{src}"] = score(lf, scored, a.seed)
             print(f"{name}/{src}", json.dumps(result[f"{name}/{src}"]), flush=True)
     with open(a.output, "w") as f:
-        json.dump(result, f, indent=1)
+        f.write(json_text(result, indent=1))
 
 
 if __name__ == "__main__":

@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sparseedm._atomic import json_text
 from sparseedm.edm import triu_indices
 from sparseedm.lifting import load_lifter, training_pairs
 from sparseedm.lifting.lift import poses_from_vectors
@@ -108,7 +109,7 @@ def main(argv=None):
            "radii": "log-uniform %g-%g of the diagonal of the pose's 2D bounding box" % RADII,
            "n_poses_per_half": args.max_val, "results": res, "best_on_calib": best}
     with open(args.output, "w") as f:
-        json.dump(doc, f, indent=1)
+        f.write(json_text(doc, indent=1))
     print(json.dumps(doc["best_on_calib"]))
 
 

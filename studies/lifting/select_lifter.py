@@ -20,6 +20,7 @@ import time
 
 import numpy as np
 
+from sparseedm._atomic import json_text
 from sparseedm.lifting import fit_lifter, lift, training_pairs
 from sparseedm.lifting.metrics import err_ave_3d
 from sparseedm.metrics import random_occlusion
@@ -107,7 +108,7 @@ def main(argv=None):
                                           "best_alpha_lift", "best")},
     }
     with open(args.output, "w") as f:
-        json.dump(doc, f, indent=1)
+        f.write(json_text(doc, indent=1))
     print("chosen:", json.dumps(doc["chosen"]))
 
 

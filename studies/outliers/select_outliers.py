@@ -35,6 +35,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from benchmarks import real2d  # noqa: E402
+from sparseedm._atomic import json_text  # noqa: E402
 from sparseedm.batch import recover_file  # noqa: E402
 from sparseedm.dictionary import load_dictionary  # noqa: E402
 from sparseedm.keypoints import read_keypoints  # noqa: E402
@@ -194,7 +195,7 @@ def main():
                    max_right_flagged=MAX_RIGHT_FLAGGED, per_reach=per_reach, photos=photos,
                    chosen=dict(chosen, alone_limit=photos["alone_limit"]))
         path = HERE / "selection.json"
-    path.write_text(json.dumps(doc, indent=1) + "\n")
+    path.write_text(json_text(doc, indent=1) + "\n")
     print(json.dumps(doc.get("chosen") or doc["pooled"], indent=1))
 
 

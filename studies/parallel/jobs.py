@@ -35,6 +35,7 @@ sys.path.insert(0, str(HERE.parent / "real_prior"))
 
 import harness  # noqa: E402
 
+from sparseedm._atomic import json_text  # noqa: E402
 import sparseedm  # noqa: E402
 from benchmarks.default_path import load_bandai, make_file  # noqa: E402
 from joblib import effective_n_jobs  # noqa: E402
@@ -129,7 +130,7 @@ def main(argv=None):
                      "6,000 Bandai-Namco-1 poses (half under Mix)": run_file(*large,
                                                                             args.large_reps)}}
     print(json.dumps(out, indent=1))
-    (HERE / "jobs.json").write_text(json.dumps(out, indent=1) + "\n")
+    (HERE / "jobs.json").write_text(json_text(out, indent=1) + "\n")
 
 
 if __name__ == "__main__":

@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from sparseedm._atomic import json_text  # noqa: E402
 import harness  # noqa: E402
 
 from benchmarks import real2d  # noqa: E402
@@ -163,7 +164,7 @@ def main(argv=None):
     if a.video:
         doc["video"] = video(a.other, a.seed, a.max_clips)
     if a.out:
-        a.out.write_text(json.dumps(doc, indent=1) + "\n")
+        a.out.write_text(json_text(doc, indent=1) + "\n")
 
 
 if __name__ == "__main__":

@@ -28,6 +28,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
+from sparseedm._atomic import json_text  # noqa: E402
 
 from benchmarks import real2d  # noqa: E402
 
@@ -154,7 +155,7 @@ def main(argv=None):
     doc = {"table": table, "seconds": {k: round(v, 1) for k, v in seconds.items()}}
     print(json.dumps(doc, indent=1))
     if a.out:
-        a.out.write_text(json.dumps(doc, indent=1) + "\n")
+        a.out.write_text(json_text(doc, indent=1) + "\n")
 
 
 if __name__ == "__main__":

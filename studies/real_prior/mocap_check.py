@@ -9,7 +9,6 @@ take the file-atoms path.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
@@ -17,6 +16,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
+from sparseedm._atomic import json_text  # noqa: E402
 import sparseedm  # noqa: E402
 from benchmarks.real2d import body_size  # noqa: E402
 from sparseedm.metrics import occlusion_masks  # noqa: E402
@@ -52,7 +52,7 @@ def main(argv=None):
         out[path.name] = row
         print(path.name, row, flush=True)
     if a.out:
-        a.out.write_text(json.dumps(out, indent=1) + "\n")
+        a.out.write_text(json_text(out, indent=1) + "\n")
 
 
 if __name__ == "__main__":

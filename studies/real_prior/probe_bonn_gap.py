@@ -49,6 +49,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 from benchmarks import real2d  # noqa: E402
+from sparseedm._atomic import json_text  # noqa: E402
 from sparseedm.skeleton import JOINT_NAMES  # noqa: E402
 from studies.real_prior import harness  # noqa: E402
 
@@ -217,14 +218,14 @@ def main(argv=None):
         doc = (oracle(a.oracle, a.seeds, a.protocols.split(",")) if a.oracle else
                train_complete(a.train_complete, a.seeds, a.protocols.split(",")))
         if a.out:
-            a.out.write_text(json.dumps(doc, indent=1) + "\n")
+            a.out.write_text(json_text(doc, indent=1) + "\n")
         return
     doc = {}
     for n in a.files.split(","):
         doc[n] = probe(n, a.seeds, a.protocols.split(","))
         print(json.dumps(doc[n]["facts"], indent=1), flush=True)
         if a.out:
-            a.out.write_text(json.dumps(doc, indent=1) + "\n")
+            a.out.write_text(json_text(doc, indent=1) + "\n")
 
 
 if __name__ == "__main__":

@@ -47,6 +47,7 @@ import harness  # noqa: E402
 from default_prior import per_pose  # noqa: E402
 
 from benchmarks import real2d  # noqa: E402
+from sparseedm._atomic import json_text  # noqa: E402
 from sparseedm import recover  # noqa: E402
 from sparseedm.adaptation import pose_vectors  # noqa: E402
 from sparseedm.dictionary import load_dictionary  # noqa: E402
@@ -209,7 +210,7 @@ def main(argv=None):
         doc[Path(path).stem] = paired(*mocap_file(path), dics)
         print(path, json.dumps(doc[Path(path).stem]), flush=True)
     if a.out:
-        a.out.write_text(json.dumps(doc, indent=1) + "\n")
+        a.out.write_text(json_text(doc, indent=1) + "\n")
 
 
 if __name__ == "__main__":

@@ -45,6 +45,7 @@ from probe_coco_atoms import exemplars, head_further, mirrored, mocap_file  # no
 
 from benchmarks import real2d  # noqa: E402
 from benchmarks.real_people import photos  # noqa: E402
+from sparseedm._atomic import json_text  # noqa: E402
 from sparseedm.dictionary import load_dictionary  # noqa: E402
 
 REFERENCE = "cmu-coco-k2932"
@@ -160,7 +161,7 @@ def main(argv=None):
     if a.benchmark:
         doc = benchmark()
         if a.out:
-            a.out.write_text(json.dumps(doc, indent=1) + "\n")
+            a.out.write_text(json_text(doc, indent=1) + "\n")
         return
     dics = candidates(a.candidates.split(","))
     doc, seconds = {}, {}
@@ -181,7 +182,7 @@ def main(argv=None):
     doc["seconds"] = {k: round(v, 1) for k, v in seconds.items()}
     print(json.dumps(doc["seconds"]))
     if a.out:
-        a.out.write_text(json.dumps(doc, indent=1) + "\n")
+        a.out.write_text(json_text(doc, indent=1) + "\n")
 
 
 if __name__ == "__main__":

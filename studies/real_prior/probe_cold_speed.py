@@ -43,6 +43,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
+from sparseedm._atomic import json_text  # noqa: E402
 import sparseedm  # noqa: E402
 from sparseedm.solvers.fast import FastSolver  # noqa: E402
 from studies.real_prior import harness  # noqa: E402
@@ -124,7 +125,7 @@ def main(argv=None):
             warnings.simplefilter("ignore")
             doc = gate(a.files.split(","), a.protocol, a.seed)
         if a.out:
-            a.out.write_text(json.dumps(doc, indent=1) + "\n")
+            a.out.write_text(json_text(doc, indent=1) + "\n")
         return
     variants = a.variants.split(",")
     doc = {"load_start": os.getloadavg()[0], "files": {}}
@@ -140,7 +141,7 @@ def main(argv=None):
             print(f, json.dumps(doc["files"][f]), flush=True)
     doc["load_end"] = os.getloadavg()[0]
     if a.out:
-        a.out.write_text(json.dumps(doc, indent=1) + "\n")
+        a.out.write_text(json_text(doc, indent=1) + "\n")
 
 
 if __name__ == "__main__":

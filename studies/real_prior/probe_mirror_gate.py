@@ -65,6 +65,7 @@ from default_prior import per_pose  # noqa: E402
 from probe_coco_atoms import mocap_file  # noqa: E402
 
 from benchmarks import load_cmu, real2d, split_clips  # noqa: E402
+from sparseedm._atomic import json_text  # noqa: E402
 from sparseedm.dictionary import load_dictionary  # noqa: E402
 from sparseedm.metrics import occlusion_masks  # noqa: E402
 
@@ -241,7 +242,7 @@ def main(argv=None):
     if a.benchmark:
         doc = benchmark()
         if a.out:
-            a.out.write_text(json.dumps(doc, indent=1) + "\n")
+            a.out.write_text(json_text(doc, indent=1) + "\n")
         return
     dics = {n: load_dictionary(None if n == "default" else n) for n in a.dictionaries.split(",")}
     doc, seconds = {}, {}
@@ -249,7 +250,7 @@ def main(argv=None):
     def save():
         doc["seconds"] = {k: round(v, 1) for k, v in seconds.items()}
         if a.out:
-            a.out.write_text(json.dumps(doc, indent=1) + "\n")
+            a.out.write_text(json_text(doc, indent=1) + "\n")
 
     subjects = tuple(filter(None, a.cmu_subjects.split(",")))
     for name, truth, missing in mocap_files(filter(None, a.mocap.split(",")), subjects):

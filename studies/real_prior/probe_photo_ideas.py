@@ -32,7 +32,6 @@ splits, seed 0) and mocap files of 100 complete + 500 Mix poses
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
@@ -40,6 +39,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
+from sparseedm._atomic import json_text  # noqa: E402
 
 from studies.real_prior import harness, select_scale  # noqa: E402
 
@@ -172,8 +172,8 @@ def main(argv=None):
         table[name] = {k: [r[k] for r in rows] for k in rows[0]}
         print(name, table[name], flush=True)
     if a.out:
-        a.out.write_text(json.dumps({"idea": a.idea, "protocols": list(harness.PROTOCOLS),
-                                     "table": table}, indent=1) + "\n")
+        a.out.write_text(json_text({"idea": a.idea, "protocols": list(harness.PROTOCOLS),
+                                    "table": table}, indent=1) + "\n")
 
 
 if __name__ == "__main__":

@@ -53,6 +53,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
+from sparseedm._atomic import json_text  # noqa: E402
 
 
 # ----------------------------------------------------------------- capture
@@ -402,8 +403,10 @@ def main(argv=None):
     ap.add_argument("--table", type=Path, nargs="+", help="print the Markdown of these JSONs, stop")
     a = ap.parse_args(argv)
     if a.table:
+        from studies.results_json import load_results  # null (NaN in strict JSON) read as NaN
+
         print(table({"files": {k: v for p in a.table
-                               for k, v in json.loads(p.read_text())["files"].items()}}))
+                               for k, v in load_results(p)["files"].items()}}))
         return
     warnings.simplefilter("ignore")
     doc = {"score": "per occluded pose: mean % body size of its hidden joints; paired: "
@@ -417,7 +420,7 @@ def main(argv=None):
         print(name, r["path"], r["members"], f"drift {r['current_vs_recover_px']:.2g}",
               r["diagnosis_first_member"],
               json.dumps(r["paired"]), flush=True)
-        a.out.write_text(json.dumps(doc, indent=1) + "\n")
+        a.out.write_text(json_text(doc, indent=1) + "\n")
 
 
 if __name__ == "__main__":

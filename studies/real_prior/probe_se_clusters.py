@@ -35,6 +35,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parents[1]))
 sys.path.insert(0, str(HERE))
+from sparseedm._atomic import json_text  # noqa: E402
 
 import harness  # noqa: E402
 
@@ -124,7 +125,7 @@ def main(argv=None):
                 truth, missing = harness.make_file(name, protocol, seed, sizes, rs)
                 doc["files"][key] = measure(truth, missing)
                 print(key, doc["files"][key], flush=True)
-                a.out.write_text(json.dumps(doc, indent=1) + "\n")
+                a.out.write_text(json_text(doc, indent=1) + "\n")
 
 
 if __name__ == "__main__":

@@ -47,6 +47,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from sparseedm._atomic import json_text  # noqa: E402
 
 from benchmarks import real2d  # noqa: E402
 import harness  # noqa: E402
@@ -88,9 +89,11 @@ def stacked(base, fill, truth, missing, seed):
 def table(paths):
     """Markdown rows: file, protocol, II / defaults / cold / shape3d alone (means
     over seeds) and the pooled cross-fitted gains of the stacks."""
+    from studies.results_json import load_results  # null (NaN in strict JSON) read as NaN
+
     files = {}
     for path in paths:
-        for name, protos in json.loads(Path(path).read_text())["files"].items():
+        for name, protos in load_results(path)["files"].items():
             for proto, seeds in protos.items():
                 files.setdefault((name, proto), {}).update(seeds)
     stacks = ("defaults+raw", "defaults+calibrated", "defaults+coco", "cold+raw", "cold+coco",
@@ -181,7 +184,7 @@ def main(argv=None):
     out["seconds_per_1000"] = {k: round(1000 * v[0] / max(v[1], 1), 2) for k, v in secs.items()}
     print(json.dumps(out["seconds_per_1000"]))
     if a.out:
-        a.out.write_text(json.dumps(out, indent=1) + "\n")
+        a.out.write_text(json_text(out, indent=1) + "\n")
 
 
 if __name__ == "__main__":

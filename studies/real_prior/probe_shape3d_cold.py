@@ -30,6 +30,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+from sparseedm._atomic import json_text  # noqa: E402
 import sparseedm  # noqa: E402
 from benchmarks import real2d  # noqa: E402
 import harness  # noqa: E402
@@ -53,9 +54,10 @@ def probe_weight(cold, fill, truth, pmiss, rows, joints):
 
 def table(path):
     """Markdown rows of the JSON at `path` (see the module docstring)."""
+    from studies.results_json import load_results  # null (NaN in strict JSON) read as NaN
     lines = ["| file | masks | cold | cold+raw: w / gain | cold+coco: w / gain |",
              "|---|---|---|---|---|"]
-    for name, protos in json.loads(Path(path).read_text())["files"].items():
+    for name, protos in load_results(path)["files"].items():
         for proto, seeds in protos.items():
             rows = list(seeds.values())
             cells = [name, proto, f"{np.mean([r['cold'] for r in rows]):.2f}"]
@@ -119,7 +121,7 @@ def main(argv=None):
                 out["files"].setdefault(name, {}).setdefault(protocol, {})[str(seed)] = row
                 print(name, protocol, seed, json.dumps(row), flush=True)
     if a.out:
-        a.out.write_text(json.dumps(out, indent=1) + "\n")
+        a.out.write_text(json_text(out, indent=1) + "\n")
 
 
 if __name__ == "__main__":

@@ -16,7 +16,6 @@ positive: lower error.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
@@ -26,6 +25,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+from sparseedm._atomic import json_text  # noqa: E402
 import sparseedm  # noqa: E402
 from benchmarks import real2d  # noqa: E402
 import harness  # noqa: E402
@@ -113,7 +113,7 @@ def main(argv=None):
         out["files"].setdefault("mocap", {})[label] = {"gain": apply(e, c, weights)}
         print(label, out["files"]["mocap"][label], flush=True)
     if a.out:
-        a.out.write_text(json.dumps(out, indent=1) + "\n")
+        a.out.write_text(json_text(out, indent=1) + "\n")
 
 
 if __name__ == "__main__":

@@ -24,6 +24,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+from sparseedm._atomic import json_text  # noqa: E402
 import sparseedm  # noqa: E402
 import harness  # noqa: E402
 from probe_shape3d import stacked  # noqa: E402
@@ -68,9 +69,9 @@ def main(argv=None):
             out.setdefault(path.name, {})[str(seed)] = row
             print(path.name, seed, json.dumps(row), flush=True)
     if a.out:
-        a.out.write_text(json.dumps({"settings": vars(a) | {"data": [p.name for p in a.data],
-                                                            "out": None}, "files": out},
-                                    indent=1) + "\n")
+        a.out.write_text(json_text({"settings": vars(a) | {"data": [p.name for p in a.data],
+                                                           "out": None}, "files": out},
+                                   indent=1) + "\n")
 
 
 if __name__ == "__main__":

@@ -66,6 +66,8 @@ import harness  # noqa: E402
 import select_cold_default as scd  # noqa: E402
 
 from benchmarks import load_cmu, real2d  # noqa: E402
+from studies.results_json import load_results  # noqa: E402
+from sparseedm._atomic import json_text  # noqa: E402
 from sparseedm.cold_bank import PoseBank, bank_fill  # noqa: E402
 from sparseedm.skeleton import SKELETON_14  # noqa: E402
 
@@ -359,7 +361,7 @@ def main(argv=None):
         return
     if a.cache:
         a.cache.mkdir(parents=True, exist_ok=True)
-    doc = json.loads(a.out.read_text()) if a.out and a.out.exists() else {}
+    doc = load_results(a.out) if a.out and a.out.exists() else {}  # null as NaN: summed below
     names, ks = a.banks.split(","), [int(k) for k in a.neighbours.split(",")]
     keys = [f"{b} k{k} gate{g:g}" for b in names for k in ks for g in GATES]
     parts = a.part.split(",")
@@ -388,7 +390,7 @@ def main(argv=None):
                         for part, rows in doc["mocap_rows"].items() if part != "per_clip"}
         print(json.dumps(doc["mocap"], indent=1))
     if a.out:
-        a.out.write_text(json.dumps(doc, indent=1) + "\n")
+        a.out.write_text(json_text(doc, indent=1) + "\n")
     print(table(doc))
 
 

@@ -82,6 +82,8 @@ import coco_prior  # noqa: E402
 import harness  # noqa: E402
 
 from benchmarks import load_cmu, real2d  # noqa: E402
+from studies.results_json import load_results  # noqa: E402
+from sparseedm._atomic import json_text  # noqa: E402
 from sparseedm._recovery_base import mirror_weights  # noqa: E402
 from sparseedm.dictionary import load_dictionary  # noqa: E402
 from sparseedm.metrics import occlusion_masks  # noqa: E402
@@ -332,7 +334,7 @@ def table(doc):
                 ref = next(iter(r["error"]))
                 cells = [f"{r['error'][ref]:.2f}"] + [
                     f"{p['mean']:+.3f} ± {p['se_files']:.3f}"
-                    + (f" ({p['se_groups']:.3f})" if p["se_groups"] is not None else "")
+                    + (f" ({p['se_groups']:.3f})" if p["se_groups"] is not None and np.isfinite(p["se_groups"]) else "")
                     for m, p in r["paired"].items() if " - " not in m]
                 lines.append(f"| {protocol} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
@@ -372,10 +374,10 @@ def main(argv=None):
     ap.add_argument("--table", type=Path, help="print the tables of this JSON and stop")
     a = ap.parse_args(argv)
     if a.table:
-        doc = json.loads(a.table.read_text())
+        doc = load_results(a.table)
         print(table(doc), photo_table(doc), sep="\n")
         return
-    doc = json.loads(a.out.read_text()) if a.out and a.out.exists() else {}
+    doc = load_results(a.out) if a.out and a.out.exists() else {}  # null as NaN: tabled below
     parts = a.part.split(",")
     all_pairs = pairs()
     sets = mocap_sets([p for p in parts if p not in ("defaults", "coverage")], a.daz)
@@ -396,7 +398,7 @@ def main(argv=None):
             entry["photos"] = run_photos(dics, a.seeds, a.cache)
         entry.setdefault("seconds", {})[a.part] = round(time.perf_counter() - t0, 1)
         if a.out:
-            a.out.write_text(json.dumps(doc, indent=1) + "\n")
+            a.out.write_text(json_text(doc, indent=1) + "\n")
     print(table(doc), photo_table(doc), sep="\n")
 
 

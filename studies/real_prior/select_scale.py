@@ -32,6 +32,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
+from sparseedm._atomic import json_text  # noqa: E402
 
 from benchmarks import real2d  # noqa: E402
 from studies.real_prior import harness  # noqa: E402
@@ -101,7 +102,7 @@ def main(argv=None):
         doc.setdefault(f"{a.dictionary} {a.mode}", {}).update(
             {k: {"errors": v, "seconds": seconds[k]} for k, v in table.items()})
         doc["protocols"] = list(harness.PROTOCOLS)
-        a.out.write_text(json.dumps(doc, indent=1) + "\n")
+        a.out.write_text(json_text(doc, indent=1) + "\n")
 
 
 if __name__ == "__main__":

@@ -29,7 +29,6 @@ project's own Kalman filler is merged. ``sparseedm`` is
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
@@ -40,6 +39,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from benchmarks import real2d  # noqa: E402
+from sparseedm._atomic import json_text  # noqa: E402
 from sparseedm.temporal.fillers import FILLERS  # noqa: E402
 from sparseedm.temporal.protocols import gap_mask  # noqa: E402
 
@@ -287,9 +287,9 @@ def main(argv=None):
           f"{max(len(c[0]) for c in clip_list)} frames")
     print(table(summary))
     if args.output:
-        Path(args.output).write_text(json.dumps(dict(part=args.part, seed=args.seed,
-                                                     clips=len(clip_list), summary=summary),
-                                                indent=1))
+        Path(args.output).write_text(json_text(dict(part=args.part, seed=args.seed,
+                                                    clips=len(clip_list), summary=summary),
+                                               indent=1))
 
 
 if __name__ == "__main__":

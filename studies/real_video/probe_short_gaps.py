@@ -35,6 +35,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from benchmarks import real2d  # noqa: E402
+from sparseedm._atomic import json_text  # noqa: E402
 from sparseedm.dictionary import load_dictionary  # noqa: E402
 from sparseedm.evaluation_real import clip_cases  # noqa: E402
 from sparseedm.real_protocol import body_size  # noqa: E402
@@ -118,7 +119,7 @@ def main(argv=None):
     if args.out:
         doc = dict(split="val", variants={n: str(s) for n, s in args.variants},
                    results=table)
-        Path(args.out).write_text(json.dumps(doc, indent=1) + "\n")
+        Path(args.out).write_text(json_text(doc, indent=1) + "\n")
 
 
 if __name__ == "__main__":

@@ -39,7 +39,6 @@ choice); nothing of Bonn is written but scores.
 from __future__ import annotations
 
 import argparse
-import json
 import platform
 import sys
 import warnings
@@ -52,6 +51,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from benchmarks import video_protocols  # noqa: E402
+from sparseedm._atomic import json_text  # noqa: E402
 from sparseedm.dictionary import load_dictionary  # noqa: E402
 from sparseedm.metrics import joint_error  # noqa: E402
 from sparseedm.temporal.fillers import fill_akima, fill_kalman  # noqa: E402
@@ -132,19 +132,9 @@ def ratios(table):
             for name, row in table.items() if name not in PEERS}
 
 
-def finite(tree):
-    """`tree` with every non-finite float as None (JSON has no NaN; a bin no
-    filler answered, e.g. a joint hidden throughout, has no mean)."""
-    if isinstance(tree, dict):
-        return {k: finite(v) for k, v in tree.items()}
-    if isinstance(tree, float) and not np.isfinite(tree):
-        return None
-    return tree
-
-
 def emit(doc, out=None):
     """Print `doc` as JSON (non-finite floats as null) and write it to `out`."""
-    text = json.dumps(finite(doc), indent=1, allow_nan=False)
+    text = json_text(doc, indent=1)
     print(text)
     if out:
         Path(out).write_text(text + "\n")

@@ -13,7 +13,6 @@ Run from the repository root:
 from __future__ import annotations
 
 import argparse
-import json
 import re
 import sys
 import tempfile
@@ -25,6 +24,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from benchmarks import real2d  # noqa: E402
+from sparseedm._atomic import json_text  # noqa: E402
 from sparseedm import batch  # noqa: E402
 from sparseedm.batch import recover_file  # noqa: E402
 from sparseedm.keypoints import read_keypoints, write_keypoints  # noqa: E402
@@ -74,7 +74,7 @@ def main():
         d = np.array([r["across_time"] - r["default"] for r in rows if r["source"] == source])
         print(f"{source}: across time - default {d.mean():+.2f} +- "
               f"{d.std(ddof=1) / np.sqrt(len(d)):.2f} (paired SE, 3 seeds)")
-    Path(args.out).write_text(json.dumps(rows, indent=1) + "\n")
+    Path(args.out).write_text(json_text(rows, indent=1) + "\n")
 
 
 if __name__ == "__main__":

@@ -18,12 +18,12 @@ Run from the repository root:
 from __future__ import annotations
 
 import argparse
-import json
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
+from sparseedm._atomic import json_text
 import sparseedm.exemplars as exemplars
 from sparseedm import recover
 from sparseedm.adaptation import guard_masks, pose_vectors, repeat_rows
@@ -90,7 +90,7 @@ def main():
     for r in rows:
         print(f"{r['file']:24s} seed {r['seed']}: counting atoms {r['atoms']:.2f} px "
               f"({r['atoms_path']}), counting poses {r['poses']:.2f} px ({r['poses_path']})")
-    Path(args.out).write_text(json.dumps(rows, indent=1) + "\n")
+    Path(args.out).write_text(json_text(rows, indent=1) + "\n")
 
 
 if __name__ == "__main__":

@@ -15,13 +15,13 @@ from Bandai-Namco is written but the scores. Results: dictionaries/README.md,
 """
 import argparse
 import functools
-import json
 import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 from benchmarks.video_protocols import DICTIONARY, sequences  # noqa: E402
+from sparseedm._atomic import json_text  # noqa: E402
 from sparseedm.dictionary import load_dictionary  # noqa: E402
 from sparseedm.temporal.evaluation import evaluate_video  # noqa: E402
 from sparseedm.temporal.model import TemporalSettings  # noqa: E402
@@ -52,7 +52,7 @@ def run(args, methods_for, out, label=""):
             out["runs"].append({"source": source, "protocol": protocol,
                                 "settings": report.settings, "seconds": report.seconds,
                                 "rows": report.rows})
-            Path(args.out).write_text(json.dumps(out, indent=1) + "\n")
+            Path(args.out).write_text(json_text(out, indent=1) + "\n")
 
 
 def methods(dictionary):

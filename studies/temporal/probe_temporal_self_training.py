@@ -37,6 +37,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository root
 from studies.temporal.probe_relative import parser, run  # noqa: E402
 from benchmarks.video_protocols import DICTIONARY, sequences  # noqa: E402
+from sparseedm._atomic import json_text  # noqa: E402
 from sparseedm import adaptation  # noqa: E402
 from sparseedm.dictionary import load_dictionary  # noqa: E402
 from sparseedm.temporal.evaluation import protocol_masks  # noqa: E402
@@ -116,7 +117,7 @@ def files(args, out, rounds=ROUNDS, caps=None):
                            adopted=bool(a.adapted), guard=[a.err_base, a.err_adapted])
                 print(json.dumps(row), flush=True)
                 out["files"].append(row)
-                Path(args.out).write_text(json.dumps(out, indent=1) + "\n")
+                Path(args.out).write_text(json_text(out, indent=1) + "\n")
 
 
 def main(argv=None):

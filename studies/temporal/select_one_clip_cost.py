@@ -40,6 +40,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository root
 from benchmarks import real2d, video_protocols  # noqa: E402
+from sparseedm._atomic import json_text  # noqa: E402
 from sparseedm.dictionary import load_dictionary  # noqa: E402
 from sparseedm.evaluation_real import clip_cases  # noqa: E402
 from sparseedm.real_protocol import body_size  # noqa: E402
@@ -208,7 +209,7 @@ def main(argv=None):
             for row in file_rows(source):
                 print(json.dumps(row), flush=True)
                 rows.append(row)
-        Path(args.out).write_text(json.dumps(dict(
+        Path(args.out).write_text(json_text(dict(
             split="validation", mode="files", seconds=round(time.perf_counter() - t0, 1),
             rows=rows), indent=1) + "\n")
         return
@@ -225,7 +226,7 @@ def main(argv=None):
                        f"{[round(x, 2) for x in __import__('os').getloadavg()]}",
                seconds=round(time.perf_counter() - t0, 1),
                summary=summary(rows, variants), rows=rows)
-    Path(args.out).write_text(json.dumps(doc, indent=1) + "\n")
+    Path(args.out).write_text(json_text(doc, indent=1) + "\n")
     print(json.dumps(doc["summary"], indent=1))
 
 

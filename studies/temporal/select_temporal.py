@@ -46,6 +46,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from sparseedm._atomic import json_text
 import sparseedm
 from sparseedm.cameras import Cameras, project, sample_cameras
 from sparseedm.dataset import find_mocap_files
@@ -391,20 +392,20 @@ def main(argv=None):
                       machine=platform.platform(), directions=dict(zip(DIRECTIONS, runs)))
         record.update(choose_settings(record["directions"]))
         print("chosen", record["chosen"])
-        Path(args.out).write_text(json.dumps(record, indent=1) + "\n")
+        Path(args.out).write_text(json_text(record, indent=1) + "\n")
         return
     if args.strides:
         out = {name: run_strides(name, args) for name in DIRECTIONS}
-        Path(args.out).write_text(json.dumps(dict(split="validation", experiment=
-                                                  "prior stride", directions=out),
-                                              indent=1) + "\n")
+        Path(args.out).write_text(json_text(dict(split="validation", experiment=
+                                                 "prior stride", directions=out),
+                                             indent=1) + "\n")
         return
     if args.adapt:
         out = {name: run_adaptation_arm(name, args, TemporalSettings()) for name in DIRECTIONS}
         record = dict(split="validation", experiment="one-clip adaptation", directions=out)
         record.update(choose_adaptation(out))
         print("chosen", record["chosen"])
-        Path(args.out).write_text(json.dumps(record, indent=1) + "\n")
+        Path(args.out).write_text(json_text(record, indent=1) + "\n")
         return
     part = 2 if args.test else 1
     results = {name: run_direction(name, args, part) for name in DIRECTIONS}
@@ -414,7 +415,7 @@ def main(argv=None):
     if not args.test:
         record.update(choice(results))
         print("chosen", record["chosen"])
-    Path(args.out).write_text(json.dumps(record, indent=1) + "\n")
+    Path(args.out).write_text(json_text(record, indent=1) + "\n")
 
 
 if __name__ == "__main__":

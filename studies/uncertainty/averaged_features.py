@@ -32,7 +32,6 @@ never read here::
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
@@ -43,6 +42,7 @@ sys.path.insert(0, str(HERE.parents[1]))
 sys.path.insert(0, str(HERE))
 
 import calibrate  # noqa: E402
+from sparseedm._atomic import json_text  # noqa: E402
 from sparseedm.uncertainty import CALIBRATION, FEATURES  # noqa: E402
 
 #: the ways of filling whose answers the default path averages
@@ -160,7 +160,7 @@ def main(argv=None):
         print(f"{name:26s} seed 1: lowest {c['lowest_real']:.3f} below {c['below_rule']} "
               + " ".join(f"{w} {v['coverage']:.3f}/{v['spearman']:.2f}"
                          for w, v in c["ways"].items()), flush=True)
-    Path(args.output).write_text(json.dumps(out, indent=1) + "\n")
+    Path(args.output).write_text(json_text(out, indent=1) + "\n")
 
 
 if __name__ == "__main__":

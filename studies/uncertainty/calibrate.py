@@ -69,6 +69,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
+from sparseedm._atomic import json_text  # noqa: E402
 import sparseedm  # noqa: E402
 from benchmarks import real2d  # noqa: E402
 from sparseedm.metrics import occlusion_masks  # noqa: E402
@@ -467,7 +468,7 @@ def main(argv=None):
     name = f"check_{args.split}_seed{args.mask_seed}.json" if args.check else \
         "calibration.json"
     output = args.output or Path(__file__).with_name(name)
-    Path(output).write_text(json.dumps(out, indent=1) + "\n")
+    Path(output).write_text(json_text(out, indent=1) + "\n")
     if args.write_module:
         write_module(table)
     if args.figure:

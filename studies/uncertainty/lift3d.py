@@ -29,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sparseedm._atomic import json_text
 from sparseedm.lifting import fit_lifter, lift, load_lifter, training_pairs
 from sparseedm.lifting import uncertainty3d as u3
 from sparseedm.lifting.defaults import DEFAULTS
@@ -138,7 +139,7 @@ def main(argv=None):
             "missing": round(float(base_miss.mean() * lf.size_prior_), 4)},
     }
     with open(args.output, "w") as f:
-        json.dump(doc, f, indent=1)
+        f.write(json_text(doc, indent=1))
     print(json.dumps(doc, indent=1))
 
 

@@ -19,7 +19,6 @@ protocol of the two ways.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
@@ -28,6 +27,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import calibrate  # noqa: E402
 
+from sparseedm._atomic import json_text  # noqa: E402
 from sparseedm import uncertainty  # noqa: E402
 
 WAYS = ("local_ridge", "adapted")
@@ -104,7 +104,7 @@ def main(argv=None):
         for lab, r in out[name]["check_seed"].items():
             print(f"   {lab:38s} {r['coverage']:.3f} radius/size {r['radius_of_size']:.3f} "
                   f"informativeness {r['informativeness']:.2f}")
-    Path(args.output).write_text(json.dumps(out, indent=1) + "\n")
+    Path(args.output).write_text(json_text(out, indent=1) + "\n")
 
 
 if __name__ == "__main__":
