@@ -1029,10 +1029,9 @@ def fill_segment(values, free, prior, confidence, settings=DEFAULT_SETTINGS, par
         second, residual2 = _smooth_joints(values - ref, unknown, data - ref, data_weight,
                                            settings, joints=free.any(axis=0))
         filled, residual = second + ref, np.maximum(residual, residual2)
-    if unknown is not free:  # observations were data: join the runs to them;
-        # and hold the still runs (the exact anchors' spline holds them already)
-        filled = held(joined(filled, values, free, settings), values, still)
-        filled = damped_ends(filled, values, free, settings)
+    if unknown is not free:  # observations as data: runs joined, still runs held, ends damped
+        filled = damped_ends(held(joined(filled, values, free, settings), values, still),
+                             values, free, settings)
     if settings.repeats:
         filled = repeated(filled, values, free, repeat_rate(values, free))
     return np.where(free[..., None], filled, values), weight, residual
