@@ -32,8 +32,9 @@ instead (the earlier arms left out)::
         "edge_decay 8=edge_decay:8" "end_decay 2=end_decay:2" "end_step 0.7=end_step:0.7" \
         --out studies/real_video/selection_edges_variants.json
 
-``--mocap N`` runs ``earlier``'s settings and the defaults on the first N
-validation sequences of CMU and Bandai-Namco (one protocol condition per
+``--mocap N`` runs ``earlier``'s settings and the defaults (with
+``--variants``: the defaults and the variants) on the first N validation
+sequences of CMU and Bandai-Namco (one protocol condition per
 sequence, one call each, % of body height), as given and with seeded white
 jitter of 1 % of the body height on the observed joints (the noisy path,
 where the rule acts). Validation only; nothing of Bonn is written but scores.
@@ -167,10 +168,12 @@ def summarise(per_seed, base="earlier"):
     return out
 
 
-def mocap(max_sequences):
+def mocap(max_sequences, variants=()):
     """{source: {'as given' | 'jitter': {protocol: {arm: mean error}}}}
-    (:func:`studies.real_video.select_join.mocap`)."""
-    arms = {"earlier": UNDAMPED, "defaults": DEFAULT_SETTINGS}
+    (:func:`studies.real_video.select_join.mocap`): ``earlier`` and the
+    defaults, or the defaults and `variants`."""
+    arms = ({"defaults": DEFAULT_SETTINGS, **dict(variants)} if variants else
+            {"earlier": UNDAMPED, "defaults": DEFAULT_SETTINGS})
     return {source: select_join.mocap(max_sequences, source=source, settings=arms)
             for source in ("cmu", "bandai")}
 
@@ -194,7 +197,7 @@ def main(argv=None):
                results=summarise(per_seed, "defaults" if args.variants else "earlier"),
                per_seed=per_seed)
     if args.mocap:
-        doc["mocap_validation"] = mocap(args.mocap)
+        doc["mocap_validation"] = mocap(args.mocap, args.variants)
     emit(doc, args.out)
 
 
