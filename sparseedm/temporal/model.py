@@ -162,7 +162,10 @@ class TemporalSettings:
         Off by default: on Bonn PoseTrack's validation clips it moved the
         error by -3 % (3-frame gaps) to +3 % (transplanted runs of 6-15
         frames), no bin by 20 %, at 1.8 times the seconds
-        (``studies/real_video/select_fusion.py``).
+        (``studies/real_video/select_fusion.py``); with the carried prior
+        (``carry``) and ``fusion_share`` 1 every bin fell by 1-7 %, but
+        CMU's validation self-occlusions with 1 % jitter rose by 7 %
+        (``studies/real_video/select_edges.py``).
     fusion_share : float
         Share of the measured variance ratio :func:`prior_scale` takes: a
         per-frame answer's error persists over neighbouring frames (lag-one
