@@ -164,8 +164,10 @@ class TemporalSettings:
         frames), no bin by 20 %, at 1.8 times the seconds
         (``studies/real_video/select_fusion.py``); with the carried prior
         (``carry``) and ``fusion_share`` 1 every bin fell by 1-7 %, but
-        CMU's validation self-occlusions with 1 % jitter rose by 7 %
-        (``studies/real_video/select_edges.py``).
+        CMU's validation self-occlusions with 1 % jitter rose by 7 % (8
+        sequences; 2 % on 16), and a per-frame prior 5 % off, not carried,
+        then makes the fill step at gap edges beyond the truth's step and
+        the noise (``studies/real_video/select_edges.py``).
     fusion_share : float
         Share of the measured variance ratio :func:`prior_scale` takes: a
         per-frame answer's error persists over neighbouring frames (lag-one
