@@ -194,6 +194,12 @@ class TemporalSettings:
         30-frame gaps from 6.03 to 5.72; clean motion capture is unchanged and
         with 1 % jitter moved by -0.5 % (gaps) and +1.0 % (self-occlusion)
         (``studies/real_video/select_prior.py``).
+    carry_floor : float
+        Where a joint is carried (``carry``), its carried placement weighs
+        at least this much from the first hidden frame on (the ramp still
+        takes it to 1 far from an observation): next to its observed
+        neighbours the placement they carry is better evidence than time
+        alone, and it needs no per-frame answer. 0: the ramp alone.
     never_mirror : bool
         A joint hidden in every frame of its track (only the pose model
         places it) takes, in the per-frame answers, its mirror image's answer
@@ -231,6 +237,7 @@ class TemporalSettings:
     fusion_share: float = 0.25
     ramp_floor: float = 0.0
     carry: float = 3.0
+    carry_floor: float = 0.0
     never_mirror: bool = True
 
     def __post_init__(self):
@@ -1018,7 +1025,7 @@ def fill_segment(values, free, prior, confidence, settings=DEFAULT_SETTINGS, par
     parents = _skeleton_parents(parents, values.shape[1])
     w_obs = observation_weight(values, free, settings)
     if settings.carry > 0 and w_obs is not None and parents is not None:
-        prior = _carried(values, free, prior, weight, parents, settings.carry)
+        prior, weight = _carried(values, free, prior, weight, parents, settings)
     weight[:, (~free).any(axis=0)] *= trust
     still = still_runs(values, free, settings)
     weight[still] = 0.0
@@ -1050,11 +1057,17 @@ def _skeleton_parents(parents, n_joints):
     return parents
 
 
-def _carried(values, free, prior, weight, parents, tau):
+def _carried(values, free, prior, weight, parents, settings):
     """`prior` with :func:`~sparseedm.temporal.carried.carried_prior` where the
-    prior weighs and a joint could be carried."""
-    carried = carried_prior(values, free, parents, tau, frames=(weight > 0).any(axis=1))
-    return np.where(np.isfinite(carried) & (weight > 0)[..., None], carried, prior)
+    prior weighs and a joint could be carried, and `weight` raised to
+    ``settings.carry_floor`` at every free frame of a joint that could be."""
+    floor = float(settings.carry_floor)
+    frames = (weight > 0).any(axis=1) | (free.any(axis=1) if floor > 0 else False)
+    carried = carried_prior(values, free, parents, settings.carry, frames=frames)
+    can = np.isfinite(carried).all(axis=-1) & free
+    if floor > 0:
+        weight = np.where(can, np.maximum(weight, floor), weight)
+    return np.where((can & (weight > 0))[..., None], carried, prior), weight
 
 
 def _data_terms(values, free, prior, weight, settings, w_obs):
