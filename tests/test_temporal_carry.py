@@ -9,7 +9,7 @@ import numpy as np
 from sparseedm.skeleton import SKELETON_14, skeleton_hops
 from sparseedm.temporal.carried import carried_prior
 from sparseedm.temporal.model import (DEFAULT_SETTINGS, carries, choose_carry, fill_segment,
-                                      probe_errors, probe_mask)
+                                      probe_errors, probe_mask, still_runs)
 from sparseedm.temporal.recover import recover_temporal
 
 WRIST, ELBOW = 4, 3
@@ -113,3 +113,32 @@ def test_recover_temporal_keeps_what_the_probes_chose(track):
                                settings=replace(DEFAULT_SETTINGS, probe=False))
     assert not np.allclose(carried.poses, off.poses)
     np.testing.assert_allclose(res.poses, off.poses)
+
+
+def test_carry_floor_weighs_the_carried_wrist_from_its_first_hidden_frame(track):
+    """Between noisy keypoints a wrist hidden for 4 frames at a time, its elbow
+    seen: with ``carry_floor`` the placement the elbow carries weighs from the
+    first hidden frame where the wrist moves (the ramp alone gives it none so
+    close to an observation) and moves the fill there; a joint never seen
+    keeps the ramp, and clean keypoints (never carried) are filled as
+    without it."""
+    noisy = _noisy(track, 0.01)
+    free = np.zeros(track.shape[:2], bool)
+    for start in range(20, 220, 12):
+        free[start:start + 4, WRIST] = True
+    free[:, 7] = True                                  # the other wrist, never seen
+    values = np.where(free[..., None], 0.0, noisy)
+    prior, confidence = np.full(track.shape, np.nan), np.zeros(len(track))
+    prior[:, 7], confidence[:] = track[:, 7], 1.0       # a per-frame answer for it
+    floor = replace(DEFAULT_SETTINGS, carry_floor=0.5)
+    out, weight = fill_segment(values, free, prior, confidence, floor)[:2]
+    base, weight0 = fill_segment(values, free, prior, confidence)[:2]
+    moving = free[:, WRIST] & ~still_runs(values, free)[:, WRIST]   # still runs: time alone
+    assert moving.sum() > 40 and (weight[moving, WRIST] >= 0.5).all()
+    assert not weight0[:, WRIST].any()
+    np.testing.assert_array_equal(weight[:, 7], weight0[:, 7])
+    assert (np.abs(out[moving, WRIST] - base[moving, WRIST]).max(axis=-1) > 0).all()
+    np.testing.assert_array_equal(out[~free], base[~free])
+    clean = np.where(free[..., None], 0.0, track)
+    np.testing.assert_array_equal(fill_segment(clean, free, prior, confidence, floor)[0],
+                                  fill_segment(clean, free, prior, confidence)[0])

@@ -193,6 +193,59 @@ def test_a_fast_move_seen_on_a_few_joints_does_not_cut_the_track(track):
     assert [len(s) for s in layout.segments] == [len(poses)]
 
 
+#: joints a row shows in _never_complete: an arm, the other arm, a leg, the other leg
+_PARTS = ((1, 2, 3, 4), (1, 5, 6, 7), (8, 9, 10, 11), (11, 12, 13, 8))
+
+
+def _never_complete(track, block=10):
+    """A mask of the track under which no row is complete: each block of rows
+    shows one limb and its neighbours (:data:`_PARTS`, in turn)."""
+    mask = np.ones(track.shape[:2], bool)
+    for t in range(len(track)):
+        mask[t, list(_PARTS[t // block % len(_PARTS)])] = False
+    return mask
+
+
+def test_a_track_without_a_complete_row_reads_its_body_from_pairs(track):
+    """No row shows every joint: the unit is the largest distance between two
+    joints seen together (pair_extent), at most the complete body's extent and
+    above the rows' own extents, and a walk between rows that show different
+    joints does not stretch it."""
+    from sparseedm.temporal.linking import body_extent, pair_extent
+
+    mask = _never_complete(track)
+    given = np.where(mask[..., None], np.nan, track)
+    body = body_extent(track)
+    rows = np.median([np.linalg.norm(np.ptp(p[~m], axis=0)) for p, m in zip(track, mask)])
+    assert rows < body_extent(given) <= body
+    walked = given + (5.0 * body * np.arange(len(track)) / len(track))[:, None, None]
+    assert pair_extent(walked) == pytest.approx(pair_extent(given))
+    assert np.isnan(pair_extent(given[:2]))  # fewer rows than PAIR_MIN_ROWS: nothing read
+
+
+def test_a_fast_move_without_a_complete_row_does_not_cut_the_track(track):
+    """The same person moving fast (a fifth of the body's extent a frame) while
+    every row shows only 4 joints: judged against those joints' own extent the
+    steps read as jumps; in the extent read from the pairs they are ordinary
+    motion, and one segment fills the clip. A shot change still cuts it."""
+    from sparseedm.temporal.linking import (MAX_LINK_DISTANCE, body_extent, split_at_jumps,
+                                            step_distances)
+    from sparseedm.temporal.tracks import split_tracks
+
+    frames = np.arange(len(track))
+    body = body_extent(track)
+    poses = track + (0.2 * body * np.clip(frames - 90, 0, 20))[:, None, None] * [1.0, 0.0]
+    mask = _never_complete(track)
+    given = np.where(mask[..., None], np.nan, poses)
+    assert np.nanmax(step_distances(given, frames)) > MAX_LINK_DISTANCE   # the rows' unit
+    layout = split_at_jumps(split_tracks(len(poses), None, frames), given, mask)
+    assert [len(s) for s in layout.segments] == [len(poses)]
+    cut = given.copy()
+    cut[155:] += [0.0, 2.0 * body]
+    layout = split_at_jumps(split_tracks(len(poses), None, frames), cut, mask)
+    assert [len(s) for s in layout.segments] == [155, len(poses) - 155]
+
+
 @pytest.mark.parametrize("wild", [1e6, 1e308])
 def test_a_wild_coordinate_stays_on_its_own_row(track, small_dictionary, wild):
     """A detector's wild coordinate in one complete row of a track: that row is

@@ -298,3 +298,46 @@ def test_keypoints_that_never_repeat_are_filled_as_without_the_rule(track):
     assert not repeat_rate(resting[:2], free[:2]).any()   # too few pairs to tell
     rates = repeat_rate(np.where(free[..., None], 0.0, resting), free)
     assert rates[WRIST] < 0.5 * rates[ANKLE], rates
+
+
+def _end_runs(track):
+    """A wrist hidden from the track's first frame and up to its last, and once
+    inside; an ankle hidden up to the last frame."""
+    free = np.zeros(track.shape[:2], bool)
+    free[:12, WRIST] = True
+    free[100:115, WRIST] = True
+    free[-15:, WRIST] = True
+    free[-20:, ANKLE] = True
+    return free
+
+
+def test_a_run_at_a_tracks_end_takes_a_damped_first_step(track):
+    """Between noisy keypoints, a run observed on one side only (it reaches the
+    track's first or last frame) keeps end_step of the smoothed curve's
+    displacement from its observed neighbour at the first filled frame, close
+    to all of it a few frames on; a run observed on both sides (a still one
+    too) is as without the rule, and clean keypoints (exact anchors) are
+    untouched."""
+    truth = _resting_legs(track, 90, 125)
+    noisy = truth + np.random.default_rng(3).normal(scale=0.01 * _height(track),
+                                                    size=track.shape)
+    free = _end_runs(track)
+    free[100:115, ANKLE] = True                       # at rest on both sides
+    prior, confidence = np.full(track.shape, np.nan), np.zeros(len(track))
+    fills = {}
+    for keep in (0.8, 1.0):
+        settings = TemporalSettings(end_step=keep)
+        fills[keep] = fill_segment(np.where(free[..., None], 0.0, noisy), free, prior,
+                                   confidence, settings)[0]
+    T = len(track)
+    for j, first, near, edge in ((WRIST, 11, 0, 12), (WRIST, T - 15, -1, T - 16),
+                                 (ANKLE, T - 20, -1, T - 21)):
+        far = first + 8 * (1 if near == -1 else -1)   # 8 frames further from the edge
+        damped, plain = (fills[k][:, j] - noisy[edge, j] for k in (0.8, 1.0))
+        np.testing.assert_allclose(damped[first], 0.8 * plain[first])
+        assert np.linalg.norm(damped[far] - plain[far]) < 0.01 * np.linalg.norm(plain[far])
+    np.testing.assert_array_equal(fills[0.8][100:115], fills[1.0][100:115])
+    assert still_runs(np.where(free[..., None], 0.0, noisy), free)[100:115, ANKLE].all()
+    clean = {k: fill_segment(np.where(free[..., None], 0.0, track), free, prior, confidence,
+                             TemporalSettings(end_step=k))[0] for k in (0.8, 1.0)}
+    np.testing.assert_array_equal(clean[0.8], clean[1.0])

@@ -25,8 +25,10 @@ rows than linking would ever join (a cut in the video, an identity switch of
 the tracker, or files that are not a video at all, such as a folder of
 photos numbered IMG_4501, IMG_4502...): time must not carry a joint from
 one person or shot to another. Its unit is at least the track's body extent
-(:func:`body_extent`), so that frames showing only a few close joints (an arm)
-do not read a fast move as a jump.
+(:func:`body_extent`; on a track without a complete frame, the largest
+distance between two joints seen together, :func:`pair_extent`), so that
+frames showing only a few close joints (an arm) do not read a fast move as a
+jump.
 """
 
 from __future__ import annotations
@@ -39,6 +41,7 @@ from scipy.optimize import linear_sum_assignment
 from .tracks import MAX_SKIP, frame_numbers
 
 __all__ = ["link_tracks", "needs_linking", "split_at_jumps", "step_distances", "body_extent",
+           "pair_extent", "PAIR_MIN_ROWS",
            "MAX_LINK_DISTANCE", "MIN_COMMON_JOINTS", "MAX_MEDIAN_STEP", "JUMP_REASON"]
 
 #: a pose joins a track only when the mean distance of their common joints is
@@ -277,7 +280,8 @@ def step_distances(poses, frames, body=None):
 
 def body_extent(poses):
     """The median extent (:func:`step_distances`' unit) of a track's rows with every
-    joint observed; NaN when it has none.
+    joint observed; when no row is complete, :func:`pair_extent`; NaN when
+    neither has anything to read.
 
     Examples
     --------
@@ -287,7 +291,54 @@ def body_extent(poses):
     (13.0, True)
     """
     full = np.isfinite(poses).all(axis=(-2, -1))
-    return float(np.median(_extents(poses[full]))) if full.any() else float("nan")
+    return float(np.median(_extents(poses[full]))) if full.any() else pair_extent(poses)
+
+
+#: rows two joints must be seen together in for :func:`pair_extent` to read
+#: their distance (a median of three or more is not moved by one wild row)
+PAIR_MIN_ROWS = 3
+
+
+def pair_extent(poses):
+    """A track's extent read without a complete row: the largest median distance
+    between two joints over the rows that show both (at least
+    :data:`PAIR_MIN_ROWS` of them).
+
+    Joints seen in different rows are never compared, so a person who walks
+    while showing different joints is not stretched by the walk; the extent
+    is at most the body's (the diagonal of its bounding box bounds every
+    distance within it).
+
+    Parameters
+    ----------
+    poses : ndarray (T, N, 2)
+        One track's rows; NaN where a joint is not observed.
+
+    Returns
+    -------
+    float
+        The extent, NaN when no two joints are seen together often enough.
+
+    Examples
+    --------
+    Head and ankle never in one row, a hip with each of them:
+
+    >>> pose = np.array([[0.0, 0.0], [0.0, 6.0], [0.0, 10.0]])   # head, hip, ankle
+    >>> rows = np.repeat(pose[None], 6, axis=0); rows[:3, 2] = np.nan; rows[3:, 0] = np.nan
+    >>> rows[3:] += [50.0, 0.0]                                   # walked meanwhile
+    >>> pair_extent(rows)
+    6.0
+    """
+    seen = np.isfinite(poses).all(axis=-1)
+    best = np.nan
+    for i, k in zip(*np.triu_indices(poses.shape[1], 1)):
+        both = seen[:, i] & seen[:, k]
+        if both.sum() >= PAIR_MIN_ROWS:
+            with np.errstate(all="ignore"):  # a wild coordinate overflows: inf, outvoted
+                d = float(np.median(np.linalg.norm(poses[both, i] - poses[both, k], axis=-1)))
+            if np.isnan(best) or d > best:
+                best = d
+    return float(best)
 
 
 def split_at_jumps(layout, poses, missing, max_distance=MAX_LINK_DISTANCE):

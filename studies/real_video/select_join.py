@@ -242,13 +242,15 @@ def arms(dictionary=None):
     return out
 
 
-def mocap(max_sequences, jitter=0.01):
+def mocap(max_sequences, jitter=0.01, source="cmu", settings=None):
     """{'as given' | 'jitter': {protocol: {arm: mean error (% body height)}}} on
-    the first `max_sequences` CMU validation sequences."""
-    dictionary = load_dictionary(video_protocols.DICTIONARY["cmu"])
-    settings = {"earlier": EARLIER, "defaults": DEFAULT_SETTINGS}
+    the first `max_sequences` validation sequences of `source`; `settings`:
+    {arm: TemporalSettings}, default ``earlier`` and the defaults."""
+    dictionary = load_dictionary(video_protocols.DICTIONARY[source])
+    if settings is None:
+        settings = {"earlier": EARLIER, "defaults": DEFAULT_SETTINGS}
     errors = {}
-    for i, seq, protocol, _, mask, given in mocap_cases("cmu", max_sequences):
+    for i, seq, protocol, _, mask, given in mocap_cases(source, max_sequences):
         noisy = given + detector_jitter(seq, jitter, random_state=i)
         for kind, poses in (("as given", given), ("jitter", noisy)):
             for name, st in settings.items():
