@@ -14,7 +14,8 @@ round (so nothing below 30 probed rows). Variants: every step with one draw of
 each, until 300 probes
 (``k4``: 4, ``k2``: 2, ``all``: every observed joint); ``weights k4``: the
 Gaussian's and the bank's probes so, the donor step's as before; ``donor k4``
-the other way round.
+the other way round; ``... pass`` (``old pass``, ``all pass``): the probes'
+weight the lowest-error one among those passing one standard error.
 
 End to end through ``recover()``'s defaults: the variant against ``old``
 (cached per file), II (IterativeImputer) beside them. Files: as
@@ -49,13 +50,35 @@ ALIGN_CACHE = Path("/tmp/photos_align/cache")
 VARIANTS = {"k4": 4, "k2": 2, "all": 14}
 
 
+def _passing(shipped):
+    """exemplars._best_weight on probes (clustered) taking the lowest-error weight
+    among those whose gain exceeds LINEAR_MIN_SE standard errors (shipped: the
+    lowest-error weight, 0 unless it passes)."""
+    from sparseedm.exemplars import LINEAR_MIN_SE, LINEAR_WEIGHTS, paired_gain
+
+    def best(per_pose, fewest, clusters=None):
+        ok = np.isfinite(per_pose).all(axis=0)
+        if clusters is None or ok.sum() < max(fewest, 2):
+            return shipped(per_pose, fewest, clusters)
+        per_pose, clusters = per_pose[:, ok], np.asarray(clusters)[ok]
+        errors = per_pose.mean(axis=1)
+        gains = [paired_gain(per_pose[0] - p, clusters) for p in per_pose]
+        passing = [i for i, (mean, se) in enumerate(gains) if i and mean > LINEAR_MIN_SE * se]
+        i = min(passing, key=lambda i: errors[i]) if passing else 0
+        return float(LINEAR_WEIGHTS[i]), float(errors[i])
+    return best
+
+
 @contextlib.contextmanager
 def patched(variant):
     """recover()'s defaults (``old``) or with the variant's probes."""
     import sparseedm.donors as dn
     import sparseedm.exemplars as ex
 
-    kept = dn.PROBES_PER_ROW, ex.LINEAR_PROBE_ROUNDS, ex.probes
+    kept = dn.PROBES_PER_ROW, ex.LINEAR_PROBE_ROUNDS, ex.probes, ex._best_weight
+    if variant.endswith(" pass"):  # the probes' weight: the best of those passing
+        ex._best_weight = _passing(kept[3])
+        variant = variant[:-len(" pass")]
     if variant in VARIANTS:  # one draw of k per row for every step
         dn.PROBES_PER_ROW, ex.LINEAR_PROBE_ROUNDS = VARIANTS[variant], 1
     elif variant == "weights k4":  # the donor step's probes as before
@@ -65,7 +88,7 @@ def patched(variant):
     try:
         yield
     finally:
-        dn.PROBES_PER_ROW, ex.LINEAR_PROBE_ROUNDS, ex.probes = kept
+        dn.PROBES_PER_ROW, ex.LINEAR_PROBE_ROUNDS, ex.probes, ex._best_weight = kept
 
 
 def _weights(res):
