@@ -35,8 +35,9 @@ from .edm import observed_entries, pose_to_vector
 from .normalize import rms_radius
 
 __all__ = ["DONOR_BLOCK", "DONOR_K", "DONOR_MIN_SHARED", "DONOR_PROBES", "DONOR_MIN_PROBES",
-           "DONOR_WEIGHTS", "DONOR_GATES", "DONOR_CANDIDATES", "donor_estimates",
-           "donor_mix", "donor_step", "probes"]
+           "DONOR_WEIGHTS", "DONOR_GATES", "DONOR_CANDIDATES", "PROBES_PER_ROW",
+           "donor_estimates", "donor_mix", "donor_step", "probes", "probe_rounds",
+           "paired_gain"]
 
 #: donors per hidden joint
 DONOR_K = 5
@@ -45,6 +46,11 @@ DONOR_MIN_SHARED = 6
 #: probes (occluded rows with one more joint hidden) per file, and the fewest
 #: that decide anything
 DONOR_PROBES, DONOR_MIN_PROBES = 300, 30
+#: a file of fewer than DONOR_PROBES occluded rows to probe may have each
+#: probed up to this many times (another observed joint each) until
+#: DONOR_PROBES probes, their standard errors clustered by row; on the small
+#: validation photo files more such probes chose worse weights, hence one
+PROBES_PER_ROW = 1
 #: the per-file choice's weights of the donors' estimate and gates (the nearest
 #: donor's residual, % of the pose's RMS radius)
 DONOR_WEIGHTS = (0.0, 0.25, 0.5, 0.75, 1.0)
@@ -191,41 +197,105 @@ def donor_mix(answer, estimates, nearest, missing, weight, gate):
                     answer)
 
 
-def probes(missing, random_state):
+def probes(missing, random_state, per_row=None):
     """(rows, joints): a seeded subset of the occluded rows with more than
     :data:`DONOR_MIN_SHARED` observed joints (:data:`DONOR_PROBES` at most), one
     observed joint of each: the rows to answer again with that joint hidden too
-    (:func:`donor_step`, :func:`sparseedm.exemplars.probe_stack`).
+    (:func:`donor_step`, :func:`sparseedm.exemplars.probe_weight`). With fewer
+    rows than :data:`DONOR_PROBES`, each row is probed up to `per_row` times
+    (another observed joint each) until :data:`DONOR_PROBES` probes.
 
     Parameters
     ----------
     missing : ndarray of bool (n, N)
     random_state : int
         Seed of the rows and joints.
+    per_row : int, optional
+        Probes per row at most; default :data:`PROBES_PER_ROW`.
 
     Returns
     -------
     rows, joints : ndarray of int
-        The probes' rows (ascending) and each one's joint to hide.
+        The probes' rows and each one's joint to hide, in rounds: each row once
+        (ascending), then again with another joint, and so on; a row appears
+        at most once per round.
 
     Examples
     --------
     >>> import numpy as np
     >>> missing = np.zeros((3, 14), bool); missing[1:, 0] = True
-    >>> rows, joints = probes(missing, 0)
+    >>> rows, joints = probes(missing, 0, per_row=1)
     >>> rows.tolist(), bool(missing[rows, joints].any())
     ([1, 2], False)
+    >>> rows, joints = probes(missing, 0, per_row=3)
+    >>> rows.tolist(), len(set(zip(rows.tolist(), joints.tolist())))
+    ([1, 2, 1, 2, 1, 2], 6)
     """
+    per_row = PROBES_PER_ROW if per_row is None else per_row
     rng = np.random.default_rng([random_state, 91])
     cand = np.flatnonzero(missing.any(1) & ((~missing).sum(1) > DONOR_MIN_SHARED))
     rows = np.sort(rng.permutation(cand)[:DONOR_PROBES])
     joints = np.array([rng.choice(np.flatnonzero(~missing[r])) for r in rows], int)
-    return rows, joints
+    k = min(per_row, -(-DONOR_PROBES // max(len(rows), 1)))
+    if k <= 1:
+        return rows, joints
+    more = [rng.permutation(np.setdiff1d(np.flatnonzero(~missing[r]), [j]))[:k - 1]
+            for r, j in zip(rows, joints)]
+    taken = [(rows, joints)]
+    for i in range(k - 1):
+        has = np.array([len(m) > i for m in more], bool)
+        taken.append((rows[has], np.array([m[i] for m in more if len(m) > i], int)))
+    return tuple(np.concatenate(t) for t in zip(*taken))
 
 
-def _choose(answer, estimates, nearest, truth, joints):
+def probe_rounds(rows):
+    """The round of each probe of :func:`probes` (0 at a row's first)."""
+    seen = {}
+    out = np.empty(len(rows), int)
+    for i, r in enumerate(np.asarray(rows).tolist()):
+        out[i] = seen[r] = seen.get(r, -1) + 1
+    return out
+
+
+def paired_gain(gain, clusters=None):
+    """(mean, standard error) of a paired gain; with `clusters`, the gains of one
+    cluster (several probes of one pose: not independent) averaged first, the mean
+    and its standard error then over the clusters.
+
+    Parameters
+    ----------
+    gain : ndarray (n,)
+        One paired difference per probe (or pose).
+    clusters : array_like (n,), optional
+        Each probe's cluster (its pose's row); None: every probe its own.
+
+    Returns
+    -------
+    mean, se : float
+        NaN standard error with fewer than two clusters.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> gain = np.array([1.0, 1.0, 1.0, 3.0, 3.0, 3.0])
+    >>> [round(v, 3) for v in paired_gain(gain)]
+    [2.0, 0.447]
+    >>> [round(v, 3) for v in paired_gain(gain, clusters=[0, 0, 0, 1, 1, 1])]
+    [2.0, 1.0]
+    """
+    gain = np.asarray(gain, dtype=float)
+    if clusters is not None:
+        _, which = np.unique(np.asarray(clusters), return_inverse=True)
+        gain = np.bincount(which, weights=gain) / np.bincount(which)
+    if len(gain) < 2:
+        return float(gain.mean()) if len(gain) else float("nan"), float("nan")
+    return float(gain.mean()), float(gain.std(ddof=1) / np.sqrt(len(gain)))
+
+
+def _choose(answer, estimates, nearest, truth, joints, rows):
     """((weight, gate), probe errors of the default and of the choice), on the
-    probes the default answered (the default unless DONOR_MIN_PROBES of them)."""
+    probes the default answered (the default unless DONOR_MIN_PROBES of them),
+    the gain's standard error clustered by `rows` (:func:`paired_gain`)."""
     pm = np.zeros(truth.shape[:2], bool)
     pm[np.arange(len(truth)), joints] = True
     _, size = rms_radius(truth, pm | np.isnan(truth[..., 0]))
@@ -244,8 +314,8 @@ def _choose(answer, estimates, nearest, truth, joints):
     errs = {key: e[ok] for key, e in errs.items()}
     base = errs[(0.0, np.inf)]
     best = min(errs, key=lambda key: errs[key].mean())
-    d = errs[best] - base
-    if d.mean() + d.std(ddof=1) / np.sqrt(len(d)) >= 0:
+    mean, se = paired_gain(base - errs[best], rows[ok])
+    if not mean > se:
         best = (0.0, np.inf)
     return best, float(base.mean()), float(errs[best].mean())
 
@@ -299,12 +369,8 @@ def donor_step(res, poses, missing, answer, random_state=0, block=DONOR_BLOCK):
     pmiss[np.arange(len(rows)), joints] = True
     pposes = np.where(pmiss[..., None], np.nan, poses[rows])
     probe = answer(pposes, pmiss).poses
-    allp, allm = poses.copy(), missing.copy()
-    allp[rows], allm[rows] = pposes, pmiss
-    filled = res.poses.copy()
-    filled[rows] = probe
-    est, near = donor_estimates(allp, allm, rows, filled)
-    (w, g), e0, e1 = _choose(probe, est, near, poses[rows], joints)
+    est, near = _probe_estimates(res.poses, poses, missing, rows, pposes, pmiss, probe)
+    (w, g), e0, e1 = _choose(probe, est, near, poses[rows], joints, rows)
     record = {"weight": w, "gate": None if np.isinf(g) else g, "probes": int(len(rows)),
               "probe_err_default": round(e0, 4), "probe_err_chosen": round(e1, 4)}
     if res.adaptation is not None:
@@ -319,6 +385,20 @@ def donor_step(res, poses, missing, answer, random_state=0, block=DONOR_BLOCK):
     hidden = ~observed_entries(missing[occ])
     vectors = np.where(hidden & np.isfinite(shift), part.vectors + shift, part.vectors)
     return put_rows(res, occ, replace(part, poses=moved, vectors=vectors))
+
+
+def _probe_estimates(filled, poses, missing, rows, pposes, pmiss, probe):
+    """donor_estimates for each probe, round by round of :func:`probe_rounds` (a
+    row once per round): the file with that round's probed joints hidden."""
+    est = np.full(pposes.shape, np.nan)
+    near = np.full(pmiss.shape, np.inf)
+    rounds = probe_rounds(rows)
+    for r in range(rounds.max() + 1 if len(rows) else 0):
+        at = np.flatnonzero(rounds == r)
+        allp, allm, fill = poses.copy(), missing.copy(), filled.copy()
+        allp[rows[at]], allm[rows[at]], fill[rows[at]] = pposes[at], pmiss[at], probe[at]
+        est[at], near[at] = donor_estimates(allp, allm, rows[at], fill)
+    return est, near
 
 
 def _noted(adaptation, record):

@@ -136,7 +136,7 @@ from ._recovery_kernel import FAST_RIDGE, compiled_solver, recover_members
 from .adaptation import (AVERAGED_PATH, GUARD_POSES_PER_PATTERN, MIN_COMPLETE_POSES,
                          MIRRORED_ATOMS_PATH, AdaptationResult, guard_masks,
                          pose_vectors, repeat_rows)
-from .donors import DONOR_MIN_PROBES, DONOR_PROBES, donor_step, probes
+from .donors import DONOR_MIN_PROBES, DONOR_PROBES, donor_step, paired_gain, probes
 from .edm import observed_entries, pose_to_vector
 from .file_atoms import (atoms_adaptation, complete_rows, file_dictionary, mirror_images,
                          with_file_atoms)
@@ -927,41 +927,6 @@ def _best_weight(per_pose, fewest, clusters=None):
     return float(LINEAR_WEIGHTS[best]), float(errors[best])
 
 
-def paired_gain(gain, clusters=None):
-    """(mean, standard error) of a paired gain; with `clusters`, the gains of one
-    cluster (several probes of one pose: not independent) averaged first, the mean
-    and its standard error then over the clusters.
-
-    Parameters
-    ----------
-    gain : ndarray (n,)
-        One paired difference per probe (or pose).
-    clusters : array_like (n,), optional
-        Each probe's cluster (its pose's row); None: every probe its own.
-
-    Returns
-    -------
-    mean, se : float
-        NaN standard error with fewer than two clusters.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> gain = np.array([1.0, 1.0, 1.0, 3.0, 3.0, 3.0])
-    >>> [round(v, 3) for v in paired_gain(gain)]
-    [2.0, 0.447]
-    >>> [round(v, 3) for v in paired_gain(gain, clusters=[0, 0, 0, 1, 1, 1])]
-    [2.0, 1.0]
-    """
-    gain = np.asarray(gain, dtype=float)
-    if clusters is not None:
-        _, which = np.unique(np.asarray(clusters), return_inverse=True)
-        gain = np.bincount(which, weights=gain) / np.bincount(which)
-    if len(gain) < 2:
-        return float(gain.mean()) if len(gain) else float("nan"), float("nan")
-    return float(gain.mean()), float(gain.std(ddof=1) / np.sqrt(len(gain)))
-
-
 def _linear_draws(complete, *given):
     """The draws of the Gaussians :func:`linear_stack` fills with: `complete` and the
     poses of `given` (pairs of poses, missing joints) as
@@ -1195,8 +1160,8 @@ def probe_weight(poses, missing, answer, fill, random_state=0):
     of :data:`LINEAR_WEIGHTS` the mean ``(1 - w) * path + w * candidate`` with
     the lowest probe error wins when its gain over the path's answer alone
     exceeds :data:`LINEAR_MIN_SE` of its standard errors (paired, a row probed
-    in several rounds one cluster: :func:`paired_gain`); else 0, and 0 with
-    fewer than :data:`~sparseedm.donors.DONOR_MIN_PROBES` probes.
+    in several rounds one cluster: :func:`~sparseedm.donors.paired_gain`); else
+    0, and 0 with fewer than :data:`~sparseedm.donors.DONOR_MIN_PROBES` probes.
 
     Parameters
     ----------

@@ -244,6 +244,35 @@ def test_probe_weight_goes_to_a_right_candidate_and_not_to_a_wrong_one():
     assert np.array_equal(seen[0], rows)  # the candidate answers the probed rows
 
 
+def test_probe_weight_probes_a_small_file_several_times_per_row(monkeypatch):
+    """With donors.PROBES_PER_ROW above one, a file of few occluded rows gets
+    that many probes per row (another joint each) in one draw, and the choice
+    records how many."""
+    from types import SimpleNamespace
+
+    import sparseedm.donors as dn
+    import sparseedm.exemplars as ex
+
+    given, missing, truth = _template_people(0, 40, seed=3)
+
+    def answer(p, m):  # the path: the hidden joints far off
+        return SimpleNamespace(poses=np.where(m[..., None], truth[rows] + 40, p))
+
+    def exact(r, j, p, m):
+        return truth[r]
+
+    rows = dn.probes(missing, 0, per_row=1)[0]
+    n_rows = len(rows)
+    assert 0 < n_rows < dn.DONOR_PROBES
+    monkeypatch.setattr(ex, "LINEAR_PROBE_ROUNDS", 1)
+    assert ex.probe_weight(given, missing, answer, exact).probes == n_rows
+    monkeypatch.setattr(dn, "PROBES_PER_ROW", 4)
+    rows = dn.probes(missing, 0)[0]
+    choice = ex.probe_weight(given, missing, answer, exact)
+    assert choice.probes == len(rows) == 4 * n_rows
+    assert choice.weight == ex.LINEAR_WEIGHTS[-1] and choice.err_chosen < choice.err_default
+
+
 def test_the_bank_step_weights_the_bank_where_the_file_is_its_people(small_dictionary,
                                                                      monkeypatch, tmp_path):
     """Few complete poses of the bank's own people: the probes give the bank weight,

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 import sparseedm
-from sparseedm.donors import DONOR_MIN_PROBES, DONOR_MIN_SHARED, donor_estimates, donor_step
+from sparseedm.donors import (DONOR_MIN_PROBES, DONOR_MIN_SHARED, DONOR_PROBES, donor_estimates,
+                              donor_step, probe_rounds, probes)
 from sparseedm.real_protocol import body_size
 
 
@@ -205,3 +206,55 @@ def test_probes_out_of_range_judge_nothing(cmu_poses):
     clean = sparseedm.recover(given[:200], missing[:200]).summary()["adaptation"]["donors"]
     assert np.isfinite(said["probe_err_default"]) and np.isfinite(said["probe_err_chosen"])
     assert (said["weight"], said["gate"]) == (clean["weight"], clean["gate"])
+
+
+def test_a_small_file_can_be_probed_several_times_per_row():
+    """Fewer occluded rows than DONOR_PROBES: each row probed up to `per_row`
+    times, another observed joint each; with one per row (the default) as many
+    probes as rows."""
+    rng = np.random.default_rng(0)
+    missing = np.zeros((60, 14), bool)
+    missing[40:] = rng.random((20, 14)) < 0.3
+    missing[40:, 0] = True
+    cand = np.flatnonzero((~missing).sum(1) > DONOR_MIN_SHARED)
+    cand = cand[missing[cand].any(1)]
+    rows, joints = probes(missing, 0, per_row=4)
+    assert len(rows) == 4 * len(cand) > len(cand)
+    assert not missing[rows, joints].any()
+    assert len(set(zip(rows.tolist(), joints.tolist()))) == len(rows)  # no joint twice
+    rounds = probe_rounds(rows)
+    for r in range(4):  # each round: every row once, ascending
+        assert rows[rounds == r].tolist() == cand.tolist()
+    one, one_joints = probes(missing, 0, per_row=1)
+    assert one.tolist() == cand.tolist()
+    assert one_joints.tolist() == joints[:len(cand)].tolist()  # the first round as before
+
+
+def test_a_large_file_is_probed_once_per_row():
+    missing = np.zeros((DONOR_PROBES + 50, 14), bool)
+    missing[:, 3] = True
+    rows, _ = probes(missing, 0, per_row=4)
+    assert len(rows) == DONOR_PROBES == len(np.unique(rows))
+
+
+def test_several_probes_per_row_let_a_small_file_choose_donors(cmu_poses, monkeypatch):
+    """Twin rows too few for the donor step one probe per row (fewer than
+    DONOR_MIN_PROBES) choose donors when probed several times per row; the
+    record says how many probes."""
+    truth, missing = _twins(cmu_poses, n_pairs=12)
+    given = np.where(missing[..., None], np.nan, truth)
+    monkeypatch.setattr(sparseedm.exemplars, "donor_step", lambda res, *a: res)
+    res = sparseedm.recover(given, missing)
+    n_rows = int(missing.any(1).sum())
+    assert n_rows < DONOR_MIN_PROBES
+
+    def answer(p, m):
+        return sparseedm.recover(p, m, adapt=False, dictionary="default")
+
+    assert donor_step(res, given, missing, answer) is res
+    monkeypatch.setattr(sparseedm.donors, "PROBES_PER_ROW", 4)
+    out = donor_step(res, given, missing, answer)
+    donors = out.adaptation.settings["donors"]
+    assert donors["probes"] == 4 * n_rows
+    assert donors["weight"] > 0
+    assert _hidden_error(out.poses, truth, missing) < _hidden_error(res.poses, truth, missing)
