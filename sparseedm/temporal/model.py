@@ -139,15 +139,6 @@ class TemporalSettings:
     hold_still : bool
         Fill still runs on the straight line between their observed
         neighbours (:func:`held`); False: the smoothed curve without the prior.
-    hold_ends : bool
-        Where the observations are data (noisy input), a run with one observed
-        side (it reaches the segment's first or last frame) whose observed
-        side is still (:func:`still_runs` with ``ends=True``) is held at its
-        observed neighbour, keeping of the filled curve's displacement from it
-        only the prior's weight's share (:func:`held`): the smoothed curve's
-        velocity there is read from noisy keypoints on one side and would
-        carry a resting joint away. False: the smoothed curve (damped,
-        :func:`damped_ends`).
     repeats : bool
         Where the keypoints repeat their previous frame's coordinates exactly
         (an annotator or a tracker holding a point), expect a hidden joint to
@@ -244,7 +235,6 @@ class TemporalSettings:
     end_decay: float = 1.0
     still: float = 0.04
     hold_still: bool = True
-    hold_ends: bool = True
     repeats: bool = True
     probe: bool = True
     fusion: bool = False
@@ -259,7 +249,7 @@ class TemporalSettings:
 
 
 #: TemporalSettings' fields that are switches; the others are numbers
-_SWITCHES = ("relative", "denoise", "hold_still", "hold_ends", "repeats", "probe", "fusion",
+_SWITCHES = ("relative", "denoise", "hold_still", "repeats", "probe", "fusion",
              "never_mirror")
 #: fields that are fractions in [0, 1]
 _FRACTIONS = ("inaccurate", "fusion_share", "ramp_floor", "end_step")
@@ -714,7 +704,7 @@ def free_runs(free):
         else np.zeros((0, 3), int)
 
 
-def still_runs(values, free, settings=DEFAULT_SETTINGS, ends=False):
+def still_runs(values, free, settings=DEFAULT_SETTINGS):
     """(T, N) bool: the free frames of runs between two still stretches.
 
     A run inside the segment is still when the joint's observed positions in
@@ -731,22 +721,11 @@ def still_runs(values, free, settings=DEFAULT_SETTINGS, ends=False):
         The segment's unknown joints (missing, or in a frame absent from the track).
     settings : TemporalSettings, optional
         The temporal model's constants; default :class:`TemporalSettings`'s.
-    ends : bool, default False
-        Also the runs with one observed side (they reach the segment's first
-        or last frame) where that side is still, read over twice
-        :data:`STILL_FRAMES` frames (as many as a run inside reads).
 
     Returns
     -------
     ndarray of bool (T, N)
-        True at the free frames of still runs.
-
-    Examples
-    --------
-    >>> values = np.zeros((8, 2, 2)); values[:, 1] = 10.0   # joint 0 rests
-    >>> free = np.zeros((8, 2), bool); free[5:, 0] = True
-    >>> bool(still_runs(values, free).any()), int(still_runs(values, free, ends=True).sum())
-    (False, 3)
+        True at the free frames that time alone fills.
     """
     out = np.zeros(free.shape, bool)
     extent = body_extent(values, free)
@@ -754,11 +733,10 @@ def still_runs(values, free, settings=DEFAULT_SETTINGS, ends=False):
         return out
     T, k, tol = len(free), STILL_FRAMES, settings.still * extent
     for j, a, b in free_runs(free):
-        if (a == 0 or b == T) and not (ends and (a > 0 or b < T)):
+        if a == 0 or b == T:
             continue
-        reach = k if 0 < a and b < T else 2 * k   # one side: as many frames as two
         sides = [np.flatnonzero(~free[lo:hi, j]) + lo for lo, hi in
-                 ((max(a - reach, 0), a), (b, min(b + reach, T))) if hi > lo]
+                 ((max(a - k, 0), a), (b, min(b + k, T)))]
         if min(len(i) for i in sides) < 2:
             continue
         pts = values[np.concatenate(sides), j]
@@ -859,14 +837,12 @@ def damped_ends(filled, values, free, settings=DEFAULT_SETTINGS):
     return out
 
 
-def held(filled, values, still, weight=None):
+def held(filled, values, still):
     """`filled` with every still run (:func:`still_runs`) on the straight line
     between its two observed neighbours: a joint at rest on both sides stays
     at rest, joined to both ends, instead of following the smoothed curve,
     whose velocity at the run's edges comes from the noise and the motion
-    before and after the rest. A still run with one observed side (it
-    reaches the segment's first or last frame) stays at that neighbour,
-    keeping `weight`'s share of `filled`'s displacement from it.
+    before and after the rest.
 
     Parameters
     ----------
@@ -876,10 +852,7 @@ def held(filled, values, still, weight=None):
         The segment's coordinates (read at the frames next to each still run,
         which are observed).
     still : ndarray of bool (T, N)
-        The still runs' frames (:func:`still_runs`).
-    weight : ndarray (T, N), optional
-        The prior's weight (:func:`fill_segment`); default 0: runs with one
-        observed side held at their neighbour.
+        The still runs' frames (:func:`still_runs`; never at a segment's ends).
 
     Returns
     -------
@@ -892,20 +865,11 @@ def held(filled, values, still, weight=None):
     >>> still = np.zeros((6, 1), bool); still[1:5] = True
     >>> held(np.full((6, 1, 2), 9.0), values, still)[:, 0, 0].tolist()
     [9.0, 0.8, 1.6, 2.4, 3.2, 9.0]
-    >>> still[:] = False; still[3:] = True
-    >>> held(np.full((6, 1, 2), 9.0), values, still, np.full((6, 1), 0.5))[:, 0, 0].tolist()
-    [9.0, 9.0, 9.0, 4.5, 4.5, 4.5]
     """
     out = filled.copy()
-    T = len(still)
     for j, a, b in free_runs(still):
-        if a > 0 and b < T:
-            share = ((np.arange(a, b) - a + 1) / (b - a + 1))[:, None]
-            out[a:b, j] = (1 - share) * values[a - 1, j] + share * values[b, j]
-            continue
-        edge = b if a == 0 else a - 1
-        keep = 0.0 if weight is None else weight[a:b, j, None]
-        out[a:b, j] = values[edge, j] + keep * (filled[a:b, j] - values[edge, j])
+        share = ((np.arange(a, b) - a + 1) / (b - a + 1))[:, None]
+        out[a:b, j] = (1 - share) * values[a - 1, j] + share * values[b, j]
     return out
 
 
@@ -1082,9 +1046,7 @@ def fill_segment(values, free, prior, confidence, settings=DEFAULT_SETTINGS, par
                                            settings, joints=free.any(axis=0))
         filled, residual = second + ref, np.maximum(residual, residual2)
     if unknown is not free:  # observations as data: runs joined, still runs held, ends damped
-        if settings.hold_ends:
-            still = still | still_runs(values, free, settings, ends=True)
-        filled = damped_ends(held(joined(filled, values, free, settings), values, still, weight),
+        filled = damped_ends(held(joined(filled, values, free, settings), values, still),
                              values, free, settings)
     if settings.repeats:
         filled = repeated(filled, values, free, repeat_rate(values, free))
