@@ -74,6 +74,7 @@ CASES = [  # (command line, option dest, API function, its parameter)
         ("camera_per", build_dataset, "camera")]),
     (["fit", "t.npz", "-o", "d.npz"], [
         ("seed", fit_dictionary_file, "random_state"),
+        ("passes", fit_dictionary_file, "n_passes"),
         ("errors", fit_dictionary_file, "errors_path")]),
 ]
 
