@@ -330,15 +330,15 @@ def pair_extent(poses):
     6.0
     """
     seen = np.isfinite(poses).all(axis=-1)
-    best = np.nan
-    for i, k in zip(*np.triu_indices(poses.shape[1], 1)):
-        both = seen[:, i] & seen[:, k]
-        if both.sum() >= PAIR_MIN_ROWS:
-            with np.errstate(all="ignore"):  # a wild coordinate overflows: inf, outvoted
-                d = float(np.median(np.linalg.norm(poses[both, i] - poses[both, k], axis=-1)))
-            if np.isnan(best) or d > best:
-                best = d
-    return float(best)
+    i, k = np.triu_indices(poses.shape[1], 1)
+    both = seen[:, i] & seen[:, k]
+    enough = both.sum(axis=0) >= PAIR_MIN_ROWS
+    if not enough.any():
+        return float("nan")
+    with np.errstate(all="ignore"):  # a wild coordinate overflows: inf, outvoted
+        d = np.linalg.norm(poses[:, i[enough]] - poses[:, k[enough]], axis=-1)
+    # every pair at once, each over the rows that show both (NaN elsewhere)
+    return float(np.nanmax(np.nanmedian(np.where(both[:, enough], d, np.nan), axis=0)))
 
 
 def split_at_jumps(layout, poses, missing, max_distance=MAX_LINK_DISTANCE):
