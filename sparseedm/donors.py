@@ -22,6 +22,14 @@ to 2.0 % of body size under random masks and from 9.6 to 5.1 under real
 visibility masks (KNNImputer: 3.6 and 5.5); on the MPII, COCO, CMU and Daz
 files it chose small weights or none and moved them by -0.5 to +0.01
 (``studies/fast/README.md``, "Donors").
+
+A pose that shows too few joints to align a donor (under real occlusion, a
+frame keeping 3-5 joints) gets donors *in place* instead
+(:func:`in_place_estimates`): the rows observing the hidden joint whose
+shared observed joints lie nearest in the image itself, without alignment,
+as KNNImputer finds a video's neighbouring frames. Their weight and gate are
+chosen apart, on probes of such poses, and they fill only joints without an
+aligned donor.
 """
 
 from __future__ import annotations
@@ -36,8 +44,8 @@ from .normalize import rms_radius
 
 __all__ = ["DONOR_BLOCK", "DONOR_K", "DONOR_MIN_SHARED", "DONOR_PROBES", "DONOR_MIN_PROBES",
            "DONOR_WEIGHTS", "DONOR_GATES", "DONOR_CANDIDATES", "PROBES_PER_ROW",
-           "donor_estimates", "donor_mix", "donor_step", "probes", "probe_rounds",
-           "paired_gain"]
+           "IN_PLACE_MIN_SHARED", "donor_estimates", "in_place_estimates", "donor_mix",
+           "donor_step", "probes", "probe_rounds", "paired_gain"]
 
 #: donors per hidden joint
 DONOR_K = 5
@@ -58,6 +66,9 @@ DONOR_GATES = (np.inf, 10.0, 5.0, 2.5)
 #: rows aligned exactly per pose: the nearest by their filled poses (centred,
 #: divided by their RMS radius)
 DONOR_CANDIDATES = 64
+#: joints a donor in place and the pose must both observe (a pose showing
+#: fewer than DONOR_MIN_SHARED joints has no aligned donor)
+IN_PLACE_MIN_SHARED = 3
 
 # rows per block of the candidates' alignment, and pairs per block of their search
 _CHUNK, _PAIRS = 2048, 4_000_000
@@ -166,15 +177,92 @@ def _from_candidates(z, obs, rows, cand, size, k, min_shared):
     dist = np.sqrt(np.maximum(sxx - np.abs(sxy) ** 2 / syy, 0) / n) / size[:, None] * 100
     dist = np.where(good & np.isfinite(dist), dist, np.inf)
     aligned = cx[..., None] + (sxy / syy)[..., None] * (z[cand] - cy[..., None])  # (r, m, N)
-    dj = np.where(obs[cand], dist[..., None], np.inf)          # (r, m, N)
+    return _nearest_mean(aligned, dist, obs[cand], ~obs[rows], k)
+
+
+def _nearest_mean(placed, dist, shows, hidden, k):
+    """Per row and hidden joint, the mean of the `k` nearest candidates showing
+    it (`placed` (r, m, N) complex, `dist` (r, m)) weighted by ``1 / (1 + d)``;
+    and the nearest one's distance (NaN and inf where none)."""
+    dj = np.where(shows, dist[..., None], np.inf)              # (r, m, N)
     kk = min(k, dj.shape[1])
     idx = np.argpartition(dj, kk - 1, axis=1)[:, :kk]          # (r, kk, N)
     dk = np.take_along_axis(dj, idx, 1)
     w = np.where(np.isfinite(dk), 1 / (1 + dk), 0)
     wsum = w.sum(1)
-    est = (w * np.take_along_axis(aligned, idx, 1)).sum(1) / np.where(wsum > 0, wsum, 1)
-    hidden = ~obs[rows]
+    est = (w * np.take_along_axis(placed, idx, 1)).sum(1) / np.where(wsum > 0, wsum, 1)
     return np.where(hidden & (wsum > 0), est, complex(np.nan, np.nan)), np.where(hidden, dk.min(1), np.inf)
+
+
+def in_place_estimates(poses, missing, rows, filled, *, k=DONOR_K,
+                       min_shared=IN_PLACE_MIN_SHARED, candidates=DONOR_CANDIDATES):
+    """Each hidden joint of `rows` from the file's other rows observing it whose
+    joints lie nearest in the image, without alignment.
+
+    A donor's distance is the root-mean-square distance, over the joints both
+    observe (at least `min_shared`), between its joints and the pose's, in %
+    of the RMS radius of the pose's `filled` answer; the `k` nearest donors
+    observing the joint (among the `candidates` nearest rows) give the mean of
+    their own joint weighted by ``1 / (1 + distance)``. On a video's frames
+    given as photos these are the same person's neighbouring frames, found
+    even when the pose shows too few joints for :func:`donor_estimates`.
+
+    Parameters
+    ----------
+    poses : ndarray (n, N, 2)
+        The file's poses, NaN at missing joints (validated).
+    missing : ndarray of bool (n, N)
+    rows : ndarray of int
+        The rows to estimate.
+    filled : ndarray (n, N, 2)
+        An answer for every row: its size scales the distances.
+    k, min_shared, candidates : int
+        Donors per joint, shared observed joints, candidates per row.
+
+    Returns
+    -------
+    estimates : ndarray (len(rows), N, 2)
+        NaN where a joint is observed or has no donor.
+    nearest : ndarray (len(rows), N)
+        The nearest donor's distance (inf: none).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> P = np.random.default_rng(0).normal(size=(20, 14, 2))
+    >>> P[1] = P[0] + 0.01  # the next frame
+    >>> missing = np.zeros((20, 14), bool)
+    >>> missing[0, 3:] = True  # three joints seen
+    >>> X = np.where(missing[..., None], np.nan, P)
+    >>> est, near = in_place_estimates(X, missing, np.array([0]), np.nan_to_num(X), k=1)
+    >>> bool(np.allclose(est[0, 3:], P[1, 3:])), bool(np.isnan(est[0, :3]).all())
+    (True, True)
+    """
+    obs = ~missing
+    z = np.where(obs, np.nan_to_num(poses[..., 0] + 1j * poses[..., 1]), 0)
+    _, size = rms_radius(filled[rows], np.zeros((len(rows), missing.shape[1]), bool))
+    est = np.full((len(rows), missing.shape[1]), complex(np.nan, np.nan))
+    nearest = np.full((len(rows), missing.shape[1]), np.inf)
+    o = obs.astype(float)
+    sq = np.abs(z) ** 2
+    chunk = max(1, _PAIRS // max(len(poses), 1))
+    with np.errstate(all="ignore"):  # rows out of range (1e300) find no donor
+        for s in range(0, len(rows), chunk):
+            r = rows[s:s + chunk]
+            shared = o[r] @ o.T                                   # (c, n)
+            d2 = ((o[r] * sq[r]) @ o.T + o[r] @ (o * sq).T
+                  - 2 * (z[r] @ z.conj().T).real) / np.maximum(shared, 1)
+            d2 = np.where((shared >= min_shared) & np.isfinite(d2), np.maximum(d2, 0), np.inf)
+            d2[np.arange(len(r)), r] = np.inf
+            m = min(candidates, len(poses) - 1)
+            if m < 1:
+                break
+            cand = np.argpartition(d2, m - 1, axis=1)[:, :m]
+            dist = np.sqrt(np.take_along_axis(d2, cand, 1)) / size[s:s + chunk, None] * 100
+            dist = np.where(np.isfinite(dist), dist, np.inf)
+            est[s:s + chunk], nearest[s:s + chunk] = _nearest_mean(
+                z[cand], dist, obs[cand], ~obs[r], k)
+    return np.stack([est.real, est.imag], -1), nearest
 
 
 def donor_mix(answer, estimates, nearest, missing, weight, gate):
@@ -197,7 +285,7 @@ def donor_mix(answer, estimates, nearest, missing, weight, gate):
                     answer)
 
 
-def probes(missing, random_state, per_row=None):
+def probes(missing, random_state, per_row=None, observed=None):
     """(rows, joints): a seeded subset of the occluded rows with more than
     :data:`DONOR_MIN_SHARED` observed joints (:data:`DONOR_PROBES` at most), one
     observed joint of each: the rows to answer again with that joint hidden too
@@ -212,6 +300,9 @@ def probes(missing, random_state, per_row=None):
         Seed of the rows and joints.
     per_row : int, optional
         Probes per row at most; default :data:`PROBES_PER_ROW`.
+    observed : (int, int), optional
+        Rows with more than the first and at most the second number of
+        observed joints; default ``(DONOR_MIN_SHARED, N)``.
 
     Returns
     -------
@@ -233,7 +324,9 @@ def probes(missing, random_state, per_row=None):
     """
     per_row = PROBES_PER_ROW if per_row is None else per_row
     rng = np.random.default_rng([random_state, 91])
-    cand = np.flatnonzero(missing.any(1) & ((~missing).sum(1) > DONOR_MIN_SHARED))
+    low, high = (DONOR_MIN_SHARED, missing.shape[1]) if observed is None else observed
+    seen = (~missing).sum(1)
+    cand = np.flatnonzero(missing.any(1) & (seen > low) & (seen <= high))
     rows = np.sort(rng.permutation(cand)[:DONOR_PROBES])
     joints = np.array([rng.choice(np.flatnonzero(~missing[r])) for r in rows], int)
     k = min(per_row, -(-DONOR_PROBES // max(len(rows), 1)))
@@ -331,6 +424,13 @@ def donor_step(res, poses, missing, answer, random_state=0, block=DONOR_BLOCK):
     probes on the file's occluded rows say so; a file of more than `block`
     rows block by block of consecutive rows, each with its own probes.
 
+    Two kinds of donors, each with its own weight and gate chosen on its own
+    probes (:func:`probes`): aligned ones (:func:`donor_estimates`), probed on
+    rows showing more than :data:`DONOR_MIN_SHARED` joints, and donors in
+    place (:func:`in_place_estimates`) for the hidden joints without an
+    aligned donor, probed on rows showing more than
+    :data:`IN_PLACE_MIN_SHARED` joints and at most :data:`DONOR_MIN_SHARED`.
+
     Parameters
     ----------
     res : RecoveryResult
@@ -353,7 +453,8 @@ def donor_step(res, poses, missing, answer, random_state=0, block=DONOR_BLOCK):
         :data:`DONOR_MIN_PROBES`); else a copy with the occluded rows' hidden
         joints (and their distances) moved. Either way, with enough probes and
         an ``adaptation``, its ``settings["donors"]`` records the weight, gate,
-        probes and their errors.
+        probes and their errors (those of the donors in place under
+        ``"in_place"``, when there were enough such probes).
     """
     if len(poses) > block:
         for s in range(0, len(poses), block):
@@ -362,34 +463,60 @@ def donor_step(res, poses, missing, answer, random_state=0, block=DONOR_BLOCK):
                               random_state, block)
             res = replace(put_rows(res, rows, part), adaptation=part.adaptation)
         return res
-    rows, joints = probes(missing, random_state)
-    if len(rows) < DONOR_MIN_PROBES:
+    aligned = _probe_choice(res.poses, poses, missing, answer, donor_estimates,
+                            probes(missing, random_state))
+    if aligned is None:
         return res
-    pmiss = missing[rows].copy()
-    pmiss[np.arange(len(rows)), joints] = True
-    pposes = np.where(pmiss[..., None], np.nan, poses[rows])
-    probe = answer(pposes, pmiss).poses
-    est, near = _probe_estimates(res.poses, poses, missing, rows, pposes, pmiss, probe)
-    (w, g), e0, e1 = _choose(probe, est, near, poses[rows], joints, rows)
-    record = {"weight": w, "gate": None if np.isinf(g) else g, "probes": int(len(rows)),
-              "probe_err_default": round(e0, 4), "probe_err_chosen": round(e1, 4)}
+    placed = _probe_choice(res.poses, poses, missing, answer, in_place_estimates,
+                           probes(missing, random_state,
+                                  observed=(IN_PLACE_MIN_SHARED, DONOR_MIN_SHARED)))
+    record = dict(aligned)
+    if placed is not None:
+        record["in_place"] = placed
     if res.adaptation is not None:
         res = replace(res, adaptation=_noted(res.adaptation, record))
-    if w == 0:
+    if aligned["weight"] == 0 and (placed is None or placed["weight"] == 0):
         return res
     occ = np.flatnonzero(missing.any(1))
-    est, near = donor_estimates(poses, missing, occ, res.poses)
     part = res.take(occ)
-    moved = donor_mix(part.poses, est, near, missing[occ], w, g)
+    est, near = donor_estimates(poses, missing, occ, res.poses)
+    moved = donor_mix(part.poses, est, near, missing[occ], *_key(aligned))
+    if placed is not None and placed["weight"] > 0:
+        bare = missing[occ] & ~np.isfinite(est[..., 0])  # joints without an aligned donor
+        moved = donor_mix(moved, *in_place_estimates(poses, missing, occ, res.poses), bare,
+                          *_key(placed))
     shift = (pose_to_vector(moved) - pose_to_vector(part.poses)) / part.scale[:, None]
     hidden = ~observed_entries(missing[occ])
     vectors = np.where(hidden & np.isfinite(shift), part.vectors + shift, part.vectors)
     return put_rows(res, occ, replace(part, poses=moved, vectors=vectors))
 
 
-def _probe_estimates(filled, poses, missing, rows, pposes, pmiss, probe):
-    """donor_estimates for each probe, round by round of :func:`probe_rounds` (a
-    row once per round): the file with that round's probed joints hidden."""
+def _key(record):
+    """(weight, gate) of a choice's record (gate None: none)."""
+    return record["weight"], np.inf if record["gate"] is None else record["gate"]
+
+
+def _probe_choice(filled, poses, missing, answer, estimate, drawn):
+    """The record of the weight and gate of `estimate`'s donors chosen on the
+    probes `drawn` (:func:`probes`' rows and joints), answered by `answer`;
+    None with fewer than :data:`DONOR_MIN_PROBES`."""
+    rows, joints = drawn
+    if len(rows) < DONOR_MIN_PROBES:
+        return None
+    pmiss = missing[rows].copy()
+    pmiss[np.arange(len(rows)), joints] = True
+    pposes = np.where(pmiss[..., None], np.nan, poses[rows])
+    probe = answer(pposes, pmiss).poses
+    est, near = _probe_estimates(filled, poses, missing, rows, pposes, pmiss, probe, estimate)
+    (w, g), e0, e1 = _choose(probe, est, near, poses[rows], joints, rows)
+    return {"weight": w, "gate": None if np.isinf(g) else g, "probes": int(len(rows)),
+            "probe_err_default": round(e0, 4), "probe_err_chosen": round(e1, 4)}
+
+
+def _probe_estimates(filled, poses, missing, rows, pposes, pmiss, probe, estimate):
+    """`estimate` (:func:`donor_estimates` or :func:`in_place_estimates`) for
+    each probe, round by round of :func:`probe_rounds` (a row once per round):
+    the file with that round's probed joints hidden."""
     est = np.full(pposes.shape, np.nan)
     near = np.full(pmiss.shape, np.inf)
     rounds = probe_rounds(rows)
@@ -397,7 +524,7 @@ def _probe_estimates(filled, poses, missing, rows, pposes, pmiss, probe):
         at = np.flatnonzero(rounds == r)
         allp, allm, fill = poses.copy(), missing.copy(), filled.copy()
         allp[rows[at]], allm[rows[at]], fill[rows[at]] = pposes[at], pmiss[at], probe[at]
-        est[at], near[at] = donor_estimates(allp, allm, rows[at], fill)
+        est[at], near[at] = estimate(allp, allm, rows[at], fill)
     return est, near
 
 

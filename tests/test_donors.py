@@ -7,8 +7,9 @@ import numpy as np
 import pytest
 
 import sparseedm
-from sparseedm.donors import (DONOR_MIN_PROBES, DONOR_MIN_SHARED, DONOR_PROBES, donor_estimates,
-                              donor_step, probe_rounds, probes)
+from sparseedm.donors import (DONOR_MIN_PROBES, DONOR_MIN_SHARED, DONOR_PROBES,
+                              IN_PLACE_MIN_SHARED, donor_estimates, donor_step,
+                              in_place_estimates, probe_rounds, probes)
 from sparseedm.real_protocol import body_size
 
 
@@ -258,3 +259,73 @@ def test_several_probes_per_row_let_a_small_file_choose_donors(cmu_poses, monkey
     assert donors["probes"] == 4 * n_rows
     assert donors["weight"] > 0
     assert _hidden_error(out.poses, truth, missing) < _hidden_error(res.poses, truth, missing)
+
+
+def _frames_showing_few(cmu_poses, same_person, seed=0):
+    """(truth, missing): 100 complete poses, then 60 people seen in 4 frames
+    each at one place in the image (or, without `same_person`, 240 people
+    once each): in two of each person's frames only 4 joints are shown, the
+    other two hide 1 or 2."""
+    rng = np.random.default_rng(seed)
+    complete = cmu_poses[:100]
+    people = cmu_poses[100:160] if same_person else cmu_poses[100:340]
+    place = rng.uniform(-3000, 3000, (len(people), 1, 2))
+    if same_person:
+        body = np.repeat(people + place, 4, axis=0)
+    else:
+        body = people + place
+    truth = np.concatenate([complete, body + rng.normal(0, 0.3, body.shape)])
+    missing = np.zeros(truth.shape[:2], bool)
+    for i in range(len(body)):
+        shown = 4 if i % 4 < 2 else 14 - rng.integers(1, 3)
+        missing[100 + i, rng.permutation(14)[shown:]] = True
+    return truth, missing
+
+
+def test_in_place_donors_fill_poses_showing_few_joints(cmu_poses, monkeypatch):
+    """A frame showing 4 joints has no aligned donor; the same person's other
+    frames at the same place give its hidden joints back, when probes say so."""
+    truth, missing = _frames_showing_few(cmu_poses, same_person=True)
+    given = np.where(missing[..., None], np.nan, truth)
+    res = sparseedm.recover(given, missing)
+    placed = res.adaptation.settings["donors"]["in_place"]
+    assert placed["weight"] > 0 and placed["probe_err_chosen"] < placed["probe_err_default"]
+    json.dumps(res.summary()["adaptation"], allow_nan=False)
+    few = missing & ((~missing).sum(1) == 4)[:, None]
+    monkeypatch.setattr(sparseedm.donors, "IN_PLACE_MIN_SHARED", DONOR_MIN_SHARED)
+    without = sparseedm.recover(given, missing)
+    assert "in_place" not in without.adaptation.settings["donors"]
+    assert _hidden_error(res.poses, truth, few) < 0.5 * _hidden_error(without.poses, truth, few)
+    assert np.array_equal(res.poses[~missing], truth[~missing])
+
+
+def test_in_place_donors_stay_out_of_a_file_of_strangers(cmu_poses):
+    """Each person once, each at its own place: no frame is near another, and
+    the probes keep the default answer."""
+    truth, missing = _frames_showing_few(cmu_poses, same_person=False)
+    res = sparseedm.recover(np.where(missing[..., None], np.nan, truth), missing)
+    assert res.adaptation.settings["donors"]["in_place"]["weight"] == 0
+
+
+def test_in_place_estimates_need_shared_joints():
+    """Donors in place need IN_PLACE_MIN_SHARED joints observed by both rows."""
+    poses = np.random.default_rng(4).normal(size=(2, 14, 2))
+    missing = np.ones((2, 14), bool)
+    missing[0, :IN_PLACE_MIN_SHARED] = False
+    missing[1, 1:] = False  # shares IN_PLACE_MIN_SHARED - 1 joints with row 0
+    given = np.where(missing[..., None], np.nan, poses)
+    est, near = in_place_estimates(given, missing, np.array([0]), np.nan_to_num(given))
+    assert np.isnan(est[0]).all() and np.isinf(near[0]).all()
+    missing[1, 0] = False
+    given = np.where(missing[..., None], np.nan, poses)
+    est, _ = in_place_estimates(given, missing, np.array([0]), poses)
+    assert np.allclose(est[0, IN_PLACE_MIN_SHARED:], poses[1, IN_PLACE_MIN_SHARED:])
+
+
+def test_probes_within_a_range_of_shown_joints():
+    missing = np.zeros((40, 14), bool)
+    missing[:, :4] = True
+    missing[::2, 4:10] = True  # even rows show 4 joints, odd rows 10
+    rows, joints = probes(missing, 0, observed=(3, 6))
+    assert len(rows) == 20 and (rows % 2 == 0).all() and not missing[rows, joints].any()
+    assert (probes(missing, 0)[0] % 2 == 1).all()
