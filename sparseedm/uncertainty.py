@@ -608,7 +608,7 @@ def radius_at(uncertainty, level, way=None, calibration=None):
     radii = np.asarray(uncertainty, float)
     if way is None or isinstance(way, str):
         return radii * _level_scale(level, _way_levels(way, calibration))
-    if hasattr(way, "missing"):  # the RecoveryResult the radii came from
+    if hasattr(way, "missing") and hasattr(way, "ok"):  # the RecoveryResult of the radii
         way = joint_ways(way)
     way = np.broadcast_to(np.asarray(way, str), radii.shape)
     scale = np.ones(radii.shape)
