@@ -1,6 +1,6 @@
 """Other levels than 90 %; sharper radii for the adapted path and the shipped dictionary.
 
-Three questions on caches of ``calibrate.py`` (validation; fitted on mask seed
+Four questions on caches of ``calibrate.py`` (validation; fitted on mask seed
 0, read on mask seed 1):
 
 1. **Levels.** :func:`sparseedm.uncertainty.radius_at` scaled the 90 % radius
@@ -18,6 +18,9 @@ Three questions on caches of ``calibrate.py`` (validation; fitted on mask seed
    radius and error per photo protocol of the way.
 3. **The shipped dictionary's rule** (``per_frame``) re-fitted on the current
    answers, with conformal floors from 0.86 to 0.91 (``--part per_frame``).
+4. **Clean motion capture in short gaps** (``--part temporal``): the track's
+   noise weighed more near the observed frames (its log over ``1 + log
+   frames``, or times ``exp(-log frames)``), against the rule as it is.
 
 The adapted path runs on five validation files (``calibrate.py``'s
 defaults): Bonn frames, Bonn topped up to 1,500 complete poses with training
@@ -51,7 +54,8 @@ BASE = dict(uncertainty.FEATURES)
 #: the adapted rule before it read the guard's error (its features, and its entry)
 OLD = uncertainty.UNCHECKED_FEATURES["adapted"]
 #: the entries shipped before
-BEFORE = {"adapted": {"conformal": 1.3181, "coef": (-1.7032, 0.3743, 0.4231, 0.2755, 0.0849)},
+BEFORE = {"temporal": uncertainty.CALIBRATION["temporal"],
+          "adapted": {"conformal": 1.3181, "coef": (-1.7032, 0.3743, 0.4231, 0.2755, 0.0849)},
           "per_frame": {"conformal": 1.0682,
                         "coef": (2.4431, 0.6146, 0.4932, 0.1552, 0.4376, 0.7945)}}
 GAUSSIAN = tuple(float(np.sqrt(-2 * np.log1p(-p)) / uncertainty.NOISE_RADIUS)
@@ -69,13 +73,22 @@ VARIANTS = {
     "per_frame": {"before": (BASE["per_frame"], None),
                   **{f"refit, floor {f:.2f}": (BASE["per_frame"], f)
                      for f in (0.86, 0.89, 0.90, 0.91)}},
+    # the track's noise weighed more near the observed frames (clean mocap, short gaps)
+    "temporal": {"before": (BASE["temporal"], None),
+                 "refit": (BASE["temporal"], 0.86),
+                 "+ noise / (1 + log frames)": (BASE["temporal"] + ("noise_near",), 0.86),
+                 "+ noise * exp(-log frames)": (BASE["temporal"] + ("noise_decay",), 0.86)},
 }
 
 
 def load(path):
-    """The joints of a calibrate.py cache."""
+    """The joints of a calibrate.py cache, with the candidate interactions of the
+    track's noise and the frames to the nearest observation."""
     with np.load(path, allow_pickle=False) as f:
-        return {k: f[k] for k in f.files if k not in ("settings", "refused")}
+        data = {k: f[k] for k in f.files if k not in ("settings", "refused")}
+    data["noise_near"] = data["log_noise"] / (1 + data["log_frames"])
+    data["noise_decay"] = data["log_noise"] * np.exp(-data["log_frames"])
+    return data
 
 
 def reliability(data, table):
@@ -121,7 +134,7 @@ def levels_part(fit_data, check_data):
 
 
 def sharpness(data, table, way):
-    """{photo protocol of `way`: coverage, mean radius / mean error, Spearman}."""
+    """{protocol of `way`: coverage, mean radius / mean error, Spearman}."""
     from scipy.stats import spearmanr
 
     radius = calibrate._radius(data, np.ones(len(data["error"]), bool), table)
@@ -137,9 +150,9 @@ def sharpness(data, table, way):
 
 def refit_part(fit_data, check_data, way):
     """Each of the way's :data:`VARIANTS` re-fitted on `fit_data` (the way only),
-    its photo protocols read on both caches."""
+    its protocols read on both caches."""
     out = {}
-    calibrate.KEYS = sorted(set(calibrate.KEYS) | {"guarded", "log_guard_error"})
+    calibrate.KEYS = sorted(set(calibrate.KEYS) | {"noise_near", "noise_decay"})
     for name, (features, floor) in VARIANTS[way].items():
         uncertainty.FEATURES[way] = features
         if floor is None:
@@ -163,7 +176,8 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--fit-cache", required=True, help="calibrate.py cache, mask seed 0")
     ap.add_argument("--check-cache", required=True, help="calibrate.py cache, mask seed 1")
-    ap.add_argument("--part", choices=("levels", "adapted", "per_frame"), required=True)
+    ap.add_argument("--part", choices=("levels", "adapted", "per_frame", "temporal"),
+                    required=True)
     ap.add_argument("-o", "--output", help="default sharp_levels_<part>.json beside this script")
     args = ap.parse_args(argv)
     fit_data, check_data = load(args.fit_cache), load(args.check_cache)
