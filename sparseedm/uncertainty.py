@@ -34,7 +34,14 @@ with one set of coefficients per way of filling (:data:`CALIBRATION`):
   less than a file of strangers, which the joint's own features do not see;
   a file the check did not measure (from 2,000 complete poses) gets the
   way's ``"unchecked"`` rule, without that error (:data:`UNCHECKED_FEATURES`).
-  Each path has its own coefficients: a
+  ``adapted`` likewise reads the error the adaptation's guard measured for
+  the adapted dictionary on held-back complete poses of the file
+  (``guarded`` 1, ``log_guard_error``; ``res.adaptation.err_adapted``, the
+  Mix Err_ave in %): without it the rule covered 0.98 of the hidden joints
+  of Bonn frames (the same people's neighbouring frames among the file's
+  poses) with circles 5-7 times their mean error; an adaptation without a
+  guard gets the way's ``"unchecked"`` rule. Each path has its own
+  coefficients: a
   dictionary adapted and self-trained on the file agrees with its own
   fills whatever their error, over the file's own poses the errors depend
   on how alike the file's people are, and a ridge's residual is not a
@@ -59,6 +66,15 @@ coefficients are a 0.9-quantile regression of ``log(error / size)`` on
 validation data of real people and mocap, and ``conformal`` the factor that
 brings each way's coverage to 90 % on those data
 (``studies/uncertainty/calibrate.py`` re-fits the table in one command).
+
+Another level than 90 %: :func:`radius_at` scales the radius by the factor
+measured for it, per way of filling (``CALIBRATION[way]["levels"]``, at
+:data:`LEVELS`): the real people's validation quantiles of a filled joint's
+error over its 90 % radius. The errors have heavier tails than a 2D
+Gaussian's, whose rule held 0.63-0.98 of the joints at 50 %. Given the
+result the radii belong to (or :func:`joint_ways`), each joint gets its
+way's factors; radii alone (read from a file) the factors pooled over every
+way (``CALIBRATION["pooled"]``).
 """
 
 from __future__ import annotations
@@ -67,18 +83,20 @@ import numpy as np
 
 from ._validation import frame_numbers
 from .edm import vector_to_edm
+from .exceptions import ParameterError
 from .normalize import rms_radius
 from .skeleton import SKELETON_14, skeleton_hops
 
 __all__ = ["joint_uncertainty", "joint_features", "uncertainty_rule", "coding_way",
-           "CALIBRATION", "FEATURES", "UNCHECKED_FEATURES", "MIN_RELATIVE", "NOISE_RADIUS",
-           "UNSOLVED_LOG_RESIDUAL", "radius_at"]
+           "CALIBRATION", "FEATURES", "UNCHECKED_FEATURES", "CHECKED_FLAG", "MIN_RELATIVE", "NOISE_RADIUS",
+           "UNSOLVED_LOG_RESIDUAL", "radius_at", "joint_ways", "LEVELS"]
 
 #: the features each way of filling uses, in the order of its coefficients
 FEATURES = {
     "per_frame": ("const", "log_missing", "hops", "depth", "log_disagreement",
                   "log_residual"),
-    "adapted": ("const", "log_missing", "hops", "depth", "log_disagreement"),
+    "adapted": ("const", "log_missing", "hops", "depth", "log_disagreement",
+                "log_guard_error"),
     "file_atoms": ("const", "log_missing", "hops", "depth", "log_disagreement",
                    "log_residual", "log_held_error"),
     "local_ridge": ("const", "log_missing", "hops", "depth", "log_disagreement",
@@ -87,29 +105,46 @@ FEATURES = {
                  "log_missing", "log_noise"),
 }
 
-#: the features of a way's ``"unchecked"`` entry: its joints in files the default
-#: path's check did not measure (no held-back error)
+#: the features of a way's ``"unchecked"`` entry: its joints in files whose error
+#: on held-back poses was not measured (:data:`CHECKED_FLAG` 0)
 UNCHECKED_FEATURES = {"file_atoms": ("const", "log_missing", "hops", "depth",
-                                     "log_disagreement", "log_residual")}
+                                     "log_disagreement", "log_residual"),
+                      "adapted": ("const", "log_missing", "hops", "depth", "log_disagreement")}
+#: the feature that says a way's file error was measured (1) or not (0): the
+#: default path's check (``file_atoms``), the adaptation's guard (``adapted``)
+CHECKED_FLAG = {"file_atoms": "checked", "adapted": "guarded"}
+
+#: the coverage levels of the factors ``CALIBRATION[way]["levels"]`` (:func:`radius_at`)
+LEVELS = (0.25, 0.5, 0.6, 0.7, 0.8, 0.9, 0.95, 0.99)
 
 #: coefficients of log(radius / size) per way of filling, and the conformal
 #: factor; fitted by ``studies/uncertainty/calibrate.py`` on validation data
 #: (studies/uncertainty/calibration.json has the run's coverage per source);
 #: ``"unchecked"``: the entry (features :data:`UNCHECKED_FEATURES`) of the way's
-#: joints in files without a held-back error
+#: joints in files without a held-back error; ``"levels"``: the factors from the
+#: 90 % radius to the radius at each of :data:`LEVELS` (:func:`radius_at`),
+#: ``"pooled"`` those of every way together
 CALIBRATION = {
-    "per_frame": {"conformal": 1.0682,
-        "coef": (2.4431, 0.6146, 0.4932, 0.1552, 0.4376, 0.7945)},
-    "adapted": {"conformal": 1.3181,
-        "coef": (-1.7032, 0.3743, 0.4231, 0.2755, 0.0849)},
+    "per_frame": {"conformal": 1.1836,
+        "coef": (2.8071, 0.4473, 0.2826, 0.2539, 0.3864, 0.9104),
+        "levels": (0.2127, 0.37, 0.4462, 0.537, 0.6613, 1.0, 1.1336, 1.7477)},
+    "adapted": {"conformal": 1.1187,
+        "coef": (0.4341, 0.5787, 0.3197, 0.3363, -0.0129, 0.8181),
+        "levels": (0.1418, 0.2818, 0.3586, 0.4555, 0.6099, 1.0, 1.2029, 2.0779),
+        "unchecked": {"conformal": 1.3181,
+                      "coef": (-1.7032, 0.3743, 0.4231, 0.2755, 0.0849)}},
     "file_atoms": {"conformal": 0.9998,
         "coef": (3.0178, 0.1843, 0.3024, 0.2605, 0.4772, 0.6809, 0.3898),
+        "levels": (0.2059, 0.3687, 0.4493, 0.5518, 0.6981, 1.0, 1.2138, 1.9854),
         "unchecked": {"conformal": 1.0632,
                       "coef": (1.8037, 0.3945, 0.3829, 0.2546, 0.6612, 0.48)}},
     "local_ridge": {"conformal": 1.2582,
-        "coef": (0.0552, 0.536, 0.5565, 0.3187, 0.3874, 0.3644)},
+        "coef": (0.0552, 0.536, 0.5565, 0.3187, 0.3874, 0.3644),
+        "levels": (0.1603, 0.2989, 0.3711, 0.4681, 0.5895, 1.0, 1.1154, 2.1188)},
     "temporal": {"conformal": 1.1385,
-        "coef": (-3.5664, 0.72, 0.3725, 0.5261, 0.0021, 0.4354, 0.4058, 0.1828)},
+        "coef": (-3.5664, 0.72, 0.3725, 0.5261, 0.0021, 0.4354, 0.4058, 0.1828),
+        "levels": (0.1492, 0.2825, 0.3656, 0.4716, 0.6388, 1.0, 1.2698, 2.3764)},
+    "pooled": {"levels": (0.1636, 0.3116, 0.3914, 0.49, 0.6369, 1.0, 1.1916, 2.0469)},
 }
 
 #: log of the lasso residual a pose solved without a lasso (FConv) is given: the
@@ -252,10 +287,7 @@ def joint_features(result, tracks=None, frames=None):
     n, N = missing.shape
     ok = np.asarray(result.ok) & np.isfinite(poses).all(axis=(1, 2))
     filled = missing & ok[:, None]
-    source = getattr(result, "source", None)
-    way = np.where(filled, coding_way(result), "").astype(object)
-    if source is not None:
-        way[filled & (source == "temporal")] = "temporal"
+    way = joint_ways(result)
     safe = np.where(np.isfinite(poses), poses, 0.0)
     size = np.where(ok, _pose_size(safe), np.nan)
     n_missing = missing.sum(axis=1)
@@ -282,7 +314,7 @@ def joint_features(result, tracks=None, frames=None):
     out.update(time)
     with np.errstate(invalid="ignore", divide="ignore"):
         out["log_noise"] = np.log(np.nan_to_num(noise / size) + _EPS)
-    out.update(way=way.astype(str), size=size, noise=noise)
+    out.update(way=way, size=size, noise=noise)
     return out
 
 
@@ -295,7 +327,12 @@ def _averaging_features(result, filled, size):
     poses (:attr:`~sparseedm.adaptation.AdaptationResult.n_complete`, 0 without),
     ``checked`` 1 when the default path's check measured the path's error on
     held-back complete poses and ``log_held_error`` the log of that error as a
-    fraction of the pose's size (0 unchecked)."""
+    fraction of the pose's size (0 unchecked), ``guarded`` 1 when the file's
+    poses were coded over a dictionary adapted on the file and its guard
+    measured that dictionary's error on held-back complete poses
+    (:attr:`~sparseedm.adaptation.AdaptationResult.err_adapted`, the Mix
+    Err_ave in %) and ``log_guard_error`` the log of that error over 100
+    (0 unguarded)."""
     n, N = filled.shape
     record = getattr(result, "averaged", None)
     count = np.zeros(n) if record is None else np.array(
@@ -308,11 +345,16 @@ def _averaging_features(result, filled, size):
     complete = getattr(adaptation, "n_complete", 0) or 0
     held = float(getattr(adaptation, "settings", {}).get("held_err_path", np.nan))
     checked = np.isfinite(held) and held > 0
+    guard = float(getattr(adaptation, "err_adapted", np.nan)) \
+        if getattr(adaptation, "adapted", False) else np.nan
+    guarded = np.isfinite(guard) and guard > 0
     return {"averaged": np.repeat(count[:, None], N, axis=1),
             "rel_spread": np.where(filled, rel, 0.0),
             "log_complete": np.full((n, N), np.log1p(float(complete))),
             "checked": np.full((n, N), float(checked)),
-            "log_held_error": np.full((n, N), np.log(held / 100) if checked else 0.0)}
+            "log_held_error": np.full((n, N), np.log(held / 100) if checked else 0.0),
+            "guarded": np.full((n, N), float(guarded)),
+            "log_guard_error": np.full((n, N), np.log(guard / 100) if guarded else 0.0)}
 
 
 def coding_way(result):
@@ -407,8 +449,8 @@ def uncertainty_rule(features, calibration=None):
         if not at.any():
             continue
         entry = calibration[name]
-        if "unchecked" in entry:  # files without the check's held-back error
-            unchecked = at & (features["checked"] == 0)
+        if "unchecked" in entry:  # files without a measured held-back error
+            unchecked = at & (features[CHECKED_FLAG[name]] == 0)
             _radius_into(radius, features, unchecked, UNCHECKED_FEATURES[name],
                          entry["unchecked"])
             at &= ~unchecked
@@ -468,26 +510,118 @@ def joint_uncertainty(result, tracks=None, frames=None, calibration=None):
     return radius
 
 
-def radius_at(uncertainty, level):
-    """The radius at another coverage `level`, scaled from the 90 % one as a
-    2D isotropic Gaussian's radii scale: ``r * sqrt(-2 ln(1 - level)) /
-    sqrt(2 ln 10)``.
+def joint_ways(result):
+    """Each joint's way of filling: which rule of :data:`CALIBRATION` rated it.
+
+    Parameters
+    ----------
+    result : RecoveryResult
+        What :func:`sparseedm.recover` returned.
+
+    Returns
+    -------
+    ndarray of str (n, N)
+        ``"temporal"`` for a joint filled across time, else the poses' way
+        (:func:`coding_way`) at a filled joint; ``""`` at an observed joint
+        and on a refused pose.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import sparseedm
+    >>> pose = np.random.default_rng(0).normal(size=(14, 2))
+    >>> pose[4] = np.nan
+    >>> joint_ways(sparseedm.recover(pose, adapt=False))[0, 3:6].tolist()
+    ['', 'per_frame', '']
+    """
+    poses, missing = result.poses, result.missing
+    ok = np.asarray(result.ok) & np.isfinite(poses).all(axis=(1, 2))
+    filled = missing & ok[:, None]
+    way = np.where(filled, coding_way(result), "").astype(object)
+    source = getattr(result, "source", None)
+    if source is not None:
+        way[filled & (source == "temporal")] = "temporal"
+    return way.astype(str)
+
+
+def _level_scale(level, table):
+    """The factor from the 90 % radius to the `level` one by `table` (one factor per
+    level of :data:`LEVELS`): log-linear in the Gaussian radius
+    ``sqrt(-2 ln(1 - level))`` between the table's levels, that radius's shape
+    beyond them."""
+    z = np.log(np.sqrt(-2 * np.log1p(-np.asarray(LEVELS))))
+    at = np.log(np.sqrt(-2 * np.log1p(-level)))
+    logs = np.log(np.asarray(table, float))
+    if at < z[0]:
+        return float(np.exp(logs[0] + at - z[0]))
+    if at > z[-1]:
+        return float(np.exp(logs[-1] + at - z[-1]))
+    return float(np.exp(np.interp(at, z, logs)))
+
+
+def radius_at(uncertainty, level, way=None, calibration=None):
+    """The radius at another coverage `level`, scaled from the 90 % one.
+
+    The factor is the measured one: per way of filling, the quantiles of a
+    filled joint's error over its 90 % radius on the validation data
+    (``CALIBRATION[way]["levels"]`` at :data:`LEVELS`; the errors have
+    heavier tails than a 2D Gaussian's), interpolated between those levels
+    log-linearly in a 2D Gaussian's radius ``sqrt(-2 ln(1 - level))``, whose
+    shape continues beyond them. 1 at 0.9, and growing with `level`.
 
     Parameters
     ----------
     uncertainty : array_like
-        90 % radii (:attr:`RecoveryResult.uncertainty`).
+        90 % radii (:attr:`RecoveryResult.uncertainty`, or read from a file).
     level : float
         In (0, 1).
+    way : str, array_like of str or RecoveryResult, optional
+        Whose factors: a way of filling (a name of :data:`FEATURES`), one per
+        radius (shaped as `uncertainty`, as :func:`joint_ways` gives them;
+        ``""``: the pooled factors), or the result the radii belong to (its
+        :func:`joint_ways`). None: the factors pooled over every way
+        (``CALIBRATION["pooled"]``), for radii whose way is not known.
+    calibration : dict, optional
+        Shaped as :data:`CALIBRATION` (the default).
 
     Returns
     -------
     ndarray
-        Radii at `level`.
+        Radii at `level` (0 stays 0, NaN stays NaN).
+
+    Raises
+    ------
+    ParameterError
+        `level` is not a number in (0, 1) or `way` names no way.
 
     Examples
     --------
-    >>> float(radius_at(10.0, 0.9)), round(float(radius_at(10.0, 0.5)), 2)
-    (10.0, 5.49)
+    >>> float(radius_at(10.0, 0.9))
+    10.0
+    >>> bool(radius_at(10.0, 0.5) < radius_at(10.0, 0.8) < 10.0 < radius_at(10.0, 0.95))
+    True
     """
-    return np.asarray(uncertainty, float) * np.sqrt(-2 * np.log1p(-level)) / NOISE_RADIUS
+    if isinstance(level, bool) or not isinstance(level, (int, float, np.number)) \
+            or not 0 < level < 1:
+        raise ParameterError(f"radius_at: level must be a number in (0, 1), got {level!r}")
+    calibration = CALIBRATION if calibration is None else calibration
+    radii = np.asarray(uncertainty, float)
+    if way is None or isinstance(way, str):
+        return radii * _level_scale(level, _way_levels(way, calibration))
+    if hasattr(way, "missing") and hasattr(way, "ok"):  # the RecoveryResult of the radii
+        way = joint_ways(way)
+    way = np.broadcast_to(np.asarray(way, str), radii.shape)
+    scale = np.ones(radii.shape)
+    for name in np.unique(way):
+        scale[way == name] = _level_scale(level, _way_levels(name, calibration))
+    return radii * scale
+
+
+def _way_levels(name, calibration):
+    """The level factors of way `name` in `calibration` (None or "": the pooled ones)."""
+    if not name:
+        name = "pooled"
+    if name not in FEATURES and name != "pooled":
+        raise ParameterError(f"radius_at: way must be one of {sorted(FEATURES)}, "
+                             f"got {name!r}")
+    return calibration[name]["levels"]

@@ -228,6 +228,89 @@ def test_a_path_over_the_files_own_poses_covers_real_people(shared_data, preset,
     assert hidden.sum() > 1000 and 0.85 <= covered.mean() <= 0.95, covered.mean()
 
 
+def test_the_adapted_rule_reads_the_guards_error(cmu_poses, small_dictionary):
+    """The adapted path's rule reads the error its guard measured on the file's
+    held-back poses: a dictionary measured to err more gets wider circles (by that
+    error's ratio to the power of its coefficient); without a guard's error, the
+    way's unchecked rule."""
+    from dataclasses import replace
+
+    from sparseedm.uncertainty import (CALIBRATION, FEATURES, MIN_RELATIVE,
+                                       UNCHECKED_FEATURES)
+
+    poses, missing = _own_poses_file(cmu_poses[:60])
+    res = sparseedm.recover(poses, missing, dictionary=small_dictionary, exemplars=False,
+                            self_training=0)
+    assert coding_way(res) == "adapted" and np.isfinite(res.adaptation.err_adapted)
+    filled = res.missing & res.ok[:, None]
+    features = joint_features(res)
+    assert (features["guarded"][filled] == 1).all()
+    np.testing.assert_allclose(features["log_guard_error"][filled],
+                               np.log(res.adaptation.err_adapted / 100))
+
+    def radius(err):
+        again = replace(res, adaptation=replace(res.adaptation, err_adapted=err))
+        return joint_uncertainty(again)[filled], joint_features(again)
+
+    (low, _), (high, _), (unguarded, seen) = radius(1.0), radius(3.0), radius(np.nan)
+    assert (seen["guarded"][filled] == 0).all() and (seen["log_guard_error"] == 0).all()
+    entry = CALIBRATION["adapted"]
+    coef = dict(zip(FEATURES["adapted"], entry["coef"]))
+    size = features["size"][filled]
+    above = low > MIN_RELATIVE * size * 1.001
+    assert above.sum() > 50 and (high >= low).all()
+    np.testing.assert_allclose(high[above] / low[above], 3.0 ** coef["log_guard_error"])
+    rule = entry["unchecked"]
+    x = np.stack([seen[f][filled] for f in UNCHECKED_FEATURES["adapted"]], axis=-1)
+    own = size * np.exp(x @ np.asarray(rule["coef"])) * rule["conformal"]
+    at = own > MIN_RELATIVE * size * 1.001
+    assert at.sum() > 50
+    np.testing.assert_allclose(unguarded[at], own[at])
+
+
+def test_radius_at_reads_each_ways_measured_factors():
+    """radius_at: the 90 % radius at 0.9, growing with the level for every way and
+    pooled, the way's own factor at each tabulated level, one way per radius."""
+    from sparseedm.uncertainty import CALIBRATION, LEVELS
+
+    fine = np.linspace(0.05, 0.995, 60)
+    for way in [None, *sorted(CALIBRATION)]:
+        assert radius_at(2.0, 0.9, way) == pytest.approx(2.0)
+        radii = np.array([radius_at(2.0, p, way) for p in fine])
+        assert (np.diff(radii) >= 0).all() and radii[0] > 0, way
+        table = CALIBRATION["pooled" if way is None else way]["levels"]
+        np.testing.assert_allclose([radius_at(2.0, p, way) for p in LEVELS],
+                                   2.0 * np.asarray(table))
+    ways = np.array([["temporal", "", "adapted"]])
+    got = radius_at(np.array([[1.0, 0.0, 3.0]]), 0.5, ways)
+    np.testing.assert_allclose(got, [[radius_at(1.0, 0.5, "temporal"), 0.0,
+                                      radius_at(3.0, 0.5, "adapted")]])
+    assert np.isnan(radius_at(np.nan, 0.5))
+    for level in (0.0, 1.0, -0.5, True, "0.5"):
+        with pytest.raises(sparseedm.exceptions.ParameterError, match="level"):
+            radius_at(1.0, level)
+    with pytest.raises(sparseedm.exceptions.ParameterError, match="way"):
+        radius_at(1.0, 0.5, "kalman")
+
+
+def test_radius_at_takes_the_result_the_radii_belong_to(clip_result, cmu_poses,
+                                                       small_dictionary):
+    """Given the result, radius_at scales each joint by its own way's factors: the
+    time-filled joints of a clip by the temporal ones, a photo's by the base's."""
+    from sparseedm.uncertainty import joint_ways
+
+    res, mask = clip_result
+    ways = joint_ways(res)
+    assert set(np.unique(ways[mask])) <= {"temporal", "per_frame"} and (ways[~mask] == "").all()
+    np.testing.assert_allclose(radius_at(res.uncertainty, 0.5, res),
+                               radius_at(res.uncertainty, 0.5, ways))
+    poses = cmu_poses[:4].copy()
+    poses[:, WRIST] = np.nan
+    photo = sparseedm.recover(poses, dictionary=small_dictionary, adapt=False)
+    np.testing.assert_allclose(radius_at(photo.uncertainty, 0.7, photo),
+                               radius_at(photo.uncertainty, 0.7, "per_frame"))
+
+
 def test_radius_at_and_likelihood():
     assert radius_at(2.0, 0.9) == pytest.approx(2.0)
     assert radius_at(2.0, 0.99) > 2.0 > radius_at(2.0, 0.5)
