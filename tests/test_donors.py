@@ -288,13 +288,13 @@ def test_in_place_donors_fill_poses_showing_few_joints(cmu_poses, monkeypatch):
     truth, missing = _frames_showing_few(cmu_poses, same_person=True)
     given = np.where(missing[..., None], np.nan, truth)
     res = sparseedm.recover(given, missing)
-    placed = res.adaptation.settings["donors"]["in_place"]
+    placed = res.adaptation.settings["donors"]["in_place"]["bare"]
     assert placed["weight"] > 0 and placed["probe_err_chosen"] < placed["probe_err_default"]
     json.dumps(res.summary()["adaptation"], allow_nan=False)
     few = missing & ((~missing).sum(1) == 4)[:, None]
-    monkeypatch.setattr(sparseedm.donors, "IN_PLACE_MIN_SHARED", DONOR_MIN_SHARED)
+    monkeypatch.setattr(sparseedm.donors, "IN_PLACE_MIN_SHARED", 15)  # no donor in place
     without = sparseedm.recover(given, missing)
-    assert "in_place" not in without.adaptation.settings["donors"]
+    assert without.adaptation.settings["donors"]["in_place"]["aligned"]["weight"] == 0
     assert _hidden_error(res.poses, truth, few) < 0.5 * _hidden_error(without.poses, truth, few)
     assert np.array_equal(res.poses[~missing], truth[~missing])
 
@@ -304,7 +304,8 @@ def test_in_place_donors_stay_out_of_a_file_of_strangers(cmu_poses):
     the probes keep the default answer."""
     truth, missing = _frames_showing_few(cmu_poses, same_person=False)
     res = sparseedm.recover(np.where(missing[..., None], np.nan, truth), missing)
-    assert res.adaptation.settings["donors"]["in_place"]["weight"] == 0
+    placed = res.adaptation.settings["donors"]["in_place"]
+    assert placed["bare"]["weight"] == 0 and placed["aligned"]["weight"] == 0
 
 
 def test_in_place_estimates_need_shared_joints():
