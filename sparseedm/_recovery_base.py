@@ -218,7 +218,7 @@ class RecoveryResult:
 
     @property
     def ok(self) -> np.ndarray:
-        """True for poses that came back usable (recovered or complete)."""
+        """True for poses that came back usable (recovered, inaccurate or complete)."""
         return np.isin(self.status, OK_STATUSES)
 
     @property
