@@ -22,4 +22,4 @@ for pid, pose, miss, st in list(zip(kps.ids, res.poses, res.missing, res.status)
     print(pid, st, {n: pose[j].round(1).tolist() for n, j in zip(names, np.flatnonzero(miss))})
 
 write_keypoints("recovered_api.csv", res.poses, ids=kps.ids,
-                extra_columns={"status": res.status})    # what `sparseedm recover` writes too
+                extra_columns={"status": res.status})    # `sparseedm recover` also writes flags, radii

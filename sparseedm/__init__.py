@@ -11,6 +11,10 @@ See README.md for the tour; the modules, one per idea:
 - :mod:`sparseedm.recovery`   recover(): lasso on the observed sub-dictionary, Eq. 10
 - :mod:`sparseedm.adaptation` adapt(): warm-start the dictionary on the user's complete poses
 - :mod:`sparseedm.lifting`    lift(): 2D poses -> 3D (coupled dictionary or MLP, then MDS)
+- :mod:`sparseedm.keypoints`  read_keypoints() / write_keypoints(): the files users exchange
+- :mod:`sparseedm.temporal`   video: each track's frames filled together
+- :mod:`sparseedm.uncertainty` the 90 % radius of each filled joint, radius_at()
+- :mod:`sparseedm.plotting`   plot_recovery(): what a recovery did (the plot extra)
 """
 
 from ._version import __version__

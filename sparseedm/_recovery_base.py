@@ -159,9 +159,11 @@ class RecoveryResult:
         with them as extra atoms, :data:`~sparseedm.exemplars.AVERAGED_RIDGE_MEAN`,
         and one Gaussian's of the file's poses at the check's weight,
         :data:`~sparseedm.exemplars.AVERAGED_GAUSSIAN`, joined by ``"; "``;
-        ``adapt=False`` without a dictionary: the shipped pose bank's local
-        Gaussian, :data:`~sparseedm.cold_bank.AVERAGED_BANK`);
-        None: the path averaged nothing so.
+        the shipped pose bank's local Gaussian,
+        :data:`~sparseedm.cold_bank.AVERAGED_BANK`, with ``adapt=False``
+        without a dictionary, and on the default path where probes gave it a
+        weight, :func:`sparseedm.cold_bank.bank_step`; the donor step's moves
+        are not named here); None: the path averaged nothing so.
     spread : ndarray (n, N) or None
         With ``averaged``: the distance (the input's units) between the two
         answers averaged at each filled joint (the largest when averaged
@@ -218,7 +220,7 @@ class RecoveryResult:
 
     @property
     def ok(self) -> np.ndarray:
-        """True for poses that came back usable (recovered or complete)."""
+        """True for poses that came back usable (recovered, inaccurate or complete)."""
         return np.isin(self.status, OK_STATUSES)
 
     @property

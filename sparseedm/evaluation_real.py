@@ -11,7 +11,9 @@ per pose, :func:`sparseedm.metrics.occlusion_masks`), ``1``, ``2``, ``3``, and
 ``"transplanted"`` (each pose gets the missing pattern of a real incomplete
 pose, :func:`sparseedm.real_protocol.transplant_masks`). Methods
 (:data:`PHOTO_METHODS`): ``sparseedm`` (:func:`sparseedm.recover` defaults),
-``sparseedm-no-adapt`` (the shipped dictionary alone; also, when asked for,
+``sparseedm-no-adapt`` (``recover(adapt=False)``: with no `dictionary`, the
+CMU + COCO prior with the mirror image and the shipped pose bank, a
+dictionary given coded alone; also, when asked for,
 ``sparseedm-no-adapt-mirror``: the same with ``mirror=True``, and
 ``sparseedm-no-adapt-mirror-auto``: with ``mirror="auto"``), scikit-learn's
 ``iterative`` (``IterativeImputer(max_iter=10, tol=0)``) and ``knn``
@@ -348,7 +350,8 @@ def evaluate_photos(poses, pool=None, *, complete=None, n_complete=None, n_occlu
         PCKh's normaliser per pose (MPII's head size); None: no PCKh.
     dictionary : Dictionary, str or path, optional
         sparseedm's (None: :func:`~sparseedm.recover`'s own: the shipped default,
-        and without adaptation ``cmu-coco-k2932`` with ``mirror="auto"``).
+        and without adaptation ``cmu-coco-k2932`` with ``mirror="auto"`` and the
+        shipped pose bank).
     random_state : int, default 0
         Seeds the split and the masks.
 

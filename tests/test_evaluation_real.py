@@ -377,6 +377,33 @@ def test_cli_photos(tmp_path, cmu_poses, capsys, strict_json):
     assert (out / "photos.csv").read_text().startswith("method,condition,group,n,")
 
 
+def test_cli_photos_no_adapt_is_recovers_no_adapt(tmp_path, cmu_poses, capsys, strict_json):
+    # the command's sparseedm-no-adapt row is `recover --no-adapt` (no dictionary given:
+    # the CMU + COCO prior, mirror image and pose bank), not the default dictionary alone
+    poses = cmu_poses[:60].copy()
+    poses[50:, 9] = np.nan
+    data = tmp_path / "people.csv"
+    write_keypoints(data, poses)
+    row = dict(method="sparseedm-no-adapt", condition="mix", group="overall")
+
+    def overall(rows):
+        return next(r["mean"] for r in rows if all(r[k] == v for k, v in row.items()))
+
+    args = ["evaluate", "--protocol", "photos", "--data", str(data), "--methods",
+            "sparseedm-no-adapt", "--conditions", "mix", "--poses", "25,25"]
+    assert main(args + ["-o", str(tmp_path / "a")]) == 0
+    assert main(args + ["-o", str(tmp_path / "b"), "--dictionary", "default"]) == 0
+    capsys.readouterr()
+    cli = overall(strict_json((tmp_path / "a" / "photos.json").read_text())["rows"])
+    alone = overall(strict_json((tmp_path / "b" / "photos.json").read_text())["rows"])
+    complete = ~np.isnan(poses).any(axis=(1, 2))
+    api = evaluate_photos(poses[complete], np.isnan(poses[~complete, :, 0]), n_complete=25,
+                          n_occluded=25, conditions=("mix",),
+                          methods=("sparseedm-no-adapt",))
+    assert cli == pytest.approx(overall(api.rows))
+    assert cli != pytest.approx(alone)
+
+
 def test_cli_video_real(tmp_path, capsys, strict_json):
     poses, tracks, frames = _still_tracks()
     data = tmp_path / "clip.csv"

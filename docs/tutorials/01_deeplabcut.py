@@ -59,9 +59,12 @@ sh("sparseedm recover dlc.csv -o filled.csv --joint-map dlc_joints.json", work)
 
 # %%
 # The output is a DeepLabCut table again (``create_labeled_video`` and the
-# other DeepLabCut tools read it). A filled body part gets likelihood 0
-# (``--filled-score``), so it never reads as a detection; a ``.status.npz``
-# file beside it says which joints were filled and each row's status.
+# other DeepLabCut tools read it). A filled body part's likelihood says how
+# sure the fill is, ``0.5 * exp(-radius / size)``: at most 0.5, below the 0.6
+# ``pcutoff``, so it never reads as a detection at DeepLabCut's default (with
+# a lower ``pcutoff``, tell filled parts by the flags instead). A
+# ``.status.npz`` file beside it says which joints were filled and each row's
+# status.
 import numpy as np  # noqa: E402
 
 print("\n".join(line[:110] for line in (work / "filled.csv").read_text().splitlines()[:5]))

@@ -118,8 +118,12 @@ if LocalCluster is not None:
 # How fast
 # --------
 # The benchmarks measure the lasso against SPAMS and scikit-learn on the same
-# machine in the same run; see :doc:`/results/speed`. On two cores the
-# certified path recovers about a thousand poses a second with the dictionary
-# as shipped; adapting the dictionary costs a fixed few seconds to half a
-# minute per file, and a file with 2,000 or more complete poses skips it (its
-# own complete poses are the atoms).
+# machine in the same run; see :doc:`/results/speed`. On two shared cores,
+# half-occluded files of 6,000 and 30,000 poses ran at about 1,400 poses a
+# second coded over the default dictionary alone, 1,500-1,700 with the
+# defaults (half the poses complete: they are the atoms, nothing learned;
+# ``benchmarks/results-default-path.json``) and about 500 with
+# ``--no-adapt``'s prior, mirror image and pose bank
+# (``benchmarks/results-frontier.json``). Adapting the dictionary costs a
+# fixed few seconds to half a minute per file, and a file with 2,000 or more
+# complete poses skips it (its own complete poses are the atoms).

@@ -17,7 +17,7 @@ SELECTION_HELP = ("a range LO:HI (HI excluded; an end may be left out), single n
 
 
 def add_quiet(parser):
-    """Add ``-q/--quiet`` (no progress bar) to a command's parser.
+    """Add ``-q/--quiet`` (no progress bar or lines) to a command's parser.
 
     Parameters
     ----------
@@ -25,7 +25,8 @@ def add_quiet(parser):
         The command's parser.
     """
     parser.add_argument("-q", "--quiet", action="store_true",
-                        help="no progress bar (it is also off when stderr is not a terminal)")
+                        help="no progress bar or progress lines on stderr (the bar is also off "
+                        "when stderr is not a terminal)")
 
 
 def add_joint_map(parser):

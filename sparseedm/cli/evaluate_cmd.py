@@ -30,8 +30,11 @@ def add_parser(sub):
         "report.md, results.csv, per_action.csv (sweep.csv with --sweep-atoms) and PNG "
         "figures (with matplotlib).",
     )
-    p.add_argument("--dictionary", metavar="NAME|PATH", default="default",
-                   help="dictionary .npz or shipped name (default: the shipped default)")
+    p.add_argument("--dictionary", metavar="NAME|PATH", default=None,
+                   help="dictionary .npz or shipped name (default: the shipped default; with "
+                   "--protocol photos, recover's own: sparseedm-no-adapt is then --no-adapt's "
+                   "CMU + COCO prior, mirror image and pose bank, and a dictionary given is "
+                   "coded alone)")
     p.add_argument("--data", metavar="FILE", required=True, help="test .npz with poses2d (n, N, 2) in pixels; "
                    "labels (n,) optional")
     p.add_argument("--train", metavar="FILE", default=None,

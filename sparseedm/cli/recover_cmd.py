@@ -85,7 +85,8 @@ def _add_format_options(p):
     add_input_format(p)
     p.add_argument("--filled-score", type=float, default=0.0, metavar="S",
                    help="score in [0, 1] written for filled joints (OpenPose, MMPose, "
-                   "DeepLabCut, COCO); default 0, below every threshold")
+                   "AlphaPose, COCO; a DeepLabCut table's likelihood says how sure the "
+                   "fill is instead, at most 0.5); default 0, below every threshold")
     p.add_argument("--no-outliers", action="store_true",
                    help="trust every point the threshold keeps (by default a point scored "
                    "below 0.3 that the pose model and its track both contradict is treated "
