@@ -48,7 +48,7 @@ print(f"{len(kps.poses)} people; complete: {(hidden == 0).sum()}; "
 # %%
 # Fill the hidden joints
 # ----------------------
-# One command. On stderr it says what it did: which prior the poses were coded
+# One command. It prints what it did: which prior the poses were coded
 # over and why, and what their answers were averaged with. A person with too
 # few visible joints is refused (written back unchanged and listed in
 # ``filled.errors.csv``); the others are still done.
@@ -115,7 +115,7 @@ print(f"90 % radius: median {np.median(radius):.0f} px, "
 # and compare. Errors are in % of the body's size (head top to the ankles'
 # midpoint), beside scikit-learn's IterativeImputer fitted on the same file and
 # sparseedm without adaptation (``adapt=False``: the shipped CMU + COCO prior
-# alone, nothing learned from the file).
+# and pose bank alone, nothing learned from the file).
 import warnings  # noqa: E402
 
 from sklearn.exceptions import ConvergenceWarning  # noqa: E402

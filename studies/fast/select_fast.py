@@ -107,8 +107,9 @@ def pose_error(filled, truth, mask):
 
 
 def validation_file(n=6000, seed=0, occluded=None):
-    """(poses, mask): n poses of the held-out CMU clips, half under Mix masks
-    (or the fraction `occluded`)."""
+    """(poses, mask): n poses of the benchmarks' held-out CMU clips
+    (``benchmarks.split_clips``; ``cmu-all-k2000`` learned from every clip),
+    half under Mix masks (or the fraction `occluded`)."""
     from benchmarks import load_cmu, split_clips
     from benchmarks.default_path import make_file
 

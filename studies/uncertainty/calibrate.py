@@ -9,8 +9,9 @@ real-people protocols with :func:`sparseedm.recover`'s defaults:
   ``transplanted`` (real missing patterns), on MPII, COCO and Bonn frames of
   :func:`benchmarks.real2d.split` == "val"; ``mpii-1000``: MPII's file
   topped up to 1,000 complete poses with MPII training poses (never hidden),
-  and ``cmu``: 4,000 poses of the CMU clips held out of the shipped
-  dictionary's training, half under Mix (validation only). Bonn, MPII-1000
+  and ``cmu``: 4,000 poses of the CMU clips of the benchmarks' held-out
+  split (``benchmarks.split_clips``; the shipped ``cmu-all-k2000`` did learn
+  from them), half under Mix (validation only). Bonn, MPII-1000
   and CMU files are coded over their own complete poses as the only atoms
   (:mod:`sparseedm.exemplars`), and are also recovered with
   ``preset="fast"`` (its local ridge over those poses) and with
@@ -177,8 +178,8 @@ def photos(source, seeds, part="val", variants=("default",)):
 
 
 def cmu_photos(n_poses, seeds, variants=("default",)):
-    """A file of `n_poses` poses of the CMU clips held out of the shipped
-    dictionary's training (``studies/fast/select_fast.validation_file``: half
+    """A file of `n_poses` poses of the benchmarks' held-out CMU clips (which
+    ``cmu-all-k2000`` learned from; ``studies/fast/select_fast.validation_file``: half
     under Mix masks, half complete), one call per seed and variant."""
     from studies.fast.select_fast import validation_file
 
