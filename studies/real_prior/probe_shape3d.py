@@ -86,6 +86,27 @@ def stacked(base, fill, truth, missing, seed):
             "cross_w": chosen, "cross_gain": gain_se(errs[0] - cross)}
 
 
+def scored_row(got, fills, truth, missing, seed):
+    """One file's row: each answer of `got` and each shape-model fill of `fills`
+    scored alone, and each fill stacked with the defaults and with ``cold``."""
+    row = {m: round(harness.score(f, truth, missing), 3) for m, f in got.items()}
+    row.update({f"shape3d_{k}": round(harness.score(f, truth, missing), 3)
+                for k, f in fills.items()})
+    for k, f in fills.items():
+        for base in ("defaults", "cold"):
+            row[f"{base}+{k}"] = stacked(got[base], f, truth, missing, seed)
+    return row
+
+
+def add_model_args(ap):
+    """The shape model's arguments, shared by the shape3d probes."""
+    ap.add_argument("--seeds", default="0")
+    ap.add_argument("--k", type=int, default=16)
+    ap.add_argument("--noise", type=float, default=0.02)
+    ap.add_argument("--temperature", type=float, default=0.1)
+    ap.add_argument("--out", type=Path)
+
+
 def table(paths):
     """Markdown rows: file, protocol, II / defaults / cold / shape3d alone (means
     over seeds) and the pooled cross-fitted gains of the stacks."""
@@ -121,14 +142,10 @@ def main(argv=None):
     ap.add_argument("--table", nargs="+", type=Path, help="print the table of these JSONs")
     ap.add_argument("--files", default="mpii,coco,bonn,mpii-large")
     ap.add_argument("--protocols", default=",".join(harness.PROTOCOLS))
-    ap.add_argument("--seeds", default="0")
-    ap.add_argument("--k", type=int, default=16)
-    ap.add_argument("--noise", type=float, default=0.02)
-    ap.add_argument("--temperature", type=float, default=0.1)
+    add_model_args(ap)
     ap.add_argument("--local", action="store_true",
                     help="also the local 3D model (shape3d_model.local_fill: 3,000 CMU poses"
                          " and their mirror images seen through each pose's fitted camera)")
-    ap.add_argument("--out", type=Path)
     a = ap.parse_args(argv)
     if a.table:
         print(table(a.table))
@@ -173,12 +190,7 @@ def main(argv=None):
                                    ("raw", t2 - t1, n_occ), ("calibrated", t3 - t2, n_occ)):
                     secs[key][0] += dt
                     secs[key][1] += n
-                row = {m: round(harness.score(f, truth, missing), 3) for m, f in got.items()}
-                row.update({f"shape3d_{k}": round(harness.score(f, truth, missing), 3)
-                            for k, f in fills.items()})
-                for k, f in fills.items():
-                    for base in ("defaults", "cold"):
-                        row[f"{base}+{k}"] = stacked(got[base], f, truth, missing, seed)
+                row = scored_row(got, fills, truth, missing, seed)
                 out["files"].setdefault(name, {}).setdefault(protocol, {})[str(seed)] = row
                 print(name, protocol, seed, json.dumps(row), flush=True)
     out["seconds_per_1000"] = {k: round(1000 * v[0] / max(v[1], 1), 2) for k, v in secs.items()}

@@ -34,7 +34,7 @@ from sparseedm._atomic import json_text  # noqa: E402
 import sparseedm  # noqa: E402
 from benchmarks import real2d  # noqa: E402
 import harness  # noqa: E402
-from probe_shape3d import POSES, WEIGHTS, gain_se, per_pose  # noqa: E402
+from probe_shape3d import POSES, WEIGHTS, add_model_args, gain_se, per_pose  # noqa: E402
 from shape3d_answers import CACHE, answers  # noqa: E402
 from shape3d_model import build_model, calibrate, shape_fill  # noqa: E402
 from sparseedm.donors import probes  # noqa: E402
@@ -76,11 +76,7 @@ def main(argv=None):
     ap.add_argument("--table", type=Path, help="print the table of this JSON")
     ap.add_argument("--files", default="mpii,bonn")
     ap.add_argument("--protocols", default=",".join(harness.PROTOCOLS))
-    ap.add_argument("--seeds", default="0")
-    ap.add_argument("--k", type=int, default=16)
-    ap.add_argument("--noise", type=float, default=0.02)
-    ap.add_argument("--temperature", type=float, default=0.1)
-    ap.add_argument("--out", type=Path)
+    add_model_args(ap)
     a = ap.parse_args(argv)
     if a.table:
         print(table(a.table))

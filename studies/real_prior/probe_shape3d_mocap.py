@@ -26,8 +26,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from sparseedm._atomic import json_text  # noqa: E402
 import sparseedm  # noqa: E402
-import harness  # noqa: E402
-from probe_shape3d import stacked  # noqa: E402
+from probe_shape3d import add_model_args, scored_row  # noqa: E402
 from sparseedm.metrics import occlusion_masks  # noqa: E402
 from shape3d_model import build_model, calibrate, cmu_poses, shape_fill  # noqa: E402
 
@@ -37,11 +36,7 @@ def main(argv=None):
     ap.add_argument("data", nargs="+", type=Path)
     ap.add_argument("--complete", type=int, default=100)
     ap.add_argument("--occluded", type=int, default=300)
-    ap.add_argument("--seeds", default="0")
-    ap.add_argument("--k", type=int, default=16)
-    ap.add_argument("--noise", type=float, default=0.02)
-    ap.add_argument("--temperature", type=float, default=0.1)
-    ap.add_argument("--out", type=Path)
+    add_model_args(ap)
     a = ap.parse_args(argv)
     model = build_model(cmu_poses(subjects=("01", "02", "03"), step=8), a.k)
     kw = dict(noise=a.noise, temperature=a.temperature)
@@ -60,12 +55,7 @@ def main(argv=None):
             fills = {"raw": shape_fill(model, given, missing, **kw),
                      "calibrated": shape_fill(calibrate(model, truth[: a.complete],
                                                         noise=a.noise), given, missing, **kw)}
-            row = {m: round(harness.score(f, truth, missing), 3) for m, f in got.items()}
-            row.update({f"shape3d_{k}": round(harness.score(f, truth, missing), 3)
-                        for k, f in fills.items()})
-            for k, f in fills.items():
-                for base in ("defaults", "cold"):
-                    row[f"{base}+{k}"] = stacked(got[base], f, truth, missing, seed)
+            row = scored_row(got, fills, truth, missing, seed)
             out.setdefault(path.name, {})[str(seed)] = row
             print(path.name, seed, json.dumps(row), flush=True)
     if a.out:
