@@ -79,9 +79,11 @@ way (``CALIBRATION["pooled"]``).
 
 from __future__ import annotations
 
+from numbers import Real
+
 import numpy as np
 
-from ._validation import frame_numbers
+from ._validation import Interval, frame_numbers, validate_params
 from .edm import vector_to_edm
 from .exceptions import ParameterError
 from .normalize import rms_radius
@@ -601,9 +603,8 @@ def radius_at(uncertainty, level, way=None, calibration=None):
     >>> bool(radius_at(10.0, 0.5) < radius_at(10.0, 0.8) < 10.0 < radius_at(10.0, 0.95))
     True
     """
-    if isinstance(level, bool) or not isinstance(level, (int, float, np.number)) \
-            or not 0 < level < 1:
-        raise ParameterError(f"radius_at: level must be a number in (0, 1), got {level!r}")
+    validate_params("radius_at", {"level": level},
+                    {"level": [Interval(Real, 0, 1, closed="neither")]})
     calibration = CALIBRATION if calibration is None else calibration
     radii = np.asarray(uncertainty, float)
     if way is None or isinstance(way, str):
